@@ -1,0 +1,64 @@
+"""``rcsim`` command line: a thin parser that hands a config to library functions.
+
+Each command lives in its own module exposing ``register(subparsers)``; the parser it adds
+sets ``func(args) -> int``.  User mistakes (:class:`models.errors.InputError`, argparse
+errors) print one line on stderr and exit with code 2, never a traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from models.errors import InputError
+
+# (module, description) of every command group, in the order ``rcsim --help`` lists them.
+_COMMANDS = (
+    "analysis.maneuver_cli",
+    "analysis.lookup_cli",
+    "analysis.scenario_cli",
+    "analysis.campaign_cli",
+    "analysis.study_cli",
+)
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line and raise instead of exiting."""
+
+    def error(self, message: str):  # noqa: D401 - argparse API
+        raise InputError(f"{self.prog}: {message}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="rcsim",
+        description="Spacecraft reaction-control simulation (16 on/off jets, MuJoCo).",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    for name in _COMMANDS:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name != name:
+                raise
+            continue  # command group not built yet
+        module.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        return int(args.func(args) or 0)
+    except InputError as exc:
+        print(f"rcsim: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("rcsim: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,137 @@
+"""Fly scenarios and turn their histories into tables and plots.
+
+:func:`fly` runs one or more runs of a scenario with a named controller;
+:func:`history_frame` gives the per-cycle table users read (degrees and deg/s at this
+boundary only); :func:`write_flight` writes ``history.parquet`` and the paper-style plots
+(Figs 1-2: attitude error; rates with jet commands) atomically.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from lookup.registry import make_controller
+from spacecraft.navigation import Guidance, euler321_deg
+from spacecraft.propulsion import PropulsionParams
+from spacecraft.simulation import History, simulate_batch
+from spacecraft.vehicle import AXES, JET_NAMES, VehicleParams, load_model
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A flight to fly: commands, initial state, disturbance.  Angles in radians, SI inside.
+
+    Attributes
+    ----------
+    name : str
+    duration_s : float
+    att_cmd_rad : ndarray, (3,)
+        Commanded attitude as a rotation vector from the initial attitude [rad].
+    rate_cmd_rad_s : ndarray, (3,)
+        Commanded body rate [rad/s] (nonzero: rate command, attitude follows it).
+    omega0_rad_s : ndarray, (3,)
+        Initial body rate [rad/s].
+    disturbance_n_m : ndarray, (3,)
+        Constant external torque about the CG, body axes [N m].
+    """
+
+    name: str
+    duration_s: float
+    att_cmd_rad: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    rate_cmd_rad_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    omega0_rad_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    disturbance_n_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def guidance(self, n_runs: int) -> Guidance:
+        from spacecraft.navigation import quat_from_rotvec
+
+        q0 = np.repeat(quat_from_rotvec(np.asarray(self.att_cmd_rad, float))[None], n_runs, 0)
+        omega = np.repeat(np.asarray(self.rate_cmd_rad_s, float)[None], n_runs, 0)
+        return Guidance(q0, omega)
+
+
+def fly(
+    scenario: Scenario,
+    controller: str = "phase-plane",
+    *,
+    table: str | os.PathLike | None = None,
+    params: VehicleParams | None = None,
+    propulsion: PropulsionParams = PropulsionParams(),
+    controller_obj=None,
+) -> History:
+    """Fly ``scenario`` for every run of ``params`` (default: one nominal vehicle)."""
+    model = load_model()
+    params = VehicleParams.nominal(1, model) if params is None else params
+    ctl = controller_obj or make_controller(controller, table=table, model=model)
+    n = params.n_runs
+    disturbance = np.asarray(scenario.disturbance_n_m, float)
+    return simulate_batch(
+        params, ctl, scenario.guidance(n), scenario.duration_s,
+        omega0_B=np.repeat(np.asarray(scenario.omega0_rad_s, float)[None], n, 0),
+        disturbance_B=np.repeat(disturbance[None], n, 0) if np.any(disturbance) else None,
+        propulsion=propulsion, model=model,
+    )
+
+
+def history_frame(history: History, run: int = 0) -> pd.DataFrame:
+    """Per-cycle table of one run: ``t_s``, attitude (deg), errors (deg, deg/s), jet on-times (s).
+
+    ``att_err_<axis>_deg`` are the components of the attitude-error rotation vector;
+    ``roll_deg`` etc. are 3-2-1 Euler angles of the attitude; ``rate_<axis>_deg_s`` the body
+    rates; ``jet_NN_on_s`` the on-time jet NN delivered in that cycle.
+    """
+    cols: dict[str, np.ndarray] = {"t_s": history.t_s}
+    euler = euler321_deg(history.q_BN[run])
+    for a, axis in enumerate(AXES):
+        cols[f"att_err_{axis}_deg"] = np.degrees(history.att_err_B[run, :, a])
+    for a, axis in enumerate(AXES):
+        cols[f"rate_{axis}_deg_s"] = np.degrees(history.omega_B[run, :, a])
+    for a, axis in enumerate(AXES):
+        cols[f"rate_err_{axis}_deg_s"] = np.degrees(history.rate_err_B[run, :, a])
+    for a, axis in enumerate(AXES):
+        cols[f"{axis}_deg"] = euler[:, a]
+    for j, name in enumerate(JET_NAMES):
+        cols[f"{name}_on_s"] = history.on_time_s[run, :, j]
+    return pd.DataFrame(cols)
+
+
+def flight_summary(history: History, run: int = 0) -> dict:
+    """Final errors, firings, propellant of one run (degrees at this boundary)."""
+    from spacecraft.vehicle import VehicleParams  # noqa: F401  (isp default lives there)
+
+    final = history.final
+    return {
+        "final_att_err_deg": np.degrees(final.att_err_B[run]).round(6).tolist(),
+        "final_rate_err_deg_s": np.degrees(final.rate_err_B[run]).round(6).tolist(),
+        "firings": int(history.propulsion.firings[run].sum()),
+        "on_time_s": float(history.propulsion.on_time_s[run].sum()),
+        "failed": bool(history.failed[run]),
+        "reason": history.reason[run],
+    }
+
+
+def write_flight(history: History, out_dir: str | os.PathLike, *, title: str, run: int = 0,
+                 isp_s: float = VehicleParams.isp_s) -> dict[str, Path]:
+    """Write ``history.parquet``, ``attitude_error.png``, ``rates_jets.png`` and
+    ``summary.json`` for one run into ``out_dir`` (atomically)."""
+    import json
+
+    from analysis.output import atomic_dir
+    from analysis.plots import plot_attitude_error, plot_rates_and_jets
+
+    frame = history_frame(history, run)
+    summary = flight_summary(history, run)
+    summary["propellant_kg"] = float(history.propulsion.impulse_ns[run].sum() / (isp_s * 9.80665))
+    summary["title"] = title
+    with atomic_dir(out_dir) as tmp:
+        frame.to_parquet(tmp / "history.parquet", index=False)
+        plot_attitude_error(frame, tmp / "attitude_error.png", title=title)
+        plot_rates_and_jets(frame, tmp / "rates_jets.png", title=title)
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    out = Path(out_dir)
+    return {name: out / name for name in
+            ("history.parquet", "attitude_error.png", "rates_jets.png", "summary.json")}

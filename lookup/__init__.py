@@ -1,0 +1,6 @@
+"""Attitude controllers and their tables: phase-plane baseline, pattern-recognition lookup.
+
+Owns the controllers (batched step functions: navigation arrays in, jet on-times out, explicit
+state) and the generation/refinement of lookup tables.  Controllers see arrays, never the
+simulator.  Imports ``models`` and ``spacecraft``; never ``analysis``.
+"""

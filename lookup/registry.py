@@ -1,0 +1,43 @@
+"""Controllers by name, as the CLI and campaign specs name them."""
+from __future__ import annotations
+
+import os
+
+import mujoco
+
+from spacecraft.simulation import Controller
+
+CONTROLLERS = ("phase-plane", "lookup")
+
+
+def make_controller(
+    name: str,
+    *,
+    table: str | os.PathLike | None = None,
+    model: mujoco.MjModel | None = None,
+) -> Controller:
+    """Build a controller.
+
+    Parameters
+    ----------
+    name : {"phase-plane", "lookup"}
+    table : path, optional
+        Lookup table CSV (rcsim or paper layout) for ``"lookup"``; default the packaged table
+        (``lookup/data/generated_table.csv`` when present, else the paper's Table 7).
+    model : mujoco.MjModel, optional
+        Vehicle whose *nominal* properties the phase-plane design uses.
+    """
+    from models.errors import InputError
+    from models.tables import load_jet_map
+
+    if name == "phase-plane":
+        from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
+
+        if table is not None:
+            raise InputError("--table is only for --controller lookup")
+        return PhasePlaneController(PhasePlaneParams.for_vehicle(load_jet_map(), model=model))
+    if name == "lookup":
+        from lookup.pattern_recognition import LookupController
+
+        return LookupController.from_files(table)
+    raise InputError(f"unknown controller {name!r}; choose one of {', '.join(CONTROLLERS)}")

@@ -1,0 +1,138 @@
+"""Navigation: attitude and rate errors from the true state (perfect sensors by default).
+
+Quaternions are scalar-first ``[w, x, y, z]`` (MuJoCo's convention) and rotate body-frame
+vectors into the inertial frame N: ``q_BN`` is the attitude of B in N.  The attitude error is
+the rotation vector of ``q_cmd^-1 * q`` (body relative to the commanded frame; its components
+are the same in both frames since a rotation leaves its own axis fixed): positive when the body
+is rotated past the command in the positive sense, so a controller drives it to zero.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product ``a * b`` of scalar-first quaternions, shapes (..., 4)."""
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        axis=-1,
+    )
+
+
+def quat_conj(q: np.ndarray) -> np.ndarray:
+    """Conjugate (inverse of a unit quaternion), shape (..., 4)."""
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def quat_from_rotvec(v: np.ndarray) -> np.ndarray:
+    """Unit quaternion of the rotation vector ``v`` [rad], (..., 3) -> (..., 4)."""
+    v = np.asarray(v, float)
+    angle = np.linalg.norm(v, axis=-1, keepdims=True)
+    half = 0.5 * angle
+    # sin(half)/angle -> 1/2 as angle -> 0; the series keeps it exact near zero.
+    k = np.where(angle > 1e-8, np.sin(half) / np.where(angle > 1e-8, angle, 1.0), 0.5 - angle**2 / 48)
+    return np.concatenate([np.cos(half), k * v], axis=-1)
+
+
+def rotvec_from_quat(q: np.ndarray) -> np.ndarray:
+    """Rotation vector [rad] of a unit quaternion, (..., 4) -> (..., 3), angle in [0, pi]."""
+    q = np.where(q[..., :1] < 0, -q, q)  # the shorter of the two equivalent rotations
+    w = np.clip(q[..., 0:1], -1.0, 1.0)
+    vec = q[..., 1:]
+    s = np.linalg.norm(vec, axis=-1, keepdims=True)
+    angle = 2.0 * np.arctan2(s, w)
+    k = np.where(s > 1e-12, angle / np.where(s > 1e-12, s, 1.0), 2.0)
+    return k * vec
+
+
+def euler321_deg(q: np.ndarray) -> np.ndarray:
+    """Roll, pitch, yaw [deg] (3-2-1 sequence) of ``q_BN``, (..., 4) -> (..., 3)."""
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
+    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return np.degrees(np.stack([roll, pitch, yaw], axis=-1))
+
+
+@dataclass(frozen=True)
+class Guidance:
+    """Commanded attitude and body rate for ``n_runs`` runs.
+
+    The commanded frame starts at ``q_cmd0_BN`` and turns at the constant body rate
+    ``omega_cmd_B``: ``q_cmd(t) = q_cmd0 * exp(omega_cmd t / 2)``.  A zero rate is an attitude
+    command (a maneuver or a hold); a nonzero rate is a rate command whose attitude follows it,
+    so a vehicle flying the commanded rate sees no attitude error.
+
+    Attributes
+    ----------
+    q_cmd0_BN : ndarray, (n_runs, 4)
+    omega_cmd_B : ndarray, (n_runs, 3)  [rad/s]
+    """
+
+    q_cmd0_BN: np.ndarray
+    omega_cmd_B: np.ndarray
+
+    @classmethod
+    def attitude(cls, att_cmd_rad: np.ndarray) -> "Guidance":
+        """Rest-to-rest maneuver to the rotation vector ``att_cmd_rad`` (n_runs, 3) from identity."""
+        att = np.atleast_2d(np.asarray(att_cmd_rad, float))
+        return cls(quat_from_rotvec(att), np.zeros_like(att))
+
+    @classmethod
+    def rate(cls, omega_cmd_B: np.ndarray) -> "Guidance":
+        """Rate command (n_runs, 3) [rad/s] from the identity attitude."""
+        omega = np.atleast_2d(np.asarray(omega_cmd_B, float))
+        q0 = np.zeros((omega.shape[0], 4))
+        q0[:, 0] = 1.0
+        return cls(q0, omega)
+
+    def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Commanded ``(q_cmd_BN (n, 4), omega_cmd_B (n, 3))`` at time ``t_s``."""
+        return quat_mul(self.q_cmd0_BN, quat_from_rotvec(self.omega_cmd_B * t_s)), self.omega_cmd_B
+
+
+@dataclass(frozen=True)
+class NavState:
+    """What a controller sees at the start of a control cycle (arrays over runs).
+
+    Attributes
+    ----------
+    t_s : float
+        Time [s].
+    q_BN : ndarray, (n_runs, 4)
+    omega_B : ndarray, (n_runs, 3)
+        Body rate [rad/s].
+    att_err_B : ndarray, (n_runs, 3)
+        Attitude error rotation vector [rad] (actual relative to commanded).
+    rate_err_B : ndarray, (n_runs, 3)
+        ``omega_B - omega_cmd_B`` [rad/s].
+    omega_cmd_B : ndarray, (n_runs, 3)
+        Commanded body rate [rad/s].
+    """
+
+    t_s: float
+    q_BN: np.ndarray
+    omega_B: np.ndarray
+    att_err_B: np.ndarray
+    rate_err_B: np.ndarray
+    omega_cmd_B: np.ndarray
+
+    @property
+    def n_runs(self) -> int:
+        return int(self.omega_B.shape[0])
+
+
+def navigate(t_s: float, q_BN: np.ndarray, omega_B: np.ndarray, guidance: Guidance) -> NavState:
+    """Errors of the state ``(q_BN, omega_B)`` against ``guidance`` at time ``t_s``."""
+    q_cmd, omega_cmd = guidance.at(t_s)
+    att_err = rotvec_from_quat(quat_mul(quat_conj(q_cmd), q_BN))
+    return NavState(t_s, q_BN, omega_B, att_err, omega_B - omega_cmd, omega_cmd)

@@ -1,0 +1,275 @@
+"""The closed loop over many runs at once: controller step (numpy) <-> MuJoCo (native threads).
+
+Each control cycle: navigation errors for every run, one vectorized controller step, valve
+limits, exact per-step duty (:mod:`spacecraft.propulsion`), then ``n_sub`` physics steps of all
+runs in MuJoCo's thread pool (:class:`mujoco.batch.Batch`, GIL released).  There is no Python
+loop over runs; one run is a batch of one.
+
+A run whose MuJoCo step raises or whose state turns non-finite is marked failed with its
+reason and frozen; the others go on.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Protocol
+
+import mujoco
+import numpy as np
+from mujoco.batch import Batch, SimulationError
+
+from spacecraft.navigation import Guidance, NavState, navigate
+from spacecraft.propulsion import (
+    PropulsionParams, PropulsionState, apply_valve_limits, duty_profile,
+)
+from spacecraft.vehicle import (
+    BODY, N_JETS, VehicleParams, dist_actuator_ids, jet_actuator_ids, load_model,
+)
+
+_CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
+
+
+class Controller(Protocol):
+    """A batched controller: explicit state in, jet on-times and new state out."""
+
+    def initial_state(self, n_runs: int) -> Any: ...
+
+    def step(self, nav: NavState, state: Any) -> tuple[np.ndarray, Any]:
+        """Return on-times this cycle [s], shape (n_runs, 16), and the next state."""
+
+
+@dataclass
+class History:
+    """Per-cycle record of a batch of runs (cycle k starts at ``t_s[k]``).
+
+    Attributes
+    ----------
+    t_s : ndarray, (n_cycles,)
+    q_BN : ndarray, (n_runs, n_cycles, 4)
+    omega_B, att_err_B, rate_err_B : ndarray, (n_runs, n_cycles, 3)
+        Body rate, attitude error and rate error at the cycle's start [rad/s, rad, rad/s].
+    on_time_s : ndarray, (n_runs, n_cycles, 16)
+        On-time each jet delivered during the cycle [s].
+    final : NavState
+        State at the end of the last cycle.
+    propulsion : PropulsionState
+        Firings, on-time, impulse per jet over the run.
+    failed : ndarray of bool, (n_runs,)
+        The simulation itself failed (MuJoCo error, non-finite state, invalid parameters).
+    reason : list of str
+        Why, per run ('' when it did not fail).
+    """
+
+    t_s: np.ndarray
+    q_BN: np.ndarray
+    omega_B: np.ndarray
+    att_err_B: np.ndarray
+    rate_err_B: np.ndarray
+    on_time_s: np.ndarray
+    final: NavState
+    propulsion: PropulsionState
+    failed: np.ndarray
+    reason: list[str] = field(default_factory=list)
+
+    @property
+    def n_runs(self) -> int:
+        return int(self.omega_B.shape[0])
+
+
+def invalid_runs(params: VehicleParams) -> list[str]:
+    """Per run, why its parameters cannot be simulated ('' when they can)."""
+    reasons = [""] * params.n_runs
+    checks = (
+        ("mass_kg", params.mass_kg[:, None], lambda v: v > 0),
+        ("cg_B", params.cg_B, lambda v: np.ones_like(v, bool)),
+        ("inertia_B", params.inertia_B, lambda v: v > 0),
+        ("thrust_n", params.thrust_n, lambda v: v >= 0),
+        ("jet_dir_S", params.jet_dir_S.reshape(params.n_runs, -1), lambda v: np.ones_like(v, bool)),
+    )
+    for name, values, ok in checks:
+        with np.errstate(invalid="ignore"):
+            bad = ~(np.isfinite(values) & ok(values))
+        for i in np.flatnonzero(bad.any(axis=1)):
+            if not reasons[i]:
+                reasons[i] = f"invalid parameter {name}: {values[i].tolist()}"
+    return reasons
+
+
+class BatchSimulation:
+    """``n_runs`` vehicles, each with its own parameters, stepped together.
+
+    Parameters
+    ----------
+    params : VehicleParams
+        One entry per run.  Runs with non-finite or non-physical values are flown with the
+        nominal vehicle's values and reported failed ("invalid parameter ...").
+    propulsion : PropulsionParams
+        Control cycle and minimum pulse.
+    model : mujoco.MjModel, optional
+        Compiled vehicle (its ``opt.timestep`` and integrator are used); default the packaged one.
+    nthread : int
+        MuJoCo worker threads (0: all CPUs).
+    """
+
+    def __init__(
+        self,
+        params: VehicleParams,
+        *,
+        propulsion: PropulsionParams = PropulsionParams(),
+        model: mujoco.MjModel | None = None,
+        nthread: int = 0,
+    ):
+        self.model = load_model() if model is None else model
+        self.params = params
+        self.propulsion = propulsion
+        dt = float(self.model.opt.timestep)
+        n_sub = int(round(propulsion.cycle_s / dt))
+        if n_sub < 1 or abs(n_sub * dt - propulsion.cycle_s) > 1e-9 * propulsion.cycle_s:
+            raise ValueError(
+                f"physics step {dt} s does not divide the control cycle {propulsion.cycle_s} s"
+            )
+        self.dt_s, self.n_sub = dt, n_sub
+        self._jets = jet_actuator_ids(self.model)
+        self._dist = dist_actuator_ids(self.model)
+        self.invalid = invalid_runs(params)
+        self._batch = Batch(self.model, params.n_runs, nthread)
+        self._write_params()
+        self._qpos = self._batch.bind("qpos")
+        self._qvel = self._batch.bind("qvel")
+
+    @property
+    def n_runs(self) -> int:
+        return self.params.n_runs
+
+    def _write_params(self) -> None:
+        """Per-run model fields; invalid runs keep the nominal values (they are reported failed)."""
+        b, m, p = self._batch, self.model, self.params
+        body = m.body(BODY).id
+        ok = np.array([not r for r in self.invalid])
+        nominal = VehicleParams.nominal(1, m)
+        pick = lambda value, nom: np.where(  # noqa: E731
+            ok.reshape((-1,) + (1,) * (value.ndim - 1)), value, nom
+        )
+        b.expand("body_mass")[:, body] = pick(p.mass_kg, nominal.mass_kg)
+        b.expand("body_ipos")[:, body] = pick(p.cg_B, nominal.cg_B)
+        b.expand("body_inertia")[:, body] = pick(p.inertia_B, nominal.inertia_B)
+        b.expand("actuator_gainprm")[:, self._jets, 0] = pick(p.thrust_n, nominal.thrust_n)
+        b.expand("actuator_gear")[:, self._jets, 0:3] = pick(p.jet_dir_S, nominal.jet_dir_S)
+        # mass, CG and inertia feed constants (body_subtreemass, body_iquat, ...) that MuJoCo
+        # only recomputes in mj_setConst; without it some changes are silently ignored.
+        b.set_const()
+
+    def run(
+        self,
+        controller: Controller,
+        guidance: Guidance,
+        duration_s: float,
+        *,
+        q0_BN: np.ndarray | None = None,
+        omega0_B: np.ndarray | None = None,
+        disturbance_B: np.ndarray | Callable[[float], np.ndarray] | None = None,
+        ctrl_state: Any = None,
+        progress: Callable[[int], None] | None = None,
+    ) -> History:
+        """Fly every run for ``duration_s`` (rounded up to whole control cycles).
+
+        Parameters
+        ----------
+        controller : Controller
+        guidance : Guidance
+            Commands, one row per run.
+        duration_s : float
+            Simulated time [s], > 0.
+        q0_BN, omega0_B : ndarray, (n_runs, 4) and (n_runs, 3), optional
+            Initial attitude and body rate [rad/s]; default identity and rest.
+        disturbance_B : ndarray (n_runs, 3) or callable ``t_s -> (n_runs, 3)``, optional
+            External torque about the CG in body axes [N m], held over each cycle.
+        ctrl_state : optional
+            Controller state to start from; default ``controller.initial_state(n_runs)``.
+        progress : callable, optional
+            Called with the number of cycles done after each cycle.
+        """
+        n, cycle = self.n_runs, self.propulsion.cycle_s
+        if not np.isfinite(duration_s) or duration_s <= 0:
+            raise ValueError(f"duration_s must be > 0, got {duration_s}")
+        n_cycles = int(np.ceil(duration_s / cycle - 1e-9))
+        self._reset(q0_BN, omega0_B)
+        state = controller.initial_state(n) if ctrl_state is None else ctrl_state
+        prop = PropulsionState.zeros(n)
+        failed = np.array([bool(r) for r in self.invalid])
+        reason = list(self.invalid)
+
+        t_s = np.arange(n_cycles) * cycle
+        rec = {
+            "q_BN": np.empty((n, n_cycles, 4)),
+            "omega_B": np.empty((n, n_cycles, 3)),
+            "att_err_B": np.empty((n, n_cycles, 3)),
+            "rate_err_B": np.empty((n, n_cycles, 3)),
+            "on_time_s": np.empty((n, n_cycles, N_JETS)),
+        }
+        control = np.zeros((n, self.n_sub, self.model.nu))
+        for k in range(n_cycles):
+            # Integer tick count -> time: no accumulated float error over long runs.
+            nav = navigate(k * cycle, self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy(), guidance)
+            command, state = controller.step(nav, state)
+            command = np.where(failed[:, None], 0.0, command)
+            on = apply_valve_limits(command, prop, self.propulsion, self.params.thrust_n)
+            rec["q_BN"][:, k] = nav.q_BN
+            rec["omega_B"][:, k] = nav.omega_B
+            rec["att_err_B"][:, k] = nav.att_err_B
+            rec["rate_err_B"][:, k] = nav.rate_err_B
+            rec["on_time_s"][:, k] = on
+            control[:, :, self._jets] = duty_profile(on, self.dt_s, self.n_sub)
+            if disturbance_B is not None:
+                torque = disturbance_B(k * cycle) if callable(disturbance_B) else disturbance_B
+                control[:, :, self._dist] = np.asarray(torque, float)[:, None, :]
+            self._step(control, failed, reason)
+            if progress is not None:
+                progress(k + 1)
+        final = navigate(n_cycles * cycle, self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy(), guidance)
+        return History(t_s=t_s, final=final, propulsion=prop, failed=failed, reason=reason, **rec)
+
+    def _reset(self, q0_BN, omega0_B) -> None:
+        n = self.n_runs
+        self._batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
+        if q0_BN is not None:
+            q0 = np.asarray(q0_BN, float).reshape(n, 4)
+            self._qpos[:, 3:7] = q0 / np.linalg.norm(q0, axis=1, keepdims=True)
+        if omega0_B is not None:
+            self._qvel[:, 3:6] = np.asarray(omega0_B, float).reshape(n, 3)
+        self._batch.forward()
+
+    def _step(self, control: np.ndarray, failed: np.ndarray, reason: list[str]) -> None:
+        """``n_sub`` physics steps of the runs still alive; newly failed ones are frozen."""
+        alive = np.flatnonzero(~failed)
+        if alive.size == 0:
+            return
+        ids = None if alive.size == self.n_runs else alive
+        try:
+            self._batch.rollout(self.n_sub, control=control[alive], control_spec=_CTRL,
+                                record=(), ids=ids)
+        except SimulationError as exc:
+            for i in exc.ids:
+                failed[i] = True
+                reason[i] = f"MuJoCo error: {self._batch.error(int(i))}"
+        state_ok = np.isfinite(self._qpos).all(axis=1) & np.isfinite(self._qvel).all(axis=1)
+        for i in np.flatnonzero(~state_ok & ~failed):
+            failed[i] = True
+            reason[i] = "non-finite state (diverged)"
+        if (~state_ok).any():
+            # Keep numbers finite so vectorized navigation/controllers stay warning-free.
+            self._qpos[~state_ok] = np.nan_to_num(self._qpos[~state_ok])
+            self._qvel[~state_ok] = 0.0
+
+
+def simulate_batch(
+    params: VehicleParams,
+    controller: Controller,
+    guidance: Guidance,
+    duration_s: float,
+    **kwargs,
+) -> History:
+    """One-call form of :class:`BatchSimulation` (``propulsion``, ``model``, ``nthread`` go to the
+    simulation, the rest to :meth:`BatchSimulation.run`)."""
+    sim_keys = {"propulsion", "model", "nthread"}
+    sim_kw = {k: kwargs.pop(k) for k in list(kwargs) if k in sim_keys}
+    return BatchSimulation(params, **sim_kw).run(controller, guidance, duration_s, **kwargs)

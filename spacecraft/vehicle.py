@@ -1,0 +1,174 @@
+"""Per-run vehicle parameters and the MuJoCo model they are written into.
+
+The nominal vehicle is the packaged MJCF (Gambone Table 1 mass properties, the jet geometry of
+``models/vehicle/README.md``).  A batch of runs is a :class:`VehicleParams` whose arrays have a
+leading ``n_runs`` axis; dispersions replace some of them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import mujoco
+import numpy as np
+
+from models import vehicle_xml
+
+N_JETS = 16
+JET_NAMES = tuple(f"jet_{i:02d}" for i in range(1, N_JETS + 1))
+DIST_NAMES = ("dist_x", "dist_y", "dist_z")
+AXES = ("roll", "pitch", "yaw")
+BODY = "vehicle"
+
+# Standard gravity for Isp -> mass flow [m/s^2] (CGPM 1901 definition).
+G0_M_S2 = 9.80665
+
+
+def load_model(*, timestep_s: float | None = None, integrator: str | None = None) -> mujoco.MjModel:
+    """Compile the packaged vehicle MJCF.
+
+    Parameters
+    ----------
+    timestep_s : float, optional
+        Physics step [s]; default the MJCF's (chosen in ``docs/convergence.md``).
+    integrator : {"RK4", "Euler", "implicit", "implicitfast"}, optional
+        MuJoCo integrator; default the MJCF's.
+    """
+    model = mujoco.MjModel.from_xml_path(str(vehicle_xml()))
+    if timestep_s is not None:
+        model.opt.timestep = float(timestep_s)
+    if integrator is not None:
+        model.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
+    return model
+
+
+def jet_actuator_ids(model: mujoco.MjModel) -> np.ndarray:
+    """Actuator ids of jets 1..16 found by name, shape (16,)."""
+    return np.array([model.actuator(name).id for name in JET_NAMES])
+
+
+def dist_actuator_ids(model: mujoco.MjModel) -> np.ndarray:
+    """Actuator ids of the body-frame disturbance torques x, y, z, shape (3,)."""
+    return np.array([model.actuator(name).id for name in DIST_NAMES])
+
+
+@dataclass(frozen=True)
+class VehicleParams:
+    """Physical parameters of ``n_runs`` vehicles (SI units, body frame B).
+
+    Attributes
+    ----------
+    mass_kg : ndarray, (n_runs,)
+    cg_B : ndarray, (n_runs, 3)
+        Centre of gravity in the body frame [m].
+    inertia_B : ndarray, (n_runs, 3)
+        Principal moments of inertia about the CG, axes along B [kg m^2].
+    thrust_n : ndarray, (n_runs, 16)
+        Thrust of each jet [N].
+    jet_dir_S : ndarray, (n_runs, 16, 3)
+        Unit direction of each jet's force in its site frame; nominal (0, 0, 1).
+    isp_s : float
+        Specific impulse [s], for propellant accounting (an assumption: 280 s, typical of a
+        22 N bipropellant RCS thruster; the paper does not give one).
+    """
+
+    mass_kg: np.ndarray
+    cg_B: np.ndarray
+    inertia_B: np.ndarray
+    thrust_n: np.ndarray
+    jet_dir_S: np.ndarray
+    isp_s: float = 280.0
+
+    @property
+    def n_runs(self) -> int:
+        return int(self.mass_kg.shape[0])
+
+    @classmethod
+    def nominal(cls, n_runs: int = 1, model: mujoco.MjModel | None = None) -> "VehicleParams":
+        """The packaged vehicle, repeated ``n_runs`` times."""
+        if n_runs < 1:
+            raise ValueError(f"n_runs must be >= 1, got {n_runs}")
+        model = load_model() if model is None else model
+        body = model.body(BODY).id
+        jets = jet_actuator_ids(model)
+        rep = lambda a: np.repeat(np.asarray(a, float)[None], n_runs, axis=0)  # noqa: E731
+        return cls(
+            mass_kg=rep(model.body_mass[body]),
+            cg_B=rep(model.body_ipos[body]),
+            inertia_B=rep(model.body_inertia[body]),
+            thrust_n=rep(model.actuator_gainprm[jets, 0]),
+            jet_dir_S=rep(model.actuator_gear[jets, 0:3]),
+        )
+
+    def take(self, index) -> "VehicleParams":
+        """The runs selected by ``index`` (slice, int array or boolean mask)."""
+        index = np.atleast_1d(np.arange(self.n_runs)[index])
+        return replace(
+            self,
+            mass_kg=self.mass_kg[index],
+            cg_B=self.cg_B[index],
+            inertia_B=self.inertia_B[index],
+            thrust_n=self.thrust_n[index],
+            jet_dir_S=self.jet_dir_S[index],
+        )
+
+    def check(self) -> None:
+        """Raise ValueError if any array has the wrong shape or a non-physical value."""
+        n = self.n_runs
+        shapes = {
+            "mass_kg": (n,), "cg_B": (n, 3), "inertia_B": (n, 3),
+            "thrust_n": (n, N_JETS), "jet_dir_S": (n, N_JETS, 3),
+        }
+        for name, shape in shapes.items():
+            value = getattr(self, name)
+            if value.shape != shape:
+                raise ValueError(f"VehicleParams.{name}: shape {value.shape}, expected {shape}")
+            if not np.all(np.isfinite(value)):
+                raise ValueError(f"VehicleParams.{name}: non-finite value")
+        for name in ("mass_kg", "inertia_B"):
+            if np.any(getattr(self, name) <= 0):
+                raise ValueError(f"VehicleParams.{name}: values must be > 0")
+        if np.any(self.thrust_n < 0):
+            raise ValueError("VehicleParams.thrust_n: values must be >= 0")
+        norms = np.linalg.norm(self.jet_dir_S, axis=-1)
+        if not np.allclose(norms, 1.0, atol=1e-9):
+            raise ValueError("VehicleParams.jet_dir_S: directions must be unit vectors")
+
+
+def jet_geometry_B(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    """Nominal jet positions and force directions in the body frame.
+
+    Returns
+    -------
+    pos_B : ndarray, (16, 3)
+        Site positions [m] relative to the body origin.
+    dir_B : ndarray, (16, 3)
+        Unit force directions (site z axes) in B.
+    """
+    jets = jet_actuator_ids(model)
+    sites = model.actuator_trnid[jets, 0]
+    pos = model.site_pos[sites].copy()
+    dirs = np.empty((N_JETS, 3))
+    for k, s in enumerate(sites):
+        mat = np.empty(9)
+        mujoco.mju_quat2Mat(mat, model.site_quat[s])
+        dirs[k] = mat.reshape(3, 3) @ model.actuator_gear[jets[k], 0:3]
+    return pos, dirs
+
+
+def torque_per_jet_B(params: VehicleParams, model: mujoco.MjModel) -> np.ndarray:
+    """Torque of each jet about each run's CG, firing alone at its thrust [N m].
+
+    Shape ``(n_runs, 16, 3)``.  Used by the phase-plane controller's design (nominal vehicle) and
+    by tests; the simulation itself never needs it (MuJoCo applies forces at the sites).
+    """
+    jets = jet_actuator_ids(model)
+    sites = model.actuator_trnid[jets, 0]
+    pos_B, _ = jet_geometry_B(model)
+    mats = np.empty((N_JETS, 9))
+    for k, s in enumerate(sites):
+        mujoco.mju_quat2Mat(mats[k], model.site_quat[s])
+    # Force in B: site rotation applied to the (possibly dispersed) site-frame direction.
+    force_B = np.einsum("jab,njb->nja", mats.reshape(N_JETS, 3, 3), params.jet_dir_S)
+    force_B = force_B * params.thrust_n[..., None]
+    arm_B = pos_B[None] - params.cg_B[:, None, :]
+    return np.cross(arm_B, force_B)
