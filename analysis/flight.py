@@ -101,8 +101,6 @@ def history_frame(history: History, run: int = 0) -> pd.DataFrame:
 
 def flight_summary(history: History, run: int = 0) -> dict:
     """Final errors, firings, propellant of one run (degrees at this boundary)."""
-    from spacecraft.vehicle import VehicleParams  # noqa: F401  (isp default lives there)
-
     final = history.final
     return {
         "final_att_err_deg": np.degrees(final.att_err_B[run]).round(6).tolist(),

@@ -12,8 +12,77 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 AXIS_COLORS = {"roll": "tab:blue", "pitch": "tab:orange", "yaw": "tab:green"}
-# Which jets torque which axis (Table 2); used only to group jets in the plots.
-AXIS_JETS = {"roll": (1, 2, 3, 4), "pitch": (9, 10, 11, 12), "yaw": (13, 14, 15, 16)}
+
+# Jets of each axis by torque sign (Table 2), for plotting only: + jets drawn up, - jets down.
+SIGNED_JETS = {
+    "roll": ((2, 4), (1, 3)), "pitch": ((10, 12), (9, 11)), "yaw": ((14, 16), (13, 15)),
+}
+JET_COLORS = ("tab:red", "tab:purple")  # first / second jet of a pair
+# Smallest rate axis span [deg/s]: keeps an idle axis's 1e-30 deg/s numerical noise flat
+# instead of autoscaling it to full height.
+MIN_RATE_SPAN_DEG_S = 0.05
+
+
+def _signed_jets(ax, t, frame, axis: str, *, offset_ms: float = 1.0) -> None:
+    """Jet on-times of ``axis`` in ms per cycle, + jets up and - jets down (pairs offset)."""
+    for sign, jets in zip((1, -1), SIGNED_JETS[axis]):
+        for k, jet in enumerate(jets):
+            on = frame[f"jet_{jet:02d}_on_s"].to_numpy()
+            if np.any(on > 0):
+                y = sign * (on * 1e3 + offset_ms * k) * (on > 0)
+                ax.step(t, y, where="post", lw=0.9, color=JET_COLORS[k],
+                        ls="-" if sign > 0 else "--", label=f"jet {jet} ({'+' if sign > 0 else '-'})")
+
+
+def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"),
+                   windows=None) -> None:
+    """Per axis: body rate (top) and signed jet commands (bottom), optionally zoomed.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        :func:`analysis.flight.history_frame` output.
+    axes : sequence of str
+        Axes to show, one column pair of panels each.
+    windows : sequence of (t0, t1), optional
+        Time windows [s] shown as extra zoomed columns (e.g. the two firings of Figs 5-6).
+    """
+    spans = [None] + list(windows or [])
+    fig, grid = plt.subplots(2 * len(axes), len(spans), figsize=(max(3.4 * len(spans) + 2.4, 8.0),
+                             1.6 * 2 * len(axes) + 0.6), sharex="col", squeeze=False,
+                             constrained_layout=True)
+    t_all = frame["t_s"].to_numpy()
+    for c, span in enumerate(spans):
+        sel = np.ones_like(t_all, bool) if span is None else (t_all >= span[0]) & (t_all <= span[1])
+        t = t_all[sel]
+        sub = frame[sel]
+        for r, axis in enumerate(axes):
+            ax_rate, ax_jet = grid[2 * r, c], grid[2 * r + 1, c]
+            rate = sub[f"rate_{axis}_deg_s"].to_numpy()
+            ax_rate.plot(t, rate, color=AXIS_COLORS[axis], lw=1.2, marker="." if span else None,
+                         ms=3)
+            lo, hi = float(rate.min()), float(rate.max())
+            if hi - lo < MIN_RATE_SPAN_DEG_S:
+                mid = 0.5 * (hi + lo)
+                ax_rate.set_ylim(mid - MIN_RATE_SPAN_DEG_S / 2, mid + MIN_RATE_SPAN_DEG_S / 2)
+            ax_rate.grid(alpha=0.3)
+            _signed_jets(ax_jet, t, sub, axis)
+            ax_jet.set_ylim(-48, 48)
+            ax_jet.axhline(0.0, color="0.6", lw=0.6)
+            ax_jet.grid(alpha=0.3)
+            if c == 0:
+                ax_rate.set_ylabel(f"{axis} rate\n[deg/s]")
+                ax_jet.set_ylabel(f"{axis} jets\n[ms/cycle]")
+                if ax_jet.get_legend_handles_labels()[0]:
+                    ax_jet.legend(loc="upper right", fontsize=7, ncol=2)
+        grid[0, c].set_title("whole flight" if span is None else
+                             f"zoom {span[0]:g}-{span[1]:g} s", fontsize=9)
+        grid[-1, c].set_xlabel("time [s]")
+    fig.suptitle(f"{title}: rates and jet commands (+ jets up, - jets down)", fontsize=10)
+    fig.savefig(path, dpi=85)  # big multi-panel figure: keeps the PNG under 200 KB
+    plt.close(fig)
+
+
 
 
 def plot_attitude_error(frame: pd.DataFrame, path, *, title: str = "") -> None:
@@ -32,25 +101,6 @@ def plot_attitude_error(frame: pd.DataFrame, path, *, title: str = "") -> None:
 
 
 def plot_rates_and_jets(frame: pd.DataFrame, path, *, title: str = "") -> None:
-    """Body rate per axis with that axis's jet commands (Fig. 2), one panel per axis."""
-    fig, axes = plt.subplots(3, 1, figsize=(8, 7.5), sharex=True, constrained_layout=True)
-    t = frame["t_s"].to_numpy()
-    for ax, (axis, color) in zip(axes, AXIS_COLORS.items()):
-        ax.plot(t, frame[f"rate_{axis}_deg_s"], color=color, label=f"{axis} rate")
-        ax.set_ylabel(f"{axis} rate [deg/s]")
-        ax.grid(alpha=0.3)
-        twin = ax.twinx()
-        for k, jet in enumerate(AXIS_JETS[axis]):
-            on = frame[f"jet_{jet:02d}_on_s"].to_numpy()
-            if np.any(on > 0):
-                # Offset each jet slightly so overlapping pair commands stay visible.
-                twin.step(t, on * 1e3 + 0.6 * k, where="post", lw=0.9, label=f"jet {jet}")
-        twin.set_ylabel("on-time [ms/cycle]")
-        twin.set_ylim(-2, 50)
-        lines = ax.get_legend_handles_labels()
-        jets = twin.get_legend_handles_labels()
-        ax.legend(lines[0] + jets[0], lines[1] + jets[1], loc="upper right", fontsize=7, ncol=5)
-    axes[-1].set_xlabel("time [s]")
-    fig.suptitle(f"{title}: rates and jet commands" if title else "Rates and jet commands")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    """Body rate per axis with that axis's jet commands (Fig. 2): :func:`plot_axes_jets`
+    over the whole flight."""
+    plot_axes_jets(frame, path, title=title)

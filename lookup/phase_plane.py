@@ -25,7 +25,7 @@ import mujoco
 import numpy as np
 
 from spacecraft.navigation import NavState
-from spacecraft.vehicle import N_JETS, VehicleParams, load_model, torque_per_jet_B
+from spacecraft.vehicle import VehicleParams, load_model, torque_per_jet_B
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,306 @@
+"""Pattern-recognition lookup controller (Gambone, *Pattern Recognition Control Design*, sec. II).
+
+The controller knows no mass property and no jet map: only a lookup table of firing times
+(26 rate cases x 16 jets, :class:`models.tables.LookupTable`) and the five inputs of Table 4.
+
+What it learns from the table (paper: "first reads the lookup table to determine the thrusters
+firing in each axis, as well as the indices of opposing thrusters"):
+
+* a jet's *axis* is the one axis whose rate-command sign is the same, and nonzero, in every case
+  where the jet fires; that sign is the jet's *sign* (the direction it turns the vehicle);
+* jets of the same axis and opposite sign *oppose* each other;
+* a jet that fires in no case is unused.
+
+Each control cycle, per run (all vectorized over ``n_runs``):
+
+1. *Rate error.*  With attitude error ``e`` (rotation vector, rad) and total angle
+   ``theta = |e|``: above the maneuver limit the target rate is ``omega_cmd - w_m e / theta``
+   (the maneuver rate ``w_m`` split across axes along the attitude-error direction, toward
+   zero error); at or below it, the target is ``omega_cmd``.  ``rate_err = omega - target``.
+2. *Dead band.*  Per axis, ``|rate_err| < rate_error_limit`` is set to zero.
+3. *Case.*  The rate change needed is ``-rate_err``; its sign pattern selects the table case
+   with that pattern (all 26 nonzero patterns are in every valid table).
+4. *Scale factor* (our reading of "the rate error is compared to the lookup table to determine
+   the firing time scale factor in each axis"): ``scale_a = |rate_err_a| / |omega_case_a|``,
+   the fraction of the case's commanded rate the axis needs; the jet's new firing time is its
+   table time times its axis's scale.  This assumes the rate change is linear in firing time,
+   as the paper does (sec. IV).
+5. *Gates.*  A jet may get a new firing only if its own remaining on-time and that of every
+   opposing jet are below the on-time limit, and its axis's hold timer has run out.  An axis
+   that gets a new firing is re-planned: its firing jets get their new times, the others
+   (incl. an opposing tail) are cleared, so opposing jets never fire together.  An axis whose
+   rate error is in the dead band keeps whatever tail it had.
+6. *No-firing region* (paper Figs 17-18): while ``|theta - maneuver_limit| < no_fire_band``
+   no new firing is commanded on any axis.
+7. *Delivery.*  Each jet fires ``min(remaining, cycle)`` this cycle; remaining on-time is
+   decremented by the cycle.  When an axis's firing ends, its hold timer is set to the hold
+   time (the rate "settles" before the axis may fire again); hold timers count down by the cycle.
+
+See ``docs/lookup.md`` for the readings of the paper and why.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, replace
+from importlib.resources import files
+from pathlib import Path
+
+import numpy as np
+
+from models.errors import InputError
+from models.tables import LookupTable, load_lookup_inputs, load_lookup_table
+from spacecraft.navigation import NavState
+
+N_AXES = 3
+#: Tolerance for "a timer has run out" [s]: timers are sums of multiples of 40 ms and
+#: scaled table times; float error is ~1e-17 s, a microsecond is far below any on-time.
+_TIMER_EPS_S = 1e-9
+
+
+def packaged_table_path() -> Path | None:
+    """``lookup/data/generated_table.csv`` if it is packaged, else None."""
+    path = files("lookup") / "data" / "generated_table.csv"
+    return Path(str(path)) if path.is_file() else None
+
+
+def load_default_table() -> LookupTable:
+    """The packaged generated table when present, else the paper's Table 7."""
+    path = packaged_table_path()
+    return load_lookup_table(path) if path is not None else load_lookup_table(which="table7")
+
+
+def learn_jets(table: LookupTable) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which axis and direction each jet serves, and which jets oppose, from the table alone.
+
+    Parameters
+    ----------
+    table : LookupTable
+        ``rate_cmd`` (26, 3) [rad/s] and ``firing_time_s`` (26, 16) [s].
+
+    Returns
+    -------
+    axis : ndarray of int, (16,)
+        0 roll, 1 pitch, 2 yaw; -1 for a jet that fires in no case.
+    sign : ndarray of int, (16,)
+        +1/-1: the sign of the rate command on ``axis`` in every case the jet fires; 0 unused.
+    opposing : ndarray of bool, (16, 16)
+        ``opposing[j, k]``: jet k is on j's axis with the opposite sign.
+
+    Raises
+    ------
+    InputError
+        A jet that fires in cases of mixed sign on every axis (the logic needs each jet to
+        serve one axis, paper sec. IV), or an axis direction no jet serves.
+    """
+    signs = np.sign(np.asarray(table.rate_cmd)).astype(int)  # (26, 3)
+    fires = np.asarray(table.firing_time_s) > 0  # (26, 16)
+    n_jets = fires.shape[1]
+    axis = np.full(n_jets, -1)
+    sign = np.zeros(n_jets, int)
+    src = table.source or "<lookup table>"
+    for j in range(n_jets):  # 16 jets, once at construction
+        rows = signs[fires[:, j]]
+        if rows.shape[0] == 0:
+            continue
+        constant = np.flatnonzero(np.all(rows == rows[0], axis=0) & (rows[0] != 0))
+        if constant.size != 1:
+            raise InputError(
+                f"{src}: jet_{j + 1:02d} fires in cases whose rate sign is not constant on "
+                "exactly one axis; the lookup logic needs each jet to serve one axis"
+            )
+        axis[j], sign[j] = constant[0], rows[0, constant[0]]
+    for a in range(N_AXES):
+        for s in (-1, 1):
+            if not np.any((axis == a) & (sign == s)):
+                raise InputError(f"{src}: no jet fires for a {s:+d} rate on axis {a}")
+    used = axis >= 0
+    opposing = (
+        (axis[:, None] == axis[None, :]) & (sign[:, None] == -sign[None, :])
+        & used[:, None] & used[None, :]
+    )
+    return axis, sign, opposing
+
+
+@dataclass(frozen=True)
+class LookupParams:
+    """Inputs of the lookup logic (paper Table 4) plus the no-firing region; SI units.
+
+    Attributes
+    ----------
+    maneuver_limit_rad : float
+        Total attitude error above which the maneuver rate is flown [rad] (0.6 deg).
+    maneuver_rate_rad_s : float
+        Total maneuver rate [rad/s] (0.2 deg/s).
+    rate_error_limit_rad_s : float
+        Per-axis dead band on the rate error [rad/s] (0.06 deg/s).
+    on_time_limit_s : float
+        A jet gets a new firing only if its and its opposing jets' remaining on-time are
+        below this [s] (0.03 s).
+    hold_time_s : float
+        Wait after an axis's firing ends before it may fire again [s] (0.16 s).
+    no_fire_band_rad : float
+        Half-width of the no-firing region around the maneuver limit [rad] (0.1 deg,
+        paper Figs 17-18); 0 disables it.
+    cycle_s : float
+        Control cycle [s] (40 ms).
+    """
+
+    maneuver_limit_rad: float
+    maneuver_rate_rad_s: float
+    rate_error_limit_rad_s: float
+    on_time_limit_s: float
+    hold_time_s: float
+    no_fire_band_rad: float = np.radians(0.1)
+    cycle_s: float = 0.04
+
+    def __post_init__(self):
+        for name in ("maneuver_limit_rad", "maneuver_rate_rad_s", "rate_error_limit_rad_s",
+                     "on_time_limit_s", "cycle_s"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise InputError(f"LookupParams.{name} must be > 0, got {value}")
+        for name in ("hold_time_s", "no_fire_band_rad"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise InputError(f"LookupParams.{name} must be >= 0, got {value}")
+
+    @classmethod
+    def from_table4(cls, path: str | os.PathLike | None = None, **overrides) -> "LookupParams":
+        """Table 4 inputs (packaged, or the CSV at ``path``) with keyword overrides."""
+        inputs = load_lookup_inputs(path)
+        base = cls(
+            maneuver_limit_rad=inputs.maneuver_limit_rad,
+            maneuver_rate_rad_s=inputs.maneuver_rate_rad_s,
+            rate_error_limit_rad_s=inputs.rate_error_limit_rad_s,
+            on_time_limit_s=inputs.on_time_limit_s,
+            hold_time_s=inputs.hold_time_s,
+        )
+        return replace(base, **overrides)
+
+
+@dataclass
+class LookupState:
+    """Batched controller state.
+
+    Attributes
+    ----------
+    remaining_s : ndarray, (n_runs, 16)
+        On-time left in each jet's current firing, from the start of the next cycle [s].
+    hold_s : ndarray, (n_runs, 3)
+        Time left before each axis may fire again [s].
+    """
+
+    remaining_s: np.ndarray
+    hold_s: np.ndarray
+
+
+class LookupController:
+    """Batched pattern-recognition controller; see the module docstring for the logic.
+
+    Parameters
+    ----------
+    table : LookupTable
+        The firing-time table; the only vehicle knowledge the controller has.
+    params : LookupParams, optional
+        Default: Table 4 with the 0.1 deg no-firing region.
+    """
+
+    def __init__(self, table: LookupTable, params: LookupParams | None = None):
+        self.table = table
+        self.params = LookupParams.from_table4() if params is None else params
+        self.jet_axis_, self.jet_sign_, self.opposing_ = learn_jets(table)
+        signs = np.sign(np.asarray(table.rate_cmd)).astype(int)
+        # Case row of each sign pattern, indexed by the base-3 code of (roll, pitch, yaw) + 1.
+        codes = ((signs + 1) * np.array([9, 3, 1])).sum(axis=1)
+        self._case_of_code = np.full(27, -1)
+        self._case_of_code[codes] = np.arange(len(codes))
+        self._times = np.asarray(table.firing_time_s, float)  # (26, 16)
+        self._rate_abs = np.abs(np.asarray(table.rate_cmd, float))  # (26, 3)
+        # (16, 3) one-hot jet -> axis (zero row for unused jets), for per-axis reductions.
+        self._axis_onehot = (self.jet_axis_[:, None] == np.arange(N_AXES)[None, :]).astype(float)
+
+    @classmethod
+    def from_files(cls, table: str | os.PathLike | None = None,
+                   inputs: str | os.PathLike | None = None, **overrides) -> "LookupController":
+        """Controller from a table CSV (rcsim or paper layout) and a Table 4 CSV.
+
+        Parameters
+        ----------
+        table : path, optional
+            Default: the packaged generated table, else the paper's Table 7.
+        inputs : path, optional
+            Table 4 CSV; default the packaged one.
+        **overrides
+            :class:`LookupParams` fields, e.g. ``no_fire_band_rad=0.0``.
+        """
+        if table is None:
+            tab = load_default_table()
+        else:
+            path = Path(table)
+            if not path.is_file():
+                raise InputError(f"--table {path}: file not found")
+            tab = load_lookup_table(path)
+        return cls(tab, LookupParams.from_table4(inputs, **overrides))
+
+    def initial_state(self, n_runs: int) -> LookupState:
+        return LookupState(remaining_s=np.zeros((n_runs, self._times.shape[1])),
+                           hold_s=np.zeros((n_runs, N_AXES)))
+
+    def rate_error(self, nav: NavState) -> np.ndarray:
+        """Dead-banded rate error the logic acts on, (n_runs, 3) [rad/s] (steps 1-2)."""
+        p = self.params
+        e = nav.att_err_B
+        theta = np.linalg.norm(e, axis=1, keepdims=True)
+        maneuver = theta > p.maneuver_limit_rad
+        direction = e / np.where(theta > 0, theta, 1.0)
+        # omega - (omega_cmd - w_m e/theta) = rate_err_B + w_m e/theta
+        err = nav.rate_err_B + np.where(maneuver, p.maneuver_rate_rad_s * direction, 0.0)
+        return np.where(np.abs(err) < p.rate_error_limit_rad_s, 0.0, err)
+
+    def step(self, nav: NavState, state: LookupState) -> tuple[np.ndarray, LookupState]:
+        """One control cycle.
+
+        Parameters
+        ----------
+        nav : NavState
+            Errors at the cycle start (arrays over ``n_runs``).
+        state : LookupState
+
+        Returns
+        -------
+        on_time_s : ndarray, (n_runs, 16)
+            On-time of each jet this cycle [s], in ``[0, cycle]``.
+        state : LookupState
+        """
+        p = self.params
+        err = self.rate_error(nav)
+        need = -err  # rate change the vehicle needs
+        code = ((np.sign(need).astype(int) + 1) * np.array([9, 3, 1])).sum(axis=1)
+        any_err = np.any(need != 0, axis=1)
+        case = self._case_of_code[np.where(any_err, code, 0)]  # code 0 = (-,-,-), a valid row
+        denom = self._rate_abs[case]  # (n, 3); zero where the case commands no rate
+        scale = np.divide(np.abs(need), denom, out=np.zeros_like(need), where=denom > 0)
+        jet_scale = scale @ self._axis_onehot.T  # (n, 16): scale of each jet's axis
+        new = np.where(any_err[:, None], self._times[case] * jet_scale, 0.0)
+
+        theta = np.linalg.norm(nav.att_err_B, axis=1)
+        no_fire = np.abs(theta - p.maneuver_limit_rad) < p.no_fire_band_rad  # (n,)
+
+        rem = state.remaining_s
+        opp_max = np.max(np.where(self.opposing_[None], rem[:, None, :], 0.0), axis=2)
+        hold_jet = state.hold_s @ self._axis_onehot.T  # (n, 16)
+        gate = ((rem < p.on_time_limit_s) & (opp_max < p.on_time_limit_s)
+                & (hold_jet <= _TIMER_EPS_S) & ~no_fire[:, None])
+        fire_new = gate & (new > 0)
+        # An axis with a new firing is re-planned: new times on its firing jets, 0 elsewhere.
+        axis_new = (fire_new.astype(float) @ self._axis_onehot) > 0  # (n, 3)
+        replan = (axis_new.astype(float) @ self._axis_onehot.T) > 0  # (n, 16)
+        rem = np.where(replan, np.where(fire_new, new, 0.0), rem)
+
+        on = np.minimum(rem, p.cycle_s)
+        rem_next = np.maximum(rem - p.cycle_s, 0.0)
+        # Hold starts when an axis's firing ends (it fired this cycle and nothing remains).
+        fired = (on.astype(bool).astype(float) @ self._axis_onehot) > 0
+        left = ((rem_next > 0).astype(float) @ self._axis_onehot) > 0
+        hold = np.where(fired & ~left, p.hold_time_s, np.maximum(state.hold_s - p.cycle_s, 0.0))
+        return on, LookupState(remaining_s=rem_next, hold_s=hold)

@@ -1,0 +1,391 @@
+"""Generate the pattern-recognition lookup table by simulation (Gambone sec. II, Tables 3, 6).
+
+For each of the 26 rate cases (Table 3) the nominal vehicle is flown from rest with the case's
+rate command and a *rate-command firing loop*: on every commanded axis the jets of the jet map
+whose torque points along the command fire for whole 40 ms control cycles until the measured
+rate reaches or passes the command on that axis (the paper: "the simulations were run until
+thrusters were fired to reach the desired rate").  The firing time of the axis is the whole
+number of cycles whose *measured* end rate is nearest the command -- the last cycle before the
+crossing or the crossing cycle, whichever ends closer.  No mass property enters: the rates are
+read from the simulation.
+
+The table is then *verified* by flying it open loop (every jet fires its table time from rest):
+the residual rate error per axis and the rate settling time after firing (time from the end of
+the firing until every axis stays within ``settle_tol_rad_s`` of the command) are recorded.
+
+The rate-damping property (paper Figs 3-4) is shown the same way: start at each case's rate with
+a zero rate command and let the same firing loop null it; the firing times needed are equal to
+the maneuver table's, on the opposing jets.
+
+Generation may use the jet map (it happens in simulation, where the vehicle is known); the
+controller that uses the table (:mod:`lookup.pattern_recognition`) never does.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import pandas as pd
+
+from models.tables import (
+    LookupTable, RateCases, check_consistency, load_jet_map, load_rate_cases,
+)
+from spacecraft.navigation import Guidance, NavState
+from spacecraft.propulsion import PropulsionParams
+from spacecraft.simulation import History, simulate_batch
+from spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
+
+#: Default tolerance of the settling-time measurement [rad/s]: Table 4's rate error limit
+#: (0.06 deg/s), the rate error the lookup controller treats as "reached".
+SETTLE_TOL_RAD_S = np.radians(0.06)
+
+
+# ------------------------------------------------------------------------------------------
+# Open-loop controllers used only for generation (they know the jet map).
+# ------------------------------------------------------------------------------------------
+class RateFiringLoop:
+    """Fire whole cycles on each commanded axis until the rate reaches its command.
+
+    Per run and axis, the direction is fixed at the first cycle: ``d = -sign(rate error)``
+    (axes with zero initial error do not fire).  The axis keeps firing the jets whose jet-map
+    sign equals ``d`` while ``d * rate_error < 0`` (short of the command) and stops for good
+    at the first cycle that starts at or past it.
+
+    Parameters
+    ----------
+    jet_map : ndarray of int, (16, 3)
+        Paper Table 2.
+    cycle_s : float
+        Control cycle [s].
+
+    State: ``direction`` (n_runs, 3) in {-1, 0, +1} and ``done`` (n_runs, 3) bool.
+    """
+
+    def __init__(self, jet_map: np.ndarray, cycle_s: float = 0.04):
+        jm = np.asarray(jet_map, int)
+        self._pos = (jm.T > 0).astype(float)  # (3, 16)
+        self._neg = (jm.T < 0).astype(float)
+        self.cycle_s = cycle_s
+
+    def initial_state(self, n_runs: int):
+        return {"direction": None, "done": np.zeros((n_runs, 3), bool)}
+
+    def step(self, nav: NavState, state):
+        err = nav.rate_err_B
+        direction = -np.sign(err) if state["direction"] is None else state["direction"]
+        done = state["done"] | (direction * err >= 0)
+        fire = (~done) * direction  # (n, 3)
+        on = ((fire > 0) @ self._pos + (fire < 0) @ self._neg) * self.cycle_s
+        return on, {"direction": direction, "done": done}
+
+
+class TableFiring:
+    """Fire each jet for its table time from t = 0, open loop.
+
+    Parameters
+    ----------
+    firing_time_s : ndarray, (n_runs, 16)
+        Total on-time per jet [s].
+    cycle_s : float
+        Control cycle [s].
+    """
+
+    def __init__(self, firing_time_s: np.ndarray, cycle_s: float = 0.04):
+        self.firing_time_s = np.asarray(firing_time_s, float)
+        self.cycle_s = cycle_s
+
+    def initial_state(self, n_runs: int):
+        return self.firing_time_s.copy()
+
+    def step(self, nav: NavState, remaining: np.ndarray):
+        on = np.minimum(remaining, self.cycle_s)
+        return on, np.maximum(remaining - self.cycle_s, 0.0)
+
+
+# ------------------------------------------------------------------------------------------
+# Results
+# ------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class FiringSweep:
+    """Per-axis firing cycles found by the firing loop for a batch of rate changes.
+
+    Attributes
+    ----------
+    cycles : ndarray of int, (n_cases, 3)
+        Whole control cycles chosen per axis (0 on axes that do not fire).
+    end_rate_err_rad_s : ndarray, (n_cases, 3)
+        Measured rate error after the chosen number of cycles [rad/s].
+    direction : ndarray of int, (n_cases, 3)
+        Torque sign fired per axis.
+    history : History
+        The simulated flights.
+    """
+
+    cycles: np.ndarray
+    end_rate_err_rad_s: np.ndarray
+    direction: np.ndarray
+    history: History
+
+
+@dataclass(frozen=True)
+class GeneratedTable:
+    """A generated lookup table with its verification and the rate-damping check.
+
+    Attributes
+    ----------
+    table : LookupTable
+        Firing times (26, 16) [s], rate commands (26, 3) [rad/s].
+    command : FiringSweep
+        Firing loop from rest to each rate command.
+    damping : FiringSweep
+        Firing loop from each rate to a zero command.
+    damping_firing_time_s : ndarray, (26, 16)
+        Firing time per jet the damping runs needed [s].
+    verify_rate_err_rad_s : ndarray, (26, 3)
+        Rate error when the table is flown open loop, measured ``settle_window_s`` after the
+        longest firing ends [rad/s].
+    settle_time_s : ndarray, (26,)
+        Time from the end of the case's firing until every axis stays within ``settle_tol``
+        of the command (cycle resolution); NaN if it never does within the window.
+    settle_tol_rad_s : float
+        Tolerance of the settling time [rad/s].
+    """
+
+    table: LookupTable
+    command: FiringSweep
+    damping: FiringSweep
+    damping_firing_time_s: np.ndarray
+    verify_rate_err_rad_s: np.ndarray
+    settle_time_s: np.ndarray
+    settle_tol_rad_s: float
+
+    @property
+    def damping_equal(self) -> np.ndarray:
+        """Per case: damping fires the same cycles on every axis as the command, opposite
+        jets, shape (26,) bool."""
+        same_cycles = np.all(self.damping.cycles == self.command.cycles, axis=1)
+        opposite = np.all(self.damping.direction == -self.command.direction, axis=1)
+        return same_cycles & opposite
+
+    def settling_frame(self) -> pd.DataFrame:
+        """The companion table ``generated_table_settling.csv`` (deg/s at this boundary)."""
+        cols = {"case": self.table.case}
+        for a, axis in enumerate(AXES):
+            cols[f"{axis}_cycles"] = self.command.cycles[:, a]
+        for a, axis in enumerate(AXES):
+            cols[f"end_rate_err_{axis}_deg_s"] = np.degrees(self.verify_rate_err_rad_s[:, a])
+        cols["settle_time_s"] = self.settle_time_s
+        cols["settle_tol_deg_s"] = np.degrees(self.settle_tol_rad_s)
+        for a, axis in enumerate(AXES):
+            cols[f"damping_{axis}_cycles"] = self.damping.cycles[:, a]
+        cols["damping_equal_opposing"] = self.damping_equal
+        return pd.DataFrame(cols)
+
+
+# ------------------------------------------------------------------------------------------
+# Generation
+# ------------------------------------------------------------------------------------------
+def sweep(
+    rate_target_rad_s: np.ndarray,
+    omega0_rad_s: np.ndarray,
+    jet_map: np.ndarray,
+    *,
+    params: VehicleParams | None = None,
+    model: mujoco.MjModel | None = None,
+    propulsion: PropulsionParams = PropulsionParams(),
+    max_fire_s: float = 3.0,
+) -> FiringSweep:
+    """Fly the firing loop for every row and pick the nearest whole number of cycles per axis.
+
+    Parameters
+    ----------
+    rate_target_rad_s : ndarray, (n, 3)
+        Commanded body rate per run [rad/s].
+    omega0_rad_s : ndarray, (n, 3)
+        Initial body rate per run [rad/s].
+    jet_map : ndarray of int, (16, 3)
+    params : VehicleParams, optional
+        ``n`` vehicles (default: the nominal one repeated).
+    max_fire_s : float
+        Longest firing tried [s]; an axis that has not reached its command by then raises.
+
+    Returns
+    -------
+    FiringSweep
+    """
+    target = np.atleast_2d(np.asarray(rate_target_rad_s, float))
+    n = target.shape[0]
+    model = load_model() if model is None else model
+    params = VehicleParams.nominal(n, model) if params is None else params
+    loop = RateFiringLoop(jet_map, propulsion.cycle_s)
+    hist = simulate_batch(
+        params, loop, Guidance.rate(target), max_fire_s,
+        omega0_B=np.asarray(omega0_rad_s, float).reshape(n, 3),
+        propulsion=propulsion, model=model,
+    )
+    # err[:, k] = rate error after k cycles (k = 0 .. K), the last one from the final state.
+    err = np.concatenate([hist.rate_err_B, hist.final.rate_err_B[:, None]], axis=1)
+    direction = -np.sign(err[:, 0]).astype(int)
+    reached = direction[:, None, :] * err >= 0  # (n, K+1, 3)
+    # First k at or past the command; argmax of an all-False column is 0 -> checked below.
+    k_cross = np.argmax(reached, axis=1)  # (n, 3)
+    commanded = direction != 0
+    never = commanded & ~reached.any(axis=1)
+    if never.any():
+        run, axis = np.argwhere(never)[0]
+        raise ValueError(
+            f"run {run}: {AXES[axis]} rate not reached within max_fire_s={max_fire_s} s; "
+            "raise max_fire_s"
+        )
+    rows = np.arange(n)[:, None]
+    axes = np.arange(3)[None, :]
+    after = np.abs(err[rows, k_cross, axes])
+    before = np.abs(err[rows, np.maximum(k_cross - 1, 0), axes])
+    cycles = np.where(commanded, np.where(before < after, k_cross - 1, k_cross), 0)
+    cycles = np.maximum(cycles, 0)
+    end_err = err[rows, cycles, axes]
+    return FiringSweep(cycles=cycles.astype(int), end_rate_err_rad_s=end_err,
+                       direction=direction, history=hist)
+
+
+def firing_times(cycles: np.ndarray, direction: np.ndarray, jet_map: np.ndarray,
+                 cycle_s: float) -> np.ndarray:
+    """Per-jet firing time [s], (n, 16), from per-axis cycles and torque signs (n, 3)."""
+    jm = np.asarray(jet_map, int)
+    times = np.zeros((cycles.shape[0], N_JETS))
+    for a in range(3):  # three axes; each jet of the map torques at most one
+        on_axis = (jm[None, :, a] == direction[:, a, None]) & (jm[None, :, a] != 0)
+        times += on_axis * (cycles[:, a, None] * cycle_s)
+    return times
+
+
+def generate_table(
+    *,
+    rate_cases: RateCases | None = None,
+    jet_map: np.ndarray | None = None,
+    params: VehicleParams | None = None,
+    model: mujoco.MjModel | None = None,
+    propulsion: PropulsionParams = PropulsionParams(),
+    settle_tol_rad_s: float = SETTLE_TOL_RAD_S,
+    settle_window_s: float = 2.0,
+    max_fire_s: float = 3.0,
+) -> GeneratedTable:
+    """Generate, verify and damping-check the lookup table for one vehicle.
+
+    Parameters
+    ----------
+    rate_cases : RateCases, optional
+        The 26 rate commands (default: Table 3, corrected).
+    jet_map : ndarray of int, (16, 3), optional
+        Default: Table 2.
+    params : VehicleParams, optional
+        One vehicle (default: the nominal one); it is repeated for the 26 cases.
+    propulsion : PropulsionParams
+        Control cycle (firing times are whole multiples of it).
+    settle_tol_rad_s : float
+        Tolerance of the settling time [rad/s] (default 0.06 deg/s, Table 4).
+    settle_window_s : float
+        How long the verification flight continues after the longest firing [s].
+    max_fire_s : float
+        Longest firing the firing loop tries [s].
+
+    Returns
+    -------
+    GeneratedTable
+    """
+    rate_cases = load_rate_cases() if rate_cases is None else rate_cases
+    jet_map = load_jet_map() if jet_map is None else np.asarray(jet_map, int)
+    model = load_model() if model is None else model
+    one = VehicleParams.nominal(1, model) if params is None else params.take(slice(0, 1))
+    n = len(rate_cases.case)
+    batch = one.take(np.zeros(n, int))
+    rate = np.asarray(rate_cases.rate_cmd, float)
+    cyc = propulsion.cycle_s
+
+    command = sweep(rate, np.zeros_like(rate), jet_map, params=batch, model=model,
+                    propulsion=propulsion, max_fire_s=max_fire_s)
+    times = firing_times(command.cycles, command.direction, jet_map, cyc)
+    check_consistency(rate_cases.case, rate, times, jet_map, file="<generated table>",
+                      cycle_s=cyc)
+    table = LookupTable(case=rate_cases.case, rate_cmd=rate, firing_time_s=times,
+                        source="generated by lookup.table_generation")
+
+    damping = sweep(np.zeros_like(rate), rate, jet_map, params=batch, model=model,
+                    propulsion=propulsion, max_fire_s=max_fire_s)
+    damping_times = firing_times(damping.cycles, damping.direction, jet_map, cyc)
+
+    # Verification: fly the table open loop under the rate command, then watch the rate.
+    fire_end = times.max(axis=1)  # (26,), pairs end together; axes may end earlier
+    verify = simulate_batch(batch, TableFiring(times, cyc), Guidance.rate(rate),
+                            float(fire_end.max()) + settle_window_s,
+                            propulsion=propulsion, model=model)
+    err = np.concatenate([verify.rate_err_B, verify.final.rate_err_B[:, None]], axis=1)
+    t = np.append(verify.t_s, verify.t_s[-1] + cyc)
+    outside = np.abs(err).max(axis=2) > settle_tol_rad_s  # (26, K+1)
+    after_fire = t[None, :] >= fire_end[:, None] - 1e-9
+    # Settled from the first sample after the firing from which no later sample is outside.
+    last_out = np.where(outside & after_fire, t[None, :], -np.inf).max(axis=1)
+    settle_at = np.array([
+        t[(t >= fire_end[i] - 1e-9) & (t > last_out[i])].min()
+        if np.any((t >= fire_end[i] - 1e-9) & (t > last_out[i])) else np.nan
+        for i in range(n)  # 26 cases, post-processing only
+    ])
+    settle = settle_at - fire_end
+    return GeneratedTable(
+        table=table, command=command, damping=damping, damping_firing_time_s=damping_times,
+        verify_rate_err_rad_s=verify.final.rate_err_B.copy(), settle_time_s=settle,
+        settle_tol_rad_s=float(settle_tol_rad_s),
+    )
+
+
+# ------------------------------------------------------------------------------------------
+# Comparison with the paper's tables
+# ------------------------------------------------------------------------------------------
+def axis_times(table: LookupTable) -> tuple[np.ndarray, np.ndarray]:
+    """Per case and axis, the firing time and which jets fire, learned from the table alone.
+
+    Returns
+    -------
+    time_s : ndarray, (26, 3)
+        Longest firing time on each axis (pairs fire equally) [s], 0 if none.
+    jets : ndarray of bool, (26, 16)
+        Jets that fire.
+    """
+    from lookup.pattern_recognition import learn_jets
+
+    axis, _, _ = learn_jets(table)
+    ft = np.asarray(table.firing_time_s)
+    time_s = np.stack([np.where(axis[None, :] == a, ft, 0.0).max(axis=1) for a in range(3)], 1)
+    return time_s, ft > 0
+
+
+def compare_tables(generated: LookupTable, paper: LookupTable,
+                   cycle_s: float = 0.04) -> pd.DataFrame:
+    """Case-by-case comparison of two lookup tables (e.g. generated vs paper Table 6).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case: ``case``, ``pattern`` (e.g. ``"(-,+,0)"``), ``jets_agree`` (same
+        firing jets), per axis ``<axis>_gen_s``, ``<axis>_paper_s`` and ``<axis>_diff_cycles``
+        (generated minus paper, in control cycles), and ``within_one_cycle``.
+    """
+    if not np.array_equal(np.sign(generated.rate_cmd), np.sign(paper.rate_cmd)):
+        raise ValueError("tables have different case patterns; cannot compare case by case")
+    g_t, g_j = axis_times(generated)
+    p_t, p_j = axis_times(paper)
+    signs = np.sign(np.asarray(generated.rate_cmd)).astype(int)
+    sym = {-1: "-", 0: "0", 1: "+"}
+    cols = {
+        "case": np.asarray(generated.case),
+        "pattern": ["(" + ",".join(sym[s] for s in row) + ")" for row in signs],
+        "jets_agree": np.all(g_j == p_j, axis=1),
+    }
+    diff = np.rint((g_t - p_t) / cycle_s).astype(int)
+    for a, ax in enumerate(AXES):
+        cols[f"{ax}_gen_s"] = g_t[:, a].round(6)
+        cols[f"{ax}_paper_s"] = p_t[:, a].round(6)
+        cols[f"{ax}_diff_cycles"] = diff[:, a]
+    cols["within_one_cycle"] = np.all(np.abs(diff) <= 1, axis=1)
+    return pd.DataFrame(cols)
