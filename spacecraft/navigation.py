@@ -15,17 +15,14 @@ import numpy as np
 
 def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product ``a * b`` of scalar-first quaternions, shapes (..., 4)."""
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack(
-        [
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ],
-        axis=-1,
-    )
+    aw, ax, ay, az = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    bw, bx, by, bz = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = aw * bw - ax * bx - ay * by - az * bz
+    out[..., 1] = aw * bx + ax * bw + ay * bz - az * by
+    out[..., 2] = aw * by - ax * bz + ay * bw + az * bx
+    out[..., 3] = aw * bz + ax * by - ay * bx + az * bw
+    return out
 
 
 def quat_conj(q: np.ndarray) -> np.ndarray:
@@ -97,6 +94,8 @@ class Guidance:
 
     def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Commanded ``(q_cmd_BN (n, 4), omega_cmd_B (n, 3))`` at time ``t_s``."""
+        if not self.omega_cmd_B.any():  # attitude command: the commanded frame stands still
+            return self.q_cmd0_BN, self.omega_cmd_B
         return quat_mul(self.q_cmd0_BN, quat_from_rotvec(self.omega_cmd_B * t_s)), self.omega_cmd_B
 
 

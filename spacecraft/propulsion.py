@@ -84,7 +84,9 @@ def apply_valve_limits(
     ndarray, (n_runs, 16)
         The on-times the valves deliver this cycle [s].
     """
-    on = np.clip(np.nan_to_num(on_time_s, nan=0.0), 0.0, params.cycle_s)
+    # NaN commands (a broken controller) are not fired; clip keeps the rest in [0, cycle].
+    on = np.clip(on_time_s, 0.0, params.cycle_s)
+    on[np.isnan(on)] = 0.0
     new = (on > 0) & ~state.on_at_end
     too_short = new & (on < params.min_pulse_s)
     on = np.where(too_short, 0.0, on)
@@ -114,5 +116,7 @@ def duty_profile(on_time_s: np.ndarray, dt_s: float, n_sub: int) -> np.ndarray:
     ndarray, (n_runs, n_sub, n_jets)
         Duty in [0, 1]; ``duty.sum(axis=1) * dt_s == on_time_s`` to rounding.
     """
+    if n_sub == 1:  # one physics step per cycle: the duty is the on-fraction of the cycle
+        return np.clip(on_time_s / dt_s, 0.0, 1.0)[:, None, :]
     start = np.arange(n_sub)[None, :, None] * dt_s
     return np.clip((on_time_s[:, None, :] - start) / dt_s, 0.0, 1.0)

@@ -199,12 +199,13 @@ class BatchSimulation:
         reason = list(self.invalid)
 
         t_s = np.arange(n_cycles) * cycle
+        # Cycle-major buffers: each cycle writes one contiguous block; transposed once at the end.
         rec = {
-            "q_BN": np.empty((n, n_cycles, 4)),
-            "omega_B": np.empty((n, n_cycles, 3)),
-            "att_err_B": np.empty((n, n_cycles, 3)),
-            "rate_err_B": np.empty((n, n_cycles, 3)),
-            "on_time_s": np.empty((n, n_cycles, N_JETS)),
+            "q_BN": np.empty((n_cycles, n, 4)),
+            "omega_B": np.empty((n_cycles, n, 3)),
+            "att_err_B": np.empty((n_cycles, n, 3)),
+            "rate_err_B": np.empty((n_cycles, n, 3)),
+            "on_time_s": np.empty((n_cycles, n, N_JETS)),
         }
         control = np.zeros((n, self.n_sub, self.model.nu))
         for k in range(n_cycles):
@@ -213,11 +214,11 @@ class BatchSimulation:
             command, state = controller.step(nav, state)
             command = np.where(failed[:, None], 0.0, command)
             on = apply_valve_limits(command, prop, self.propulsion, self.params.thrust_n)
-            rec["q_BN"][:, k] = nav.q_BN
-            rec["omega_B"][:, k] = nav.omega_B
-            rec["att_err_B"][:, k] = nav.att_err_B
-            rec["rate_err_B"][:, k] = nav.rate_err_B
-            rec["on_time_s"][:, k] = on
+            rec["q_BN"][k] = nav.q_BN
+            rec["omega_B"][k] = nav.omega_B
+            rec["att_err_B"][k] = nav.att_err_B
+            rec["rate_err_B"][k] = nav.rate_err_B
+            rec["on_time_s"][k] = on
             control[:, :, self._jets] = duty_profile(on, self.dt_s, self.n_sub)
             if disturbance_B is not None:
                 torque = disturbance_B(k * cycle) if callable(disturbance_B) else disturbance_B
@@ -226,6 +227,7 @@ class BatchSimulation:
             if progress is not None:
                 progress(k + 1)
         final = navigate(n_cycles * cycle, self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy(), guidance)
+        rec = {key: np.ascontiguousarray(value.swapaxes(0, 1)) for key, value in rec.items()}
         return History(t_s=t_s, final=final, propulsion=prop, failed=failed, reason=reason, **rec)
 
     def _reset(self, q0_BN, omega0_B) -> None:
@@ -243,22 +245,23 @@ class BatchSimulation:
         alive = np.flatnonzero(~failed)
         if alive.size == 0:
             return
-        ids = None if alive.size == self.n_runs else alive
+        everyone = alive.size == self.n_runs
         try:
-            self._batch.rollout(self.n_sub, control=control[alive], control_spec=_CTRL,
-                                record=(), ids=ids)
+            self._batch.rollout(self.n_sub, control=control if everyone else control[alive],
+                                control_spec=_CTRL, record=(), ids=None if everyone else alive)
         except SimulationError as exc:
             for i in exc.ids:
                 failed[i] = True
                 reason[i] = f"MuJoCo error: {self._batch.error(int(i))}"
-        state_ok = np.isfinite(self._qpos).all(axis=1) & np.isfinite(self._qvel).all(axis=1)
+        state_ok = np.isfinite(self._qvel.sum(axis=1) + self._qpos.sum(axis=1))
+        if state_ok.all():
+            return
         for i in np.flatnonzero(~state_ok & ~failed):
             failed[i] = True
             reason[i] = "non-finite state (diverged)"
-        if (~state_ok).any():
-            # Keep numbers finite so vectorized navigation/controllers stay warning-free.
-            self._qpos[~state_ok] = np.nan_to_num(self._qpos[~state_ok])
-            self._qvel[~state_ok] = 0.0
+        # Keep numbers finite so vectorized navigation/controllers stay warning-free.
+        self._qpos[~state_ok] = np.nan_to_num(self._qpos[~state_ok])
+        self._qvel[~state_ok] = 0.0
 
 
 def simulate_batch(

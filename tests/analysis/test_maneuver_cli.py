@@ -1,0 +1,136 @@
+"""``rcsim maneuver`` end to end: outputs, and bad input handled as a user error.
+
+Contract (analysis/cli.py, issue 2): a run writes DIR/history.parquet with one row per 40 ms
+control cycle and the required columns, plus the Fig 1-2 style PNGs; a user mistake prints one
+line on stderr, exits 2, shows no traceback and creates no output directory.
+
+Most calls go through ``analysis.cli.main`` in-process (fast); one subprocess call runs the
+installed ``rcsim`` executable to prove the entry point.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis.cli import main
+
+REQUIRED = (
+    ["t_s", "att_err_roll_deg", "att_err_pitch_deg", "att_err_yaw_deg",
+     "rate_roll_deg_s", "rate_pitch_deg_s", "rate_yaw_deg_s"]
+    + [f"jet_{j:02d}_on_s" for j in range(1, 17)]
+)
+PNGS = ("attitude_error.png", "rates_jets.png")
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+CYCLE_S = 0.04
+
+
+def rcsim_executable() -> str:
+    exe = Path(sys.executable).with_name("rcsim")
+    return str(exe) if exe.exists() else (shutil.which("rcsim") or "rcsim")
+
+
+def assert_user_error(rc, err, out_dir: Path):
+    assert rc == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("rcsim: error:"), err
+    assert "Traceback" not in err
+    assert not out_dir.exists()
+    # Not even the hidden temporary directory of the atomic write is left behind.
+    assert not any(p.name.startswith(f".{out_dir.name}") for p in out_dir.parent.iterdir())
+
+
+def test_maneuver_writes_history_and_plots(tmp_path, capsys):
+    out = tmp_path / "m"
+    rc = main(["maneuver", "--controller", "phase-plane", "--attitude-deg", "5", "5", "5",
+               "--duration-s", "2", "--out", str(out)])
+    captured = capsys.readouterr()
+    assert rc == 0, captured.err
+    frame = pd.read_parquet(out / "history.parquet")
+    missing = [c for c in REQUIRED if c not in frame.columns]
+    assert not missing
+    # One row per control cycle from t = 0.
+    assert len(frame) == 50
+    np.testing.assert_allclose(frame["t_s"], np.arange(50) * CYCLE_S, atol=1e-12)
+    # Degrees at this boundary: the initial error of a +5 deg command is -5 deg on each axis.
+    np.testing.assert_allclose(frame.loc[0, ["att_err_roll_deg", "att_err_pitch_deg",
+                                             "att_err_yaw_deg"]].to_numpy(float), -5.0,
+                               atol=1e-9)
+    # The start firing is in the first cycle, in seconds of on-time per cycle (<= 40 ms).
+    jets = frame[[f"jet_{j:02d}_on_s" for j in range(1, 17)]].to_numpy()
+    assert jets[0].max() == pytest.approx(CYCLE_S)
+    assert jets.min() >= 0 and jets.max() <= CYCLE_S
+    for name in PNGS:
+        data = (out / name).read_bytes()
+        assert data.startswith(PNG_MAGIC) and len(data) > 5_000
+    assert "final attitude error" in captured.out
+
+
+def test_rcsim_executable_entry_point(tmp_path):
+    out = tmp_path / "exe"
+    proc = subprocess.run(
+        [rcsim_executable(), "maneuver", "--attitude-deg", "0", "0", "5", "--duration-s", "0.4",
+         "--out", str(out)],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert (out / "history.parquet").is_file()
+    assert all((out / p).is_file() for p in PNGS)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["--bogus-option"],
+        ["--duration-s", "-5"],
+        ["--duration-s", "0"],
+        ["--duration-s", "nan"],
+        ["--duration-s", "ten"],
+        ["--controller", "bang-bang"],
+        ["--table", "x.csv"],  # --table is only for the lookup controller
+    ],
+    ids=["unknown-option", "negative-duration", "zero-duration", "nan-duration",
+         "non-numeric-duration", "unknown-controller", "table-with-phase-plane"],
+)
+def test_bad_input_is_one_line_exit_2_no_output(tmp_path, capsys, argv):
+    out = tmp_path / "never"
+    rc = main(["maneuver", "--attitude-deg", "5", "5", "5", "--out", str(out), *argv])
+    assert_user_error(rc, capsys.readouterr().err, out)
+
+
+def test_missing_attitude_is_user_error(tmp_path, capsys):
+    out = tmp_path / "never"
+    rc = main(["maneuver", "--attitude-deg", "5", "5", "--out", str(out)])
+    assert_user_error(rc, capsys.readouterr().err, out)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("lookup.pattern_recognition") is None,
+                    reason="lookup.pattern_recognition (the lookup controller) not built yet")
+@pytest.mark.parametrize("content", ["", "case,jet_01\n1,abc\n", None],
+                         ids=["empty", "garbage", "missing-file"])
+def test_bad_table_file_is_user_error(tmp_path, capsys, content):
+    table = tmp_path / "bad.csv"
+    if content is not None:
+        table.write_text(content)
+    out = tmp_path / "never"
+    rc = main(["maneuver", "--controller", "lookup", "--table", str(table),
+               "--attitude-deg", "5", "5", "5", "--duration-s", "1", "--out", str(out)])
+    assert_user_error(rc, capsys.readouterr().err, out)
+
+
+def test_out_parent_missing_is_user_error(tmp_path, capsys):
+    out = tmp_path / "no" / "such" / "dir"
+    rc = main(["maneuver", "--attitude-deg", "5", "5", "5", "--duration-s", "1",
+               "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "no").exists()
+    assert os.listdir(tmp_path) == []
