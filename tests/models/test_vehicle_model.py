@@ -12,25 +12,14 @@ import numpy as np
 import pytest
 
 from models import vehicle_xml
-from models.tables import load_mass_properties
 from spacecraft.vehicle import (
-    BODY, DIST_NAMES, JET_NAMES, dist_actuator_ids, jet_actuator_ids, load_model,
+    BODY, DIST_NAMES, JET_NAMES, dist_actuator_ids, jet_actuator_ids,
 )
 
 # The MJCF writes Table 1's decimals verbatim and MuJoCo stores them as parsed doubles; 1e-12
 # relative only absorbs a different-but-equivalent decimal spelling, while any typo in a digit
 # the paper prints (>= 1e-6 relative for these values) fails.
 TABLE_RTOL = 1e-12
-
-
-@pytest.fixture(scope="module")
-def model() -> mujoco.MjModel:
-    return load_model()
-
-
-@pytest.fixture(scope="module")
-def table1():
-    return load_mass_properties()
 
 
 def test_mjcf_compiles_from_packaged_path():

@@ -25,11 +25,11 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from models.tables import load_jet_map, load_lookup_table, load_mass_properties
+from models.tables import load_jet_map, load_lookup_table
 from spacecraft.navigation import Guidance
 from spacecraft.simulation import BatchSimulation
 from spacecraft.vehicle import (
-    BODY, VehicleParams, jet_actuator_ids, jet_geometry_B, load_model, torque_per_jet_B,
+    BODY, VehicleParams, jet_actuator_ids, jet_geometry_B, torque_per_jet_B,
 )
 
 ARM_M = np.array([0.812, 0.776, 0.724])  # design arms roll, pitch, yaw (README)
@@ -44,16 +44,6 @@ PULSE_RTOL = 1e-6
 # is far above float rounding (1e-16 .. 1e-13) and far below any geometric error (a 1 mm arm
 # offset would give ~1e-3).
 ZERO_RTOL = 1e-9
-
-
-@pytest.fixture(scope="module")
-def model() -> mujoco.MjModel:
-    return load_model()
-
-
-@pytest.fixture(scope="module")
-def table1():
-    return load_mass_properties()
 
 
 @pytest.fixture(scope="module")
