@@ -29,9 +29,6 @@ Figure 4 (scatter), Appendix B (MATLAB wrapper: ``std``, sigma ellipses).
 from __future__ import annotations
 
 import importlib.metadata
-import os
-import shutil
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,6 +36,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from analysis.output import atomic_dir, check_out_dir
 from lookup.single_axis import ARCHITECTURES, Architecture
 from models.errors import InputError
 
@@ -503,11 +501,7 @@ def _floor_span(ax, x0: float, y0: float, half_span: float = PLOT_MIN_HALF_SPAN)
 # Output.
 # --------------------------------------------------------------------------------------
 def write_outputs(result: StudyResult, out_dir: Path) -> Path:
-    """Write the four outputs into ``out_dir`` atomically.
-
-    Everything is written into a temporary directory next to ``out_dir`` and renamed into
-    place, so an error never leaves a half-written ``out_dir``.  An existing ``out_dir`` is
-    replaced only if it holds nothing but this study's outputs.
+    """Write the four outputs into ``out_dir`` atomically (:func:`analysis.output.atomic_dir`).
 
     Returns
     -------
@@ -515,47 +509,12 @@ def write_outputs(result: StudyResult, out_dir: Path) -> Path:
         ``out_dir``, resolved.
     """
     out_dir = Path(out_dir).resolve()
-    _check_out_dir(out_dir)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
-    try:
+    with atomic_dir(out_dir) as tmp:
         result.summary.to_csv(tmp / "summary.csv", index=False, float_format="%.6g")
         result.percent.to_csv(tmp / "percent.csv", index=False, float_format="%.4g")
         result.runs.to_parquet(tmp / "runs.parquet", index=False)
         plot_scatter(result.runs, tmp / "scatter.png")
-        _replace_dir(tmp, out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out_dir
-
-
-def _check_out_dir(out_dir: Path) -> None:
-    if out_dir.exists() and not out_dir.is_dir():
-        raise InputError(f"--out {out_dir} exists and is not a directory")
-    if out_dir.is_dir():
-        foreign = sorted(p.name for p in out_dir.iterdir() if p.name not in OUTPUT_FILES)
-        if foreign:
-            raise InputError(
-                f"--out {out_dir} exists and holds files this study did not write "
-                f"({', '.join(foreign[:3])}); choose another directory"
-            )
-
-
-def _replace_dir(new: Path, target: Path) -> None:
-    """Rename ``new`` to ``target``; an existing ``target`` is moved aside first."""
-    if not target.exists():
-        os.rename(new, target)
-        return
-    old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", dir=target.parent))
-    os.rename(target, old / "prev")
-    try:
-        os.rename(new, target)
-    except BaseException:
-        os.rename(old / "prev", target)  # put the previous outputs back
-        raise
-    finally:
-        shutil.rmtree(old, ignore_errors=True)
 
 
 def format_summary(summary: pd.DataFrame) -> str:
@@ -573,7 +532,7 @@ def run_cli(args) -> int:
     """
     cfg = StudyConfig(runs=args.runs, seed=args.seed, noise_var=args.noise_var,
                       inertia_spread=args.inertia_spread)
-    _check_out_dir(Path(args.out).resolve())  # fail before the work, not after it
+    check_out_dir(args.out)  # fail before the work, not after it
     result = run_study(cfg)
     out = write_outputs(result, Path(args.out))
     print(format_summary(result.summary))

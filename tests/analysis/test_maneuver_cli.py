@@ -126,11 +126,29 @@ def test_bad_table_file_is_user_error(tmp_path, capsys, content):
     assert_user_error(rc, capsys.readouterr().err, out)
 
 
-def test_out_parent_missing_is_user_error(tmp_path, capsys):
+def test_out_missing_parents_are_created(tmp_path, capsys):
     out = tmp_path / "no" / "such" / "dir"
-    rc = main(["maneuver", "--attitude-deg", "5", "5", "5", "--duration-s", "1",
+    rc = main(["maneuver", "--attitude-deg", "1", "0", "0", "--duration-s", "1",
+               "--out", str(out)])
+    assert rc == 0
+    assert (out / "history.parquet").is_file()
+
+
+def test_out_dir_with_foreign_files_is_never_replaced(tmp_path, capsys):
+    """An existing directory rcsim did not write (e.g. --out ~) is refused, not wiped."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "thesis.tex").write_text("precious")
+    rc = main(["maneuver", "--attitude-deg", "1", "0", "0", "--duration-s", "1",
                "--out", str(out)])
     err = capsys.readouterr().err
     assert rc == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
-    assert not (tmp_path / "no").exists()
-    assert os.listdir(tmp_path) == []
+    assert os.listdir(out) == ["thesis.tex"]
+
+
+def test_out_dir_written_by_rcsim_is_replaced(tmp_path, capsys):
+    out = tmp_path / "again"
+    for attitude in ("1", "2"):
+        assert main(["maneuver", "--attitude-deg", attitude, "0", "0", "--duration-s", "1",
+                     "--out", str(out)]) == 0
+    assert sorted(os.listdir(tmp_path)) == ["again"]  # no temporary or old copies left

@@ -253,7 +253,7 @@ def test_cli_writes_all_outputs(tmp_path, capsys):
     out = tmp_path / "study"
     code = main(["study", "noisy-sensor", "--runs", "12", "--seed", "4", "--out", str(out)])
     assert code == 0
-    assert sorted(os.listdir(out)) == sorted(ns.OUTPUT_FILES)
+    assert sorted(f for f in os.listdir(out) if not f.startswith(".")) == sorted(ns.OUTPUT_FILES)
     summary = pd.read_csv(out / "summary.csv")
     assert list(summary.columns) == list(ns.SUMMARY_COLUMNS)
     assert list(summary["architecture"]) == [a.label for a in sa.ARCHITECTURES]
