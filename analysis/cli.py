@@ -12,7 +12,7 @@ import sys
 
 from models.errors import InputError
 
-# (module, description) of every command group, in the order ``rcsim --help`` lists them.
+# Every command group's module, in the order ``rcsim --help`` lists them.
 _COMMANDS = (
     "analysis.maneuver_cli",
     "analysis.lookup_cli",
@@ -37,13 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     for name in _COMMANDS:
-        try:
-            module = importlib.import_module(name)
-        except ModuleNotFoundError as exc:
-            if exc.name != name:
-                raise
-            continue  # command group not built yet
-        module.register(sub)
+        importlib.import_module(name).register(sub)
     return parser
 
 

@@ -57,16 +57,15 @@ N_AXES = 3
 _TIMER_EPS_S = 1e-9
 
 
-def packaged_table_path() -> Path | None:
-    """``lookup/data/generated_table.csv`` if it is packaged, else None."""
-    path = files("lookup") / "data" / "generated_table.csv"
-    return Path(str(path)) if path.is_file() else None
+def default_table_path() -> Path:
+    """The packaged table, ``lookup/data/generated_table.csv`` (generated for the nominal
+    vehicle; see ``lookup/data/README.md``)."""
+    return Path(str(files("lookup") / "data" / "generated_table.csv"))
 
 
 def load_default_table() -> LookupTable:
-    """The packaged generated table when present, else the paper's Table 7."""
-    path = packaged_table_path()
-    return load_lookup_table(path) if path is not None else load_lookup_table(which="table7")
+    """The packaged generated table."""
+    return load_lookup_table(default_table_path())
 
 
 def learn_jets(table: LookupTable) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -227,7 +226,7 @@ class LookupController:
         Parameters
         ----------
         table : path, optional
-            Default: the packaged generated table, else the paper's Table 7.
+            Default: the packaged generated table (`lookup/data/generated_table.csv`).
         inputs : path, optional
             Table 4 CSV; default the packaged one.
         **overrides

@@ -23,7 +23,7 @@ def make_controller(
     name : {"phase-plane", "lookup"}
     table : path, optional
         Lookup table CSV (rcsim or paper layout) for ``"lookup"``; default the packaged table
-        (``lookup/data/generated_table.csv`` when present, else the paper's Table 7).
+        ``lookup/data/generated_table.csv``.
     model : mujoco.MjModel, optional
         Vehicle whose *nominal* properties the phase-plane design uses.
     """

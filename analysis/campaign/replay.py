@@ -1,0 +1,59 @@
+"""Re-fly one run of a finished (or partial) campaign alone, with its full history and plots.
+
+A run is a function of the spec and its run id only, so the replay is the campaign's run; the
+replayed outcomes are compared with its row of ``runs.parquet`` (when present).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.campaign import results as R
+from analysis.campaign.chunk import fly_runs, outcomes
+from analysis.campaign.spec import parse_dict
+from models.errors import InputError
+from spacecraft.propulsion import PropulsionParams
+
+
+def load_campaign_spec(campaign: Path):
+    manifest = R.read_manifest(campaign)
+    if manifest is None:
+        raise InputError(f"{campaign}: not a campaign directory (no readable {R.MANIFEST})")
+    return parse_dict(manifest["spec"], source=str(campaign / R.MANIFEST), base_dir=None)
+
+
+def replay(campaign: str | Path, run_id: int, out: str | Path | None = None) -> dict:
+    """Re-fly run ``run_id`` of ``campaign`` and write its history (see analysis.flight.write_flight).
+
+    Returns
+    -------
+    dict
+        ``out`` (directory written), ``row`` (the replayed runs.parquet row as a dict),
+        ``matches`` (True/False if the campaign row exists, else None).
+    """
+    from analysis.campaign.chunk import _row_frame
+    from analysis.flight import write_flight
+
+    campaign = Path(campaign)
+    spec = load_campaign_spec(campaign)
+    if not 0 <= run_id < spec.n_runs:
+        raise InputError(f"RUN_ID {run_id}: campaign has runs 0..{spec.n_runs - 1}")
+    out = Path(out) if out is not None else campaign / "replays" / f"run-{run_id:07d}"
+    if out is not None and not out.parent.exists():
+        out.parent.mkdir(parents=True)
+    case = spec.case_of(run_id)
+    ids = np.array([run_id])
+    history, dispersed = fly_runs(spec, ids)
+    row = _row_frame(spec, dispersed,
+                     outcomes(history, spec, PropulsionParams().cycle_s, dispersed.params.isp_s))
+    title = f"{spec.controller} {spec.cases[case].name} run {run_id}"
+    write_flight(history, out, title=title, isp_s=dispersed.params.isp_s)
+    matches = None
+    runs_path = campaign / R.RUNS
+    if runs_path.exists():
+        stored = pd.read_parquet(runs_path, filters=[("run_id", "==", run_id)])
+        if len(stored) == 1:
+            matches = bool(stored.reset_index(drop=True).equals(row[stored.columns]))
+    return {"out": out, "row": row.iloc[0].to_dict(), "matches": matches, "case": spec.cases[case].name}

@@ -1,0 +1,417 @@
+"""Campaign specs: a TOML file, validated key by key into a :class:`CampaignSpec`.
+
+Every mistake is an :class:`~models.errors.InputError` naming the file, the key path (e.g.
+``dispersions.three_sigma.thrust_n``) and the value, raised before anything is written.
+Units are in the key names (``_deg``, ``_deg_s``, ``_n``, ...); inside, everything is SI.
+:data:`EXAMPLE_SPEC` (``rcsim campaign example``) documents every key.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from analysis.flight import Scenario
+from models.errors import InputError
+from spacecraft.dispersions import DispersionSigmas
+
+EXAMPLE_SPEC = '''\
+# rcsim campaign spec (TOML).  Units are in the key names; angles in degrees at this boundary.
+# Every key below is optional except where marked; the values shown are the defaults.
+
+seed = 1                 # root seed: run i draws from SeedSequence(seed, spawn_key=(i,))
+runs_per_case = 100      # dispersed runs of every case (rcsim campaign run --runs-per-case N)
+chunk_size = 256         # most runs per batched simulation; results do not depend on it
+
+# What to fly.  One table, or a list of them ([[scenario]] blocks) whose cases are appended.
+[scenario]
+kind = "rate-cases"      # "rate-cases" (Table 3), "maneuver" or "hold"
+cases = "all"            # rate-cases: "all" or a list of case numbers, e.g. [13, 14]
+mode = "command"         # rate-cases: "command" (from rest to the case rate, Fig 3)
+                         #   or "damp" (from the case rate to rest, Fig 4)
+duration_s = 20.0        # simulated time of every run [s]
+# kind = "maneuver":  attitude_deg = [0.0, 0.0, 5.0]   (rotation-vector components, required)
+# kind = "hold":      disturbance_n_m = [0.0, 0.0, 2.0], initial_rate_deg_s = [0.0, 0.0, 0.0]
+# name = "yaw-5deg"  # maneuver/hold case name (default: the kind)
+
+[controller]
+name = "lookup"          # "phase-plane" or "lookup"  (required)
+table = "default"        # lookup only: "default" (packaged table) or a table CSV path,
+                         #   relative to this file
+
+[dispersions]
+table = "default"        # "default" = Gambone Table 5, or a CSV path in its format
+scale = 1.0              # multiplies every 3-sigma (3.0 for the stress runs of Figs 13-14)
+# Override single 3-sigma values (after them, scale still applies):
+# [dispersions.three_sigma]
+# mass_kg = 73.6
+# cg_x_m = 0.01
+# ixx_kg_m2 = 322.48
+# iyy_kg_m2 = 284.42
+# izz_kg_m2 = 221.13
+# thrust_n = 2.0           # drawn per jet
+# thruster_angle_deg = 5.0 # drawn per jet: tilt ~ N(0, 3sigma/3) about a uniform azimuth
+# Sensor noise and delays are not supported yet; a [dispersions.sensor] table is rejected.
+
+[failure]
+# A run fails when the simulation fails, or when any axis ends with |rate error| above this
+# (0.04 deg/s: Gambone sec. III -- cutting the controller's rate-error limit from 0.06 to
+# 0.04 deg/s removed every failure, so "near-zero" lies in [0.04, 0.06); 0.04 is the strictest
+# threshold consistent with that).  The same threshold defines "commanded rate reached".
+rate_error_deg_s = 0.04
+# attitude_error_deg = 1.0  # optional: also fail when the final total attitude error exceeds it
+
+[output]
+histories = "failures"   # per-run histories to keep: "none", "failures", "all" or "first"
+first_k = 5              # histories = "first": keep the first K runs of every case
+plots = true             # Fig 9-14-like plots in DIR/plots/
+'''
+
+_DEFAULT_RATE_ERROR_DEG_S = 0.04
+HISTORY_MODES = ("none", "failures", "all", "first")
+SCENARIO_KINDS = ("rate-cases", "maneuver", "hold")
+CONTROLLER_NAMES = ("phase-plane", "lookup")
+_SIGMA_KEYS = {  # spec key -> (Table 5 name, factor to SI)
+    "mass_kg": ("mass", 1.0),
+    "cg_x_m": ("cg_x", 1.0),
+    "ixx_kg_m2": ("ixx", 1.0),
+    "iyy_kg_m2": ("iyy", 1.0),
+    "izz_kg_m2": ("izz", 1.0),
+    "thrust_n": ("thrust", 1.0),
+    "thruster_angle_deg": ("thruster_angle", math.pi / 180.0),
+}
+
+
+@dataclass(frozen=True)
+class CampaignSpec:
+    """A validated campaign (SI inside).
+
+    Attributes
+    ----------
+    source : str
+        Where it was read from (for messages).
+    seed, runs_per_case, chunk_size : int
+    cases : tuple of analysis.flight.Scenario
+        Case ``c`` holds runs ``c * runs_per_case ... (c + 1) * runs_per_case - 1``.
+    controller : str
+    table : str or None
+        Absolute path of the lookup table (None: packaged default / phase-plane).
+    sigmas : DispersionSigmas
+        One-sigma dispersions after overrides and scale.
+    rate_threshold_rad_s : float
+    attitude_threshold_rad : float or None
+    histories : str
+    first_k : int
+    plots : bool
+    resolved : dict
+        The spec with defaults filled in and paths made absolute (JSON-able); what the
+        manifest records, what ``--resume`` compares and what ``replay`` rebuilds from.
+    """
+
+    source: str
+    seed: int
+    runs_per_case: int
+    chunk_size: int
+    cases: tuple
+    controller: str
+    table: str | None
+    sigmas: DispersionSigmas
+    rate_threshold_rad_s: float
+    attitude_threshold_rad: float | None
+    histories: str
+    first_k: int
+    plots: bool
+    resolved: dict
+
+    @property
+    def n_cases(self) -> int:
+        return len(self.cases)
+
+    @property
+    def n_runs(self) -> int:
+        return self.n_cases * self.runs_per_case
+
+    def case_of(self, run_id: int) -> int:
+        """Case index of a run (run ids are case-major)."""
+        return int(run_id) // self.runs_per_case
+
+    def digest(self) -> str:
+        """SHA-256 of the resolved spec: equal digests fly equal runs."""
+        return hashlib.sha256(json.dumps(self.resolved, sort_keys=True).encode()).hexdigest()
+
+    def with_runs_per_case(self, n: int) -> "CampaignSpec":
+        """The same campaign with ``n`` runs per case (``--runs-per-case``)."""
+        resolved = dict(self.resolved, runs_per_case=n)
+        return parse_dict(resolved, source=f"{self.source} with --runs-per-case {n}", base_dir=None)
+
+
+# ----------------------------------------------------------------------------------------------
+# Reading
+# ----------------------------------------------------------------------------------------------
+class _Reader:
+    """Pops keys from a table, checking types; remembers the key path for messages."""
+
+    def __init__(self, table: dict, path: str, source: str):
+        if not isinstance(table, dict):
+            raise InputError(f"{source}: {path or 'spec'}: expected a table, got {table!r}")
+        self.table, self.path, self.source = dict(table), path, source
+
+    def key(self, name: str) -> str:
+        return f"{self.path}.{name}" if self.path else name
+
+    def error(self, name: str, problem: str, value=None) -> InputError:
+        got = "" if value is None else f" (got {value!r})"
+        return InputError(f"{self.source}: {self.key(name)}: {problem}{got}")
+
+    def has(self, name: str) -> bool:
+        return name in self.table
+
+    def raw(self, name: str, default=None):
+        return self.table.pop(name, default)
+
+    def integer(self, name: str, default, *, minimum: int) -> int:
+        value = self.table.pop(name, default)
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            raise self.error(name, f"must be an integer >= {minimum}", value)
+        return int(value)
+
+    def number(self, name: str, default, *, minimum: float | None = None, strict=False) -> float:
+        value = self.table.pop(name, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self.error(name, "must be a finite number", value)
+        if minimum is not None and (value <= minimum if strict else value < minimum):
+            raise self.error(name, f"must be {'>' if strict else '>='} {minimum}", value)
+        return float(value)
+
+    def choice(self, name: str, default, choices) -> str:
+        value = self.table.pop(name, default)
+        if value is None:
+            raise self.error(name, f"is required; one of {', '.join(choices)}")
+        if value not in choices:
+            raise self.error(name, f"must be one of {', '.join(choices)}", value)
+        return value
+
+    def vector3(self, name: str, default) -> list[float]:
+        value = self.table.pop(name, default)
+        if value is None:
+            raise self.error(name, "is required: a list of 3 numbers [roll, pitch, yaw]")
+        if (not isinstance(value, list) or len(value) != 3
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                           and math.isfinite(v) for v in value)):
+            raise self.error(name, "must be a list of 3 finite numbers", value)
+        return [float(v) for v in value]
+
+    def table_(self, name: str) -> "_Reader":
+        return _Reader(self.table.pop(name, {}), self.key(name), self.source)
+
+    def done(self) -> None:
+        """Reject whatever was not read: a typo must not silently fall back to a default."""
+        for name in self.table:
+            raise InputError(f"{self.source}: unknown key '{self.key(name)}'")
+
+
+def _file(r: _Reader, name: str, base_dir: Path | None) -> str | None:
+    """A ``"default"``-or-path key, made absolute; the file must exist."""
+    value = r.raw(name, "default")
+    if not isinstance(value, str) or not value:
+        raise r.error(name, 'must be "default" or a file path', value)
+    if value == "default":
+        return None
+    path = Path(value).expanduser()
+    if not path.is_absolute() and base_dir is not None:
+        path = base_dir / path
+    if not path.is_file():
+        raise r.error(name, "file not found", str(path))
+    return str(path.resolve())
+
+
+def _file_digest(path: str | None) -> str | None:
+    if path is None:
+        return None
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
+    from models.tables import load_rate_cases
+
+    blocks = raw if isinstance(raw, list) else [raw]
+    if not blocks:
+        raise InputError(f"{source}: scenario: the list is empty")
+    cases: list[Scenario] = []
+    for b, block in enumerate(blocks):
+        r = _Reader(block, "scenario" if not isinstance(raw, list) else f"scenario[{b}]", source)
+        kind = r.choice("kind", "rate-cases", SCENARIO_KINDS)
+        duration = r.number("duration_s", 20.0, minimum=0.0, strict=True)
+        out = {"kind": kind, "duration_s": duration}
+        if kind == "rate-cases":
+            table = load_rate_cases()
+            numbers = r.raw("cases", "all")
+            if numbers == "all":
+                numbers = [int(c) for c in table.case]
+            elif (not isinstance(numbers, list) or not numbers
+                  or not all(isinstance(c, int) and not isinstance(c, bool) for c in numbers)):
+                raise r.error("cases", 'must be "all" or a non-empty list of case numbers', numbers)
+            bad = [c for c in numbers if c not in set(int(c) for c in table.case)]
+            if bad:
+                raise r.error("cases", f"no such rate case {bad[0]}; cases are 1..{len(table.case)}",
+                              numbers)
+            mode = r.choice("mode", "command", ("command", "damp"))
+            for c in numbers:
+                rate = table.rate_cmd[list(table.case).index(c)]
+                if mode == "command":
+                    cases.append(Scenario(name=f"rate-{c:02d}", duration_s=duration,
+                                          rate_cmd_rad_s=np.array(rate)))
+                else:
+                    cases.append(Scenario(name=f"damp-{c:02d}", duration_s=duration,
+                                          omega0_rad_s=np.array(rate)))
+            out.update(cases=list(numbers), mode=mode)
+        else:
+            name = r.raw("name", kind)
+            if not isinstance(name, str) or not name.replace("-", "").replace("_", "").isalnum():
+                raise r.error("name", "must be a name of letters, digits, '-' or '_'", name)
+            if kind == "maneuver":
+                att = r.vector3("attitude_deg", None)
+                if np.linalg.norm(att) >= 180.0:
+                    raise r.error("attitude_deg", "rotation must be under 180 deg", att)
+                cases.append(Scenario(name=name, duration_s=duration,
+                                      att_cmd_rad=np.radians(att)))
+                out.update(name=name, attitude_deg=att)
+            else:
+                dist = r.vector3("disturbance_n_m", [0.0, 0.0, 0.0])
+                w0 = r.vector3("initial_rate_deg_s", [0.0, 0.0, 0.0])
+                cases.append(Scenario(name=name, duration_s=duration,
+                                      omega0_rad_s=np.radians(w0),
+                                      disturbance_n_m=np.array(dist)))
+                out.update(name=name, disturbance_n_m=dist, initial_rate_deg_s=w0)
+        r.done()
+        resolved.append(out)
+    names = [c.name for c in cases]
+    dup = next((n for n in names if names.count(n) > 1), None)
+    if dup is not None:
+        raise InputError(f"{source}: scenario: case name {dup!r} appears twice; give each a name")
+    return cases
+
+
+def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpec:
+    """Validate a spec already read into a dict (from TOML, or a manifest's ``resolved``).
+
+    Parameters
+    ----------
+    data : dict
+    source : str
+        Shown in error messages (the file name).
+    base_dir : Path or None
+        Relative file paths are relative to it (the spec file's directory).
+    """
+    from models.tables import load_dispersions, load_lookup_table
+
+    top = _Reader(data, "", source)
+    seed = top.integer("seed", 1, minimum=0)
+    runs = top.integer("runs_per_case", 100, minimum=1)
+    chunk = top.integer("chunk_size", 256, minimum=1)
+    # A run is a function of (seed, run id); run ids are case * runs_per_case + k.
+    resolved: dict = {"seed": seed, "runs_per_case": runs, "chunk_size": chunk}
+
+    scen_resolved: list = []
+    if not top.has("scenario"):
+        raise InputError(f"{source}: scenario: missing; see `rcsim campaign example`")
+    raw_scen = top.raw("scenario")
+    cases = _scenarios(raw_scen, source, scen_resolved)
+    resolved["scenario"] = scen_resolved if isinstance(raw_scen, list) else scen_resolved[0]
+
+    c = top.table_("controller")
+    name = c.choice("name", None, CONTROLLER_NAMES)
+    table = _file(c, "table", base_dir)
+    if name == "phase-plane" and table is not None:
+        raise c.error("table", "is only for the lookup controller", table)
+    if table is not None:
+        load_lookup_table(table)  # InputError naming the file, row and column
+    if c.has("table_sha256"):  # present in a manifest's resolved spec (replay, resume)
+        expect = c.raw("table_sha256")
+        if expect != _file_digest(table):
+            raise c.error("table", "file changed since the campaign ran (sha256 differs)", table)
+    c.done()
+    resolved["controller"] = {"name": name, "table": table or "default",
+                              "table_sha256": _file_digest(table)}
+
+    d = top.table_("dispersions")
+    disp_table = _file(d, "table", base_dir)
+    frame = load_dispersions(disp_table)
+    if d.has("table_sha256"):
+        if d.raw("table_sha256") != _file_digest(disp_table):
+            raise d.error("table", "file changed since the campaign ran (sha256 differs)",
+                          disp_table)
+    scale = d.number("scale", 1.0, minimum=0.0)
+    over = d.table_("three_sigma")
+    overrides = {}
+    for key, (row, factor) in _SIGMA_KEYS.items():
+        if over.has(key):
+            overrides[key] = over.number(key, None, minimum=0.0)
+            if row in set(frame["name"]):
+                frame.loc[frame["name"] == row, "three_sigma"] = overrides[key] * factor
+            else:
+                frame.loc[len(frame), ["name", "three_sigma"]] = [row, overrides[key] * factor]
+    over.done()
+    if d.has("sensor"):
+        raise d.error("sensor", "sensor noise and delays are not supported yet")
+    d.done()
+    try:
+        sigmas = DispersionSigmas.from_table(frame, scale)
+    except InputError as exc:
+        raise InputError(f"{source}: dispersions.table: {exc}") from None
+    resolved["dispersions"] = {"table": disp_table or "default",
+                               "table_sha256": _file_digest(disp_table),
+                               "scale": scale, "three_sigma": overrides}
+
+    f = top.table_("failure")
+    rate_thr = f.number("rate_error_deg_s", _DEFAULT_RATE_ERROR_DEG_S, minimum=0.0, strict=True)
+    att_thr = f.number("attitude_error_deg", None, minimum=0.0, strict=True) \
+        if f.has("attitude_error_deg") else None
+    f.done()
+    resolved["failure"] = {"rate_error_deg_s": rate_thr}
+    if att_thr is not None:
+        resolved["failure"]["attitude_error_deg"] = att_thr
+
+    o = top.table_("output")
+    histories = o.choice("histories", "failures", HISTORY_MODES)
+    first_k = o.integer("first_k", 5, minimum=0)
+    plots = o.raw("plots", True)
+    if not isinstance(plots, bool):
+        raise o.error("plots", "must be true or false", plots)
+    o.done()
+    resolved["output"] = {"histories": histories, "first_k": first_k, "plots": plots}
+    top.done()
+
+    return CampaignSpec(
+        source=source, seed=seed, runs_per_case=runs, chunk_size=chunk, cases=tuple(cases),
+        controller=name, table=table, sigmas=sigmas,
+        rate_threshold_rad_s=math.radians(rate_thr),
+        attitude_threshold_rad=None if att_thr is None else math.radians(att_thr),
+        histories=histories, first_k=first_k, plots=plots, resolved=resolved,
+    )
+
+
+def load_spec(path: str | os.PathLike) -> CampaignSpec:
+    """Read and validate a campaign spec file.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, TOML syntax error, unknown key, bad value, missing table file.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read campaign spec: {exc.strerror}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML: {exc}") from None
+    return parse_dict(data, source=str(path), base_dir=path.absolute().parent)

@@ -1,0 +1,97 @@
+"""``rcsim campaign example | run | replay``: Monte Carlo dispersion campaigns."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from models.errors import InputError
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "campaign",
+        help="Monte Carlo dispersion campaigns (Table 5): example spec, run, replay a run",
+        description="Dispersed Monte Carlo campaigns of the 26 rate cases, maneuvers or attitude "
+        "holds with either controller.  See `rcsim campaign example` and docs/campaigns.md.",
+    )
+    csub = p.add_subparsers(dest="campaign_command", metavar="ACTION", parser_class=type(p))
+    csub.required = True
+
+    ex = csub.add_parser("example", help="print a commented campaign spec (TOML)")
+    ex.set_defaults(func=_example)
+
+    run = csub.add_parser(
+        "run", help="run (or --resume) a campaign into DIR",
+        description="Fly every run of SPEC.toml and write DIR/runs.parquet (one row per run), "
+        "DIR/cases.csv, DIR/envelopes.parquet, DIR/manifest.json, DIR/histories/ and DIR/plots/.  "
+        "Results do not depend on --workers, --scheduler or chunk size.",
+    )
+    run.add_argument("spec", metavar="SPEC.toml")
+    run.add_argument("--out", required=True, metavar="DIR", help="campaign directory (new, or "
+                     "with --resume the directory of an interrupted campaign)")
+    run.add_argument("--runs-per-case", type=int, metavar="N", help="override the spec's runs_per_case")
+    run.add_argument("--workers", type=int, metavar="N",
+                     help="start a local Dask cluster with N single-threaded workers")
+    run.add_argument("--scheduler", metavar="ADDRESS",
+                     help="send chunks to an existing Dask scheduler, e.g. tcp://host:8786")
+    run.add_argument("--resume", action="store_true",
+                     help="finish the campaign in DIR without redoing finished chunks")
+    run.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                     help="progress bar on stderr (default: when stderr is a terminal)")
+    run.set_defaults(func=_run)
+
+    rp = csub.add_parser("replay", help="re-fly one run of a campaign with its full history and plots")
+    rp.add_argument("campaign", metavar="DIR")
+    rp.add_argument("run_id", metavar="RUN_ID", type=int)
+    rp.add_argument("--out", metavar="OUT", help="output directory (default DIR/replays/run-NNNNNNN)")
+    rp.set_defaults(func=_replay)
+
+
+def _example(args) -> int:
+    from analysis.campaign.spec import EXAMPLE_SPEC
+
+    sys.stdout.write(EXAMPLE_SPEC)
+    return 0
+
+
+def _run(args) -> int:
+    from analysis.campaign.runner import run_campaign, summary_text
+    from analysis.campaign.spec import load_spec
+    from analysis.output import check_out_dir
+
+    spec = load_spec(args.spec)
+    if args.runs_per_case is not None:
+        if args.runs_per_case < 1:
+            raise InputError(f"--runs-per-case must be >= 1, got {args.runs_per_case}")
+        spec = spec.with_runs_per_case(args.runs_per_case)
+    if args.workers is not None and args.workers < 1:
+        raise InputError(f"--workers must be >= 1, got {args.workers}")
+    check_out_dir(args.out)
+    report = run_campaign(spec, args.out, workers=args.workers, scheduler=args.scheduler,
+                          resume=args.resume, progress=args.progress, spec_file=args.spec)
+    print(summary_text(report, spec))
+    return 0
+
+
+def _replay(args) -> int:
+    from pathlib import Path
+
+    from analysis.campaign.replay import replay
+
+    if args.out is not None:
+        from analysis.output import check_out_dir
+
+        check_out_dir(args.out)
+    result = replay(Path(args.campaign), args.run_id, args.out)
+    row = result["row"]
+    rates = ", ".join(f"{row[f'final_rate_err_{a}_deg_s']:.4f}" for a in ("roll", "pitch", "yaw"))
+    print(f"run {args.run_id} ({result['case']}): final rate error [{rates}] deg/s, "
+          f"{int(row['firings_total']) if row['firings_total'] == row['firings_total'] else 'n/a'} "
+          f"firings, failed={row['failed']}" + (f" ({row['reason']})" if row["reason"] else ""))
+    if result["matches"] is True:
+        print("replay matches the campaign's runs.parquet row exactly")
+    elif result["matches"] is False:
+        print("WARNING: replay differs from the campaign's runs.parquet row "
+              "(code or data changed since the campaign ran?)", file=sys.stderr)
+    print(f"history and plots in {result['out']}/")
+    return 0

@@ -1,0 +1,234 @@
+"""Campaign throughput and memory benchmark (issue 4; figures go to docs/performance.md).
+
+Measures, on this machine, in one process run:
+
+1. ``campaign``: a summary-only campaign of the 26 rate cases x N runs (lookup controller,
+   Table 5 dispersions) in local mode -- simulated seconds per wall second and runs per second;
+2. ``raw``: batched MuJoCo stepping of *the same steps* (same batch sizes, same physics step
+   and integrator, open loop, no controller, no outcomes, no I/O) -- the ceiling the campaign is
+   compared with (target: campaign >= 0.7 x raw);
+3. ``single-core``: one 256-run chunk against a raw rollout of its steps on one core (the
+   closed loop's own efficiency, least disturbed by other load);
+4. ``local modes``: the campaign with one chunk at a time on MuJoCo's thread pool versus
+   ``threads`` chunks in flight with one MuJoCo thread each (the default);
+5. ``dask``: the same campaign on a LocalCluster of 1 and 2 workers (target: 2 >= 1.7 x 1);
+6. ``memory``: peak RSS of ``rcsim campaign run`` for a large summary-only campaign of short
+   runs, at two sizes (target: < 1 GB at 100,000 runs, and no growth with the run count).
+
+Usage::
+
+    python benchmarks/campaign.py                      # everything, default sizes
+    python benchmarks/campaign.py --runs-per-case 20 --duration-s 20 --skip memory
+    python benchmarks/campaign.py --only memory --memory-runs 100000
+
+Timings are wall-clock on a shared machine: run it on an idle one for numbers to quote.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+SPEC = """
+seed = 1
+runs_per_case = {runs}
+chunk_size = {chunk}
+[scenario]
+cases = "all"
+duration_s = {duration}
+[controller]
+name = "{controller}"
+[output]
+histories = "none"
+plots = {plots}
+"""
+
+
+def _spec_file(folder: Path, *, runs, chunk, duration, controller="lookup", plots=False) -> Path:
+    path = folder / f"spec-{runs}-{chunk}-{duration}-{controller}.toml"
+    path.write_text(SPEC.format(runs=runs, chunk=chunk, duration=duration, controller=controller,
+                                plots=str(plots).lower()))
+    return path
+
+
+def bench_campaign(folder: Path, spec_path: Path, name: str, **kw) -> dict:
+    from analysis.campaign.runner import run_campaign
+    from analysis.campaign.spec import load_spec
+
+    spec = load_spec(spec_path)
+    report = run_campaign(spec, folder / name, progress=False, **kw)
+    return {"runs": report.runs_flown, "wall_s": report.wall_s,
+            "runs_per_s": report.runs_flown / report.wall_s,
+            "sim_s_per_s": report.simulated_s / report.wall_s}
+
+
+def bench_raw(spec_path: Path) -> dict:
+    """Open-loop batched MuJoCo rollouts over the campaign's chunks (same runs, same steps).
+
+    Two schedules, the better one is the ceiling: chunks one after another on MuJoCo's own
+    thread pool (``nthread=0``), and the campaign's local schedule (``cpus`` chunks in flight
+    on a thread pool, one MuJoCo thread each).
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    import mujoco
+    import numpy as np
+    from mujoco.batch import Batch
+
+    from analysis.campaign.chunk import plan_chunks
+    from analysis.campaign.spec import load_spec
+    from spacecraft.propulsion import PropulsionParams
+    from spacecraft.vehicle import load_model
+
+    spec = load_spec(spec_path)
+    cycle = PropulsionParams().cycle_s
+    chunks = plan_chunks(spec)
+
+    def roll(chunk, nthread):
+        model = load_model()
+        n = chunk.stop - chunk.first
+        duration = spec.cases[spec.case_of(chunk.first)].duration_s
+        nstep = int(round(np.ceil(duration / cycle - 1e-9) * cycle / model.opt.timestep))
+        batch = Batch(model, n, nthread)
+        batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
+        control = np.zeros((n, nstep, model.nu))
+        batch.rollout(nstep, control=control, control_spec=int(mujoco.mjtState.mjSTATE_CTRL),
+                      record=())
+        return n * nstep * model.opt.timestep
+
+    out = {}
+    t0 = time.perf_counter()
+    simulated = sum(roll(c, 0) for c in chunks)
+    out["sequential_mujoco_pool_sim_s_per_s"] = simulated / (time.perf_counter() - t0)
+    cpus = os.cpu_count() or 1
+    threads = max(1, min(cpus, len(chunks)))
+    t0 = time.perf_counter()
+    with ThreadPoolExecutor(threads) as pool:
+        simulated = sum(pool.map(lambda c: roll(c, max(1, cpus // threads)), chunks))
+    out["threaded_chunks_sim_s_per_s"] = simulated / (time.perf_counter() - t0)
+    out["sim_s_per_s"] = max(out.values())
+    return out
+
+
+def bench_single_core(spec_path: Path, n: int = 256, repeats: int = 3) -> dict:
+    """One chunk of ``n`` runs on one core: the closed-loop chunk (draws, controller, outcomes)
+    against a raw open-loop rollout of the same steps, interleaved, best of ``repeats``.  Less
+    sensitive to other load on the machine than the parallel figures."""
+    import mujoco
+    import numpy as np
+    from mujoco.batch import Batch
+
+    from analysis.campaign.chunk import Chunk, simulate_chunk, warm_up
+    from analysis.campaign.spec import load_spec
+    from spacecraft.vehicle import load_model
+
+    spec = load_spec(spec_path)
+    warm_up()
+    n = min(n, spec.n_runs)
+    duration = spec.cases[0].duration_s
+    model = load_model()
+    nstep = int(round(duration / model.opt.timestep))
+    best_chunk, best_raw = float("inf"), float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        simulate_chunk(spec, Chunk(0, n), nthread=1)
+        best_chunk = min(best_chunk, time.perf_counter() - t0)
+        batch = Batch(model, n, 1)
+        batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
+        control = np.zeros((n, nstep, model.nu))
+        t0 = time.perf_counter()
+        batch.rollout(nstep, control=control, control_spec=int(mujoco.mjtState.mjSTATE_CTRL),
+                      record=())
+        best_raw = min(best_raw, time.perf_counter() - t0)
+    return {"runs": n, "chunk_sim_s_per_s": n * duration / best_chunk,
+            "raw_sim_s_per_s": n * duration / best_raw, "ratio": best_raw / best_chunk}
+
+
+def bench_memory(folder: Path, runs_total: int, duration: float, chunk: int) -> dict:
+    """Peak RSS of a separate ``rcsim campaign run`` process (summary-only, short runs)."""
+    runs = max(1, round(runs_total / 26))
+    spec = _spec_file(folder, runs=runs, chunk=chunk, duration=duration, controller="lookup",
+                      plots=True)
+    out = folder / f"mem-{runs_total}"
+    code = ("import resource, sys; from analysis.cli import main; rc = main(sys.argv[1:]); "
+            "print('MAXRSS_KB', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss); sys.exit(rc)")
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-c", code, "campaign", "run", str(spec), "--out",
+                           str(out), "--no-progress"], capture_output=True, text=True, cwd=ROOT)
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise RuntimeError(proc.stderr)
+    rss_kb = int(proc.stdout.split("MAXRSS_KB")[1].split()[0])
+    return {"runs": runs * 26, "duration_s": duration, "wall_s": wall,
+            "peak_rss_mb": rss_kb / 1024, "runs_per_s": runs * 26 / wall}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--runs-per-case", type=int, default=40)
+    p.add_argument("--duration-s", type=float, default=20.0)
+    p.add_argument("--chunk-size", type=int, default=128)
+    p.add_argument("--memory-runs", type=int, nargs="+", default=[10_000, 100_000])
+    p.add_argument("--memory-duration-s", type=float, default=0.2)
+    p.add_argument("--only", nargs="+", default=None,
+                   choices=["campaign", "raw", "single-core", "local-modes", "dask", "memory"])
+    p.add_argument("--skip", nargs="+", default=[])
+    p.add_argument("--json", help="also write the figures to this JSON file")
+    args = p.parse_args(argv)
+    want = lambda k: (args.only is None or k in args.only) and k not in args.skip  # noqa: E731
+
+    results: dict = {"machine": {"cpus": os.cpu_count(), "load_avg_at_start": os.getloadavg()}}
+    with tempfile.TemporaryDirectory(prefix="rcsim-bench-") as tmp:
+        folder = Path(tmp)
+        spec = _spec_file(folder, runs=args.runs_per_case, chunk=args.chunk_size,
+                          duration=args.duration_s)
+        label = f"26 cases x {args.runs_per_case} runs x {args.duration_s:g} s, lookup"
+        if want("campaign"):
+            results["campaign"] = bench_campaign(folder, spec, "local")
+            print(f"campaign ({label}), local: {results['campaign']}", flush=True)
+        if want("raw"):
+            results["raw"] = bench_raw(spec)
+            print(f"raw batched MuJoCo, same steps: {results['raw']}", flush=True)
+            if "campaign" in results:
+                ratio = results["campaign"]["sim_s_per_s"] / results["raw"]["sim_s_per_s"]
+                results["campaign_over_raw"] = ratio
+                print(f"campaign / raw = {ratio:.2f}  (target >= 0.7)", flush=True)
+        if want("single-core"):
+            results["single_core"] = bench_single_core(spec)
+            print(f"one core, one chunk: {results['single_core']}", flush=True)
+        if want("local-modes"):
+            results["local_one_chunk_mujoco_pool"] = bench_campaign(folder, spec, "pool", threads=1)
+            print(f"local, one chunk at a time on MuJoCo's pool: "
+                  f"{results['local_one_chunk_mujoco_pool']}", flush=True)
+        if want("dask"):
+            for w in (1, 2):
+                t0 = time.perf_counter()
+                results[f"dask_{w}"] = bench_campaign(folder, spec, f"dask{w}", workers=w)
+                results[f"dask_{w}"]["with_cluster_start_s"] = time.perf_counter() - t0
+                print(f"dask LocalCluster {w} worker(s): {results[f'dask_{w}']}", flush=True)
+            speedup = results["dask_2"]["sim_s_per_s"] / results["dask_1"]["sim_s_per_s"]
+            results["dask_speedup_2_over_1"] = speedup
+            print(f"dask 2 workers / 1 worker = {speedup:.2f}  (target >= 1.7)", flush=True)
+        if want("memory"):
+            for n in args.memory_runs:
+                key = f"memory_{n}"
+                results[key] = bench_memory(folder, n, args.memory_duration_s, 256)
+                print(f"summary-only campaign, {results[key]['runs']} runs of "
+                      f"{args.memory_duration_s:g} s: {results[key]}", flush=True)
+    results["machine"]["load_avg_at_end"] = os.getloadavg()
+    print(json.dumps(results, indent=2))
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
