@@ -217,6 +217,14 @@ class LookupController:
         self._rate_abs = np.abs(np.asarray(table.rate_cmd, float))  # (26, 3)
         # (16, 3) one-hot jet -> axis (zero row for unused jets), for per-axis reductions.
         self._axis_onehot = (self.jet_axis_[:, None] == np.arange(N_AXES)[None, :]).astype(float)
+        # Jets grouped by (axis, sign): a jet's opponents are the group of its axis with the other
+        # sign (``opposing_``).  A per-group max is O(n_jets) per run where a masked max over the
+        # (16, 16) ``opposing_`` matrix is O(n_jets^2) -- it was half the controller's cost.
+        used = self.jet_axis_ >= 0
+        group = 2 * self.jet_axis_ + (self.jet_sign_ > 0)
+        self._group_jets = [np.flatnonzero(used & (group == g)) for g in range(2 * N_AXES)]
+        # Opposing group of each jet; unused jets point at an extra all-zero column.
+        self._opp_group = np.where(used, 2 * self.jet_axis_ + (self.jet_sign_ < 0), 2 * N_AXES)
 
     @classmethod
     def from_files(cls, table: str | os.PathLike | None = None,
@@ -245,11 +253,15 @@ class LookupController:
         return LookupState(remaining_s=np.zeros((n_runs, self._times.shape[1])),
                            hold_s=np.zeros((n_runs, N_AXES)))
 
-    def rate_error(self, nav: NavState) -> np.ndarray:
-        """Dead-banded rate error the logic acts on, (n_runs, 3) [rad/s] (steps 1-2)."""
+    def rate_error(self, nav: NavState, theta: np.ndarray | None = None) -> np.ndarray:
+        """Dead-banded rate error the logic acts on, (n_runs, 3) [rad/s] (steps 1-2).
+
+        ``theta`` (n_runs, 1) is the total attitude error [rad] if the caller has it already.
+        """
         p = self.params
         e = nav.att_err_B
-        theta = np.linalg.norm(e, axis=1, keepdims=True)
+        if theta is None:
+            theta = np.sqrt(np.einsum("ij,ij->i", e, e))[:, None]
         maneuver = theta > p.maneuver_limit_rad
         direction = e / np.where(theta > 0, theta, 1.0)
         # omega - (omega_cmd - w_m e/theta) = rate_err_B + w_m e/theta
@@ -272,7 +284,9 @@ class LookupController:
         state : LookupState
         """
         p = self.params
-        err = self.rate_error(nav)
+        e = nav.att_err_B
+        theta = np.sqrt(np.einsum("ij,ij->i", e, e))  # total attitude error [rad], (n,)
+        err = self.rate_error(nav, theta[:, None])
         need = -err  # rate change the vehicle needs
         code = ((np.sign(need).astype(int) + 1) * np.array([9, 3, 1])).sum(axis=1)
         any_err = np.any(need != 0, axis=1)
@@ -282,11 +296,14 @@ class LookupController:
         jet_scale = scale @ self._axis_onehot.T  # (n, 16): scale of each jet's axis
         new = np.where(any_err[:, None], self._times[case] * jet_scale, 0.0)
 
-        theta = np.linalg.norm(nav.att_err_B, axis=1)
         no_fire = np.abs(theta - p.maneuver_limit_rad) < p.no_fire_band_rad  # (n,)
 
         rem = state.remaining_s
-        opp_max = np.max(np.where(self.opposing_[None], rem[:, None, :], 0.0), axis=2)
+        group_max = np.zeros((rem.shape[0], 2 * N_AXES + 1))
+        for g, jets in enumerate(self._group_jets):  # 6 groups, not runs
+            if jets.size:
+                group_max[:, g] = rem[:, jets].max(axis=1)
+        opp_max = group_max[:, self._opp_group]  # (n, 16): max remaining on opposing jets
         hold_jet = state.hold_s @ self._axis_onehot.T  # (n, 16)
         gate = ((rem < p.on_time_limit_s) & (opp_max < p.on_time_limit_s)
                 & (hold_jet <= _TIMER_EPS_S) & ~no_fire[:, None])

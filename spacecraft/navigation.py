@@ -30,24 +30,31 @@ def quat_conj(q: np.ndarray) -> np.ndarray:
     return q * np.array([1.0, -1.0, -1.0, -1.0])
 
 
+def _norm(v: np.ndarray) -> np.ndarray:
+    """Euclidean norm over the last axis, keeping it: (..., k) -> (..., 1)."""
+    return np.sqrt(np.einsum("...i,...i->...", v, v))[..., None]
+
+
 def quat_from_rotvec(v: np.ndarray) -> np.ndarray:
     """Unit quaternion of the rotation vector ``v`` [rad], (..., 3) -> (..., 4)."""
     v = np.asarray(v, float)
-    angle = np.linalg.norm(v, axis=-1, keepdims=True)
-    half = 0.5 * angle
-    # sin(half)/angle -> 1/2 as angle -> 0; the series keeps it exact near zero.
-    k = np.where(angle > 1e-8, np.sin(half) / np.where(angle > 1e-8, angle, 1.0), 0.5 - angle**2 / 48)
-    return np.concatenate([np.cos(half), k * v], axis=-1)
+    angle = _norm(v)
+    out = np.empty(v.shape[:-1] + (4,))
+    out[..., 0:1] = np.cos(0.5 * angle)
+    # sin(angle/2)/angle = sinc(angle / 2 pi) / 2 with numpy's normalised sinc: exact at zero.
+    out[..., 1:] = (0.5 * np.sinc(angle / (2.0 * np.pi))) * v
+    return out
 
 
 def rotvec_from_quat(q: np.ndarray) -> np.ndarray:
     """Rotation vector [rad] of a unit quaternion, (..., 4) -> (..., 3), angle in [0, pi]."""
-    q = np.where(q[..., :1] < 0, -q, q)  # the shorter of the two equivalent rotations
-    w = np.clip(q[..., 0:1], -1.0, 1.0)
-    vec = q[..., 1:]
-    s = np.linalg.norm(vec, axis=-1, keepdims=True)
+    sign = np.where(q[..., 0:1] < 0, -1.0, 1.0)  # the shorter of the two equivalent rotations
+    w = np.minimum(sign * q[..., 0:1], 1.0)
+    vec = sign * q[..., 1:]
+    s = _norm(vec)
     angle = 2.0 * np.arctan2(s, w)
-    k = np.where(s > 1e-12, angle / np.where(s > 1e-12, s, 1.0), 2.0)
+    # angle / s -> 2 / w as s -> 0 (w -> 1); the guard only avoids 0/0 at exactly zero.
+    k = np.divide(angle, s, out=np.full_like(s, 2.0), where=s > 1e-12)
     return k * vec
 
 
