@@ -49,12 +49,29 @@ def warm_up() -> None:
     load_model()
 
 
+# A chunk's simulation records every cycle of every run (spacecraft.simulation.History: 29
+# float64 per run and cycle).  Long runs get smaller chunks so that one chunk's record stays
+# under this budget [bytes]: a 500 s maneuver in a 256-run chunk would otherwise hold 740 MB.
+HISTORY_BUDGET_BYTES = 192 * 2**20
+HISTORY_BYTES_PER_RUN_CYCLE = 29 * 8
+
+
+def max_chunk_runs(spec, duration_s: float) -> int:
+    """Most runs per chunk for runs of ``duration_s``: ``spec.chunk_size``, or fewer when the
+    chunk's per-cycle record would exceed :data:`HISTORY_BUDGET_BYTES`."""
+    cycles = int(np.ceil(duration_s / PropulsionParams().cycle_s))
+    by_memory = HISTORY_BUDGET_BYTES // (cycles * HISTORY_BYTES_PER_RUN_CYCLE)
+    return int(max(1, min(spec.chunk_size, by_memory)))
+
+
 def plan_chunks(spec) -> list[Chunk]:
-    """Chunks of at most ``spec.chunk_size`` runs (sizes as equal as possible) in run-id order.
+    """Chunks of at most :func:`max_chunk_runs` runs (sizes as equal as possible), in run-id
+    order.
 
     A chunk is one batched simulation, so all its runs must last equally long: chunks span
     consecutive cases of equal duration (e.g. all 26 rate cases), which keeps batches large
-    when runs per case are few.  The plan is a function of the spec only.
+    when runs per case are few.  The plan is a function of the spec only (results never depend
+    on it: every run draws from its own seed stream).
     """
     chunks = []
     groups: list[list[int]] = []
@@ -66,7 +83,8 @@ def plan_chunks(spec) -> list[Chunk]:
     for group in groups:
         lo, hi = group[0] * spec.runs_per_case, (group[-1] + 1) * spec.runs_per_case
         # Equal sizes (within one run), so parallel chunks finish together.
-        count = -(-(hi - lo) // spec.chunk_size)
+        limit = max_chunk_runs(spec, spec.cases[group[0]].duration_s)
+        count = -(-(hi - lo) // limit)
         size, extra = divmod(hi - lo, count)
         first = lo
         for k in range(count):

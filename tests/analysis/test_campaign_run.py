@@ -236,3 +236,19 @@ def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
     assert row["firings_to_rate_roll"] == 0 and row["time_to_rate_roll_s"] == 0.0
     assert row["settling_time_s"] == pytest.approx(6 * cycle)
     assert not row["failed"]
+
+
+def test_long_runs_get_chunks_within_the_history_budget(tmp_path):
+    """Oracle: the record of one chunk is runs x cycles x 29 float64 (History's arrays); a
+    500 s case (12,500 cycles of 40 ms) must be split so that it stays under the budget, while
+    short cases keep the spec's chunk size."""
+    long_spec = load_spec(_spec(tmp_path, runs=300, chunk=256, duration=500.0, name="long.toml"))
+    chunks = chunk_mod.plan_chunks(long_spec)
+    largest = max(c.stop - c.first for c in chunks)
+    assert largest * 12_500 * 29 * 8 <= chunk_mod.HISTORY_BUDGET_BYTES
+    assert largest < 256
+    # Every run is planned exactly once, in order.
+    assert np.array_equal(np.concatenate([c.run_ids for c in chunks]), np.arange(600))
+    short_spec = load_spec(_spec(tmp_path, runs=300, chunk=256, duration=2.0, name="short.toml"))
+    # 600 runs in chunks of at most 256, sizes as equal as possible: 3 chunks of 200.
+    assert [c.stop - c.first for c in chunk_mod.plan_chunks(short_spec)] == [200, 200, 200]
