@@ -175,7 +175,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--runs-per-case", type=int, default=40)
     p.add_argument("--duration-s", type=float, default=20.0)
-    p.add_argument("--chunk-size", type=int, default=256)
+    p.add_argument("--chunk-size", type=int, default=512)
     p.add_argument("--memory-runs", type=int, nargs="+", default=[10_000, 100_000])
     p.add_argument("--memory-duration-s", type=float, default=0.2)
     p.add_argument("--only", nargs="+", default=None,

@@ -54,6 +54,9 @@ def warm_up() -> None:
 # under this budget [bytes]: a 500 s maneuver in a 256-run chunk would otherwise hold 740 MB.
 HISTORY_BUDGET_BYTES = 192 * 2**20
 HISTORY_BYTES_PER_RUN_CYCLE = 29 * 8
+# Chunk counts are rounded up to a multiple of this, so that 1, 2 or 4 workers get equal shares
+# and finish together (5 chunks on 2 workers leave one idle for the last fifth of the work).
+CHUNK_COUNT_MULTIPLE = 4
 
 
 def max_chunk_runs(spec, duration_s: float) -> int:
@@ -85,6 +88,7 @@ def plan_chunks(spec) -> list[Chunk]:
         # Equal sizes (within one run), so parallel chunks finish together.
         limit = max_chunk_runs(spec, spec.cases[group[0]].duration_s)
         count = -(-(hi - lo) // limit)
+        count = min(hi - lo, -(-count // CHUNK_COUNT_MULTIPLE) * CHUNK_COUNT_MULTIPLE)
         size, extra = divmod(hi - lo, count)
         first = lo
         for k in range(count):

@@ -27,7 +27,7 @@ EXAMPLE_SPEC = '''\
 
 seed = 1                 # root seed: run i draws from SeedSequence(seed, spawn_key=(i,))
 runs_per_case = 100      # dispersed runs of every case (rcsim campaign run --runs-per-case N)
-chunk_size = 256         # most runs per batched simulation; results do not depend on it
+chunk_size = 512         # most runs per batched simulation; results do not depend on it
 
 # What to fly.  One table, or a list of them ([[scenario]] blocks) whose cases are appended.
 [scenario]
@@ -314,7 +314,7 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
     top = _Reader(data, "", source)
     seed = top.integer("seed", 1, minimum=0)
     runs = top.integer("runs_per_case", 100, minimum=1)
-    chunk = top.integer("chunk_size", 256, minimum=1)
+    chunk = top.integer("chunk_size", 512, minimum=1)
     # A run is a function of (seed, run id); run ids are case * runs_per_case + k.
     resolved: dict = {"seed": seed, "runs_per_case": runs, "chunk_size": chunk}
 
