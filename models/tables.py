@@ -36,7 +36,6 @@ import io
 import itertools
 import math
 import os
-import tempfile
 from dataclasses import dataclass
 from importlib.resources import files
 from pathlib import Path
@@ -45,6 +44,7 @@ from typing import Sequence, Union
 import numpy as np
 import pandas as pd
 
+from models.atomic import atomic_write
 from models.errors import InputError
 
 __all__ = [
@@ -347,20 +347,13 @@ class LookupTable:
                 + [repr(float(v)) for v in rates_deg[i]]
                 + [repr(float(v)) for v in self.firing_time_s[i]]
             )
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+        def write(tmp: str) -> None:
+            with open(tmp, "w", encoding="utf-8", newline="") as fh:
                 fh.write(buf.getvalue())
                 fh.flush()
                 os.fsync(fh.fileno())
-            os.replace(tmp, target)
-        except BaseException:
-            try:
-                os.unlink(tmp)
-            except FileNotFoundError:
-                pass
-            raise
-        return target
+
+        return atomic_write(target, write)
 
 
 # --------------------------------------------------------------------------------------------

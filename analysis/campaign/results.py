@@ -22,13 +22,14 @@ import json
 import os
 import platform
 import subprocess
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
+
+from models.atomic import atomic_write
 
 MANIFEST = "manifest.json"
 RUNS = "runs.parquet"
@@ -43,29 +44,14 @@ def now_utc() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
-def _atomic_write(path: Path, write) -> None:
-    """``write(tmp_path)`` then rename over ``path``: readers never see a partial file."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-
-
 def write_frame(frame: pd.DataFrame, path: Path) -> None:
     """Parquet without the pandas index, atomically."""
     table = pa.Table.from_pandas(frame, preserve_index=False)
-    _atomic_write(path, lambda tmp: pq.write_table(table, tmp))
+    atomic_write(path, lambda tmp: pq.write_table(table, tmp))
 
 
 def write_json(obj: dict, path: Path) -> None:
-    _atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(obj, indent=2) + "\n"))
+    atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(obj, indent=2) + "\n"))
 
 
 def history_path(out: Path, run_id: int) -> Path:
@@ -171,7 +157,7 @@ def assemble(out: Path, plan) -> dict:
             tmp.unlink()
     cases = _case_stats(pd.concat(per_case)) if per_case else pd.DataFrame()
     cases = _finish_case_stats(cases)
-    _atomic_write(out / CASES, lambda t: cases.to_csv(t, index=False, float_format="%.6g"))
+    atomic_write(out / CASES, lambda t: cases.to_csv(t, index=False, float_format="%.6g"))
     if envelopes:
         from analysis.campaign.chunk import _combine
 
