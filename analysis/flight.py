@@ -10,14 +10,15 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 import pandas as pd
 
 from lookup.registry import make_controller
-from spacecraft.navigation import Guidance, euler321_deg
+from spacecraft.navigation import Guidance, euler321_deg, quat_from_rotvec
 from spacecraft.propulsion import PropulsionParams
-from spacecraft.simulation import History, simulate_batch
+from spacecraft.simulation import Controller, History, simulate_batch
 from spacecraft.vehicle import AXES, JET_NAMES, VehicleParams, load_model
 
 
@@ -46,12 +47,36 @@ class Scenario:
     omega0_rad_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
     disturbance_n_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
-    def guidance(self, n_runs: int) -> Guidance:
-        from spacecraft.navigation import quat_from_rotvec
 
-        q0 = np.repeat(quat_from_rotvec(np.asarray(self.att_cmd_rad, float))[None], n_runs, 0)
-        omega = np.repeat(np.asarray(self.rate_cmd_rad_s, float)[None], n_runs, 0)
-        return Guidance(q0, omega)
+def fly_batch(
+    scenarios: Sequence[Scenario],
+    params: VehicleParams,
+    controller: Controller,
+    *,
+    model=None,
+    propulsion: PropulsionParams = PropulsionParams(),
+    nthread: int = 0,
+) -> History:
+    """Fly one batch: run ``i`` flies ``scenarios[i]`` with vehicle ``params`` entry ``i``.
+
+    All scenarios must last equally long (one batched simulation).  The one place that turns
+    scenarios into batched commands, initial rates and disturbances: single flights, the
+    paper's scenarios and campaign chunks all fly through it.
+    """
+    durations = {s.duration_s for s in scenarios}
+    if len(durations) != 1:
+        raise ValueError(f"a batch must have one duration, got {sorted(durations)}")
+    if params.n_runs != len(scenarios):
+        raise ValueError(f"params has {params.n_runs} runs, the batch has {len(scenarios)}")
+    stack = lambda name: np.array([np.asarray(getattr(s, name), float) for s in scenarios])  # noqa: E731
+    guidance = Guidance(quat_from_rotvec(stack("att_cmd_rad")), stack("rate_cmd_rad_s"))
+    disturbance = stack("disturbance_n_m")
+    return simulate_batch(
+        params, controller, guidance, durations.pop(),
+        omega0_B=stack("omega0_rad_s"),
+        disturbance_B=disturbance if np.any(disturbance) else None,
+        propulsion=propulsion, model=model, nthread=nthread,
+    )
 
 
 def fly(
@@ -67,14 +92,7 @@ def fly(
     model = load_model()
     params = VehicleParams.nominal(1, model) if params is None else params
     ctl = controller_obj or make_controller(controller, table=table, model=model)
-    n = params.n_runs
-    disturbance = np.asarray(scenario.disturbance_n_m, float)
-    return simulate_batch(
-        params, ctl, scenario.guidance(n), scenario.duration_s,
-        omega0_B=np.repeat(np.asarray(scenario.omega0_rad_s, float)[None], n, 0),
-        disturbance_B=np.repeat(disturbance[None], n, 0) if np.any(disturbance) else None,
-        propulsion=propulsion, model=model,
-    )
+    return fly_batch([scenario] * params.n_runs, params, ctl, model=model, propulsion=propulsion)
 
 
 def history_frame(history: History, run: int = 0) -> pd.DataFrame:

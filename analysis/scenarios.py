@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.flight import Scenario, history_frame
+from analysis.flight import Scenario, fly_batch, history_frame
+from lookup.registry import make_controller
 from models.errors import InputError
-from spacecraft.navigation import Guidance
-from spacecraft.simulation import History, simulate_batch
+from spacecraft.simulation import History
 from spacecraft.vehicle import VehicleParams, load_model
 
 CONTROLLERS = ("lookup", "phase-plane")
@@ -168,20 +168,11 @@ def build_controller(scenario: PaperScenario, controller: str, *, table=None, mo
     **lookup_overrides
         Extra :class:`LookupParams` fields (they win over the scenario's).
     """
-    if controller == "lookup":
-        from lookup.pattern_recognition import LookupController
-
-        return LookupController.from_files(table, **{**scenario.lookup_options,
-                                                     **lookup_overrides})
-    if controller == "phase-plane":
-        from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
-        from models.tables import load_jet_map
-
-        if table is not None:
-            raise InputError("--table is only for --controller lookup")
-        return PhasePlaneController(PhasePlaneParams.for_vehicle(
-            load_jet_map(), model=model, **scenario.phase_plane_options))
-    raise InputError(f"unknown controller {controller!r}; choose one of {', '.join(CONTROLLERS)}")
+    return make_controller(
+        controller, table=table, model=model,
+        lookup_options={**scenario.lookup_options, **lookup_overrides},
+        phase_plane_options=scenario.phase_plane_options,
+    )
 
 
 def fly_scenario(scenario: PaperScenario, controller: str = "lookup", *, table=None,
@@ -197,25 +188,10 @@ def fly_scenario(scenario: PaperScenario, controller: str = "lookup", *, table=N
         Use this controller instead of building one.
     """
     model = load_model()
-    n = scenario.n_runs
-    params = VehicleParams.nominal(n, model) if params is None else params
-    if params.n_runs != n:
-        raise ValueError(f"params has {params.n_runs} runs, scenario {scenario.name} has {n}")
+    params = VehicleParams.nominal(scenario.n_runs, model) if params is None else params
     ctl = controller_obj or build_controller(scenario, controller, table=table, model=model,
                                              **lookup_overrides)
-    from spacecraft.navigation import quat_from_rotvec
-
-    runs = scenario.runs
-    guidance = Guidance(
-        quat_from_rotvec(np.stack([np.asarray(r.att_cmd_rad, float) for r in runs])),
-        np.stack([np.asarray(r.rate_cmd_rad_s, float) for r in runs]),
-    )
-    dist = np.stack([np.asarray(r.disturbance_n_m, float) for r in runs])
-    return simulate_batch(
-        params, ctl, guidance, scenario.duration_s,
-        omega0_B=np.stack([np.asarray(r.omega0_rad_s, float) for r in runs]),
-        disturbance_B=dist if np.any(dist) else None, model=model,
-    )
+    return fly_batch(scenario.runs, params, ctl, model=model)
 
 
 def settling_time(history: History, *, att_tol_rad: float = SETTLE_ATT_RAD,

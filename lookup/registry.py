@@ -15,6 +15,8 @@ def make_controller(
     *,
     table: str | os.PathLike | None = None,
     model: mujoco.MjModel | None = None,
+    lookup_options: dict | None = None,
+    phase_plane_options: dict | None = None,
 ) -> Controller:
     """Build a controller.
 
@@ -26,6 +28,9 @@ def make_controller(
         ``lookup/data/generated_table.csv``.
     model : mujoco.MjModel, optional
         Vehicle whose *nominal* properties the phase-plane design uses.
+    lookup_options, phase_plane_options : dict, optional
+        Overrides of :class:`lookup.pattern_recognition.LookupParams` /
+        :class:`lookup.phase_plane.PhasePlaneParams` fields for that controller.
     """
     from models.errors import InputError
     from models.tables import load_jet_map
@@ -35,9 +40,10 @@ def make_controller(
 
         if table is not None:
             raise InputError("--table is only for --controller lookup")
-        return PhasePlaneController(PhasePlaneParams.for_vehicle(load_jet_map(), model=model))
+        return PhasePlaneController(PhasePlaneParams.for_vehicle(
+            load_jet_map(), model=model, **(phase_plane_options or {})))
     if name == "lookup":
         from lookup.pattern_recognition import LookupController
 
-        return LookupController.from_files(table)
+        return LookupController.from_files(table, **(lookup_options or {}))
     raise InputError(f"unknown controller {name!r}; choose one of {', '.join(CONTROLLERS)}")

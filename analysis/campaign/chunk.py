@@ -14,7 +14,7 @@ import pandas as pd
 
 from spacecraft.dispersions import DispersedRuns, dispersion_frame, draw_runs
 from spacecraft.propulsion import PropulsionParams
-from spacecraft.simulation import History, simulate_batch
+from spacecraft.simulation import History
 from spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
 
 # A firing continues into the next cycle only if it filled the previous one -- the same rule
@@ -122,27 +122,15 @@ class ChunkResult:
 def fly_runs(spec, run_ids: np.ndarray, *, nthread: int = 1,
              model=None) -> tuple[History, DispersedRuns]:
     """Draw and fly campaign runs ``run_ids`` (cases of equal duration) as one batch."""
+    from analysis.flight import fly_batch
     from lookup.registry import make_controller
-    from spacecraft.navigation import Guidance
 
     model = load_model() if model is None else model
     run_ids = np.asarray(run_ids, dtype=np.int64)
     dispersed = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids)
     scenarios = [spec.cases[c] for c in run_ids // spec.runs_per_case]
-    durations = {s.duration_s for s in scenarios}
-    if len(durations) != 1:
-        raise ValueError(f"a batch must have one duration, got {sorted(durations)}")
-    per_run = [s.guidance(1) for s in scenarios]
-    guidance = Guidance(np.concatenate([g.q_cmd0_BN for g in per_run]),
-                        np.concatenate([g.omega_cmd_B for g in per_run]))
-    omega0 = np.array([np.asarray(s.omega0_rad_s, float) for s in scenarios])
-    disturbance = np.array([np.asarray(s.disturbance_n_m, float) for s in scenarios])
     controller = make_controller(spec.controller, table=spec.table, model=model)
-    history = simulate_batch(
-        dispersed.params, controller, guidance, durations.pop(),
-        omega0_B=omega0, disturbance_B=disturbance if np.any(disturbance) else None,
-        propulsion=PropulsionParams(), model=model, nthread=nthread,
-    )
+    history = fly_batch(scenarios, dispersed.params, controller, model=model, nthread=nthread)
     return history, dispersed
 
 
