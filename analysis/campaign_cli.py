@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from models.errors import InputError
+from rcsim.models.errors import InputError
 
 
 def register(sub) -> None:
@@ -48,16 +48,16 @@ def register(sub) -> None:
 
 
 def _example(args) -> int:
-    from analysis.campaign.spec import EXAMPLE_SPEC
+    from rcsim.analysis.campaign.spec import EXAMPLE_SPEC
 
     sys.stdout.write(EXAMPLE_SPEC)
     return 0
 
 
 def _run(args) -> int:
-    from analysis.campaign.runner import run_campaign, summary_text
-    from analysis.campaign.spec import load_spec
-    from analysis.output import check_out_dir
+    from rcsim.analysis.campaign.runner import run_campaign, summary_text
+    from rcsim.analysis.campaign.spec import load_spec
+    from rcsim.analysis.output import check_out_dir
 
     spec = load_spec(args.spec)
     if args.runs_per_case is not None:
@@ -76,10 +76,10 @@ def _run(args) -> int:
 def _replay(args) -> int:
     from pathlib import Path
 
-    from analysis.campaign.replay import replay
+    from rcsim.analysis.campaign.replay import replay
 
     if args.out is not None:
-        from analysis.output import check_out_dir
+        from rcsim.analysis.output import check_out_dir
 
         check_out_dir(args.out)
     result = replay(Path(args.campaign), args.run_id, args.out)

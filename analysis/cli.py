@@ -10,15 +10,15 @@ import argparse
 import importlib
 import sys
 
-from models.errors import InputError
+from rcsim.models.errors import InputError
 
 # Every command group's module, in the order ``rcsim --help`` lists them.
 _COMMANDS = (
-    "analysis.maneuver_cli",
-    "analysis.lookup_cli",
-    "analysis.scenario_cli",
-    "analysis.campaign_cli",
-    "analysis.study_cli",
+    "rcsim.analysis.maneuver_cli",
+    "rcsim.analysis.lookup_cli",
+    "rcsim.analysis.scenario_cli",
+    "rcsim.analysis.campaign_cli",
+    "rcsim.analysis.study_cli",
 )
 
 

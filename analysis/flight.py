@@ -15,11 +15,11 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from lookup.registry import make_controller
-from spacecraft.navigation import Guidance, euler321_deg, quat_from_rotvec
-from spacecraft.propulsion import PropulsionParams
-from spacecraft.simulation import Controller, History, simulate_batch
-from spacecraft.vehicle import AXES, JET_NAMES, VehicleParams, load_model
+from rcsim.lookup.registry import make_controller
+from rcsim.spacecraft.navigation import Guidance, euler321_deg, quat_from_rotvec
+from rcsim.spacecraft.propulsion import PropulsionParams
+from rcsim.spacecraft.simulation import Controller, History, simulate_batch
+from rcsim.spacecraft.vehicle import AXES, JET_NAMES, VehicleParams, load_model
 
 
 @dataclass(frozen=True)
@@ -136,8 +136,8 @@ def write_flight(history: History, out_dir: str | os.PathLike, *, title: str, ru
     ``summary.json`` for one run into ``out_dir`` (atomically)."""
     import json
 
-    from analysis.output import atomic_dir
-    from analysis.plots import plot_attitude_error, plot_rates_and_jets
+    from rcsim.analysis.output import atomic_dir
+    from rcsim.analysis.plots import plot_attitude_error, plot_rates_and_jets
 
     frame = history_frame(history, run)
     summary = flight_summary(history, run)

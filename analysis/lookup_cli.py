@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from models.errors import InputError
+from rcsim.models.errors import InputError
 
 
 def register(sub) -> None:
@@ -58,8 +58,8 @@ def _check_csv_out(path: Path, option: str) -> None:
 
 
 def run_generate(args: argparse.Namespace) -> int:
-    from lookup.table_generation import compare_tables, generate_table
-    from models.tables import load_lookup_table
+    from rcsim.lookup.table_generation import compare_tables, generate_table
+    from rcsim.models.tables import load_lookup_table
 
     out = Path(args.out)
     settling = Path(args.settling_out) if args.settling_out else out.with_name(
@@ -86,9 +86,9 @@ def run_generate(args: argparse.Namespace) -> int:
 def run_compare(args: argparse.Namespace) -> int:
     import pandas as pd
 
-    from lookup.pattern_recognition import load_default_table
-    from lookup.table_generation import compare_tables
-    from models.tables import load_lookup_table
+    from rcsim.lookup.pattern_recognition import load_default_table
+    from rcsim.lookup.table_generation import compare_tables
+    from rcsim.models.tables import load_lookup_table
 
     if args.table is not None and not Path(args.table).is_file():
         raise InputError(f"--table {args.table}: file not found")

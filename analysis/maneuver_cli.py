@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from lookup.registry import CONTROLLERS
-from models.errors import InputError
+from rcsim.lookup.registry import CONTROLLERS
+from rcsim.models.errors import InputError
 
 
 def register(sub) -> None:
@@ -28,8 +28,8 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from analysis.flight import Scenario, fly, flight_summary, write_flight
-    from analysis.output import check_out_dir
+    from rcsim.analysis.flight import Scenario, fly, flight_summary, write_flight
+    from rcsim.analysis.output import check_out_dir
 
     if not math.isfinite(args.duration_s) or args.duration_s <= 0:
         raise InputError(f"--duration-s must be > 0, got {args.duration_s}")

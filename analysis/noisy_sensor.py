@@ -36,9 +36,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.output import atomic_dir, check_out_dir
-from lookup.single_axis import ARCHITECTURES, Architecture
-from models.errors import InputError
+from rcsim.analysis.output import atomic_dir, check_out_dir
+from rcsim.lookup.single_axis import ARCHITECTURES, Architecture
+from rcsim.models.errors import InputError
 
 #: Nondimensional manoeuvre time and the paper's ode4 step.
 T_FINAL = 1.0

@@ -14,7 +14,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from models.errors import InputError
+from rcsim.models.errors import InputError
 
 MARKER = ".rcsim-output"
 

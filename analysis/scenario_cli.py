@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from models.errors import InputError
+from rcsim.models.errors import InputError
 
 
 def register(sub) -> None:
@@ -64,7 +64,7 @@ def _check_table(table):
 
 
 def run_list(args: argparse.Namespace) -> int:
-    from analysis.scenarios import SCENARIOS
+    from rcsim.analysis.scenarios import SCENARIOS
 
     width = max(len(n) for n in SCENARIOS)
     for s in SCENARIOS.values():
@@ -78,8 +78,8 @@ def run_run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from analysis.output import check_out_dir
-    from analysis.scenarios import fly_scenario, get_scenario, summarize, write_scenario
+    from rcsim.analysis.output import check_out_dir
+    from rcsim.analysis.scenarios import fly_scenario, get_scenario, summarize, write_scenario
 
     scn = get_scenario(args.name)
     _check_table(args.table)
@@ -93,7 +93,7 @@ def run_run(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
     hist = fly_scenario(scn, args.controller, table=args.table, **overrides)
     paths = write_scenario(hist, scn, args.out, controller=args.controller)
-    from analysis.scenarios import scenario_metrics
+    from rcsim.analysis.scenarios import scenario_metrics
 
     s = summarize(scenario_metrics(hist, scn))
     settle = "not settled" if math.isnan(s["settling_time_s"]) else f"{s['settling_time_s']:.2f} s"
@@ -105,8 +105,8 @@ def run_run(args: argparse.Namespace) -> int:
 
 
 def run_compare(args: argparse.Namespace) -> int:
-    from analysis.output import atomic_dir, check_out_dir
-    from analysis.scenarios import compare_controllers, comparison_markdown, get_scenario
+    from rcsim.analysis.output import atomic_dir, check_out_dir
+    from rcsim.analysis.scenarios import compare_controllers, comparison_markdown, get_scenario
 
     _check_table(args.table)
     for name in args.names or ():
@@ -123,8 +123,8 @@ def run_compare(args: argparse.Namespace) -> int:
 
 
 def run_figures(args: argparse.Namespace) -> int:
-    from analysis.output import atomic_dir, check_out_dir
-    from analysis.scenario_plots import write_figure_set
+    from rcsim.analysis.output import atomic_dir, check_out_dir
+    from rcsim.analysis.scenario_plots import write_figure_set
 
     _check_table(args.table)
     check_out_dir(args.out)

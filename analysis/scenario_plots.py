@@ -15,8 +15,8 @@ matplotlib.use("Agg")  # files only
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from analysis.flight import history_frame  # noqa: E402
-from analysis.plots import (  # noqa: E402
+from rcsim.analysis.flight import history_frame  # noqa: E402
+from rcsim.analysis.plots import (  # noqa: E402
     AXIS_COLORS, _signed_jets, plot_attitude_error, plot_axes_jets, plot_rates_and_jets,
 )
 
@@ -192,8 +192,8 @@ def write_figure_set(out_dir, *, table=None) -> list[str]:
     named scenarios with the lookup controller (``table``: default the packaged table).
     Returns the file names.
     """
-    from analysis.scenarios import fly_scenario, get_scenario
-    from lookup.table_generation import generate_table
+    from rcsim.analysis.scenarios import fly_scenario, get_scenario
+    from rcsim.lookup.table_generation import generate_table
 
     out_dir = Path(out_dir)
     gen = generate_table()

@@ -19,11 +19,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.flight import Scenario, fly_batch, history_frame
-from lookup.registry import make_controller
-from models.errors import InputError
-from spacecraft.simulation import History
-from spacecraft.vehicle import VehicleParams, load_model
+from rcsim.analysis.flight import Scenario, fly_batch, history_frame
+from rcsim.lookup.registry import make_controller
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.simulation import History
+from rcsim.spacecraft.vehicle import VehicleParams, load_model
 
 CONTROLLERS = ("lookup", "phase-plane")
 
@@ -82,7 +82,7 @@ def _maneuver(name, att_deg, duration_s, **kw) -> Scenario:
 
 
 def _rate_damping_runs() -> tuple[Scenario, ...]:
-    from models.tables import load_rate_cases
+    from rcsim.models.tables import load_rate_cases
 
     cases = load_rate_cases()
     return tuple(
@@ -253,8 +253,8 @@ def write_scenario(history: History, scenario: PaperScenario, out_dir: str | os.
                    controller: str) -> dict[str, Path]:
     """Write ``history.parquet`` (all runs, column ``run``), ``metrics.csv``,
     ``summary.json`` and the paper-style plots into ``out_dir``, atomically."""
-    from analysis.output import atomic_dir
-    from analysis.scenario_plots import plot_scenario
+    from rcsim.analysis.output import atomic_dir
+    from rcsim.analysis.scenario_plots import plot_scenario
 
     frames = []
     for i in range(history.n_runs):  # post-processing only; the flight was batched

@@ -55,6 +55,6 @@ def _add_noisy_sensor(studies) -> None:
 
 def _run_noisy_sensor(args) -> int:
     # Imported here so that `rcsim --help` does not pay for pandas and matplotlib.
-    from analysis.noisy_sensor import run_cli
+    from rcsim.analysis.noisy_sensor import run_cli
 
     return run_cli(args)

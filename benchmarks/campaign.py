@@ -60,8 +60,8 @@ def _spec_file(folder: Path, *, runs, chunk, duration, controller="lookup", plot
 
 
 def bench_campaign(folder: Path, spec_path: Path, name: str, **kw) -> dict:
-    from analysis.campaign.runner import run_campaign
-    from analysis.campaign.spec import load_spec
+    from rcsim.analysis.campaign.runner import run_campaign
+    from rcsim.analysis.campaign.spec import load_spec
 
     spec = load_spec(spec_path)
     report = run_campaign(spec, folder / name, progress=False, **kw)
@@ -83,10 +83,10 @@ def bench_raw(spec_path: Path) -> dict:
     import numpy as np
     from mujoco.batch import Batch
 
-    from analysis.campaign.chunk import plan_chunks
-    from analysis.campaign.spec import load_spec
-    from spacecraft.propulsion import PropulsionParams
-    from spacecraft.vehicle import load_model
+    from rcsim.analysis.campaign.chunk import plan_chunks
+    from rcsim.analysis.campaign.spec import load_spec
+    from rcsim.spacecraft.propulsion import PropulsionParams
+    from rcsim.spacecraft.vehicle import load_model
 
     spec = load_spec(spec_path)
     cycle = PropulsionParams().cycle_s
@@ -126,9 +126,9 @@ def bench_single_core(spec_path: Path, n: int = 256, repeats: int = 3) -> dict:
     import numpy as np
     from mujoco.batch import Batch
 
-    from analysis.campaign.chunk import Chunk, simulate_chunk, warm_up
-    from analysis.campaign.spec import load_spec
-    from spacecraft.vehicle import load_model
+    from rcsim.analysis.campaign.chunk import Chunk, simulate_chunk, warm_up
+    from rcsim.analysis.campaign.spec import load_spec
+    from rcsim.spacecraft.vehicle import load_model
 
     spec = load_spec(spec_path)
     warm_up()

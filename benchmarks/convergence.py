@@ -48,11 +48,11 @@ from scipy.integrate import solve_ivp
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
-from models.tables import load_jet_map, load_mass_properties  # noqa: E402
-from spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat  # noqa: E402
-from spacecraft.simulation import BatchSimulation  # noqa: E402
-from spacecraft.vehicle import VehicleParams, load_model  # noqa: E402
+from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
+from rcsim.models.tables import load_jet_map, load_mass_properties  # noqa: E402
+from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat  # noqa: E402
+from rcsim.spacecraft.simulation import BatchSimulation  # noqa: E402
+from rcsim.spacecraft.vehicle import VehicleParams, load_model  # noqa: E402
 
 INTEGRATORS = ("RK4", "Euler", "implicitfast")
 STEPS_MS = (1, 2, 4, 5, 8, 10, 20, 40)

@@ -38,14 +38,14 @@ from mujoco.batch import Batch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
-from models.tables import load_jet_map  # noqa: E402
-from spacecraft.navigation import Guidance, navigate  # noqa: E402
-from spacecraft.propulsion import (  # noqa: E402
+from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
+from rcsim.models.tables import load_jet_map  # noqa: E402
+from rcsim.spacecraft.navigation import Guidance, navigate  # noqa: E402
+from rcsim.spacecraft.propulsion import (  # noqa: E402
     PropulsionParams, PropulsionState, apply_valve_limits, duty_profile,
 )
-from spacecraft.simulation import simulate_batch  # noqa: E402
-from spacecraft.vehicle import VehicleParams, jet_actuator_ids, load_model  # noqa: E402
+from rcsim.spacecraft.simulation import simulate_batch  # noqa: E402
+from rcsim.spacecraft.vehicle import VehicleParams, jet_actuator_ids, load_model  # noqa: E402
 
 DURATION_S = 60.0
 ATT_CMD_DEG = (5.0, 5.0, 5.0)

@@ -14,7 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from analysis.noisy_sensor import StudyConfig, run_study, write_outputs
+from rcsim.analysis.noisy_sensor import StudyConfig, run_study, write_outputs
 
 
 def main() -> None:

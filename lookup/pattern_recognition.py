@@ -47,9 +47,9 @@ from pathlib import Path
 
 import numpy as np
 
-from models.errors import InputError
-from models.tables import LookupTable, load_lookup_inputs, load_lookup_table
-from spacecraft.navigation import NavState
+from rcsim.models.errors import InputError
+from rcsim.models.tables import LookupTable, load_lookup_inputs, load_lookup_table
+from rcsim.spacecraft.navigation import NavState
 
 N_AXES = 3
 #: Tolerance for "a timer has run out" [s]: timers are sums of multiples of 40 ms and
@@ -60,7 +60,7 @@ _TIMER_EPS_S = 1e-9
 def default_table_path() -> Path:
     """The packaged table, ``lookup/data/generated_table.csv`` (generated for the nominal
     vehicle; see ``lookup/data/README.md``)."""
-    return Path(str(files("lookup") / "data" / "generated_table.csv"))
+    return Path(str(files("rcsim.lookup") / "data" / "generated_table.csv"))
 
 
 def load_default_table() -> LookupTable:

@@ -24,8 +24,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from spacecraft.navigation import NavState
-from spacecraft.vehicle import VehicleParams, load_model, torque_per_jet_B
+from rcsim.spacecraft.navigation import NavState
+from rcsim.spacecraft.vehicle import VehicleParams, load_model, torque_per_jet_B
 
 
 @dataclass(frozen=True)

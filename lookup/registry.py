@@ -5,7 +5,7 @@ import os
 
 import mujoco
 
-from spacecraft.simulation import Controller
+from rcsim.spacecraft.simulation import Controller
 
 CONTROLLERS = ("phase-plane", "lookup")
 
@@ -32,18 +32,18 @@ def make_controller(
         Overrides of :class:`lookup.pattern_recognition.LookupParams` /
         :class:`lookup.phase_plane.PhasePlaneParams` fields for that controller.
     """
-    from models.errors import InputError
-    from models.tables import load_jet_map
+    from rcsim.models.errors import InputError
+    from rcsim.models.tables import load_jet_map
 
     if name == "phase-plane":
-        from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
+        from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
 
         if table is not None:
             raise InputError("--table is only for --controller lookup")
         return PhasePlaneController(PhasePlaneParams.for_vehicle(
             load_jet_map(), model=model, **(phase_plane_options or {})))
     if name == "lookup":
-        from lookup.pattern_recognition import LookupController
+        from rcsim.lookup.pattern_recognition import LookupController
 
         return LookupController.from_files(table, **(lookup_options or {}))
     raise InputError(f"unknown controller {name!r}; choose one of {', '.join(CONTROLLERS)}")

@@ -28,13 +28,13 @@ import mujoco
 import numpy as np
 import pandas as pd
 
-from models.tables import (
+from rcsim.models.tables import (
     LookupTable, RateCases, check_consistency, load_jet_map, load_rate_cases,
 )
-from spacecraft.navigation import Guidance, NavState
-from spacecraft.propulsion import PropulsionParams
-from spacecraft.simulation import History, simulate_batch
-from spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
+from rcsim.spacecraft.navigation import Guidance, NavState
+from rcsim.spacecraft.propulsion import PropulsionParams
+from rcsim.spacecraft.simulation import History, simulate_batch
+from rcsim.spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
 
 #: Default tolerance of the settling-time measurement [rad/s]: Table 4's rate error limit
 #: (0.06 deg/s), the rate error the lookup controller treats as "reached".
@@ -352,7 +352,7 @@ def axis_times(table: LookupTable) -> tuple[np.ndarray, np.ndarray]:
     jets : ndarray of bool, (26, 16)
         Jets that fire.
     """
-    from lookup.pattern_recognition import learn_jets
+    from rcsim.lookup.pattern_recognition import learn_jets
 
     axis, _, _ = learn_jets(table)
     ft = np.asarray(table.firing_time_s)

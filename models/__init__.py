@@ -12,5 +12,5 @@ from pathlib import Path
 
 def vehicle_xml() -> Path:
     """Path of the packaged vehicle MJCF (``models/vehicle/vehicle.xml``)."""
-    with as_file(files("models") / "vehicle" / "vehicle.xml") as path:
+    with as_file(files("rcsim.models") / "vehicle" / "vehicle.xml") as path:
         return Path(path)

@@ -44,8 +44,8 @@ from typing import Sequence, Union
 import numpy as np
 import pandas as pd
 
-from models.atomic import atomic_write
-from models.errors import InputError
+from rcsim.models.atomic import atomic_write
+from rcsim.models.errors import InputError
 
 __all__ = [
     "AXES",
@@ -401,7 +401,7 @@ class _Raw:
 
 def _source(path: PathLike | None, default_name: str):
     if path is None:
-        return files("models") / "data" / default_name
+        return files("rcsim.models") / "data" / default_name
     return Path(path)
 
 

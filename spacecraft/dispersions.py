@@ -34,8 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from models.errors import InputError
-from spacecraft.vehicle import N_JETS, VehicleParams
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.vehicle import N_JETS, VehicleParams
 
 #: Table 5 names this module models, in the order they are drawn.
 DISPERSION_NAMES = ("mass", "cg_x", "ixx", "iyy", "izz", "thrust", "thruster_angle")

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spacecraft.vehicle import G0_M_S2, N_JETS
+from rcsim.spacecraft.vehicle import G0_M_S2, N_JETS
 
 
 @dataclass(frozen=True)

@@ -17,11 +17,11 @@ import mujoco
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 
-from spacecraft.navigation import Guidance, NavState, navigate
-from spacecraft.propulsion import (
+from rcsim.spacecraft.navigation import Guidance, NavState, navigate
+from rcsim.spacecraft.propulsion import (
     PropulsionParams, PropulsionState, apply_valve_limits, duty_profile,
 )
-from spacecraft.vehicle import (
+from rcsim.spacecraft.vehicle import (
     BODY, N_JETS, VehicleParams, dist_actuator_ids, jet_actuator_ids, load_model,
 )
 

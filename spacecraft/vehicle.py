@@ -11,7 +11,7 @@ from dataclasses import dataclass, replace
 import mujoco
 import numpy as np
 
-from models import vehicle_xml
+from rcsim.models import vehicle_xml
 
 N_JETS = 16
 JET_NAMES = tuple(f"jet_{i:02d}" for i in range(1, N_JETS + 1))

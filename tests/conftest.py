@@ -2,8 +2,8 @@
 import mujoco
 import pytest
 
-from models.tables import load_mass_properties
-from spacecraft.vehicle import load_model
+from rcsim.models.tables import load_mass_properties
+from rcsim.spacecraft.vehicle import load_model
 
 
 @pytest.fixture(scope="module")

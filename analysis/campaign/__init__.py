@@ -7,6 +7,6 @@
 * :mod:`~analysis.campaign.replay` -- re-fly one run alone with its full history;
 * :mod:`~analysis.campaign.plots` -- Fig 9-14-like plots.
 """
-from analysis.campaign.spec import EXAMPLE_SPEC, CampaignSpec, load_spec, parse_dict
+from rcsim.analysis.campaign.spec import EXAMPLE_SPEC, CampaignSpec, load_spec, parse_dict
 
 __all__ = ["EXAMPLE_SPEC", "CampaignSpec", "load_spec", "parse_dict"]

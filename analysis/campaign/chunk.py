@@ -12,10 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from spacecraft.dispersions import DispersedRuns, dispersion_frame, draw_runs
-from spacecraft.propulsion import PropulsionParams
-from spacecraft.simulation import History
-from spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
+from rcsim.spacecraft.dispersions import DispersedRuns, dispersion_frame, draw_runs
+from rcsim.spacecraft.propulsion import PropulsionParams
+from rcsim.spacecraft.simulation import History
+from rcsim.spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
 
 # A firing continues into the next cycle only if it filled the previous one -- the same rule
 # (and tolerance) as spacecraft.propulsion.apply_valve_limits, so firing counts agree with it.
@@ -43,7 +43,7 @@ def warm_up() -> None:
     campaign's clock starts, so start-up is not billed to the first chunk)."""
     import importlib
 
-    for module in ("lookup.pattern_recognition", "lookup.phase_plane"):
+    for module in ("rcsim.lookup.pattern_recognition", "rcsim.lookup.phase_plane"):
         importlib.import_module(module)
 
     load_model()
@@ -122,8 +122,8 @@ class ChunkResult:
 def fly_runs(spec, run_ids: np.ndarray, *, nthread: int = 1,
              model=None) -> tuple[History, DispersedRuns]:
     """Draw and fly campaign runs ``run_ids`` (cases of equal duration) as one batch."""
-    from analysis.flight import fly_batch
-    from lookup.registry import make_controller
+    from rcsim.analysis.flight import fly_batch
+    from rcsim.lookup.registry import make_controller
 
     model = load_model() if model is None else model
     run_ids = np.asarray(run_ids, dtype=np.int64)
@@ -136,7 +136,7 @@ def fly_runs(spec, run_ids: np.ndarray, *, nthread: int = 1,
 
 def axis_jets() -> np.ndarray:
     """(3, 16) bool: the jets that torque roll, pitch, yaw (Table 2)."""
-    from models.tables import load_jet_map
+    from rcsim.models.tables import load_jet_map
 
     return (load_jet_map() != 0).T
 
@@ -348,7 +348,7 @@ def simulate_chunk(spec, chunk: Chunk, nthread: int = 1) -> ChunkResult:
             envelope=_combine(env) if env else pd.DataFrame(),
             histories={k: v for p in parts for k, v in p.histories.items()},
         )
-    from analysis.flight import history_frame
+    from rcsim.analysis.flight import history_frame
 
     out = outcomes(history, spec, cycle_s, dispersed.params.isp_s)
     runs = _row_frame(spec, dispersed, out)

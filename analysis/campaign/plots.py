@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from spacecraft.vehicle import AXES  # noqa: E402
+from rcsim.spacecraft.vehicle import AXES  # noqa: E402
 
 COLORS = {"roll": "tab:blue", "pitch": "tab:orange", "yaw": "tab:green"}
 DPI = 80  # keeps a 3-panel figure near 60-90 KB
@@ -82,7 +82,7 @@ def plot_summary(runs: pd.DataFrame, cases: pd.DataFrame, path: Path, *, title: 
 
 def plot_campaign(out: Path, spec) -> list[Path]:
     """All plots of a finished campaign directory into ``out/plots``."""
-    from analysis.campaign import results as R
+    from rcsim.analysis.campaign import results as R
 
     folder = out / R.PLOTS
     folder.mkdir(exist_ok=True)

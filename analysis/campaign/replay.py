@@ -10,11 +10,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.campaign import results as R
-from analysis.campaign.chunk import fly_runs, outcomes
-from analysis.campaign.spec import parse_dict
-from models.errors import InputError
-from spacecraft.propulsion import PropulsionParams
+from rcsim.analysis.campaign import results as R
+from rcsim.analysis.campaign.chunk import fly_runs, outcomes
+from rcsim.analysis.campaign.spec import parse_dict
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.propulsion import PropulsionParams
 
 
 def load_campaign_spec(campaign: Path):
@@ -33,8 +33,8 @@ def replay(campaign: str | Path, run_id: int, out: str | Path | None = None) -> 
         ``out`` (directory written), ``row`` (the replayed runs.parquet row as a dict),
         ``matches`` (True/False if the campaign row exists, else None).
     """
-    from analysis.campaign.chunk import _row_frame
-    from analysis.flight import write_flight
+    from rcsim.analysis.campaign.chunk import _row_frame
+    from rcsim.analysis.flight import write_flight
 
     campaign = Path(campaign)
     spec = load_campaign_spec(campaign)

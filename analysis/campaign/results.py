@@ -29,7 +29,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from models.atomic import atomic_write
+from rcsim.models.atomic import atomic_write
 
 MANIFEST = "manifest.json"
 RUNS = "runs.parquet"
@@ -109,7 +109,7 @@ def default_lookup_table() -> dict:
     """
     import hashlib
 
-    from lookup.pattern_recognition import default_table_path
+    from rcsim.lookup.pattern_recognition import default_table_path
 
     path = default_table_path()
     return {"path": str(path), "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
@@ -159,7 +159,7 @@ def assemble(out: Path, plan) -> dict:
     cases = _finish_case_stats(cases)
     atomic_write(out / CASES, lambda t: cases.to_csv(t, index=False, float_format="%.6g"))
     if envelopes:
-        from analysis.campaign.chunk import _combine
+        from rcsim.analysis.campaign.chunk import _combine
 
         env = _combine(envelopes)
         for col in [c for c in env.columns if c.endswith("_sum") and not c.startswith("on_time")]:

@@ -23,10 +23,10 @@ from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from analysis.campaign import results as R
-from analysis.campaign.chunk import plan_chunks, simulate_chunk
-from analysis.output import MARKER, check_out_dir
-from models.errors import InputError
+from rcsim.analysis.campaign import results as R
+from rcsim.analysis.campaign.chunk import plan_chunks, simulate_chunk
+from rcsim.analysis.output import MARKER, check_out_dir
+from rcsim.models.errors import InputError
 
 
 @dataclass
@@ -89,7 +89,7 @@ def connect(workers: int | None, scheduler: str | None):
         return None, None
     from distributed import Client, LocalCluster
 
-    from analysis.campaign.chunk import warm_up
+    from rcsim.analysis.campaign.chunk import warm_up
 
     if workers is not None:
         if workers < 1:
@@ -197,7 +197,7 @@ def run_campaign(
         flown, simulated = _drain(results, out, spec, n_done, progress)
         counts = R.assemble(out, plan)
         if spec.plots:
-            from analysis.campaign.plots import plot_campaign
+            from rcsim.analysis.campaign.plots import plot_campaign
 
             plot_campaign(out, spec)
         wall = time.perf_counter() - t0

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.flight import Scenario
-from models.errors import InputError
-from spacecraft.dispersions import DispersionSigmas
+from rcsim.analysis.flight import Scenario
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.dispersions import DispersionSigmas
 
 EXAMPLE_SPEC = '''\
 # rcsim campaign spec (TOML).  Units are in the key names; angles in degrees at this boundary.
@@ -238,7 +238,7 @@ def _file_digest(path: str | None) -> str | None:
 
 
 def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
-    from models.tables import load_rate_cases
+    from rcsim.models.tables import load_rate_cases
 
     blocks = raw if isinstance(raw, list) else [raw]
     if not blocks:
@@ -309,7 +309,7 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
     base_dir : Path or None
         Relative file paths are relative to it (the spec file's directory).
     """
-    from models.tables import load_dispersions, load_lookup_table
+    from rcsim.models.tables import load_dispersions, load_lookup_table
 
     top = _Reader(data, "", source)
     seed = top.integer("seed", 1, minimum=0)

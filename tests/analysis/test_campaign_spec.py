@@ -4,9 +4,9 @@ import math
 import numpy as np
 import pytest
 
-from analysis.campaign.spec import EXAMPLE_SPEC, load_spec
-from analysis.cli import main
-from models.errors import InputError
+from rcsim.analysis.campaign.spec import EXAMPLE_SPEC, load_spec
+from rcsim.analysis.cli import main
+from rcsim.models.errors import InputError
 
 MINIMAL = """
 seed = 2
@@ -64,7 +64,7 @@ cg_x_m = 0
 
 
 def test_lookup_table_path_is_relative_to_spec(tmp_path):
-    from models.tables import load_lookup_table
+    from rcsim.models.tables import load_lookup_table
 
     load_lookup_table(which="table7").to_csv(tmp_path / "mytable.csv")
     spec = load_spec(_write(tmp_path, MINIMAL.replace('"phase-plane"', '"lookup"\ntable = "mytable.csv"')))

@@ -9,7 +9,6 @@ installed ``rcsim`` executable to prove the entry point.
 """
 from __future__ import annotations
 
-import importlib.util
 import os
 import shutil
 import subprocess
@@ -20,7 +19,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.cli import main
+from rcsim.analysis.cli import main
 
 REQUIRED = (
     ["t_s", "att_err_roll_deg", "att_err_pitch_deg", "att_err_yaw_deg",
@@ -112,8 +111,6 @@ def test_missing_attitude_is_user_error(tmp_path, capsys):
     assert_user_error(rc, capsys.readouterr().err, out)
 
 
-@pytest.mark.skipif(importlib.util.find_spec("lookup.pattern_recognition") is None,
-                    reason="lookup.pattern_recognition (the lookup controller) not built yet")
 @pytest.mark.parametrize("content", ["", "case,jet_01\n1,abc\n", None],
                          ids=["empty", "garbage", "missing-file"])
 def test_bad_table_file_is_user_error(tmp_path, capsys, content):

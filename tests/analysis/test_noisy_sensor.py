@@ -9,10 +9,10 @@ import pandas as pd
 import pytest
 from scipy.integrate import quad, solve_ivp
 
-from analysis import noisy_sensor as ns
-from analysis.cli import main
-from lookup import single_axis as sa
-from models.errors import InputError
+from rcsim.analysis import noisy_sensor as ns
+from rcsim.analysis.cli import main
+from rcsim.lookup import single_axis as sa
+from rcsim.models.errors import InputError
 
 ARCH = {a.key: a for a in sa.ARCHITECTURES}
 

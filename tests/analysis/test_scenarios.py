@@ -11,13 +11,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.cli import main
-from analysis.scenarios import (
+from rcsim.analysis.cli import main
+from rcsim.analysis.scenarios import (
     SCENARIOS, comparison_markdown, compare_controllers, fly_scenario, get_scenario,
     scenario_metrics, settling_time,
 )
-from lookup.pattern_recognition import load_default_table
-from models.errors import InputError
+from rcsim.lookup.pattern_recognition import load_default_table
+from rcsim.models.errors import InputError
 
 DEG = np.pi / 180.0
 PAPER_SCENARIOS = {

@@ -13,17 +13,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import models.tables
-import spacecraft.vehicle
-from analysis.scenarios import PaperScenario, fly_scenario, get_scenario
-from lookup.pattern_recognition import (
+import rcsim.models.tables as model_tables
+import rcsim.spacecraft.vehicle as vehicle_mod
+from rcsim.analysis.scenarios import PaperScenario, fly_scenario, get_scenario
+from rcsim.lookup.pattern_recognition import (
     LookupController, LookupParams, LookupState, learn_jets, load_default_table,
 )
-from lookup.registry import make_controller
-from models.errors import InputError
-from models.tables import LookupTable, load_lookup_table
-from spacecraft.navigation import NavState
-from spacecraft.vehicle import VehicleParams
+from rcsim.lookup.registry import make_controller
+from rcsim.models.errors import InputError
+from rcsim.models.tables import LookupTable, load_lookup_table
+from rcsim.spacecraft.navigation import NavState
+from rcsim.spacecraft.vehicle import VehicleParams
 
 DEG = np.pi / 180.0
 CYCLE_S = 0.04
@@ -230,8 +230,8 @@ def test_controller_needs_no_vehicle_knowledge(monkeypatch):
     def forbidden(*a, **k):
         raise AssertionError("controller read vehicle knowledge")
 
-    for mod, name in ((models.tables, "load_jet_map"), (models.tables, "load_mass_properties"),
-                      (spacecraft.vehicle, "torque_per_jet_B")):
+    for mod, name in ((model_tables, "load_jet_map"), (model_tables, "load_mass_properties"),
+                      (vehicle_mod, "torque_per_jet_B")):
         monkeypatch.setattr(mod, name, forbidden)
     ctl = LookupController(table, LookupParams.from_table4())
     monkeypatch.undo()  # the simulator itself may use the model

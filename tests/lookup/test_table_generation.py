@@ -13,9 +13,9 @@ from importlib.resources import files
 import numpy as np
 import pytest
 
-from analysis.cli import main
-from lookup.table_generation import compare_tables, generate_table
-from models.tables import load_lookup_table
+from rcsim.analysis.cli import main
+from rcsim.lookup.table_generation import compare_tables, generate_table
+from rcsim.models.tables import load_lookup_table
 
 CYCLE_S = 0.04  # paper sec. II: 40 ms control rate
 # Paper Table 2: jet -> (axis, sign); jets 5-8 unused.
@@ -106,7 +106,7 @@ def test_compare_with_table7(gen):
 
 def test_packaged_table_is_the_generated_one(gen):
     """lookup/data/generated_table.csv is reproducible from the code (README says how)."""
-    path = files("lookup") / "data" / "generated_table.csv"
+    path = files("rcsim.lookup") / "data" / "generated_table.csv"
     packaged = load_lookup_table(str(path))
     np.testing.assert_allclose(packaged.firing_time_s, gen.table.firing_time_s, atol=1e-12)
     np.testing.assert_allclose(packaged.rate_cmd, gen.table.rate_cmd, rtol=1e-12)

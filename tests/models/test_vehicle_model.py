@@ -11,8 +11,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from models import vehicle_xml
-from spacecraft.vehicle import (
+from rcsim.models import vehicle_xml
+from rcsim.spacecraft.vehicle import (
     BODY, DIST_NAMES, JET_NAMES, dist_actuator_ids, jet_actuator_ids,
 )
 

@@ -25,10 +25,10 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from models.tables import load_jet_map, load_lookup_table
-from spacecraft.navigation import Guidance
-from spacecraft.simulation import BatchSimulation
-from spacecraft.vehicle import (
+from rcsim.models.tables import load_jet_map, load_lookup_table
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.simulation import BatchSimulation
+from rcsim.spacecraft.vehicle import (
     BODY, VehicleParams, jet_actuator_ids, jet_geometry_B, torque_per_jet_B,
 )
 

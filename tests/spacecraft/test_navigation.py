@@ -16,8 +16,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from spacecraft import navigation as nav
-from spacecraft.vehicle import load_model
+from rcsim.spacecraft import navigation as nav
+from rcsim.spacecraft.vehicle import load_model
 
 # Float round-trip tolerance: a few ulp of the angle through sin/cos/arctan2 (~1e-16 rad) for
 # angles up to pi; 1e-12 rad is ~1e4 ulp, far below any convention error (>= the angle itself).

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spacecraft.propulsion import (
+from rcsim.spacecraft.propulsion import (
     PropulsionParams, PropulsionState, apply_valve_limits, duty_profile,
 )
 
