@@ -158,7 +158,7 @@ def bench_memory(folder: Path, runs_total: int, duration: float, chunk: int) -> 
     spec = _spec_file(folder, runs=runs, chunk=chunk, duration=duration, controller="lookup",
                       plots=True)
     out = folder / f"mem-{runs_total}"
-    code = ("import resource, sys; from analysis.cli import main; rc = main(sys.argv[1:]); "
+    code = ("import resource, sys; from rcsim.analysis.cli import main; rc = main(sys.argv[1:]); "
             "print('MAXRSS_KB', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss); sys.exit(rc)")
     t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, "-c", code, "campaign", "run", str(spec), "--out",

@@ -1,6 +1,6 @@
 """Benchmark: the whole noisy-sensor study, 6 architectures x 1000 runs (paper Section 3).
 
-Times :func:`analysis.noisy_sensor.run_study` (random draws for 1000 runs, six vectorized
+Times :func:`analysis.studies.noisy_sensor.run_study` (random draws for 1000 runs, six vectorized
 RK4 Monte Carlos of 100 steps, the tables) and, separately, writing the four outputs.
 Prints wall seconds; the target is under 2 s for the study.
 
@@ -14,7 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from rcsim.analysis.noisy_sensor import StudyConfig, run_study, write_outputs
+from rcsim.analysis.studies.noisy_sensor import StudyConfig, run_study, write_outputs
 
 
 def main() -> None:

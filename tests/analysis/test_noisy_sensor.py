@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from scipy.integrate import quad, solve_ivp
 
-from rcsim.analysis import noisy_sensor as ns
+from rcsim.analysis.studies import noisy_sensor as ns
 from rcsim.analysis.cli import main
 from rcsim.lookup import single_axis as sa
 from rcsim.models.errors import InputError

@@ -14,11 +14,11 @@ from rcsim.models.errors import InputError
 
 # Every command group's module, in the order ``rcsim --help`` lists them.
 _COMMANDS = (
-    "rcsim.analysis.maneuver_cli",
-    "rcsim.analysis.lookup_cli",
-    "rcsim.analysis.scenario_cli",
-    "rcsim.analysis.campaign_cli",
-    "rcsim.analysis.study_cli",
+    "rcsim.analysis.cli.maneuver",
+    "rcsim.analysis.cli.lookup",
+    "rcsim.analysis.cli.scenario",
+    "rcsim.analysis.cli.campaign",
+    "rcsim.analysis.cli.study",
 )
 
 

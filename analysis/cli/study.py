@@ -1,7 +1,7 @@
 """``rcsim study``: research studies reproduced from papers.
 
 ``rcsim study noisy-sensor`` runs the single-axis noisy-sensor Monte Carlo of Pittella &
-Sands (Sensors 2023) over six control architectures; see :mod:`analysis.noisy_sensor`.
+Sands (Sensors 2023) over six control architectures; see :mod:`analysis.studies.noisy_sensor`.
 """
 from __future__ import annotations
 
@@ -55,6 +55,6 @@ def _add_noisy_sensor(studies) -> None:
 
 def _run_noisy_sensor(args) -> int:
     # Imported here so that `rcsim --help` does not pay for pandas and matplotlib.
-    from rcsim.analysis.noisy_sensor import run_cli
+    from rcsim.analysis.studies.noisy_sensor import run_cli
 
     return run_cli(args)
