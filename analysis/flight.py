@@ -125,7 +125,9 @@ def flight_summary(history: History, run: int = 0) -> dict:
         "final_rate_err_deg_s": np.degrees(final.rate_err_B[run]).round(6).tolist(),
         "firings": int(history.propulsion.firings[run].sum()),
         "on_time_s": float(history.propulsion.on_time_s[run].sum()),
-        "failed": bool(history.failed[run]),
+        # The simulation itself failed (MuJoCo error or warning, diverged state): the numbers
+        # above are then not a flight.  ``reason`` is the simulator's own.
+        "sim_failed": bool(history.failed[run]),
         "reason": history.reason[run],
     }
 

@@ -1,15 +1,15 @@
-"""Paper-style plots of one flight (Gambone Figs 1-2, 5-8, 17-20).
+"""Paper-style plots of one flight (Gambone Figs 1-2, 5-8, 17-20), and the figure factory.
 
-Inputs are :func:`analysis.flight.history_frame` tables (degrees, deg/s, seconds).
+Inputs are :func:`rcsim.analysis.flight.history_frame` tables (degrees, deg/s, seconds).
+Every rcsim figure is made by :func:`new_figure`: matplotlib's object API, never pyplot, so
+importing or calling rcsim's plotting never switches the backend of a user's notebook, never
+pops up a window, and is safe from several threads at once (campaign chunks).
 """
 from __future__ import annotations
 
-import matplotlib
-
-matplotlib.use("Agg")  # files only; no display on analysis machines or CI
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
 
 AXIS_COLORS = {"roll": "tab:blue", "pitch": "tab:orange", "yaw": "tab:green"}
 
@@ -23,7 +23,23 @@ JET_COLORS = ("tab:red", "tab:purple")  # first / second jet of a pair
 MIN_RATE_SPAN_DEG_S = 0.05
 
 
-def _signed_jets(ax, t, frame, axis: str, *, offset_ms: float = 1.0) -> None:
+def new_figure(nrows: int = 1, ncols: int = 1, *, figsize=(8.0, 4.2), **subplot_kw):
+    """A constrained-layout :class:`matplotlib.figure.Figure` and its axes (as
+    ``pyplot.subplots`` returns them), detached from pyplot: save it with ``fig.savefig``.
+
+    Parameters
+    ----------
+    nrows, ncols : int
+    figsize : (float, float)
+        Inches.
+    **subplot_kw
+        Passed to :meth:`Figure.subplots` (``sharex``, ``squeeze``, ...).
+    """
+    fig = Figure(figsize=figsize, layout="constrained")
+    return fig, fig.subplots(nrows, ncols, **subplot_kw)
+
+
+def signed_jets(ax, t, frame, axis: str, *, offset_ms: float = 1.0) -> None:
     """Jet on-times of ``axis`` in ms per cycle, + jets up and - jets down (pairs offset)."""
     for sign, jets in zip((1, -1), SIGNED_JETS[axis]):
         for k, jet in enumerate(jets):
@@ -48,9 +64,8 @@ def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"),
         Time windows [s] shown as extra zoomed columns (e.g. the two firings of Figs 5-6).
     """
     spans = [None] + list(windows or [])
-    fig, grid = plt.subplots(2 * len(axes), len(spans), figsize=(max(3.4 * len(spans) + 2.4, 8.0),
-                             1.6 * 2 * len(axes) + 0.6), sharex="col", squeeze=False,
-                             constrained_layout=True)
+    fig, grid = new_figure(2 * len(axes), len(spans), figsize=(max(3.4 * len(spans) + 2.4, 8.0),
+                             1.6 * 2 * len(axes) + 0.6), sharex="col", squeeze=False)
     t_all = frame["t_s"].to_numpy()
     for c, span in enumerate(spans):
         sel = np.ones_like(t_all, bool) if span is None else (t_all >= span[0]) & (t_all <= span[1])
@@ -66,7 +81,7 @@ def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"),
                 mid = 0.5 * (hi + lo)
                 ax_rate.set_ylim(mid - MIN_RATE_SPAN_DEG_S / 2, mid + MIN_RATE_SPAN_DEG_S / 2)
             ax_rate.grid(alpha=0.3)
-            _signed_jets(ax_jet, t, sub, axis)
+            signed_jets(ax_jet, t, sub, axis)
             ax_jet.set_ylim(-48, 48)
             ax_jet.axhline(0.0, color="0.6", lw=0.6)
             ax_jet.grid(alpha=0.3)
@@ -80,14 +95,13 @@ def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"),
         grid[-1, c].set_xlabel("time [s]")
     fig.suptitle(f"{title}: rates and jet commands (+ jets up, - jets down)", fontsize=10)
     fig.savefig(path, dpi=85)  # big multi-panel figure: keeps the PNG under 200 KB
-    plt.close(fig)
 
 
 
 
 def plot_attitude_error(frame: pd.DataFrame, path, *, title: str = "") -> None:
     """Attitude error per axis versus time (Fig. 1)."""
-    fig, ax = plt.subplots(figsize=(8, 4.2), constrained_layout=True)
+    fig, ax = new_figure(figsize=(8, 4.2))
     for axis, color in AXIS_COLORS.items():
         ax.plot(frame["t_s"], frame[f"att_err_{axis}_deg"], color=color, label=axis)
     ax.axhline(0.0, color="0.6", lw=0.8)
@@ -97,7 +111,6 @@ def plot_attitude_error(frame: pd.DataFrame, path, *, title: str = "") -> None:
     ax.grid(alpha=0.3)
     ax.legend(loc="best")
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def plot_rates_and_jets(frame: pd.DataFrame, path, *, title: str = "") -> None:

@@ -64,10 +64,10 @@ def _check_table(table):
 
 
 def run_list(args: argparse.Namespace) -> int:
-    from rcsim.analysis.scenarios import SCENARIOS
+    from rcsim.analysis.scenarios import all_scenarios
 
-    width = max(len(n) for n in SCENARIOS)
-    for s in SCENARIOS.values():
+    width = max(len(n) for n in all_scenarios())
+    for s in all_scenarios().values():
         print(f"{s.name:<{width}}  {s.figures:<11} {s.description} "
               f"({s.n_runs} run{'s' if s.n_runs > 1 else ''}, {s.duration_s:g} s)")
     return 0
@@ -96,10 +96,11 @@ def run_run(args: argparse.Namespace) -> int:
     from rcsim.analysis.scenarios import scenario_metrics
 
     s = summarize(scenario_metrics(hist, scn))
-    settle = "not settled" if math.isnan(s["settling_time_s"]) else f"{s['settling_time_s']:.2f} s"
+    t = s["att_rate_settled_time_s"]
+    settle = "not settled" if math.isnan(t) else f"from {t:.2f} s"
     print(f"{args.controller} {scn.name}: final attitude error {s['final_att_err_deg']:.3f} deg, "
           f"rate error {s['final_rate_err_deg_s']:.4f} deg/s, {s['firings']} firings, "
-          f"{s['propellant_kg']:.4f} kg, settling {settle}")
+          f"{s['propellant_kg']:.4f} kg, settled {settle}")
     print(f"outputs in {Path(args.out)}/: " + ", ".join(p.name for p in paths.values()))
     return 0
 
@@ -124,7 +125,7 @@ def run_compare(args: argparse.Namespace) -> int:
 
 def run_figures(args: argparse.Namespace) -> int:
     from rcsim.analysis.output import atomic_dir, check_out_dir
-    from rcsim.analysis.scenario_plots import write_figure_set
+    from rcsim.analysis.scenarios.figure_set import write_figure_set
 
     _check_table(args.table)
     check_out_dir(args.out)

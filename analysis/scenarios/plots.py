@@ -1,26 +1,27 @@
-"""Plots for the named paper scenarios and the lookup table (Gambone Figs 3-8, 17-28).
+"""Plots of the named scenarios and of lookup tables (Gambone Figs 3-4, 17-18).
 
-Single-run scenarios reuse :mod:`analysis.plots` (attitude error; rates with jet commands).
-Added here: all runs' rates of a batch (rate damping, Figs 3-4), the attitude-hold view with the
-maneuver limit and no-firing region (Figs 17-18), and heat maps of a lookup table's firing
-times (Figs 3-4: command vs damping).
+Single-run scenarios reuse :mod:`rcsim.analysis.plots` (attitude error; rates with jet
+commands).  Added here: all runs' rates of a batch (rate damping, Figs 3-4), the attitude-hold
+view with the maneuver limit and no-firing region (Figs 17-18), and heat maps of a lookup
+table's firing times (Figs 3-4: command vs damping).  Figures are built with matplotlib's
+object API (:func:`rcsim.analysis.plots.new_figure`): importing this never touches pyplot's
+global state or the user's backend.
 """
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")  # files only
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from rcsim.analysis.flight import history_frame  # noqa: E402
-from rcsim.analysis.plots import (  # noqa: E402
-    AXIS_COLORS, _signed_jets, plot_attitude_error, plot_axes_jets, plot_rates_and_jets,
+from rcsim.analysis.flight import history_frame
+from rcsim.analysis.plots import (
+    AXIS_COLORS, new_figure, plot_attitude_error, plot_rates_and_jets, signed_jets,
 )
+from rcsim.models.tables import CONTROL_CYCLE_S
 
 DPI = 100
+
+
 def plot_scenario(history, scenario, out_dir, *, title: str) -> list[Path]:
     """The plots of one scenario flight into ``out_dir``; returns their paths."""
     out_dir = Path(out_dir)
@@ -42,7 +43,7 @@ def plot_scenario(history, scenario, out_dir, *, title: str) -> list[Path]:
 
 def plot_runs_rates(history, path, *, title: str, labels=None) -> None:
     """Body rate of every run per axis versus time (deg/s), one panel per axis."""
-    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True, constrained_layout=True)
+    fig, axes = new_figure(3, 1, figsize=(8, 7), sharex=True)
     t = history.t_s
     for a, (ax, (axis, color)) in enumerate(zip(axes, AXIS_COLORS.items())):
         ax.plot(t, np.degrees(history.omega_B[:, :, a]).T, color=color, lw=0.8, alpha=0.6)
@@ -52,15 +53,13 @@ def plot_runs_rates(history, path, *, title: str, labels=None) -> None:
     axes[0].set_title(f"{title}: body rates of {history.n_runs} runs")
     axes[-1].set_xlabel("time [s]")
     fig.savefig(path, dpi=DPI)
-    plt.close(fig)
 
 
 def plot_hold(frame, path, *, title: str, maneuver_limit_deg: float = 0.6,
               band_deg: float = 0.1) -> None:
     """Total attitude error with the maneuver limit and no-firing region (shaded when on),
     yaw rate, and signed yaw jet commands (Figs 17-18)."""
-    fig, (ax0, ax1, ax2) = plt.subplots(3, 1, figsize=(8, 7), sharex=True,
-                                        constrained_layout=True)
+    fig, (ax0, ax1, ax2) = new_figure(3, 1, figsize=(8, 7), sharex=True)
     t = frame["t_s"].to_numpy()
     att = np.sqrt(sum(frame[f"att_err_{a}_deg"] ** 2 for a in AXIS_COLORS))
     ax0.plot(t, att, color="k", lw=1.0, label="total attitude error")
@@ -77,7 +76,7 @@ def plot_hold(frame, path, *, title: str, maneuver_limit_deg: float = 0.6,
     ax1.axhline(0.0, color="0.6", lw=0.6)
     ax1.set_ylabel("yaw rate [deg/s]")
     ax1.grid(alpha=0.3)
-    _signed_jets(ax2, t, frame, "yaw")
+    signed_jets(ax2, t, frame, "yaw")
     ax2.axhline(0.0, color="0.6", lw=0.6)
     ax2.set_ylim(-48, 48)
     ax2.set_ylabel("yaw jets [ms/cycle]\n(+ up, - down)")
@@ -85,10 +84,9 @@ def plot_hold(frame, path, *, title: str, maneuver_limit_deg: float = 0.6,
     ax2.legend(loc="upper right", fontsize=7, ncol=4)
     ax2.set_xlabel("time [s]")
     fig.savefig(path, dpi=DPI)
-    plt.close(fig)
 
 
-def plot_table_heatmap(firing_time_s, path, *, title: str, cycle_s: float = 0.04,
+def plot_table_heatmap(firing_time_s, path, *, title: str, cycle_s: float = CONTROL_CYCLE_S,
                        rate_cmd_rad_s=None) -> None:
     """Firing time per case and jet as a heat map annotated in control cycles.
 
@@ -100,7 +98,7 @@ def plot_table_heatmap(firing_time_s, path, *, title: str, cycle_s: float = 0.04
     """
     ft = np.asarray(firing_time_s, float)
     used = np.flatnonzero(ft.any(axis=0))
-    fig, ax = plt.subplots(figsize=(7.5, 8), constrained_layout=True)
+    fig, ax = new_figure(figsize=(7.5, 8))
     im = ax.imshow(ft[:, used], aspect="auto", cmap="viridis", vmin=0)
     for i in range(ft.shape[0]):
         for k, j in enumerate(used):
@@ -119,13 +117,12 @@ def plot_table_heatmap(firing_time_s, path, *, title: str, cycle_s: float = 0.04
     ax.set_title(title, fontsize=10)
     fig.colorbar(im, ax=ax, label="firing time [s] (numbers: control cycles)")
     fig.savefig(path, dpi=DPI)
-    plt.close(fig)
 
 
 def plot_sweep_case(command_hist, damping_hist, case_index: int, path, *, title: str) -> None:
     """Rates and jet commands of one case: from rest to the command (left) and from the
     command rate to rest (right) -- paper Figs 3-4 side by side."""
-    fig, axes = plt.subplots(3, 2, figsize=(10, 7), sharex=True, constrained_layout=True)
+    fig, axes = new_figure(3, 2, figsize=(10, 7), sharex=True)
     jets_of = {"roll": (1, 2, 3, 4), "pitch": (9, 10, 11, 12), "yaw": (13, 14, 15, 16)}
     for col, (hist, label) in enumerate(((command_hist, "rate command"),
                                          (damping_hist, "rate damping"))):
@@ -153,78 +150,3 @@ def plot_sweep_case(command_hist, damping_hist, case_index: int, path, *, title:
         axes[-1, col].set_xlabel("time [s]")
     fig.suptitle(title)
     fig.savefig(path, dpi=DPI)
-    plt.close(fig)
-
-
-#: The docs figure set: file name -> (scenario, plot kind).  Kinds: "att" attitude error,
-#: "jets" rates with jet commands per axis, "hold" the attitude-hold view.
-FIGURES = {
-    "lookup_fig05_single_axis_attitude.png": ("single-axis-yaw", "att"),
-    "lookup_fig06_single_axis_jets.png": ("single-axis-yaw", "jets"),
-    "lookup_fig07_three_axis_attitude.png": ("three-axis-5deg", "att"),
-    "lookup_fig08_three_axis_jets.png": ("three-axis-5deg", "jets"),
-    "lookup_fig17_hold_no_band.png": ("attitude-hold-disturbed-no-band", "hold"),
-    "lookup_fig18_hold_band.png": ("attitude-hold-disturbed", "hold"),
-    "lookup_fig19_disturbed_attitude.png": ("disturbed-three-axis", "att"),
-    "lookup_fig20_disturbed_jets.png": ("disturbed-three-axis", "jets"),
-    "lookup_fig21_large_attitude.png": ("large-90deg", "att"),
-    "lookup_fig22_24_large_jets.png": ("large-90deg", "jets"),
-    "lookup_fig25_slow_attitude.png": ("slow-0.1deg-s", "att"),
-    "lookup_fig26_28_slow_jets.png": ("slow-0.1deg-s", "jets"),
-}
-
-
-def firing_windows(frame, before_s: float = 0.3, after_s: float = 1.2):
-    """Zoom windows [s] around the first and the last firing of a flight (empty if none)."""
-    jets = frame.filter(regex=r"^jet_\d\d_on_s$").to_numpy()
-    t = frame["t_s"].to_numpy()
-    firing = np.flatnonzero(jets.sum(axis=1) > 0)
-    if firing.size == 0:
-        return []
-    first, last = t[firing[0]], t[firing[-1]]
-    return [(max(first - before_s, 0.0), first + after_s), (last - after_s, last + before_s)]
-
-
-def write_figure_set(out_dir, *, table=None) -> list[str]:
-    """Write the lookup controller's paper figure set (``lookup_*.png``) into ``out_dir``.
-
-    Figs 3-4 come from a fresh table generation (nominal vehicle); the others from flying the
-    named scenarios with the lookup controller (``table``: default the packaged table).
-    Returns the file names.
-    """
-    from rcsim.analysis.scenarios import fly_scenario, get_scenario
-    from rcsim.lookup.table_generation import generate_table
-
-    out_dir = Path(out_dir)
-    gen = generate_table()
-    rate = np.asarray(gen.table.rate_cmd)
-    names = ["lookup_fig03_rate_command.png", "lookup_fig04_rate_damping.png",
-             "lookup_fig03_04_case26.png", "lookup_rate_damping_runs.png"]
-    plot_table_heatmap(gen.table.firing_time_s, out_dir / names[0], rate_cmd_rad_s=rate,
-                       title="Fig 3: firing time from rest to each rate command (generated)")
-    plot_table_heatmap(gen.damping_firing_time_s, out_dir / names[1], rate_cmd_rad_s=rate,
-                       title="Fig 4: firing time to damp each rate to zero; equal times on "
-                       f"opposing jets in {int(gen.damping_equal.sum())}/26 cases")
-    plot_sweep_case(gen.command.history, gen.damping.history, 25, out_dir / names[2],
-                    title="Case 26 (+,+,+) 0.3 deg/s: rate command vs rate damping")
-    damp = get_scenario("rate-damping")
-    plot_runs_rates(fly_scenario(damp, "lookup", table=table), out_dir / names[3],
-                    title="lookup controller: rate damping of the 26 Table 3 rates")
-    flown = {}
-    for name, (scn_name, kind) in FIGURES.items():
-        if scn_name not in flown:
-            scn = get_scenario(scn_name)
-            flown[scn_name] = history_frame(fly_scenario(scn, "lookup", table=table), 0)
-        frame = flown[scn_name]
-        title = f"lookup: {scn_name}"
-        if kind == "att":
-            plot_attitude_error(frame, out_dir / name, title=title)
-        elif kind == "jets":
-            axes = ("yaw",) if scn_name == "single-axis-yaw" else ("roll", "pitch", "yaw")
-            plot_axes_jets(frame, out_dir / name, title=title, axes=axes,
-                           windows=firing_windows(frame))
-        else:
-            band = get_scenario(scn_name).lookup_options.get("no_fire_band_rad", np.radians(0.1))
-            plot_hold(frame, out_dir / name, title=title, band_deg=float(np.degrees(band)))
-        names.append(name)
-    return names
