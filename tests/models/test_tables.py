@@ -1,4 +1,4 @@
-"""Tests for models.tables: the paper's reference tables (Gambone, Pattern Recognition Control
+"""Tests for rcsim.models.tables: the paper's reference tables (Gambone, Pattern Recognition Control
 Design, Tables 1-7) as packaged CSV files, and the loaders that validate them.
 
 Oracles are the paper's own text and definitions, restated here independently of the code under
@@ -309,7 +309,7 @@ def test_to_csv_is_atomic(tmp_path, monkeypatch):
     def boom(src, dst):
         raise OSError("disk full")
 
-    monkeypatch.setattr(tables.os, "replace", boom)
+    monkeypatch.setattr(os, "replace", boom)  # atomic_write renames with os.replace
     with pytest.raises(OSError):
         tables.load_lookup_table().to_csv(target)
     assert target.read_text() == "previous content\n"

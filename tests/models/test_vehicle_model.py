@@ -1,7 +1,8 @@
 """The packaged vehicle MJCF (models/vehicle/vehicle.xml) against its sources.
 
-Oracles: Gambone Table 1 (mass properties, read by ``models.tables.load_mass_properties``, which
-``tests/models/test_tables.py`` checks against the paper's text) and the model conventions of
+Oracles: Gambone Table 1 (mass properties, read by
+``rcsim.models.tables.load_mass_properties``, which ``tests/models/test_tables.py`` checks
+against the paper's text) and the model conventions of
 ``models/vehicle/README.md`` (jets are site-transmission actuators named jet_01..jet_16 on sites
 j01..j16, force along the site's z axis, ctrl = on-fraction of the physics step).
 """
