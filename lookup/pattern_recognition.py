@@ -48,11 +48,13 @@ from pathlib import Path
 import numpy as np
 
 from rcsim.models.errors import InputError
-from rcsim.models.tables import LookupTable, load_lookup_inputs, load_lookup_table
+from rcsim.models.tables import (
+    CONTROL_CYCLE_S, LookupTable, load_lookup_inputs, load_lookup_table,
+)
 from rcsim.spacecraft.navigation import NavState
 
 N_AXES = 3
-#: Tolerance for "a timer has run out" [s]: timers are sums of multiples of 40 ms and
+#: Tolerance for "a timer has run out" [s]: timers are sums of multiples of the cycle and
 #: scaled table times; float error is ~1e-17 s, a microsecond is far below any on-time.
 _TIMER_EPS_S = 1e-9
 
@@ -141,7 +143,8 @@ class LookupParams:
         Half-width of the no-firing region around the maneuver limit [rad] (0.1 deg,
         paper Figs 17-18); 0 disables it.
     cycle_s : float
-        Control cycle [s] (40 ms).
+        Control cycle [s]; default :data:`models.tables.CONTROL_CYCLE_S` (40 ms).  Must be the
+        simulation's (``PropulsionParams.cycle_s``); the simulation refuses a mismatch.
     """
 
     maneuver_limit_rad: float
@@ -150,7 +153,7 @@ class LookupParams:
     on_time_limit_s: float
     hold_time_s: float
     no_fire_band_rad: float = np.radians(0.1)
-    cycle_s: float = 0.04
+    cycle_s: float = CONTROL_CYCLE_S
 
     def __post_init__(self):
         for name in ("maneuver_limit_rad", "maneuver_rate_rad_s", "rate_error_limit_rad_s",
@@ -226,6 +229,11 @@ class LookupController:
         # Opposing group of each jet; unused jets point at an extra all-zero column.
         self._opp_group = np.where(used, 2 * self.jet_axis_ + (self.jet_sign_ < 0), 2 * N_AXES)
 
+    @property
+    def cycle_s(self) -> float:
+        """Control cycle the controller assumes [s] (checked by the simulation)."""
+        return self.params.cycle_s
+
     @classmethod
     def from_files(cls, table: str | os.PathLike | None = None,
                    inputs: str | os.PathLike | None = None, **overrides) -> "LookupController":
@@ -234,19 +242,21 @@ class LookupController:
         Parameters
         ----------
         table : path, optional
-            Default: the packaged generated table (`lookup/data/generated_table.csv`).
+            A table CSV, or anything else :func:`models.tables.load_lookup_table` accepts;
+            default the packaged generated table (`lookup/data/generated_table.csv`).
         inputs : path, optional
             Table 4 CSV; default the packaged one.
         **overrides
             :class:`LookupParams` fields, e.g. ``no_fire_band_rad=0.0``.
+
+        Raises
+        ------
+        InputError
+            The table or inputs do not load (a missing file is named by its path).
         """
-        if table is None:
-            tab = load_default_table()
-        else:
-            path = Path(table)
-            if not path.is_file():
-                raise InputError(f"--table {path}: file not found")
-            tab = load_lookup_table(path)
+        # The table loader is the one place that refuses a missing file (InputError naming
+        # the path) and knows what else ``table`` may name.
+        tab = load_default_table() if table is None else load_lookup_table(table)
         return cls(tab, LookupParams.from_table4(inputs, **overrides))
 
     def initial_state(self, n_runs: int) -> LookupState:

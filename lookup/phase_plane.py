@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from rcsim.models.tables import CONTROL_CYCLE_S
 from rcsim.spacecraft.navigation import NavState
 from rcsim.spacecraft.vehicle import VehicleParams, load_model, torque_per_jet_B
 
@@ -45,7 +46,9 @@ class PhasePlaneParams:
     maneuver_rate_rad_s : float
         Maneuver rate limit [rad/s].
     cycle_s : float
-        Control cycle [s].
+        Control cycle [s] the firings are split into; default
+        :data:`models.tables.CONTROL_CYCLE_S`.  Must be the simulation's
+        (``PropulsionParams.cycle_s``); the simulation refuses a mismatch.
     """
 
     jet_map: np.ndarray
@@ -53,7 +56,7 @@ class PhasePlaneParams:
     att_deadband_rad: float = np.radians(0.25)
     rate_deadband_rad_s: float = np.radians(0.03)
     maneuver_rate_rad_s: float = np.radians(0.2)
-    cycle_s: float = 0.04
+    cycle_s: float = CONTROL_CYCLE_S
 
     @classmethod
     def for_vehicle(
@@ -94,6 +97,11 @@ class PhasePlaneController:
         jm = np.asarray(params.jet_map)
         # (2, 3, 16) masks: jets that torque axis a in the negative [0] / positive [1] sense.
         self._jets = np.stack([(jm.T < 0), (jm.T > 0)]).astype(float)
+
+    @property
+    def cycle_s(self) -> float:
+        """Control cycle the controller assumes [s] (checked by the simulation)."""
+        return self.params.cycle_s
 
     def initial_state(self, n_runs: int) -> PhasePlaneState:
         z = np.zeros((n_runs, 3))

@@ -1,4 +1,8 @@
-"""Controllers by name, as the CLI and campaign specs name them."""
+"""Controllers by name, as the CLI and campaign specs name them.
+
+:data:`CONTROLLERS` is the one list of controller names: the CLI's choices, campaign specs and
+scenario comparisons take it from here.
+"""
 from __future__ import annotations
 
 import os
@@ -7,6 +11,7 @@ import mujoco
 
 from rcsim.spacecraft.simulation import Controller
 
+#: Every controller :func:`make_controller` builds, by name.
 CONTROLLERS = ("phase-plane", "lookup")
 
 
@@ -24,13 +29,20 @@ def make_controller(
     ----------
     name : {"phase-plane", "lookup"}
     table : path, optional
-        Lookup table CSV (rcsim or paper layout) for ``"lookup"``; default the packaged table
+        Lookup table CSV (rcsim or paper layout) for ``"lookup"``, or whatever else
+        :func:`models.tables.load_lookup_table` accepts; default the packaged table
         ``lookup/data/generated_table.csv``.
     model : mujoco.MjModel, optional
         Vehicle whose *nominal* properties the phase-plane design uses.
     lookup_options, phase_plane_options : dict, optional
         Overrides of :class:`lookup.pattern_recognition.LookupParams` /
         :class:`lookup.phase_plane.PhasePlaneParams` fields for that controller.
+
+    Raises
+    ------
+    InputError
+        Unknown ``name``; ``table`` given for a controller other than ``"lookup"``; a table
+        that does not load (a missing file is named by its path).
     """
     from rcsim.models.errors import InputError
     from rcsim.models.tables import load_jet_map
@@ -39,7 +51,8 @@ def make_controller(
         from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
 
         if table is not None:
-            raise InputError("--table is only for --controller lookup")
+            raise InputError(f"is only for the lookup controller, not {name!r} "
+                             f"(got {str(table)!r})", parameter="table", value=table)
         return PhasePlaneController(PhasePlaneParams.for_vehicle(
             load_jet_map(), model=model, **(phase_plane_options or {})))
     if name == "lookup":

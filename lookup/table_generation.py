@@ -2,7 +2,7 @@
 
 For each of the 26 rate cases (Table 3) the nominal vehicle is flown from rest with the case's
 rate command and a *rate-command firing loop*: on every commanded axis the jets of the jet map
-whose torque points along the command fire for whole 40 ms control cycles until the measured
+whose torque points along the command fire for whole control cycles (40 ms) until the measured
 rate reaches or passes the command on that axis (the paper: "the simulations were run until
 thrusters were fired to reach the desired rate").  The firing time of the axis is the whole
 number of cycles whose *measured* end rate is nearest the command -- the last cycle before the
@@ -10,8 +10,9 @@ crossing or the crossing cycle, whichever ends closer.  No mass property enters:
 read from the simulation.
 
 The table is then *verified* by flying it open loop (every jet fires its table time from rest):
-the residual rate error per axis and the rate settling time after firing (time from the end of
-the firing until every axis stays within ``settle_tol_rad_s`` of the command) are recorded.
+the residual rate error per axis and the rate settling time after firing
+(``settle_after_firing_s``: time from the end of the firing until every axis stays within
+``settle_tol_rad_s`` of the command) are recorded.
 
 The rate-damping property (paper Figs 3-4) is shown the same way: start at each case's rate with
 a zero rate command and let the same firing loop null it; the firing times needed are equal to
@@ -29,7 +30,7 @@ import numpy as np
 import pandas as pd
 
 from rcsim.models.tables import (
-    LookupTable, RateCases, check_consistency, load_jet_map, load_rate_cases,
+    CONTROL_CYCLE_S, LookupTable, RateCases, check_consistency, load_jet_map, load_rate_cases,
 )
 from rcsim.spacecraft.navigation import Guidance, NavState
 from rcsim.spacecraft.propulsion import PropulsionParams
@@ -62,7 +63,7 @@ class RateFiringLoop:
     State: ``direction`` (n_runs, 3) in {-1, 0, +1} and ``done`` (n_runs, 3) bool.
     """
 
-    def __init__(self, jet_map: np.ndarray, cycle_s: float = 0.04):
+    def __init__(self, jet_map: np.ndarray, cycle_s: float = CONTROL_CYCLE_S):
         jm = np.asarray(jet_map, int)
         self._pos = (jm.T > 0).astype(float)  # (3, 16)
         self._neg = (jm.T < 0).astype(float)
@@ -91,7 +92,7 @@ class TableFiring:
         Control cycle [s].
     """
 
-    def __init__(self, firing_time_s: np.ndarray, cycle_s: float = 0.04):
+    def __init__(self, firing_time_s: np.ndarray, cycle_s: float = CONTROL_CYCLE_S):
         self.firing_time_s = np.asarray(firing_time_s, float)
         self.cycle_s = cycle_s
 
@@ -145,9 +146,12 @@ class GeneratedTable:
     verify_rate_err_rad_s : ndarray, (26, 3)
         Rate error when the table is flown open loop, measured ``settle_window_s`` after the
         longest firing ends [rad/s].
-    settle_time_s : ndarray, (26,)
-        Time from the end of the case's firing until every axis stays within ``settle_tol``
-        of the command (cycle resolution); NaN if it never does within the window.
+    settle_after_firing_s : ndarray, (26,)
+        Settling time *after the firing ends*: from the end of the case's longest firing
+        until every axis stays within ``settle_tol_rad_s`` of the commanded rate (cycle
+        resolution); NaN if it never does within the window.  Measured from the firing's end,
+        not from t = 0, hence its own name (unlike a campaign's ``rate_settled_time_s`` or a
+        scenario's ``att_rate_settled_time_s``, both measured from the start of the flight).
     settle_tol_rad_s : float
         Tolerance of the settling time [rad/s].
     """
@@ -157,7 +161,7 @@ class GeneratedTable:
     damping: FiringSweep
     damping_firing_time_s: np.ndarray
     verify_rate_err_rad_s: np.ndarray
-    settle_time_s: np.ndarray
+    settle_after_firing_s: np.ndarray
     settle_tol_rad_s: float
 
     @property
@@ -175,7 +179,7 @@ class GeneratedTable:
             cols[f"{axis}_cycles"] = self.command.cycles[:, a]
         for a, axis in enumerate(AXES):
             cols[f"end_rate_err_{axis}_deg_s"] = np.degrees(self.verify_rate_err_rad_s[:, a])
-        cols["settle_time_s"] = self.settle_time_s
+        cols["settle_after_firing_s"] = self.settle_after_firing_s
         cols["settle_tol_deg_s"] = np.degrees(self.settle_tol_rad_s)
         for a, axis in enumerate(AXES):
             cols[f"damping_{axis}_cycles"] = self.damping.cycles[:, a]
@@ -334,7 +338,7 @@ def generate_table(
     settle = settle_at - fire_end
     return GeneratedTable(
         table=table, command=command, damping=damping, damping_firing_time_s=damping_times,
-        verify_rate_err_rad_s=verify.final.rate_err_B.copy(), settle_time_s=settle,
+        verify_rate_err_rad_s=verify.final.rate_err_B.copy(), settle_after_firing_s=settle,
         settle_tol_rad_s=float(settle_tol_rad_s),
     )
 
@@ -361,7 +365,7 @@ def axis_times(table: LookupTable) -> tuple[np.ndarray, np.ndarray]:
 
 
 def compare_tables(generated: LookupTable, paper: LookupTable,
-                   cycle_s: float = 0.04) -> pd.DataFrame:
+                   cycle_s: float = CONTROL_CYCLE_S) -> pd.DataFrame:
     """Case-by-case comparison of two lookup tables (e.g. generated vs paper Table 6).
 
     Returns

@@ -124,9 +124,20 @@ class DispersedRuns:
 
 
 def run_streams(seed: int, run_id: int) -> tuple[np.random.SeedSequence, np.random.SeedSequence]:
-    """The ``(dispersion, noise)`` seed sequences of run ``run_id`` of a campaign."""
+    """The ``(dispersion, noise)`` seed sequences of run ``run_id`` of a campaign.
+
+    THE per-run seeding rule of rcsim: ``SeedSequence(seed, spawn_key=(run_id,)).spawn(2)``.
+    Every Monte Carlo (campaigns, studies) draws run ``i`` through it or :func:`run_generators`.
+    """
     disp_ss, noise_ss = np.random.SeedSequence(int(seed), spawn_key=(int(run_id),)).spawn(2)
     return disp_ss, noise_ss
+
+
+def run_generators(seed: int, run_id: int) -> tuple[np.random.Generator, np.random.Generator]:
+    """Generators on the ``(first, second)`` streams of :func:`run_streams` ``(seed, run_id)``:
+    (dispersion, noise) for a campaign; any two independent per-run sources for a study."""
+    first, second = run_streams(seed, run_id)
+    return np.random.default_rng(first), np.random.default_rng(second)
 
 
 def standard_draws(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:

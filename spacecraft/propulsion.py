@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rcsim.models.tables import CONTROL_CYCLE_S
 from rcsim.spacecraft.vehicle import G0_M_S2, N_JETS
 
 
@@ -23,14 +24,14 @@ class PropulsionParams:
     Attributes
     ----------
     cycle_s : float
-        Control cycle [s] (40 ms in the paper).
+        Control cycle [s]; default :data:`models.tables.CONTROL_CYCLE_S` (40 ms, paper sec. II).
     min_pulse_s : float
         Shortest firing a valve can make [s].  A *new* firing commanded shorter than this is
         not made (the command is dropped and counted in ``dropped``); a firing continuing from
         the previous cycle is never cut.  0 disables the limit.
     """
 
-    cycle_s: float = 0.04
+    cycle_s: float = CONTROL_CYCLE_S
     min_pulse_s: float = 0.0
 
     def __post_init__(self):

@@ -5,11 +5,29 @@ limits, exact per-step duty (:mod:`spacecraft.propulsion`), then ``n_sub`` physi
 runs in MuJoCo's thread pool (:class:`mujoco.batch.Batch`, GIL released).  There is no Python
 loop over runs; one run is a batch of one.
 
-A run whose MuJoCo step raises or whose state turns non-finite is marked failed with its
-reason and frozen; the others go on.
+Failures
+--------
+A run whose physics diverges is marked failed (``History.failed``) with MuJoCo's own reason and
+frozen; the others go on.  MuJoCo does not raise on divergence: on a NaN, infinite or huge
+``qpos``/``qvel``/``qacc`` (or ``ctrl``) it raises a *warning* and silently resets that
+simulation to the model's initial state (``mj_resetData``), which then "flies" on as if
+nothing happened.  The signal is each simulation's warning counters (``MjData.warning``, read
+per run from :attr:`mujoco.batch.Batch.warning`, shape ``(n_runs, mjNWARNING, 2)`` =
+``(lastinfo, number)``; cleared by every reset): a run whose counters rose is failed with the
+warning's name, MuJoCo's text (:func:`mujoco.mju_warningText`) and the control cycle it rose in.
+A MuJoCo error (:class:`mujoco.batch.SimulationError`) and a non-finite state (a backstop) fail a
+run the same way.  The warning messages themselves go to the ``rcsim.mujoco`` logger
+(:func:`spacecraft.vehicle.route_mujoco_warnings`), never to a ``MUJOCO_LOG.TXT``.
+
+Refusals
+--------
+:meth:`BatchSimulation.run` refuses, before allocating anything, a controller whose control
+cycle disagrees with the propulsion's, and a history that would not fit in memory
+(:func:`spacecraft.guards.memory_budget_bytes`).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Protocol
 
@@ -17,19 +35,27 @@ import mujoco
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.guards import check_cycle, check_history_memory, warning_reasons
 from rcsim.spacecraft.navigation import Guidance, NavState, navigate
 from rcsim.spacecraft.propulsion import (
     PropulsionParams, PropulsionState, apply_valve_limits, duty_profile,
 )
 from rcsim.spacecraft.vehicle import (
     BODY, N_JETS, VehicleParams, dist_actuator_ids, jet_actuator_ids, load_model,
+    route_mujoco_warnings,
 )
 
 _CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
 
 
 class Controller(Protocol):
-    """A batched controller: explicit state in, jet on-times and new state out."""
+    """A batched controller: explicit state in, jet on-times and new state out.
+
+    A controller whose logic assumes a control cycle (timers, firings split into cycles) says
+    so with a ``cycle_s`` attribute [s]; :meth:`BatchSimulation.run` refuses it when it differs
+    from the propulsion's ``cycle_s``.  A controller without the attribute is cycle-agnostic.
+    """
 
     def initial_state(self, n_runs: int) -> Any: ...
 
@@ -54,9 +80,14 @@ class History:
     propulsion : PropulsionState
         Firings, on-time, impulse per jet over the run.
     failed : ndarray of bool, (n_runs,)
-        The simulation itself failed (MuJoCo error, non-finite state, invalid parameters).
+        The simulation itself failed (invalid parameters, MuJoCo warning -- the physics
+        diverged --, MuJoCo error, non-finite state).  A failed run is frozen from the cycle it
+        failed in; its later records are not a flight.
     reason : list of str
         Why, per run ('' when it did not fail).
+    flown_params : VehicleParams or None
+        The parameters each run was flown with, read back from MuJoCo's per-run model
+        (:meth:`BatchSimulation.flown_params`); None for a history not made by a simulation.
     """
 
     t_s: np.ndarray
@@ -69,6 +100,7 @@ class History:
     propulsion: PropulsionState
     failed: np.ndarray
     reason: list[str] = field(default_factory=list)
+    flown_params: VehicleParams | None = None
 
     @property
     def n_runs(self) -> int:
@@ -118,6 +150,7 @@ class BatchSimulation:
         model: mujoco.MjModel | None = None,
         nthread: int = 0,
     ):
+        route_mujoco_warnings()
         self.model = load_model() if model is None else model
         self.params = params
         self.propulsion = propulsion
@@ -135,6 +168,8 @@ class BatchSimulation:
         self._write_params()
         self._qpos = self._batch.bind("qpos")
         self._qvel = self._batch.bind("qvel")
+        # Live (n_runs, mjNWARNING, 2) view of each simulation's MjData.warning (lastinfo, number).
+        self._warning = self._batch.warning
 
     @property
     def n_runs(self) -> int:
@@ -154,9 +189,51 @@ class BatchSimulation:
         b.expand("body_inertia")[:, body] = pick(p.inertia_B, nominal.inertia_B)
         b.expand("actuator_gainprm")[:, self._jets, 0] = pick(p.thrust_n, nominal.thrust_n)
         b.expand("actuator_gear")[:, self._jets, 0:3] = pick(p.jet_dir_S, nominal.jet_dir_S)
-        # mass, CG and inertia feed constants (body_subtreemass, body_iquat, ...) that MuJoCo
-        # only recomputes in mj_setConst; without it some changes are silently ignored.
+        # mass, CG and inertia feed constants (body_subtreemass, body_invweight0, dof_M0,
+        # actuator_acc0, ...) that MuJoCo only recomputes in mj_setConst; without it some
+        # changes are silently ignored.
         b.set_const()
+
+    def flown_params(self) -> VehicleParams:
+        """The parameters each run is flown with, read back from MuJoCo's per-run model.
+
+        Read from the batch's per-simulation fields after ``mj_setConst``: ``body_mass``,
+        ``body_ipos``, ``body_inertia``, ``actuator_gainprm[:, 0]`` and ``actuator_gear[:, 0:3]``
+        of the jets.  They equal :attr:`params` bit for bit, except for runs with invalid
+        parameters, which are flown (and read back) with the nominal values.  ``isp_s`` is not
+        a MuJoCo quantity and is copied from :attr:`params`.
+
+        MuJoCo stores a body's inertia as principal moments ``body_inertia`` in the frame
+        ``body_iquat``.  Both are *inputs* of ``mj_setConst`` (mujoco 4.0:
+        ``MjModel._setconst_inputs``; its outputs are derived constants such as
+        ``body_subtreemass``), so neither is re-oriented or re-diagonalized after the write, and
+        the packaged vehicle's ``body_iquat`` is the identity: the moments read back are about
+        the body axes B, as :class:`VehicleParams` defines them.
+
+        Returns
+        -------
+        VehicleParams
+            ``n_runs`` entries.
+        """
+        b = self._batch
+        body = self.model.body(BODY).id
+
+        def field_of(name: str) -> np.ndarray:
+            # expand() (done in _write_params) made these per-simulation; copy: the live
+            # arrays are the batch's own model memory.
+            values = b.expanded(name)
+            if values is None:  # pragma: no cover - _write_params always expands them
+                raise AssertionError(f"{name} is not per-simulation")
+            return np.array(values)
+
+        return VehicleParams(
+            mass_kg=field_of("body_mass")[:, body],
+            cg_B=field_of("body_ipos")[:, body],
+            inertia_B=field_of("body_inertia")[:, body],
+            thrust_n=field_of("actuator_gainprm")[:, self._jets, 0],
+            jet_dir_S=field_of("actuator_gear")[:, self._jets, 0:3],
+            isp_s=self.params.isp_s,
+        )
 
     def run(
         self,
@@ -187,16 +264,27 @@ class BatchSimulation:
             Controller state to start from; default ``controller.initial_state(n_runs)``.
         progress : callable, optional
             Called with the number of cycles done after each cycle.
+
+        Raises
+        ------
+        InputError
+            ``duration_s`` not > 0; the controller's ``cycle_s`` differs from the
+            propulsion's; the history would not fit in memory
+            (:func:`spacecraft.guards.memory_budget_bytes`).
         """
         n, cycle = self.n_runs, self.propulsion.cycle_s
         if not np.isfinite(duration_s) or duration_s <= 0:
-            raise ValueError(f"duration_s must be > 0, got {duration_s}")
-        n_cycles = int(np.ceil(duration_s / cycle - 1e-9))
+            raise InputError(f"must be > 0, got {duration_s}", parameter="duration_s",
+                             value=duration_s)
+        check_cycle(controller, cycle)
+        n_cycles = int(math.ceil(duration_s / cycle - 1e-9))
+        check_history_memory(n, n_cycles, duration_s)
         self._reset(q0_BN, omega0_B)
         state = controller.initial_state(n) if ctrl_state is None else ctrl_state
         prop = PropulsionState.zeros(n)
         failed = np.array([bool(r) for r in self.invalid])
         reason = list(self.invalid)
+        self._check_warnings(failed, reason, 0.0, 0.0)  # the initial state itself
 
         t_s = np.arange(n_cycles) * cycle
         # Cycle-major buffers: each cycle writes one contiguous block; transposed once at the end.
@@ -223,14 +311,15 @@ class BatchSimulation:
             if disturbance_B is not None:
                 torque = disturbance_B(k * cycle) if callable(disturbance_B) else disturbance_B
                 control[:, :, self._dist] = np.asarray(torque, float)[:, None, :]
-            self._step(control, failed, reason)
+            self._step(control, failed, reason, k * cycle, (k + 1) * cycle)
             if progress is not None:
                 progress(k + 1)
         final = navigate(n_cycles * cycle, self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy(), guidance)
         # (n_runs, n_cycles, k) views of the cycle-major buffers: a copy would double the peak
         # memory of a large batch and cost a tenth of its wall time.
         rec = {key: value.swapaxes(0, 1) for key, value in rec.items()}
-        return History(t_s=t_s, final=final, propulsion=prop, failed=failed, reason=reason, **rec)
+        return History(t_s=t_s, final=final, propulsion=prop, failed=failed, reason=reason,
+                       flown_params=self.flown_params(), **rec)
 
     def _reset(self, q0_BN, omega0_B) -> None:
         n = self.n_runs
@@ -242,8 +331,21 @@ class BatchSimulation:
             self._qvel[:, 3:6] = np.asarray(omega0_B, float).reshape(n, 3)
         self._batch.forward()
 
-    def _step(self, control: np.ndarray, failed: np.ndarray, reason: list[str]) -> None:
-        """``n_sub`` physics steps of the runs still alive; newly failed ones are frozen."""
+    def _check_warnings(self, failed: np.ndarray, reason: list[str], t0_s: float,
+                        t1_s: float) -> None:
+        """Fail the runs whose MuJoCo warning counters rose in ``[t0_s, t1_s]``.
+
+        MuJoCo resets a diverged simulation and goes on; its warning counters (zeroed at
+        reset) are the only trace (module docstring, "Failures").
+        """
+        for i, why in warning_reasons(self._warning, ~failed, t0_s, t1_s).items():
+            failed[i] = True
+            reason[i] = why
+
+    def _step(self, control: np.ndarray, failed: np.ndarray, reason: list[str],
+              t0_s: float, t1_s: float) -> None:
+        """``n_sub`` physics steps (cycle ``[t0_s, t1_s]``) of the runs still alive; newly
+        failed ones are frozen."""
         alive = np.flatnonzero(~failed)
         if alive.size == 0:
             return
@@ -255,6 +357,7 @@ class BatchSimulation:
             for i in exc.ids:
                 failed[i] = True
                 reason[i] = f"MuJoCo error: {self._batch.error(int(i))}"
+        self._check_warnings(failed, reason, t0_s, t1_s)
         state_ok = np.isfinite(self._qvel.sum(axis=1) + self._qpos.sum(axis=1))
         if state_ok.all():
             return

@@ -6,6 +6,7 @@ leading ``n_runs`` axis; dispersions replace some of them.
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, replace
 
 import mujoco
@@ -23,6 +24,29 @@ BODY = "vehicle"
 G0_M_S2 = 9.80665
 
 
+#: Logger that receives MuJoCo's warning messages (see :func:`route_mujoco_warnings`).
+MUJOCO_LOGGER = logging.getLogger("rcsim.mujoco")
+
+
+def _log_mujoco_warning(message: str) -> None:
+    # Called by MuJoCo, possibly from a batch's worker threads (the bindings take the GIL).
+    MUJOCO_LOGGER.info("MuJoCo warning: %s", message)
+
+
+def route_mujoco_warnings() -> None:
+    """Send MuJoCo's warning messages to the ``rcsim.mujoco`` logger (level INFO).
+
+    Without a handler, MuJoCo prints each warning and appends it to ``MUJOCO_LOG.TXT`` in the
+    current directory: a stray file in the user's directory.  What a warning means for a run
+    is recorded in that run's own failure reason (:mod:`spacecraft.simulation` reads the
+    per-run warning counters), so the message itself is only logged.  A handler the caller
+    installed (``mujoco.set_mju_user_warning``) is kept.  Idempotent; process-wide, as
+    MuJoCo's handler is.
+    """
+    if mujoco.get_mju_user_warning() is None:
+        mujoco.set_mju_user_warning(_log_mujoco_warning)
+
+
 def load_model(*, timestep_s: float | None = None, integrator: str | None = None) -> mujoco.MjModel:
     """Compile the packaged vehicle MJCF.
 
@@ -33,6 +57,7 @@ def load_model(*, timestep_s: float | None = None, integrator: str | None = None
     integrator : {"RK4", "Euler", "implicit", "implicitfast"}, optional
         MuJoCo integrator; default the MJCF's.
     """
+    route_mujoco_warnings()
     model = mujoco.MjModel.from_xml_path(str(vehicle_xml()))
     if timestep_s is not None:
         model.opt.timestep = float(timestep_s)

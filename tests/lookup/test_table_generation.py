@@ -11,6 +11,7 @@ from __future__ import annotations
 from importlib.resources import files
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from rcsim.analysis.cli import main
@@ -61,7 +62,7 @@ def test_firing_times_are_nearest_whole_cycles(gen):
 def test_settling_after_firing(gen):
     """A rigid body with ideal rate sensing holds its rate once the jets stop: within Table 4's
     0.06 deg/s tolerance at the first sample after the firing (settling time 0)."""
-    np.testing.assert_array_equal(gen.settle_time_s, 0.0)
+    np.testing.assert_array_equal(gen.settle_after_firing_s, 0.0)
     assert np.all(np.abs(np.degrees(gen.verify_rate_err_rad_s)) < 0.0151)  # bound above
 
 
@@ -112,6 +113,19 @@ def test_packaged_table_is_the_generated_one(gen):
     np.testing.assert_allclose(packaged.rate_cmd, gen.table.rate_cmd, rtol=1e-12)
 
 
+def test_packaged_settling_companion_is_the_generated_one(gen):
+    """lookup/data/generated_table_settling.csv is what ``settling_frame`` writes today: the
+    same columns (``settle_after_firing_s``, the settling time measured from the end of the
+    firing) and values (float64 round-trip through CSV; 1e-12 absolute allows for the last
+    bit of the printed decimals)."""
+    path = files("rcsim.lookup") / "data" / "generated_table_settling.csv"
+    packaged = pd.read_csv(str(path))
+    frame = gen.settling_frame()
+    assert list(packaged.columns) == list(frame.columns)
+    assert "settle_after_firing_s" in frame.columns and "settle_time_s" not in frame.columns
+    pd.testing.assert_frame_equal(packaged, frame, check_exact=False, rtol=0, atol=1e-12)
+
+
 def test_cli_generate_and_errors(tmp_path, capsys):
     out = tmp_path / "t.csv"
     assert main(["lookup", "generate", "--out", str(out)]) == 0
@@ -119,9 +133,11 @@ def test_cli_generate_and_errors(tmp_path, capsys):
     assert table.firing_time_s.shape == (26, 16)
     assert (tmp_path / "t_settling.csv").is_file()
     assert "26/26" in capsys.readouterr().out
-    # Bad input: one-line error, exit 2, nothing written.
-    assert main(["lookup", "generate", "--out", str(tmp_path / "no" / "t.csv")]) == 2
-    assert not (tmp_path / "no").exists()
+    # Bad input: one-line error, exit 2, nothing written (an existing table is not replaced
+    # without --overwrite).
+    before = out.read_bytes()
+    assert main(["lookup", "generate", "--out", str(out)]) == 2
+    assert out.read_bytes() == before
     assert main(["lookup", "compare", "--table", str(tmp_path / "missing.csv")]) == 2
     err = capsys.readouterr().err
     assert "missing.csv" in err and "Traceback" not in err

@@ -1,0 +1,82 @@
+"""The flown inputs read back from MuJoCo's per-run model (issue 9), and the per-run seeding rule.
+
+Oracles
+-------
+* The draw (spacecraft.dispersions.draw_runs) is what each run must fly.  BatchSimulation writes
+  it into MuJoCo's per-simulation model fields and runs mj_setConst; the values read back must
+  equal the draw *exactly* (tolerance 0): they are float64 copies, and mj_setConst takes
+  ``body_mass``, ``body_ipos``, ``body_iquat``, ``body_inertia`` and ``actuator_gear`` as inputs
+  (``mujoco.MjModel._setconst_inputs``), so it re-orients and re-diagonalizes nothing.
+* A run with invalid parameters is flown with the nominal vehicle (and reported failed), so
+  that is what reads back.
+* Seeding (developers' guide): run i draws from ``SeedSequence(seed, spawn_key=(i,))``, spawned
+  (dispersion, noise).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rcsim.models.tables import load_dispersions
+from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs, run_generators
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.simulation import BatchSimulation
+from rcsim.spacecraft.vehicle import BODY, VehicleParams
+
+FIELDS = ("mass_kg", "cg_B", "inertia_B", "thrust_n", "jet_dir_S")
+
+
+class Idle:
+    def initial_state(self, n_runs):
+        return None
+
+    def step(self, nav, state):
+        return np.zeros((nav.n_runs, 16)), state
+
+
+@pytest.fixture(scope="module")
+def dispersed(model):
+    # 3x Table 5 (the stress campaigns of Figs 13-14): every field differs from nominal.
+    sigmas = DispersionSigmas.from_table(load_dispersions(), scale=3.0)
+    return draw_runs(VehicleParams.nominal(1, model), sigmas, seed=2024, run_ids=np.arange(7, 19))
+
+
+def test_flown_params_equal_the_draw_exactly(model, dispersed):
+    sim = BatchSimulation(dispersed.params, model=model, nthread=1)
+    flown = sim.flown_params()
+    for name in FIELDS:
+        np.testing.assert_array_equal(getattr(flown, name), getattr(dispersed.params, name),
+                                      err_msg=name)
+    assert flown.isp_s == dispersed.params.isp_s
+    # The read-back is a copy, not a view of the simulator's memory.
+    flown.mass_kg[:] = 0.0
+    assert np.all(sim.flown_params().mass_kg > 0)
+    # Principal axes stay the body axes: body_iquat is the identity in every run.
+    iquat = sim._batch.expanded("body_iquat")
+    iquat = model.body_iquat[None] if iquat is None else iquat
+    np.testing.assert_array_equal(iquat[:, model.body(BODY).id], [[1.0, 0.0, 0.0, 0.0]])
+
+
+def test_history_carries_the_flown_params(model, dispersed):
+    """The history of a flight records what was flown; an invalid run reads back nominal."""
+    params = dispersed.params.take(slice(0, 3))
+    mass = params.mass_kg.copy()
+    mass[1] = np.nan
+    params = VehicleParams(mass_kg=mass, cg_B=params.cg_B, inertia_B=params.inertia_B,
+                           thrust_n=params.thrust_n, jet_dir_S=params.jet_dir_S)
+    hist = BatchSimulation(params, model=model, nthread=1).run(
+        Idle(), Guidance.attitude(np.zeros((3, 3))), 0.2)
+    assert hist.failed.tolist() == [False, True, False]
+    nominal = VehicleParams.nominal(1, model)
+    for name in FIELDS:
+        got, drawn = getattr(hist.flown_params, name), getattr(params, name)
+        np.testing.assert_array_equal(got[[0, 2]], drawn[[0, 2]], err_msg=name)
+        np.testing.assert_array_equal(got[1], getattr(nominal, name)[0], err_msg=name)
+
+
+def test_run_generators_follow_the_seeding_rule():
+    for seed, run_id in ((0, 0), (5, 9), (2**40, 123456)):
+        first, second = run_generators(seed, run_id)
+        expected = np.random.SeedSequence(seed, spawn_key=(run_id,)).spawn(2)
+        for got, seq in zip((first, second), expected):
+            np.testing.assert_array_equal(got.random(4), np.random.default_rng(seq).random(4))
