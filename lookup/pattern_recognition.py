@@ -216,7 +216,8 @@ class LookupController:
         codes = ((signs + 1) * np.array([9, 3, 1])).sum(axis=1)
         self._case_of_code = np.full(27, -1)
         self._case_of_code[codes] = np.arange(len(codes))
-        self._times = np.asarray(table.firing_time_s, float)  # (26, 16)
+        # (26, 16); (n_runs, 26, 16) when every run flies its own candidate (for_runs).
+        self._times = np.asarray(table.firing_time_s, float)
         self._rate_abs = np.abs(np.asarray(table.rate_cmd, float))  # (26, 3)
         # (16, 3) one-hot jet -> axis (zero row for unused jets), for per-axis reductions.
         self._axis_onehot = (self.jet_axis_[:, None] == np.arange(N_AXES)[None, :]).astype(float)
@@ -259,8 +260,47 @@ class LookupController:
         tab = load_default_table() if table is None else load_lookup_table(table)
         return cls(tab, LookupParams.from_table4(inputs, **overrides))
 
+    @classmethod
+    def for_runs(cls, table: LookupTable, run_times_s: np.ndarray,
+                 params: LookupParams | None = None) -> "LookupController":
+        """A controller in which every run flies its own firing times (candidate tables).
+
+        Parameters
+        ----------
+        table : LookupTable
+            The table the candidates edit: jet roles (axis, sign, opposing jets) are learned
+            from it, so a candidate may change times but never which jets fire.
+        run_times_s : ndarray, (n_runs, 26, 16)
+            Firing times of run ``i``'s table [s].
+        params : LookupParams, optional
+
+        Raises
+        ------
+        ValueError
+            A candidate fires a jet the table does not fire in that case, or stops one it does.
+        """
+        times = np.asarray(run_times_s, float)
+        base = np.asarray(table.firing_time_s, float)
+        if times.ndim != 3 or times.shape[1:] != base.shape:
+            raise ValueError(f"run_times_s must have shape (n_runs, {base.shape[0]}, "
+                             f"{base.shape[1]}), got {times.shape}")
+        if np.any((times > 0) != (base > 0)[None]):
+            raise ValueError("a candidate table changes which jets fire; only times may change")
+        controller = cls(table, params)
+        controller._times = times
+        return controller
+
+    def _case_times(self, case: np.ndarray) -> np.ndarray:
+        """(n_runs, 16) table times of each run's selected case."""
+        if self._times.ndim == 2:
+            return self._times[case]
+        return self._times[np.arange(case.size), case]
+
     def initial_state(self, n_runs: int) -> LookupState:
-        return LookupState(remaining_s=np.zeros((n_runs, self._times.shape[1])),
+        if self._times.ndim == 3 and self._times.shape[0] != n_runs:
+            raise ValueError(f"controller has tables for {self._times.shape[0]} runs, "
+                             f"asked for {n_runs}")
+        return LookupState(remaining_s=np.zeros((n_runs, self._times.shape[-1])),
                            hold_s=np.zeros((n_runs, N_AXES)))
 
     def rate_error(self, nav: NavState, theta: np.ndarray | None = None) -> np.ndarray:
@@ -304,7 +344,7 @@ class LookupController:
         denom = self._rate_abs[case]  # (n, 3); zero where the case commands no rate
         scale = np.divide(np.abs(need), denom, out=np.zeros_like(need), where=denom > 0)
         jet_scale = scale @ self._axis_onehot.T  # (n, 16): scale of each jet's axis
-        new = np.where(any_err[:, None], self._times[case] * jet_scale, 0.0)
+        new = np.where(any_err[:, None], self._case_times(case) * jet_scale, 0.0)
 
         no_fire = np.abs(theta - p.maneuver_limit_rad) < p.no_fire_band_rad  # (n,)
 
