@@ -6,6 +6,8 @@ import sys
 
 from rcsim.models.errors import InputError
 
+REPLAY_COMMAND = "campaign replay"  # recorded in a replay directory's marker
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -27,13 +29,16 @@ def register(sub) -> None:
         "Results do not depend on --workers, --scheduler or chunk size.",
     )
     run.add_argument("spec", metavar="SPEC.toml")
-    run.add_argument("--out", required=True, metavar="DIR", help="campaign directory (new, or "
-                     "with --resume the directory of an interrupted campaign)")
+    run.add_argument("--out", required=True, metavar="DIR",
+                     help="campaign directory: new or empty, or with --resume the directory of "
+                          "an interrupted campaign of the same spec; a campaign is never "
+                          "replaced, and a directory another command wrote is refused")
     run.add_argument("--runs-per-case", type=int, metavar="N", help="override the spec's runs_per_case")
-    run.add_argument("--workers", type=int, metavar="N",
-                     help="start a local Dask cluster with N single-threaded workers")
-    run.add_argument("--scheduler", metavar="ADDRESS",
-                     help="send chunks to an existing Dask scheduler, e.g. tcp://host:8786")
+    where = run.add_mutually_exclusive_group()  # argparse names both flags when both are given
+    where.add_argument("--workers", type=int, metavar="N",
+                       help="start a local Dask cluster with N single-threaded workers")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="send chunks to an existing Dask scheduler, e.g. tcp://host:8786")
     run.add_argument("--resume", action="store_true",
                      help="finish the campaign in DIR without redoing finished chunks")
     run.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
@@ -41,9 +46,14 @@ def register(sub) -> None:
     run.set_defaults(func=_run)
 
     rp = csub.add_parser("replay", help="re-fly one run of a campaign with its full history and plots")
-    rp.add_argument("campaign", metavar="DIR")
-    rp.add_argument("run_id", metavar="RUN_ID", type=int)
-    rp.add_argument("--out", metavar="OUT", help="output directory (default DIR/replays/run-NNNNNNN)")
+    rp.add_argument("campaign", metavar="DIR", help="the campaign directory (`campaign run --out`)")
+    rp.add_argument("run_id", metavar="RUN_ID", type=int,
+                    help="run to re-fly, 0 .. runs-1 (the run_id column of runs.parquet)")
+    rp.add_argument("--out", metavar="OUT",
+                    help="output directory (default DIR/replays/run-NNNNNNN); an existing one is "
+                         "refused unless it holds an earlier replay and --overwrite is given")
+    rp.add_argument("--overwrite", action="store_true",
+                    help="replace OUT if it holds an earlier `rcsim campaign replay`'s outputs")
     rp.set_defaults(func=_replay)
 
 
@@ -57,7 +67,6 @@ def _example(args) -> int:
 def _run(args) -> int:
     from rcsim.analysis.campaign.runner import run_campaign, summary_text
     from rcsim.analysis.campaign.spec import load_spec
-    from rcsim.analysis.output import check_out_dir
 
     spec = load_spec(args.spec)
     if args.runs_per_case is not None:
@@ -66,7 +75,6 @@ def _run(args) -> int:
         spec = spec.with_runs_per_case(args.runs_per_case)
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers must be >= 1, got {args.workers}")
-    check_out_dir(args.out)
     report = run_campaign(spec, args.out, workers=args.workers, scheduler=args.scheduler,
                           resume=args.resume, progress=args.progress, spec_file=args.spec)
     print(summary_text(report, spec))
@@ -76,13 +84,18 @@ def _run(args) -> int:
 def _replay(args) -> int:
     from pathlib import Path
 
-    from rcsim.analysis.campaign.replay import replay
+    from rcsim.analysis.campaign.replay import load_campaign_spec, replay
+    from rcsim.analysis.output import check_out_dir, write_marker
 
-    if args.out is not None:
-        from rcsim.analysis.output import check_out_dir
+    load_campaign_spec(Path(args.campaign))  # "not a campaign" before anything about OUT
 
-        check_out_dir(args.out)
-    result = replay(Path(args.campaign), args.run_id, args.out)
+    # The default of replay()'s `out`, spelled out so that it is checked before the flight.
+    out = (Path(args.out) if args.out is not None
+           else Path(args.campaign) / "replays" / f"run-{args.run_id:07d}")
+    out = check_out_dir(out, REPLAY_COMMAND, overwrite=args.overwrite)
+    result = replay(Path(args.campaign), args.run_id, out)
+    # write_flight's marker names no command yet; stamp ours so other commands refuse OUT.
+    write_marker(result["out"], REPLAY_COMMAND)
     row = result["row"]
     rates = ", ".join(f"{row[f'final_rate_err_{a}_deg_s']:.4f}" for a in ("roll", "pitch", "yaw"))
     print(f"run {args.run_id} ({result['case']}): final rate error [{rates}] deg/s, "

@@ -31,9 +31,14 @@ def register(sub) -> None:
         "count whose measured end rate is nearest, verify the table open loop and check rate "
         "damping.  Writes TABLE.csv and TABLE_settling.csv (or --settling-out).",
     )
-    gen.add_argument("--out", required=True, metavar="TABLE.csv", help="table to write")
+    gen.add_argument("--out", required=True, metavar="TABLE.csv",
+                     help="table to write (missing parent directories are created)")
     gen.add_argument("--settling-out", metavar="CSV",
                      help="settling/damping companion CSV (default: <out stem>_settling.csv)")
+    gen.add_argument("--overwrite", action="store_true",
+                     help="replace TABLE.csv and the settling CSV if they exist (an existing file "
+                          "is never replaced without it, even an earlier generated table: it may "
+                          "have been edited by hand)")
     gen.add_argument("--compare-with", choices=("table6", "table7", "none"), default="table6",
                      help="paper table to summarise the comparison against (default table6)")
     gen.set_defaults(func=run_generate)
@@ -50,28 +55,29 @@ def register(sub) -> None:
     cmp_.set_defaults(func=run_compare)
 
 
-def _check_csv_out(path: Path, option: str) -> None:
-    if path.exists() and path.is_dir():
-        raise InputError(f"{option} {path}: is a directory")
-    if not path.absolute().parent.is_dir():
-        raise InputError(f"{option} {path}: parent directory does not exist")
-
-
 def run_generate(args: argparse.Namespace) -> int:
+    from rcsim.analysis.output import check_out_file, make_parents, remove_parents
     from rcsim.lookup.table_generation import compare_tables, generate_table
+    from rcsim.models.atomic import atomic_write
     from rcsim.models.tables import load_lookup_table
 
-    out = Path(args.out)
-    settling = Path(args.settling_out) if args.settling_out else out.with_name(
-        f"{out.stem}_settling.csv")
-    _check_csv_out(out, "--out")
-    _check_csv_out(settling, "--settling-out")
+    # Both outputs are checked before the 26 flights, not after.
+    out = check_out_file(args.out, overwrite=args.overwrite, parameter="out")
+    settling = check_out_file(
+        args.settling_out or out.with_name(f"{out.stem}_settling.csv"),
+        overwrite=args.overwrite, parameter="settling_out")
+    if settling == out:
+        raise InputError(f"--settling-out {settling}: is the table itself (--out)")
     gen = generate_table()
-    gen.table.to_csv(out)
     frame = gen.settling_frame()
-    tmp = settling.with_name(f".{settling.name}.tmp")
-    frame.to_csv(tmp, index=False)
-    tmp.replace(settling)  # atomic: no half-written companion file
+    created = make_parents(out) + make_parents(settling)
+    try:
+        # Each file is complete or absent (atomic rename), never half written.
+        atomic_write(out, lambda tmp: gen.table.to_csv(tmp))
+        atomic_write(settling, lambda tmp: frame.to_csv(tmp, index=False))
+    except BaseException:
+        remove_parents(created)
+        raise
     print(f"wrote {out} (26 cases) and {settling}")
     print(f"rate damping: equal firing times on the opposing jets in "
           f"{int(gen.damping_equal.sum())}/26 cases")

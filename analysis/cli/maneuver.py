@@ -9,6 +9,8 @@ import numpy as np
 from rcsim.lookup.registry import CONTROLLERS
 from rcsim.models.errors import InputError
 
+COMMAND = "maneuver"  # recorded in the output directory's marker
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -23,13 +25,17 @@ def register(sub) -> None:
                    help="commanded attitude as roll, pitch, yaw rotation-vector components [deg]")
     p.add_argument("--duration-s", type=float, default=60.0, help="simulated time [s] (default 60)")
     p.add_argument("--table", help="lookup table CSV for --controller lookup (default: packaged)")
-    p.add_argument("--out", required=True, help="output directory (replaced if it exists)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output directory (created; an existing one is refused unless it holds "
+                        "an earlier `rcsim maneuver`'s outputs and --overwrite is given)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace DIR if it holds an earlier `rcsim maneuver`'s outputs")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from rcsim.analysis.flight import Scenario, fly, flight_summary, write_flight
-    from rcsim.analysis.output import check_out_dir
+    from rcsim.analysis.output import check_out_dir, write_marker
 
     if not math.isfinite(args.duration_s) or args.duration_s <= 0:
         raise InputError(f"--duration-s must be > 0, got {args.duration_s}")
@@ -37,13 +43,15 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--attitude-deg must be finite, got {args.attitude_deg}")
     if np.linalg.norm(args.attitude_deg) >= 180.0:
         raise InputError(f"--attitude-deg: rotation must be under 180 deg, got {args.attitude_deg}")
-    check_out_dir(args.out)
+    out = check_out_dir(args.out, COMMAND, overwrite=args.overwrite)  # before the work
     r, p, y = args.attitude_deg
     scenario = Scenario(name="maneuver", duration_s=args.duration_s,
                         att_cmd_rad=np.radians(args.attitude_deg))
     history = fly(scenario, args.controller, table=args.table)
     title = f"{args.controller} maneuver ({r:g}, {p:g}, {y:g}) deg"
-    paths = write_flight(history, args.out, title=title)
+    paths = write_flight(history, out, title=title)
+    # write_flight's marker names no command yet; stamp ours so other commands refuse DIR.
+    write_marker(out, COMMAND)
     s = flight_summary(history)
     err = ", ".join(f"{v:.4f}" for v in s["final_att_err_deg"])
     print(f"{title}: final attitude error [{err}] deg, {s['firings']} firings")

@@ -39,7 +39,7 @@ def register(sub) -> None:
     run.add_argument("--table", help="lookup table CSV (default: the packaged table)")
     run.add_argument("--no-fire-band-deg", type=float, metavar="DEG",
                      help="lookup no-firing half-width [deg] (default: the scenario's; 0 = off)")
-    run.add_argument("--out", required=True, help="output directory (replaced if it exists)")
+    _add_out(run, "scenario run")
     run.set_defaults(func=run_run)
 
     cmp_ = cmds.add_parser(
@@ -47,15 +47,24 @@ def register(sub) -> None:
     )
     cmp_.add_argument("--table", help="lookup table CSV (default: the packaged table)")
     cmp_.add_argument("--names", nargs="+", metavar="NAME", help="scenarios (default: all)")
-    cmp_.add_argument("--out", required=True, help="output directory (replaced if it exists)")
+    _add_out(cmp_, "scenario compare")
     cmp_.set_defaults(func=run_compare)
 
     fig = cmds.add_parser(
         "figures", help="write the lookup figure set (lookup_*.png, as in docs/figures)",
     )
     fig.add_argument("--table", help="lookup table CSV (default: the packaged table)")
-    fig.add_argument("--out", required=True, help="output directory (replaced if it exists)")
+    _add_out(fig, "scenario figures")
     fig.set_defaults(func=run_figures)
+
+
+def _add_out(parser, command: str) -> None:
+    parser.add_argument("--out", required=True, metavar="DIR",
+                        help=f"output directory (created; an existing one is refused unless it "
+                             f"holds an earlier `rcsim {command}`'s outputs and --overwrite is "
+                             "given)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help=f"replace DIR if it holds an earlier `rcsim {command}`'s outputs")
 
 
 def _check_table(table):
@@ -78,7 +87,7 @@ def run_run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from rcsim.analysis.output import check_out_dir
+    from rcsim.analysis.output import check_out_dir, write_marker
     from rcsim.analysis.scenarios import fly_scenario, get_scenario, summarize, write_scenario
 
     scn = get_scenario(args.name)
@@ -90,9 +99,11 @@ def run_run(args: argparse.Namespace) -> int:
         if not math.isfinite(args.no_fire_band_deg) or args.no_fire_band_deg < 0:
             raise InputError(f"--no-fire-band-deg must be >= 0, got {args.no_fire_band_deg}")
         overrides["no_fire_band_rad"] = float(np.radians(args.no_fire_band_deg))
-    check_out_dir(args.out)
+    out = check_out_dir(args.out, "scenario run", overwrite=args.overwrite)  # before the work
     hist = fly_scenario(scn, args.controller, table=args.table, **overrides)
-    paths = write_scenario(hist, scn, args.out, controller=args.controller)
+    paths = write_scenario(hist, scn, out, controller=args.controller)
+    # write_scenario's marker names no command yet; stamp ours so other commands refuse DIR.
+    write_marker(out, "scenario run")
     from rcsim.analysis.scenarios import scenario_metrics
 
     s = summarize(scenario_metrics(hist, scn))
@@ -112,10 +123,10 @@ def run_compare(args: argparse.Namespace) -> int:
     _check_table(args.table)
     for name in args.names or ():
         get_scenario(name)  # fail before flying anything
-    check_out_dir(args.out)
+    check_out_dir(args.out, "scenario compare", overwrite=args.overwrite)  # before the work
     frame = compare_controllers(args.names, table=args.table)
     md = comparison_markdown(frame)
-    with atomic_dir(args.out) as tmp:
+    with atomic_dir(args.out, "scenario compare", overwrite=args.overwrite) as tmp:
         frame.to_csv(tmp / "comparison.csv", index=False)
         (tmp / "comparison.md").write_text(md)
     print(md, end="")
@@ -128,8 +139,8 @@ def run_figures(args: argparse.Namespace) -> int:
     from rcsim.analysis.scenarios.figure_set import write_figure_set
 
     _check_table(args.table)
-    check_out_dir(args.out)
-    with atomic_dir(args.out) as tmp:
+    check_out_dir(args.out, "scenario figures", overwrite=args.overwrite)
+    with atomic_dir(args.out, "scenario figures", overwrite=args.overwrite) as tmp:
         names = write_figure_set(tmp, table=args.table)
     print(f"wrote {len(names)} figures in {Path(args.out)}/: " + ", ".join(names))
     return 0

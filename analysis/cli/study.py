@@ -2,8 +2,12 @@
 
 ``rcsim study noisy-sensor`` runs the single-axis noisy-sensor Monte Carlo of Pittella &
 Sands (Sensors 2023) over six control architectures; see :mod:`analysis.studies.noisy_sensor`.
+Flags are named after the library's parameters (``--noise-var`` fills ``noise_var``), so a
+library error about a parameter is reported under its flag.
 """
 from __future__ import annotations
+
+import argparse
 
 
 def register(subparsers) -> None:
@@ -48,13 +52,24 @@ def _add_noisy_sensor(studies) -> None:
                         help="inertia factor drawn uniformly in [1-F, 1+F], F in [0, 1) "
                              "(default 0.1)")
     parser.add_argument("--out", required=True, metavar="DIR",
-                        help="output directory (created; replaced only if it holds "
-                             "nothing but a previous study's outputs)")
+                        help="output directory (created; an existing one is refused unless it "
+                             "holds an earlier study's outputs and --overwrite is given)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace DIR if it holds an earlier `rcsim study noisy-sensor`'s "
+                             "outputs")
     parser.set_defaults(func=_run_noisy_sensor)
 
 
-def _run_noisy_sensor(args) -> int:
+def _run_noisy_sensor(args: argparse.Namespace) -> int:
     # Imported here so that `rcsim --help` does not pay for pandas and matplotlib.
-    from rcsim.analysis.studies.noisy_sensor import run_cli
+    from rcsim.analysis.output import check_out_dir
+    from rcsim.analysis.studies import noisy_sensor as ns
 
-    return run_cli(args)
+    cfg = ns.StudyConfig(runs=args.runs, seed=args.seed, noise_var=args.noise_var,
+                         inertia_spread=args.inertia_spread)
+    check_out_dir(args.out, ns.OUTPUT_COMMAND, overwrite=args.overwrite)  # before the work
+    result = ns.run_study(cfg)
+    out = ns.write_outputs(result, args.out, overwrite=args.overwrite)
+    print(ns.format_summary(result.summary))
+    print(f"wrote {', '.join(ns.OUTPUT_FILES)} to {out}")
+    return 0

@@ -20,6 +20,10 @@ comparison.  ``inertia_model="per-step"`` draws a new inertia every step instead
 a physical model, it is our reconstruction of what the paper's Simulink model did (see
 ``docs/noisy-sensor.md``) and exists to compare with its Table 1.
 
+The module is ~450 lines, over the usual ~400: configuration, draws, integrator and tables
+are one study read top to bottom; its figure is in :mod:`analysis.studies.noisy_sensor_plots`
+and its command line in :mod:`analysis.cli.study`.
+
 References
 ----------
 A. Pittella and T. Sands, "Proposals for Surmounting Sensor Noises", Sensors 23 (2023)
@@ -29,6 +33,7 @@ Figure 4 (scatter), Appendix B (MATLAB wrapper: ``std``, sigma ellipses).
 from __future__ import annotations
 
 import importlib.metadata
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,9 +41,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from rcsim.analysis.output import atomic_dir, check_out_dir
+from rcsim.analysis.output import atomic_dir
+from rcsim.analysis.studies.noisy_sensor_plots import (  # noqa: F401 - part of this API
+    PLOT_MIN_HALF_SPAN, plot_scatter, sigma_ellipse,
+)
 from rcsim.lookup.single_axis import ARCHITECTURES, Architecture
 from rcsim.models.errors import InputError
+from rcsim.spacecraft.guards import human_bytes, memory_budget_bytes
 
 #: Nondimensional manoeuvre time and the paper's ode4 step.
 T_FINAL = 1.0
@@ -49,6 +58,8 @@ SUMMARY_COLUMNS = ("architecture", "theta_f", "sigma_theta", "omega_f", "sigma_o
 PERCENT_COLUMNS = ("architecture", "theta_f", "sigma_theta", "omega_f", "sigma_omega", "J",
                    "sigma_J")
 OUTPUT_FILES = ("summary.csv", "percent.csv", "runs.parquet", "scatter.png")
+#: The writer recorded in the output directory's marker (:mod:`analysis.output`).
+OUTPUT_COMMAND = "study noisy-sensor"
 
 #: Reference values smaller than this (in the nondimensional units of the table) are zero up
 #: to round-off; a percent difference against them is undefined and written as empty.
@@ -56,10 +67,6 @@ PERCENT_REFERENCE_FLOOR = 1e-9
 
 INERTIA_MODELS = ("per-run", "per-step")
 
-#: Smallest half-width of a scatter panel's axis (nondimensional); a deterministic outcome
-#: (e.g. open-loop final rate, zero up to 1e-16) then plots as a line, not as magnified
-#: round-off.  0.01 is one sensor standard deviation of the paper's noise.
-PLOT_MIN_HALF_SPAN = 0.01
 
 
 @dataclass(frozen=True)
@@ -101,29 +108,51 @@ class StudyConfig:
 
 
 def _check_config(cfg: StudyConfig) -> None:
-    """Raise :class:`InputError` naming the option and value of the first bad setting."""
+    """Raise :class:`InputError` naming the parameter and value of the first bad setting."""
     if not _is_int(cfg.runs) or cfg.runs < 2:
-        raise InputError(
-            f"--runs must be an integer >= 2 (a spread needs two runs), got {cfg.runs!r}"
-        )
+        raise InputError(f"must be an integer >= 2 (a spread needs two runs), got {cfg.runs!r}",
+                         parameter="runs", value=cfg.runs)
     if not _is_int(cfg.seed) or cfg.seed < 0:
-        raise InputError(f"--seed must be a non-negative integer, got {cfg.seed!r}")
+        raise InputError(f"must be a non-negative integer, got {cfg.seed!r}",
+                         parameter="seed", value=cfg.seed)
     if not (np.isfinite(cfg.noise_var) and cfg.noise_var >= 0.0):
-        raise InputError(f"--noise-var must be a finite variance >= 0, got {cfg.noise_var!r}")
+        raise InputError(f"must be a finite variance >= 0, got {cfg.noise_var!r}",
+                         parameter="noise_var", value=cfg.noise_var)
     if not (np.isfinite(cfg.inertia_spread) and 0.0 <= cfg.inertia_spread < 1.0):
-        raise InputError(
-            f"--inertia-spread must be in [0, 1) (a fraction of the inertia), "
-            f"got {cfg.inertia_spread!r}"
-        )
+        raise InputError(f"must be in [0, 1) (a fraction of the inertia), "
+                         f"got {cfg.inertia_spread!r}",
+                         parameter="inertia_spread", value=cfg.inertia_spread)
     if cfg.inertia_model not in INERTIA_MODELS:
-        raise InputError(
-            f"inertia_model must be one of {INERTIA_MODELS}, got {cfg.inertia_model!r}"
-        )
+        raise InputError(f"must be one of {INERTIA_MODELS}, got {cfg.inertia_model!r}",
+                         parameter="inertia_model", value=cfg.inertia_model)
     steps = T_FINAL / cfg.dt if cfg.dt > 0 else float("nan")
     if not (np.isfinite(steps) and abs(steps - round(steps)) < 1e-9 and round(steps) >= 1):
+        raise InputError(f"must divide the manoeuvre time {T_FINAL} into whole steps, "
+                         f"got {cfg.dt!r}", parameter="dt", value=cfg.dt)
+    _check_memory(cfg)
+
+
+#: Bytes of one run's row in ``runs.parquet``'s frame, per architecture: 10 numeric columns,
+#: two string references and pandas' overhead, rounded up (an estimate; the draws dominate).
+RUN_ROW_BYTES = 256
+
+
+def study_bytes(cfg: StudyConfig) -> int:
+    """Memory a study holds at once [bytes]: its draws (float64) and the rows of ``runs``."""
+    n_inertia = cfg.n_steps if cfg.inertia_model == "per-step" else 1
+    per_run = 8 * (2 * (cfg.n_steps + 1) + n_inertia) + len(ARCHITECTURES) * RUN_ROW_BYTES
+    return int(cfg.runs) * per_run
+
+
+def _check_memory(cfg: StudyConfig) -> None:
+    """Refuse up front a study that cannot fit, rather than dying in MemoryError."""
+    budget = memory_budget_bytes()
+    need = study_bytes(cfg)
+    if budget is not None and need > budget:
         raise InputError(
-            f"dt must divide the manoeuvre time {T_FINAL} into whole steps, got {cfg.dt!r}"
-        )
+            f"= {cfg.runs} needs about {human_bytes(need)} of memory, more than the "
+            f"{human_bytes(budget)} allowed (half of this machine's memory): use fewer runs "
+            f"(at most about {budget // (need // cfg.runs)})", parameter="runs", value=cfg.runs)
 
 
 def _is_int(value) -> bool:
@@ -421,120 +450,32 @@ def percent_table(summary: pd.DataFrame, reference: str = "Open-loop optimal") -
 
 
 # --------------------------------------------------------------------------------------
-# Figure.
+# Output.
 # --------------------------------------------------------------------------------------
-def sigma_ellipse(x: np.ndarray, y: np.ndarray, k: float, n_points: int = 121) -> np.ndarray:
-    """Points of the ``k``-sigma covariance ellipse of samples ``(x, y)``.
-
-    Uses the eigen-decomposition of the sample covariance (so correlated outcomes get a
-    tilted ellipse; the paper's MATLAB draws axis-aligned ones with semi-axes ``k sigma``).
-    Degenerate (zero) spreads give a degenerate ellipse, never a warning.
-
-    Returns
-    -------
-    ndarray, shape (2, n_points)
-    """
-    cov = np.cov(np.vstack([x, y]))
-    evals, evecs = np.linalg.eigh(cov)
-    angle = np.linspace(0.0, 2.0 * np.pi, n_points)
-    circle = np.vstack([np.cos(angle), np.sin(angle)])
-    scale = k * np.sqrt(np.clip(evals, 0.0, None))
-    return np.array([[x.mean()], [y.mean()]]) + evecs @ (scale[:, None] * circle)
-
-
-def plot_scatter(runs: pd.DataFrame, path: Path, *, measured: bool = False) -> None:
-    """Paper Figure 4: final angle vs final rate per architecture, 1-3 sigma, mean ``+``.
+def write_outputs(result: StudyResult, out_dir: str | Path, *, overwrite: bool = False) -> Path:
+    """Write the four outputs into ``out_dir`` atomically (:func:`analysis.output.atomic_dir`).
 
     Parameters
     ----------
-    runs : DataFrame
-        As in :class:`StudyResult`.
-    path : Path
-        PNG file to write.
-    measured : bool
-        Plot the final sensor readings instead of the true final state.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")  # files only; never needs a display
-    import matplotlib.pyplot as plt
-
-    suffix = "_measured" if measured else ""
-    groups = list(runs.groupby("architecture", sort=False))
-    ncols = 3
-    nrows = -(-len(groups) // ncols)
-    fig, axes = plt.subplots(nrows, ncols, figsize=(12, 3.9 * nrows), squeeze=False)
-    for ax, (panel, (label, group)) in zip(axes.flat, enumerate(groups)):
-        x = group[f"theta_f{suffix}"].to_numpy()
-        y = group[f"omega_f{suffix}"].to_numpy()
-        ax.scatter(x, y, s=4, color="tab:blue", alpha=0.35, linewidths=0)
-        for k in (1, 2, 3):
-            ex, ey = sigma_ellipse(x, y, k)
-            ax.plot(ex, ey, "k-", lw=0.9)
-        ax.plot(x.mean(), y.mean(), "k+", ms=12, mew=2)
-        cost = group["J"].to_numpy()
-        ax.set_title(f"({chr(ord('a') + panel)}) {label}\nJ = {cost.mean():.4f} ± "
-                     f"{cost.std(ddof=1):.4f}", fontsize=10)
-        ax.set_xlabel(r"$\theta_f$")
-        ax.set_ylabel(r"$\omega_f$")
-        ax.grid(True, alpha=0.3)
-        ax.ticklabel_format(useOffset=False)
-        _floor_span(ax, x.mean(), y.mean())
-    for ax in list(axes.flat)[len(groups):]:
-        ax.set_visible(False)
-    n = runs["run"].nunique()
-    fig.suptitle(f"Final state, N = {n} runs per architecture; rings 1, 2, 3 sigma, + mean")
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-
-
-def _floor_span(ax, x0: float, y0: float, half_span: float = PLOT_MIN_HALF_SPAN) -> None:
-    """Widen axes narrower than ``2 half_span`` so round-off spreads are not magnified."""
-    for get, set_, centre in ((ax.get_xlim, ax.set_xlim, x0), (ax.get_ylim, ax.set_ylim, y0)):
-        low, high = get()
-        if high - low < 2.0 * half_span:
-            set_(centre - half_span, centre + half_span)
-
-
-# --------------------------------------------------------------------------------------
-# Output.
-# --------------------------------------------------------------------------------------
-def write_outputs(result: StudyResult, out_dir: Path) -> Path:
-    """Write the four outputs into ``out_dir`` atomically (:func:`analysis.output.atomic_dir`).
+    result : StudyResult
+    out_dir : path
+        Created with its parents; an existing directory is replaced only if it holds an
+        earlier study's outputs and ``overwrite`` is true (see :mod:`analysis.output`).
+    overwrite : bool
 
     Returns
     -------
     Path
-        ``out_dir``, resolved.
+        ``out_dir``, absolute.
     """
-    out_dir = Path(out_dir).resolve()
-    with atomic_dir(out_dir) as tmp:
+    with atomic_dir(out_dir, OUTPUT_COMMAND, overwrite=overwrite) as tmp:
         result.summary.to_csv(tmp / "summary.csv", index=False, float_format="%.6g")
         result.percent.to_csv(tmp / "percent.csv", index=False, float_format="%.4g")
         result.runs.to_parquet(tmp / "runs.parquet", index=False)
         plot_scatter(result.runs, tmp / "scatter.png")
-    return out_dir
+    return Path(os.path.abspath(out_dir))
 
 
 def format_summary(summary: pd.DataFrame) -> str:
     """The summary table as fixed-width text for the terminal."""
     return summary.to_string(index=False, float_format=lambda v: f"{v:.4f}")
-
-
-def run_cli(args) -> int:
-    """``rcsim study noisy-sensor``: run the study and write ``args.out``.
-
-    Returns
-    -------
-    int
-        Exit code 0.
-    """
-    cfg = StudyConfig(runs=args.runs, seed=args.seed, noise_var=args.noise_var,
-                      inertia_spread=args.inertia_spread)
-    check_out_dir(args.out)  # fail before the work, not after it
-    result = run_study(cfg)
-    out = write_outputs(result, Path(args.out))
-    print(format_summary(result.summary))
-    print(f"wrote {', '.join(OUTPUT_FILES)} to {out}")
-    return 0

@@ -143,9 +143,124 @@ def test_out_dir_with_foreign_files_is_never_replaced(tmp_path, capsys):
     assert os.listdir(out) == ["thesis.tex"]
 
 
-def test_out_dir_written_by_rcsim_is_replaced(tmp_path, capsys):
+MANEUVER = ["maneuver", "--attitude-deg", "1", "0", "0", "--duration-s", "0.4"]
+
+
+def test_out_dir_of_an_earlier_maneuver_is_replaced_only_with_overwrite(tmp_path, capsys):
     out = tmp_path / "again"
-    for attitude in ("1", "2"):
-        assert main(["maneuver", "--attitude-deg", attitude, "0", "0", "--duration-s", "1",
-                     "--out", str(out)]) == 0
+    assert main([*MANEUVER, "--out", str(out)]) == 0
+    before = (out / "summary.json").read_text()
+    # Issue 8: replacing even our own output is explicit; the refusal says how.
+    rc = main(["maneuver", "--attitude-deg", "2", "0", "0", "--duration-s", "0.4",
+               "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "--overwrite" in err
+    assert (out / "summary.json").read_text() == before
+    assert main(["maneuver", "--attitude-deg", "2", "0", "0", "--duration-s", "0.4",
+                 "--out", str(out), "--overwrite"]) == 0
+    assert (out / "summary.json").read_text() != before
     assert sorted(os.listdir(tmp_path)) == ["again"]  # no temporary or old copies left
+    assert (out / ".rcsim-output").read_text() == "written by rcsim maneuver\n"
+
+
+@pytest.mark.parametrize("overwrite", [[], ["--overwrite"]], ids=["plain", "overwrite"])
+def test_campaign_directory_is_never_replaced(tmp_path, capsys, overwrite):
+    """Issue 8: `rcsim maneuver --out RUNS` replaced a campaign (cases.csv gone)."""
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    (runs / ".rcsim-output").write_text("written by rcsim campaign run\n")
+    (runs / "cases.csv").write_text("case,runs,failed\nroll,1,0\n")
+    rc = main([*MANEUVER, "--out", str(runs), *overwrite])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1
+    assert str(runs) in err and "campaign run" in err
+    assert sorted(os.listdir(runs)) == [".rcsim-output", "cases.csv"]
+    assert sorted(os.listdir(tmp_path)) == ["runs"]
+
+
+def test_output_directory_honours_the_umask(tmp_path):
+    # Issue 8: mkdtemp's 0700 leaked into the final directory; new directories get
+    # 0o777 & ~umask like any other tool's (POSIX mkdir(2)).
+    old = os.umask(0o027)
+    try:
+        assert main([*MANEUVER, "--out", str(tmp_path / "m")]) == 0
+    finally:
+        os.umask(old)
+    assert (tmp_path / "m").stat().st_mode & 0o777 == 0o750
+
+
+def test_unwritable_out_is_one_line_before_the_flight(capsys, monkeypatch):
+    # /proc refuses new entries even to root, so this holds for every user (issue 8:
+    # "--out /proc/x dies with FileNotFoundError").
+    if not os.path.isdir("/proc/self"):
+        pytest.skip("no /proc on this system")
+    import rcsim.analysis.flight as flight
+
+    def must_not_fly(*args, **kwargs):
+        raise AssertionError("flew before checking --out")
+
+    monkeypatch.setattr(flight, "fly", must_not_fly)
+    rc = main([*MANEUVER, "--out", "/proc/rcsim-x"])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert err.startswith("rcsim: error: --out /proc/rcsim-x: cannot create it in /proc")
+
+
+def test_os_error_while_writing_is_one_line_naming_the_path(tmp_path, capsys, monkeypatch):
+    # A disk filling up during the write: the OS's reason and the path, exit 2, nothing left.
+    import errno
+
+    import rcsim.analysis.plots as plots
+
+    target = tmp_path / "m"
+
+    def disk_full(frame, path, **kwargs):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+    monkeypatch.setattr(plots, "plot_attitude_error", disk_full)
+    rc = main([*MANEUVER, "--out", str(target)])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert os.strerror(errno.ENOSPC) in err and "attitude_error.png" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_marker_of_an_older_rcsim_is_replaced_only_with_overwrite(tmp_path, capsys):
+    # Directories written before markers named their command: rcsim's, command unknown.
+    out = tmp_path / "old"
+    out.mkdir()
+    (out / ".rcsim-output").write_text(
+        "written by rcsim; this directory is replaced by the next run\n")
+    (out / "summary.json").write_text("{}\n")
+    assert main([*MANEUVER, "--out", str(out)]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert main([*MANEUVER, "--out", str(out), "--overwrite"]) == 0
+    assert (out / ".rcsim-output").read_text() == "written by rcsim maneuver\n"
+
+
+def test_lookup_generate_creates_parents_and_replaces_only_with_overwrite(tmp_path, capsys):
+    # Issue 8: `lookup generate --out gen/T.csv` refused a missing parent that every other
+    # command creates, and `--out notes.csv` silently replaced an unrelated file.
+    table = tmp_path / "gen" / "sub" / "T.csv"
+    argv = ["lookup", "generate", "--out", str(table), "--compare-with", "none"]
+    assert main(argv) == 0
+    assert table.is_file() and table.with_name("T_settling.csv").is_file()
+    table.write_text("edited by hand\n")
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--overwrite" in err and str(table) in err
+    assert table.read_text() == "edited by hand\n"
+    assert main([*argv, "--overwrite"]) == 0
+    assert table.read_text().startswith("case,")
+    assert sorted(p.name for p in table.parent.iterdir()) == ["T.csv", "T_settling.csv"]
+
+
+def test_cli_draws_with_the_file_backend(tmp_path):
+    # Issue 8: the backend is chosen by the CLI (it only writes files), not by importing a
+    # plotting module; a user's MPLBACKEND does not reach the CLI's figures.
+    code = ("import matplotlib; from rcsim.analysis.cli import main; "
+            "assert main(['scenario', 'list']) == 0; print(matplotlib.get_backend())")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, env={**os.environ, "MPLBACKEND": "svg"})
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split()[-1].lower() == "agg"

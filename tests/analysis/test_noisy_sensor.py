@@ -234,18 +234,31 @@ def test_summary_uses_sample_standard_deviation():
 
 # ------------------------------------------------------------------------ user input --
 @pytest.mark.parametrize(
-    "kwargs, option",
+    "kwargs, parameter",
     [
-        ({"runs": -5}, "--runs"), ({"runs": 1}, "--runs"), ({"runs": 2.5}, "--runs"),
-        ({"seed": -1}, "--seed"), ({"noise_var": -1e-4}, "--noise-var"),
-        ({"noise_var": float("inf")}, "--noise-var"), ({"inertia_spread": 1.0}, "--inertia-spread"),
-        ({"inertia_spread": -0.1}, "--inertia-spread"), ({"inertia_model": "x"}, "inertia_model"),
+        ({"runs": -5}, "runs"), ({"runs": 1}, "runs"), ({"runs": 2.5}, "runs"),
+        ({"seed": -1}, "seed"), ({"noise_var": -1e-4}, "noise_var"),
+        ({"noise_var": float("inf")}, "noise_var"), ({"inertia_spread": 1.0}, "inertia_spread"),
+        ({"inertia_spread": -0.1}, "inertia_spread"), ({"inertia_model": "x"}, "inertia_model"),
         ({"dt": 0.03}, "dt"),
     ],
 )
-def test_bad_settings_raise_input_error_naming_option(kwargs, option):
-    with pytest.raises(InputError, match=option):
+def test_bad_settings_raise_input_error_naming_parameter(kwargs, parameter):
+    # Library errors name the library's parameter and its value, never a CLI flag (issue 8).
+    with pytest.raises(InputError) as info:
         ns.StudyConfig(**kwargs)
+    assert info.value.parameter == parameter
+    assert info.value.value == kwargs[parameter]
+    assert str(info.value).startswith(f"{parameter} ") and "--" not in str(info.value)
+
+
+def test_study_that_cannot_fit_in_memory_is_refused_up_front():
+    # 1e12 runs x 101 noise rows x 2 x 8 bytes = 1.6 PB of draws alone: refused before any
+    # allocation (issue 8: a MemoryError traceback), naming the parameter and what fits.
+    with pytest.raises(InputError) as info:
+        ns.StudyConfig(runs=10**12)
+    assert info.value.parameter == "runs" and "memory" in str(info.value)
+    assert ns.study_bytes(ns.StudyConfig(runs=2)) < 10**5  # the usual sizes are far below
 
 
 # -------------------------------------------------------------------------------- CLI --
@@ -265,12 +278,36 @@ def test_cli_writes_all_outputs(tmp_path, capsys):
     assert [p.name for p in tmp_path.iterdir()] == ["study"]  # no temp dirs left
 
 
-def test_cli_replaces_previous_outputs(tmp_path):
+def test_cli_replaces_previous_outputs_only_with_overwrite(tmp_path, capsys):
     out = tmp_path / "study"
     assert main(["study", "noisy-sensor", "--runs", "3", "--out", str(out)]) == 0
-    assert main(["study", "noisy-sensor", "--runs", "4", "--out", str(out)]) == 0
+    before = (out / "runs.parquet").read_bytes()
+    # Without --overwrite the earlier study is kept and the user is told how to replace it.
+    assert main(["study", "noisy-sensor", "--runs", "4", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--overwrite" in err and err.count("\n") == 1
+    assert (out / "runs.parquet").read_bytes() == before
+    assert main(["study", "noisy-sensor", "--runs", "4", "--out", str(out), "--overwrite"]) == 0
     assert len(pd.read_parquet(out / "runs.parquet")) == 6 * 4
     assert [p.name for p in tmp_path.iterdir()] == ["study"]
+
+
+def test_cli_never_replaces_another_commands_directory(tmp_path, capsys):
+    # A campaign directory (marker written by `rcsim campaign run`) survives even --overwrite.
+    out = tmp_path / "campaign"
+    out.mkdir()
+    (out / ".rcsim-output").write_text("written by rcsim campaign run\n")
+    (out / "cases.csv").write_text("case,runs\n")
+    assert main(["study", "noisy-sensor", "--runs", "3", "--out", str(out), "--overwrite"]) == 2
+    err = capsys.readouterr().err
+    assert "campaign run" in err and str(out) in err and err.count("\n") == 1
+    assert sorted(p.name for p in out.iterdir()) == [".rcsim-output", "cases.csv"]
+
+
+def test_library_writer_records_the_study_in_the_marker(tmp_path):
+    out = tmp_path / "study"
+    assert main(["study", "noisy-sensor", "--runs", "3", "--out", str(out)]) == 0
+    assert (out / ".rcsim-output").read_text() == "written by rcsim study noisy-sensor\n"
 
 
 @pytest.mark.parametrize(
