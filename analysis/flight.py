@@ -133,9 +133,14 @@ def flight_summary(history: History, run: int = 0) -> dict:
 
 
 def write_flight(history: History, out_dir: str | os.PathLike, *, title: str, run: int = 0,
-                 isp_s: float = VehicleParams.isp_s) -> dict[str, Path]:
+                 isp_s: float = VehicleParams.isp_s, command: str | None = None,
+                 overwrite: bool = False) -> dict[str, Path]:
     """Write ``history.parquet``, ``attitude_error.png``, ``rates_jets.png`` and
-    ``summary.json`` for one run into ``out_dir`` (atomically)."""
+    ``summary.json`` for one run into ``out_dir`` (atomically).
+
+    ``command`` (e.g. ``"maneuver"``) is recorded in the directory's marker, and ``overwrite``
+    allows replacing an earlier output of that command (:func:`rcsim.analysis.output.atomic_dir`).
+    """
     import json
 
     from rcsim.analysis.output import atomic_dir
@@ -145,7 +150,7 @@ def write_flight(history: History, out_dir: str | os.PathLike, *, title: str, ru
     summary = flight_summary(history, run)
     summary["propellant_kg"] = float(history.propulsion.impulse_ns[run].sum() / (isp_s * 9.80665))
     summary["title"] = title
-    with atomic_dir(out_dir) as tmp:
+    with atomic_dir(out_dir, command, overwrite=overwrite) as tmp:
         frame.to_parquet(tmp / "history.parquet", index=False)
         plot_attitude_error(frame, tmp / "attitude_error.png", title=title)
         plot_rates_and_jets(frame, tmp / "rates_jets.png", title=title)

@@ -35,7 +35,7 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from rcsim.analysis.flight import Scenario, fly, flight_summary, write_flight
-    from rcsim.analysis.output import check_out_dir, write_marker
+    from rcsim.analysis.output import check_out_dir
 
     if not math.isfinite(args.duration_s) or args.duration_s <= 0:
         raise InputError(f"--duration-s must be > 0, got {args.duration_s}")
@@ -49,9 +49,7 @@ def run(args: argparse.Namespace) -> int:
                         att_cmd_rad=np.radians(args.attitude_deg))
     history = fly(scenario, args.controller, table=args.table)
     title = f"{args.controller} maneuver ({r:g}, {p:g}, {y:g}) deg"
-    paths = write_flight(history, out, title=title)
-    # write_flight's marker names no command yet; stamp ours so other commands refuse DIR.
-    write_marker(out, COMMAND)
+    paths = write_flight(history, out, title=title, command=COMMAND, overwrite=args.overwrite)
     s = flight_summary(history)
     err = ", ".join(f"{v:.4f}" for v in s["final_att_err_deg"])
     print(f"{title}: final attitude error [{err}] deg, {s['firings']} firings")

@@ -87,7 +87,7 @@ def run_run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from rcsim.analysis.output import check_out_dir, write_marker
+    from rcsim.analysis.output import check_out_dir
     from rcsim.analysis.scenarios import fly_scenario, get_scenario, summarize, write_scenario
 
     scn = get_scenario(args.name)
@@ -101,9 +101,8 @@ def run_run(args: argparse.Namespace) -> int:
         overrides["no_fire_band_rad"] = float(np.radians(args.no_fire_band_deg))
     out = check_out_dir(args.out, "scenario run", overwrite=args.overwrite)  # before the work
     hist = fly_scenario(scn, args.controller, table=args.table, **overrides)
-    paths = write_scenario(hist, scn, out, controller=args.controller)
-    # write_scenario's marker names no command yet; stamp ours so other commands refuse DIR.
-    write_marker(out, "scenario run")
+    paths = write_scenario(hist, scn, out, controller=args.controller, command="scenario run",
+                           overwrite=args.overwrite)
     from rcsim.analysis.scenarios import scenario_metrics
 
     s = summarize(scenario_metrics(hist, scn))

@@ -16,9 +16,14 @@ from rcsim.spacecraft.simulation import History
 
 
 def write_scenario(history: History, scenario: PaperScenario, out_dir: str | os.PathLike, *,
-                   controller: str) -> dict[str, Path]:
+                   controller: str, command: str | None = None,
+                   overwrite: bool = False) -> dict[str, Path]:
     """Write ``history.parquet`` (all runs, column ``run``), ``metrics.csv``,
-    ``summary.json`` and the paper-style plots into ``out_dir``, atomically."""
+    ``summary.json`` and the paper-style plots into ``out_dir``, atomically.
+
+    ``command`` (e.g. ``"scenario run"``) is recorded in the directory's marker, and
+    ``overwrite`` allows replacing an earlier output of that command
+    (:func:`rcsim.analysis.output.atomic_dir`)."""
     frames = []
     for i in range(history.n_runs):  # post-processing only; the flight was batched
         f = history_frame(history, i)
@@ -30,7 +35,7 @@ def write_scenario(history: History, scenario: PaperScenario, out_dir: str | os.
                "description": scenario.description, "figures": scenario.figures,
                **summarize(metrics)}
     title = f"{controller}: {scenario.name}"
-    with atomic_dir(out_dir) as tmp:
+    with atomic_dir(out_dir, command, overwrite=overwrite) as tmp:
         frame.to_parquet(tmp / "history.parquet", index=False)
         metrics.to_csv(tmp / "metrics.csv", index=False)
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2, allow_nan=True) + "\n")
