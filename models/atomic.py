@@ -1,8 +1,14 @@
 """Atomic file writes, shared by every layer that writes results or tables.
 
-A file is written beside its destination under a hidden temporary name and renamed over it
-(``os.replace`` is atomic on POSIX), so a reader -- or a campaign resumed after a kill -- never
-sees a partial file.
+A file is written beside its destination under a hidden temporary name
+(``.<name>.<random>.tmp``, :data:`TEMP_GLOB`) and renamed over it (``os.replace`` is atomic on
+POSIX), so a reader -- or a campaign resumed after a kill -- never sees a partial file.  A
+process killed mid-write (SIGKILL) leaves its temporary behind; whoever owns the directory
+removes such leftovers with :func:`remove_temporaries`.
+
+Permissions: ``tempfile.mkstemp`` creates its file with mode 0600 whatever the umask, so the
+final file gets :func:`mode_under_umask` ``(0o666)`` -- what ``open(path, "w")`` would give --
+like every other file the user's tools write.
 """
 from __future__ import annotations
 
@@ -11,11 +17,48 @@ import tempfile
 from pathlib import Path
 from typing import Callable
 
+#: Glob of the temporaries :func:`atomic_write` creates (and of nothing else rcsim writes).
+TEMP_GLOB = ".*.tmp"
+
+
+def _read_umask() -> int:
+    """The process umask, read without changing it when the system allows.
+
+    ``os.umask`` can only be read by setting it, which races with other threads creating
+    files; Linux reports it in ``/proc/self/status`` ("Umask:", since 4.7).  Elsewhere the
+    set-and-restore happens once, here, at import, before any campaign thread exists.
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+#: The umask at import (an rcsim process does not change its umask afterwards).
+UMASK = _read_umask()
+
+
+def mode_under_umask(mode: int = 0o666) -> int:
+    """``mode`` with the process umask applied: the permissions the system gives a new file
+    (``0o666``) or directory (``0o777``) created by ``open`` / ``mkdir``.
+
+    For files and directories made by ``mkstemp`` / ``mkdtemp`` (always 0600 / 0700), which
+    should look like any other output once they are in place.
+    """
+    return mode & ~UMASK
+
 
 def atomic_write(path: str | os.PathLike, write: Callable[[str], None]) -> Path:
     """Call ``write(tmp_path)``, then rename ``tmp_path`` over ``path``.
 
-    On any exception the temporary file is removed and ``path`` is left as it was.
+    On any exception the temporary file is removed and ``path`` is left as it was.  The final
+    file has mode ``0o666`` under the umask (:func:`mode_under_umask`).
 
     Returns
     -------
@@ -27,6 +70,7 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], None]) -> Path:
     os.close(fd)
     try:
         write(tmp)
+        os.chmod(tmp, mode_under_umask(0o666))
         os.replace(tmp, target)
     except BaseException:
         try:
@@ -35,3 +79,28 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], None]) -> Path:
             pass
         raise
     return target
+
+
+def remove_temporaries(directory: str | os.PathLike) -> list[Path]:
+    """Remove the leftover :func:`atomic_write` temporaries (:data:`TEMP_GLOB`) in ``directory``.
+
+    Only for a directory whose writer is the caller (no write of its own in progress): a
+    temporary there belongs to a writer that was killed.  Not recursive.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files removed.
+    """
+    folder = Path(directory)
+    removed = []
+    if not folder.is_dir():
+        return removed
+    for tmp in folder.glob(TEMP_GLOB):
+        if tmp.is_file() and not tmp.is_symlink():
+            try:
+                tmp.unlink()
+            except FileNotFoundError:  # removed meanwhile: the goal is reached
+                continue
+            removed.append(tmp)
+    return removed

@@ -7,19 +7,21 @@ is what a Dask worker imports; it writes nothing.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import threading
+from dataclasses import dataclass, replace
+from typing import Iterator
 
 import numpy as np
 import pandas as pd
 
+# outcomes is re-exported: analysis.refinement and the tests import it from here.
+from rcsim.analysis.campaign.outcomes import axis_jets, firing_starts, outcomes  # noqa: F401
+from rcsim.analysis.campaign.schema import check_run_frame, missing_outcomes
 from rcsim.spacecraft.dispersions import DispersedRuns, dispersion_frame, draw_runs
 from rcsim.spacecraft.propulsion import PropulsionParams
-from rcsim.spacecraft.simulation import History
+from rcsim.spacecraft.simulation import History, invalid_runs
 from rcsim.spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
 
-# A firing continues into the next cycle only if it filled the previous one -- the same rule
-# (and tolerance) as spacecraft.propulsion.apply_valve_limits, so firing counts agree with it.
-_FULL_CYCLE_RTOL = 1e-12
 
 
 @dataclass(frozen=True)
@@ -68,15 +70,19 @@ def max_chunk_runs(spec, duration_s: float) -> int:
 
 
 def plan_chunks(spec) -> list[Chunk]:
+    """:func:`iter_chunks` as a list (for small campaigns and tests)."""
+    return list(iter_chunks(spec))
+
+
+def iter_chunks(spec) -> Iterator[Chunk]:
     """Chunks of at most :func:`max_chunk_runs` runs (sizes as equal as possible), in run-id
-    order.
+    order, generated one at a time (a campaign of many runs never holds its whole plan).
 
     A chunk is one batched simulation, so all its runs must last equally long: chunks span
     consecutive cases of equal duration (e.g. all 26 rate cases), which keeps batches large
     when runs per case are few.  The plan is a function of the spec only (results never depend
     on it: every run draws from its own seed stream).
     """
-    chunks = []
     groups: list[list[int]] = []
     for c, case in enumerate(spec.cases):
         if groups and spec.cases[groups[-1][-1]].duration_s == case.duration_s:
@@ -93,9 +99,8 @@ def plan_chunks(spec) -> list[Chunk]:
         first = lo
         for k in range(count):
             stop = first + size + (1 if k < extra else 0)
-            chunks.append(Chunk(first, stop))
+            yield Chunk(first, stop)
             first = stop
-    return chunks
 
 
 @dataclass
@@ -119,9 +124,42 @@ class ChunkResult:
     histories: dict
 
 
-def fly_runs(spec, run_ids: np.ndarray, *, nthread: int = 1,
-             model=None) -> tuple[History, DispersedRuns]:
-    """Draw and fly campaign runs ``run_ids`` (cases of equal duration) as one batch."""
+class Cancelled(BaseException):
+    """A chunk was abandoned because its campaign was interrupted.
+
+    A BaseException, like KeyboardInterrupt: it must pass through the ``except Exception``
+    that records a raising run as failed.
+    """
+
+
+class _Cancellable:
+    """A controller that raises :class:`Cancelled` at its next step once ``cancel`` is set.
+
+    The controller is called once per control cycle of the batch, so an interrupted campaign
+    stops its chunks in flight within a cycle's computation instead of finishing them.
+    """
+
+    def __init__(self, inner, cancel: threading.Event):
+        self._inner, self._cancel = inner, cancel
+
+    def __getattr__(self, name):
+        return getattr(self._inner, name)
+
+    def initial_state(self, n_runs: int):
+        return self._inner.initial_state(n_runs)
+
+    def step(self, nav, state):
+        if self._cancel.is_set():
+            raise Cancelled()
+        return self._inner.step(nav, state)
+
+
+def fly_runs(spec, run_ids: np.ndarray, *, nthread: int = 1, model=None,
+             cancel: threading.Event | None = None) -> tuple[History, DispersedRuns]:
+    """Draw and fly campaign runs ``run_ids`` (cases of equal duration) as one batch.
+
+    ``cancel``: when set (from another thread), the flight raises :class:`Cancelled`.
+    """
     from rcsim.analysis.flight import fly_batch
     from rcsim.lookup.registry import make_controller
 
@@ -130,120 +168,10 @@ def fly_runs(spec, run_ids: np.ndarray, *, nthread: int = 1,
     dispersed = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids)
     scenarios = [spec.cases[c] for c in run_ids // spec.runs_per_case]
     controller = make_controller(spec.controller, table=spec.table, model=model)
+    if cancel is not None:
+        controller = _Cancellable(controller, cancel)
     history = fly_batch(scenarios, dispersed.params, controller, model=model, nthread=nthread)
     return history, dispersed
-
-
-def axis_jets() -> np.ndarray:
-    """(3, 16) bool: the jets that torque roll, pitch, yaw (Table 2)."""
-    from rcsim.models.tables import load_jet_map
-
-    return (load_jet_map() != 0).T
-
-
-def firing_starts(on_time_s: np.ndarray, cycle_s: float) -> np.ndarray:
-    """(n, K, 16) bool: a jet starts a new firing in the cycle (it was not on at the cycle's
-    start, i.e. did not fill the previous cycle)."""
-    full = on_time_s >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)
-    prev_full = np.zeros_like(full)
-    prev_full[:, 1:] = full[:, :-1]
-    return (on_time_s > 0) & ~prev_full
-
-
-def outcomes(history: History, spec, cycle_s: float, isp_s: float) -> pd.DataFrame:
-    """Outcome columns of each run of a flown batch (degrees and deg/s at this boundary).
-
-    Definitions (``thr`` = ``spec.rate_threshold_rad_s``; rate errors sampled at each cycle's
-    start and at the end of the run):
-
-    * ``firings_to_rate_<axis>``: firing events on the axis's jets (cycles in which at least
-      one of them starts a firing -- a jet pair firing together is one event) before the
-      commanded rate is first reached on that axis: the first sample with ``|rate error| < thr``
-      taken while none of the axis's jets is in the middle of a firing (a firing that
-      overshoots sweeps the error through zero mid-firing; that is not reaching the rate).
-      All of the run's events if never reached.
-    * ``time_to_rate_<axis>_s``: time of that first sample (NaN if never).
-    * ``settling_time_s``: start of the final stretch in which every axis stays under ``thr``
-      through the end of the run (NaN if the run does not end under it).
-    * ``failed``: the simulation failed, or some axis ends with ``|rate error| >= thr``, or
-      (if set) the final total attitude error exceeds ``spec.attitude_threshold_rad``.
-    Runs whose simulation failed get NaN outcomes: their state is not a flight.
-    """
-    n, K = history.rate_err_B.shape[:2]
-    thr = spec.rate_threshold_rad_s
-    rate = np.concatenate([history.rate_err_B, history.final.rate_err_B[:, None]], axis=1)
-    below = np.abs(rate) < thr  # (n, K + 1, 3)
-    times = np.arange(K + 1) * cycle_s
-    jets = axis_jets()
-    # Sample k is taken mid-firing on an axis when one of its jets filled cycle k - 1 and is
-    # still on in cycle k.  A firing that overshoots sweeps the rate error through zero, so one
-    # such sample would lie under thr although the firing ends far from the command: only
-    # samples between firings count as "reached".
-    on = history.on_time_s
-    full = on >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)  # (n, K, 16)
-    going_on = full[:, :-1] & (on[:, 1:] > 0)  # filled cycle k - 1 and still on in cycle k
-    mid = np.zeros_like(below)
-    jets_f = jets.T.astype(float)  # (16, 3): a matmul counts an axis's jets, cheaper than any()
-    mid[:, 1:K] = (going_on.astype(float) @ jets_f) > 0
-    settled = below & ~mid
-    reached = settled.any(axis=1)  # (n, 3)
-    first = np.where(reached, settled.argmax(axis=1), K + 1)  # first sample reached
-
-    starts = firing_starts(history.on_time_s, cycle_s)  # (n, K, 16)
-    events = (starts.astype(float) @ jets_f) > 0  # (n, K, 3)
-    before = np.arange(K)[None, :, None] < first[:, None, :]
-    to_rate = (events & before).sum(axis=1)
-
-    all_below = below.all(axis=2)  # (n, K + 1)
-    # suffix[k]: all samples k..K are under thr; settling index = first such k.
-    suffix = np.flip(np.logical_and.accumulate(np.flip(all_below, axis=1), axis=1), axis=1)
-    settle = np.where(suffix[:, -1], times[suffix.argmax(axis=1)], np.nan)
-
-    final_rate_deg = np.degrees(history.final.rate_err_B)
-    final_att_deg = np.degrees(history.final.att_err_B)
-    att_total = np.linalg.norm(final_att_deg, axis=1)
-    prop = history.propulsion
-    cols: dict[str, np.ndarray] = {}
-    for a, axis in enumerate(AXES):
-        cols[f"final_rate_err_{axis}_deg_s"] = final_rate_deg[:, a]
-    for a, axis in enumerate(AXES):
-        cols[f"final_att_err_{axis}_deg"] = final_att_deg[:, a]
-    cols["final_att_err_deg"] = att_total
-    for a, axis in enumerate(AXES):
-        cols[f"firings_to_rate_{axis}"] = to_rate[:, a].astype(float)
-    for a, axis in enumerate(AXES):
-        cols[f"time_to_rate_{axis}_s"] = np.where(reached[:, a], times[np.minimum(first[:, a], K)],
-                                                  np.nan)
-    for a, axis in enumerate(AXES):
-        cols[f"firings_{axis}"] = events[:, :, a].sum(axis=1).astype(float)
-    cols["firings_total"] = prop.firings.sum(axis=1).astype(float)
-    for j in range(N_JETS):
-        cols[f"jet_{j + 1:02d}_on_time_s"] = prop.on_time_s[:, j]
-    cols["propellant_kg"] = prop.propellant_kg(isp_s)
-    cols["settling_time_s"] = settle
-    frame = pd.DataFrame(cols)
-
-    sim_failed = np.asarray(history.failed, bool)
-    reasons = []
-    for i in range(n):
-        if sim_failed[i]:
-            reasons.append(history.reason[i] or "simulation failed")
-            continue
-        bad = [f"{AXES[a]} {abs(final_rate_deg[i, a]):.4g}" for a in range(3)
-               if not abs(rate[i, -1, a]) < thr]
-        why = []
-        if bad:
-            why.append(f"final |rate error| >= {np.degrees(thr):.4g} deg/s: " + ", ".join(bad))
-        if spec.attitude_threshold_rad is not None and not (
-                att_total[i] <= np.degrees(spec.attitude_threshold_rad)):
-            why.append(f"final attitude error {att_total[i]:.4g} deg > "
-                       f"{np.degrees(spec.attitude_threshold_rad):.4g} deg")
-        reasons.append("; ".join(why))
-    frame.loc[sim_failed, :] = np.nan  # outcomes of a non-flight are not numbers
-    frame["sim_failed"] = sim_failed
-    frame["failed"] = np.array([bool(r) for r in reasons])
-    frame["reason"] = reasons
-    return frame
 
 
 def envelope(history: History, cases: np.ndarray, alive: np.ndarray) -> pd.DataFrame:
@@ -294,7 +222,33 @@ def _keep(spec, run_ids: np.ndarray, failed: np.ndarray) -> np.ndarray:
     return np.zeros(run_ids.size, bool)
 
 
-def _row_frame(spec, dispersed: DispersedRuns, out: pd.DataFrame) -> pd.DataFrame:
+def flown_inputs(dispersed: DispersedRuns, flown: VehicleParams | None) -> DispersedRuns:
+    """``dispersed`` with the vehicle values the simulation read back from MuJoCo's per-run
+    model (``History.flown_params``): what runs.parquet records is what the physics flew.
+
+    Runs with invalid parameters keep their draws: they were not flown (NaN outcomes,
+    ``sim_failed``; the reason names the invalid value).  Jet tilt and azimuth stay the draws
+    (MuJoCo holds only the direction they make; ``tests`` compare the two).
+    """
+    if flown is None:
+        return dispersed
+    drawn = dispersed.params
+    ok = np.array([not r for r in invalid_runs(drawn)], dtype=bool)
+
+    def pick(read, draw):
+        return np.where(ok.reshape((-1,) + (1,) * (draw.ndim - 1)), read, draw)
+
+    params = replace(drawn, mass_kg=pick(flown.mass_kg, drawn.mass_kg),
+                     cg_B=pick(flown.cg_B, drawn.cg_B),
+                     inertia_B=pick(flown.inertia_B, drawn.inertia_B),
+                     thrust_n=pick(flown.thrust_n, drawn.thrust_n),
+                     jet_dir_S=pick(flown.jet_dir_S, drawn.jet_dir_S))
+    return replace(dispersed, params=params)
+
+
+def run_rows(spec, dispersed: DispersedRuns, outcome: pd.DataFrame) -> pd.DataFrame:
+    """The runs.parquet rows of runs ``dispersed.run_ids``: identity, inputs, ``outcome``
+    (columns: :data:`analysis.campaign.schema.RUN_COLUMNS`)."""
     cases = dispersed.run_ids // spec.runs_per_case
     head = pd.DataFrame({
         "run_id": dispersed.run_ids,
@@ -302,64 +256,63 @@ def _row_frame(spec, dispersed: DispersedRuns, out: pd.DataFrame) -> pd.DataFram
         "case_index": cases.astype(np.int64),
         "seed": np.full(dispersed.run_ids.size, spec.seed, dtype=np.int64),
     })
-    return pd.concat([head, dispersion_frame(dispersed), out.reset_index(drop=True)], axis=1)
+    return check_run_frame(
+        pd.concat([head, dispersion_frame(dispersed), outcome.reset_index(drop=True)], axis=1))
+
+
+def tabulate(spec, history: History, dispersed: DispersedRuns) -> pd.DataFrame:
+    """The runs.parquet rows of a flown batch (inputs as flown, outcomes)."""
+    out = outcomes(history, spec, PropulsionParams().cycle_s, dispersed.params.isp_s)
+    return run_rows(spec, flown_inputs(dispersed, history.flown_params), out)
 
 
 def _raised(spec, run_ids: np.ndarray, exc: BaseException, model) -> pd.DataFrame:
-    """Rows for runs whose flight raised: inputs recorded, outcomes NaN, failed with reason."""
+    """Rows for runs whose flight raised: inputs (the draws) recorded, outcomes NaN, failed
+    with the exception as the reason."""
     dispersed = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids)
-    n = run_ids.size
-    template = _template_columns()
-    out = pd.DataFrame({c: np.full(n, np.nan) for c in template})
-    out["sim_failed"] = True
-    out["failed"] = True
-    out["reason"] = f"exception: {type(exc).__name__}: {exc}".replace("\n", " ")
-    return _row_frame(spec, dispersed, out)
+    reason = f"exception: {type(exc).__name__}: {exc}".replace("\n", " ")
+    return run_rows(spec, dispersed, missing_outcomes(run_ids.size, reason))
 
 
-def _template_columns() -> list[str]:
-    cols = [f"final_rate_err_{a}_deg_s" for a in AXES] + [f"final_att_err_{a}_deg" for a in AXES]
-    cols += ["final_att_err_deg"] + [f"firings_to_rate_{a}" for a in AXES]
-    cols += [f"time_to_rate_{a}_s" for a in AXES] + [f"firings_{a}" for a in AXES]
-    cols += ["firings_total"] + [f"jet_{j + 1:02d}_on_time_s" for j in range(N_JETS)]
-    return cols + ["propellant_kg", "settling_time_s"]
-
-
-def simulate_chunk(spec, chunk: Chunk, nthread: int = 1) -> ChunkResult:
+def simulate_chunk(spec, chunk: Chunk, nthread: int = 1,
+                   cancel: threading.Event | None = None) -> ChunkResult:
     """Fly one chunk; never raises for a run's sake.
 
     If the batch raises (a controller or model error), each run is flown alone so that only
     the runs that raise by themselves are recorded failed, with the exception as the reason.
+    ``cancel`` (local mode only; an Event does not travel to Dask workers): when set, the
+    chunk is abandoned with :class:`Cancelled`.
     """
     model = load_model()
-    cycle_s = PropulsionParams().cycle_s
     try:
-        history, dispersed = fly_runs(spec, chunk.run_ids, nthread=nthread, model=model)
+        history, dispersed = fly_runs(spec, chunk.run_ids, nthread=nthread, model=model,
+                                      cancel=cancel)
     except Exception as exc:  # noqa: BLE001 - recorded as the failure reason of its runs
         if chunk.stop - chunk.first == 1:
             return ChunkResult(chunk, _raised(spec, chunk.run_ids, exc, model),
                                pd.DataFrame(), {})
-        parts = [simulate_chunk(spec, Chunk(i, i + 1), nthread)
+        parts = [simulate_chunk(spec, Chunk(i, i + 1), nthread, cancel)
                  for i in range(chunk.first, chunk.stop)]
         env = [p.envelope for p in parts if not p.envelope.empty]
         return ChunkResult(
             chunk=chunk,
             runs=pd.concat([p.runs for p in parts], ignore_index=True),
-            envelope=_combine(env) if env else pd.DataFrame(),
+            envelope=combine_envelopes(env) if env else pd.DataFrame(),
             histories={k: v for p in parts for k, v in p.histories.items()},
         )
     from rcsim.analysis.flight import history_frame
 
-    out = outcomes(history, spec, cycle_s, dispersed.params.isp_s)
-    runs = _row_frame(spec, dispersed, out)
+    runs = tabulate(spec, history, dispersed)
     keep = _keep(spec, chunk.run_ids, runs["failed"].to_numpy())
     histories = {int(chunk.run_ids[i]): history_frame(history, int(i)) for i in np.flatnonzero(keep)}
     env = envelope(history, chunk.run_ids // spec.runs_per_case, ~np.asarray(history.failed, bool))
     return ChunkResult(chunk, runs, env, histories)
 
 
-def _combine(frames: list[pd.DataFrame]) -> pd.DataFrame:
-    """Merge envelope frames of the same cycles (min of mins, max of maxes, sum of sums)."""
+def combine_envelopes(frames: list[pd.DataFrame]) -> pd.DataFrame:
+    """Merge envelope frames (of :func:`envelope`, or merged ones) per case and cycle: min of
+    mins, max of maxes, sum of sums and counts, first ``t_s``.  Associative, so partial merges
+    can be merged again."""
     data = pd.concat(frames, ignore_index=True)
     agg = {}
     for col in data.columns:

@@ -11,10 +11,9 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.campaign import results as R
-from rcsim.analysis.campaign.chunk import fly_runs, outcomes
+from rcsim.analysis.campaign.chunk import fly_runs, tabulate
 from rcsim.analysis.campaign.spec import parse_dict
 from rcsim.models.errors import InputError
-from rcsim.spacecraft.propulsion import PropulsionParams
 
 
 def load_campaign_spec(campaign: Path):
@@ -33,27 +32,29 @@ def replay(campaign: str | Path, run_id: int, out: str | Path | None = None) -> 
         ``out`` (directory written), ``row`` (the replayed runs.parquet row as a dict),
         ``matches`` (True/False if the campaign row exists, else None).
     """
-    from rcsim.analysis.campaign.chunk import _row_frame
     from rcsim.analysis.flight import write_flight
 
     campaign = Path(campaign)
     spec = load_campaign_spec(campaign)
     if not 0 <= run_id < spec.n_runs:
-        raise InputError(f"RUN_ID {run_id}: campaign has runs 0..{spec.n_runs - 1}")
+        raise InputError(f"{run_id}: the campaign has runs 0..{spec.n_runs - 1}",
+                         parameter="run_id", value=run_id)
     out = Path(out) if out is not None else campaign / "replays" / f"run-{run_id:07d}"
     if out is not None and not out.parent.exists():
         out.parent.mkdir(parents=True)
     case = spec.case_of(run_id)
     ids = np.array([run_id])
     history, dispersed = fly_runs(spec, ids)
-    row = _row_frame(spec, dispersed,
-                     outcomes(history, spec, PropulsionParams().cycle_s, dispersed.params.isp_s))
+    row = tabulate(spec, history, dispersed)
     title = f"{spec.controller} {spec.cases[case].name} run {run_id}"
     write_flight(history, out, title=title, isp_s=dispersed.params.isp_s)
     matches = None
     runs_path = campaign / R.RUNS
     if runs_path.exists():
         stored = pd.read_parquet(runs_path, filters=[("run_id", "==", run_id)])
+        # Campaigns written before the column's rename call it settling_time_s.
+        stored = stored.rename(columns={"settling_time_s": "rate_settled_time_s"})
         if len(stored) == 1:
-            matches = bool(stored.reset_index(drop=True).equals(row[stored.columns]))
+            matches = (list(stored.columns) == list(row.columns)
+                       and bool(stored.reset_index(drop=True).equals(row)))
     return {"out": out, "row": row.iloc[0].to_dict(), "matches": matches, "case": spec.cases[case].name}

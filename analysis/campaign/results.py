@@ -22,14 +22,18 @@ import json
 import os
 import platform
 import subprocess
+import sys
 from pathlib import Path
+from typing import Iterable
 
 import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from rcsim.models.atomic import atomic_write
+from rcsim.analysis.campaign.schema import RUN_NAMES
+from rcsim.models.atomic import atomic_write, remove_temporaries
+from rcsim.spacecraft.vehicle import AXES
 
 MANIFEST = "manifest.json"
 RUNS = "runs.parquet"
@@ -66,6 +70,15 @@ def commit_chunk(out: Path, result) -> None:
     if not result.envelope.empty:
         write_frame(result.envelope, out / CHUNKS / f"envelope-{name}.parquet")
     write_frame(result.runs, out / CHUNKS / f"runs-{name}.parquet")
+
+
+def remove_temporaries_in(out: Path) -> list[Path]:
+    """Remove the atomic-write temporaries a killed campaign left in ``out`` and its
+    sub-directories (the campaign, run by this process, owns every file there)."""
+    removed = []
+    for folder in (out, out / CHUNKS, out / HISTORIES, out / PLOTS):
+        removed += remove_temporaries(folder)
+    return removed
 
 
 def done_chunks(out: Path) -> set[str]:
@@ -115,37 +128,68 @@ def default_lookup_table() -> dict:
     return {"path": str(path), "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
 
 
-def assemble(out: Path, plan) -> dict:
+# The runs.parquet columns the per-case statistics read (names from the schema).
+_STAT_INPUTS = ("case", "case_index", "failed", "sim_failed", "firings_total",
+                *(f"firings_to_rate_{a}" for a in AXES), *(f"final_rate_err_{a}_deg_s" for a in AXES))
+assert set(_STAT_INPUTS) <= set(RUN_NAMES), "per-case statistics read columns the schema lacks"
+# Partial statistics are merged every this many chunks (and envelopes likewise): memory stays
+# bounded by the number of cases, whatever the number of chunks.
+MERGE_EVERY = 32
+# Column renamed after campaigns were written with it; read under its new name on resume.
+_RENAMED = {"settling_time_s": "rate_settled_time_s"}
+
+
+def assemble(out: Path, plan: Iterable, *, n_chunks: int | None = None,
+             progress: bool = False) -> dict:
     """Stream the committed chunks into ``runs.parquet`` / ``envelopes.parquet`` / ``cases.csv``.
 
     Chunks are contiguous run-id ranges, so writing them in plan order sorts by run_id.  Only one
-    chunk is in memory at a time (peak memory does not grow with the number of runs).
+    chunk's rows are in memory at a time: each chunk is reduced to per-case statistics and its
+    envelope as it is read, and those are merged every :data:`MERGE_EVERY` chunks, so peak
+    memory grows with the number of cases, not of runs or chunks.
+
+    Parameters
+    ----------
+    out : Path
+        Campaign directory.
+    plan : iterable of Chunk
+        Every chunk of the campaign, in run-id order, all committed.
+    n_chunks : int, optional
+        Length of ``plan``, for the progress bar.
+    progress : bool
+        Progress bar on stderr.
 
     Returns
     -------
     dict
         Counts: ``runs``, ``failed``, ``sim_failed`` and per case ``by_case``.
     """
+    from tqdm import tqdm
+
+    from rcsim.analysis.campaign.chunk import combine_envelopes
+
     writer = None
-    counts: dict = {}
-    cols = ["case", "case_index", "failed", "sim_failed", "firings_total",
-            "firings_to_rate_roll", "firings_to_rate_pitch", "firings_to_rate_yaw",
-            "final_rate_err_roll_deg_s", "final_rate_err_pitch_deg_s", "final_rate_err_yaw_deg_s"]
-    per_case = []
-    envelopes = []
+    stats: list[pd.DataFrame] = []
+    envelopes: list[pd.DataFrame] = []
+    rows = 0
     tmp = out / f".{RUNS}.tmp"
     try:
-        for chunk in plan:
+        for chunk in tqdm(plan, total=n_chunks, unit="chunk", desc="assembling",
+                          disable=not progress, file=sys.stderr, dynamic_ncols=True, leave=False):
             table = pq.read_table(out / CHUNKS / f"runs-{chunk.name}.parquet")
+            table = _renamed(table)
             if writer is None:
                 writer = pq.ParquetWriter(tmp, table.schema)
             writer.write_table(table.cast(writer.schema))
-            per_case.append(table.select(cols).to_pandas())
+            rows += table.num_rows
+            stats.append(case_stats(table.select(list(_STAT_INPUTS)).to_pandas()))
             env = out / CHUNKS / f"envelope-{chunk.name}.parquet"
             if env.exists():
                 envelopes.append(pd.read_parquet(env))
-            if len(per_case) > 64:  # keep the small per-case table small too
-                per_case = [_case_stats(pd.concat(per_case))]
+            if len(stats) >= MERGE_EVERY:
+                stats = [merge_case_stats(stats)]
+            if len(envelopes) >= MERGE_EVERY:
+                envelopes = [combine_envelopes(envelopes)]
         if writer is not None:
             writer.close()
             writer = None
@@ -155,18 +199,18 @@ def assemble(out: Path, plan) -> dict:
             writer.close()
         if tmp.exists():
             tmp.unlink()
-    cases = _case_stats(pd.concat(per_case)) if per_case else pd.DataFrame()
-    cases = _finish_case_stats(cases)
+    cases = finish_case_stats(merge_case_stats(stats)) if stats else pd.DataFrame()
+    if int(cases["runs"].sum() if len(cases) else 0) != rows:  # the bug this layout once had
+        raise AssertionError(f"cases.csv counts {int(cases['runs'].sum())} runs, "
+                             f"runs.parquet has {rows}")
     atomic_write(out / CASES, lambda t: cases.to_csv(t, index=False, float_format="%.6g"))
     if envelopes:
-        from rcsim.analysis.campaign.chunk import _combine
-
-        env = _combine(envelopes)
+        env = combine_envelopes(envelopes)
         for col in [c for c in env.columns if c.endswith("_sum") and not c.startswith("on_time")]:
             env[col[:-4] + "_mean"] = env[col] / env["n_runs"]
             env = env.drop(columns=col)
         write_frame(env, out / ENVELOPES)
-    counts["runs"] = int(cases["runs"].sum()) if len(cases) else 0
+    counts: dict = {"runs": rows}
     counts["failed"] = int(cases["failed"].sum()) if len(cases) else 0
     counts["sim_failed"] = int(cases["sim_failed"].sum()) if len(cases) else 0
     counts["by_case"] = {row.case: {"runs": int(row.runs), "failed": int(row.failed)}
@@ -174,33 +218,53 @@ def assemble(out: Path, plan) -> dict:
     return counts
 
 
-def _case_stats(frame: pd.DataFrame) -> pd.DataFrame:
-    """Additive per-case statistics (so partial results can be merged)."""
-    if "runs" in frame.columns:  # already partial statistics: merge them
-        g = frame.groupby(["case_index", "case"], as_index=False, sort=True)
-        out = g[["runs", "failed", "sim_failed", "firings_sum", "firings_to_rate_sum",
-                 "one_firing_runs"]].sum()
-        out["firings_max"] = g["firings_max"].max()["firings_max"]
-        out["max_abs_final_rate_err_deg_s"] = g["max_abs_final_rate_err_deg_s"].max()[
-            "max_abs_final_rate_err_deg_s"]
-        return out
-    to_rate = frame[["firings_to_rate_roll", "firings_to_rate_pitch", "firings_to_rate_yaw"]]
-    rate = frame[["final_rate_err_roll_deg_s", "final_rate_err_pitch_deg_s",
-                  "final_rate_err_yaw_deg_s"]].abs().max(axis=1)
+def _renamed(table: pa.Table) -> pa.Table:
+    """A chunk written before a column's rename, under today's names (with its metadata)."""
+    if not any(n in _RENAMED for n in table.column_names):
+        return table
+    meta = table.schema.metadata or {}
+    for old, new in _RENAMED.items():
+        meta = {k: v.replace(f'"{old}"'.encode(), f'"{new}"'.encode()) for k, v in meta.items()}
+    table = table.rename_columns([_RENAMED.get(n, n) for n in table.column_names])
+    return table.replace_schema_metadata(meta)
+
+
+_ADDITIVE = ("runs", "failed", "sim_failed", "firings_sum", "firings_to_rate_sum",
+             "one_firing_runs")
+
+
+def case_stats(runs: pd.DataFrame) -> pd.DataFrame:
+    """Additive per-case statistics of run rows (columns :data:`_STAT_INPUTS`), one row per
+    case; partial statistics of disjoint runs merge with :func:`merge_case_stats`."""
+    to_rate = runs[[f"firings_to_rate_{a}" for a in AXES]]
+    rate = runs[[f"final_rate_err_{a}_deg_s" for a in AXES]].abs().max(axis=1)
     work = pd.DataFrame({
-        "case_index": frame["case_index"], "case": frame["case"], "runs": 1,
-        "failed": frame["failed"].astype(int), "sim_failed": frame["sim_failed"].astype(int),
-        "firings_sum": frame["firings_total"].fillna(0),
-        "firings_max": frame["firings_total"],
+        "case_index": runs["case_index"], "case": runs["case"], "runs": 1,
+        "failed": runs["failed"].astype(int), "sim_failed": runs["sim_failed"].astype(int),
+        "firings_sum": runs["firings_total"].fillna(0),
+        "firings_max": runs["firings_total"],
         "firings_to_rate_sum": to_rate.max(axis=1).fillna(0),
         # "one firing reaches the rate" (Fig 10): no axis needed more than one firing event.
         "one_firing_runs": (to_rate.max(axis=1) <= 1).astype(int),
         "max_abs_final_rate_err_deg_s": rate,
     })
-    return _case_stats(work)
+    return merge_case_stats([work])
 
 
-def _finish_case_stats(stats: pd.DataFrame) -> pd.DataFrame:
+def merge_case_stats(parts: list[pd.DataFrame]) -> pd.DataFrame:
+    """Merge per-case statistics (of :func:`case_stats`, or merged ones): sums of the additive
+    columns, maxima of the maxima.  Every part must have the same columns."""
+    frame = pd.concat(parts, ignore_index=True)
+    g = frame.groupby(["case_index", "case"], as_index=False, sort=True)
+    merged = g[list(_ADDITIVE)].sum()
+    merged["firings_max"] = g["firings_max"].max()["firings_max"]
+    merged["max_abs_final_rate_err_deg_s"] = g["max_abs_final_rate_err_deg_s"].max()[
+        "max_abs_final_rate_err_deg_s"]
+    return merged
+
+
+def finish_case_stats(stats: pd.DataFrame) -> pd.DataFrame:
+    """The cases.csv table from merged per-case statistics."""
     if stats.empty:
         return stats
     out = stats[["case_index", "case", "runs", "failed", "sim_failed"]].copy()

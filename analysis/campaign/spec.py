@@ -2,7 +2,15 @@
 
 Every mistake is an :class:`~models.errors.InputError` naming the file, the key path (e.g.
 ``dispersions.three_sigma.thrust_n``) and the value, raised before anything is written.
+Values of the right type but outside the range the physics (or the paper) gives are refused
+too, with the range and its reason (:mod:`~analysis.campaign.limits`): a 3-sigma dispersion at least as
+large as its nominal value, a hold disturbance beyond the jets' torque, an initial rate beyond
+the rates the physics step was validated for, a run too long for one chunk's memory.
 Units are in the key names (``_deg``, ``_deg_s``, ``_n``, ...); inside, everything is SI.
+
+About 440 lines, over the ~400 of a small module: the commented :data:`EXAMPLE_SPEC` (50
+lines of user documentation) and the key-by-key reader describe the same keys and change
+together; the physical ranges live in :mod:`~analysis.campaign.limits`.
 :data:`EXAMPLE_SPEC` (``rcsim campaign example``) documents every key.
 """
 from __future__ import annotations
@@ -17,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rcsim.analysis.campaign.limits import (MAX_INITIAL_RATE_DEG_S, check_three_sigma,
+                                            max_duration_s, physical_limits)
 from rcsim.analysis.flight import Scenario
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.dispersions import DispersionSigmas
@@ -38,6 +48,7 @@ mode = "command"         # rate-cases: "command" (from rest to the case rate, Fi
 duration_s = 20.0        # simulated time of every run [s]
 # kind = "maneuver":  attitude_deg = [0.0, 0.0, 5.0]   (rotation-vector components, required)
 # kind = "hold":      disturbance_n_m = [0.0, 0.0, 2.0], initial_rate_deg_s = [0.0, 0.0, 0.0]
+#   (disturbance within the jets' torque, +-[36.1, 34.5, 32.2] N m; initial rate <= 3 deg/s)
 # name = "yaw-5deg"  # maneuver/hold case name (default: the kind)
 
 [controller]
@@ -48,6 +59,7 @@ table = "default"        # lookup only: "default" (packaged table) or a table CS
 [dispersions]
 table = "default"        # "default" = Gambone Table 5, or a CSV path in its format
 scale = 1.0              # multiplies every 3-sigma (3.0 for the stress runs of Figs 13-14)
+                         #   (every 3-sigma x scale must stay below its nominal value; Table 5: < 11.1)
 # Override single 3-sigma values (after them, scale still applies):
 # [dispersions.three_sigma]
 # mass_kg = 73.6
@@ -248,6 +260,10 @@ def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
         r = _Reader(block, "scenario" if not isinstance(raw, list) else f"scenario[{b}]", source)
         kind = r.choice("kind", "rate-cases", SCENARIO_KINDS)
         duration = r.number("duration_s", 20.0, minimum=0.0, strict=True)
+        if duration > max_duration_s():
+            raise r.error("duration_s", f"must be <= {max_duration_s():.0f} s: one run's "
+                          "per-cycle record must fit a chunk's memory budget (analysis."
+                          "campaign.chunk.HISTORY_BUDGET_BYTES)", duration)
         out = {"kind": kind, "duration_s": duration}
         if kind == "rate-cases":
             table = load_rate_cases()
@@ -284,7 +300,19 @@ def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
                 out.update(name=name, attitude_deg=att)
             else:
                 dist = r.vector3("disturbance_n_m", [0.0, 0.0, 0.0])
+                torque = physical_limits()["torque_n_m"]
+                over = [a for a in range(3) if abs(dist[a]) > torque[a]]
+                if over:
+                    raise r.error("disturbance_n_m", "each component must be within the jets' "
+                                  "largest torque about that axis, +-[" + ", ".join(
+                                      f"{t:.4g}" for t in torque) + "] N m (nominal vehicle, "
+                                  "all jets of one sign firing): beyond it no controller can "
+                                  "hold attitude", dist)
                 w0 = r.vector3("initial_rate_deg_s", [0.0, 0.0, 0.0])
+                if np.linalg.norm(w0) > MAX_INITIAL_RATE_DEG_S:
+                    raise r.error("initial_rate_deg_s", f"magnitude must be <= "
+                                  f"{MAX_INITIAL_RATE_DEG_S:g} deg/s, the largest rate the 40 ms "
+                                  "physics step is validated for (docs/convergence.md)", w0)
                 cases.append(Scenario(name=name, duration_s=duration,
                                       omega0_rad_s=np.radians(w0),
                                       disturbance_n_m=np.array(dist)))
@@ -358,6 +386,7 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
             else:
                 frame.loc[len(frame), ["name", "three_sigma"]] = [row, overrides[key] * factor]
     over.done()
+    check_three_sigma(frame, scale, overrides, source, _SIGMA_KEYS)
     if d.has("sensor"):
         raise d.error("sensor", "sensor noise and delays are not supported yet")
     d.done()
@@ -407,9 +436,13 @@ def load_spec(path: str | os.PathLike) -> CampaignSpec:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        # utf-8-sig: a byte-order mark (what some Windows editors save) is not TOML syntax.
+        text = path.read_text(encoding="utf-8-sig")
     except OSError as exc:
         raise InputError(f"{path}: cannot read campaign spec: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file (byte {exc.start}); a campaign spec "
+                         "is TOML") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

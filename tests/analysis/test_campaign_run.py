@@ -59,7 +59,7 @@ def test_outputs_and_columns(reference):
     assert list(reference["case"]) == ["rate-13"] * 5 + ["rate-22"] * 5
     for col in ("seed", "mass_kg", "cg_x_m", "ixx_kg_m2", "jet_16_thrust_n", "jet_01_tilt_deg",
                 "final_rate_err_yaw_deg_s", "final_att_err_deg", "firings_to_rate_yaw",
-                "jet_13_on_time_s", "propellant_kg", "settling_time_s", "failed", "reason"):
+                "jet_13_on_time_s", "propellant_kg", "rate_settled_time_s", "failed", "reason"):
         assert col in reference.columns
     # Yaw-only case: the rate is reached by one yaw firing event, roll and pitch need none.
     yaw = reference[reference["case"] == "rate-13"]
@@ -232,7 +232,7 @@ def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
     assert row["time_to_rate_yaw_s"] == pytest.approx(6 * cycle)
     assert row["firings_yaw"] == 2
     assert row["firings_to_rate_roll"] == 0 and row["time_to_rate_roll_s"] == 0.0
-    assert row["settling_time_s"] == pytest.approx(6 * cycle)
+    assert row["rate_settled_time_s"] == pytest.approx(6 * cycle)
     assert not row["failed"]
 
 
@@ -251,3 +251,22 @@ def test_long_runs_get_chunks_within_the_history_budget(tmp_path):
     # 600 runs in chunks of at most 256: 3 chunks, rounded up to a multiple of
     # CHUNK_COUNT_MULTIPLE (4) for balance across workers, sizes as equal as possible.
     assert [c.stop - c.first for c in chunk_mod.plan_chunks(short_spec)] == [150] * 4
+
+
+def test_progress_phases_and_the_flying_rate(tmp_path, capsys):
+    """With progress: a bar for flying and for assembling, a status line for plotting; the
+    runs/s of the summary is over the flying time alone (plots take time after it)."""
+    from rcsim.analysis.campaign.runner import summary_text
+    from rcsim.analysis.cli import main
+
+    spec = load_spec(_spec(tmp_path, plots="true"))
+    report = run_campaign(spec, tmp_path / "out", threads=2, progress=True)
+    err = capsys.readouterr().err
+    assert "flying" in err and "assembling" in err and "campaign: plotting" in err
+    assert 0 < report.fly_s < report.wall_s
+    text = summary_text(report, spec)
+    assert f"flew 10 runs in {report.fly_s:.1f} s ({10 / report.fly_s:.1f} runs/s" in text
+    # Not a terminal (CI, a pipe) and no --progress: nothing on stderr.
+    assert main(["campaign", "run", str(_spec(tmp_path, name="q.toml")), "--out",
+                 str(tmp_path / "quiet")]) == 0
+    assert capsys.readouterr().err == ""

@@ -93,6 +93,30 @@ BAD = [
     ("bad toml", "seed = \n", "not valid TOML"),
     ("zero threshold", MINIMAL + "[failure]\nrate_error_deg_s = 0\n", "failure.rate_error_deg_s: must be > 0"),
     ("bad histories", MINIMAL + "[output]\nhistories = 'some'\n", "output.histories: must be one of"),
+    # Valid types, physically absurd values (issue 8): refused with the range and its reason.
+    # Table 5's Ixx 3-sigma is 322.48 kg m^2 and the nominal Ixx 3583.09: scale < 11.11.
+    ("absurd scale", MINIMAL + "[dispersions]\nscale = 1e300\n",
+     "dispersions.scale: must be < 11.11 with these 3-sigma values"),
+    ("scale just too large", MINIMAL + "[dispersions]\nscale = 11.2\n",
+     "dispersions.scale: must be < 11.11"),
+    ("override beyond nominal thrust", MINIMAL + "[dispersions.three_sigma]\nthrust_n = 22.24\n",
+     "dispersions.three_sigma.thrust_n: times scale 1 it must be below 22.24 N"),
+    ("tilt beyond 90 deg", MINIMAL + "[dispersions.three_sigma]\nthruster_angle_deg = 90\n",
+     "dispersions.three_sigma.thruster_angle_deg: times scale 1 it must be below 90 deg"),
+    # A roll pair: 2 x 22.24 N x 0.812 m = 36.12 N m (models/vehicle/README.md geometry).
+    ("absurd disturbance", MINIMAL.replace("cases = [13]", "kind = 'hold'\n"
+                                           "disturbance_n_m = [0, 0, 1e300]"),
+     "scenario.disturbance_n_m: each component must be within the jets' largest torque about "
+     "that axis, +-[36.12, 34.52, 32.2] N m"),
+    ("absurd initial rate", MINIMAL.replace("cases = [13]", "kind = 'hold'\n"
+                                            "initial_rate_deg_s = [1e6, 0, 0]"),
+     "scenario.initial_rate_deg_s: magnitude must be <= 3 deg/s"),
+    # 192 MiB // 232 bytes = 867,787 cycles of 40 ms = 34,711 s.
+    ("absurd duration", MINIMAL.replace("duration_s = 1.0", "duration_s = 1e9"),
+     "scenario.duration_s: must be <= 34711 s"),
+    ("campaign too large for the disk", MINIMAL.replace("runs_per_case = 3",
+                                                        "runs_per_case = 1_000_000_000_000"),
+     "runs_per_case = 1000000000000: the campaign's 1,000,000,000,000 runs need about"),
 ]
 
 
@@ -113,7 +137,7 @@ def test_cli_option_errors_leave_no_output(tmp_path, capsys):
     out = tmp_path / "campaign"
     for extra, message in ((["--runs-per-case", "0"], "--runs-per-case must be >= 1"),
                            (["--workers", "0"], "--workers must be >= 1"),
-                           (["--workers", "2", "--scheduler", "tcp://x:1"], "exclusive")):
+                           (["--workers", "2", "--scheduler", "tcp://x:1"], "not allowed with")):
         assert main(["campaign", "run", str(spec), "--out", str(out), *extra]) == 2
         assert message in capsys.readouterr().err
         assert not out.exists()
@@ -127,14 +151,17 @@ def test_existing_directory_needs_resume_and_same_spec(tmp_path, capsys):
     assert main(["campaign", "run", str(spec), "--out", str(out), "--resume"]) == 2
     assert "rcsim did not write" in capsys.readouterr().err
     (out / ".rcsim-output").write_text("")  # an rcsim output, but not a campaign
-    assert main(["campaign", "run", str(spec), "--out", str(out)]) == 2
-    assert "use --resume" in capsys.readouterr().err
-    assert main(["campaign", "run", str(spec), "--out", str(out), "--resume"]) == 2
-    assert "not a campaign directory" in capsys.readouterr().err
+    for resume in ([], ["--resume"]):
+        assert main(["campaign", "run", str(spec), "--out", str(out), *resume]) == 2
+        assert "not a campaign directory" in capsys.readouterr().err
     other = _write(tmp_path, MINIMAL.replace("seed = 2", "seed = 3"), "other.toml")
     done = tmp_path / "done"
     assert main(["campaign", "run", str(spec), "--out", str(done), "--no-progress"]) == 0
     capsys.readouterr()
+    # A campaign's directory is never replaced: without --resume it is refused.
+    assert main(["campaign", "run", str(spec), "--out", str(done)]) == 2
+    err = capsys.readouterr().err
+    assert f"--out {done}: holds a campaign (complete); resume it" in err, err
     assert main(["campaign", "run", str(other), "--out", str(done), "--resume"]) == 2
     assert "spec differs" in capsys.readouterr().err
 
@@ -142,3 +169,41 @@ def test_existing_directory_needs_resume_and_same_spec(tmp_path, capsys):
 def test_parse_errors_raise_input_error(tmp_path):
     with pytest.raises(InputError, match="cannot read"):
         load_spec(tmp_path / "missing.toml")
+
+
+def test_ranges_accept_their_edges(tmp_path):
+    """The ranges refuse only beyond them: Table 5 at 3x (the paper's Figs 13-14 stress runs),
+    a hold disturbance of 36 N m about roll and an initial rate of 3 deg/s load."""
+    spec = load_spec(_write(tmp_path, MINIMAL.replace("cases = [13]", "kind = 'hold'\n"
+                                                      "disturbance_n_m = [36.0, 0, 0]\n"
+                                                      "initial_rate_deg_s = [0, 0, 3.0]")
+                            + "[dispersions]\nscale = 11.0\n"))
+    assert spec.cases[0].disturbance_n_m[0] == 36.0
+    assert spec.sigmas.thrust_n == pytest.approx(2.0 / 3 * 11.0)
+
+
+def test_spec_with_utf8_byte_order_mark_is_read(tmp_path):
+    """A BOM (Windows editors) is not TOML syntax; the spec reads as without it."""
+    plain = load_spec(_write(tmp_path, MINIMAL))
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + MINIMAL.encode())
+    assert load_spec(path).resolved == plain.resolved
+
+
+def test_spec_that_is_not_utf8_is_one_line_error(tmp_path):
+    path = tmp_path / "latin1.toml"
+    path.write_bytes(MINIMAL.replace("seed = 2", "# caf\xe9\nseed = 2").encode("latin-1"))
+    with pytest.raises(InputError, match="not a UTF-8 text file"):
+        load_spec(path)
+
+
+def test_runner_errors_name_its_own_parameters():
+    """The library names ``workers`` / ``scheduler`` (the CLI shows them as flags)."""
+    from rcsim.analysis.campaign.runner import connect
+
+    with pytest.raises(InputError) as err:
+        connect(2, "tcp://x:1")
+    assert err.value.parameter == "workers" and "exclusive" in str(err.value)
+    with pytest.raises(InputError) as err:
+        connect(0, None)
+    assert err.value.parameter == "workers" and str(err.value) == "workers must be >= 1, got 0"
