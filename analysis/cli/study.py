@@ -26,6 +26,9 @@ def register(subparsers) -> None:
     studies = study.add_subparsers(dest="study", metavar="STUDY", parser_class=type(study))
     studies.required = True
     _add_noisy_sensor(studies)
+    from rcsim.analysis.cli.study_dai import register_dai
+
+    register_dai(studies)
 
 
 def _add_noisy_sensor(studies) -> None:

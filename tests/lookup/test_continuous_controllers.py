@@ -1,0 +1,153 @@
+"""Continuous-torque controllers of the DAI papers: regression, feedforward, observer, DAI.
+
+Oracles per test: 001 App. A.3's expanded feedforward torques; the midpoint rule's O(dt^2)
+error; the observer's designed error poles; exact least squares on noise-free statements.
+"""
+import math
+
+import numpy as np
+import pytest
+
+from rcsim.lookup.continuous.controllers import (
+    ContinuousController, ControllerConfig, dai_update,
+)
+from rcsim.lookup.continuous.observer import error_poles, observer_matrices, observer_step
+from rcsim.lookup.continuous.regression import (
+    feedforward, inertia_from_theta, regressor, theta_from_inertia,
+)
+from rcsim.lookup.continuous.trajectory import SinusoidalTrajectory
+from rcsim.models.dai import load_setup
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.continuous.kinematics import angle_between
+from rcsim.spacecraft.continuous.plant import ContinuousPlant, fly
+
+J002 = np.full((3, 3), 0.1) + 9.9 * np.eye(3)
+
+
+def _app_a3(j, w, wd):
+    """001 App. A.3, transcribed term by term (J symmetric)."""
+    (jxx, jxy, jxz), (_, jyy, jyz), (_, _, jzz) = j
+    wx, wy, wz = w
+    ax, ay, az = wd
+    return np.array([
+        jxx * ax + jxy * ay + jxz * az - jxy * wx * wz - jyy * wy * wz - jyz * wz ** 2
+        + jxz * wx * wy + jzz * wz * wy + jyz * wy ** 2,
+        jxy * ax + jyy * ay + jyz * az - jyz * wx * wy - jzz * wx * wz - jxz * wx ** 2
+        + jxx * wx * wz + jxy * wz * wy + jxz * wz ** 2,
+        jxz * ax + jyz * ay + jzz * az - jxx * wx * wy - jxz * wy * wz - jxy * wy ** 2
+        + jyy * wx * wy + jyz * wz * wx + jxy * wx ** 2,
+    ])
+
+
+def test_regressor_equals_appendix_a3():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        a = rng.normal(size=(3, 3))
+        j = a @ a.T + 3 * np.eye(3)
+        w, wd = rng.normal(size=3), rng.normal(size=3)
+        expected = _app_a3(j, w, wd)
+        np.testing.assert_allclose(regressor(w, wd) @ theta_from_inertia(j), expected,
+                                   rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(feedforward(j, w, wd), expected, rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(inertia_from_theta(theta_from_inertia(j)), j)
+
+
+def _ffd_max_error(dt):
+    setup = load_setup("smeresky2020")
+    traj = SinusoidalTrajectory((0.0, 0.0, 0.0), (0.2, -0.3, 0.5), 0.5, 2.0)
+    cfg = ControllerConfig("ffd", J002, setup.pdi_gains, setup.observer_gains, dt)
+    hist = fly(ContinuousPlant(J002[None], timestep_s=dt), ContinuousController(cfg, traj), 3.0)
+    ref = traj.sample(hist.t_s)
+    return angle_between(hist.q_BN[0], ref["q"]).max()
+
+
+def test_feedforward_alone_tracks_exact_model_to_integration_accuracy():
+    # Exact model, exact inertia, three-axis 2 s maneuver: the only error is the held torque,
+    # a midpoint rule on the acceleration f (O(dt^2)), plus RK4's O(dt^4).  Oracle 1, the
+    # midpoint bound: rate error <= T_m dt^2 / 24 max|f''| with max|f''| ~ A (pi / T_m)^4
+    # (A = 0.25 rad, the largest half amplitude), angle error <= that times the 3 s flown.
+    # Oracle 2: halving dt divides the error by ~4 (accept 3-5).
+    t_m, amp = 2.0, 0.25
+    e1, e2 = _ffd_max_error(0.01), _ffd_max_error(0.005)
+    bound = 3.0 * t_m * 0.01 ** 2 / 24 * amp * (math.pi / t_m) ** 4
+    assert e1 < bound
+    assert 3.0 < e1 / e2 < 5.0
+
+
+def test_observer_error_poles_and_convergence():
+    setup = load_setup("wilt2022")
+    dt, j = 0.01, np.diag(setup.inertia_B)
+    ad, bd, ld = observer_matrices(j, setup.observer_gains, dt)
+    for axis in range(3):
+        # Designed: eig(Ad - Ld C) = exp(s dt), s the roots of J s^3 + Kd s^2 + Kp s + Ki.
+        got = np.sort_complex(np.linalg.eigvals(ad[axis] - np.outer(ld[axis], [1, 0, 0])))
+        want = np.sort_complex(np.exp(error_poles(j[axis], setup.observer_gains) * dt))
+        np.testing.assert_allclose(got, want, atol=1e-9)
+    # Converges on an exactly modelled double integrator from a wrong start: the dominant pair
+    # decays as exp(-Kd t / 2J) (<= exp(-2.8 t) for J = 90): below 1e-9 of the 1e-2 rad start
+    # within 8 s.
+    rng = np.random.default_rng(4)
+    u = rng.normal(0, 1, (800, 3))
+    theta, omega = np.zeros(3), np.array([0.01, -0.02, 0.005])
+    x_hat = np.zeros((1, 3, 3))
+    x_hat[0, :, 0] = [0.01, -0.01, 0.01]
+    for k in range(800):
+        x_hat = observer_step(x_hat, u[k][None], theta[None], ad, bd, ld)
+        theta = theta + omega * dt + u[k] / j * dt ** 2 / 2  # exact ZOH of theta'' = u / J
+        omega = omega + u[k] / j * dt
+    np.testing.assert_allclose(x_hat[0, :, 0], theta, atol=1e-11)
+    np.testing.assert_allclose(x_hat[0, :, 1], omega, atol=1e-9)
+
+
+def test_dai_recovers_known_inertia_from_noise_free_excitation():
+    # Noise-free statements u_k = Phi_d,k Theta_true along a three-axis trajectory (rich
+    # enough: the stacked Phi has rank 6).  Starting from a model 20 % off, the Moore-Penrose
+    # solution is the exact least-squares one: Theta_hat = Theta_true to round-off (1e-8).
+    traj = SinusoidalTrajectory((0.0, 0.0, 0.0), (0.4, -0.3, 0.6), 0.0, 3.0)
+    theta_true = theta_from_inertia(J002)
+    theta_model = theta_from_inertia(np.diag([8.0, 12.0, 9.0]))
+    info, rhs = np.zeros((1, 6, 6)), np.zeros((1, 6))
+    for t in np.arange(0.005, 3.0, 0.01):
+        _, w_d, wdot_d = traj.body(t)
+        phi = regressor(w_d, wdot_d)
+        info, rhs, d_theta = dai_update(info, rhs, phi, (phi @ theta_true)[None], theta_model,
+                                        1.0)
+    np.testing.assert_allclose(theta_model + d_theta[0], theta_true, atol=1e-8)
+
+
+def test_dai_keeps_model_in_unexcited_directions():
+    # Yaw only: Jxx, Jxy, Jyy never enter Phi_d; the minimum-norm change leaves them at the
+    # model's values exactly, and learns Jzz.
+    traj = SinusoidalTrajectory((0.0, 0.0, 0.0), (0.0, 0.0, 0.5), 0.0, 2.0)
+    j_true, j_model = np.diag([30.0, 60.0, 58.5]), np.diag([30.0, 60.0, 90.0])
+    info, rhs = np.zeros((1, 6, 6)), np.zeros((1, 6))
+    for t in np.arange(0.005, 2.0, 0.01):
+        _, w_d, wdot_d = traj.body(t)
+        phi = regressor(w_d, wdot_d)
+        info, rhs, d = dai_update(info, rhs, phi, (phi @ theta_from_inertia(j_true))[None],
+                                  theta_from_inertia(j_model), 1.0)
+    assert d[0, [0, 1, 3]].tolist() == [0.0, 0.0, 0.0]
+    assert d[0, 5] == pytest.approx(58.5 - 90.0, abs=1e-8)
+
+
+def test_controller_is_batched_elementwise():
+    # Batched equals one-by-one: the same step on a batch of 3 and on each row alone.
+    setup = load_setup("wilt2022")
+    traj = SinusoidalTrajectory((0, 0, 0), (0, 0, math.radians(30)), 0.1, 1.0)
+    ctrl = ContinuousController(ControllerConfig("ffd+fb+dai", setup.inertia_B, setup.pdi_gains,
+                                                 setup.observer_gains, 0.01), traj)
+    rng = np.random.default_rng(5)
+    y = rng.normal(0, 1e-3, (40, 3, 3))
+    batch = ctrl.initial_state(3)
+    singles = [ctrl.initial_state(1) for _ in range(3)]
+    for k in range(40):
+        u, batch = ctrl.step(k * 0.01 + 0.1, y[k], batch)
+        for i in range(3):
+            ui, singles[i] = ctrl.step(k * 0.01 + 0.1, y[k, i:i + 1], singles[i])
+            np.testing.assert_allclose(u[i], ui[0], rtol=1e-13, atol=1e-15)
+
+
+def test_bad_method_names_parameter():
+    setup = load_setup("wilt2022")
+    with pytest.raises(InputError, match="method must be one of"):
+        ControllerConfig("pid", setup.inertia_B, setup.pdi_gains, setup.observer_gains, 0.01)
