@@ -54,6 +54,38 @@ def register(sub) -> None:
                       help="paper table (default table6, the original)")
     cmp_.set_defaults(func=run_compare)
 
+    ref = cmds.add_parser(
+        "refine", help="make a lookup table robust to the Table 5 dispersions (automated Table 7)",
+        description="Fly the dispersed runs of every rate case (Table 5 dispersions, the "
+        "campaign's failure threshold), and where runs fail or need repeated firings, search "
+        "the firing times (whole 40 ms cycles per axis of the entry) that minimise failures "
+        "first and repeated firings second, over the same dispersed runs for every candidate. "
+        "Then fly the old and refined tables on a fresh seed the search never saw.  Writes "
+        "OUT.csv (a table for --table), OUT_changelog.csv and OUT_plots/.",
+    )
+    ref.add_argument("--table", required=True, metavar="IN.csv",
+                     help="table to refine: a CSV (rcsim or paper layout) or table6 / table7")
+    ref.add_argument("--runs", dest="runs_per_case", type=int, default=200, metavar="N",
+                     help="dispersed runs per case (default 200)")
+    ref.add_argument("--seed", type=int, default=1, metavar="S",
+                     help="search seed: run i of case c draws from SeedSequence(S, "
+                          "spawn_key=(c*N+i,)), as in `rcsim campaign run` (default 1)")
+    ref.add_argument("--fresh-seed", type=int, metavar="S2",
+                     help="held-out seed for the before/after check (default S + 1)")
+    ref.add_argument("--cases", type=int, nargs="+", metavar="CASE",
+                     help="rate cases (1-26) to refine (default: all)")
+    ref.add_argument("--duration-s", type=float, default=20.0,
+                     help="simulated time of every run [s] (default 20, as campaigns)")
+    ref.add_argument("--max-iterations", type=int, default=8, metavar="K",
+                     help="most rounds of candidates (default 8)")
+    ref.add_argument("--out", required=True, metavar="OUT.csv",
+                     help="refined table to write (missing parent directories are created)")
+    ref.add_argument("--overwrite", action="store_true",
+                     help="replace OUT.csv, its changelog and plots if they exist")
+    ref.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                     help="progress bars on stderr (default: only on a terminal)")
+    ref.set_defaults(func=run_refine)
+
 
 def run_generate(args: argparse.Namespace) -> int:
     from rcsim.analysis.output import check_out_file, make_parents, remove_parents
@@ -96,12 +128,45 @@ def run_compare(args: argparse.Namespace) -> int:
     from rcsim.lookup.table_generation import compare_tables
     from rcsim.models.tables import load_lookup_table
 
-    if args.table is not None and not Path(args.table).is_file():
-        raise InputError(f"--table {args.table}: file not found")
     table = load_default_table() if args.table is None else load_lookup_table(args.table)
     frame = compare_tables(table, load_lookup_table(which=args.which))
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(frame.to_string(index=False))
     print(f"jets agree: {int(frame.jets_agree.sum())}/26; within one cycle: "
           f"{int(frame.within_one_cycle.sum())}/26")
+    return 0
+
+
+def run_refine(args: argparse.Namespace) -> int:
+    from rcsim.analysis.refinement.outputs import check_outputs, run_refinement, write_refinement
+    from rcsim.models.tables import load_lookup_table
+
+    table = load_lookup_table(args.table)
+    # OUT.csv, OUT_changelog.csv and OUT_plots/ are checked before any flight; --overwrite
+    # replaces all three.
+    out = check_outputs(args.out, overwrite=args.overwrite)["table"]
+    fresh = args.seed + 1 if args.fresh_seed is None else args.fresh_seed
+    cases = None
+    if args.cases is not None:
+        bad = [c for c in args.cases if c not in set(int(c) for c in table.case)]
+        if bad:
+            raise InputError(f"--cases {bad[0]}: no such rate case; cases are 1..{len(table.case)}")
+        cases = [list(table.case).index(c) for c in args.cases]
+    ref = run_refinement(table, runs_per_case=args.runs_per_case, seed=args.seed, fresh_seed=fresh,
+                         cases=cases, duration_s=args.duration_s,
+                         max_iterations=args.max_iterations, progress=args.progress)
+    paths = write_refinement(ref, out, overwrite=args.overwrite)
+    log = ref.changelog
+    print(f"refined {args.table}: {int(log['changed'].sum())} of {len(log)} cases changed "
+          f"({ref.result.runs_flown} runs flown in the search, {args.runs_per_case} per case)")
+    for _, row in log[log["changed"]].iterrows():
+        moves = ", ".join(f"{a} {row[f'{a}_old_s']:.2f}->{row[f'{a}_new_s']:.2f} s"
+                          for a in ("roll", "pitch", "yaw") if row[f"{a}_change_cycles"])
+        print(f"  case {int(row['case']):2d}: {moves}")
+    for seed_name, seed in (("search", args.seed), ("fresh", fresh)):
+        print(f"seed {seed} ({seed_name}): failed runs {int(log[f'failed_{seed_name}_before'].sum())}"
+              f" -> {int(log[f'failed_{seed_name}_after'].sum())}, repeated-firing runs "
+              f"{int(log[f'repeated_{seed_name}_before'].sum())} -> "
+              f"{int(log[f'repeated_{seed_name}_after'].sum())}")
+    print("wrote " + ", ".join(str(p) for p in paths.values()))
     return 0

@@ -1,0 +1,151 @@
+"""Fly candidate lookup tables over the same dispersed runs, all in one batched campaign.
+
+A *trial* is one candidate table flown on one rate case.  Run ``k`` of a trial on case ``c``
+flies the vehicle of campaign run ``c * runs_per_case + k`` -- the same draw from
+``SeedSequence(seed, spawn_key=(run_id,))`` for every candidate (common random numbers), so a
+difference between candidates is the table's doing, not sampling noise.  The baseline trials
+(the table as it is) are exactly the runs ``rcsim campaign run`` flies with the same seed.
+
+Every run of every trial goes into one list of runs, cut into chunks that are flown on a
+thread pool (MuJoCo releases the GIL), each chunk one batched simulation in which every run
+carries its own table (:meth:`rcsim.lookup.pattern_recognition.LookupController.for_runs`).
+"""
+from __future__ import annotations
+
+import os
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from rcsim.analysis.campaign.chunk import outcomes
+from rcsim.analysis.flight import fly_batch
+from rcsim.lookup.pattern_recognition import LookupController, LookupParams
+from rcsim.models.tables import AXES, CONTROL_CYCLE_S, LookupTable
+from rcsim.spacecraft.dispersions import draw_runs
+from rcsim.spacecraft.vehicle import VehicleParams, load_model
+
+#: Runs per batched simulation.  512 keeps a 20 s chunk's per-cycle record near 60 MB and
+#: gives each of two threads several chunks to balance (the campaign's default, measured).
+CHUNK_RUNS = 512
+
+
+@dataclass(frozen=True)
+class Trials:
+    """Candidate tables and the case each is flown on.
+
+    Attributes
+    ----------
+    times_s : ndarray, (n_trials, 26, 16)
+        Each candidate's firing times [s].
+    case : ndarray of int, (n_trials,)
+        Table row (0-based case index) the trial flies.
+    label : tuple of str
+        What the candidate is (for the changelog and messages).
+    """
+
+    times_s: np.ndarray
+    case: np.ndarray
+    label: tuple
+
+    @property
+    def n_trials(self) -> int:
+        return int(self.case.size)
+
+
+def _fly_chunk(spec, table: LookupTable, params_all: VehicleParams, row_of_run: np.ndarray,
+               run_times: np.ndarray, cases: np.ndarray, lookup_params: LookupParams,
+               model) -> pd.DataFrame:
+    """Fly one chunk: run ``i`` flies case ``cases[i]`` with vehicle ``row_of_run[i]`` of
+    ``params_all`` and table ``run_times[i]``; return its outcome columns."""
+    controller = LookupController.for_runs(table, run_times, lookup_params)
+    params = params_all.take(row_of_run)
+    history = fly_batch([spec.cases[c] for c in cases], params, controller, model=model,
+                        nthread=1)
+    return outcomes(history, spec, CONTROL_CYCLE_S, params.isp_s)
+
+
+def evaluate(spec, table: LookupTable, trials: Trials, *,
+             lookup_params: LookupParams | None = None, threads: int | None = None,
+             progress: bool | None = None, desc: str = "refine") -> pd.DataFrame:
+    """Fly every trial over ``spec.runs_per_case`` dispersed runs of its case.
+
+    Parameters
+    ----------
+    spec : rcsim.analysis.campaign.spec.CampaignSpec
+        A rate-cases campaign: its cases (one per table row), seed, dispersions, failure
+        threshold and runs per case.
+    table : LookupTable
+        The table the candidates edit (jet roles are learned from it).
+    trials : Trials
+    lookup_params : LookupParams, optional
+        Default: Table 4.
+    threads : int, optional
+        Chunks in flight (default: CPU count).
+    progress : bool, optional
+        Progress bar on stderr; default only when stderr is a terminal.
+
+    Returns
+    -------
+    DataFrame
+        One row per run: ``trial, case_index, k, failed, repeated`` (some axis needed more
+        than one firing event to reach its commanded rate), ``firings_to_rate_<axis>``,
+        ``final_rate_err_<axis>_deg_s``.
+    """
+    from tqdm import tqdm
+
+    n = spec.runs_per_case
+    lookup_params = LookupParams.from_table4() if lookup_params is None else lookup_params
+    model = load_model()
+    # Draw each involved case's runs once; every candidate of that case reuses them.
+    involved = np.unique(trials.case)
+    run_ids = (involved[:, None] * n + np.arange(n)[None, :]).ravel()
+    params_all = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids).params
+    first_row = {int(c): i * n for i, c in enumerate(involved)}
+
+    trial_of_run = np.repeat(np.arange(trials.n_trials), n)
+    k_of_run = np.tile(np.arange(n), trials.n_trials)
+    case_of_run = trials.case[trial_of_run]
+    row_of_run = np.array([first_row[int(c)] for c in trials.case])[trial_of_run] + k_of_run
+    threads = max(1, threads or os.cpu_count() or 1)
+    # Equal chunks, a multiple of the thread count and at most CHUNK_RUNS runs each, so that
+    # the threads finish together (one 512-run chunk and one 8-run chunk would idle one).
+    count = -(-trial_of_run.size // CHUNK_RUNS)
+    count = min(trial_of_run.size, -(-count // threads) * threads)
+    bounds = np.linspace(0, trial_of_run.size, count + 1).round().astype(int)
+    chunks = [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+
+    def fly(sl: slice) -> pd.DataFrame:
+        return _fly_chunk(spec, table, params_all, row_of_run[sl],
+                          trials.times_s[trial_of_run[sl]], case_of_run[sl], lookup_params, model)
+
+    show = sys.stderr.isatty() if progress is None else progress
+    frames = []
+    with tqdm(total=trial_of_run.size, unit="run", desc=desc, disable=not show,
+              file=sys.stderr, dynamic_ncols=True) as bar, \
+            ThreadPoolExecutor(max_workers=threads) as pool:
+        for sl, frame in zip(chunks, pool.map(fly, chunks)):
+            frames.append(frame)
+            bar.update(sl.stop - sl.start)
+    out = pd.concat(frames, ignore_index=True)
+    to_rate = out[[f"firings_to_rate_{a}" for a in AXES]].to_numpy()
+    result = pd.DataFrame({
+        "trial": trial_of_run, "case_index": case_of_run, "k": k_of_run,
+        "failed": out["failed"].to_numpy(bool),
+        "repeated": np.nanmax(np.nan_to_num(to_rate, nan=0.0), axis=1) > 1,
+    })
+    for a, axis in enumerate(AXES):
+        result[f"firings_to_rate_{axis}"] = to_rate[:, a]
+        result[f"final_rate_err_{axis}_deg_s"] = out[f"final_rate_err_{axis}_deg_s"].to_numpy()
+    return result
+
+
+def trial_scores(runs: pd.DataFrame, n_trials: int) -> pd.DataFrame:
+    """Per trial: ``failed`` and ``repeated`` run counts (the search's two objectives, in that
+    order of priority), ``runs``."""
+    g = runs.groupby("trial")
+    out = pd.DataFrame({"failed": g["failed"].sum(), "repeated": g["repeated"].sum(),
+                        "runs": g.size()})
+    return out.reindex(np.arange(n_trials), fill_value=0).astype(int)

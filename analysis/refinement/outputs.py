@@ -1,0 +1,286 @@
+"""Refinement outputs: the refined table, its changelog on the search and a fresh seed, plots.
+
+``OUT.csv`` is a lookup table in the rcsim layout (loadable by ``--table``).
+``OUT_changelog.csv`` has one row per searched case: the firing time per axis before and
+after (control cycles and seconds), and failures and repeated-firing runs before and after on
+the search seed and on a fresh seed the search never saw.  ``OUT_plots/`` holds the
+before/after plots (Figs 9-10 style).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rcsim.analysis.campaign.spec import parse_dict
+from rcsim.analysis.flight import fly_batch
+from rcsim.analysis.output import atomic_dir, check_out_dir, check_out_file
+from rcsim.analysis.plots import AXIS_COLORS, new_figure
+from rcsim.analysis.refinement.evaluate import Trials, evaluate, trial_scores
+from rcsim.analysis.refinement.search import RefineResult, changed_cells, refine
+from rcsim.lookup.pattern_recognition import LookupController
+from rcsim.lookup.table_edits import axis_cycles, jet_axes
+from rcsim.models.atomic import atomic_write
+from rcsim.models.errors import InputError
+from rcsim.models.tables import AXES, CONTROL_CYCLE_S, LookupTable
+from rcsim.spacecraft.dispersions import draw_runs
+from rcsim.spacecraft.vehicle import VehicleParams, load_model
+
+DPI = 90
+
+
+def refinement_spec(*, runs_per_case: int, seed: int, duration_s: float = 20.0,
+                    dispersion_scale: float = 1.0, rate_error_deg_s: float | None = None,
+                    source: str = "lookup refine"):
+    """The rate-cases campaign a refinement flies: all 26 Table 3 cases from rest, Table 5
+    dispersions (times ``dispersion_scale``), the campaign's failure threshold."""
+    data = {"seed": seed, "runs_per_case": runs_per_case,
+            "scenario": {"kind": "rate-cases", "cases": "all", "mode": "command",
+                         "duration_s": duration_s},
+            "controller": {"name": "lookup"},
+            "dispersions": {"scale": dispersion_scale},
+            "output": {"histories": "none", "plots": False}}
+    if rate_error_deg_s is not None:
+        data["failure"] = {"rate_error_deg_s": rate_error_deg_s}
+    return parse_dict(data, source=source, base_dir=None)
+
+
+@dataclass
+class Refinement:
+    """A refinement with its held-out check.
+
+    Attributes
+    ----------
+    original : LookupTable
+        The table refined.
+    result : RefineResult
+    fresh_before, fresh_after : DataFrame
+        Per searched case on the fresh seed: ``failed, repeated, runs``.
+    changelog : DataFrame
+    seed, fresh_seed, runs_per_case : int
+    """
+
+    original: LookupTable
+    result: RefineResult
+    fresh_before: pd.DataFrame
+    fresh_after: pd.DataFrame
+    changelog: pd.DataFrame
+    seed: int
+    fresh_seed: int
+    runs_per_case: int
+
+    @property
+    def table(self) -> LookupTable:
+        return self.result.table
+
+
+def run_refinement(table: LookupTable, *, runs_per_case: int, seed: int, fresh_seed: int,
+                   cases=None, duration_s: float = 20.0, max_iterations: int = 8,
+                   threads: int | None = None, progress: bool | None = None) -> Refinement:
+    """Refine ``table`` on ``seed`` and fly the old and new tables on ``fresh_seed``.
+
+    Parameters
+    ----------
+    table : LookupTable
+    runs_per_case : int
+        Dispersed runs of each case, 1 .. :data:`MAX_RUNS_PER_CASE`.
+    seed, fresh_seed : int
+        The search seed and the held-out seed (must differ), >= 0.
+    cases : sequence of int, optional
+        Table rows (0-based) to refine; default all.
+    duration_s : float
+        Simulated time of every run [s].
+    max_iterations : int
+        Most rounds of candidates, >= 1.
+
+    Raises
+    ------
+    InputError
+        A parameter out of range (named by ``parameter``).
+    """
+    _check_parameters(runs_per_case=runs_per_case, seed=seed, fresh_seed=fresh_seed,
+                      duration_s=duration_s, max_iterations=max_iterations)
+    spec = refinement_spec(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s)
+    result = refine(spec, table, cases, max_iterations=max_iterations, threads=threads,
+                    progress=progress)
+    searched = result.before["case_index"].to_numpy()
+    fresh = refinement_spec(runs_per_case=runs_per_case, seed=fresh_seed, duration_s=duration_s)
+    both = Trials(np.concatenate([np.repeat(np.asarray(table.firing_time_s)[None], searched.size, 0),
+                                  np.repeat(np.asarray(result.table.firing_time_s)[None],
+                                            searched.size, 0)]),
+                  np.concatenate([searched, searched]),
+                  tuple(["before"] * searched.size + ["after"] * searched.size))
+    runs = evaluate(fresh, table, both, threads=threads, progress=progress,
+                    desc="refine: fresh seed")
+    scores = trial_scores(runs, both.n_trials)
+    fresh_before = scores.iloc[:searched.size].reset_index(drop=True)
+    fresh_after = scores.iloc[searched.size:].reset_index(drop=True)
+    log = changelog(table, result, fresh_before, fresh_after)
+    return Refinement(table, result, fresh_before, fresh_after, log, seed, fresh_seed, runs_per_case)
+
+
+#: Most runs per case a refinement accepts: 26 cases x 100,000 runs is 65 days of a 2-core
+#: machine's flying; a larger number is a typo, refused before any work.
+MAX_RUNS_PER_CASE = 100_000
+
+
+def _check_parameters(*, runs_per_case, seed, fresh_seed, duration_s, max_iterations) -> None:
+    def bad(name, value, problem):
+        return InputError(f"{problem}, got {value!r}", parameter=name, value=value)
+
+    for name, value, lo, hi in (("runs_per_case", runs_per_case, 1, MAX_RUNS_PER_CASE),
+                                ("seed", seed, 0, None), ("fresh_seed", fresh_seed, 0, None),
+                                ("max_iterations", max_iterations, 1, 1000)):
+        if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < lo or (
+                hi is not None and value > hi):
+            raise bad(name, value, f"must be an integer in {lo}..{hi if hi else 'inf'}")
+    if fresh_seed == seed:
+        raise bad("fresh_seed", fresh_seed, "must differ from the search seed (it is the "
+                                            "held-out check)")
+    if not (isinstance(duration_s, (int, float)) and np.isfinite(duration_s) and duration_s > 0):
+        raise bad("duration_s", duration_s, "must be a finite time > 0 s")
+
+
+def changelog(old: LookupTable, result: RefineResult, fresh_before: pd.DataFrame,
+              fresh_after: pd.DataFrame) -> pd.DataFrame:
+    """One row per searched case: times per axis before/after, outcomes on both seeds."""
+    jet_axis = jet_axes(old)
+    searched = result.before["case_index"].to_numpy()
+    c_old = axis_cycles(old.firing_time_s, jet_axis)[searched]
+    c_new = axis_cycles(result.table.firing_time_s, jet_axis)[searched]
+    cols: dict = {"case": old.case[searched]}
+    for a, axis in enumerate(AXES):
+        cols[f"{axis}_old_s"] = c_old[:, a] * CONTROL_CYCLE_S
+        cols[f"{axis}_new_s"] = c_new[:, a] * CONTROL_CYCLE_S
+        cols[f"{axis}_change_cycles"] = c_new[:, a] - c_old[:, a]
+    frame = pd.DataFrame(cols)
+    frame["changed"] = (c_new != c_old).any(axis=1)
+    frame["runs"] = result.before["runs"].to_numpy()
+    for name, scores in (("search_before", result.before), ("search_after", result.after),
+                         ("fresh_before", fresh_before), ("fresh_after", fresh_after)):
+        frame[f"failed_{name}"] = scores["failed"].to_numpy()
+        frame[f"repeated_{name}"] = scores["repeated"].to_numpy()
+    return frame
+
+
+#: The command whose outputs :func:`write_refinement` writes (named in the plots' marker).
+COMMAND = "lookup refine"
+
+
+def output_paths(out_csv: str | Path) -> dict[str, Path]:
+    """Where a refinement writes: the table, its changelog and the plots folder."""
+    out_csv = Path(out_csv)
+    return {"table": out_csv,
+            "changelog": out_csv.with_name(f"{out_csv.stem}_changelog.csv"),
+            "plots": out_csv.with_name(f"{out_csv.stem}_plots")}
+
+
+def check_outputs(out_csv: str | Path, *, overwrite: bool = False) -> dict[str, Path]:
+    """Check all three outputs before any flight (existing ones need ``overwrite``)."""
+    paths = output_paths(out_csv)
+    check_out_file(paths["table"], overwrite=overwrite, parameter="out")
+    check_out_file(paths["changelog"], overwrite=overwrite, parameter="out")
+    check_out_dir(paths["plots"], COMMAND, overwrite=overwrite)
+    return paths
+
+
+def write_refinement(ref: Refinement, out_csv: str | Path, *, overwrite: bool = False
+                     ) -> dict[str, Path]:
+    """Write ``OUT.csv``, ``OUT_changelog.csv`` and ``OUT_plots/*.png``; returns the paths.
+
+    Each output is complete or absent: the plots folder is built aside and renamed into place,
+    the two CSV files are renamed into place, the table last, so a table on disk always has
+    its changelog beside it.
+    """
+    paths = check_outputs(out_csv, overwrite=overwrite)
+    written = dict(paths)
+    worst = _most_improved_case(ref.changelog)
+    with atomic_dir(paths["plots"], COMMAND, overwrite=overwrite) as tmp:
+        plot_failures_by_case(ref.changelog, tmp / "failures_by_case.png",
+                              title=f"{ref.runs_per_case} dispersed runs per case")
+        written["summary_plot"] = paths["plots"] / "failures_by_case.png"
+        if worst is not None:
+            name = f"case_{int(worst['case']):02d}_before_after.png"
+            plot_case_before_after(ref, int(worst["case"]), tmp / name)
+            written["case_plot"] = paths["plots"] / name
+    atomic_write(paths["changelog"],
+                 lambda tmp: ref.changelog.to_csv(tmp, index=False, float_format="%.6g"))
+    ref.table.to_csv(paths["table"])  # last: the table appears only when the rest is written
+    del written["plots"]
+    return written
+
+
+def _most_improved_case(log: pd.DataFrame):
+    changed = log[log["changed"]]
+    if changed.empty:
+        return None
+    gain = (changed["failed_search_before"] - changed["failed_search_after"]) * 10_000 + (
+        changed["repeated_search_before"] - changed["repeated_search_after"])
+    return changed.loc[gain.idxmax()]
+
+
+def plot_failures_by_case(log: pd.DataFrame, path: Path, *, title: str) -> None:
+    """Failed and repeated-firing runs per case, before and after, on both seeds."""
+    fig, axes = new_figure(2, 2, figsize=(12, 6.5), sharex=True, sharey="row")
+    x = np.arange(len(log))
+    for col, seed in enumerate(("search", "fresh")):
+        for row, what in enumerate(("failed", "repeated")):
+            ax = axes[row, col]
+            ax.bar(x - 0.2, log[f"{what}_{seed}_before"], 0.4, color="tab:red", label="before")
+            ax.bar(x + 0.2, log[f"{what}_{seed}_after"], 0.4, color="tab:blue", label="after")
+            ax.set_ylabel(f"{what} runs" if col == 0 else "")
+            ax.grid(alpha=0.3, axis="y")
+            ax.set_title(f"{what} runs per case, {seed} seed "
+                         f"({int(log[f'{what}_{seed}_before'].sum())} -> "
+                         f"{int(log[f'{what}_{seed}_after'].sum())})", fontsize=10)
+            ax.legend(fontsize=8)
+        axes[1, col].set_xticks(x, [str(int(c)) + ("*" if ch else "")
+                                    for c, ch in zip(log["case"], log["changed"])], fontsize=7)
+        axes[1, col].set_xlabel("rate case (* = firing time changed)")
+    fig.suptitle(f"Lookup-table refinement: {title}; repeated = needed more than one firing "
+                 "to reach the commanded rate")
+    fig.savefig(path, dpi=DPI)
+
+
+def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
+    """Figs 9-10 style: the changed axis's body rate of every search-seed run of ``case``,
+    with the old table (left) and the refined one (right); failed runs in red."""
+    log = ref.changelog.set_index("case").loc[case]
+    axis = max(AXES, key=lambda a: abs(int(log[f"{a}_change_cycles"])))
+    a = AXES.index(axis)
+    spec = refinement_spec(runs_per_case=ref.runs_per_case, seed=ref.seed)
+    row = case - 1
+    model = load_model()
+    ids = row * ref.runs_per_case + np.arange(ref.runs_per_case)
+    params = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, ids).params
+    thr = np.degrees(spec.rate_threshold_rad_s)
+    fig, axes = new_figure(1, 2, figsize=(12, 4.5), sharey=True)
+    cmd = np.degrees(spec.cases[row].rate_cmd_rad_s[a])
+    for ax, (label, table, old_new) in zip(axes, (("old table", ref.original, "old"),
+                                                   ("refined table", ref.table, "new"))):
+        history = fly_batch([spec.cases[row]] * ref.runs_per_case, params,
+                            LookupController(table), model=model)
+        rate = np.degrees(history.omega_B[:, :, a])
+        # The campaign's criterion: every axis ends within the threshold of its command.
+        failed = ~(np.abs(np.degrees(history.final.rate_err_B)) < thr).all(axis=1) | history.failed
+        show = np.ones_like(history.t_s, bool)
+        for fail, color in ((False, AXIS_COLORS["roll"]), (True, "tab:red")):
+            sel = failed == fail
+            if sel.any():
+                ax.plot(history.t_s[show], rate[sel][:, show].T, color=color, lw=0.6, alpha=0.5)
+        ax.axhspan(cmd - thr, cmd + thr, color="0.8", alpha=0.6, label=f"command +-{thr:g} deg/s")
+        ax.set_title(f"{label}: {axis} {log[f'{axis}_{old_new}_s']:.2f} s; "
+                     f"{int(failed.sum())} of {ref.runs_per_case} runs fail (red)", fontsize=10)
+        ax.set_xlabel("time [s]")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="lower right", fontsize=8)
+    axes[0].set_ylabel(f"{axis} rate [deg/s]")
+    fig.suptitle(f"Rate case {case}: {axis} rate of every dispersed run, before and after "
+                 "refinement (search seed)")
+    fig.savefig(path, dpi=DPI)
+
+
+__all__ = ["Refinement", "changed_cells", "refinement_spec", "run_refinement",
+           "write_refinement"]
