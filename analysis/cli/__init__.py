@@ -27,6 +27,7 @@ from rcsim.models.errors import InputError
 
 # Every command group's module, in the order ``rcsim --help`` lists them.
 _COMMANDS = (
+    "rcsim.analysis.cli.loop",
     "rcsim.analysis.cli.maneuver",
     "rcsim.analysis.cli.lookup",
     "rcsim.analysis.cli.scenario",

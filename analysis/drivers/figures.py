@@ -1,23 +1,26 @@
 """Figures of the driver analysis: each returns a matplotlib Figure for the report.
 
-Colours follow Gambone Fig. 15: failed runs red, successful runs blue.  The backend is the
-caller's (the CLI selects Agg).
+Colours follow Gambone Fig. 15: failed runs red, successful runs blue.  Figures are made with
+matplotlib's object API (:func:`rcsim.analysis.plots.new_figure`, constrained layout), never
+pyplot, so a user's backend is never touched.
 """
 from __future__ import annotations
 
-import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
+
+from rcsim.analysis.plots import new_figure
 
 FAIL, OK = "#d62728", "#1f77b4"
 AXES = ("roll", "pitch", "yaw")
 
 
-def failures_per_case(cases) -> plt.Figure:
+def failures_per_case(cases) -> Figure:
     """Bar chart of failed runs per case (share of the case's runs)."""
     names = [c.case for c in cases]
     pct = [100.0 * c.failed / max(c.runs, 1) for c in cases]
-    fig, ax = plt.subplots(figsize=(max(6.0, 0.32 * len(names) + 2), 3.2))
+    fig, ax = new_figure(figsize=(max(6.0, 0.32 * len(names) + 2), 3.2))
     ax.bar(range(len(names)), pct, color=[FAIL if p > 0 else "#bbbbbb" for p in pct])
     ax.set_xticks(range(len(names)), names, rotation=90, fontsize=8)
     ax.set_ylabel("failed runs [% of case]")
@@ -26,10 +29,10 @@ def failures_per_case(cases) -> plt.Figure:
     return fig
 
 
-def ranking(drivers: pd.DataFrame, top: int = 20) -> plt.Figure:
+def ranking(drivers: pd.DataFrame, top: int = 20) -> Figure:
     """Horizontal bars of the top single-factor scores; significant ones red."""
     d = drivers.head(top).iloc[::-1]
-    fig, ax = plt.subplots(figsize=(8.0, 0.28 * len(d) + 1.2))
+    fig, ax = new_figure(figsize=(8.0, 0.28 * len(d) + 1.2))
     colors = [FAIL if s else "#999999" for s in d["significant"]]
     ax.barh(range(len(d)), d["score"], color=colors)
     labels = [f"{f}  (p={p:.3g}" + (f", kept {s:.0%}" if "stability" in d and pd.notna(s) else "")
@@ -43,12 +46,12 @@ def ranking(drivers: pd.DataFrame, top: int = 20) -> plt.Figure:
     return fig
 
 
-def failure_regions(singles, X: pd.DataFrame, factors) -> plt.Figure:
+def failure_regions(singles, X: pd.DataFrame, factors) -> Figure:
     """P(fail | x) against x for each factor, base rate dashed, failure region shaded."""
     factors = list(factors)
     ncol = min(2, len(factors))
     nrow = int(np.ceil(len(factors) / ncol))
-    fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol, 3.0 * nrow), squeeze=False)
+    fig, axes = new_figure(nrow, ncol, figsize=(5.2 * ncol, 3.0 * nrow), squeeze=False)
     names = list(singles.feature_names_in_)
     m = singles.n_bins
     u_mid = (np.arange(m) + 0.5) / m
@@ -69,14 +72,13 @@ def failure_regions(singles, X: pd.DataFrame, factors) -> plt.Figure:
         ax.legend(fontsize=7, loc="best")
     for ax in axes.ravel()[len(factors):]:
         ax.set_visible(False)
-    fig.tight_layout()
     return fig
 
 
-def knn_map(fmap, X: pd.DataFrame, y: np.ndarray, title: str) -> plt.Figure:
+def knn_map(fmap, X: pd.DataFrame, y: np.ndarray, title: str) -> Figure:
     """Gambone Fig. 15 style: kNN P(fail) shading with runs on top; and its uncertainty."""
     a, b = fmap.feature_names_in_
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11.5, 4.4))
+    fig, (ax1, ax2) = new_figure(1, 2, figsize=(11.5, 4.4))
     extent = [fmap.edges_a_[0], fmap.edges_a_[-1], fmap.edges_b_[0], fmap.edges_b_[-1]]
     im = ax1.imshow(100 * fmap.prob_.T, origin="lower", extent=extent, aspect="auto",
                     cmap="Reds", vmin=0, vmax=100, alpha=0.85)
@@ -95,14 +97,13 @@ def knn_map(fmap, X: pd.DataFrame, y: np.ndarray, title: str) -> plt.Figure:
     ax2.set_ylabel(b)
     ax2.set_title("uncertainty of the map")
     fig.colorbar(im2, ax=ax2, label="90 % interval half-width [% points]")
-    fig.tight_layout()
     return fig
 
 
 def rate_error_histogram(runs: pd.DataFrame, y: np.ndarray, threshold_deg_s: float | None,
-                         title: str) -> plt.Figure:
+                         title: str) -> Figure:
     """Gambone Fig. 16 style: final rate error of every axis, binned, failed vs successful."""
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.2), sharey=True)
+    fig, axes = new_figure(1, 3, figsize=(12, 3.2), sharey=True)
     for ax, axis in zip(axes, AXES):
         col = f"final_rate_err_{axis}_deg_s"
         v = runs[col].to_numpy(float)
@@ -117,5 +118,4 @@ def rate_error_histogram(runs: pd.DataFrame, y: np.ndarray, threshold_deg_s: flo
     axes[0].set_ylabel("runs")
     axes[0].legend(fontsize=7)
     fig.suptitle(f"{title}: final rate errors (dashed: failure threshold)")
-    fig.tight_layout()
     return fig

@@ -142,6 +142,35 @@ def evaluate(spec, table: LookupTable, trials: Trials, *,
     return result
 
 
+def runs_from_campaign(campaign_runs: pd.DataFrame, cases: np.ndarray,
+                       runs_per_case: int) -> pd.DataFrame:
+    """A campaign's ``runs.parquet`` rows as :func:`evaluate` would return them for trials
+    that fly the campaign's own table on ``cases`` (one trial per case, in that order).
+
+    A rate-cases campaign with the same seed, dispersions, duration and runs per case flies
+    exactly the runs of those trials (run ``c * runs_per_case + k``), so flying them again
+    would only repeat it.
+    """
+    want = np.asarray(cases, int)
+    rows = campaign_runs[campaign_runs["case_index"].isin(want)].sort_values("run_id")
+    if len(rows) != want.size * runs_per_case:
+        raise ValueError(f"the campaign has {len(rows)} runs of these cases, expected "
+                         f"{want.size * runs_per_case}")
+    trial_of_case = {int(c): t for t, c in enumerate(want)}
+    to_rate = rows[[f"firings_to_rate_{a}" for a in AXES]].to_numpy(float)
+    out = pd.DataFrame({
+        "trial": rows["case_index"].map(trial_of_case).to_numpy(),
+        "case_index": rows["case_index"].to_numpy(),
+        "k": (rows["run_id"] - rows["case_index"] * runs_per_case).to_numpy(),
+        "failed": rows["failed"].to_numpy(bool),
+        "repeated": np.nanmax(np.nan_to_num(to_rate, nan=0.0), axis=1) > 1,
+    })
+    for a, axis in enumerate(AXES):
+        out[f"firings_to_rate_{axis}"] = to_rate[:, a]
+        out[f"final_rate_err_{axis}_deg_s"] = rows[f"final_rate_err_{axis}_deg_s"].to_numpy()
+    return out.sort_values(["trial", "k"], kind="stable").reset_index(drop=True)
+
+
 def trial_scores(runs: pd.DataFrame, n_trials: int) -> pd.DataFrame:
     """Per trial: ``failed`` and ``repeated`` run counts (the search's two objectives, in that
     order of priority), ``runs``."""

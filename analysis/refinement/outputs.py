@@ -8,6 +8,7 @@ before/after plots (Figs 9-10 style).
 """
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -105,20 +106,57 @@ def run_refinement(table: LookupTable, *, runs_per_case: int, seed: int, fresh_s
     spec = refinement_spec(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s)
     result = refine(spec, table, cases, max_iterations=max_iterations, threads=threads,
                     progress=progress)
+    return held_out_check(table, result, seed=seed, fresh_seed=fresh_seed,
+                          runs_per_case=runs_per_case, duration_s=duration_s, threads=threads,
+                          progress=progress)
+
+
+def held_out_check(table: LookupTable, result: RefineResult, *, seed: int, fresh_seed: int,
+                   runs_per_case: int, duration_s: float = 20.0,
+                   fresh_after_runs: pd.DataFrame | None = None, threads: int | None = None,
+                   progress: bool | None = None) -> Refinement:
+    """Fly the old and the refined table on ``fresh_seed`` (the seed the search never saw).
+
+    ``fresh_after_runs``: the refined table's runs on the fresh seed if a campaign already
+    flew them (:func:`~rcsim.analysis.refinement.evaluate.runs_from_campaign`); then only the
+    old table is flown.
+    """
     searched = result.before["case_index"].to_numpy()
     fresh = refinement_spec(runs_per_case=runs_per_case, seed=fresh_seed, duration_s=duration_s)
-    both = Trials(np.concatenate([np.repeat(np.asarray(table.firing_time_s)[None], searched.size, 0),
-                                  np.repeat(np.asarray(result.table.firing_time_s)[None],
-                                            searched.size, 0)]),
-                  np.concatenate([searched, searched]),
-                  tuple(["before"] * searched.size + ["after"] * searched.size))
-    runs = evaluate(fresh, table, both, threads=threads, progress=progress,
+    tables = [np.asarray(table.firing_time_s)]
+    if fresh_after_runs is None:
+        tables.append(np.asarray(result.table.firing_time_s))
+    trials = Trials(np.concatenate([np.repeat(t[None], searched.size, 0) for t in tables]),
+                    np.tile(searched, len(tables)),
+                    tuple(["before"] * searched.size + ["after"] * (len(tables) - 1)
+                          * searched.size))
+    runs = evaluate(fresh, table, trials, threads=threads, progress=progress,
                     desc="refine: fresh seed")
-    scores = trial_scores(runs, both.n_trials)
+    scores = trial_scores(runs, trials.n_trials)
     fresh_before = scores.iloc[:searched.size].reset_index(drop=True)
-    fresh_after = scores.iloc[searched.size:].reset_index(drop=True)
+    if fresh_after_runs is None:
+        fresh_after = scores.iloc[searched.size:].reset_index(drop=True)
+    else:
+        fresh_after = trial_scores(fresh_after_runs, searched.size)
     log = changelog(table, result, fresh_before, fresh_after)
-    return Refinement(table, result, fresh_before, fresh_after, log, seed, fresh_seed, runs_per_case)
+    return Refinement(table, result, fresh_before, fresh_after, log, seed, fresh_seed,
+                      runs_per_case)
+
+
+def save_search(result: RefineResult, path: str | Path) -> None:
+    """The search's per-case scores and rounds as JSON (the refined table is its own CSV)."""
+    data = {"before": result.before.to_dict(orient="list"),
+            "after": result.after.to_dict(orient="list"),
+            "iterations": result.iterations, "runs_flown": result.runs_flown}
+    atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(data, indent=1, default=int)))
+
+
+def load_search(path: str | Path, table: LookupTable) -> RefineResult:
+    """:func:`save_search` read back, with ``table`` the refined table."""
+    data = json.loads(Path(path).read_text())
+    return RefineResult(table=table, before=pd.DataFrame(data["before"]),
+                        after=pd.DataFrame(data["after"]), iterations=data["iterations"],
+                        runs_flown=data["runs_flown"])
 
 
 #: Most runs per case a refinement accepts: 26 cases x 100,000 runs is 65 days of a 2-core
@@ -196,7 +234,7 @@ def write_refinement(ref: Refinement, out_csv: str | Path, *, overwrite: bool = 
     """
     paths = check_outputs(out_csv, overwrite=overwrite)
     written = dict(paths)
-    worst = _most_improved_case(ref.changelog)
+    worst = most_improved_case(ref.changelog)
     with atomic_dir(paths["plots"], COMMAND, overwrite=overwrite) as tmp:
         plot_failures_by_case(ref.changelog, tmp / "failures_by_case.png",
                               title=f"{ref.runs_per_case} dispersed runs per case")
@@ -212,7 +250,9 @@ def write_refinement(ref: Refinement, out_csv: str | Path, *, overwrite: bool = 
     return written
 
 
-def _most_improved_case(log: pd.DataFrame):
+def most_improved_case(log: pd.DataFrame):
+    """The changelog row of the changed case with the largest drop in failures (then in
+    repeated firings) on the search seed; None if no case changed."""
     changed = log[log["changed"]]
     if changed.empty:
         return None

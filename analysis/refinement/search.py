@@ -75,7 +75,7 @@ def _key(score) -> tuple[int, int]:
 
 def refine(spec, table: LookupTable, cases=None, *, max_iterations: int = 8,
            threads: int | None = None, progress: bool | None = None,
-           lookup_params=None) -> RefineResult:
+           lookup_params=None, baseline_runs: pd.DataFrame | None = None) -> RefineResult:
     """Refine ``table`` against the dispersed runs of ``spec``.
 
     Parameters
@@ -87,6 +87,9 @@ def refine(spec, table: LookupTable, cases=None, *, max_iterations: int = 8,
         Table rows (0-based) to search; default all.
     max_iterations : int
         Most rounds of candidates (each round: candidates, then the current table again).
+    baseline_runs : DataFrame, optional
+        The table's own runs on ``spec`` if already flown (a campaign's, through
+        :func:`~rcsim.analysis.refinement.evaluate.runs_from_campaign`); default: fly them.
     """
     if len(spec.cases) != len(table.case):
         raise ValueError(f"spec has {len(spec.cases)} cases, the table {len(table.case)}")
@@ -104,8 +107,11 @@ def refine(spec, table: LookupTable, cases=None, *, max_iterations: int = 8,
         return runs, trial_scores(runs, trials.n_trials)
 
     current = np.asarray(table.firing_time_s, float)
-    runs, scores = fly_current(current, "refine: baseline")
-    flown = len(runs)
+    if baseline_runs is None:
+        runs, scores = fly_current(current, "refine: baseline")
+        flown = len(runs)
+    else:
+        runs, scores, flown = baseline_runs, trial_scores(baseline_runs, cases.size), 0
     before = scores.assign(case_index=cases)
     best = (current, before)
     iterations = []

@@ -49,7 +49,9 @@ def table_block(df: pd.DataFrame, caption: str = "", max_rows: int = 50,
     shown = df.head(max_rows)
     head = "".join(f"<th>{html.escape(str(c))}</th>" for c in shown.columns)
     rows = []
-    for _, r in shown.iterrows():
+    # itertuples keeps each column's dtype (iterrows would turn the ints of a mixed row into
+    # floats, printing case 3 as "3.00").
+    for r in shown.itertuples(index=False):
         cells = []
         for v in r:
             if isinstance(v, float):
@@ -66,12 +68,9 @@ def table_block(df: pd.DataFrame, caption: str = "", max_rows: int = 50,
 
 
 def png_bytes(fig, dpi: int = 110) -> bytes:
-    """A matplotlib figure as PNG bytes (the figure is closed)."""
-    import matplotlib.pyplot as plt
-
+    """A matplotlib figure as PNG bytes (made with the object API: nothing to close)."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
-    plt.close(fig)
     return buf.getvalue()
 
 

@@ -1,0 +1,263 @@
+"""The analyst's loop: campaign -> failure drivers -> refined table -> fresh campaign -> report.
+
+``rcsim loop`` (and ``make run``) on defaults: a Table 5 campaign of the 26 rate cases flown
+with the paper's Table 6, its failure-driver analysis, refinement of the table, the refined
+table re-flown on a fresh seed, and one ``report.html`` with the before/after.
+
+Every stage writes its own sub-directory of ``DIR`` completely or not at all, and the loop
+records each finished stage in ``DIR/loop.json``: a loop killed in its tenth minute resumes
+(``resume=True``) from the last finished stage, and the campaigns resume chunk by chunk.
+"""
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rcsim.analysis.campaign import results as campaign_results
+from rcsim.analysis.campaign.runner import run_campaign
+from rcsim.analysis.campaign.spec import load_spec
+from rcsim.analysis.output import check_out_dir, write_marker
+from rcsim.models.atomic import atomic_write
+from rcsim.models.errors import InputError
+from rcsim.models.tables import PAPER_LOOKUP_TABLES, load_lookup_table, lookup_table_source
+
+COMMAND = "loop"
+STATE = "loop.json"
+#: Stages in order, each a sub-directory (or file) of DIR.
+STAGES = ("campaign_before", "drivers", "refine", "campaign_after", "check", "report")
+
+
+@dataclass(frozen=True)
+class LoopSettings:
+    """What the loop flies (defaults: ``make run``).
+
+    Attributes
+    ----------
+    table : str
+        Table to refine: ``"table6"`` / ``"table7"`` (the paper's) or a CSV path.
+    runs_per_case : int
+        Dispersed runs per rate case, for the campaigns and the refinement search.
+    seed : int
+        Campaign and search seed; run i draws from ``SeedSequence(seed, spawn_key=(i,))``.
+    fresh_seed : int
+        Held-out seed: the refined table is re-flown on it (default ``seed + 1``).
+    duration_s : float
+        Simulated time of every run [s].
+    permutations : int
+        Label permutations of the driver analysis's p-values.
+    max_iterations : int
+        Most rounds of the refinement search.
+    """
+
+    table: str = "table6"
+    runs_per_case: int = 100
+    seed: int = 1
+    fresh_seed: int | None = None
+    duration_s: float = 20.0
+    permutations: int = 200
+    max_iterations: int = 8
+
+    def __post_init__(self):
+        from rcsim.analysis.refinement.outputs import MAX_RUNS_PER_CASE
+
+        for name, lo, hi in (("runs_per_case", 1, MAX_RUNS_PER_CASE), ("seed", 0, None),
+                             ("permutations", 19, None), ("max_iterations", 1, 1000)):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < lo or (hi is not None and value > hi):
+                raise InputError(f"must be an integer in {lo}..{hi or 'inf'}, got {value!r}",
+                                 parameter=name, value=value)
+        if self.fresh_seed is not None and (self.fresh_seed < 0 or self.fresh_seed == self.seed):
+            raise InputError(f"must be >= 0 and differ from the seed {self.seed} (it is the "
+                             f"held-out check), got {self.fresh_seed}", parameter="fresh_seed",
+                             value=self.fresh_seed)
+
+    @property
+    def held_out_seed(self) -> int:
+        return self.seed + 1 if self.fresh_seed is None else self.fresh_seed
+
+
+@dataclass
+class LoopResult:
+    """Where the loop wrote, and the time of each stage [s]."""
+
+    out: Path
+    report: Path
+    stage_s: dict = field(default_factory=dict)
+    summary: dict = field(default_factory=dict)
+
+
+def spec_text(*, table: str, runs_per_case: int, seed: int, duration_s: float) -> str:
+    """A campaign spec (TOML) for the 26 rate cases with Table 5 dispersions."""
+    return (
+        "# Written by `rcsim loop`: the 26 Table 3 rate cases, Table 5 dispersions.\n"
+        f"seed = {seed}\nruns_per_case = {runs_per_case}\n\n"
+        "[scenario]\nkind = \"rate-cases\"\ncases = \"all\"\nmode = \"command\"\n"
+        f"duration_s = {float(duration_s)!r}\n\n"
+        f"[controller]\nname = \"lookup\"\ntable = {json.dumps(table)}\n\n"
+        "[dispersions]\ntable = \"default\"\nscale = 1.0\n\n"
+        "[output]\nhistories = \"failures\"\nplots = true\n"
+    )
+
+
+def _table_path(table: str) -> str:
+    """An absolute path a campaign spec can name (the paper's tables by their packaged file)."""
+    if table in PAPER_LOOKUP_TABLES:
+        return str(Path(str(lookup_table_source(table))).absolute())
+    return str(Path(table).absolute())
+
+
+class _State:
+    """``DIR/loop.json``: the settings and the stages already finished."""
+
+    def __init__(self, out: Path, settings: LoopSettings, resume: bool):
+        self.path = out / STATE
+        wanted = asdict(settings)
+        if resume and self.path.is_file():
+            self.data = json.loads(self.path.read_text())
+            if self.data.get("settings") != wanted:
+                raise InputError(f"{out}: was started with other settings "
+                                 f"({self.data.get('settings')}); choose another directory",
+                                 parameter="out", value=str(out))
+        else:
+            self.data = {"format": "rcsim-loop/1", "settings": wanted, "done": {},
+                         "code_version": campaign_results.code_version(),
+                         "started_utc": campaign_results.now_utc()}
+        self.save()
+
+    def done(self, stage: str) -> bool:
+        return stage in self.data["done"]
+
+    def finish(self, stage: str, seconds: float, **info) -> None:
+        self.data["done"][stage] = {"seconds": round(seconds, 2), **info}
+        self.save()
+
+    def save(self) -> None:
+        atomic_write(self.path, lambda tmp: Path(tmp).write_text(json.dumps(self.data, indent=2)
+                                                                  + "\n"))
+
+
+def check_loop_dir(out, *, resume: bool, overwrite: bool) -> Path:
+    """Check ``out`` before any work: new, or a loop directory to resume."""
+    out = Path(out)
+    if resume:
+        if not (out / STATE).is_file():
+            raise InputError(f"{out}: no {STATE} here to resume; start the loop without resume",
+                             parameter="out", value=str(out))
+        return out.absolute()
+    if overwrite:
+        raise InputError("a loop directory is resumed, never replaced: choose another directory",
+                         parameter="overwrite", value=True)
+    return check_out_dir(out, COMMAND)
+
+
+def run_loop(settings: LoopSettings, out, *, resume: bool = False,
+             progress: bool | None = None, echo=print) -> LoopResult:
+    """Run every stage of the loop into ``out`` (see the module docstring).
+
+    Parameters
+    ----------
+    settings : LoopSettings
+    out : path
+        A new directory, or one to finish (``resume``).
+    echo : callable
+        Receives one line per finished stage (the CLI prints them).
+    """
+    from rcsim.analysis.drivers.inputs import load_runs
+    from rcsim.analysis.drivers.outputs import write_analysis
+    from rcsim.analysis.drivers.pipeline import Settings, analyze
+    from rcsim.analysis.loop.report import write_loop_report
+    from rcsim.analysis.refinement.evaluate import runs_from_campaign
+    from rcsim.analysis.refinement.outputs import (
+        held_out_check, load_search, refinement_spec, save_search, write_refinement,
+    )
+    from rcsim.analysis.refinement.search import refine
+
+    table = load_lookup_table(settings.table)  # a table that does not load: before any work
+    out = check_loop_dir(out, resume=resume, overwrite=False)
+    out.mkdir(parents=True, exist_ok=True)
+    write_marker(out, COMMAND)
+    state = _State(out, settings, resume)
+    paths = {"campaign_before": out / "campaign_before", "drivers": out / "drivers",
+             "refined": out / "refined_table.csv", "search": out / "refine_search.json",
+             "campaign_after": out / "campaign_after",
+             "report": out / "report.html"}
+    result = LoopResult(out=out, report=paths["report"])
+
+    def stage(name: str, work) -> None:
+        if state.done(name):
+            echo(f"{name}: already done")
+            return
+        t0 = time.perf_counter()
+        info = work() or {}
+        seconds = time.perf_counter() - t0
+        state.finish(name, seconds, **info)
+        echo(f"{name}: done in {seconds:.1f} s" + "".join(f"; {k} {v}" for k, v in info.items()))
+
+    def campaign(name: str, table_path: str, seed: int):
+        spec_file = out / f"spec_{name.split('_')[1]}.toml"
+        if not spec_file.exists():
+            atomic_write(spec_file, lambda tmp: Path(tmp).write_text(spec_text(
+                table=table_path, runs_per_case=settings.runs_per_case, seed=seed,
+                duration_s=settings.duration_s)))
+        spec = load_spec(spec_file)
+        report = run_campaign(spec, paths[name], resume=paths[name].exists(),
+                              progress=progress, spec_file=str(spec_file))
+        return {"runs": report.counts.get("runs"), "failed": report.counts.get("failed")}
+
+    def drivers():
+        runset = load_runs(paths["campaign_before"])
+        res = analyze(runset, Settings(n_permutations=settings.permutations,
+                                       random_state=settings.seed))
+        write_analysis(res, paths["drivers"], overwrite=True)
+        top = res.drivers[res.drivers["significant"]]["factor"].head(3).tolist() \
+            if res.has_failures else []
+        return {"significant": ", ".join(top) or "none"}
+
+    cases = np.arange(len(table.case))
+
+    def campaign_runs(name: str):
+        runs = pd.read_parquet(paths[name] / campaign_results.RUNS)
+        return runs_from_campaign(runs, cases, settings.runs_per_case)
+
+    def search():
+        # The search's baseline is the "before" campaign itself: same seed, same runs.
+        spec = refinement_spec(runs_per_case=settings.runs_per_case, seed=settings.seed,
+                               duration_s=settings.duration_s)
+        result = refine(spec, table, max_iterations=settings.max_iterations, progress=progress,
+                        baseline_runs=campaign_runs("campaign_before"))
+        save_search(result, paths["search"])
+        result.table.to_csv(paths["refined"])
+        return {"cases_changed": int((result.table.firing_time_s != table.firing_time_s)
+                                     .any(axis=1).sum()),
+                "runs_flown": result.runs_flown}
+
+    def check():
+        # The refined table's runs on the fresh seed are the "after" campaign's; only the old
+        # table is flown again, on that seed.
+        refined = load_lookup_table(paths["refined"])
+        ref = held_out_check(table, load_search(paths["search"], refined), seed=settings.seed,
+                             fresh_seed=settings.held_out_seed,
+                             runs_per_case=settings.runs_per_case, duration_s=settings.duration_s,
+                             fresh_after_runs=campaign_runs("campaign_after"), progress=progress)
+        write_refinement(ref, paths["refined"], overwrite=True)
+        log = ref.changelog
+        return {"failed_fresh": f"{int(log['failed_fresh_before'].sum())} -> "
+                                f"{int(log['failed_fresh_after'].sum())}"}
+
+    stage("campaign_before", lambda: campaign("campaign_before", _table_path(settings.table),
+                                              settings.seed))
+    stage("drivers", drivers)
+    stage("refine", search)
+    stage("campaign_after", lambda: campaign("campaign_after", str(paths["refined"]),
+                                             settings.held_out_seed))
+    stage("check", check)
+    stage("report", lambda: {"path": str(write_loop_report(out, settings, state.data))})
+    state.data["finished_utc"] = campaign_results.now_utc()
+    state.save()
+    result.stage_s = {k: v["seconds"] for k, v in state.data["done"].items()}
+    return result
