@@ -44,3 +44,28 @@ def chromium() -> str:
             return path
     pytest.skip("headless Chromium not found on PATH: `make test` installs the Debian package "
                 "`chromium` when run as root with apt-get; otherwise install it by hand")
+
+
+CHROMIUM_FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                  "--disable-component-update", "--disable-sync", "--no-first-run")
+
+
+@pytest.fixture
+def render_page(chromium, tmp_path):
+    """``render_page(page, screenshot=None)``: load ``page`` (an HTML file) in headless
+    Chromium and return the DOM after its scripts ran; with ``screenshot`` (a PNG path), also
+    take a 1280 px wide screenshot (look at it by hand when a report changes)."""
+    import subprocess
+
+    flags = [*CHROMIUM_FLAGS, f"--user-data-dir={tmp_path / 'chromium-profile'}"]
+
+    def render(page, screenshot=None) -> str:
+        url = page.as_uri()
+        dom = subprocess.run([chromium, *flags, "--dump-dom", url], capture_output=True,
+                             text=True, timeout=120).stdout
+        if screenshot is not None:
+            subprocess.run([chromium, *flags, "--window-size=1280,2000",
+                            f"--screenshot={screenshot}", url], capture_output=True, timeout=120)
+        return dom
+
+    return render

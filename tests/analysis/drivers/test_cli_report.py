@@ -4,7 +4,6 @@ Oracles: the issue's contract (files and columns written; one-line errors with e
 no output left behind; a report that says when there are no failures), and headless Chromium
 for "the page loads without JavaScript errors and shows its sections".
 """
-import subprocess
 
 import numpy as np
 import pandas as pd
@@ -155,21 +154,14 @@ def test_existing_output_needs_overwrite(tmp_path, capsys):
     assert main(base + ["--overwrite"]) == 0
 
 
-def test_report_renders_in_chromium(analysed, chromium, tmp_path):
+def test_report_renders_in_chromium(analysed, render_page, tmp_path):
     """Headless Chromium loads the page: the inline error hook found no JavaScript error,
     the closing script ran (``data-loaded``), every section is in the DOM, and a screenshot
     is produced (look at it by hand when the report changes)."""
-    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-             "--disable-component-update", "--disable-sync", "--no-first-run",
-             f"--user-data-dir={tmp_path / 'profile'}"]
-    url = (analysed / "report.html").as_uri()
-    dom = subprocess.run([chromium, *flags, "--dump-dom", url], capture_output=True,
-                         text=True, timeout=120).stdout
+    shot = tmp_path / "report.png"
+    dom = render_page(analysed / "report.html", shot)
     assert 'data-loaded="yes"' in dom
     assert '<pre id="js-errors"></pre>' in dom
     for anchor in SECTIONS:
         assert f'id="{anchor}"' in dom
-    shot = tmp_path / "report.png"
-    subprocess.run([chromium, *flags, "--window-size=1280,2000", f"--screenshot={shot}", url],
-                   capture_output=True, timeout=120)
     assert shot.stat().st_size > 10_000
