@@ -1,7 +1,9 @@
 """Monte Carlo dispersion campaigns (Gambone sec. III, Table 5, Figs 9-14).
 
 * :mod:`~analysis.campaign.spec` -- the TOML spec and its validation;
+* :mod:`~analysis.campaign.reader` -- reading a spec key by key, keys naming files;
 * :mod:`~analysis.campaign.limits` -- the physical ranges of spec values;
+* :mod:`~analysis.campaign.gate` -- the failure gate (``failure.max_failed_pct``);
 * :mod:`~analysis.campaign.schema` -- the runs.parquet columns (name, dtype, unit, meaning);
 * :mod:`~analysis.campaign.chunk` -- fly one chunk of runs, tabulate them (what workers run);
 * :mod:`~analysis.campaign.outcomes` -- a flown batch's outcome columns;

@@ -10,14 +10,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
+from matplotlib.ticker import MaxNLocator
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from rcsim.spacecraft.vehicle import AXES  # noqa: E402
+from rcsim.analysis.plots import new_figure
+from rcsim.spacecraft.vehicle import AXES
 
 COLORS = {"roll": "tab:blue", "pitch": "tab:orange", "yaw": "tab:green"}
 DPI = 80  # keeps a 3-panel figure near 60-90 KB
@@ -28,14 +26,15 @@ def plot_case(env: pd.DataFrame, name: str, path: Path, *, title: str = "",
     """Envelope plot of one case (``env``: its rows of envelopes.parquet)."""
     t = env["t_s"].to_numpy()
     n = env["n_runs"].to_numpy()
-    fig, axes = plt.subplots(3, 1, figsize=(8, 7.5), sharex=True, constrained_layout=True)
+    fig, axes = new_figure(3, 1, figsize=(8, 7.5), sharex=True)
     for axis in AXES:
         c = COLORS[axis]
         axes[0].fill_between(t, env[f"rate_{axis}_deg_s_min"], env[f"rate_{axis}_deg_s_max"],
                              color=c, alpha=0.25, lw=0)
         axes[0].plot(t, env[f"rate_{axis}_deg_s_mean"], color=c, lw=1.2, label=axis)
         if rate_cmd_deg_s is not None:
-            axes[0].axhline(rate_cmd_deg_s[AXES.index(axis)], color=c, ls="--", lw=0.8)
+            axes[0].axhline(rate_cmd_deg_s[AXES.index(axis)], color=c, ls="--", lw=0.8,
+                            label=f"{axis} command")
         axes[1].fill_between(t, env[f"att_err_{axis}_deg_min"], env[f"att_err_{axis}_deg_max"],
                              color=c, alpha=0.25, lw=0)
         axes[1].plot(t, env[f"att_err_{axis}_deg_mean"], color=c, lw=1.2, label=axis)
@@ -43,21 +42,22 @@ def plot_case(env: pd.DataFrame, name: str, path: Path, *, title: str = "",
                      label=axis)
     axes[0].set_ylabel("body rate [deg/s]")
     axes[1].set_ylabel("attitude error [deg]")
-    axes[2].set_ylabel("runs firing [%]")
+    axes[2].set_ylabel("runs firing the axis [%]")
     axes[2].set_xlabel("time [s]")
     for ax in axes:
         ax.grid(alpha=0.3)
-        ax.legend(loc="upper right", fontsize=8, ncol=3)
+        # "best": the bands fill the corners a fixed location would cover in some cases.
+        ax.legend(loc="best", fontsize=8, ncol=3, framealpha=0.8)
     runs = int(n.max()) if n.size else 0
-    fig.suptitle(f"{title or name}: {runs} runs (band: min-max, line: mean)")
+    fig.suptitle(f"{title or name}: {runs} runs (band: min-max over runs, line: mean, "
+                 "dashed: command)")
     fig.savefig(path, dpi=DPI)
-    plt.close(fig)
 
 
 def plot_summary(runs: pd.DataFrame, cases: pd.DataFrame, path: Path, *, title: str = "",
                  rate_threshold_deg_s: float | None = None) -> None:
     """Failures and firings per case, and the final rate-error histogram (Fig 16)."""
-    fig, axes = plt.subplots(3, 1, figsize=(9, 8.5), constrained_layout=True)
+    fig, axes = new_figure(3, 1, figsize=(9, 8.5))
     x = np.arange(len(cases))
     axes[0].bar(x, cases["failed_pct"], color="tab:red")
     axes[0].set_ylabel("failed runs [%]")
@@ -70,14 +70,15 @@ def plot_summary(runs: pd.DataFrame, cases: pd.DataFrame, path: Path, *, title: 
         ax.grid(alpha=0.3, axis="y")
     err = runs[[f"final_rate_err_{a}_deg_s" for a in AXES]].abs().max(axis=1).dropna()
     axes[2].hist(err, bins=40, color="tab:blue")
+    axes[2].yaxis.set_major_locator(MaxNLocator(integer=True))  # counts of runs
     if rate_threshold_deg_s is not None:
-        axes[2].axvline(rate_threshold_deg_s, color="tab:red", ls="--", label="failure threshold")
+        axes[2].axvline(rate_threshold_deg_s, color="tab:red", ls="--",
+                        label=f"failure threshold {rate_threshold_deg_s:g} deg/s")
         axes[2].legend(fontsize=8)
     axes[2].set_xlabel("final |rate error|, worst axis [deg/s]")
     axes[2].set_ylabel("runs")
     fig.suptitle(title)
     fig.savefig(path, dpi=DPI)
-    plt.close(fig)
 
 
 def plot_campaign(out: Path, spec) -> list[Path]:
@@ -103,7 +104,9 @@ def plot_campaign(out: Path, spec) -> list[Path]:
     runs = pd.read_parquet(out / R.RUNS, columns=cols)
     cases = pd.read_csv(out / R.CASES)
     path = folder / "summary.png"
-    plot_summary(runs, cases, path, title=f"{who}: {int(cases['runs'].sum())} runs",
+    n_runs, n_failed = int(cases["runs"].sum()), int(cases["failed"].sum())
+    pct = 100.0 * n_failed / n_runs if n_runs else 0.0
+    plot_summary(runs, cases, path, title=f"{who}: {n_runs} runs, {n_failed} failed ({pct:.3g} %)",
                  rate_threshold_deg_s=spec.resolved["failure"]["rate_error_deg_s"])
     paths.append(path)
     return paths

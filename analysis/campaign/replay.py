@@ -15,6 +15,8 @@ from rcsim.analysis.campaign.chunk import fly_runs, tabulate
 from rcsim.analysis.campaign.spec import parse_dict
 from rcsim.models.errors import InputError
 
+COMMAND = "campaign replay"  # recorded in a replay directory's marker (analysis.output)
+
 
 def load_campaign_spec(campaign: Path):
     manifest = R.read_manifest(campaign)
@@ -23,8 +25,20 @@ def load_campaign_spec(campaign: Path):
     return parse_dict(manifest["spec"], source=str(campaign / R.MANIFEST), base_dir=None)
 
 
-def replay(campaign: str | Path, run_id: int, out: str | Path | None = None) -> dict:
+def replay(campaign: str | Path, run_id: int, out: str | Path | None = None, *,
+           overwrite: bool = False) -> dict:
     """Re-fly run ``run_id`` of ``campaign`` and write its history (see analysis.flight.write_flight).
+
+    Parameters
+    ----------
+    campaign : path
+        The campaign directory.
+    run_id : int
+        0 .. runs - 1.
+    out : path, optional
+        Output directory; default ``campaign/replays/run-NNNNNNN``.
+    overwrite : bool
+        Replace ``out`` if it holds an earlier replay's outputs (anything else is refused).
 
     Returns
     -------
@@ -47,7 +61,8 @@ def replay(campaign: str | Path, run_id: int, out: str | Path | None = None) -> 
     history, dispersed = fly_runs(spec, ids)
     row = tabulate(spec, history, dispersed)
     title = f"{spec.controller} {spec.cases[case].name} run {run_id}"
-    write_flight(history, out, title=title, isp_s=dispersed.params.isp_s)
+    write_flight(history, out, title=title, isp_s=dispersed.params.isp_s, command=COMMAND,
+                 overwrite=overwrite)
     matches = None
     runs_path = campaign / R.RUNS
     if runs_path.exists():

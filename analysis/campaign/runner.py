@@ -14,8 +14,9 @@ Tasks return DataFrames; only this process writes to ``DIR``.  At most a bounded
 chunks is in flight, and the plan is generated lazily, so memory does not grow with the
 campaign.
 
-Interrupts.  KeyboardInterrupt (Ctrl-C) -- and SIGTERM, which is turned into one while a
-campaign runs in the main thread -- stops the campaign promptly: chunks in flight are
+Interrupts.  KeyboardInterrupt (Ctrl-C) -- and SIGTERM, which is turned into one (its
+subclass :class:`Terminated`, so that a caller can tell them apart) while a campaign runs in
+the main thread -- stops the campaign promptly: chunks in flight are
 abandoned (local: at their next control cycle; Dask: cancelled), nothing is waited for, the
 Dask cluster is closed with its loggers silenced, and the KeyboardInterrupt propagates for the
 caller to report in one line.  Chunks commit atomically, so the directory is left resumable.
@@ -39,6 +40,7 @@ from pathlib import Path
 from rcsim.analysis.campaign import results as R
 from rcsim.analysis.campaign.chunk import iter_chunks, simulate_chunk
 from rcsim.analysis.campaign.cluster import close, connect, dask_results
+from rcsim.analysis.campaign.gate import GateResult, judge
 from rcsim.analysis.campaign.schema import RUN_COLUMNS
 from rcsim.analysis.output import check_out_dir, write_marker
 from rcsim.models.errors import InputError
@@ -46,12 +48,20 @@ from rcsim.models.errors import InputError
 COMMAND = "campaign run"  # recorded in the directory's marker (analysis.output)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM stopped the campaign: the same clean, resumable stop as Ctrl-C (a
+    KeyboardInterrupt), told apart so that a command can exit with 128 + SIGTERM."""
+
+    signum = signal.SIGTERM
+
+
 @dataclass
 class CampaignReport:
     """What :func:`run_campaign` did.
 
     ``wall_s`` is the whole session; ``fly_s`` the part spent flying chunks (what a runs/s
-    rate means), the rest is start-up, assembly and plots.
+    rate means), the rest is start-up, assembly and plots.  ``gate`` is the failure gate's
+    verdict (None: the spec has no ``max_failed_pct``).
     """
 
     out: Path
@@ -63,6 +73,7 @@ class CampaignReport:
     mode: str = "local"
     notes: list = field(default_factory=list)
     fly_s: float = 0.0
+    gate: GateResult | None = None
 
 
 def _local_results(spec, chunks, threads: int, n_chunks: int, cancel: threading.Event):
@@ -99,18 +110,25 @@ def _local_results(spec, chunks, threads: int, n_chunks: int, cancel: threading.
 
 @contextlib.contextmanager
 def _sigterm_interrupts():
-    """While a campaign runs in the main thread, SIGTERM raises KeyboardInterrupt: the same
-    prompt, clean, resumable stop as Ctrl-C."""
+    """While a campaign runs in the main thread, SIGTERM raises :class:`Terminated` (a
+    KeyboardInterrupt): the same prompt, clean, resumable stop as Ctrl-C."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    received = []
 
     def interrupt(signum, frame):
-        raise KeyboardInterrupt
+        received.append(signum)
+        raise Terminated
 
     old = signal.signal(signal.SIGTERM, interrupt)
     try:
         yield
+    except KeyboardInterrupt as exc:
+        # Library code on the way out may replace the exception with a plain one.
+        if received and not isinstance(exc, Terminated):
+            raise Terminated from exc
+        raise
     finally:
         signal.signal(signal.SIGTERM, old)
 
@@ -225,10 +243,18 @@ def run_campaign(
         Progress bars (flying, assembling) and a status line for plotting, on stderr; default
         only when stderr is a terminal.
 
+    Returns
+    -------
+    CampaignReport
+        With ``gate`` (:class:`~analysis.campaign.gate.GateResult`) when the spec has a
+        failure gate (``spec.max_failed_pct``), also for an already complete campaign; the
+        gate is recorded in ``manifest.json`` when this call completes the campaign.
+
     Raises
     ------
     KeyboardInterrupt
-        Ctrl-C or SIGTERM: the campaign stopped promptly; ``out`` is resumable.
+        Ctrl-C or SIGTERM (:class:`Terminated`): the campaign stopped promptly; ``out`` is
+        resumable.
     """
     out = Path(out)
     if progress is None:
@@ -236,8 +262,10 @@ def run_campaign(
     manifest, complete = _prepare_dir(spec, out, resume)
     if complete:
         R.remove_temporaries_in(out)
-        return CampaignReport(out, manifest.get("counts", {}), 0.0, 0, 0.0,
-                              notes=["campaign already complete; nothing to do"])
+        counts = manifest.get("counts", {})
+        return CampaignReport(out, counts, 0.0, 0, 0.0,
+                              notes=["campaign already complete; nothing to do"],
+                              gate=_gate(spec, counts))
     with _sigterm_interrupts():
         client, cluster = connect(workers, scheduler)  # before creating DIR: no debris
         try:
@@ -296,10 +324,20 @@ def _run(spec, out, manifest, resume, client, cluster, workers, threads, progres
                     histories_kept=sum(1 for _ in (out / R.HISTORIES).glob("run-*.parquet")))
     manifest["last_session"] = {"mode": mode, "runs_flown": flown, "fly_s": round(fly_s, 3),
                                 "wall_s": round(wall, 3)}
+    gate = _gate(spec, counts)
+    if gate is not None:
+        manifest["gate"] = gate.to_json()
+    else:
+        manifest.pop("gate", None)  # an earlier session's verdict is not this one's
     R.write_json(manifest, out / R.MANIFEST)
     shutil.rmtree(out / R.CHUNKS, ignore_errors=True)
     R.remove_temporaries_in(out)
-    return CampaignReport(out, counts, wall, flown, simulated, n_done_chunks, mode, fly_s=fly_s)
+    return CampaignReport(out, counts, wall, flown, simulated, n_done_chunks, mode, fly_s=fly_s,
+                          gate=gate)
+
+
+def _gate(spec, counts: dict) -> GateResult | None:
+    return None if spec.max_failed_pct is None else judge(counts, spec.max_failed_pct)
 
 
 def _drain(results, out: Path, spec, n_done: int, progress: bool) -> tuple[int, float, float]:

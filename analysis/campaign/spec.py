@@ -8,13 +8,15 @@ large as its nominal value, a hold disturbance beyond the jets' torque, an initi
 the rates the physics step was validated for, a run too long for one chunk's memory.
 Units are in the key names (``_deg``, ``_deg_s``, ``_n``, ...); inside, everything is SI.
 
-About 440 lines, over the ~400 of a small module: the commented :data:`EXAMPLE_SPEC` (50
-lines of user documentation) and the key-by-key reader describe the same keys and change
-together; the physical ranges live in :mod:`~analysis.campaign.limits`.
+About 400 lines: the commented :data:`EXAMPLE_SPEC` (55 lines of user documentation) and
+the key-by-key validation describe the same keys and change together; the generic reader lives
+in :mod:`~analysis.campaign.reader`, the physical ranges in :mod:`~analysis.campaign.limits`,
+the failure gate in :mod:`~analysis.campaign.gate`.
 :data:`EXAMPLE_SPEC` (``rcsim campaign example``) documents every key.
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -25,10 +27,14 @@ from pathlib import Path
 
 import numpy as np
 
+from rcsim.analysis.campaign.gate import check_max_failed_pct, max_failed_pct_problem
 from rcsim.analysis.campaign.limits import (MAX_INITIAL_RATE_DEG_S, check_three_sigma,
                                             max_duration_s, physical_limits)
+from rcsim.analysis.campaign.reader import Reader, file_digest, file_key
 from rcsim.analysis.flight import Scenario
+from rcsim.lookup.registry import CONTROLLERS
 from rcsim.models.errors import InputError
+from rcsim.models.tables import PAPER_LOOKUP_TABLES
 from rcsim.spacecraft.dispersions import DispersionSigmas
 
 EXAMPLE_SPEC = '''\
@@ -53,8 +59,9 @@ duration_s = 20.0        # simulated time of every run [s]
 
 [controller]
 name = "lookup"          # "phase-plane" or "lookup"  (required)
-table = "default"        # lookup only: "default" (packaged table) or a table CSV path,
-                         #   relative to this file
+table = "default"        # lookup only: "default" (the packaged generated table), "table6" or
+                         #   "table7" (the paper's Tables 6 / 7, packaged), or a table CSV
+                         #   path, relative to this file
 
 [dispersions]
 table = "default"        # "default" = Gambone Table 5, or a CSV path in its format
@@ -78,6 +85,10 @@ scale = 1.0              # multiplies every 3-sigma (3.0 for the stress runs of 
 # threshold consistent with that).  The same threshold defines "commanded rate reached".
 rate_error_deg_s = 0.04
 # attitude_error_deg = 1.0  # optional: also fail when the final total attitude error exceeds it
+# max_failed_pct = 5.0      # optional gate, 0..100: when more than this percentage of the
+#                           #   campaign's runs fail, `rcsim campaign run` still writes every
+#                           #   output, then exits with status 3 (for CI); the option
+#                           #   --max-failed-pct P overrides it.  Unset: no gate.
 
 [output]
 histories = "failures"   # per-run histories to keep: "none", "failures", "all" or "first"
@@ -88,7 +99,6 @@ plots = true             # Fig 9-14-like plots in DIR/plots/
 _DEFAULT_RATE_ERROR_DEG_S = 0.04
 HISTORY_MODES = ("none", "failures", "all", "first")
 SCENARIO_KINDS = ("rate-cases", "maneuver", "hold")
-CONTROLLER_NAMES = ("phase-plane", "lookup")
 _SIGMA_KEYS = {  # spec key -> (Table 5 name, factor to SI)
     "mass_kg": ("mass", 1.0),
     "cg_x_m": ("cg_x", 1.0),
@@ -124,6 +134,10 @@ class CampaignSpec:
     resolved : dict
         The spec with defaults filled in and paths made absolute (JSON-able); what the
         manifest records, what ``--resume`` compares and what ``replay`` rebuilds from.
+    max_failed_pct : float or None
+        The failure gate, percent of runs (:mod:`~analysis.campaign.gate`); None: no gate.
+        Not in ``resolved``: it judges results and changes nothing that is flown, so a
+        campaign can be resumed under another limit.
     """
 
     source: str
@@ -140,6 +154,7 @@ class CampaignSpec:
     first_k: int
     plots: bool
     resolved: dict
+    max_failed_pct: float | None = None
 
     @property
     def n_cases(self) -> int:
@@ -160,95 +175,24 @@ class CampaignSpec:
     def with_runs_per_case(self, n: int) -> "CampaignSpec":
         """The same campaign with ``n`` runs per case (``--runs-per-case``)."""
         resolved = dict(self.resolved, runs_per_case=n)
-        return parse_dict(resolved, source=f"{self.source} with --runs-per-case {n}", base_dir=None)
+        spec = parse_dict(resolved, source=f"{self.source} with --runs-per-case {n}",
+                          base_dir=None)
+        return dataclasses.replace(spec, max_failed_pct=self.max_failed_pct)
+
+    def with_max_failed_pct(self, pct) -> "CampaignSpec":
+        """The same campaign under the failure gate ``pct`` (overrides the spec's).
+
+        Raises
+        ------
+        InputError
+            About parameter ``max_failed_pct``: not a number in [0, 100].
+        """
+        return dataclasses.replace(self, max_failed_pct=check_max_failed_pct(pct))
 
 
 # ----------------------------------------------------------------------------------------------
-# Reading
+# Reading (the key-by-key reader is analysis.campaign.reader)
 # ----------------------------------------------------------------------------------------------
-class _Reader:
-    """Pops keys from a table, checking types; remembers the key path for messages."""
-
-    def __init__(self, table: dict, path: str, source: str):
-        if not isinstance(table, dict):
-            raise InputError(f"{source}: {path or 'spec'}: expected a table, got {table!r}")
-        self.table, self.path, self.source = dict(table), path, source
-
-    def key(self, name: str) -> str:
-        return f"{self.path}.{name}" if self.path else name
-
-    def error(self, name: str, problem: str, value=None) -> InputError:
-        got = "" if value is None else f" (got {value!r})"
-        return InputError(f"{self.source}: {self.key(name)}: {problem}{got}")
-
-    def has(self, name: str) -> bool:
-        return name in self.table
-
-    def raw(self, name: str, default=None):
-        return self.table.pop(name, default)
-
-    def integer(self, name: str, default, *, minimum: int) -> int:
-        value = self.table.pop(name, default)
-        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            raise self.error(name, f"must be an integer >= {minimum}", value)
-        return int(value)
-
-    def number(self, name: str, default, *, minimum: float | None = None, strict=False) -> float:
-        value = self.table.pop(name, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise self.error(name, "must be a finite number", value)
-        if minimum is not None and (value <= minimum if strict else value < minimum):
-            raise self.error(name, f"must be {'>' if strict else '>='} {minimum}", value)
-        return float(value)
-
-    def choice(self, name: str, default, choices) -> str:
-        value = self.table.pop(name, default)
-        if value is None:
-            raise self.error(name, f"is required; one of {', '.join(choices)}")
-        if value not in choices:
-            raise self.error(name, f"must be one of {', '.join(choices)}", value)
-        return value
-
-    def vector3(self, name: str, default) -> list[float]:
-        value = self.table.pop(name, default)
-        if value is None:
-            raise self.error(name, "is required: a list of 3 numbers [roll, pitch, yaw]")
-        if (not isinstance(value, list) or len(value) != 3
-                or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                           and math.isfinite(v) for v in value)):
-            raise self.error(name, "must be a list of 3 finite numbers", value)
-        return [float(v) for v in value]
-
-    def table_(self, name: str) -> "_Reader":
-        return _Reader(self.table.pop(name, {}), self.key(name), self.source)
-
-    def done(self) -> None:
-        """Reject whatever was not read: a typo must not silently fall back to a default."""
-        for name in self.table:
-            raise InputError(f"{self.source}: unknown key '{self.key(name)}'")
-
-
-def _file(r: _Reader, name: str, base_dir: Path | None) -> str | None:
-    """A ``"default"``-or-path key, made absolute; the file must exist."""
-    value = r.raw(name, "default")
-    if not isinstance(value, str) or not value:
-        raise r.error(name, 'must be "default" or a file path', value)
-    if value == "default":
-        return None
-    path = Path(value).expanduser()
-    if not path.is_absolute() and base_dir is not None:
-        path = base_dir / path
-    if not path.is_file():
-        raise r.error(name, "file not found", str(path))
-    return str(path.resolve())
-
-
-def _file_digest(path: str | None) -> str | None:
-    if path is None:
-        return None
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
     from rcsim.models.tables import load_rate_cases
 
@@ -257,7 +201,7 @@ def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
         raise InputError(f"{source}: scenario: the list is empty")
     cases: list[Scenario] = []
     for b, block in enumerate(blocks):
-        r = _Reader(block, "scenario" if not isinstance(raw, list) else f"scenario[{b}]", source)
+        r = Reader(block, "scenario" if not isinstance(raw, list) else f"scenario[{b}]", source)
         kind = r.choice("kind", "rate-cases", SCENARIO_KINDS)
         duration = r.number("duration_s", 20.0, minimum=0.0, strict=True)
         if duration > max_duration_s():
@@ -339,7 +283,7 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
     """
     from rcsim.models.tables import load_dispersions, load_lookup_table
 
-    top = _Reader(data, "", source)
+    top = Reader(data, "", source)
     seed = top.integer("seed", 1, minimum=0)
     runs = top.integer("runs_per_case", 100, minimum=1)
     chunk = top.integer("chunk_size", 512, minimum=1)
@@ -354,25 +298,27 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
     resolved["scenario"] = scen_resolved if isinstance(raw_scen, list) else scen_resolved[0]
 
     c = top.table_("controller")
-    name = c.choice("name", None, CONTROLLER_NAMES)
-    table = _file(c, "table", base_dir)
+    name = c.choice("name", None, CONTROLLERS)
+    table = file_key(c, "table", base_dir, names=tuple(PAPER_LOOKUP_TABLES))
     if name == "phase-plane" and table is not None:
         raise c.error("table", "is only for the lookup controller", table)
     if table is not None:
         load_lookup_table(table)  # InputError naming the file, row and column
     if c.has("table_sha256"):  # present in a manifest's resolved spec (replay, resume)
         expect = c.raw("table_sha256")
-        if expect != _file_digest(table):
-            raise c.error("table", "file changed since the campaign ran (sha256 differs)", table)
+        if expect != file_digest(table):
+            what = "packaged paper table" if table in PAPER_LOOKUP_TABLES else "file"
+            raise c.error("table", f"{what} changed since the campaign ran (sha256 differs)",
+                          table)
     c.done()
     resolved["controller"] = {"name": name, "table": table or "default",
-                              "table_sha256": _file_digest(table)}
+                              "table_sha256": file_digest(table)}
 
     d = top.table_("dispersions")
-    disp_table = _file(d, "table", base_dir)
+    disp_table = file_key(d, "table", base_dir)
     frame = load_dispersions(disp_table)
     if d.has("table_sha256"):
-        if d.raw("table_sha256") != _file_digest(disp_table):
+        if d.raw("table_sha256") != file_digest(disp_table):
             raise d.error("table", "file changed since the campaign ran (sha256 differs)",
                           disp_table)
     scale = d.number("scale", 1.0, minimum=0.0)
@@ -395,13 +341,19 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
     except InputError as exc:
         raise InputError(f"{source}: dispersions.table: {exc}") from None
     resolved["dispersions"] = {"table": disp_table or "default",
-                               "table_sha256": _file_digest(disp_table),
+                               "table_sha256": file_digest(disp_table),
                                "scale": scale, "three_sigma": overrides}
 
     f = top.table_("failure")
     rate_thr = f.number("rate_error_deg_s", _DEFAULT_RATE_ERROR_DEG_S, minimum=0.0, strict=True)
     att_thr = f.number("attitude_error_deg", None, minimum=0.0, strict=True) \
         if f.has("attitude_error_deg") else None
+    max_failed = f.raw("max_failed_pct") if f.has("max_failed_pct") else None
+    if max_failed is not None:
+        problem = max_failed_pct_problem(max_failed)
+        if problem is not None:
+            raise f.error("max_failed_pct", problem, max_failed)
+        max_failed = float(max_failed)
     f.done()
     resolved["failure"] = {"rate_error_deg_s": rate_thr}
     if att_thr is not None:
@@ -423,6 +375,7 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
         rate_threshold_rad_s=math.radians(rate_thr),
         attitude_threshold_rad=None if att_thr is None else math.radians(att_thr),
         histories=histories, first_k=first_k, plots=plots, resolved=resolved,
+        max_failed_pct=max_failed,
     )
 
 

@@ -181,6 +181,19 @@ def test_replay_reproduces_a_run_alone(tmp_path, capsys):
     pd.testing.assert_frame_equal(pd.read_parquet(out / "histories" / "run-0000005.parquet"),
                                   pd.read_parquet(tmp_path / "r5" / "history.parquet"))
     assert main(["campaign", "replay", str(out), "10"]) == 2
+    capsys.readouterr()
+    # The replay's directory names its command: replayed again only with --overwrite, and
+    # other commands refuse it.
+    from rcsim.analysis.output import directory_owner
+
+    assert directory_owner(replayed) == "campaign replay"
+    assert main(["campaign", "replay", str(out), "6"]) == 2
+    assert "use --overwrite" in capsys.readouterr().err
+    assert main(["campaign", "replay", str(out), "6", "--overwrite"]) == 0
+    assert directory_owner(replayed) == "campaign replay"
+    assert main(["maneuver", "--controller", "phase-plane", "--attitude-deg", "0", "0", "1",
+                 "--duration-s", "1", "--out", str(replayed), "--overwrite"]) == 2
+    assert "holds the outputs of `rcsim campaign replay`" in capsys.readouterr().err
 
 
 def test_firing_starts_counts_new_firings_only():
@@ -270,3 +283,38 @@ def test_progress_phases_and_the_flying_rate(tmp_path, capsys):
     assert main(["campaign", "run", str(_spec(tmp_path, name="q.toml")), "--out",
                  str(tmp_path / "quiet")]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_paper_table_by_name_flies_replays_and_resumes(tmp_path, capsys):
+    """A spec's ``table = "table6"`` flies exactly as a byte copy of the packaged file given
+    by path; replay re-flies a run from the name, resume accepts it, and a manifest whose
+    recorded SHA-256 differs from the packaged table's is refused."""
+    import json
+    import shutil
+
+    from rcsim.analysis.cli import main
+    from rcsim.models.tables import PAPER_LOOKUP_TABLES, lookup_table_source
+
+    text = SPEC.format(runs=3, chunk=4, duration=20.0, histories="none", plots="false")
+    text = text.replace("cases = [13, 22]", "cases = [3]")
+    by_name = tmp_path / "name.toml"
+    by_name.write_text(text.replace('"phase-plane"', '"lookup"\ntable = "table6"'))
+    shutil.copyfile(lookup_table_source("table6"), tmp_path / "t6.csv")
+    by_path = tmp_path / "path.toml"
+    by_path.write_text(text.replace('"phase-plane"', '"lookup"\ntable = "t6.csv"'))
+    for spec, out in ((by_name, "a"), (by_path, "b")):
+        assert main(["campaign", "run", str(spec), "--out", str(tmp_path / out)]) == 0
+    pd.testing.assert_frame_equal(_runs(tmp_path / "a"), _runs(tmp_path / "b"), check_exact=True)
+    manifest = json.loads((tmp_path / "a" / "manifest.json").read_text())
+    assert manifest["spec"]["controller"]["table"] == "table6"
+    assert PAPER_LOOKUP_TABLES["table6"] == "table6_lookup_original.csv"
+    capsys.readouterr()
+    assert main(["campaign", "replay", str(tmp_path / "a"), "2"]) == 0
+    assert "matches the campaign's runs.parquet row exactly" in capsys.readouterr().out
+    assert main(["campaign", "run", str(by_name), "--out", str(tmp_path / "a"), "--resume"]) == 0
+    assert "already complete" in capsys.readouterr().out
+    manifest["spec"]["controller"]["table_sha256"] = "0" * 64
+    (tmp_path / "a" / "manifest.json").write_text(json.dumps(manifest))
+    assert main(["campaign", "replay", str(tmp_path / "a"), "2", "--out", str(tmp_path / "r")]) == 2
+    assert "packaged paper table changed since the campaign ran" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()

@@ -72,6 +72,55 @@ def test_lookup_table_path_is_relative_to_spec(tmp_path):
     assert spec.resolved["controller"]["table_sha256"]
 
 
+def test_paper_tables_by_name(tmp_path):
+    """``table = "table6"`` / ``"table7"`` load the installed package's copies of the paper's
+    Tables 6 / 7 (models/tables PAPER_LOOKUP_TABLES), recorded by name with the SHA-256 of
+    the packaged file's bytes (oracle: the file read through importlib.resources)."""
+    import hashlib
+    from importlib.resources import files
+
+    from rcsim.models.tables import PAPER_LOOKUP_TABLES
+
+    assert set(PAPER_LOOKUP_TABLES) == {"table6", "table7"}
+    for name, filename in PAPER_LOOKUP_TABLES.items():
+        spec = load_spec(_write(tmp_path, MINIMAL.replace('"phase-plane"',
+                                                          f'"lookup"\ntable = "{name}"')))
+        assert spec.table == name
+        packaged = (files("rcsim.models") / "data" / filename).read_bytes()
+        assert spec.resolved["controller"] == {
+            "name": "lookup", "table": name,
+            "table_sha256": hashlib.sha256(packaged).hexdigest()}
+    # A name is for the lookup controller only, like a path.
+    with pytest.raises(InputError, match="controller.table: is only for the lookup controller"):
+        load_spec(_write(tmp_path, MINIMAL.replace('"phase-plane"',
+                                                   '"phase-plane"\ntable = "table6"')))
+
+
+def test_a_file_named_like_a_paper_table_needs_dot_slash(tmp_path):
+    from rcsim.models.tables import load_lookup_table
+
+    load_lookup_table(which="table7").to_csv(tmp_path / "table6")
+    text = MINIMAL.replace('"phase-plane"', '"lookup"\ntable = "table6"')
+    with pytest.raises(InputError,
+                       match='ambiguous: both the packaged paper table .* write "./table6"'):
+        load_spec(_write(tmp_path, text))
+    spec = load_spec(_write(tmp_path, text.replace('"table6"', '"./table6"')))
+    assert spec.table == str((tmp_path / "table6").resolve())
+
+
+def test_controller_names_are_the_registry_list(tmp_path):
+    """One list of controller names (rcsim.lookup.registry.CONTROLLERS): the spec accepts
+    each and its error lists them."""
+    from rcsim.lookup.registry import CONTROLLERS
+
+    for name in CONTROLLERS:
+        spec = load_spec(_write(tmp_path, MINIMAL.replace('"phase-plane"', f'"{name}"')))
+        assert spec.controller == name
+    listed = "controller.name: must be one of " + ", ".join(CONTROLLERS)
+    with pytest.raises(InputError, match=listed):
+        load_spec(_write(tmp_path, MINIMAL.replace('"phase-plane"', '"pid"')))
+
+
 BAD = [
     ("unknown key", MINIMAL + "[dispersions.thrust]\nthree_sigma = 2\n",
      "unknown key 'dispersions.thrust'"),
