@@ -4,7 +4,7 @@ PYTHON   ?= python3
 VENV     := .venv
 BIN      := $(VENV)/bin
 STAMP    := $(VENV)/.installed
-OUT      ?= out/maneuver_5deg
+OUT      ?= out/loop
 MIN_VENV := .venv-min
 MIN_PINS := .ci/min-versions.txt
 
@@ -16,8 +16,10 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
+# The analyst's loop on defaults (campaign -> drivers -> refined table -> report).  A second
+# `make run` resumes the loop in $(OUT) (finishing a stopped one, or just naming its report).
 run: $(STAMP)
-	$(BIN)/rcsim maneuver --controller phase-plane --attitude-deg 5 5 5 --out $(OUT)
+	$(BIN)/rcsim loop --out $(OUT) $$(test -f $(OUT)/loop.json && echo --resume)
 
 test: $(STAMP) chromium
 	$(BIN)/python -m pytest -q

@@ -24,7 +24,7 @@ from rcsim.analysis.campaign.spec import load_spec
 from rcsim.analysis.output import check_out_dir, write_marker
 from rcsim.models.atomic import atomic_write
 from rcsim.models.errors import InputError
-from rcsim.models.tables import PAPER_LOOKUP_TABLES, load_lookup_table, lookup_table_source
+from rcsim.models.tables import PAPER_LOOKUP_TABLES, load_lookup_table
 
 COMMAND = "loop"
 STATE = "loop.json"
@@ -105,10 +105,8 @@ def spec_text(*, table: str, runs_per_case: int, seed: int, duration_s: float) -
 
 
 def _table_path(table: str) -> str:
-    """An absolute path a campaign spec can name (the paper's tables by their packaged file)."""
-    if table in PAPER_LOOKUP_TABLES:
-        return str(Path(str(lookup_table_source(table))).absolute())
-    return str(Path(table).absolute())
+    """How a campaign spec names the table: the paper's by name, a file by absolute path."""
+    return table if table in PAPER_LOOKUP_TABLES else str(Path(table).absolute())
 
 
 class _State:

@@ -115,6 +115,11 @@ def refine(spec, table: LookupTable, cases=None, *, max_iterations: int = 8,
     before = scores.assign(case_index=cases)
     best = (current, before)
     iterations = []
+    # Entries already flown, per case (its firing cycles per axis): a candidate that returns
+    # to one of them (the step back after a step that helped) or repeats a rejected one is not
+    # flown again.  Other entries may have changed since, which could shift the verdict
+    # slightly; the re-fly of the whole table after each round still measures what is kept.
+    visited = {(int(c), tuple(axis_cycles(current, jet_axis)[c])) for c in cases}
     for it in range(max_iterations):
         offending = _offending_axes(runs, threshold_deg_s)
         times, labels, trial_case, edits = [], [], [], []
@@ -126,9 +131,14 @@ def refine(spec, table: LookupTable, cases=None, *, max_iterations: int = 8,
                     shift = np.zeros((len(table.case), len(AXES)), int)
                     shift[c, a] = step
                     try:
-                        times.append(shift_axes(current, jet_axis, shift))
+                        candidate = shift_axes(current, jet_axis, shift)
                     except ValueError:  # would leave less than a cycle: not a candidate
                         continue
+                    state = (int(c), tuple(axis_cycles(candidate, jet_axis)[c]))
+                    if state in visited:
+                        continue
+                    visited.add(state)
+                    times.append(candidate)
                     labels.append(f"case {c + 1}: {AXES[a]} {step:+d} cycle")
                     trial_case.append(c)
                     edits.append((t, shift))
