@@ -7,7 +7,6 @@ version).
 """
 from __future__ import annotations
 
-import base64
 import html
 import json
 from pathlib import Path
@@ -15,20 +14,20 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from rcsim.analysis.campaign.spec import load_spec
 from rcsim.analysis.refinement.outputs import most_improved_case
 from rcsim.analysis.refinement.search import changed_cells
-from rcsim.analysis.report.html import Section, build_report, table_block, text_block
-from rcsim.models.atomic import atomic_write
+from rcsim.analysis.report.html import (
+    Section, figure_block, table_block, text_block, write_report,
+)
 from rcsim.models.tables import AXES, load_lookup_table
 
 
 def _img(path: Path, caption: str) -> str:
-    """A PNG file inlined (base64), with its caption; a note if the file is missing."""
+    """A PNG file a stage wrote, inlined with its caption; a note if the file is missing."""
     if not path.is_file():
         return text_block(f"(figure not written: {path.name})")
-    data = base64.b64encode(path.read_bytes()).decode("ascii")
-    return (f"<figure><img src='data:image/png;base64,{data}' alt='{html.escape(caption)}'>"
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+    return figure_block(path.read_bytes(), caption)
 
 
 def _side_by_side(*blocks: str) -> str:
@@ -41,10 +40,11 @@ def _counts(campaign: Path) -> pd.DataFrame:
     return cases[["case", "runs", "failed", "one_firing_pct", "firings_per_run_mean"]]
 
 
-def _summary(out: Path, state: dict, log: pd.DataFrame, before: pd.DataFrame,
+def _summary(out: Path, settings, state: dict, log: pd.DataFrame, before: pd.DataFrame,
              after: pd.DataFrame) -> Section:
     s = state["settings"]
-    fresh = s["seed"] + 1 if s["fresh_seed"] is None else s["fresh_seed"]
+    fresh = settings.held_out_seed
+    threshold = np.degrees(load_spec(out / "spec_before.toml").rate_threshold_rad_s)
     n_changed = int(log["changed"].sum())
     fb, fa = int(before["failed"].sum()), int(after["failed"].sum())
     rows = [
@@ -52,8 +52,8 @@ def _summary(out: Path, state: dict, log: pd.DataFrame, before: pd.DataFrame,
         ("runs per case", f"{s['runs_per_case']} (26 rate cases of Table 3, Table 5 dispersions)"),
         ("search seed", f"{s['seed']} (the 'before' campaign and the refinement search)"),
         ("fresh seed", f"{fresh} (held out: the refined table's campaign and check)"),
-        ("failure criterion", "any axis ends with |rate error| >= 0.04 deg/s, or the simulation "
-                              "fails (Gambone sec. III)"),
+        ("failure criterion", f"any axis ends with |rate error| >= {threshold:g} deg/s, or the "
+                              "simulation fails (Gambone sec. III)"),
         ("failed runs, before (search seed)", f"{fb} of {int(before['runs'].sum())}"),
         ("failed runs, after (fresh seed)", f"{fa} of {int(after['runs'].sum())}"),
         ("repeated-firing runs (search seed)",
@@ -144,7 +144,7 @@ def _drivers(out: Path) -> Section:
     return Section("Failure drivers", blocks, "drivers")
 
 
-def _changelog(log: pd.DataFrame, table: str) -> Section:
+def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
     cols = ["case"] + [f"{a}_{w}" for a in AXES for w in ("old_s", "new_s")] + [
         "failed_search_before", "failed_search_after", "failed_fresh_before",
         "failed_fresh_after", "repeated_fresh_before", "repeated_fresh_after"]
@@ -152,7 +152,7 @@ def _changelog(log: pd.DataFrame, table: str) -> Section:
                           max_rows=30, float_format="{:.2f}")]
     if table == "table6":
         t6, t7 = load_lookup_table("table6"), load_lookup_table("table7")
-        ours = changed_cells(t6, load_lookup_table(Path(log.attrs["refined"])))
+        ours = changed_cells(t6, load_lookup_table(refined))
         paper = changed_cells(t6, t7)
         both = ours.merge(paper, on=["case", "axis", "old_cycles"], how="outer",
                           suffixes=("_rcsim", "_table7"))
@@ -160,7 +160,7 @@ def _changelog(log: pd.DataFrame, table: str) -> Section:
         blocks.append(text_block(
             f"Against the paper's Table 7 (the authors' hand refinement of Table 6): "
             f"{same} of {len(both)} changed cells agree."))
-        blocks.append(table_block(both.fillna(np.nan), "Changed cells, rcsim vs Table 7 "
+        blocks.append(table_block(both, "Changed cells, rcsim vs Table 7 "
                                   "(firing time in 40 ms cycles; blank: not changed)",
                                   max_rows=40, float_format="{:.0f}"))
     return Section("Changelog", blocks, "changelog")
@@ -169,18 +169,15 @@ def _changelog(log: pd.DataFrame, table: str) -> Section:
 def write_loop_report(out: Path, settings, state: dict) -> Path:
     """Write ``DIR/report.html`` from the stages' files; returns its path."""
     log = pd.read_csv(out / "refined_table_changelog.csv")
-    log.attrs["refined"] = str(out / "refined_table.csv")
     before, after = _counts(out / "campaign_before"), _counts(out / "campaign_after")
-    sections = [_summary(out, state, log, before, after), _before_after(out, log, before, after),
-                _figs_9_10(out, log), _drivers(out), _changelog(log, settings.table),
+    sections = [_summary(out, settings, state, log, before, after), _before_after(out, log, before, after),
+                _figs_9_10(out, log), _drivers(out), _changelog(log, settings.table, out / "refined_table.csv"),
                 Section("Traceability", [text_block(
                     "Settings, seeds, stage times and code version: loop.json. Campaign specs: "
                     "spec_before.toml, spec_after.toml; each campaign's manifest.json records "
                     "its spec, seed, table checksum and code version."),
                     "<pre>" + html.escape(json.dumps(state, indent=2)) + "</pre>"],
                     "traceability")]
-    page = build_report(f"Lookup-table robustness: {settings.table}", sections,
+    return write_report(out / "report.html", f"Lookup-table robustness: {settings.table}",
+                        sections,
                         "rcsim loop: campaign, failure drivers, refined table, fresh campaign")
-    path = out / "report.html"
-    atomic_write(path, lambda tmp: Path(tmp).write_text(page, encoding="utf-8"))
-    return path

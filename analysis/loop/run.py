@@ -24,6 +24,7 @@ from rcsim.analysis.campaign.spec import load_spec
 from rcsim.analysis.output import check_out_dir, write_marker
 from rcsim.models.atomic import atomic_write
 from rcsim.models.errors import InputError
+from rcsim.analysis.refinement.outputs import check_parameters, held_out_seed, rate_cases_campaign
 from rcsim.models.tables import PAPER_LOOKUP_TABLES, load_lookup_table
 
 COMMAND = "loop"
@@ -63,22 +64,14 @@ class LoopSettings:
     max_iterations: int = 8
 
     def __post_init__(self):
-        from rcsim.analysis.refinement.outputs import MAX_RUNS_PER_CASE
-
-        for name, lo, hi in (("runs_per_case", 1, MAX_RUNS_PER_CASE), ("seed", 0, None),
-                             ("permutations", 19, None), ("max_iterations", 1, 1000)):
-            value = getattr(self, name)
-            if not isinstance(value, int) or value < lo or (hi is not None and value > hi):
-                raise InputError(f"must be an integer in {lo}..{hi or 'inf'}, got {value!r}",
-                                 parameter=name, value=value)
-        if self.fresh_seed is not None and (self.fresh_seed < 0 or self.fresh_seed == self.seed):
-            raise InputError(f"must be >= 0 and differ from the seed {self.seed} (it is the "
-                             f"held-out check), got {self.fresh_seed}", parameter="fresh_seed",
-                             value=self.fresh_seed)
+        # The refinement's own checks (runs, seeds, duration, rounds): one rule for both.
+        check_parameters(runs_per_case=self.runs_per_case, seed=self.seed,
+                         fresh_seed=self.held_out_seed, duration_s=self.duration_s,
+                         max_iterations=self.max_iterations)
 
     @property
     def held_out_seed(self) -> int:
-        return self.seed + 1 if self.fresh_seed is None else self.fresh_seed
+        return held_out_seed(self.seed) if self.fresh_seed is None else self.fresh_seed
 
 
 @dataclass
@@ -92,16 +85,22 @@ class LoopResult:
 
 
 def spec_text(*, table: str, runs_per_case: int, seed: int, duration_s: float) -> str:
-    """A campaign spec (TOML) for the 26 rate cases with Table 5 dispersions."""
-    return (
-        "# Written by `rcsim loop`: the 26 Table 3 rate cases, Table 5 dispersions.\n"
-        f"seed = {seed}\nruns_per_case = {runs_per_case}\n\n"
-        "[scenario]\nkind = \"rate-cases\"\ncases = \"all\"\nmode = \"command\"\n"
-        f"duration_s = {float(duration_s)!r}\n\n"
-        f"[controller]\nname = \"lookup\"\ntable = {json.dumps(table)}\n\n"
-        "[dispersions]\ntable = \"default\"\nscale = 1.0\n\n"
-        "[output]\nhistories = \"failures\"\nplots = true\n"
-    )
+    """The refinement's rate-case campaign (:func:`rate_cases_campaign`) as a TOML spec, with
+    failure histories and plots kept (a user reads these campaigns)."""
+    data = rate_cases_campaign(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s,
+                               table=table, histories="failures", plots=True)
+    lines = ["# Written by `rcsim loop`: the 26 Table 3 rate cases, Table 5 dispersions."]
+    scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
+    lines += [f"{k} = {_toml(v)}" for k, v in scalars.items()]
+    for name, table_ in data.items():
+        if isinstance(table_, dict):
+            lines += ["", f"[{name}]"] + [f"{k} = {_toml(v)}" for k, v in table_.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _toml(value) -> str:
+    """A TOML scalar: JSON's spelling is TOML's for strings, numbers and booleans."""
+    return json.dumps(value)
 
 
 def _table_path(table: str) -> str:

@@ -20,17 +20,13 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from rcsim.analysis.campaign.chunk import outcomes
+from rcsim.analysis.campaign.chunk import max_chunk_runs
+from rcsim.analysis.campaign.outcomes import outcomes
 from rcsim.analysis.flight import fly_batch
 from rcsim.lookup.pattern_recognition import LookupController, LookupParams
 from rcsim.models.tables import AXES, CONTROL_CYCLE_S, LookupTable
 from rcsim.spacecraft.dispersions import draw_runs
 from rcsim.spacecraft.vehicle import VehicleParams, load_model
-
-#: Runs per batched simulation.  512 keeps a 20 s chunk's per-cycle record near 60 MB and
-#: gives each of two threads several chunks to balance (the campaign's default, measured).
-CHUNK_RUNS = 512
-
 
 @dataclass(frozen=True)
 class Trials:
@@ -110,9 +106,11 @@ def evaluate(spec, table: LookupTable, trials: Trials, *,
     case_of_run = trials.case[trial_of_run]
     row_of_run = np.array([first_row[int(c)] for c in trials.case])[trial_of_run] + k_of_run
     threads = max(1, threads or os.cpu_count() or 1)
-    # Equal chunks, a multiple of the thread count and at most CHUNK_RUNS runs each, so that
-    # the threads finish together (one 512-run chunk and one 8-run chunk would idle one).
-    count = -(-trial_of_run.size // CHUNK_RUNS)
+    # Chunks as the campaign sizes them (its chunk size, under its per-chunk history memory
+    # budget for this duration), equal and a multiple of the thread count so that the threads
+    # finish together (one 512-run chunk and one 8-run chunk would idle one).
+    limit = max_chunk_runs(spec, spec.cases[0].duration_s)
+    count = -(-trial_of_run.size // limit)
     count = min(trial_of_run.size, -(-count // threads) * threads)
     bounds = np.linspace(0, trial_of_run.size, count + 1).round().astype(int)
     chunks = [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
@@ -129,16 +127,22 @@ def evaluate(spec, table: LookupTable, trials: Trials, *,
         for sl, frame in zip(chunks, pool.map(fly, chunks)):
             frames.append(frame)
             bar.update(sl.stop - sl.start)
-    out = pd.concat(frames, ignore_index=True)
-    to_rate = out[[f"firings_to_rate_{a}" for a in AXES]].to_numpy()
+    return _trial_frame(trial_of_run, case_of_run, k_of_run, pd.concat(frames, ignore_index=True))
+
+
+def _trial_frame(trial, case, k, outcome: pd.DataFrame) -> pd.DataFrame:
+    """The per-run frame of :func:`evaluate` from campaign outcome columns (row-aligned)."""
+    to_rate = outcome[[f"firings_to_rate_{a}" for a in AXES]].to_numpy(float)
     result = pd.DataFrame({
-        "trial": trial_of_run, "case_index": case_of_run, "k": k_of_run,
-        "failed": out["failed"].to_numpy(bool),
+        "trial": np.asarray(trial), "case_index": np.asarray(case), "k": np.asarray(k),
+        "failed": outcome["failed"].to_numpy(bool),
+        # Some axis needed more than one firing event to reach its commanded rate (a run
+        # whose simulation failed has NaN counts: failed, but not counted as repeated).
         "repeated": np.nanmax(np.nan_to_num(to_rate, nan=0.0), axis=1) > 1,
     })
     for a, axis in enumerate(AXES):
         result[f"firings_to_rate_{axis}"] = to_rate[:, a]
-        result[f"final_rate_err_{axis}_deg_s"] = out[f"final_rate_err_{axis}_deg_s"].to_numpy()
+        result[f"final_rate_err_{axis}_deg_s"] = outcome[f"final_rate_err_{axis}_deg_s"].to_numpy()
     return result
 
 
@@ -157,17 +161,10 @@ def runs_from_campaign(campaign_runs: pd.DataFrame, cases: np.ndarray,
         raise ValueError(f"the campaign has {len(rows)} runs of these cases, expected "
                          f"{want.size * runs_per_case}")
     trial_of_case = {int(c): t for t, c in enumerate(want)}
-    to_rate = rows[[f"firings_to_rate_{a}" for a in AXES]].to_numpy(float)
-    out = pd.DataFrame({
-        "trial": rows["case_index"].map(trial_of_case).to_numpy(),
-        "case_index": rows["case_index"].to_numpy(),
-        "k": (rows["run_id"] - rows["case_index"] * runs_per_case).to_numpy(),
-        "failed": rows["failed"].to_numpy(bool),
-        "repeated": np.nanmax(np.nan_to_num(to_rate, nan=0.0), axis=1) > 1,
-    })
-    for a, axis in enumerate(AXES):
-        out[f"firings_to_rate_{axis}"] = to_rate[:, a]
-        out[f"final_rate_err_{axis}_deg_s"] = rows[f"final_rate_err_{axis}_deg_s"].to_numpy()
+    out = _trial_frame(rows["case_index"].map(trial_of_case).to_numpy(),
+                       rows["case_index"].to_numpy(),
+                       (rows["run_id"] - rows["case_index"] * runs_per_case).to_numpy(),
+                       rows.reset_index(drop=True))
     return out.sort_values(["trial", "k"], kind="stable").reset_index(drop=True)
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from rcsim.analysis.campaign.outcomes import outcomes
 from rcsim.analysis.campaign.spec import parse_dict
 from rcsim.analysis.flight import fly_batch
 from rcsim.analysis.output import atomic_dir, check_out_dir, check_out_file
@@ -32,20 +33,29 @@ from rcsim.spacecraft.vehicle import VehicleParams, load_model
 DPI = 90
 
 
-def refinement_spec(*, runs_per_case: int, seed: int, duration_s: float = 20.0,
-                    dispersion_scale: float = 1.0, rate_error_deg_s: float | None = None,
-                    source: str = "lookup refine"):
-    """The rate-cases campaign a refinement flies: all 26 Table 3 cases from rest, Table 5
-    dispersions (times ``dispersion_scale``), the campaign's failure threshold."""
-    data = {"seed": seed, "runs_per_case": runs_per_case,
+def rate_cases_campaign(*, runs_per_case: int, seed: int, duration_s: float = 20.0,
+                        table: str = "default", histories: str = "none",
+                        plots: bool = False) -> dict:
+    """The campaign a refinement flies, as a spec dict: all 26 Table 3 cases from rest, Table 5
+    dispersions, the campaign's default failure threshold.
+
+    The one definition: ``rcsim loop`` writes it as the TOML of its campaigns, and uses the
+    "before" campaign's runs as the search's baseline -- the same runs only if both come
+    from here.
+    """
+    return {"seed": seed, "runs_per_case": runs_per_case,
             "scenario": {"kind": "rate-cases", "cases": "all", "mode": "command",
-                         "duration_s": duration_s},
-            "controller": {"name": "lookup"},
-            "dispersions": {"scale": dispersion_scale},
-            "output": {"histories": "none", "plots": False}}
-    if rate_error_deg_s is not None:
-        data["failure"] = {"rate_error_deg_s": rate_error_deg_s}
-    return parse_dict(data, source=source, base_dir=None)
+                         "duration_s": float(duration_s)},
+            "controller": {"name": "lookup", "table": table},
+            "dispersions": {"table": "default", "scale": 1.0},
+            "output": {"histories": histories, "plots": plots}}
+
+
+def refinement_spec(*, runs_per_case: int, seed: int, duration_s: float = 20.0,
+                    source: str = "lookup refine"):
+    """:func:`rate_cases_campaign` validated (a :class:`CampaignSpec`)."""
+    return parse_dict(rate_cases_campaign(runs_per_case=runs_per_case, seed=seed,
+                                          duration_s=duration_s), source=source, base_dir=None)
 
 
 @dataclass
@@ -61,6 +71,8 @@ class Refinement:
         Per searched case on the fresh seed: ``failed, repeated, runs``.
     changelog : DataFrame
     seed, fresh_seed, runs_per_case : int
+    duration_s : float
+        Simulated time of every run [s].
     """
 
     original: LookupTable
@@ -71,13 +83,15 @@ class Refinement:
     seed: int
     fresh_seed: int
     runs_per_case: int
+    duration_s: float
 
     @property
     def table(self) -> LookupTable:
         return self.result.table
 
 
-def run_refinement(table: LookupTable, *, runs_per_case: int, seed: int, fresh_seed: int,
+def run_refinement(table: LookupTable, *, runs_per_case: int, seed: int,
+                   fresh_seed: int | None = None,
                    cases=None, duration_s: float = 20.0, max_iterations: int = 8,
                    threads: int | None = None, progress: bool | None = None) -> Refinement:
     """Refine ``table`` on ``seed`` and fly the old and new tables on ``fresh_seed``.
@@ -88,7 +102,8 @@ def run_refinement(table: LookupTable, *, runs_per_case: int, seed: int, fresh_s
     runs_per_case : int
         Dispersed runs of each case, 1 .. :data:`MAX_RUNS_PER_CASE`.
     seed, fresh_seed : int
-        The search seed and the held-out seed (must differ), >= 0.
+        The search seed and the held-out seed (must differ), >= 0; default
+        :func:`held_out_seed` of ``seed``.
     cases : sequence of int, optional
         Table rows (0-based) to refine; default all.
     duration_s : float
@@ -101,8 +116,9 @@ def run_refinement(table: LookupTable, *, runs_per_case: int, seed: int, fresh_s
     InputError
         A parameter out of range (named by ``parameter``).
     """
-    _check_parameters(runs_per_case=runs_per_case, seed=seed, fresh_seed=fresh_seed,
-                      duration_s=duration_s, max_iterations=max_iterations)
+    fresh_seed = held_out_seed(seed) if fresh_seed is None else fresh_seed
+    check_parameters(runs_per_case=runs_per_case, seed=seed, fresh_seed=fresh_seed,
+                     duration_s=duration_s, max_iterations=max_iterations)
     spec = refinement_spec(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s)
     result = refine(spec, table, cases, max_iterations=max_iterations, threads=threads,
                     progress=progress)
@@ -140,7 +156,7 @@ def held_out_check(table: LookupTable, result: RefineResult, *, seed: int, fresh
         fresh_after = trial_scores(fresh_after_runs, searched.size)
     log = changelog(table, result, fresh_before, fresh_after)
     return Refinement(table, result, fresh_before, fresh_after, log, seed, fresh_seed,
-                      runs_per_case)
+                      runs_per_case, duration_s)
 
 
 def save_search(result: RefineResult, path: str | Path) -> None:
@@ -164,7 +180,17 @@ def load_search(path: str | Path, table: LookupTable) -> RefineResult:
 MAX_RUNS_PER_CASE = 100_000
 
 
-def _check_parameters(*, runs_per_case, seed, fresh_seed, duration_s, max_iterations) -> None:
+def held_out_seed(seed: int) -> int:
+    """The default held-out seed of a search on ``seed``: ``seed + 1``.
+
+    Any other seed is as unseen (each seed's streams are independent); one rule keeps
+    ``rcsim lookup refine`` and ``rcsim loop`` on the same default.
+    """
+    return seed + 1
+
+
+def check_parameters(*, runs_per_case, seed, fresh_seed, duration_s, max_iterations) -> None:
+    """Raise :class:`InputError` naming the first out-of-range refinement parameter."""
     def bad(name, value, problem):
         return InputError(f"{problem}, got {value!r}", parameter=name, value=value)
 
@@ -290,7 +316,8 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
     log = ref.changelog.set_index("case").loc[case]
     axis = max(AXES, key=lambda a: abs(int(log[f"{a}_change_cycles"])))
     a = AXES.index(axis)
-    spec = refinement_spec(runs_per_case=ref.runs_per_case, seed=ref.seed)
+    spec = refinement_spec(runs_per_case=ref.runs_per_case, seed=ref.seed,
+                           duration_s=ref.duration_s)
     row = case - 1
     model = load_model()
     ids = row * ref.runs_per_case + np.arange(ref.runs_per_case)
@@ -303,13 +330,11 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
         history = fly_batch([spec.cases[row]] * ref.runs_per_case, params,
                             LookupController(table), model=model)
         rate = np.degrees(history.omega_B[:, :, a])
-        # The campaign's criterion: every axis ends within the threshold of its command.
-        failed = ~(np.abs(np.degrees(history.final.rate_err_B)) < thr).all(axis=1) | history.failed
-        show = np.ones_like(history.t_s, bool)
+        failed = outcomes(history, spec, CONTROL_CYCLE_S, params.isp_s)["failed"].to_numpy(bool)
         for fail, color in ((False, AXIS_COLORS["roll"]), (True, "tab:red")):
             sel = failed == fail
             if sel.any():
-                ax.plot(history.t_s[show], rate[sel][:, show].T, color=color, lw=0.6, alpha=0.5)
+                ax.plot(history.t_s, rate[sel].T, color=color, lw=0.6, alpha=0.5)
         ax.axhspan(cmd - thr, cmd + thr, color="0.8", alpha=0.6, label=f"command +-{thr:g} deg/s")
         ax.set_title(f"{label}: {axis} {log[f'{axis}_{old_new}_s']:.2f} s; "
                      f"{int(failed.sum())} of {ref.runs_per_case} runs fail (red)", fontsize=10)
@@ -322,5 +347,5 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
     fig.savefig(path, dpi=DPI)
 
 
-__all__ = ["Refinement", "changed_cells", "refinement_spec", "run_refinement",
-           "write_refinement"]
+__all__ = ["Refinement", "changed_cells", "held_out_check", "rate_cases_campaign",
+           "refinement_spec", "run_refinement", "write_refinement"]

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from rcsim.models.atomic import atomic_write
+
 
 @dataclass
 class Section:
@@ -137,7 +139,6 @@ def build_report(title: str, sections: list, subtitle: str = "") -> str:
 
 
 def write_report(path, title: str, sections: list, subtitle: str = "") -> Path:
-    """Write :func:`build_report` to ``path`` (UTF-8); returns the path."""
-    path = Path(path)
-    path.write_text(build_report(title, sections, subtitle), encoding="utf-8")
-    return path
+    """Write :func:`build_report` to ``path`` (UTF-8), atomically; returns the path."""
+    page = build_report(title, sections, subtitle)
+    return atomic_write(path, lambda tmp: Path(tmp).write_text(page, encoding="utf-8"))

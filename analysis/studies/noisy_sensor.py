@@ -47,6 +47,7 @@ from rcsim.analysis.studies.noisy_sensor_plots import (  # noqa: F401 - part of 
 )
 from rcsim.lookup.single_axis import ARCHITECTURES, Architecture
 from rcsim.models.errors import InputError
+from rcsim.spacecraft.dispersions import run_generators
 from rcsim.spacecraft.guards import human_bytes, memory_budget_bytes
 
 #: Nondimensional manoeuvre time and the paper's ode4 step.
@@ -221,10 +222,8 @@ def draw_runs(cfg: StudyConfig) -> Draws:
     n_inertia = cfg.n_steps if cfg.inertia_model == "per-step" else 1
     inertia = np.empty((cfg.runs, n_inertia))
     noise = np.empty((cfg.runs, cfg.n_steps + 1, 2))
-    for i in range(cfg.runs):
-        inertia_seq, noise_seq = np.random.SeedSequence(cfg.seed, spawn_key=(i,)).spawn(2)
-        inertia[i], noise[i] = draw_run(np.random.default_rng(inertia_seq),
-                                        np.random.default_rng(noise_seq), cfg)
+    for i in range(cfg.runs):  # per-run seeding, the campaigns' rule (one helper for both)
+        inertia[i], noise[i] = draw_run(*run_generators(cfg.seed, i), cfg)
     return Draws(inertia=inertia, noise=noise)
 
 

@@ -103,8 +103,8 @@ def test_jets_found_by_name(model):
         site = model.actuator_trnid[a, 0]
         assert model.site(site).name == f"j{k + 1:02d}"
         assert model.site_bodyid[site] == model.body(BODY).id
-        # Force along the site's +z axis (no refsite: ENGINE.md, a refsite on the same body
-        # gives zero force).
+        # Force along the site's +z axis (no refsite: docs/engine_facts.md, a refsite on the
+        # same body gives zero force).
         np.testing.assert_array_equal(model.actuator_gear[a], [0, 0, 1, 0, 0, 0])
         assert model.actuator_trnid[a, 1] == -1
 
