@@ -70,13 +70,17 @@ def load_default_table() -> LookupTable:
     return load_lookup_table(default_table_path())
 
 
-def learn_jets(table: LookupTable) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def learn_jets(table: LookupTable, allow_unserved: bool = False
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Which axis and direction each jet serves, and which jets oppose, from the table alone.
 
     Parameters
     ----------
     table : LookupTable
         ``rate_cmd`` (26, 3) [rad/s] and ``firing_time_s`` (26, 16) [s].
+    allow_unserved : bool
+        Accept an axis direction no jet serves (a table made for a vehicle with failed jets,
+        :mod:`lookup.jet_sets`): that direction is never fired.
 
     Returns
     -------
@@ -112,7 +116,7 @@ def learn_jets(table: LookupTable) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         axis[j], sign[j] = constant[0], rows[0, constant[0]]
     for a in range(N_AXES):
         for s in (-1, 1):
-            if not np.any((axis == a) & (sign == s)):
+            if not allow_unserved and not np.any((axis == a) & (sign == s)):
                 raise InputError(f"{src}: no jet fires for a {s:+d} rate on axis {a}")
     used = axis >= 0
     opposing = (
@@ -205,12 +209,18 @@ class LookupController:
         The firing-time table; the only vehicle knowledge the controller has.
     params : LookupParams, optional
         Default: Table 4 with the 0.1 deg no-firing region.
+    jets_off : sequence of int
+        Jets (1..16) the table was made without (:mod:`lookup.jet_sets`): an axis direction
+        left without a jet is accepted and never fired.
     """
 
-    def __init__(self, table: LookupTable, params: LookupParams | None = None):
+    def __init__(self, table: LookupTable, params: LookupParams | None = None, *,
+                 jets_off=()):
         self.table = table
         self.params = LookupParams.from_table4() if params is None else params
-        self.jet_axis_, self.jet_sign_, self.opposing_ = learn_jets(table)
+        self.jets_off = tuple(jets_off)
+        self.jet_axis_, self.jet_sign_, self.opposing_ = learn_jets(
+            table, allow_unserved=bool(self.jets_off))
         signs = np.sign(np.asarray(table.rate_cmd)).astype(int)
         # Case row of each sign pattern, indexed by the base-3 code of (roll, pitch, yaw) + 1.
         codes = ((signs + 1) * np.array([9, 3, 1])).sum(axis=1)
@@ -244,7 +254,9 @@ class LookupController:
         ----------
         table : path, optional
             A table CSV, or anything else :func:`models.tables.load_lookup_table` accepts;
-            default the packaged generated table (`lookup/data/generated_table.csv`).
+            default the packaged generated table (`lookup/data/generated_table.csv`).  A table
+            generated without some jets is checked against the jets left, as its companion
+            file records (:mod:`lookup.jet_sets`).
         inputs : path, optional
             Table 4 CSV; default the packaged one.
         **overrides
@@ -257,8 +269,17 @@ class LookupController:
         """
         # The table loader is the one place that refuses a missing file (InputError naming
         # the path) and knows what else ``table`` may name.
-        tab = load_default_table() if table is None else load_lookup_table(table)
-        return cls(tab, LookupParams.from_table4(inputs, **overrides))
+        from rcsim.lookup.jet_sets import load_table_for_jets
+        from rcsim.models.tables.lookup_tables import PAPER_LOOKUP_TABLES
+
+        jets_off = ()
+        if table is None:
+            tab = load_default_table()
+        elif isinstance(table, (str, os.PathLike)) and str(table) not in PAPER_LOOKUP_TABLES:
+            tab, jets_off = load_table_for_jets(table)
+        else:
+            tab = load_lookup_table(table)
+        return cls(tab, LookupParams.from_table4(inputs, **overrides), jets_off=jets_off)
 
     @classmethod
     def for_runs(cls, table: LookupTable, run_times_s: np.ndarray,
@@ -319,7 +340,13 @@ class LookupController:
         return np.where(np.abs(err) < p.rate_error_limit_rad_s, 0.0, err)
 
     def step(self, nav: NavState, state: LookupState) -> tuple[np.ndarray, LookupState]:
-        """One control cycle.
+        """One control cycle (see :meth:`step_detail`, without its details)."""
+        on, nxt, _ = self.step_detail(nav, state)
+        return on, nxt
+
+    def step_detail(self, nav: NavState, state: LookupState
+                    ) -> tuple[np.ndarray, LookupState, dict]:
+        """One control cycle, with what it decided (for controllers built on this one).
 
         Parameters
         ----------
@@ -332,6 +359,10 @@ class LookupController:
         on_time_s : ndarray, (n_runs, 16)
             On-time of each jet this cycle [s], in ``[0, cycle]``.
         state : LookupState
+        detail : dict
+            ``case`` (n_runs,) table row selected; ``need`` (n_runs, 3) rate change asked for
+            [rad/s]; ``axis_new`` (n_runs, 3) bool, a new firing started on the axis;
+            ``axis_done`` (n_runs, 3) bool, the axis's firing ended this cycle.
         """
         p = self.params
         e = nav.att_err_B
@@ -369,4 +400,5 @@ class LookupController:
         fired = (on.astype(bool).astype(float) @ self._axis_onehot) > 0
         left = ((rem_next > 0).astype(float) @ self._axis_onehot) > 0
         hold = np.where(fired & ~left, p.hold_time_s, np.maximum(state.hold_s - p.cycle_s, 0.0))
-        return on, LookupState(remaining_s=rem_next, hold_s=hold)
+        detail = {"case": case, "need": need, "axis_new": axis_new, "axis_done": fired & ~left}
+        return on, LookupState(remaining_s=rem_next, hold_s=hold), detail

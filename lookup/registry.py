@@ -13,6 +13,9 @@ from rcsim.spacecraft.simulation import Controller
 
 #: Every controller :func:`make_controller` builds, by name.
 CONTROLLERS = ("phase-plane", "lookup")
+#: Built by :func:`make_controller` too, not (yet) offered by the CLI and scenario comparisons:
+#: the adaptive lookup controller (:mod:`lookup.adaptive`).
+MORE_CONTROLLERS = ("adaptive",)
 
 
 def make_controller(
@@ -22,14 +25,16 @@ def make_controller(
     model: mujoco.MjModel | None = None,
     lookup_options: dict | None = None,
     phase_plane_options: dict | None = None,
+    adapt_options: dict | None = None,
 ) -> Controller:
     """Build a controller.
 
     Parameters
     ----------
-    name : {"phase-plane", "lookup"}
+    name : {"phase-plane", "lookup", "adaptive"}
     table : path, optional
-        Lookup table CSV (rcsim or paper layout) for ``"lookup"``, or whatever else
+        Lookup table CSV (rcsim or paper layout) for ``"lookup"`` and ``"adaptive"``, or
+        whatever else
         :func:`models.tables.load_lookup_table` accepts; default the packaged table
         ``lookup/data/generated_table.csv``.
     model : mujoco.MjModel, optional
@@ -37,6 +42,8 @@ def make_controller(
     lookup_options, phase_plane_options : dict, optional
         Overrides of :class:`lookup.pattern_recognition.LookupParams` /
         :class:`lookup.phase_plane.PhasePlaneParams` fields for that controller.
+    adapt_options : dict, optional
+        :class:`lookup.adaptive.AdaptParams` fields for ``"adaptive"``.
 
     Raises
     ------
@@ -59,4 +66,11 @@ def make_controller(
         from rcsim.lookup.pattern_recognition import LookupController
 
         return LookupController.from_files(table, **(lookup_options or {}))
-    raise InputError(f"unknown controller {name!r}; choose one of {', '.join(CONTROLLERS)}")
+    if name == "adaptive":
+        from rcsim.lookup.adaptive import AdaptiveLookupController, AdaptParams
+
+        ctl = AdaptiveLookupController.from_files(table, **(lookup_options or {}))
+        ctl.adapt = AdaptParams(**(adapt_options or {}))
+        return ctl
+    raise InputError(f"unknown controller {name!r}; choose one of "
+                     f"{', '.join(CONTROLLERS + MORE_CONTROLLERS)}")

@@ -20,6 +20,18 @@ the maneuver table's, on the opposing jets.
 
 Generation may use the jet map (it happens in simulation, where the vehicle is known); the
 controller that uses the table (:mod:`lookup.pattern_recognition`) never does.
+
+Module size: about 430 lines, over the ~400 guideline: generation, its verification and the
+failed-jet variant share the firing loop and the result types; the comparison with the paper's
+tables is in :mod:`lookup.table_compare`.
+
+Failed jets (issue 11): ``generate_table(jets_off=(13, 15))`` flies the vehicle with those jets
+failed off (:class:`spacecraft.valves.JetFaults`) and fires only the jets left: a pair with one
+jet gone fires its remaining jet alone (twice as long, with a translation side effect); an axis
+direction with no jet left cannot be commanded, and its cases fire nothing on that axis
+(``GeneratedTable.unreachable``).  The companion file records the jets off, the unreachable
+axes and each case's translation side effect (velocity change of the CG, body axes), and the
+table checks and loads against the jet map without those jets (:func:`jet_map_without`).
 """
 from __future__ import annotations
 
@@ -29,13 +41,18 @@ import mujoco
 import numpy as np
 import pandas as pd
 
+# The comparison with the paper's tables lives in lookup.table_compare; re-exported here for
+# the callers that import it from this module.
+from rcsim.lookup.table_compare import axis_times, compare_tables  # noqa: F401
+from rcsim.models.errors import InputError
 from rcsim.models.tables import (
     CONTROL_CYCLE_S, LookupTable, RateCases, check_consistency, load_jet_map, load_rate_cases,
 )
 from rcsim.spacecraft.navigation import Guidance, NavState
 from rcsim.spacecraft.propulsion import PropulsionParams
 from rcsim.spacecraft.simulation import History, simulate_batch
-from rcsim.spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
+from rcsim.spacecraft.valves import JetFaults
+from rcsim.spacecraft.vehicle import AXES, N_JETS, VehicleParams, jet_geometry_B, load_model
 
 #: Default tolerance of the settling-time measurement [rad/s]: Table 4's rate error limit
 #: (0.06 deg/s), the rate error the lookup controller treats as "reached".
@@ -154,6 +171,14 @@ class GeneratedTable:
         scenario's ``att_rate_settled_time_s``, both measured from the start of the flight).
     settle_tol_rad_s : float
         Tolerance of the settling time [rad/s].
+    jets_off : tuple of int
+        Jets (1..16) the table was generated without; empty for the full vehicle.
+    unreachable : ndarray of bool, (26, 3)
+        Case axes that needed a jet direction no jet left serves (all False for the full
+        vehicle).
+    dv_B_m_s : ndarray, (26, 3)
+        Velocity change of the CG from the case's firing, body axes [m/s] (the translation side
+        effect; ~0 for pure couples).
     """
 
     table: LookupTable
@@ -163,6 +188,9 @@ class GeneratedTable:
     verify_rate_err_rad_s: np.ndarray
     settle_after_firing_s: np.ndarray
     settle_tol_rad_s: float
+    jets_off: tuple = ()
+    unreachable: np.ndarray | None = None
+    dv_B_m_s: np.ndarray | None = None
 
     @property
     def damping_equal(self) -> np.ndarray:
@@ -184,6 +212,12 @@ class GeneratedTable:
         for a, axis in enumerate(AXES):
             cols[f"damping_{axis}_cycles"] = self.damping.cycles[:, a]
         cols["damping_equal_opposing"] = self.damping_equal
+        if self.jets_off:  # only tables for a reduced jet set carry these columns
+            cols["jets_off"] = " ".join(str(j) for j in self.jets_off)
+            for a, axis in enumerate(AXES):
+                cols[f"unreachable_{axis}"] = self.unreachable[:, a]
+            for a, axis in enumerate("xyz"):
+                cols[f"dv_{axis}_m_s"] = self.dv_B_m_s[:, a]
         return pd.DataFrame(cols)
 
 
@@ -199,6 +233,7 @@ def sweep(
     model: mujoco.MjModel | None = None,
     propulsion: PropulsionParams = PropulsionParams(),
     max_fire_s: float = 3.0,
+    faults: JetFaults | None = None,
 ) -> FiringSweep:
     """Fly the firing loop for every row and pick the nearest whole number of cycles per axis.
 
@@ -212,7 +247,10 @@ def sweep(
     params : VehicleParams, optional
         ``n`` vehicles (default: the nominal one repeated).
     max_fire_s : float
-        Longest firing tried [s]; an axis that has not reached its command by then raises.
+        Longest firing tried [s]; an axis that has not reached its command by then raises,
+        unless no jet of ``jet_map`` serves its direction (then it fires 0 cycles).
+    faults : JetFaults, optional
+        Jet faults to fly with (e.g. failed jets, whose rows ``jet_map`` should zero).
 
     Returns
     -------
@@ -226,7 +264,7 @@ def sweep(
     hist = simulate_batch(
         params, loop, Guidance.rate(target), max_fire_s,
         omega0_B=np.asarray(omega0_rad_s, float).reshape(n, 3),
-        propulsion=propulsion, model=model,
+        propulsion=propulsion, model=model, faults=faults,
     )
     # err[:, k] = rate error after k cycles (k = 0 .. K), the last one from the final state.
     err = np.concatenate([hist.rate_err_B, hist.final.rate_err_B[:, None]], axis=1)
@@ -234,7 +272,10 @@ def sweep(
     reached = direction[:, None, :] * err >= 0  # (n, K+1, 3)
     # First k at or past the command; argmax of an all-False column is 0 -> checked below.
     k_cross = np.argmax(reached, axis=1)  # (n, 3)
-    commanded = direction != 0
+    jm = np.asarray(jet_map, int)
+    served = np.stack([(jm[None, :, a] == direction[:, a, None]).any(axis=1)
+                       for a in range(3)], axis=1)  # (n, 3): some jet serves that direction
+    commanded = (direction != 0) & served
     never = commanded & ~reached.any(axis=1)
     if never.any():
         run, axis = np.argwhere(never)[0]
@@ -274,6 +315,7 @@ def generate_table(
     settle_tol_rad_s: float = SETTLE_TOL_RAD_S,
     settle_window_s: float = 2.0,
     max_fire_s: float = 3.0,
+    jets_off=(),
 ) -> GeneratedTable:
     """Generate, verify and damping-check the lookup table for one vehicle.
 
@@ -293,37 +335,54 @@ def generate_table(
         How long the verification flight continues after the longest firing [s].
     max_fire_s : float
         Longest firing the firing loop tries [s].
+    jets_off : sequence of int
+        Jets (numbered 1..16) failed off: the vehicle is flown without them and the table
+        fires only the others (module docstring).
 
     Returns
     -------
     GeneratedTable
+
+    Raises
+    ------
+    InputError
+        ``jets_off`` names a jet outside 1..16 or twice.
     """
     rate_cases = load_rate_cases() if rate_cases is None else rate_cases
-    jet_map = load_jet_map() if jet_map is None else np.asarray(jet_map, int)
+    full_map = load_jet_map() if jet_map is None else np.asarray(jet_map, int)
+    jets_off = check_jets_off(jets_off)
+    jet_map = jet_map_without(full_map, jets_off)
     model = load_model() if model is None else model
     one = VehicleParams.nominal(1, model) if params is None else params.take(slice(0, 1))
     n = len(rate_cases.case)
     batch = one.take(np.zeros(n, int))
     rate = np.asarray(rate_cases.rate_cmd, float)
     cyc = propulsion.cycle_s
+    faults = None
+    if jets_off:
+        off = np.full((n, N_JETS), np.inf)
+        off[:, np.asarray(jets_off) - 1] = 0.0
+        faults = JetFaults.of(n, off_from_s=off)
 
     command = sweep(rate, np.zeros_like(rate), jet_map, params=batch, model=model,
-                    propulsion=propulsion, max_fire_s=max_fire_s)
+                    propulsion=propulsion, max_fire_s=max_fire_s, faults=faults)
     times = firing_times(command.cycles, command.direction, jet_map, cyc)
     check_consistency(rate_cases.case, rate, times, jet_map, file="<generated table>",
                       cycle_s=cyc)
+    source = "generated by lookup.table_generation" + (
+        f" without jets {', '.join(map(str, jets_off))}" if jets_off else "")
     table = LookupTable(case=rate_cases.case, rate_cmd=rate, firing_time_s=times,
-                        source="generated by lookup.table_generation")
+                        source=source)
 
     damping = sweep(np.zeros_like(rate), rate, jet_map, params=batch, model=model,
-                    propulsion=propulsion, max_fire_s=max_fire_s)
+                    propulsion=propulsion, max_fire_s=max_fire_s, faults=faults)
     damping_times = firing_times(damping.cycles, damping.direction, jet_map, cyc)
 
     # Verification: fly the table open loop under the rate command, then watch the rate.
     fire_end = times.max(axis=1)  # (26,), pairs end together; axes may end earlier
     verify = simulate_batch(batch, TableFiring(times, cyc), Guidance.rate(rate),
                             float(fire_end.max()) + settle_window_s,
-                            propulsion=propulsion, model=model)
+                            propulsion=propulsion, model=model, faults=faults)
     err = np.concatenate([verify.rate_err_B, verify.final.rate_err_B[:, None]], axis=1)
     t = np.append(verify.t_s, verify.t_s[-1] + cyc)
     outside = np.abs(err).max(axis=2) > settle_tol_rad_s  # (26, K+1)
@@ -336,60 +395,38 @@ def generate_table(
         for i in range(n)  # 26 cases, post-processing only
     ])
     settle = settle_at - fire_end
+    unreachable = (np.sign(rate) != 0) & (command.cycles == 0) & np.stack(
+        [~(jet_map[None, :, a] == np.sign(rate)[:, a, None]).any(axis=1) for a in range(3)],
+        axis=1)
+    # Translation side effect: the jets' summed force impulse over the vehicle mass, in B
+    # (the firings are short and the attitude barely moves while they last).
+    _, dir_B = jet_geometry_B(model)
+    impulse_B = (verify.propulsion.impulse_ns[:, :, None] * dir_B[None]).sum(axis=1)
     return GeneratedTable(
         table=table, command=command, damping=damping, damping_firing_time_s=damping_times,
         verify_rate_err_rad_s=verify.final.rate_err_B.copy(), settle_after_firing_s=settle,
-        settle_tol_rad_s=float(settle_tol_rad_s),
+        settle_tol_rad_s=float(settle_tol_rad_s), jets_off=jets_off, unreachable=unreachable,
+        dv_B_m_s=impulse_B / batch.mass_kg[:, None],
     )
 
 
-# ------------------------------------------------------------------------------------------
-# Comparison with the paper's tables
-# ------------------------------------------------------------------------------------------
-def axis_times(table: LookupTable) -> tuple[np.ndarray, np.ndarray]:
-    """Per case and axis, the firing time and which jets fire, learned from the table alone.
-
-    Returns
-    -------
-    time_s : ndarray, (26, 3)
-        Longest firing time on each axis (pairs fire equally) [s], 0 if none.
-    jets : ndarray of bool, (26, 16)
-        Jets that fire.
-    """
-    from rcsim.lookup.pattern_recognition import learn_jets
-
-    axis, _, _ = learn_jets(table)
-    ft = np.asarray(table.firing_time_s)
-    time_s = np.stack([np.where(axis[None, :] == a, ft, 0.0).max(axis=1) for a in range(3)], 1)
-    return time_s, ft > 0
+def check_jets_off(jets_off) -> tuple:
+    """``jets_off`` as a sorted tuple of jet numbers 1..16; InputError otherwise."""
+    try:
+        jets = [int(j) for j in jets_off]
+    except (TypeError, ValueError):
+        raise InputError(f"must be jet numbers 1..{N_JETS}, got {jets_off!r}",
+                         parameter="jets_off", value=None) from None
+    bad = [j for j in jets if not 1 <= j <= N_JETS]
+    if bad or len(set(jets)) != len(jets) or any(int(j) != j for j in jets_off):
+        raise InputError(f"must be distinct jet numbers 1..{N_JETS}, got {list(jets_off)}",
+                         parameter="jets_off", value=None)
+    return tuple(sorted(jets))
 
 
-def compare_tables(generated: LookupTable, paper: LookupTable,
-                   cycle_s: float = CONTROL_CYCLE_S) -> pd.DataFrame:
-    """Case-by-case comparison of two lookup tables (e.g. generated vs paper Table 6).
-
-    Returns
-    -------
-    pandas.DataFrame
-        One row per case: ``case``, ``pattern`` (e.g. ``"(-,+,0)"``), ``jets_agree`` (same
-        firing jets), per axis ``<axis>_gen_s``, ``<axis>_paper_s`` and ``<axis>_diff_cycles``
-        (generated minus paper, in control cycles), and ``within_one_cycle``.
-    """
-    if not np.array_equal(np.sign(generated.rate_cmd), np.sign(paper.rate_cmd)):
-        raise ValueError("tables have different case patterns; cannot compare case by case")
-    g_t, g_j = axis_times(generated)
-    p_t, p_j = axis_times(paper)
-    signs = np.sign(np.asarray(generated.rate_cmd)).astype(int)
-    sym = {-1: "-", 0: "0", 1: "+"}
-    cols = {
-        "case": np.asarray(generated.case),
-        "pattern": ["(" + ",".join(sym[s] for s in row) + ")" for row in signs],
-        "jets_agree": np.all(g_j == p_j, axis=1),
-    }
-    diff = np.rint((g_t - p_t) / cycle_s).astype(int)
-    for a, ax in enumerate(AXES):
-        cols[f"{ax}_gen_s"] = g_t[:, a].round(6)
-        cols[f"{ax}_paper_s"] = p_t[:, a].round(6)
-        cols[f"{ax}_diff_cycles"] = diff[:, a]
-    cols["within_one_cycle"] = np.all(np.abs(diff) <= 1, axis=1)
-    return pd.DataFrame(cols)
+def jet_map_without(jet_map: np.ndarray, jets_off) -> np.ndarray:
+    """The jet map with the rows of ``jets_off`` (1..16) zeroed: the jets left."""
+    out = np.array(jet_map, int)
+    if len(jets_off):
+        out[np.asarray(jets_off, int) - 1] = 0
+    return out

@@ -58,9 +58,24 @@ def memory_budget_bytes() -> int | None:
     return physical // 2 if physical > 0 else None
 
 
-def history_bytes(n_runs: int, n_cycles: int) -> int:
-    """Bytes of the per-cycle record of ``n_runs`` runs over ``n_cycles`` cycles (with ``t_s``)."""
-    return int(n_cycles) * (int(n_runs) * HISTORY_BYTES_PER_RUN_CYCLE + 8)
+#: Extra bytes per run per cycle when the sensors are not perfect: ``meas_att_err_B`` and
+#: ``meas_rate_err_B`` (3 float64 each).
+MEASURED_BYTES_PER_RUN_CYCLE = 6 * 8
+
+
+#: Extra bytes per run per cycle when valve timing, faults or a thrust profile apply:
+#: ``delivered_s`` (16 float64).
+DELIVERED_BYTES_PER_RUN_CYCLE = N_JETS * 8
+
+
+def history_bytes(n_runs: int, n_cycles: int, measured: bool = False,
+                  delivered: bool = False) -> int:
+    """Bytes of the per-cycle record of ``n_runs`` runs over ``n_cycles`` cycles (with ``t_s``;
+    ``measured``: with the measured errors of imperfect sensors; ``delivered``: with the
+    delivered on-times)."""
+    per_run = (HISTORY_BYTES_PER_RUN_CYCLE + (MEASURED_BYTES_PER_RUN_CYCLE if measured else 0)
+               + (DELIVERED_BYTES_PER_RUN_CYCLE if delivered else 0))
+    return int(n_cycles) * (int(n_runs) * per_run + 8)
 
 
 def human_bytes(n: float) -> str:
@@ -72,11 +87,13 @@ def human_bytes(n: float) -> str:
     return f"{n:.3g} PiB"
 
 
-def check_history_memory(n_runs: int, n_cycles: int, duration_s: float) -> None:
+def check_history_memory(n_runs: int, n_cycles: int, duration_s: float,
+                         measured: bool = False, delivered: bool = False) -> None:
     """Raise InputError if recording ``n_cycles`` cycles of ``n_runs`` runs exceeds
-    :func:`memory_budget_bytes`."""
+    :func:`memory_budget_bytes` (``measured``, ``delivered``: the optional records of
+    :func:`history_bytes`)."""
     budget = memory_budget_bytes()
-    need = history_bytes(n_runs, n_cycles)
+    need = history_bytes(n_runs, n_cycles, measured, delivered)
     if budget is not None and need > budget:
         raise InputError(
             f"= {duration_s:g} s is {n_cycles} control cycles; recording them for "

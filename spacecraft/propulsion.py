@@ -6,6 +6,11 @@ partial one).  The physics steps at ``dt`` with ``n_sub = cycle / dt`` steps per
 actuator control in step ``k`` is the fraction of that step the jet is on,
 ``clip((t_on - k dt) / dt, 0, 1)``, so the impulse is ``thrust * t_on`` exactly whatever ``dt``
 (ENGINE.md, "Sub-cycle pulses": sampling the switch-off at steps instead is 4-16 % off).
+
+The closed loop no longer spreads a pulse over a step: it cuts each cycle at the jets' switch
+instants (:mod:`spacecraft.pieces`), and a pulse may start anywhere in a cycle (a valve opening
+late, :mod:`spacecraft.valves`): any on-interval ``[start, end]`` of a cycle is flown exactly.
+:func:`duty_profile` remains the impulse-exact duty of a fixed-step integration (benchmarks).
 """
 from __future__ import annotations
 
@@ -67,9 +72,14 @@ class PropulsionState:
 
 
 def apply_valve_limits(
-    on_time_s: np.ndarray, state: PropulsionState, params: PropulsionParams, thrust_n: np.ndarray
+    on_time_s: np.ndarray, state: PropulsionState, params: PropulsionParams, thrust_n: np.ndarray,
+    *, account: bool = True,
 ) -> np.ndarray:
     """Clip commands to ``[0, cycle]``, drop too-short new firings, and update ``state``.
+
+    ``account=False`` leaves ``state.on_time_s`` and ``state.impulse_ns`` alone: the closed loop
+    adds what the jets actually delivered once valve delays and faults are applied
+    (:mod:`spacecraft.valves`); firings, drops and ``on_at_end`` are the commands' either way.
 
     Parameters
     ----------
@@ -93,8 +103,9 @@ def apply_valve_limits(
     on = np.where(too_short, 0.0, on)
     state.dropped += too_short
     state.firings += new & ~too_short
-    state.on_time_s += on
-    state.impulse_ns += on * thrust_n
+    if account:
+        state.on_time_s += on
+        state.impulse_ns += on * thrust_n
     # A firing continues into the next cycle only if it filled this one (up to rounding).
     state.on_at_end = on >= params.cycle_s * (1.0 - 1e-12)
     return on

@@ -1,9 +1,20 @@
 """The closed loop over many runs at once: controller step (numpy) <-> MuJoCo (native threads).
 
-Each control cycle: navigation errors for every run, one vectorized controller step, valve
-limits, exact per-step duty (:mod:`spacecraft.propulsion`), then ``n_sub`` physics steps of all
-runs in MuJoCo's thread pool (:class:`mujoco.batch.Batch`, GIL released).  There is no Python
-loop over runs; one run is a batch of one.
+Each control cycle: the sensors read every run's state (:mod:`spacecraft.sensors`; perfect by
+default), navigation errors, one vectorized controller step, valve limits
+(:mod:`spacecraft.propulsion`), valve timing and jet faults (:mod:`spacecraft.valves`), then the
+cycle's physics of all runs in MuJoCo's thread pool (:class:`mujoco.batch.Batch`, GIL
+released).  There is no Python loop over runs; one run is a batch of one.
+
+Exact in time
+-------------
+Each run's cycle is integrated in pieces cut at that run's own jet switch instants
+(:func:`spacecraft.pieces.cycle_pieces`), the jets constant in each piece: the physics sees the
+exact thrust history, so impulse and attitude are exact whatever the pulse lengths and delays.
+The pieces' lengths are per-simulation physics steps (``opt.timestep`` expanded per run); piece
+``p`` of every run that has one is one batched ``rollout`` of one step.  A cycle in which no
+run switches a jet is one rollout of the model's fixed steps, as before.  Cost and accuracy:
+``docs/convergence.md``.
 
 Failures
 --------
@@ -23,12 +34,18 @@ Refusals
 --------
 :meth:`BatchSimulation.run` refuses, before allocating anything, a controller whose control
 cycle disagrees with the propulsion's, and a history that would not fit in memory
-(:func:`spacecraft.guards.memory_budget_bytes`).
+(:func:`spacecraft.guards.memory_budget_bytes`).  The constructor refuses invalid sensor,
+timing and fault parameters (:class:`rcsim.models.errors.InputError`).
+
+Module size: about 475 lines, over the ~400 guideline: the cycle loop (sensors, controller,
+valves, the cut) and the piecewise stepping share the batch's bound arrays, per-run timesteps
+and failure bookkeeping; splitting them would pass those around for no gain in clarity.  The
+pure parts live in :mod:`spacecraft.pieces`, :mod:`spacecraft.valves`,
+:mod:`spacecraft.sensors` and :mod:`spacecraft.history`.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from typing import Any, Callable, Protocol
 
 import mujoco
@@ -37,9 +54,14 @@ from mujoco.batch import Batch, SimulationError
 
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.guards import check_cycle, check_history_memory, warning_reasons
+from rcsim.spacecraft.history import History
 from rcsim.spacecraft.navigation import Guidance, NavState, navigate
-from rcsim.spacecraft.propulsion import (
-    PropulsionParams, PropulsionState, apply_valve_limits, duty_profile,
+from rcsim.spacecraft.pieces import Pieces, cycle_pieces, profile_pieces
+from rcsim.spacecraft.propulsion import PropulsionParams, PropulsionState, apply_valve_limits
+from rcsim.spacecraft.sensors import SensorNoise, SensorParams, SensorState, measure
+from rcsim.spacecraft.valves import (
+    JetFaults, ThrustProfile, ValveState, ValveTiming, command_valves, cycle_intervals,
+    end_cycle,
 )
 from rcsim.spacecraft.vehicle import (
     BODY, N_JETS, VehicleParams, dist_actuator_ids, jet_actuator_ids, load_model,
@@ -47,6 +69,8 @@ from rcsim.spacecraft.vehicle import (
 )
 
 _CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
+
+__all__ = ["BatchSimulation", "Controller", "History", "invalid_runs", "simulate_batch"]
 
 
 class Controller(Protocol):
@@ -61,50 +85,6 @@ class Controller(Protocol):
 
     def step(self, nav: NavState, state: Any) -> tuple[np.ndarray, Any]:
         """Return on-times this cycle [s], shape (n_runs, 16), and the next state."""
-
-
-@dataclass
-class History:
-    """Per-cycle record of a batch of runs (cycle k starts at ``t_s[k]``).
-
-    Attributes
-    ----------
-    t_s : ndarray, (n_cycles,)
-    q_BN : ndarray, (n_runs, n_cycles, 4)
-    omega_B, att_err_B, rate_err_B : ndarray, (n_runs, n_cycles, 3)
-        Body rate, attitude error and rate error at the cycle's start [rad/s, rad, rad/s].
-    on_time_s : ndarray, (n_runs, n_cycles, 16)
-        On-time each jet delivered during the cycle [s].
-    final : NavState
-        State at the end of the last cycle.
-    propulsion : PropulsionState
-        Firings, on-time, impulse per jet over the run.
-    failed : ndarray of bool, (n_runs,)
-        The simulation itself failed (invalid parameters, MuJoCo warning -- the physics
-        diverged --, MuJoCo error, non-finite state).  A failed run is frozen from the cycle it
-        failed in; its later records are not a flight.
-    reason : list of str
-        Why, per run ('' when it did not fail).
-    flown_params : VehicleParams or None
-        The parameters each run was flown with, read back from MuJoCo's per-run model
-        (:meth:`BatchSimulation.flown_params`); None for a history not made by a simulation.
-    """
-
-    t_s: np.ndarray
-    q_BN: np.ndarray
-    omega_B: np.ndarray
-    att_err_B: np.ndarray
-    rate_err_B: np.ndarray
-    on_time_s: np.ndarray
-    final: NavState
-    propulsion: PropulsionState
-    failed: np.ndarray
-    reason: list[str] = field(default_factory=list)
-    flown_params: VehicleParams | None = None
-
-    @property
-    def n_runs(self) -> int:
-        return int(self.omega_B.shape[0])
 
 
 def invalid_runs(params: VehicleParams) -> list[str]:
@@ -138,8 +118,26 @@ class BatchSimulation:
         Control cycle and minimum pulse.
     model : mujoco.MjModel, optional
         Compiled vehicle (its ``opt.timestep`` and integrator are used); default the packaged one.
+        The timestep is the longest piece of a cycle (module docstring, "Exact in time").
     nthread : int
         MuJoCo worker threads (0: all CPUs).
+    sensors : SensorParams, optional
+        Sensor errors per run; default perfect sensors.
+    sensor_streams : sequence of numpy.random.SeedSequence, optional
+        One per run, the run's sensor-noise stream
+        (:func:`spacecraft.effect_draws.effect_streams`); required when ``sensors`` has noise
+        or a random walk.
+    timing : ValveTiming, optional
+        Command (sensor-to-actuator) delay and valve latencies per run; default none.
+    faults : JetFaults, optional
+        Jet faults per run; default none.
+    profile : ThrustProfile, optional
+        Thrust transients at valve opening and closing; default none (instant thrust).
+
+    Raises
+    ------
+    InputError
+        Invalid sensor, timing or fault parameters; noisy sensors without streams.
     """
 
     def __init__(
@@ -149,8 +147,31 @@ class BatchSimulation:
         propulsion: PropulsionParams = PropulsionParams(),
         model: mujoco.MjModel | None = None,
         nthread: int = 0,
+        sensors: SensorParams | None = None,
+        sensor_streams=None,
+        timing: ValveTiming | None = None,
+        faults: JetFaults | None = None,
+        profile: ThrustProfile | None = None,
     ):
         route_mujoco_warnings()
+        n = params.n_runs
+        if sensors is not None:
+            sensors.check(n)
+        if timing is not None:
+            timing.check(propulsion.cycle_s, n)
+        if faults is not None:
+            faults.check(n)
+        self.sensors = None if sensors is None or sensors.is_perfect() else sensors
+        if self.sensors is not None and self.sensors.is_random():
+            if sensor_streams is None or len(sensor_streams) != n:
+                raise InputError(
+                    f"noisy sensors need one noise stream per run ({n}), got "
+                    f"{'none' if sensor_streams is None else len(sensor_streams)}",
+                    parameter="sensor_streams", value=None)
+        self.sensor_streams = sensor_streams
+        self.timing = ValveTiming.of(n) if timing is None else timing
+        self.faults = None if faults is None or faults.is_none() else faults
+        self.profile = None if profile is None or profile.is_none() else profile
         self.model = load_model() if model is None else model
         self.params = params
         self.propulsion = propulsion
@@ -168,6 +189,11 @@ class BatchSimulation:
         self._write_params()
         self._qpos = self._batch.bind("qpos")
         self._qvel = self._batch.bind("qvel")
+        # Per-run physics step: the length of each run's current piece of a cycle.
+        self._timestep = self._batch.expand("opt.timestep")
+        self._stretched = False  # some run's timestep is not the model's
+        self._level = (np.ones((n, N_JETS)) if self.faults is None
+                       else self.faults.thrust_factor.copy())
         # Live (n_runs, mjNWARNING, 2) view of each simulation's MjData.warning (lastinfo, number).
         self._warning = self._batch.warning
 
@@ -278,7 +304,9 @@ class BatchSimulation:
                              value=duration_s)
         check_cycle(controller, cycle)
         n_cycles = int(math.ceil(duration_s / cycle - 1e-9))
-        check_history_memory(n, n_cycles, duration_s)
+        check_history_memory(n, n_cycles, duration_s, measured=self.sensors is not None,
+                             delivered=not (self.timing.is_zero() and self.faults is None
+                                            and self.profile is None))
         self._reset(q0_BN, omega0_B)
         state = controller.initial_state(n) if ctrl_state is None else ctrl_state
         prop = PropulsionState.zeros(n)
@@ -295,26 +323,59 @@ class BatchSimulation:
             "rate_err_B": np.empty((n_cycles, n, 3)),
             "on_time_s": np.empty((n_cycles, n, N_JETS)),
         }
-        control = np.zeros((n, self.n_sub, self.model.nu))
+        sensed = self.sensors is not None
+        effects = not (self.timing.is_zero() and self.faults is None and self.profile is None)
+        if effects:
+            rec["delivered_s"] = np.empty((n_cycles, n, N_JETS))
+        if sensed:
+            rec["meas_att_err_B"] = np.empty((n_cycles, n, 3))
+            rec["meas_rate_err_B"] = np.empty((n_cycles, n, 3))
+            noise = (SensorNoise(self.sensor_streams) if self.sensors.is_random() else None)
+            sensor_state = SensorState(np.zeros((n, 3)))
+        valves = ValveState.closed(n)
+        thrust = self.params.thrust_n * self._level
+        torque = np.zeros((n, 3))
         for k in range(n_cycles):
-            # Integer tick count -> time: no accumulated float error over long runs.
-            nav = navigate(k * cycle, self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy(), guidance)
+            t0 = k * cycle  # integer tick count -> time: no accumulated float error
+            q, w = self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy()
+            nav = truth = navigate(t0, q, w, guidance)
+            if sensed:
+                q_m, w_m = measure(q, w, None if noise is None else noise.draw(k), self.sensors,
+                                   sensor_state, cycle)
+                nav = navigate(t0, q_m, w_m, guidance)
+                rec["meas_att_err_B"][k] = nav.att_err_B
+                rec["meas_rate_err_B"][k] = nav.rate_err_B
             command, state = controller.step(nav, state)
             command = np.where(failed[:, None], 0.0, command)
-            on = apply_valve_limits(command, prop, self.propulsion, self.params.thrust_n)
-            rec["q_BN"][k] = nav.q_BN
-            rec["omega_B"][k] = nav.omega_B
-            rec["att_err_B"][k] = nav.att_err_B
-            rec["rate_err_B"][k] = nav.rate_err_B
+            on = apply_valve_limits(command, prop, self.propulsion, self.params.thrust_n,
+                                    account=False)
+            command_valves(valves, on, self.timing, cycle)
+            grid = self.dt_s if self.n_sub > 1 else None
+            if self.profile is None:
+                pieces = cycle_pieces(*cycle_intervals(valves, self.faults, t0), cycle, grid)
+            else:
+                pieces = profile_pieces(*cycle_intervals(valves, self.faults, t0), cycle, grid,
+                                        self.profile.rise_s, self.profile.fall_s,
+                                        self.profile.segments)
+            delivered = pieces.on_time_s()
+            prop.on_time_s += delivered
+            prop.impulse_ns += pieces.thrust_time_s() * thrust
+            rec["q_BN"][k] = truth.q_BN
+            rec["omega_B"][k] = truth.omega_B
+            rec["att_err_B"][k] = truth.att_err_B
+            rec["rate_err_B"][k] = truth.rate_err_B
             rec["on_time_s"][k] = on
-            control[:, :, self._jets] = duty_profile(on, self.dt_s, self.n_sub)
+            if effects:
+                rec["delivered_s"][k] = delivered
             if disturbance_B is not None:
-                torque = disturbance_B(k * cycle) if callable(disturbance_B) else disturbance_B
-                control[:, :, self._dist] = np.asarray(torque, float)[:, None, :]
-            self._step(control, failed, reason, k * cycle, (k + 1) * cycle)
+                torque = np.asarray(disturbance_B(t0) if callable(disturbance_B)
+                                    else disturbance_B, float)
+            self._step(pieces, torque, failed, reason, t0, t0 + cycle)
+            end_cycle(valves, cycle, 0.0 if self.profile is None else self.profile.fall_s)
             if progress is not None:
                 progress(k + 1)
-        final = navigate(n_cycles * cycle, self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy(), guidance)
+        final = navigate(n_cycles * cycle, self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy(),
+                         guidance)
         # (n_runs, n_cycles, k) views of the cycle-major buffers: a copy would double the peak
         # memory of a large batch and cost a tenth of its wall time.
         rec = {key: value.swapaxes(0, 1) for key, value in rec.items()}
@@ -342,21 +403,34 @@ class BatchSimulation:
             failed[i] = True
             reason[i] = why
 
-    def _step(self, control: np.ndarray, failed: np.ndarray, reason: list[str],
-              t0_s: float, t1_s: float) -> None:
-        """``n_sub`` physics steps (cycle ``[t0_s, t1_s]``) of the runs still alive; newly
-        failed ones are frozen."""
-        alive = np.flatnonzero(~failed)
-        if alive.size == 0:
+    def _step(self, pieces: Pieces, torque: np.ndarray, failed: np.ndarray,
+              reason: list[str], t0_s: float, t1_s: float) -> None:
+        """Integrate cycle ``[t0_s, t1_s]`` of the runs still alive, piece by piece; newly
+        failed ones are frozen.
+
+        ``torque`` (n_runs, 3) [N m] is the disturbance held over the cycle.
+        """
+        alive = ~failed
+        if not alive.any():
             return
-        everyone = alive.size == self.n_runs
-        try:
-            self._batch.rollout(self.n_sub, control=control if everyone else control[alive],
-                                control_spec=_CTRL, record=(), ids=None if everyone else alive)
-        except SimulationError as exc:
-            for i in exc.ids:
-                failed[i] = True
-                reason[i] = f"MuJoCo error: {self._batch.error(int(i))}"
+        nu, jets, dist = self.model.nu, self._jets, self._dist
+        if pieces.uniform:  # no switch inside any grid step: the model's own fixed steps
+            if self._stretched:
+                self._timestep[:] = self.dt_s
+                self._stretched = False
+            control = np.zeros((self.n_runs, self.n_sub, nu))
+            control[:, :, jets] = pieces.control() * self._level[:, None, :]
+            control[:, :, dist] = torque[:, None, :]
+            self._rollout(self.n_sub, control, alive, failed, reason)
+        else:
+            self._stretched = True
+            for p in range(pieces.n_pieces):
+                runs = alive & ~failed & (pieces.count > p)
+                self._timestep[runs] = pieces.length_s[runs, p]
+                control = np.zeros((self.n_runs, 1, nu))
+                control[:, 0, jets] = pieces.control()[:, p] * self._level
+                control[:, 0, dist] = torque
+                self._rollout(1, control, runs, failed, reason)
         self._check_warnings(failed, reason, t0_s, t1_s)
         state_ok = np.isfinite(self._qvel.sum(axis=1) + self._qpos.sum(axis=1))
         if state_ok.all():
@@ -368,6 +442,22 @@ class BatchSimulation:
         self._qpos[~state_ok] = np.nan_to_num(self._qpos[~state_ok])
         self._qvel[~state_ok] = 0.0
 
+    def _rollout(self, nstep: int, control: np.ndarray, runs: np.ndarray, failed: np.ndarray,
+                 reason: list[str]) -> None:
+        """``nstep`` physics steps of the runs ``runs`` (bool, (n_runs,)) with ``control``
+        (n_runs, nstep, nu); a MuJoCo error fails the run it names."""
+        ids = np.flatnonzero(runs)
+        if ids.size == 0:
+            return
+        everyone = ids.size == self.n_runs
+        try:
+            self._batch.rollout(nstep, control=control if everyone else control[ids],
+                                control_spec=_CTRL, record=(), ids=None if everyone else ids)
+        except SimulationError as exc:
+            for i in exc.ids:
+                failed[i] = True
+                reason[i] = f"MuJoCo error: {self._batch.error(int(i))}"
+
 
 def simulate_batch(
     params: VehicleParams,
@@ -376,8 +466,11 @@ def simulate_batch(
     duration_s: float,
     **kwargs,
 ) -> History:
-    """One-call form of :class:`BatchSimulation` (``propulsion``, ``model``, ``nthread`` go to the
-    simulation, the rest to :meth:`BatchSimulation.run`)."""
-    sim_keys = {"propulsion", "model", "nthread"}
+    """One-call form of :class:`BatchSimulation` (``propulsion``, ``model``, ``nthread``,
+    ``sensors``, ``sensor_streams``, ``timing``, ``faults``, ``profile`` go to the simulation,
+    the rest to
+    :meth:`BatchSimulation.run`)."""
+    sim_keys = {"propulsion", "model", "nthread", "sensors", "sensor_streams", "timing", "faults",
+                "profile"}
     sim_kw = {k: kwargs.pop(k) for k in list(kwargs) if k in sim_keys}
     return BatchSimulation(params, **sim_kw).run(controller, guidance, duration_s, **kwargs)
