@@ -7,14 +7,16 @@ automated by measuring the number of firings and the final rate error".  Here:
    threshold).  A case is *not robust* when some run fails (its final rate error does not
    converge under the threshold) or needs repeated firings to reach the commanded rate.
 2. For each such case, the *offending axes* are those on which some run failed or needed more
-   than one firing event.  Candidates move all the jets of one offending axis by one control
-   cycle, shorter or longer (:func:`rcsim.lookup.table_edits.shift_axes`).
+   than one firing event.  Candidates move all the jets of the axis with the most offending
+   runs by one control cycle, shorter or longer (:func:`rcsim.lookup.table_edits.shift_axes`);
+   an entry already flown is never flown again, so the next round walks on in the direction
+   that helped, or turns to the next offending axis.
 3. Every candidate of every case is flown in one batch over the same dispersed runs as the
    current table (common random numbers).  A case takes its best candidate when it is strictly
    better: fewer failures first, then fewer repeated firings.
 4. The current table is flown again with all accepted changes (one entry's change can alter
-   another case's correction firings), and 2-3 repeat until every case is robust, no
-   candidate helps, or ``max_iterations`` is reached.  The table returned is the best one
+   another case's correction firings), and 2-3 repeat until every case is robust, no entry
+   is left to try, or ``max_iterations`` is reached.  The table returned is the best one
    flown (fewest failures, then repeated firings, over all searched cases).
 
 Guarding against fitting the seed is the caller's job (:func:`refine` reports the search seed
@@ -58,14 +60,14 @@ class RefineResult:
     runs_flown: int = 0
 
 
-def _offending_axes(runs: pd.DataFrame, threshold_deg_s: float) -> np.ndarray:
-    """(n_trials, 3) bool: some run of the trial failed on, or re-fired on, that axis."""
-    out = np.zeros((int(runs["trial"].max()) + 1, len(AXES)), bool)
+def _offending_runs(runs: pd.DataFrame, threshold_deg_s: float, n_trials: int) -> np.ndarray:
+    """(n_trials, 3) int: runs of each trial that failed on, or re-fired on, each axis."""
+    out = np.zeros((n_trials, len(AXES)), int)
     for a, axis in enumerate(AXES):
         bad = ((runs[f"firings_to_rate_{axis}"].fillna(0) > 1)
                | ~(runs[f"final_rate_err_{axis}_deg_s"].abs() < threshold_deg_s))
-        hit = runs.loc[bad, "trial"].unique()
-        out[hit, a] = True
+        counts = runs.loc[bad, "trial"].value_counts()
+        out[counts.index.to_numpy(int), a] = counts.to_numpy()
     return out
 
 
@@ -121,12 +123,18 @@ def refine(spec, table: LookupTable, cases=None, *, max_iterations: int = 8,
     # slightly; the re-fly of the whole table after each round still measures what is kept.
     visited = {(int(c), tuple(axis_cycles(current, jet_axis)[c])) for c in cases}
     for it in range(max_iterations):
-        offending = _offending_axes(runs, threshold_deg_s)
+        offending = _offending_runs(runs, threshold_deg_s, cases.size)
         times, labels, trial_case, edits = [], [], [], []
         for t, c in enumerate(cases):
             if _key(scores.iloc[t]) == (0, 0):
                 continue
-            for a in np.flatnonzero(offending[t]):
+            # One axis per case and round: the one most runs fail or re-fire on (the paper's
+            # yaw), before axes with a stray run or two; the next round moves on if it does
+            # not help (its entries are then visited).
+            n_before = len(times)
+            for a in sorted(np.flatnonzero(offending[t]), key=lambda a: -offending[t, a]):
+                if len(times) > n_before:
+                    break
                 for step in STEP_CYCLES:
                     shift = np.zeros((len(table.case), len(AXES)), int)
                     shift[c, a] = step
@@ -159,8 +167,10 @@ def refine(spec, table: LookupTable, cases=None, *, max_iterations: int = 8,
                 accepted += edits[i][1]
                 changed.append(labels[i])
         if not changed:
+            # Nothing helped: the table and its runs stand; the next round tries the entries
+            # not flown yet (other axes), and the search ends when there are none.
             iterations.append({"round": it + 1, "candidates": trials.n_trials, "changed": []})
-            break
+            continue
         current = shift_axes(current, jet_axis, accepted)
         runs, scores = fly_current(current, f"refine: round {it + 1} re-fly")
         flown += len(runs)
