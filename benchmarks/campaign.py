@@ -14,13 +14,17 @@ Measures, on this machine, in one process run:
    ``threads`` chunks in flight with one MuJoCo thread each (the default);
 5. ``dask``: the same campaign on a LocalCluster of 1 and 2 workers (target: 2 >= 1.7 x 1);
 6. ``memory``: peak RSS of ``rcsim campaign run`` for a large summary-only campaign of short
-   runs, at two sizes (target: < 1 GB at 100,000 runs, and no growth with the run count).
+   runs, at two sizes (target: < 1 GB at 100,000 runs, and no growth with the run count);
+7. ``interrupt``: seconds from Ctrl-C (SIGINT to the process group, as a terminal sends it)
+   to the exit of ``rcsim campaign run``, sent once its first chunk has committed, locally
+   and with ``--workers 2`` (the chunks in flight must be abandoned, not finished).
 
 Usage::
 
     python benchmarks/campaign.py                      # everything, default sizes
     python benchmarks/campaign.py --runs-per-case 20 --duration-s 20 --skip memory
     python benchmarks/campaign.py --only memory --memory-runs 100000
+    python benchmarks/campaign.py --only interrupt --interrupt-repeats 5
 
 Timings are wall-clock on a shared machine: run it on an idle one for numbers to quote.
 """
@@ -29,6 +33,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -174,6 +180,43 @@ def bench_memory(folder: Path, runs_total: int, duration: float, chunk: int) -> 
             "peak_rss_mb": rss_kb / 1024, "runs_per_s": runs * 26 / wall}
 
 
+def bench_interrupt(folder: Path, extra: list[str], repeats: int, *, runs: int = 8,
+                    chunk: int = 50, duration: float = 20.0) -> dict:
+    """Seconds from Ctrl-C to the exit of ``rcsim campaign run`` (``extra``: its options).
+
+    The 26 cases x ``runs`` runs of ``duration`` s in ``chunk``-run chunks: many chunks, each
+    several seconds of flying, so that chunks are in flight when the signal comes.
+    """
+    spec = _spec_file(folder, runs=runs, chunk=chunk, duration=duration)
+    seconds, codes = [], []
+    for k in range(repeats):
+        out = folder / f"interrupt-{'-'.join(extra) or 'local'}-{k}"
+        cli = [sys.executable, "-m", "rcsim.analysis.cli", "campaign", "run", str(spec),
+               "--out", str(out), "--no-progress", *extra]
+        proc = subprocess.Popen(cli, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                text=True, start_new_session=True, cwd=ROOT)
+        try:
+            deadline = time.monotonic() + 300
+            while proc.poll() is None and time.monotonic() < deadline:
+                if any((out / "chunks").glob("runs-*.parquet")):
+                    break
+                time.sleep(0.01)
+            if proc.poll() is not None:
+                raise RuntimeError(f"the campaign ended before the signal: {proc.stderr.read()}")
+            t0 = time.perf_counter()
+            os.killpg(proc.pid, signal.SIGINT)
+            proc.communicate(timeout=120)
+            seconds.append(time.perf_counter() - t0)
+            codes.append(proc.returncode)
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+    return {"repeats": repeats, "exit_codes": sorted(set(codes)),
+            "median_s": statistics.median(seconds), "max_s": max(seconds),
+            "seconds": seconds}
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--runs-per-case", type=int, default=40)
@@ -182,8 +225,10 @@ def main(argv=None) -> int:
     p.add_argument("--memory-runs", type=int, nargs="+", default=[10_000, 100_000])
     p.add_argument("--memory-duration-s", type=float, default=0.2)
     p.add_argument("--only", nargs="+", default=None,
-                   choices=["campaign", "raw", "single-core", "local-modes", "dask", "memory"])
+                   choices=["campaign", "raw", "single-core", "local-modes", "dask", "memory",
+                            "interrupt"])
     p.add_argument("--skip", nargs="+", default=[])
+    p.add_argument("--interrupt-repeats", type=int, default=3)
     p.add_argument("--json", help="also write the figures to this JSON file")
     args = p.parse_args(argv)
     want = lambda k: (args.only is None or k in args.only) and k not in args.skip  # noqa: E731
@@ -226,6 +271,11 @@ def main(argv=None) -> int:
                 results[key] = bench_memory(folder, n, args.memory_duration_s, 256)
                 print(f"summary-only campaign, {results[key]['runs']} runs of "
                       f"{args.memory_duration_s:g} s: {results[key]}", flush=True)
+        if want("interrupt"):
+            for name, extra in (("local", []), ("dask_2", ["--workers", "2"])):
+                key = f"interrupt_{name}"
+                results[key] = bench_interrupt(folder, extra, args.interrupt_repeats)
+                print(f"Ctrl-C to exit, {name}: {results[key]}", flush=True)
     results["machine"]["load_avg_at_end"] = os.getloadavg()
     print(json.dumps(results, indent=2))
     if args.json:

@@ -3,8 +3,8 @@
 Prints simulated seconds per wall second for
 
 * ``closed loop``: 256 runs of the 5/5/5 deg three-axis phase-plane maneuver, 60 s each, through
-  :func:`spacecraft.simulation.simulate_batch` (vectorized controller every 40 ms cycle, MuJoCo
-  batch rollout of the cycle's physics steps with the GIL released);
+  :func:`rcsim.spacecraft.simulation.simulate_batch` (vectorized controller every 40 ms cycle,
+  MuJoCo batch rollout of the cycle's physics steps with the GIL released);
 * ``raw``: the same number of physics steps of 256 runs in :meth:`mujoco.batch.Batch.rollout`
   with a precomputed control array and no controller (long rollouts of ``CHUNK_S`` of simulated
   time; one control chunk built from the closed loop's own duties of the first ``CHUNK_S`` is

@@ -14,14 +14,15 @@ from typing import Iterator
 import numpy as np
 import pandas as pd
 
-# outcomes is re-exported: analysis.refinement and the tests import it from here.
+# firing_starts is re-exported only for old import paths (no in-tree importer is left; to be
+# dropped once the lead confirms).
 from rcsim.analysis.campaign.outcomes import axis_jets, firing_starts, outcomes  # noqa: F401
 from rcsim.analysis.campaign.schema import check_run_frame, missing_outcomes
 from rcsim.spacecraft.dispersions import DispersedRuns, dispersion_frame, draw_runs
+from rcsim.spacecraft.guards import history_bytes
 from rcsim.spacecraft.propulsion import PropulsionParams
 from rcsim.spacecraft.simulation import History, invalid_runs
 from rcsim.spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
-
 
 
 @dataclass(frozen=True)
@@ -51,11 +52,11 @@ def warm_up() -> None:
     load_model()
 
 
-# A chunk's simulation records every cycle of every run (spacecraft.simulation.History: 29
-# float64 per run and cycle).  Long runs get smaller chunks so that one chunk's record stays
-# under this budget [bytes]: a 500 s maneuver in a 256-run chunk would otherwise hold 740 MB.
+# A chunk's simulation records every cycle of every run (rcsim.spacecraft.simulation.History,
+# sized by rcsim.spacecraft.guards.history_bytes).  Long runs get smaller chunks so that one
+# chunk's record stays under this budget [bytes]: a 500 s maneuver in a 256-run chunk would
+# otherwise hold over 700 MB.
 HISTORY_BUDGET_BYTES = 192 * 2**20
-HISTORY_BYTES_PER_RUN_CYCLE = 29 * 8
 # Chunk counts are rounded up to a multiple of this, so that 1, 2 or 4 workers get equal shares
 # and finish together (5 chunks on 2 workers leave one idle for the last fifth of the work).
 CHUNK_COUNT_MULTIPLE = 4
@@ -65,7 +66,10 @@ def max_chunk_runs(spec, duration_s: float) -> int:
     """Most runs per chunk for runs of ``duration_s``: ``spec.chunk_size``, or fewer when the
     chunk's per-cycle record would exceed :data:`HISTORY_BUDGET_BYTES`."""
     cycles = int(np.ceil(duration_s / PropulsionParams().cycle_s))
-    by_memory = HISTORY_BUDGET_BYTES // (cycles * HISTORY_BYTES_PER_RUN_CYCLE)
+    # history_bytes(n, cycles) is affine in n: the shared time column plus n runs' records.
+    shared = history_bytes(0, cycles)
+    per_run = history_bytes(1, cycles) - shared
+    by_memory = (HISTORY_BUDGET_BYTES - shared) // per_run
     return int(max(1, min(spec.chunk_size, by_memory)))
 
 
@@ -248,7 +252,7 @@ def flown_inputs(dispersed: DispersedRuns, flown: VehicleParams | None) -> Dispe
 
 def run_rows(spec, dispersed: DispersedRuns, outcome: pd.DataFrame) -> pd.DataFrame:
     """The runs.parquet rows of runs ``dispersed.run_ids``: identity, inputs, ``outcome``
-    (columns: :data:`analysis.campaign.schema.RUN_COLUMNS`)."""
+    (columns: :data:`rcsim.analysis.campaign.schema.RUN_COLUMNS`)."""
     cases = dispersed.run_ids // spec.runs_per_case
     head = pd.DataFrame({
         "run_id": dispersed.run_ids,

@@ -1,7 +1,7 @@
 """Physical ranges of campaign spec values: what the physics or the paper allows, and why.
 
 A value of the right type can still be absurd (a dispersion scale of 1e300, a hold disturbance
-of 1e300 N m, an initial rate of 1e6 deg/s); :mod:`~analysis.campaign.spec` refuses those with
+of 1e300 N m, an initial rate of 1e6 deg/s); :mod:`~rcsim.analysis.campaign.spec` refuses those with
 the range computed here and its reason, before anything is flown.
 """
 from __future__ import annotations
@@ -20,10 +20,12 @@ MAX_INITIAL_RATE_DEG_S = 3.0
 
 def max_duration_s() -> float:
     """Longest run a campaign flies [s]: one run's per-cycle record within a chunk's budget."""
-    from rcsim.analysis.campaign.chunk import HISTORY_BUDGET_BYTES, HISTORY_BYTES_PER_RUN_CYCLE
+    from rcsim.analysis.campaign.chunk import HISTORY_BUDGET_BYTES
+    from rcsim.spacecraft.guards import history_bytes
     from rcsim.spacecraft.propulsion import PropulsionParams
 
-    return (HISTORY_BUDGET_BYTES // HISTORY_BYTES_PER_RUN_CYCLE) * PropulsionParams().cycle_s
+    # history_bytes(1, 1): one run's record of one cycle, with its share of the time column.
+    return (HISTORY_BUDGET_BYTES // history_bytes(1, 1)) * PropulsionParams().cycle_s
 
 
 _LIMITS: dict = {}

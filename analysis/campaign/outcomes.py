@@ -1,7 +1,7 @@
 """The outcomes of flown runs: firings, times to rate, final errors, failure and its reason.
 
-One row per run, columns :data:`analysis.campaign.schema.OUTCOME_COLUMNS`; a function of the
-batch's :class:`~spacecraft.simulation.History` and the spec's thresholds only (no I/O).
+One row per run, columns :data:`rcsim.analysis.campaign.schema.OUTCOME_COLUMNS`; a function of the
+batch's :class:`~rcsim.spacecraft.simulation.History` and the spec's thresholds only (no I/O).
 """
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from rcsim.spacecraft.simulation import History
 from rcsim.spacecraft.vehicle import AXES, N_JETS
 
 # A firing continues into the next cycle only if it filled the previous one -- the same rule
-# (and tolerance) as spacecraft.propulsion.apply_valve_limits, so firing counts agree with it.
+# (and tolerance) as rcsim.spacecraft.propulsion.apply_valve_limits, so firing counts agree with it.
 _FULL_CYCLE_RTOL = 1e-12
 
 
@@ -51,7 +51,7 @@ def outcomes(history: History, spec, cycle_s: float, isp_s: float) -> pd.DataFra
     * ``failed``: the simulation failed, or some axis ends with ``|rate error| >= thr``, or
       (if set) the final total attitude error exceeds ``spec.attitude_threshold_rad``.
     Runs whose simulation failed get NaN outcomes: their state is not a flight.  Columns,
-    units and meanings: :data:`analysis.campaign.schema.OUTCOME_COLUMNS`.
+    units and meanings: :data:`rcsim.analysis.campaign.schema.OUTCOME_COLUMNS`.
     """
     n, K = history.rate_err_B.shape[:2]
     thr = spec.rate_threshold_rad_s

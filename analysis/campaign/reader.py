@@ -2,7 +2,7 @@
 keys refused) and the keys that name files (:func:`file_key`, :func:`file_digest`).
 
 Every mistake is an :class:`~rcsim.models.errors.InputError` naming the spec file, the key
-path and the value.  Used by :mod:`~analysis.campaign.spec`, which knows what the keys mean.
+path and the value.  Used by :mod:`~rcsim.analysis.campaign.spec`, which knows what the keys mean.
 """
 from __future__ import annotations
 

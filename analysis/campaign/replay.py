@@ -15,7 +15,7 @@ from rcsim.analysis.campaign.chunk import fly_runs, tabulate
 from rcsim.analysis.campaign.spec import parse_dict
 from rcsim.models.errors import InputError
 
-COMMAND = "campaign replay"  # recorded in a replay directory's marker (analysis.output)
+COMMAND = "campaign replay"  # recorded in a replay directory's marker (rcsim.analysis.output)
 
 
 def load_campaign_spec(campaign: Path):
@@ -27,7 +27,8 @@ def load_campaign_spec(campaign: Path):
 
 def replay(campaign: str | Path, run_id: int, out: str | Path | None = None, *,
            overwrite: bool = False) -> dict:
-    """Re-fly run ``run_id`` of ``campaign`` and write its history (see analysis.flight.write_flight).
+    """Re-fly run ``run_id`` of ``campaign`` and write its history
+    (see :func:`rcsim.analysis.flight.write_flight`).
 
     Parameters
     ----------
@@ -54,7 +55,7 @@ def replay(campaign: str | Path, run_id: int, out: str | Path | None = None, *,
         raise InputError(f"{run_id}: the campaign has runs 0..{spec.n_runs - 1}",
                          parameter="run_id", value=run_id)
     out = Path(out) if out is not None else campaign / "replays" / f"run-{run_id:07d}"
-    if out is not None and not out.parent.exists():
+    if not out.parent.exists():
         out.parent.mkdir(parents=True)
     case = spec.case_of(run_id)
     ids = np.array([run_id])
@@ -67,8 +68,7 @@ def replay(campaign: str | Path, run_id: int, out: str | Path | None = None, *,
     runs_path = campaign / R.RUNS
     if runs_path.exists():
         stored = pd.read_parquet(runs_path, filters=[("run_id", "==", run_id)])
-        # Campaigns written before the column's rename call it settling_time_s.
-        stored = stored.rename(columns={"settling_time_s": "rate_settled_time_s"})
+        stored = stored.rename(columns=R.RENAMED_COLUMNS)  # a campaign older than a rename
         if len(stored) == 1:
             matches = (list(stored.columns) == list(row.columns)
                        and bool(stored.reset_index(drop=True).equals(row)))

@@ -135,8 +135,9 @@ assert set(_STAT_INPUTS) <= set(RUN_NAMES), "per-case statistics read columns th
 # Partial statistics are merged every this many chunks (and envelopes likewise): memory stays
 # bounded by the number of cases, whatever the number of chunks.
 MERGE_EVERY = 32
-# Column renamed after campaigns were written with it; read under its new name on resume.
-_RENAMED = {"settling_time_s": "rate_settled_time_s"}
+#: Columns renamed after campaigns were written with them (old name -> new name); read under
+#: the new name on resume and by readers of older campaigns.
+RENAMED_COLUMNS = {"settling_time_s": "rate_settled_time_s"}
 
 
 def assemble(out: Path, plan: Iterable, *, n_chunks: int | None = None,
@@ -220,12 +221,12 @@ def assemble(out: Path, plan: Iterable, *, n_chunks: int | None = None,
 
 def _renamed(table: pa.Table) -> pa.Table:
     """A chunk written before a column's rename, under today's names (with its metadata)."""
-    if not any(n in _RENAMED for n in table.column_names):
+    if not any(n in RENAMED_COLUMNS for n in table.column_names):
         return table
     meta = table.schema.metadata or {}
-    for old, new in _RENAMED.items():
+    for old, new in RENAMED_COLUMNS.items():
         meta = {k: v.replace(f'"{old}"'.encode(), f'"{new}"'.encode()) for k, v in meta.items()}
-    table = table.rename_columns([_RENAMED.get(n, n) for n in table.column_names])
+    table = table.rename_columns([RENAMED_COLUMNS.get(n, n) for n in table.column_names])
     return table.replace_schema_metadata(meta)
 
 

@@ -8,7 +8,8 @@ Execution modes (same results in all; only speed differs):
   idles during the Python part of each control cycle).
 * ``workers=N``: a local Dask cluster, ``LocalCluster(n_workers=N, threads_per_worker=1)``.
 * ``scheduler=ADDRESS``: an existing Dask cluster (workers must see the same files: the
-  lookup table path, and rcsim installed).  Dask mode lives in :mod:`~analysis.campaign.cluster`.
+  lookup table path, and rcsim installed).  Dask mode lives in
+  :mod:`~rcsim.analysis.campaign.cluster`.
 
 Tasks return DataFrames; only this process writes to ``DIR``.  At most a bounded number of
 chunks is in flight, and the plan is generated lazily, so memory does not grow with the
@@ -45,7 +46,7 @@ from rcsim.analysis.campaign.schema import RUN_COLUMNS
 from rcsim.analysis.output import check_out_dir, write_marker
 from rcsim.models.errors import InputError
 
-COMMAND = "campaign run"  # recorded in the directory's marker (analysis.output)
+COMMAND = "campaign run"  # recorded in the directory's marker (rcsim.analysis.output)
 
 
 class Terminated(KeyboardInterrupt):
@@ -136,7 +137,7 @@ def _sigterm_interrupts():
 # Bytes a run's row takes in runs.parquet, at most: 8 per column (numbers are float64 or int64
 # and do not compress; the reason strings are mostly empty).
 _ROW_BYTES = 8 * len(RUN_COLUMNS)
-# Per kept history, per control cycle: the history frame's columns (analysis.flight), float64.
+# Per kept history, per control cycle: the history frame's columns (rcsim.analysis.flight), float64.
 _HISTORY_ROW_BYTES = 8 * 40
 
 
@@ -246,7 +247,7 @@ def run_campaign(
     Returns
     -------
     CampaignReport
-        With ``gate`` (:class:`~analysis.campaign.gate.GateResult`) when the spec has a
+        With ``gate`` (:class:`~rcsim.analysis.campaign.gate.GateResult`) when the spec has a
         failure gate (``spec.max_failed_pct``), also for an already complete campaign; the
         gate is recorded in ``manifest.json`` when this call completes the campaign.
 
@@ -282,7 +283,8 @@ def _run(spec, out, manifest, resume, client, cluster, workers, threads, progres
         (out / sub).mkdir(parents=True, exist_ok=True)
     # A campaign killed mid-write (SIGKILL) left its temporaries: this process owns them now.
     R.remove_temporaries_in(out)
-    write_marker(out, COMMAND)  # analysis.output recognises (and never replaces) the directory
+    # rcsim.analysis.output recognises (and never replaces) the directory by its marker.
+    write_marker(out, COMMAND)
     manifest = manifest or _new_manifest(spec, spec_file)
     manifest["code_version"] = R.code_version()
     if spec.controller == "lookup" and spec.table is None:

@@ -1,7 +1,7 @@
 """The columns of ``runs.parquet``: one definition of every column's name, dtype, unit, meaning.
 
-Every producer and consumer of a run's row uses it: :func:`~analysis.campaign.chunk.outcomes`
-builds its frame through :func:`outcome_frame`, the rows of runs that raised come from
+Every producer and consumer of a run's row uses it:
+:func:`~rcsim.analysis.campaign.outcomes.outcomes` builds its frame through :func:`outcome_frame`, the rows of runs that raised come from
 :func:`missing_outcomes`, the campaign's assembly reads the per-case statistics' columns from
 here, and ``docs/campaigns.md`` carries the table :func:`markdown_table` prints (a test keeps
 them equal).
@@ -58,7 +58,7 @@ ID_COLUMNS: tuple[Column, ...] = (
            "SeedSequence(seed, spawn_key=(i,)).spawn(2)[0]"),
 )
 
-#: The dispersed vehicle the run flew (spacecraft.dispersions.dispersion_frame), read back
+#: The dispersed vehicle the run flew (rcsim.spacecraft.dispersions.dispersion_frame), read back
 #: from the simulation's per-run MuJoCo model where MuJoCo holds the value.
 INPUT_COLUMNS: tuple[Column, ...] = (
     Column("mass_kg", "float64", "kg", "vehicle mass (read back from MuJoCo)"),
@@ -121,7 +121,7 @@ def outcome_frame(values: dict) -> pd.DataFrame:
     missing = [n for n in OUTCOME_NAMES if n not in values]
     extra = [n for n in values if n not in OUTCOME_NAMES]
     if missing or extra:
-        raise KeyError(f"outcomes differ from analysis.campaign.schema: missing {missing}, "
+        raise KeyError(f"outcomes differ from rcsim.analysis.campaign.schema: missing {missing}, "
                        f"undefined {extra}")
     return pd.DataFrame({c.name: _cast(values[c.name], c.dtype) for c in OUTCOME_COLUMNS})
 
@@ -137,7 +137,7 @@ def check_run_frame(frame: pd.DataFrame) -> pd.DataFrame:
     """``frame`` if its columns are exactly :data:`RUN_COLUMNS`, in order; else a KeyError."""
     if tuple(frame.columns) != RUN_NAMES:
         diff = sorted(set(frame.columns) ^ set(RUN_NAMES)) or "(order)"
-        raise KeyError(f"runs frame differs from analysis.campaign.schema: {diff}")
+        raise KeyError(f"runs frame differs from rcsim.analysis.campaign.schema: {diff}")
     return frame
 
 

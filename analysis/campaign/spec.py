@@ -1,17 +1,17 @@
 """Campaign specs: a TOML file, validated key by key into a :class:`CampaignSpec`.
 
-Every mistake is an :class:`~models.errors.InputError` naming the file, the key path (e.g.
+Every mistake is an :class:`~rcsim.models.errors.InputError` naming the file, the key path (e.g.
 ``dispersions.three_sigma.thrust_n``) and the value, raised before anything is written.
 Values of the right type but outside the range the physics (or the paper) gives are refused
-too, with the range and its reason (:mod:`~analysis.campaign.limits`): a 3-sigma dispersion at least as
-large as its nominal value, a hold disturbance beyond the jets' torque, an initial rate beyond
+too, with the range and its reason (:mod:`~rcsim.analysis.campaign.limits`): a 3-sigma
+dispersion at least as large as its nominal value, a hold disturbance beyond the jets' torque, an initial rate beyond
 the rates the physics step was validated for, a run too long for one chunk's memory.
 Units are in the key names (``_deg``, ``_deg_s``, ``_n``, ...); inside, everything is SI.
 
 About 400 lines: the commented :data:`EXAMPLE_SPEC` (55 lines of user documentation) and
 the key-by-key validation describe the same keys and change together; the generic reader lives
-in :mod:`~analysis.campaign.reader`, the physical ranges in :mod:`~analysis.campaign.limits`,
-the failure gate in :mod:`~analysis.campaign.gate`.
+in :mod:`~rcsim.analysis.campaign.reader`, the physical ranges in
+:mod:`~rcsim.analysis.campaign.limits`, the failure gate in :mod:`~rcsim.analysis.campaign.gate`.
 :data:`EXAMPLE_SPEC` (``rcsim campaign example``) documents every key.
 """
 from __future__ import annotations
@@ -119,7 +119,7 @@ class CampaignSpec:
     source : str
         Where it was read from (for messages).
     seed, runs_per_case, chunk_size : int
-    cases : tuple of analysis.flight.Scenario
+    cases : tuple of rcsim.analysis.flight.Scenario
         Case ``c`` holds runs ``c * runs_per_case ... (c + 1) * runs_per_case - 1``.
     controller : str
     table : str or None
@@ -135,7 +135,7 @@ class CampaignSpec:
         The spec with defaults filled in and paths made absolute (JSON-able); what the
         manifest records, what ``--resume`` compares and what ``replay`` rebuilds from.
     max_failed_pct : float or None
-        The failure gate, percent of runs (:mod:`~analysis.campaign.gate`); None: no gate.
+        The failure gate, percent of runs (:mod:`~rcsim.analysis.campaign.gate`); None: no gate.
         Not in ``resolved``: it judges results and changes nothing that is flown, so a
         campaign can be resumed under another limit.
     """
@@ -173,9 +173,9 @@ class CampaignSpec:
         return hashlib.sha256(json.dumps(self.resolved, sort_keys=True).encode()).hexdigest()
 
     def with_runs_per_case(self, n: int) -> "CampaignSpec":
-        """The same campaign with ``n`` runs per case (``--runs-per-case``)."""
+        """The same campaign with ``n`` runs per case (what the CLI's ``--runs-per-case`` sets)."""
         resolved = dict(self.resolved, runs_per_case=n)
-        spec = parse_dict(resolved, source=f"{self.source} with --runs-per-case {n}",
+        spec = parse_dict(resolved, source=f"{self.source} with runs_per_case={n}",
                           base_dir=None)
         return dataclasses.replace(spec, max_failed_pct=self.max_failed_pct)
 
@@ -191,7 +191,7 @@ class CampaignSpec:
 
 
 # ----------------------------------------------------------------------------------------------
-# Reading (the key-by-key reader is analysis.campaign.reader)
+# Reading (the key-by-key reader is rcsim.analysis.campaign.reader)
 # ----------------------------------------------------------------------------------------------
 def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
     from rcsim.models.tables import load_rate_cases
@@ -206,7 +206,7 @@ def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
         duration = r.number("duration_s", 20.0, minimum=0.0, strict=True)
         if duration > max_duration_s():
             raise r.error("duration_s", f"must be <= {max_duration_s():.0f} s: one run's "
-                          "per-cycle record must fit a chunk's memory budget (analysis."
+                          "per-cycle record must fit a chunk's memory budget (rcsim.analysis."
                           "campaign.chunk.HISTORY_BUDGET_BYTES)", duration)
         out = {"kind": kind, "duration_s": duration}
         if kind == "rate-cases":

@@ -15,7 +15,7 @@ User mistakes print one line on stderr and exit with code 2, never a traceback:
 The CLI writes files only, so it selects matplotlib's file backend (Agg) before any command
 runs; library plotting modules never choose a backend (that would switch a notebook's).
 
-Owns nothing a library needs: no module outside ``analysis.cli`` imports it.
+Owns nothing a library needs: no module outside ``rcsim.analysis.cli`` imports it.
 """
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """``rcsim analyze``: failure drivers of a campaign (or any table of runs) and its report.
 
-Argument parsing and error reporting only; the work is :mod:`analysis.drivers`.
+Argument parsing and error reporting only; the work is :mod:`rcsim.analysis.drivers`.
 """
 from __future__ import annotations
 
@@ -34,9 +34,11 @@ def register(subparsers) -> None:
     parser.add_argument("--outcome", default="failed", metavar="COLUMN",
                         help="binary outcome column, true/1 = failed (default: failed)")
     parser.add_argument("--case", metavar="CASE", help="analyse only this case (e.g. rate-13)")
-    parser.add_argument("--permutations", type=int, default=200, metavar="B",
+    # dest = the library's parameter names, so that its errors are shown under these flags.
+    parser.add_argument("--permutations", dest="n_permutations", type=int, default=200,
+                        metavar="B",
                         help="label permutations for the p-values, >= 19 (default 200)")
-    parser.add_argument("--seed", type=int, default=0, metavar="S",
+    parser.add_argument("--seed", dest="random_state", type=int, default=0, metavar="S",
                         help="seed of the permutations and resamples, >= 0 (default 0)")
     parser.add_argument("--out", required=True, metavar="DIR",
                         help="output directory (created; an earlier `rcsim analyze` output is "
@@ -47,13 +49,11 @@ def register(subparsers) -> None:
 
 
 def _run(args) -> int:
+    from rcsim.analysis.drivers.pipeline import Settings, analyze
     from rcsim.models.errors import InputError
 
-    if args.permutations < 19:
-        raise InputError(f"must be >= 19 (fewer cannot reach p < 0.05), got {args.permutations}",
-                         parameter="permutations")
-    if args.seed < 0:
-        raise InputError(f"must be >= 0, got {args.seed}", parameter="seed")
+    # Settings checks its own values; built first so that a bad one costs nothing.
+    settings = Settings(n_permutations=args.n_permutations, random_state=args.random_state)
     inputs = None
     if args.inputs is not None:
         inputs = [s.strip() for s in args.inputs.split(",") if s.strip()]
@@ -64,10 +64,8 @@ def _run(args) -> int:
     from rcsim.analysis.output import check_out_dir
 
     check_out_dir(args.out, COMMAND, overwrite=args.overwrite)  # before minutes of work
-    from rcsim.analysis.drivers.pipeline import Settings, analyze
-
     runset = load_runs(args.path, inputs=inputs, outcome=args.outcome, case=args.case)
-    res = analyze(runset, Settings(n_permutations=args.permutations, random_state=args.seed))
+    res = analyze(runset, settings)
     report = write_analysis(res, args.out, overwrite=args.overwrite)
     n, nf = runset.y.size, int(runset.y.sum())
     print(f"{n} runs, {nf} failed; {len(runset.X.columns)} inputs analysed")

@@ -1,7 +1,7 @@
 """``rcsim study``: research studies reproduced from papers.
 
 ``rcsim study noisy-sensor`` runs the single-axis noisy-sensor Monte Carlo of Pittella &
-Sands (Sensors 2023) over six control architectures; see :mod:`analysis.studies.noisy_sensor`.
+Sands (Sensors 2023) over six control architectures; see :mod:`rcsim.analysis.studies.noisy_sensor`.
 Flags are named after the library's parameters (``--noise-var`` fills ``noise_var``), so a
 library error about a parameter is reported under its flag.
 """

@@ -23,8 +23,8 @@ and, when the campaign's cases are rate commands (``rate-NN``; or damping, ``dam
 same three quantities **in the firing direction** of each case: ``authority_{a}_fire_rad_s2``,
 ``thrust_{a}_fire_n``, ``pointing_loss_{a}_fire`` take the group that fires toward the
 commanded rate change (for an axis with no commanded change, the mean of both groups, which
-hold it at rest).  Torques come from :func:`spacecraft.vehicle.torque_per_jet_B` and jet
-directions from :func:`spacecraft.dispersions.apply_draws`, the simulator's own code.
+hold it at rest).  Torques come from :func:`rcsim.spacecraft.vehicle.torque_per_jet_B` and jet
+directions from :func:`rcsim.spacecraft.dispersions.apply_draws`, the simulator's own code.
 """
 from __future__ import annotations
 

@@ -119,3 +119,53 @@ def rate_error_histogram(runs: pd.DataFrame, y: np.ndarray, threshold_deg_s: flo
     axes[0].legend(fontsize=7)
     fig.suptitle(f"{title}: final rate errors (dashed: failure threshold)")
     return fig
+
+
+def map_png_names(res) -> list[str]:
+    """File names of the kNN maps of ``res`` (a DriverResults), in the order of ``res.maps``:
+    ``map_{k}_{all|case}_{a}__{b}.png``."""
+    names = []
+    for k, (case, fmap) in enumerate(res.maps, start=1):
+        a, b = fmap.feature_names_in_
+        names.append(f"map_{k}_{'all' if case is None else case}_{a}__{b}.png")
+    return names
+
+
+def map_title(case) -> str:
+    """A kNN map's title: the case it covers, or all cases."""
+    return "all cases" if case is None else f"case {case}"
+
+
+def report_pngs(res) -> dict[str, bytes]:
+    """The figures shown both in the HTML report and in ``figures/``, as PNG bytes.
+
+    Rendered on the first call and kept in ``res.pngs``, so that the report's sections and
+    the PNG files use the same bytes and each figure is drawn once.
+
+    Parameters
+    ----------
+    res : DriverResults
+
+    Returns
+    -------
+    dict
+        File name -> PNG bytes: ``failures_per_case.png`` (more than one case),
+        ``ranking.png`` and one entry per kNN map (:func:`map_png_names`) when there are
+        failures.
+    """
+    if res.pngs:
+        return res.pngs
+    # Imported here: the report package imports this module for its sections.
+    from rcsim.analysis.report.html import png_bytes
+
+    pngs = {}
+    if len(res.cases) > 1:
+        pngs["failures_per_case.png"] = png_bytes(failures_per_case(res.cases))
+    if res.has_failures:
+        pngs["ranking.png"] = png_bytes(ranking(res.drivers))
+        rs = res.runset
+        for name, (case, fmap) in zip(map_png_names(res), res.maps):
+            rows = np.ones(rs.y.size, bool) if case is None else rs.strata == case
+            pngs[name] = png_bytes(knn_map(fmap, rs.X[rows], rs.y[rows], map_title(case)))
+    res.pngs.update(pngs)
+    return res.pngs

@@ -1,12 +1,12 @@
 """Loading what ``rcsim analyze`` reads: a campaign directory or a Parquet/CSV table of runs.
 
 A campaign directory (``manifest.json`` + ``runs.parquet``) gives the recorded inputs (the
-columns of :func:`spacecraft.dispersions.dispersion_frame`), the ``failed`` outcome and the rate
-case of every run; any other table is taken as it is, with the inputs named by the caller or,
-by default, the recorded-input columns when present, else every numeric column other than the
-outcome and identifiers.  Physics-aware factors (:mod:`analysis.drivers.factors`) are added when
-the recorded inputs are present.  Every problem a user can fix raises
-:class:`models.errors.InputError` naming the file, the column and the value.
+columns of :func:`rcsim.spacecraft.dispersions.dispersion_frame`), the ``failed`` outcome and
+the rate case of every run; any other table is taken as it is, with the inputs named by the
+caller or, by default, the recorded-input columns when present, else every numeric column other
+than the outcome and identifiers.  Physics-aware factors
+(:mod:`rcsim.analysis.drivers.factors`) are added when the recorded inputs are present.  Every problem a user can fix raises
+:class:`rcsim.models.errors.InputError` naming the file, the column and the value.
 """
 from __future__ import annotations
 
@@ -65,7 +65,7 @@ class RunSet:
 
 def load_runs(path, inputs=None, outcome: str = "failed", case: str | None = None,
               derived: bool = True) -> RunSet:
-    """Read and validate runs for :func:`analysis.drivers.pipeline.analyze`.
+    """Read and validate runs for :func:`rcsim.analysis.drivers.pipeline.analyze`.
 
     Parameters
     ----------

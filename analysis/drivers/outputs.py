@@ -1,7 +1,7 @@
 """Writing an analysis: ``drivers.csv``, ``pairs.csv``, ``cases.csv``, figures, ``report.html``.
 
 Everything is written into a temporary directory that replaces the output directory only when
-complete (:func:`analysis.output.atomic_dir`): a failure never leaves half-written files.
+complete (:func:`rcsim.analysis.output.atomic_dir`): a failure never leaves half-written files.
 """
 from __future__ import annotations
 
@@ -42,7 +42,7 @@ def case_table(res: DriverResults) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-#: The command named in the output directory's marker (:mod:`analysis.output`).
+#: The command named in the output directory's marker (:mod:`rcsim.analysis.output`).
 COMMAND = "analyze"
 
 
@@ -78,22 +78,9 @@ def write_analysis(res: DriverResults, out, *, overwrite: bool = False) -> Path:
 
 
 def _write_figures(res: DriverResults, folder: Path) -> None:
-    """The report's figures also as PNG files (for slides)."""
-    from rcsim.analysis.drivers import figures
-    from rcsim.analysis.report.html import png_bytes
+    """The report's figures also as PNG files (for slides): the same bytes as the report's."""
+    from rcsim.analysis.drivers.figures import report_pngs
 
     folder.mkdir()
-    if len(res.cases) > 1:
-        (folder / "failures_per_case.png").write_bytes(
-            png_bytes(figures.failures_per_case(res.cases)))
-    if not res.has_failures:
-        return
-    (folder / "ranking.png").write_bytes(png_bytes(figures.ranking(res.drivers)))
-    rs = res.runset
-    for k, (case, fmap) in enumerate(res.maps, start=1):
-        import numpy as np
-        rows = np.ones(rs.y.size, bool) if case is None else rs.strata == case
-        a, b = fmap.feature_names_in_
-        name = f"map_{k}_{'all' if case is None else case}_{a}__{b}.png"
-        (folder / name).write_bytes(png_bytes(figures.knn_map(
-            fmap, rs.X[rows], rs.y[rows], "all cases" if case is None else f"case {case}")))
+    for name, png in report_pngs(res).items():
+        (folder / name).write_bytes(png)

@@ -1,7 +1,7 @@
 """Pair drivers: every pair of inputs on a 2-D rank-scale density, and its gain over singles.
 
 A pair's score is its 2-D TV distance minus the permutation-null mean (as for singles, see
-:mod:`analysis.drivers.kde`); p-values are max-T adjusted over *all pairs tested* (a separate
+:mod:`rcsim.analysis.drivers.kde`); p-values are max-T adjusted over *all pairs tested* (a separate
 family from the singles).  ``gain = score(a, b) - max(score(a), score(b))``: the separation the
 pair shows beyond its better single input.  Since TV can only shrink when a density is
 marginalised, a pair never separates less than its better input in the population; a large

@@ -19,6 +19,15 @@ from rcsim.analysis.drivers.pairs import PairKDE
 from rcsim.analysis.drivers.second_opinion import ForestImportance, compare
 from rcsim.analysis.drivers.single import SingleFactorKDE
 from rcsim.analysis.drivers.stability import HalfSampleStability
+from rcsim.models.errors import InputError
+
+
+#: Fewest label permutations accepted: with B permutations the smallest p-value is 1/(B+1).
+MIN_PERMUTATIONS = 19
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
 
 
 @dataclass(frozen=True)
@@ -28,9 +37,9 @@ class Settings:
     Attributes
     ----------
     n_permutations : int
-        Label permutations for the single-factor p-values (smallest p: 1/(B+1)).
+        Label permutations for the single-factor p-values (smallest p: 1/(B+1)), >= 19.
     pair_permutations : int or None
-        For the pair p-values (default: half of ``n_permutations``, at least 19): a pair
+        For the pair p-values, >= 19 (default: half of ``n_permutations``, at least 19): a pair
         permutation costs ~40x a single one (3,655 pairs of 16x16 cells against 86 inputs of
         32 bins), and 100 permutations resolve p = 0.01.
     n_splits : int
@@ -47,6 +56,13 @@ class Settings:
     forest : bool
         Compute the random-forest second opinion.
     random_state : int
+        Seed of the permutations and resamples, >= 0.
+
+    Raises
+    ------
+    InputError
+        ``n_permutations`` or ``pair_permutations`` below 19, or a negative ``random_state``
+        (the error's ``parameter`` is the field's name).
     """
 
     n_permutations: int = 200
@@ -59,10 +75,24 @@ class Settings:
     forest: bool = True
     random_state: int = 0
 
+    def __post_init__(self) -> None:
+        # Fewer than 19 permutations cannot give p < 0.05 (smallest p is 1/(B+1)), so a
+        # significance call would be impossible, silently.
+        for name in ("n_permutations", "pair_permutations"):
+            value = getattr(self, name)
+            if value is None and name == "pair_permutations":
+                continue
+            if not _is_int(value) or value < MIN_PERMUTATIONS:
+                raise InputError(f"must be an integer >= {MIN_PERMUTATIONS} (fewer cannot reach "
+                                 f"p < 0.05), got {value!r}", parameter=name, value=value)
+        if not _is_int(self.random_state) or self.random_state < 0:
+            raise InputError(f"must be an integer >= 0, got {self.random_state!r}",
+                             parameter="random_state", value=self.random_state)
+
     @property
     def pair_b(self) -> int:
         """Permutations actually used for pairs."""
-        return self.pair_permutations or max(self.n_permutations // 2, 19)
+        return self.pair_permutations or max(self.n_permutations // 2, MIN_PERMUTATIONS)
 
 
 @dataclass
@@ -87,8 +117,11 @@ class DriverResults:
     drivers: pd.DataFrame | None = None
     pair_table: pd.DataFrame | None = None
     cases: list = field(default_factory=list)
-    maps: list = field(default_factory=list)   # (title, case or None, KNNFailureMap)
+    maps: list = field(default_factory=list)   # (case or None, KNNFailureMap)
     timings_s: dict = field(default_factory=dict)
+    # PNG bytes of the figures shown both in the report and in figures/, rendered once
+    # (filled by rcsim.analysis.drivers.figures.report_pngs).
+    pngs: dict = field(default_factory=dict, repr=False)
 
     @property
     def has_failures(self) -> bool:

@@ -1,6 +1,6 @@
 """Single-factor drivers: which inputs are distributed differently among failed runs.
 
-See :mod:`analysis.drivers.kde` for the rank scale, the bandwidth rule, the total-variation score
+See :mod:`rcsim.analysis.drivers.kde` for the rank scale, the bandwidth rule, the total-variation score
 and the max-T permutation p-values.  This module adds the failure region of each input: the
 bins of the input where the smoothed ``P(fail | x)`` is well above the base rate ``pi`` --
 at least ``region_factor * pi``, capped at ``(1 + pi) / 2`` so a high base rate still leaves a
@@ -53,6 +53,9 @@ class SingleFactorKDE:
     region_fail_share_, region_run_share_ : ndarray (p,)
         Share of failed runs / of all runs inside the region.
     null_tv_ : ndarray (n_permutations, p)
+    engine_ : BinnedTV
+        The binned counts of the fitted runs (reused by
+        :class:`~rcsim.analysis.drivers.stability.HalfSampleStability`).
     """
 
     def __init__(self, n_bins=N_BINS_1D, n_permutations=200, region_factor=2.0, random_state=0):
@@ -83,15 +86,15 @@ class SingleFactorKDE:
         U = rank_scale(X)
         codes = bin_codes(U, self.n_bins)
         self.bandwidth_ = bandwidth(int(minority.sum()), 1)
-        engine = BinnedTV(codes, self.n_bins, h=self.bandwidth_)
-        res = permutation_test(engine, minority, Strata.build(strata, minority),
+        self.engine_ = BinnedTV(codes, self.n_bins, h=self.bandwidth_)
+        res = permutation_test(self.engine_, minority, Strata.build(strata, minority),
                                int(self.n_permutations), rng)
         self.feature_names_in_ = names
         self.n_features_in_ = len(names)
         self.tv_, self.null_mean_, self.score_ = res.tv, res.null_mean, res.score
         self.p_value_, self.p_raw_, self.null_tv_ = res.p_maxt, res.p_raw, res.null_tv
         self.rank_ = _ranks(self.score_)
-        self._regions(X, y, codes, engine)
+        self._regions(X, y, codes, self.engine_)
         return self
 
     def _regions(self, X, y, codes, engine):

@@ -16,7 +16,6 @@ from __future__ import annotations
 import numpy as np
 
 from rcsim.analysis.drivers.base import as_rng, check_xy, minority_of
-from rcsim.analysis.drivers.kde import BinnedTV, bin_codes, rank_scale
 from rcsim.analysis.drivers.single import _ranks
 
 
@@ -47,7 +46,7 @@ class HalfSampleStability:
 
         Parameters
         ----------
-        X, y, strata : as given to the fitted estimators
+        X, y, strata : as given to the fitted estimators (their binned counts are reused)
         singles : fitted SingleFactorKDE
         pairs : fitted PairKDE, optional
 
@@ -62,10 +61,14 @@ class HalfSampleStability:
         minority = minority_of(y)
         if minority.sum() < 2 or (~minority).sum() < 2:
             raise ValueError("stability needs at least 2 runs of each class")
-        codes = bin_codes(rank_scale(X), singles.n_bins)
-        engines = [(BinnedTV(codes, singles.n_bins, h=singles.bandwidth_), singles)]
+        # The fitted estimators' own binned counts: the same runs, already binned.
+        engines = [(singles.engine_, singles)]
         if pairs is not None:
             engines.append((pairs.engine_, pairs))
+        for engine, est in engines:
+            if engine.n != y.size:
+                raise ValueError(f"{type(est).__name__} was fitted on {engine.n} runs, "
+                                 f"not these {y.size}")
         halves = [self._split(strata, rng) for _ in range(int(self.n_splits))]
         out = []
         for engine, est in engines:

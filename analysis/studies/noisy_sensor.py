@@ -1,7 +1,7 @@
 """Monte Carlo study of single-axis control under noisy sensors (Pittella & Sands 2023, §3).
 
 The study is nondimensional: a rest-to-rest rotation of one unit of angle in one unit of
-time (see :mod:`lookup.single_axis`).  Each of the six architectures flies ``runs``
+time (see :mod:`rcsim.lookup.single_axis`).  Each of the six architectures flies ``runs``
 manoeuvres with
 
 * RK4 at a fixed step ``dt = 0.01`` (the paper's Simulink ``ode4``), the control law
@@ -21,8 +21,8 @@ a physical model, it is our reconstruction of what the paper's Simulink model di
 ``docs/noisy-sensor.md``) and exists to compare with its Table 1.
 
 The module is ~450 lines, over the usual ~400: configuration, draws, integrator and tables
-are one study read top to bottom; its figure is in :mod:`analysis.studies.noisy_sensor_plots`
-and its command line in :mod:`analysis.cli.study`.
+are one study read top to bottom; its figure is in :mod:`rcsim.analysis.studies.noisy_sensor_plots`
+and its command line in :mod:`rcsim.analysis.cli.study`.
 
 References
 ----------
@@ -42,9 +42,7 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.output import atomic_dir
-from rcsim.analysis.studies.noisy_sensor_plots import (  # noqa: F401 - part of this API
-    PLOT_MIN_HALF_SPAN, plot_scatter, sigma_ellipse,
-)
+from rcsim.analysis.studies.noisy_sensor_plots import plot_scatter
 from rcsim.lookup.single_axis import ARCHITECTURES, Architecture
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.dispersions import run_generators
@@ -59,7 +57,7 @@ SUMMARY_COLUMNS = ("architecture", "theta_f", "sigma_theta", "omega_f", "sigma_o
 PERCENT_COLUMNS = ("architecture", "theta_f", "sigma_theta", "omega_f", "sigma_omega", "J",
                    "sigma_J")
 OUTPUT_FILES = ("summary.csv", "percent.csv", "runs.parquet", "scatter.png")
-#: The writer recorded in the output directory's marker (:mod:`analysis.output`).
+#: The writer recorded in the output directory's marker (:mod:`rcsim.analysis.output`).
 OUTPUT_COMMAND = "study noisy-sensor"
 
 #: Reference values smaller than this (in the nondimensional units of the table) are zero up
@@ -452,14 +450,15 @@ def percent_table(summary: pd.DataFrame, reference: str = "Open-loop optimal") -
 # Output.
 # --------------------------------------------------------------------------------------
 def write_outputs(result: StudyResult, out_dir: str | Path, *, overwrite: bool = False) -> Path:
-    """Write the four outputs into ``out_dir`` atomically (:func:`analysis.output.atomic_dir`).
+    """Write the four outputs into ``out_dir`` atomically
+    (:func:`rcsim.analysis.output.atomic_dir`).
 
     Parameters
     ----------
     result : StudyResult
     out_dir : path
         Created with its parents; an existing directory is replaced only if it holds an
-        earlier study's outputs and ``overwrite`` is true (see :mod:`analysis.output`).
+        earlier study's outputs and ``overwrite`` is true (see :mod:`rcsim.analysis.output`).
     overwrite : bool
 
     Returns

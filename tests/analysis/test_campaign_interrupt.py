@@ -1,7 +1,7 @@
-"""Stopping a campaign: Ctrl-C and SIGTERM stop it promptly with one line and leave it
+"""Stopping a campaign: Ctrl-C and SIGTERM stop it with one line and leave it
 resumable (exit status 130 after Ctrl-C, 143 = 128 + SIGTERM after SIGTERM, the shell's
 convention for a process a signal stopped); temporaries a killed process left are cleaned;
-outputs honour the umask."""
+outputs honour the umask.  How promptly it stops is measured in benchmarks/campaign.py."""
 import os
 import signal
 import stat
@@ -32,10 +32,8 @@ name = "phase-plane"
 histories = "{histories}"
 plots = {plots}
 """
-# A prompt exit: the chunks in flight are abandoned, not finished (the issue measured 12.5 s
-# for waiting on them).  2 cores are shared with other jobs; 5 s leaves room for that and
-# for closing a Dask cluster, still well under the time of one uninterrupted campaign.
-PROMPT_S = 5.0
+# How promptly it stops is a wall-clock figure, measured in benchmarks/campaign.py
+# (``--only interrupt``), not asserted here.
 
 
 def _write_spec(tmp_path, histories="none", plots="false") -> Path:
@@ -54,7 +52,7 @@ def uninterrupted(tmp_path_factory):
 def _interrupt(spec_path: Path, out: Path, extra: list[str], sig: int, *, group: bool):
     """Start ``rcsim campaign run`` in its own session, send ``sig`` once its first chunk has
     committed (to the whole process group, as a terminal's Ctrl-C does, if ``group``), and
-    return (exit code, stderr, seconds from the signal to the exit)."""
+    return (exit code, stderr)."""
     cli = [sys.executable, "-m", "rcsim.analysis.cli", "campaign", "run", str(spec_path),
            "--out", str(out), "--no-progress", *extra]
     proc = subprocess.Popen(cli, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
@@ -66,10 +64,9 @@ def _interrupt(spec_path: Path, out: Path, extra: list[str], sig: int, *, group:
                 break
             time.sleep(0.01)
         assert proc.poll() is None, "campaign ended before it could be interrupted"
-        t0 = time.monotonic()
         (os.killpg if group else os.kill)(proc.pid, sig)
         _, err = proc.communicate(timeout=60)
-        return proc.returncode, err, time.monotonic() - t0
+        return proc.returncode, err
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
@@ -81,17 +78,19 @@ def _interrupt(spec_path: Path, out: Path, extra: list[str], sig: int, *, group:
     (["--workers", "2"], signal.SIGINT, True),
     ([], signal.SIGTERM, False),
 ], ids=["ctrl-c-local", "ctrl-c-dask-2-workers", "sigterm-local"])
-def test_interrupt_is_prompt_one_line_and_resumable(tmp_path, uninterrupted, extra, sig, group):
+def test_interrupt_stops_with_one_line_and_is_resumable(tmp_path, uninterrupted, extra, sig,
+                                                        group):
+    """The chunks in flight are abandoned, not finished: some chunks committed, not all (8);
+    one line and the signal's exit status; --resume gives the uninterrupted campaign."""
     spec_path = _write_spec(tmp_path)
     out = tmp_path / "out"
-    code, err, seconds = _interrupt(spec_path, out, extra, sig, group=group)
+    code, err = _interrupt(spec_path, out, extra, sig, group=group)
     if sig == signal.SIGTERM:
         assert err == "rcsim: terminated\n", err
         assert code == 128 + signal.SIGTERM == 143
     else:
         assert err == "rcsim: interrupted\n", err
         assert code == 130
-    assert seconds < PROMPT_S, seconds
     assert not (out / "runs.parquet").exists()
     committed = len(list((out / "chunks").glob("runs-*.parquet")))
     assert 1 <= committed < 8

@@ -12,9 +12,10 @@ import pandas as pd
 import pytest
 
 from rcsim.analysis.campaign import chunk as chunk_mod
-from rcsim.analysis.campaign.chunk import firing_starts
+from rcsim.analysis.campaign.outcomes import firing_starts
 from rcsim.analysis.campaign.runner import run_campaign
 from rcsim.analysis.campaign.spec import load_spec
+from rcsim.spacecraft.guards import history_bytes
 
 # Two rate cases (yaw-only 13, roll-only 22), short runs: enough for a firing and its settling.
 SPEC = """
@@ -202,7 +203,7 @@ def test_firing_starts_counts_new_firings_only():
     starts = firing_starts(on, cycle)[0, :, 0]
     # One firing over cycles 0-2 (it continues while the previous cycle was full); cycle 4 is a
     # new one, and since it was partial the jet was off at its end, so cycle 5 starts another
-    # (the rule of spacecraft.propulsion.apply_valve_limits).
+    # (the rule of rcsim.spacecraft.propulsion.apply_valve_limits).
     assert starts.tolist() == [True, False, False, False, True, True, False]
 
 
@@ -222,7 +223,7 @@ def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
     at sample 3 after 1."""
     from types import SimpleNamespace
 
-    from rcsim.analysis.campaign.chunk import outcomes
+    from rcsim.analysis.campaign.outcomes import outcomes
     from rcsim.spacecraft.navigation import NavState
     from rcsim.spacecraft.propulsion import PropulsionState
     from rcsim.spacecraft.simulation import History
@@ -250,13 +251,18 @@ def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
 
 
 def test_long_runs_get_chunks_within_the_history_budget(tmp_path):
-    """Oracle: the record of one chunk is runs x cycles x 29 float64 (History's arrays); a
-    500 s case (12,500 cycles of 40 ms) must be split so that it stays under the budget, while
-    short cases keep the spec's chunk size."""
+    """Oracle: the record of one chunk is what rcsim.spacecraft.guards.history_bytes counts for
+    its runs and cycles (History's arrays, at least 29 float64 per run and cycle); a 500 s case
+    (12,500 cycles of 40 ms) must be split so that it stays under the budget, while short cases
+    keep the spec's chunk size."""
     long_spec = load_spec(_spec(tmp_path, runs=300, chunk=256, duration=500.0, name="long.toml"))
     chunks = chunk_mod.plan_chunks(long_spec)
     largest = max(c.stop - c.first for c in chunks)
-    assert largest * 12_500 * 29 * 8 <= chunk_mod.HISTORY_BUDGET_BYTES
+    assert history_bytes(largest, 12_500) <= chunk_mod.HISTORY_BUDGET_BYTES
+    # Not needlessly small either: one run more than the per-chunk limit would not fit.
+    limit = chunk_mod.max_chunk_runs(long_spec, 500.0)
+    assert largest <= limit
+    assert history_bytes(limit + 1, 12_500) > chunk_mod.HISTORY_BUDGET_BYTES
     assert largest < 256
     # Every run is planned exactly once, in order.
     assert np.array_equal(np.concatenate([c.run_ids for c in chunks]), np.arange(600))

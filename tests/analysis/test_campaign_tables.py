@@ -167,13 +167,13 @@ def test_docs_carry_the_schema_table():
 def test_recorded_inputs_are_the_flown_values(tmp_path, monkeypatch):
     """runs.parquet records the vehicle read back from MuJoCo's per-run model (issue 9).
 
-    1. Unpatched, the read-back equals the draw bit for bit (spacecraft.simulation
+    1. Unpatched, the read-back equals the draw bit for bit (rcsim.spacecraft.simulation
        BatchSimulation.flown_params: MuJoCo stores float64 as written), so the recorded
        inputs equal draw_runs' values exactly.
     2. With the read-back planted to differ from the draw (+1 kg, x1.5 thrust on jet 3), the
        recorded values follow the read-back, not the draw.
     3. The direction MuJoCo flies each jet along is tilted from the nominal one by the
-       recorded |tilt| (spacecraft.dispersions: misalignment = |theta|), to 1e-12 rad (the
+       recorded |tilt| (rcsim.spacecraft.dispersions: misalignment = |theta|), to 1e-12 rad (the
        angle from atan2 of float64 cross and dot products is accurate to ~1e-16).
     """
     from rcsim.spacecraft.dispersions import draw_runs

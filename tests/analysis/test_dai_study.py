@@ -1,4 +1,4 @@
-"""The DAI study (analysis.studies.dai): smoke run, reproducibility, Table 9 arithmetic, CLI.
+"""The DAI study (rcsim.analysis.studies.dai): smoke run, reproducibility, Table 9 arithmetic, CLI.
 
 Fast: the smoke run flies two scenarios with the periods shortened 10x (``period_scale``).
 """

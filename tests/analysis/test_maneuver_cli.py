@@ -1,10 +1,10 @@
 """``rcsim maneuver`` end to end: outputs, and bad input handled as a user error.
 
-Contract (analysis/cli.py, issue 2): a run writes DIR/history.parquet with one row per 40 ms
-control cycle and the required columns, plus the Fig 1-2 style PNGs; a user mistake prints one
-line on stderr, exits 2, shows no traceback and creates no output directory.
+Contract (analysis/cli/maneuver.py, issue 2): a run writes DIR/history.parquet with one row per
+40 ms control cycle and the required columns, plus the Fig 1-2 style PNGs; a user mistake prints
+one line on stderr, exits 2, shows no traceback and creates no output directory.
 
-Most calls go through ``analysis.cli.main`` in-process (fast); one subprocess call runs the
+Most calls go through ``rcsim.analysis.cli.main`` in-process (fast); one subprocess call runs the
 installed ``rcsim`` executable to prove the entry point.
 """
 from __future__ import annotations

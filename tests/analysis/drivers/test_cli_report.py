@@ -90,6 +90,42 @@ def test_outputs_and_columns(analysed):
     assert "http://" not in html and "https://" not in html  # self-contained: no network
 
 
+def test_figure_files_are_the_reports_figures(analysed):
+    """Oracle: the contract of figures/ ("the report's figures as PNG files"): every file is
+    byte for byte an image inlined in report.html, and the shared figures are all there."""
+    import base64
+
+    html = (analysed / "report.html").read_text()
+    files = sorted((analysed / "figures").glob("*.png"))
+    names = {f.name for f in files}
+    assert {"failures_per_case.png", "ranking.png"} <= names
+    assert any(n.startswith("map_1_") for n in names)
+    for f in files:
+        assert f"data:image/png;base64,{base64.b64encode(f.read_bytes()).decode()}'" in html, f
+
+
+def test_shared_figures_are_rendered_once(monkeypatch):
+    """report_pngs keeps its PNG bytes on the result: asked again (by the report's sections,
+    then by the figures/ writer), it draws nothing more."""
+    from rcsim.analysis.drivers import figures
+    from rcsim.analysis.drivers.pipeline import DriverResults, Settings
+
+    class _Case:
+        def __init__(self, case, runs, failed):
+            self.case, self.runs, self.failed = case, runs, failed
+
+    res = DriverResults(runset=None, settings=Settings(),
+                        cases=[_Case("rate-01", 10, 1), _Case("rate-02", 10, 0)])
+    calls = []
+    real = figures.failures_per_case
+    monkeypatch.setattr(figures, "failures_per_case",
+                        lambda cases: calls.append(1) or real(cases))
+    first = figures.report_pngs(res)
+    assert figures.report_pngs(res) is first and len(calls) == 1
+    assert list(first) == ["failures_per_case.png"]  # no failures analysed: no ranking, maps
+    assert first["failures_per_case.png"].startswith(b"\x89PNG")
+
+
 def _write(tmp_path, df, name="runs.csv"):
     path = tmp_path / name
     df.to_csv(path, index=False)

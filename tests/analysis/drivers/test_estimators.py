@@ -14,6 +14,7 @@ from rcsim.analysis.drivers.baseline import TTestBaseline, holm
 from rcsim.analysis.drivers.kde import BinnedTV, Strata, bin_codes, rank_scale, smoothing_matrix
 from rcsim.analysis.drivers.maps import KNNFailureMap
 from rcsim.analysis.drivers.pairs import PairKDE
+from rcsim.analysis.drivers.pipeline import Settings
 from rcsim.analysis.drivers.second_opinion import ForestImportance
 from rcsim.analysis.drivers.single import SingleFactorKDE, _format_region
 from rcsim.analysis.drivers.stability import HalfSampleStability
@@ -59,6 +60,18 @@ def test_bad_fit_input_is_a_clear_error():
     Xn.iloc[3, 1] = np.nan
     with pytest.raises(InputError, match="'inertia'.*NaN"):
         SingleFactorKDE().fit(Xn, y)
+
+
+@pytest.mark.parametrize("field, value", [("n_permutations", 18), ("pair_permutations", 5),
+                                          ("n_permutations", 19.5), ("random_state", -1)])
+def test_settings_refuse_values_that_cannot_give_a_verdict(field, value):
+    """Oracle: with B permutations the smallest p-value is 1/(B+1), so B < 19 can never reach
+    p < 0.05; the error names the library's field (the CLI maps it to its flag)."""
+    with pytest.raises(InputError) as err:
+        Settings(**{field: value})
+    assert err.value.parameter == field and err.value.value == value
+    # The boundary itself is accepted.
+    assert Settings(n_permutations=19, pair_permutations=19).pair_b == 19
 
 
 def test_rank_scale_is_uniform_and_unit_free():

@@ -1,7 +1,7 @@
 """Physics-aware factors are computed from what the simulator flew.
 
-Oracle: the simulator's own vehicle model -- :func:`spacecraft.dispersions.draw_runs` builds
-the dispersed vehicles the campaign flies and :func:`spacecraft.vehicle.torque_per_jet_B`
+Oracle: the simulator's own vehicle model -- :func:`rcsim.spacecraft.dispersions.draw_runs` builds
+the dispersed vehicles the campaign flies and :func:`rcsim.spacecraft.vehicle.torque_per_jet_B`
 their jet torques; rebuilding the vehicles from the *recorded* columns
 (:func:`dispersion_frame`) must give the same torques (to float round-off of the degree
 conversion, rtol 1e-9).

@@ -1,7 +1,7 @@
 """Planted-truth recovery, fast variant of the table in docs/drivers.md.
 
 Oracle: synthetic campaigns whose failure mechanism is known by construction
-(:mod:`analysis.drivers.synthetic`).  The issue's bar over 100 campaigns per scenario is
+(:mod:`rcsim.analysis.drivers.synthetic`).  The issue's bar over 100 campaigns per scenario is
 "true drivers above every irrelevant input in >= 95, the true pair first in >= 95, an
 irrelevant input significant in <= 10".  Here 12 campaigns per scenario (50 permutations):
 with a true per-campaign success rate of 0.95, 12 campaigns give >= 10 successes with
