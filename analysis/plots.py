@@ -57,7 +57,7 @@ def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"),
     Parameters
     ----------
     frame : pandas.DataFrame
-        :func:`analysis.flight.history_frame` output.
+        :func:`rcsim.analysis.flight.history_frame` output.
     axes : sequence of str
         Axes to show, one column pair of panels each.
     windows : sequence of (t0, t1), optional

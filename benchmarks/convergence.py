@@ -12,7 +12,7 @@ physics steps that divide the 40 ms control cycle (1, 2, 4, 5, 8, 10, 20, 40 ms)
 * ``pulse_rel_err``: max over a set of pulses (sub-cycle, not a multiple of the step,
   multi-cycle; single-axis pairs and simultaneous three-axis pairs) of
   ``|dw_sim - dw_ref| / |dw_ref|``, flown through the production path
-  (:class:`spacecraft.simulation.BatchSimulation`, exact per-step duty).  Single-axis oracle:
+  (:class:`rcsim.spacecraft.simulation.BatchSimulation`, exact per-step duty).  Single-axis oracle:
   ``dw = 2 F r t / I`` (Table 1 F and I, design arm r).  Three-axis oracle: Euler's equations
   ``I dw/dt = tau - w x I w`` with the same body-fixed pair torques, integrated by SciPy's DOP853
   at rtol 1e-13 between the switch times (the gyroscopic term makes the closed form inexact

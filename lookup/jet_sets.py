@@ -1,5 +1,5 @@
 """Which jets a lookup table was made for, recorded beside it, so that a table generated for a
-vehicle with failed jets (:func:`lookup.table_generation.generate_table` ``jets_off``) loads.
+vehicle with failed jets (:func:`rcsim.lookup.table_generation.generate_table` ``jets_off``) loads.
 
 A table for the full vehicle is checked at load against Table 2 (the jet map).  A table
 generated without some jets fires none of them, and pairs with one jet left fire that jet
@@ -8,7 +8,7 @@ alone: checked against Table 2 it would be refused.  Its companion file
 ``jets_off`` column; :func:`load_table_for_jets` reads it and checks the table against the jet
 map *of the vehicle it was made for* (Table 2 without those jets).
 
-Imports ``models`` and ``lookup.table_generation``'s helpers only.
+Imports ``models`` and ``rcsim.lookup.table_generation``'s helpers only.
 """
 from __future__ import annotations
 

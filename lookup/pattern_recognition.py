@@ -1,7 +1,7 @@
 """Pattern-recognition lookup controller (Gambone, *Pattern Recognition Control Design*, sec. II).
 
 The controller knows no mass property and no jet map: only a lookup table of firing times
-(26 rate cases x 16 jets, :class:`models.tables.LookupTable`) and the five inputs of Table 4.
+(26 rate cases x 16 jets, :class:`rcsim.models.tables.LookupTable`) and the five inputs of Table 4.
 
 What it learns from the table (paper: "first reads the lookup table to determine the thrusters
 firing in each axis, as well as the indices of opposing thrusters"):
@@ -80,7 +80,7 @@ def learn_jets(table: LookupTable, allow_unserved: bool = False
         ``rate_cmd`` (26, 3) [rad/s] and ``firing_time_s`` (26, 16) [s].
     allow_unserved : bool
         Accept an axis direction no jet serves (a table made for a vehicle with failed jets,
-        :mod:`lookup.jet_sets`): that direction is never fired.
+        :mod:`rcsim.lookup.jet_sets`): that direction is never fired.
 
     Returns
     -------
@@ -147,7 +147,7 @@ class LookupParams:
         Half-width of the no-firing region around the maneuver limit [rad] (0.1 deg,
         paper Figs 17-18); 0 disables it.
     cycle_s : float
-        Control cycle [s]; default :data:`models.tables.CONTROL_CYCLE_S` (40 ms).  Must be the
+        Control cycle [s]; default :data:`rcsim.models.tables.CONTROL_CYCLE_S` (40 ms).  Must be the
         simulation's (``PropulsionParams.cycle_s``); the simulation refuses a mismatch.
     """
 
@@ -210,7 +210,7 @@ class LookupController:
     params : LookupParams, optional
         Default: Table 4 with the 0.1 deg no-firing region.
     jets_off : sequence of int
-        Jets (1..16) the table was made without (:mod:`lookup.jet_sets`): an axis direction
+        Jets (1..16) the table was made without (:mod:`rcsim.lookup.jet_sets`): an axis direction
         left without a jet is accepted and never fired.
     """
 
@@ -253,10 +253,10 @@ class LookupController:
         Parameters
         ----------
         table : path, optional
-            A table CSV, or anything else :func:`models.tables.load_lookup_table` accepts;
+            A table CSV, or anything else :func:`rcsim.models.tables.load_lookup_table` accepts;
             default the packaged generated table (`lookup/data/generated_table.csv`).  A table
             generated without some jets is checked against the jets left, as its companion
-            file records (:mod:`lookup.jet_sets`).
+            file records (:mod:`rcsim.lookup.jet_sets`).
         inputs : path, optional
             Table 4 CSV; default the packaged one.
         **overrides

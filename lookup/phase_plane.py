@@ -47,7 +47,7 @@ class PhasePlaneParams:
         Maneuver rate limit [rad/s].
     cycle_s : float
         Control cycle [s] the firings are split into; default
-        :data:`models.tables.CONTROL_CYCLE_S`.  Must be the simulation's
+        :data:`rcsim.models.tables.CONTROL_CYCLE_S`.  Must be the simulation's
         (``PropulsionParams.cycle_s``); the simulation refuses a mismatch.
     """
 

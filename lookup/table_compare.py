@@ -1,6 +1,6 @@
 """Case-by-case comparison of two lookup tables (e.g. a generated one against the paper's).
 
-Imports ``models``, ``spacecraft.vehicle`` and ``lookup.pattern_recognition`` only.
+Imports ``models``, ``rcsim.spacecraft.vehicle`` and ``rcsim.lookup.pattern_recognition`` only.
 """
 from __future__ import annotations
 

@@ -79,7 +79,7 @@ class DispersionSigmas:
 
     @classmethod
     def from_table(cls, table: pd.DataFrame, scale: float = 1.0) -> "DispersionSigmas":
-        """Sigmas from a :func:`models.tables.load_dispersions` frame (3-sigma, SI) times ``scale``.
+        """Sigmas from a :func:`rcsim.models.tables.load_dispersions` frame (3-sigma, SI) times ``scale``.
 
         Raises
         ------

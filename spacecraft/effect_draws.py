@@ -1,6 +1,6 @@
 """Campaign dispersions of sensors, valve timing and jet faults: specs and per-run draws.
 
-The vehicle dispersions of Table 5 live in :mod:`spacecraft.dispersions`; this module adds what
+The vehicle dispersions of Table 5 live in :mod:`rcsim.spacecraft.dispersions`; this module adds what
 Gambone's Monte Carlo left out (sensor noise, the sensor-to-actuator and firing delays) and jet
 faults, as campaign-level specs (:class:`SensorSpec`, :class:`TimingSpec`, :class:`FaultSpec`,
 SI inside) and functions drawing each run's values.
@@ -8,14 +8,14 @@ SI inside) and functions drawing each run's values.
 Seeding
 -------
 Run ``i`` of a campaign with root ``seed`` has the ``(dispersion, noise)`` streams of
-:func:`spacecraft.dispersions.run_streams`.  Everything here draws from *children* of the noise
+:func:`rcsim.spacecraft.dispersions.run_streams`.  Everything here draws from *children* of the noise
 stream ``N``, made explicitly as ``SeedSequence(N.entropy, spawn_key=N.spawn_key + (c,))``
 (what ``N.spawn`` would give, without its counter):
 
 ====  ====================================================
 c     purpose
 ====  ====================================================
-0     sensor noise in flight (:class:`spacecraft.sensors.SensorNoise`)
+0     sensor noise in flight (:class:`rcsim.spacecraft.sensors.SensorNoise`)
 1     sensor biases (6 normals)
 2     valve timing (1 + 16 + 16 normals)
 3     faults (4 uniforms)

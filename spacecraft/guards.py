@@ -7,9 +7,9 @@
   the bytes it needs and what to do instead, rather than dying in ``MemoryError`` (or in the
   operating system's out-of-memory killer) after the set-up.
 * :func:`warning_reasons`: the failure reason of a run whose MuJoCo warning counters rose
-  (see :mod:`spacecraft.simulation`, "Failures").
+  (see :mod:`rcsim.spacecraft.simulation`, "Failures").
 
-Imports ``models`` and ``spacecraft.vehicle`` only.
+Imports ``models`` and ``rcsim.spacecraft.vehicle`` only.
 """
 from __future__ import annotations
 

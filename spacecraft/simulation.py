@@ -1,15 +1,15 @@
 """The closed loop over many runs at once: controller step (numpy) <-> MuJoCo (native threads).
 
-Each control cycle: the sensors read every run's state (:mod:`spacecraft.sensors`; perfect by
+Each control cycle: the sensors read every run's state (:mod:`rcsim.spacecraft.sensors`; perfect by
 default), navigation errors, one vectorized controller step, valve limits
-(:mod:`spacecraft.propulsion`), valve timing and jet faults (:mod:`spacecraft.valves`), then the
+(:mod:`rcsim.spacecraft.propulsion`), valve timing and jet faults (:mod:`rcsim.spacecraft.valves`), then the
 cycle's physics of all runs in MuJoCo's thread pool (:class:`mujoco.batch.Batch`, GIL
 released).  There is no Python loop over runs; one run is a batch of one.
 
 Exact in time
 -------------
 Each run's cycle is integrated in pieces cut at that run's own jet switch instants
-(:func:`spacecraft.pieces.cycle_pieces`), the jets constant in each piece: the physics sees the
+(:func:`rcsim.spacecraft.pieces.cycle_pieces`), the jets constant in each piece: the physics sees the
 exact thrust history, so impulse and attitude are exact whatever the pulse lengths and delays.
 The pieces' lengths are per-simulation physics steps (``opt.timestep`` expanded per run); piece
 ``p`` of every run that has one is one batched ``rollout`` of one step.  A cycle in which no
@@ -28,20 +28,20 @@ per run from :attr:`mujoco.batch.Batch.warning`, shape ``(n_runs, mjNWARNING, 2)
 warning's name, MuJoCo's text (:func:`mujoco.mju_warningText`) and the control cycle it rose in.
 A MuJoCo error (:class:`mujoco.batch.SimulationError`) and a non-finite state (a backstop) fail a
 run the same way.  The warning messages themselves go to the ``rcsim.mujoco`` logger
-(:func:`spacecraft.vehicle.route_mujoco_warnings`), never to a ``MUJOCO_LOG.TXT``.
+(:func:`rcsim.spacecraft.vehicle.route_mujoco_warnings`), never to a ``MUJOCO_LOG.TXT``.
 
 Refusals
 --------
 :meth:`BatchSimulation.run` refuses, before allocating anything, a controller whose control
 cycle disagrees with the propulsion's, and a history that would not fit in memory
-(:func:`spacecraft.guards.memory_budget_bytes`).  The constructor refuses invalid sensor,
+(:func:`rcsim.spacecraft.guards.memory_budget_bytes`).  The constructor refuses invalid sensor,
 timing and fault parameters (:class:`rcsim.models.errors.InputError`).
 
 Module size: about 475 lines, over the ~400 guideline: the cycle loop (sensors, controller,
 valves, the cut) and the piecewise stepping share the batch's bound arrays, per-run timesteps
 and failure bookkeeping; splitting them would pass those around for no gain in clarity.  The
-pure parts live in :mod:`spacecraft.pieces`, :mod:`spacecraft.valves`,
-:mod:`spacecraft.sensors` and :mod:`spacecraft.history`.
+pure parts live in :mod:`rcsim.spacecraft.pieces`, :mod:`rcsim.spacecraft.valves`,
+:mod:`rcsim.spacecraft.sensors` and :mod:`rcsim.spacecraft.history`.
 """
 from __future__ import annotations
 
@@ -125,7 +125,7 @@ class BatchSimulation:
         Sensor errors per run; default perfect sensors.
     sensor_streams : sequence of numpy.random.SeedSequence, optional
         One per run, the run's sensor-noise stream
-        (:func:`spacecraft.effect_draws.effect_streams`); required when ``sensors`` has noise
+        (:func:`rcsim.spacecraft.effect_draws.effect_streams`); required when ``sensors`` has noise
         or a random walk.
     timing : ValveTiming, optional
         Command (sensor-to-actuator) delay and valve latencies per run; default none.
@@ -296,7 +296,7 @@ class BatchSimulation:
         InputError
             ``duration_s`` not > 0; the controller's ``cycle_s`` differs from the
             propulsion's; the history would not fit in memory
-            (:func:`spacecraft.guards.memory_budget_bytes`).
+            (:func:`rcsim.spacecraft.guards.memory_budget_bytes`).
         """
         n, cycle = self.n_runs, self.propulsion.cycle_s
         if not np.isfinite(duration_s) or duration_s <= 0:

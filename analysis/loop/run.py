@@ -64,10 +64,13 @@ class LoopSettings:
     max_iterations: int = 8
 
     def __post_init__(self):
-        # The refinement's own checks (runs, seeds, duration, rounds): one rule for both.
+        # The refinement's and the driver analysis's own checks: one rule for each.
+        from rcsim.analysis.drivers.pipeline import Settings
+
         check_parameters(runs_per_case=self.runs_per_case, seed=self.seed,
                          fresh_seed=self.held_out_seed, duration_s=self.duration_s,
                          max_iterations=self.max_iterations)
+        Settings(n_permutations=self.permutations, random_state=self.seed)
 
     @property
     def held_out_seed(self) -> int:

@@ -1,7 +1,7 @@
 """Report sections of the failure-driver analysis; each returns a :class:`Section`.
 
-They read a :class:`analysis.drivers.pipeline.DriverResults`; a later analysis builds its own
-sections and passes the list to :func:`analysis.report.html.build_report` with these.
+They read a :class:`rcsim.analysis.drivers.pipeline.DriverResults`; a later analysis builds its own
+sections and passes the list to :func:`rcsim.analysis.report.html.build_report` with these.
 """
 from __future__ import annotations
 
@@ -50,7 +50,7 @@ def summary(res) -> Section:
                            "failed_pct": 100.0 * c.failed / max(c.runs, 1),
                            "share_of_all_failures": c.failed / max(nf, 1)} for c in res.cases])
     if len(res.cases) > 1:
-        blocks.append(figure_block(png_bytes(figures.failures_per_case(res.cases)),
+        blocks.append(figure_block(figures.report_pngs(res)["failures_per_case.png"],
                                    "Failed runs per case, as a share of the case's runs."))
         carry = cases.sort_values("failed", ascending=False)
         carry = carry[carry["failed"] > 0]
@@ -104,7 +104,7 @@ def method(res) -> Section:
 
 def drivers(res, top: int = 25) -> Section:
     d = res.drivers
-    blocks = [figure_block(png_bytes(figures.ranking(d)),
+    blocks = [figure_block(figures.report_pngs(res)["ranking.png"],
                            "Top inputs by score. Labels give the corrected p-value and the share "
                            "of half-campaigns keeping the rank.")]
     sig = d[d["significant"]]
@@ -133,12 +133,10 @@ def pairs(res, top: int = 15) -> Section:
         blocks.append(table_block(_present(gain, _PAIR_COLS),
                                   "Significant pairs with the largest gain over their "
                                   "better input (interactions)"))
-    for case, fmap in res.maps:
-        rs = res.runset
-        rows = np.ones(rs.y.size, bool) if case is None else rs.strata == case
-        title = "all cases" if case is None else f"case {case}"
+    for (case, fmap), name in zip(res.maps, figures.map_png_names(res)):
+        title = figures.map_title(case)
         blocks.append(figure_block(
-            png_bytes(figures.knn_map(fmap, rs.X[rows], rs.y[rows], title)),
+            figures.report_pngs(res)[name],
             f"{title}: {fmap.feature_names_in_[0]} against {fmap.feature_names_in_[1]}. "
             "Shading: failure probability of the k nearest runs (k by cross-validation); "
             "blank cells hold no runs. Red dots failed, blue succeeded (as Gambone Fig. 15). "

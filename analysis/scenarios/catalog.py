@@ -44,9 +44,9 @@ class PaperScenario:
     runs : tuple of Scenario
         Flown together in one batch (same duration).
     lookup_options : dict
-        :class:`lookup.pattern_recognition.LookupParams` overrides (SI).
+        :class:`rcsim.lookup.pattern_recognition.LookupParams` overrides (SI).
     phase_plane_options : dict
-        :class:`lookup.phase_plane.PhasePlaneParams` overrides (SI).
+        :class:`rcsim.lookup.phase_plane.PhasePlaneParams` overrides (SI).
     """
 
     name: str

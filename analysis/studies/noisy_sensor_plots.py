@@ -1,6 +1,6 @@
 """Figure 4 of Pittella & Sands (2023): final angle against final rate, with sigma ellipses.
 
-Plots :attr:`analysis.studies.noisy_sensor.StudyResult.runs`; imports nothing from the
+Plots :attr:`rcsim.analysis.studies.noisy_sensor.StudyResult.runs`; imports nothing from the
 study module (it re-exports these names).
 """
 from __future__ import annotations

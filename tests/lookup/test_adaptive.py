@@ -1,4 +1,4 @@
-"""The adaptive lookup controller (lookup.adaptive).
+"""The adaptive lookup controller (rcsim.lookup.adaptive).
 
 Oracles
 -------

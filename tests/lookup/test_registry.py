@@ -1,4 +1,4 @@
-"""Controllers by name (lookup.registry): the one list, and bad input named in library terms."""
+"""Controllers by name (rcsim.lookup.registry): the one list, and bad input named in library terms."""
 from __future__ import annotations
 
 import pytest

@@ -1,4 +1,4 @@
-"""Exact in time: each cycle integrated in pieces at the jets' switch instants (spacecraft.pieces).
+"""Exact in time: each cycle integrated in pieces at the jets' switch instants (rcsim.spacecraft.pieces).
 
 Oracles
 -------

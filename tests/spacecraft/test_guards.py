@@ -1,5 +1,5 @@
-"""What the closed loop refuses and how it records a diverged run (spacecraft.simulation,
-spacecraft.guards).
+"""What the closed loop refuses and how it records a diverged run (rcsim.spacecraft.simulation,
+rcsim.spacecraft.guards).
 
 Oracles
 -------
@@ -122,7 +122,7 @@ def test_nan_disturbance_is_mujocos_bad_ctrl(model, phase_plane):
 # One control cycle
 # ------------------------------------------------------------------------------------------
 def test_default_cycles_are_the_one_constant(phase_plane):
-    """Every default cycle in spacecraft/ and lookup/ is models.tables.CONTROL_CYCLE_S."""
+    """Every default cycle in spacecraft/ and lookup/ is rcsim.models.tables.CONTROL_CYCLE_S."""
     jet_map = load_jet_map()
     lookup = LookupController(load_default_table())
     cycles = {

@@ -1,4 +1,4 @@
-"""Quaternion helpers, attitude-error sign convention and guidance (spacecraft.navigation).
+"""Quaternion helpers, attitude-error sign convention and guidance (rcsim.spacecraft.navigation).
 
 Oracles: quaternion algebra (Hamilton product, unit norm, q and -q the same rotation), the
 closed forms of elementary rotations (a rotation by angle theta about unit axis n is

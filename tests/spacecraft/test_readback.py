@@ -2,7 +2,7 @@
 
 Oracles
 -------
-* The draw (spacecraft.dispersions.draw_runs) is what each run must fly.  BatchSimulation writes
+* The draw (rcsim.spacecraft.dispersions.draw_runs) is what each run must fly.  BatchSimulation writes
   it into MuJoCo's per-simulation model fields and runs mj_setConst; the values read back must
   equal the draw *exactly* (tolerance 0): they are float64 copies, and mj_setConst takes
   ``body_mass``, ``body_ipos``, ``body_iquat``, ``body_inertia`` and ``actuator_gear`` as inputs

@@ -1,5 +1,5 @@
-"""Sensors (spacecraft.sensors) in the closed loop, and the per-run effect draws
-(spacecraft.effect_draws).
+"""Sensors (rcsim.spacecraft.sensors) in the closed loop, and the per-run effect draws
+(rcsim.spacecraft.effect_draws).
 
 Oracles
 -------

@@ -1,4 +1,4 @@
-"""The batched closed loop (spacecraft.simulation): physics invariants, batching, failures, and the
+"""The batched closed loop (rcsim.spacecraft.simulation): physics invariants, batching, failures, and the
 5 deg phase-plane maneuvers of Gambone Figs 1-2.
 
 Oracles

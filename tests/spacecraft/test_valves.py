@@ -1,4 +1,4 @@
-"""Valve timing and jet faults in the closed loop (spacecraft.valves).
+"""Valve timing and jet faults in the closed loop (rcsim.spacecraft.valves).
 
 Oracles
 -------
