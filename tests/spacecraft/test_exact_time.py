@@ -22,6 +22,7 @@ import pytest
 from mujoco.batch import Batch
 from scipy.integrate import solve_ivp
 
+from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.models.tables import load_jet_map
 from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat
 from rcsim.spacecraft.pieces import cycle_pieces
@@ -30,21 +31,6 @@ from rcsim.spacecraft.vehicle import VehicleParams, jet_actuator_ids, torque_per
 
 CYCLE_S = 0.04
 REL = 1e-9  # see the module docstring
-
-
-class Scripted:
-    """Open loop: jet j on for ``total_s[:, j]`` from t = 0, cycle by cycle."""
-
-    cycle_s = CYCLE_S
-
-    def __init__(self, total_s):
-        self.total_s = np.asarray(total_s, float)
-
-    def initial_state(self, n_runs):
-        return 0
-
-    def step(self, nav, k):
-        return np.clip(self.total_s - k * CYCLE_S, 0.0, CYCLE_S), k + 1
 
 
 def roll_plus_jets():
@@ -74,7 +60,7 @@ def test_single_axis_pulses_are_exact_in_attitude_and_rate(model):
     on = np.zeros((n, 16))
     on[:, roll_plus_jets()] = PULSES_S[:, None]
     hist = BatchSimulation(VehicleParams.nominal(n, model), model=model, nthread=1).run(
-        Scripted(on), Guidance.attitude(np.zeros((n, 3))), 0.72)
+        OpenLoopController(on), Guidance.attitude(np.zeros((n, 3))), 0.72)
     alpha = roll_alpha(model)
     t = np.arange(hist.t_s.size + 1) * CYCLE_S
     u = PULSES_S[:, None]
@@ -117,7 +103,7 @@ def test_three_axis_pulses_with_distinct_switch_times_match_dop853(model):
     for a, t in enumerate((0.011, 0.0634, 0.029)):
         on[jm[:, a] == (1 if a != 1 else -1)] = t
     hist = BatchSimulation(VehicleParams.nominal(1, model), model=model, nthread=1).run(
-        Scripted(on[None]), Guidance.attitude(np.zeros((1, 3))), 0.2)
+        OpenLoopController(on[None]), Guidance.attitude(np.zeros((1, 3))), 0.2)
     ref = _reference(model, on, 0.2)
     dev = np.linalg.norm(rotvec_from_quat(quat_mul(quat_conj(ref), boundaries_q(hist)[0])), axis=1)
     # 1e-10 rad: DOP853 at rtol 1e-12 and RK4 on 11-40 ms pieces at these rates (<0.01 rad/s)
@@ -130,7 +116,7 @@ def test_whole_cycle_firings_are_the_fixed_step_rollout_bit_for_bit(model):
     on = np.zeros((1, 16))
     on[0, roll_plus_jets()] = 3 * CYCLE_S
     hist = BatchSimulation(VehicleParams.nominal(1, model), model=model, nthread=1).run(
-        Scripted(on), Guidance.attitude(np.zeros((1, 3))), 5 * CYCLE_S)
+        OpenLoopController(on), Guidance.attitude(np.zeros((1, 3))), 5 * CYCLE_S)
     batch = Batch(model, 1, 1)
     batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
     batch.forward()

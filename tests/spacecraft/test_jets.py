@@ -25,6 +25,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.models.tables import load_jet_map, load_lookup_table
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import BatchSimulation
@@ -184,17 +185,6 @@ def test_pair_pulse_is_a_pure_couple_in_simulation(model, table1, jet_map, axis_
 # ---------------------------------------------------------------------------------------------
 # Pulses of any length through the production path (duty profile + batched closed loop)
 # ---------------------------------------------------------------------------------------------
-class PulseController:
-    """Open loop: jet j on for ``total_s[:, j]`` from t = 0, delivered cycle by cycle."""
-
-    def __init__(self, total_s):
-        self.total_s = np.asarray(total_s, float)
-
-    def initial_state(self, n_runs):
-        return 0
-
-    def step(self, nav, k):
-        return np.clip(self.total_s - k * CYCLE_S, 0.0, CYCLE_S), k + 1
 
 
 @pytest.fixture(scope="module")
@@ -216,7 +206,7 @@ def test_pair_pulse_of_any_length_gives_exact_rate_change(pair_sim, table1, jet_
     for i, (_, _, jets) in enumerate(pr):
         on[i, jets] = t
     duration = (math.ceil(t / CYCLE_S) + 1) * CYCLE_S  # the pulse has ended
-    hist = pair_sim.run(PulseController(on), Guidance.attitude(np.zeros((6, 3))), duration)
+    hist = pair_sim.run(OpenLoopController(on), Guidance.attitude(np.zeros((6, 3))), duration)
     assert not hist.failed.any()
     # Delivered on-time equals the command (no valve limit at min_pulse 0).
     np.testing.assert_allclose(hist.propulsion.on_time_s, on, rtol=1e-12)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.models.tables import load_dispersions
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs, run_generators
 from rcsim.spacecraft.navigation import Guidance
@@ -24,14 +25,6 @@ from rcsim.spacecraft.simulation import BatchSimulation
 from rcsim.spacecraft.vehicle import BODY, VehicleParams
 
 FIELDS = ("mass_kg", "cg_B", "inertia_B", "thrust_n", "jet_dir_S")
-
-
-class Idle:
-    def initial_state(self, n_runs):
-        return None
-
-    def step(self, nav, state):
-        return np.zeros((nav.n_runs, 16)), state
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +58,7 @@ def test_history_carries_the_flown_params(model, dispersed):
     params = VehicleParams(mass_kg=mass, cg_B=params.cg_B, inertia_B=params.inertia_B,
                            thrust_n=params.thrust_n, jet_dir_S=params.jet_dir_S)
     hist = BatchSimulation(params, model=model, nthread=1).run(
-        Idle(), Guidance.attitude(np.zeros((3, 3))), 0.2)
+        OpenLoopController(np.zeros(16)), Guidance.attitude(np.zeros((3, 3))), 0.2)
     assert hist.failed.tolist() == [False, True, False]
     nominal = VehicleParams.nominal(1, model)
     for name in FIELDS:

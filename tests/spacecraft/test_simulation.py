@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
+from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.models.tables import load_jet_map
 from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul
 from rcsim.spacecraft.propulsion import PropulsionParams
@@ -31,16 +32,6 @@ MANEUVER_S = 40.0  # the 5 deg maneuvers finish by ~26 s at 0.2 deg/s; 14 s of m
 # Angular momentum: RK4 keeps |dH|/H ~ 1e-13 over 600 s at 1-40 ms steps (docs/convergence.md);
 # the first-order integrators drift 2e-5 .. 8e-4.  1e-9 (the issue's bound) separates them.
 DH_RTOL = 1e-9
-
-
-class Idle:
-    """A controller that never fires."""
-
-    def initial_state(self, n_runs):
-        return None
-
-    def step(self, nav, state):
-        return np.zeros((nav.n_runs, 16)), state
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +56,8 @@ def test_torque_free_tumble_conserves_angular_momentum(model):
     w0 = np.array([[0.03, 0.02, -0.04]])  # ~3 deg/s, not along any principal axis
     # A 1 s "control cycle" (the controller is idle anyway) samples H 600 times and keeps the
     # Python loop short; the physics still steps at the model's default step.
-    hist = simulate_batch(params, Idle(), Guidance.attitude(np.zeros((1, 3))), 600.0,
+    idle = OpenLoopController(np.zeros(16), cycle_s=1.0)
+    hist = simulate_batch(params, idle, Guidance.attitude(np.zeros((1, 3))), 600.0,
                           omega0_B=w0, model=model, nthread=1,
                           propulsion=PropulsionParams(cycle_s=1.0))
     inertia = params.inertia_B[0]

@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.models.errors import InputError
 from rcsim.models.tables import load_jet_map
 from rcsim.spacecraft.navigation import Guidance
@@ -32,28 +33,13 @@ CYCLE_S = 0.04
 REL = 1e-9
 
 
-class Scripted:
-    """Open loop: jet j on for ``total_s[:, j]`` from t = 0, cycle by cycle."""
-
-    cycle_s = CYCLE_S
-
-    def __init__(self, total_s):
-        self.total_s = np.asarray(total_s, float)
-
-    def initial_state(self, n_runs):
-        return 0
-
-    def step(self, nav, k):
-        return np.clip(self.total_s - k * CYCLE_S, 0.0, CYCLE_S), k + 1
-
-
 ROLL_PLUS = np.flatnonzero(load_jet_map()[:, 0] == 1)
 
 
 def fly(model, on_total, duration_s, **kw):
     n = on_total.shape[0]
     sim = BatchSimulation(VehicleParams.nominal(n, model), model=model, nthread=1, **kw)
-    hist = sim.run(Scripted(on_total), Guidance.attitude(np.zeros((n, 3))), duration_s)
+    hist = sim.run(OpenLoopController(on_total), Guidance.attitude(np.zeros((n, 3))), duration_s)
     assert not hist.failed.any()
     return hist
 
