@@ -36,7 +36,9 @@ Each control cycle, per run (all vectorized over ``n_runs``):
    decremented by the cycle.  When an axis's firing ends, its hold timer is set to the hold
    time (the rate "settles" before the axis may fire again); hold timers count down by the cycle.
 
-See ``docs/lookup.md`` for the readings of the paper and why.
+See ``docs/lookup.md`` for the readings of the paper and why.  (About 400 lines: the logic
+above, the table's jet roles it learns, and the per-run candidate tables of refinement,
+:meth:`LookupController.for_runs`.)
 """
 from __future__ import annotations
 
