@@ -22,6 +22,10 @@ from rcsim.spacecraft.simulation import Controller, History, simulate_batch
 from rcsim.spacecraft.vehicle import AXES, JET_NAMES, VehicleParams, load_model
 
 
+#: What :func:`fly_batch` passes on to the simulation besides the vehicle and the scenarios.
+EFFECT_KEYS = ("sensors", "sensor_streams", "timing", "faults", "profile")
+
+
 @dataclass(frozen=True)
 class Scenario:
     """A flight to fly: commands, initial state, disturbance.  Angles in radians, SI inside.
@@ -56,13 +60,34 @@ def fly_batch(
     model=None,
     propulsion: PropulsionParams = PropulsionParams(),
     nthread: int = 0,
+    **effects,
 ) -> History:
     """Fly one batch: run ``i`` flies ``scenarios[i]`` with vehicle ``params`` entry ``i``.
 
     All scenarios must last equally long (one batched simulation).  The one place that turns
     scenarios into batched commands, initial rates and disturbances: single flights, the
     paper's scenarios and campaign chunks all fly through it.
+
+    Parameters
+    ----------
+    **effects
+        Sensors, timing and faults of the runs, passed to
+        :class:`rcsim.spacecraft.simulation.BatchSimulation`: ``sensors``
+        (:class:`~rcsim.spacecraft.sensors.SensorParams`), ``sensor_streams`` (one
+        ``SeedSequence`` per run), ``timing`` (:class:`~rcsim.spacecraft.valves.ValveTiming`),
+        ``faults`` (:class:`~rcsim.spacecraft.valves.JetFaults`), ``profile``
+        (:class:`~rcsim.spacecraft.valves.ThrustProfile`); each entry ``(n_runs, ...)``.
+        Absent or None: perfect sensors, no delays, no faults, instant thrust.
+
+    Raises
+    ------
+    TypeError
+        An effect other than those five (a typo must not be silently ignored).
     """
+    unknown = sorted(set(effects) - set(EFFECT_KEYS))
+    if unknown:
+        raise TypeError(f"fly_batch: unknown effect(s) {', '.join(unknown)}; "
+                        f"known: {', '.join(EFFECT_KEYS)}")
     durations = {s.duration_s for s in scenarios}
     if len(durations) != 1:
         raise ValueError(f"a batch must have one duration, got {sorted(durations)}")
@@ -76,6 +101,7 @@ def fly_batch(
         omega0_B=stack("omega0_rad_s"),
         disturbance_B=disturbance if np.any(disturbance) else None,
         propulsion=propulsion, model=model, nthread=nthread,
+        **{k: v for k, v in effects.items() if v is not None},
     )
 
 
@@ -100,7 +126,11 @@ def history_frame(history: History, run: int = 0) -> pd.DataFrame:
 
     ``att_err_<axis>_deg`` are the components of the attitude-error rotation vector;
     ``roll_deg`` etc. are 3-2-1 Euler angles of the attitude; ``rate_<axis>_deg_s`` the body
-    rates; ``jet_NN_on_s`` the on-time jet NN delivered in that cycle.
+    rates; ``jet_NN_on_s`` the on-time commanded to jet NN in that cycle.  With imperfect
+    sensors, ``meas_att_err_<axis>_deg`` and ``meas_rate_err_<axis>_deg_s`` are the errors the
+    controller measured; with valve timing, jet faults or a thrust profile,
+    ``jet_NN_delivered_s`` the time the jet thrust in that cycle (the command moved by the
+    delays, plus stuck-on time, minus failed time; :class:`rcsim.spacecraft.history.History`).
     """
     cols: dict[str, np.ndarray] = {"t_s": history.t_s}
     euler = euler321_deg(history.q_BN[run])
@@ -114,6 +144,16 @@ def history_frame(history: History, run: int = 0) -> pd.DataFrame:
         cols[f"{axis}_deg"] = euler[:, a]
     for j, name in enumerate(JET_NAMES):
         cols[f"{name}_on_s"] = history.on_time_s[run, :, j]
+    # What the controller saw (imperfect sensors) and what the jets delivered (valve timing,
+    # faults, thrust profile): recorded only when they differ from the columns above.
+    if history.meas_att_err_B is not None:
+        for a, axis in enumerate(AXES):
+            cols[f"meas_att_err_{axis}_deg"] = np.degrees(history.meas_att_err_B[run, :, a])
+        for a, axis in enumerate(AXES):
+            cols[f"meas_rate_err_{axis}_deg_s"] = np.degrees(history.meas_rate_err_B[run, :, a])
+    if history.delivered_s is not None:
+        for j, name in enumerate(JET_NAMES):
+            cols[f"{name}_delivered_s"] = history.delivered_s[run, :, j]
     return pd.DataFrame(cols)
 
 

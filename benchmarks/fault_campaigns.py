@@ -1,131 +1,181 @@
-"""Campaign-like evidence for issue 11: failures and repeated firings with sensors, delays and
-jet faults, for the static table, the adaptive controller and (jet faults) the regenerated table.
+"""Evidence for issue 11 through the real campaign command: failures and repeated firings with
+sensors, delays and jet faults, for the static table, the adaptive controller and (jet faults)
+the table regenerated without the failed jet; and the campaign's speed with noise and delays
+on and off.
 
-Until the campaign spec carries ``[dispersions.sensor|timing|fault]`` (``docs/faults.md``), this
-flies the default campaign's work directly: the 26 rate cases of Table 3 commanded from rest,
-``--runs-per-case`` runs each with Table 5 dispersions (seed 1), 20 s, and scores every run with
-the campaign's own outcome rules (:func:`rcsim.analysis.campaign.outcomes.outcomes`, failure
-threshold 0.04 deg/s as in ``rcsim campaign example``).  Per configuration and controller it
-prints the failed percentage, the mean firing events to reach the rate (summed over the axes)
-and the percentage of runs with a repeated firing (more than one event on some axis).
+Every configuration is a campaign spec (written to ``OUT/specs/``) flown by ``rcsim campaign
+run`` (in this process, :func:`rcsim.analysis.cli.main`): the 26 rate cases of Table 3
+commanded from rest, ``--runs-per-case`` runs each, Table 5 dispersions, seed 1, 20 s, the
+default failure threshold (0.04 deg/s), histories not kept.  The regenerated table is made by
+``rcsim lookup generate --jets-off 13``.  Per campaign it prints, from ``runs.parquet``: the
+failed percentage, the mean firing events before the rate is reached (summed over the axes) and
+the percentage of runs with a repeated firing (more than one event before the rate on some
+axis).
 
-Usage: ``python benchmarks/fault_campaigns.py [--runs-per-case 20] [--markdown]``.
+``--speed``: CPU seconds of the same nominal and noise-and-delays campaigns flown with one
+MuJoCo thread (best of ``--repeats``; CPU time, not wall time, because the machine is shared).
+
+Usage: ``python benchmarks/fault_campaigns.py --out DIR [--runs-per-case 50] [--speed]``.
 """
 from __future__ import annotations
 
 import argparse
+import resource
 import sys
+import time
 from pathlib import Path
-from types import SimpleNamespace
 
-import numpy as np
+import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from rcsim.analysis.campaign.outcomes import outcomes  # noqa: E402
-from rcsim.lookup.adaptive import AdaptiveLookupController, AdaptParams  # noqa: E402
-from rcsim.lookup.pattern_recognition import LookupController, load_default_table  # noqa: E402
-from rcsim.lookup.table_generation import generate_table  # noqa: E402
-from rcsim.models.tables import load_dispersions, load_rate_cases  # noqa: E402
-from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs  # noqa: E402
-from rcsim.spacecraft.effect_draws import (  # noqa: E402
-    FaultSpec, SensorSpec, TimingSpec, draw_faults, draw_sensors, draw_timing,
-)
-from rcsim.spacecraft.navigation import Guidance  # noqa: E402
-from rcsim.spacecraft.simulation import simulate_batch  # noqa: E402
-from rcsim.spacecraft.vehicle import VehicleParams, load_model  # noqa: E402
+from rcsim.analysis.cli import main as rcsim  # noqa: E402
 
-SEED, DURATION_S, THRESHOLD_DEG_S = 1, 20.0, 0.04
-ROTATION_JETS = [1, 2, 3, 4, 9, 10, 11, 12, 13, 14, 15, 16]
-SENSOR = {"att_noise_deg": 0.003, "rate_noise_deg_s": 0.001, "att_bias_sigma_deg": 0.003,
-          "rate_bias_sigma_deg_s": 0.003, "rate_walk_deg_s_per_sqrt_s": 0.0005}
-TIMING = {"command_delay_s": 0.005, "open_delay_s": 0.008, "open_delay_sigma_s": 0.001,
-          "close_delay_s": 0.005, "close_delay_sigma_s": 0.001}
+BASE = """seed = 1
+runs_per_case = {runs}
+[scenario]
+kind = "rate-cases"
+cases = "all"
+duration_s = 20.0
+[controller]
+name = "{controller}"
+table = "{table}"
+[output]
+histories = "none"
+plots = false
+"""
+# Levels and their reasons: docs/faults.md ("Levels used as plausible").
+SENSOR = """[dispersions.sensor]
+att_noise_deg = 0.003
+rate_noise_deg_s = 0.001
+att_bias_sigma_deg = 0.003
+rate_bias_sigma_deg_s = 0.003
+rate_walk_deg_s_per_sqrt_s = 0.0005
+"""
+TIMING = """[dispersions.timing]
+command_delay_s = 0.005
+open_delay_s = 0.008
+open_delay_sigma_s = 0.001
+close_delay_s = 0.005
+close_delay_sigma_s = 0.001
+"""
+ROTATION_JETS = "[1, 2, 3, 4, 9, 10, 11, 12, 13, 14, 15, 16]"  # jets 5-8 give no torque
+DEGRADED = f"""[dispersions.fault]
+mode = "degraded"
+jets = {ROTATION_JETS}
+thrust_factor = 0.8
+"""
+OFF_ANY = f"""[dispersions.fault]
+mode = "off"
+jets = {ROTATION_JETS}
+time_s = 0.0
+"""
+OFF_13 = """[dispersions.fault]
+mode = "off"
+jets = [13]
+time_s = 0.0
+"""
+STUCK = f"""[dispersions.fault]
+mode = "stuck"
+jets = {ROTATION_JETS}
+time_s = [0.0, 10.0]
+stuck_for_s = [0.1, 0.5]
+"""
+
+#: (name, extra spec text, controllers); "regenerated": lookup with the table made without
+#: jet 13.
+CONFIGS = [
+    ("Table 5 only", "", ("lookup", "adaptive")),
+    ("+ sensor noise and biases", SENSOR, ("lookup", "adaptive")),
+    ("+ command and valve delays", TIMING, ("lookup", "adaptive")),
+    ("+ noise and delays", SENSOR + TIMING, ("lookup", "adaptive")),
+    ("+ one jet at 80 % thrust", DEGRADED, ("lookup", "adaptive")),
+    ("+ one jet stuck on 0.1-0.5 s", STUCK, ("lookup", "adaptive")),
+    ("+ one jet failed off", OFF_ANY, ("lookup", "adaptive")),
+    ("+ jet 13 failed off", OFF_13, ("lookup", "adaptive", "regenerated")),
+    ("+ jet 13 failed off, noise and delays", OFF_13 + SENSOR + TIMING,
+     ("lookup", "adaptive", "regenerated")),
+]
 
 
-def configurations():
-    return {
-        "Table 5 only": {},
-        "+ sensor noise and biases": {"sensor": SENSOR},
-        "+ command and valve delays": {"timing": TIMING},
-        "+ noise and delays": {"sensor": SENSOR, "timing": TIMING},
-        "+ one jet at 80 % thrust": {"fault": {"mode": "degraded", "jets": ROTATION_JETS,
-                                               "thrust_factor": 0.8}},
-        "+ one jet failed off": {"fault": {"mode": "off", "jets": ROTATION_JETS,
-                                           "time_s": 0.0}},
-    }
+def score(runs: pd.DataFrame) -> dict:
+    """Failed %, mean firing events to rate (summed over axes), repeated-firing runs %."""
+    ev = runs[[f"firings_to_rate_{a}" for a in ("roll", "pitch", "yaw")]]
+    return {"runs": len(runs), "failed_pct": 100 * runs["failed"].mean(),
+            "firings": ev.sum(axis=1).mean(), "repeated_pct": 100 * (ev > 1).any(axis=1).mean()}
 
 
-def fly(config: dict, controller: str, n_per_case: int, model, tables: dict) -> dict:
-    cases = load_rate_cases()
-    rate = np.repeat(np.asarray(cases.rate_cmd, float), n_per_case, axis=0)
-    n = rate.shape[0]
-    ids = np.arange(n)
-    params = draw_runs(VehicleParams.nominal(1, model), DispersionSigmas.from_table(
-        load_dispersions()), SEED, ids).params
-    kw = {}
-    noise = 0.0
-    if "sensor" in config:
-        spec = SensorSpec.from_mapping(config["sensor"])
-        kw["sensors"], kw["sensor_streams"] = draw_sensors(spec, SEED, ids)
-        noise = float(spec.rate_noise_rad_s.max())
-    if "timing" in config:
-        kw["timing"] = draw_timing(TimingSpec.from_mapping(config["timing"]), SEED, ids)
-    groups = {(): ids}
-    if "fault" in config:
-        kw["faults"], drawn = draw_faults(FaultSpec.from_mapping(config["fault"]), SEED, ids)
-        if controller == "regenerated" and config["fault"]["mode"] == "off":
-            jet = drawn.fault_jet.to_numpy()
-            groups = {(int(j),): ids[jet == j] for j in np.unique(jet)}
-    failed = np.zeros(n, bool)
-    firings = np.zeros(n)
-    repeated = np.zeros(n, bool)
-    for jets_off, runs in groups.items():
-        if controller == "adaptive":
-            ctl = AdaptiveLookupController(load_default_table(),
-                                           adapt=AdaptParams(rate_noise_rad_s=noise))
-        elif controller == "regenerated" and jets_off:
-            if jets_off not in tables:
-                tables[jets_off] = generate_table(jets_off=jets_off, model=model).table
-            ctl = LookupController(tables[jets_off], jets_off=jets_off)
-        else:
-            ctl = LookupController(load_default_table())
-        sub = {k: (v.take(runs) if hasattr(v, "take") and k != "sensor_streams" else v)
-               for k, v in kw.items()}
-        for k in ("sensors", "timing", "faults"):
-            if k in sub:
-                sub[k] = type(kw[k])(**{f: getattr(kw[k], f)[runs] for f in vars(kw[k])})
-        if "sensor_streams" in sub:
-            sub["sensor_streams"] = [kw["sensor_streams"][i] for i in runs]
-        hist = simulate_batch(params.take(runs), ctl, Guidance.rate(rate[runs]), DURATION_S,
-                              model=model, **sub)
-        out = outcomes(hist, SimpleNamespace(rate_threshold_rad_s=np.radians(THRESHOLD_DEG_S),
-                                             attitude_threshold_rad=None), 0.04, params.isp_s)
-        ev = out[[c for c in out.columns if c.startswith("firings_to_rate_")]].to_numpy()
-        failed[runs] = out["failed"].to_numpy(bool)
-        firings[runs] = np.nansum(ev, axis=1)
-        repeated[runs] = (ev > 1).any(axis=1)
-    return {"failed_pct": 100 * failed.mean(), "firings": firings.mean(),
-            "repeated_pct": 100 * repeated.mean(), "runs": n}
+def campaign(out: Path, name: str, text: str) -> pd.DataFrame:
+    spec = out / "specs" / f"{name}.toml"
+    spec.write_text(text)
+    where = out / "campaigns" / name
+    argv = ["campaign", "run", str(spec), "--out", str(where)]
+    if where.exists():
+        argv.append("--resume")
+    code = rcsim(argv)
+    if code != 0:
+        raise SystemExit(f"rcsim campaign run {spec}: exit {code}")
+    return pd.read_parquet(where / "runs.parquet")
+
+
+def evidence(out: Path, runs: int) -> None:
+    table = out / "table_no13.csv"
+    if not table.exists():
+        assert rcsim(["lookup", "generate", "--jets-off", "13", "--out", str(table)]) == 0
+    rows = []
+    for k, (config, extra, controllers) in enumerate(CONFIGS):
+        for ctl in controllers:
+            name = f"c{k}-{ctl}"
+            text = BASE.format(runs=runs, controller="lookup" if ctl == "regenerated" else ctl,
+                               table=table if ctl == "regenerated" else "default") + extra
+            t0 = time.perf_counter()
+            r = score(campaign(out, name, text))
+            rows.append({"configuration": config, "controller": ctl, **r,
+                         "wall_s": time.perf_counter() - t0, "dir": name})
+    frame = pd.DataFrame(rows)
+    frame.to_csv(out / "evidence.csv", index=False)
+    print("| configuration | controller | runs | failed % | firing events to rate | "
+          "runs with a repeated firing % |")
+    print("|---|---|---|---|---|---|")
+    for r in frame.itertuples():
+        print(f"| {r.configuration} | {r.controller} | {r.runs} | {r.failed_pct:.1f} | "
+              f"{r.firings:.2f} | {r.repeated_pct:.1f} |")
+
+
+def speed(out: Path, runs: int, repeats: int) -> None:
+    from rcsim.analysis.campaign.runner import run_campaign
+    from rcsim.analysis.campaign.spec import load_spec
+
+    spec_dir = out / "specs"
+    spec_dir.mkdir(parents=True, exist_ok=True)
+    for label, extra in (("off", ""), ("noise and delays", SENSOR + TIMING)):
+        path = spec_dir / f"speed-{label.replace(' ', '-')}.toml"
+        path.write_text(BASE.format(runs=runs, controller="lookup", table="default") + extra)
+        best = float("inf")
+        for k in range(repeats):
+            where = out / "speed" / f"{path.stem}-{k}"
+            c0 = resource.getrusage(resource.RUSAGE_SELF)
+            run_campaign(load_spec(path), where, threads=1, progress=False)
+            c1 = resource.getrusage(resource.RUSAGE_SELF)
+            best = min(best, (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime))
+        n = 26 * runs
+        print(f"{label}: {n} runs x 20 s in {best:.2f} CPU s (best of {repeats}): "
+              f"{n * 20.0 / best:.0f} simulated s per CPU s", flush=True)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs-per-case", type=int, default=20)
+    ap.add_argument("--out", required=True, type=Path, help="working directory (created)")
+    ap.add_argument("--runs-per-case", type=int, default=50)
+    ap.add_argument("--speed", action="store_true", help="only the speed comparison")
+    ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args(argv)
-    model = load_model()
-    tables: dict = {}
-    print("| configuration | controller | runs | failed % | firing events to rate | "
-          "runs with a repeated firing % |")
-    print("|---|---|---|---|---|---|")
-    for name, config in configurations().items():
-        ctls = ["static", "adaptive"] + (["regenerated"] if config.get("fault", {}).get(
-            "mode") == "off" else [])
-        for ctl in ctls:
-            r = fly(config, ctl, args.runs_per_case, model, tables)
-            print(f"| {name} | {ctl} | {r['runs']} | {r['failed_pct']:.1f} | "
-                  f"{r['firings']:.2f} | {r['repeated_pct']:.1f} |", flush=True)
+    (args.out / "specs").mkdir(parents=True, exist_ok=True)
+    if args.speed:
+        speed(args.out, args.runs_per_case, args.repeats)
+    else:
+        evidence(args.out, args.runs_per_case)
     return 0
 
 

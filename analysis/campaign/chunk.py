@@ -17,6 +17,7 @@ import pandas as pd
 # firing_starts is re-exported only for old import paths (no in-tree importer is left; to be
 # dropped once the lead confirms).
 from rcsim.analysis.campaign.outcomes import axis_jets, firing_starts, outcomes  # noqa: F401
+from rcsim.analysis.campaign.effects import adapt_options, draw_effects
 from rcsim.analysis.campaign.schema import check_run_frame, missing_outcomes
 from rcsim.spacecraft.dispersions import DispersedRuns, dispersion_frame, draw_runs
 from rcsim.spacecraft.guards import history_bytes
@@ -66,9 +67,12 @@ def max_chunk_runs(spec, duration_s: float) -> int:
     """Most runs per chunk for runs of ``duration_s``: ``spec.chunk_size``, or fewer when the
     chunk's per-cycle record would exceed :data:`HISTORY_BUDGET_BYTES`."""
     cycles = int(np.ceil(duration_s / PropulsionParams().cycle_s))
+    # Imperfect sensors record what the controller measured; timing and faults record what
+    # the jets delivered (rcsim.spacecraft.guards.history_bytes).
+    extra = spec.effects.records()
     # history_bytes(n, cycles) is affine in n: the shared time column plus n runs' records.
-    shared = history_bytes(0, cycles)
-    per_run = history_bytes(1, cycles) - shared
+    shared = history_bytes(0, cycles, **extra)
+    per_run = history_bytes(1, cycles, **extra) - shared
     by_memory = (HISTORY_BUDGET_BYTES - shared) // per_run
     return int(max(1, min(spec.chunk_size, by_memory)))
 
@@ -162,7 +166,10 @@ def fly_runs(spec, run_ids: np.ndarray, *, nthread: int = 1, model=None,
              cancel: threading.Event | None = None) -> tuple[History, DispersedRuns]:
     """Draw and fly campaign runs ``run_ids`` (cases of equal duration) as one batch.
 
-    ``cancel``: when set (from another thread), the flight raises :class:`Cancelled`.
+    The vehicles come from the runs' dispersion streams; sensors, timing and faults (those
+    the spec has) from children of their noise streams (:mod:`rcsim.analysis.campaign.effects`),
+    so a run flies the same whichever chunk holds it (and :func:`run_rows` records the same
+    draws).  ``cancel``: when set (from another thread), the flight raises :class:`Cancelled`.
     """
     from rcsim.analysis.flight import fly_batch
     from rcsim.lookup.registry import make_controller
@@ -171,10 +178,14 @@ def fly_runs(spec, run_ids: np.ndarray, *, nthread: int = 1, model=None,
     run_ids = np.asarray(run_ids, dtype=np.int64)
     dispersed = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids)
     scenarios = [spec.cases[c] for c in run_ids // spec.runs_per_case]
-    controller = make_controller(spec.controller, table=spec.table, model=model)
+    effects = draw_effects(spec.effects, spec.seed, run_ids)[0]
+    options = {"adapt_options": adapt_options(spec.effects)} if spec.controller == "adaptive" \
+        else {}
+    controller = make_controller(spec.controller, table=spec.table, model=model, **options)
     if cancel is not None:
         controller = _Cancellable(controller, cancel)
-    history = fly_batch(scenarios, dispersed.params, controller, model=model, nthread=nthread)
+    history = fly_batch(scenarios, dispersed.params, controller, model=model, nthread=nthread,
+                        **effects)
     return history, dispersed
 
 
@@ -251,9 +262,13 @@ def flown_inputs(dispersed: DispersedRuns, flown: VehicleParams | None) -> Dispe
 
 
 def run_rows(spec, dispersed: DispersedRuns, outcome: pd.DataFrame) -> pd.DataFrame:
-    """The runs.parquet rows of runs ``dispersed.run_ids``: identity, inputs, ``outcome``
-    (columns: :data:`rcsim.analysis.campaign.schema.RUN_COLUMNS`)."""
+    """The runs.parquet rows of runs ``dispersed.run_ids``: identity, inputs (vehicle, then
+    the spec's sensor / timing / fault draws), ``outcome`` (columns:
+    :func:`rcsim.analysis.campaign.schema.run_columns` of ``spec.effects.groups``)."""
     cases = dispersed.run_ids // spec.runs_per_case
+    # The effects' draws are a function of (seed, run id): the ones fly_runs flew (a few
+    # variates per run, negligible next to a flight).
+    effects = draw_effects(spec.effects, spec.seed, dispersed.run_ids)[1]
     head = pd.DataFrame({
         "run_id": dispersed.run_ids,
         "case": [spec.cases[c].name for c in cases],
@@ -261,7 +276,8 @@ def run_rows(spec, dispersed: DispersedRuns, outcome: pd.DataFrame) -> pd.DataFr
         "seed": np.full(dispersed.run_ids.size, spec.seed, dtype=np.int64),
     })
     return check_run_frame(
-        pd.concat([head, dispersion_frame(dispersed), outcome.reset_index(drop=True)], axis=1))
+        pd.concat([head, dispersion_frame(dispersed), effects.reset_index(drop=True),
+                   outcome.reset_index(drop=True)], axis=1), spec.effects.groups)
 
 
 def tabulate(spec, history: History, dispersed: DispersedRuns) -> pd.DataFrame:

@@ -18,14 +18,17 @@ from rcsim.models.errors import InputError
 MAX_INITIAL_RATE_DEG_S = 3.0
 
 
-def max_duration_s() -> float:
-    """Longest run a campaign flies [s]: one run's per-cycle record within a chunk's budget."""
+def max_duration_s(measured: bool = False, delivered: bool = False) -> float:
+    """Longest run a campaign flies [s]: one run's per-cycle record within a chunk's budget
+    (``measured``, ``delivered``: with the records of imperfect sensors and of valve timing or
+    faults, :func:`rcsim.spacecraft.guards.history_bytes`)."""
     from rcsim.analysis.campaign.chunk import HISTORY_BUDGET_BYTES
     from rcsim.spacecraft.guards import history_bytes
     from rcsim.spacecraft.propulsion import PropulsionParams
 
     # history_bytes(1, 1): one run's record of one cycle, with its share of the time column.
-    return (HISTORY_BUDGET_BYTES // history_bytes(1, 1)) * PropulsionParams().cycle_s
+    return ((HISTORY_BUDGET_BYTES // history_bytes(1, 1, measured, delivered))
+            * PropulsionParams().cycle_s)
 
 
 _LIMITS: dict = {}

@@ -41,8 +41,9 @@ from pathlib import Path
 from rcsim.analysis.campaign import results as R
 from rcsim.analysis.campaign.chunk import iter_chunks, simulate_chunk
 from rcsim.analysis.campaign.cluster import close, connect, dask_results
+from rcsim.analysis.campaign.effects import describe
 from rcsim.analysis.campaign.gate import GateResult, judge
-from rcsim.analysis.campaign.schema import RUN_COLUMNS
+from rcsim.analysis.campaign.schema import ALL_COLUMNS
 from rcsim.analysis.output import check_out_dir, write_marker
 from rcsim.models.errors import InputError
 
@@ -136,7 +137,7 @@ def _sigterm_interrupts():
 
 # Bytes a run's row takes in runs.parquet, at most: 8 per column (numbers are float64 or int64
 # and do not compress; the reason strings are mostly empty).
-_ROW_BYTES = 8 * len(RUN_COLUMNS)
+_ROW_BYTES = 8 * len(ALL_COLUMNS)  # with every optional effect column: an upper bound
 # Per kept history, per control cycle: the history frame's columns (rcsim.analysis.flight), float64.
 _HISTORY_ROW_BYTES = 8 * 40
 
@@ -287,7 +288,7 @@ def _run(spec, out, manifest, resume, client, cluster, workers, threads, progres
     write_marker(out, COMMAND)
     manifest = manifest or _new_manifest(spec, spec_file)
     manifest["code_version"] = R.code_version()
-    if spec.controller == "lookup" and spec.table is None:
+    if spec.controller in ("lookup", "adaptive") and spec.table is None:
         manifest["lookup_default_table"] = R.default_lookup_table()
     if resume and manifest.get("status") == "running":
         manifest.setdefault("resumed_utc", []).append(R.now_utc())
@@ -383,6 +384,9 @@ def summary_text(report: CampaignReport, spec) -> str:
     lines.append(f"{c.get('runs', 0)} runs, {c.get('failed', 0)} failed "
                  f"({c.get('sim_failed', 0)} simulation failures); controller {spec.controller}, "
                  f"failure: final |rate error| >= {spec.resolved['failure']['rate_error_deg_s']} deg/s")
+    effects = describe(spec.effects)
+    if effects:
+        lines.append(f"with {effects}")
     cases_csv = report.out / R.CASES
     if cases_csv.exists():
         cases = pd.read_csv(cases_csv)

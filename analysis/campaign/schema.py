@@ -89,7 +89,10 @@ OUTCOME_COLUMNS: tuple[Column, ...] = (
                "time of that first sample; NaN if never reached"),
     *_per_axis("firings_{axis}", "float64", "-", "firing events on {axis}'s jets, whole run"),
     Column("firings_total", "float64", "-", "jet firings, whole run (a pair counts 2)"),
-    *_per_jet("jet_{jet}_on_time_s", "float64", "s", "total on-time of the jet"),
+    *_per_jet("jet_{jet}_on_time_s", "float64", "s",
+              "total on-time of the jet: what it delivered (with [dispersions.timing] or "
+              "[dispersions.fault], the commands moved by the delays, plus stuck-on time, "
+              "minus failed time)"),
     Column("propellant_kg", "float64", "kg", "propellant used, at the vehicle's Isp (280 s)"),
     Column("rate_settled_time_s", "float64", "s",
            "start of the final stretch in which every axis stays under thr through the end of "
@@ -102,7 +105,46 @@ OUTCOME_COLUMNS: tuple[Column, ...] = (
     Column("reason", "str", "-", "why the run failed; empty if it did not"),
 )
 
+#: Optional inputs, present only in campaigns whose spec has the matching table
+#: (``[dispersions.sensor]``, ``[dispersions.timing]``, ``[dispersions.fault]``; draws of
+#: :mod:`rcsim.spacecraft.effect_draws`), after the vehicle inputs in this order.  A campaign
+#: without them keeps exactly the columns it always had (it resumes and replays as before).
+EFFECT_COLUMNS: dict[str, tuple[Column, ...]] = {
+    "sensor": (
+        *_per_axis("att_bias_{axis}_deg", "float64", "deg",
+                   "attitude sensor bias about {axis} (drawn per run; the measured attitude is "
+                   "the true one rotated by bias and white noise)"),
+        *_per_axis("rate_bias_{axis}_deg_s", "float64", "deg/s",
+                   "rate gyro bias about {axis} at the start (drawn per run; a random walk "
+                   "and white noise add to it in flight)"),
+    ),
+    "timing": (
+        Column("command_delay_s", "float64", "s",
+               "sensor-to-actuator delay: valve commands start this late in each cycle"),
+        Column("open_delay_max_s", "float64", "s",
+               "largest valve opening latency of the run's 16 jets (drawn per jet)"),
+        Column("close_delay_max_s", "float64", "s",
+               "largest valve closing latency of the run's 16 jets (drawn per jet)"),
+    ),
+    "fault": (
+        Column("fault_jet", "int64", "-", "the faulty jet, 1..16; 0 if the run has no fault"),
+        Column("fault_time_s", "float64", "s",
+               "failure time (mode off) or start of the stuck window (mode stuck); NaN if "
+               "no fault or mode degraded (degraded for the whole run)"),
+        Column("fault_stuck_for_s", "float64", "s",
+               "length of the stuck-on window (mode stuck); NaN otherwise"),
+        Column("fault_thrust_factor", "float64", "-",
+               "thrust of the faulty jet as a fraction of its own (mode degraded); 1 for the "
+               "other modes and for runs without a fault"),
+    ),
+}
+EFFECT_GROUPS: tuple[str, ...] = tuple(EFFECT_COLUMNS)
+
 RUN_COLUMNS: tuple[Column, ...] = ID_COLUMNS + INPUT_COLUMNS + OUTCOME_COLUMNS
+#: Every column a runs.parquet may have (all effect groups), in order.
+ALL_COLUMNS: tuple[Column, ...] = (ID_COLUMNS + INPUT_COLUMNS
+                                   + tuple(c for g in EFFECT_GROUPS for c in EFFECT_COLUMNS[g])
+                                   + OUTCOME_COLUMNS)
 OUTCOME_NAMES: tuple[str, ...] = tuple(c.name for c in OUTCOME_COLUMNS)
 INPUT_NAMES: tuple[str, ...] = tuple(c.name for c in INPUT_COLUMNS)
 RUN_NAMES: tuple[str, ...] = tuple(c.name for c in RUN_COLUMNS)
@@ -133,10 +175,32 @@ def missing_outcomes(n: int, reason: str) -> pd.DataFrame:
     return outcome_frame(values)
 
 
-def check_run_frame(frame: pd.DataFrame) -> pd.DataFrame:
-    """``frame`` if its columns are exactly :data:`RUN_COLUMNS`, in order; else a KeyError."""
-    if tuple(frame.columns) != RUN_NAMES:
-        diff = sorted(set(frame.columns) ^ set(RUN_NAMES)) or "(order)"
+def run_columns(effects=()) -> tuple[Column, ...]:
+    """The columns of a campaign whose spec has the effect groups ``effects`` (names of
+    :data:`EFFECT_COLUMNS`), in order."""
+    unknown = [g for g in effects if g not in EFFECT_COLUMNS]
+    if unknown:
+        raise KeyError(f"unknown effect group(s) {unknown}; known: {list(EFFECT_GROUPS)}")
+    extra = tuple(c for g in EFFECT_GROUPS if g in effects for c in EFFECT_COLUMNS[g])
+    return ID_COLUMNS + INPUT_COLUMNS + extra + OUTCOME_COLUMNS
+
+
+def effect_frame_of(values: dict, effects) -> pd.DataFrame:
+    """The effect-input columns of ``effects`` from ``values`` (name -> (n,) array), in schema
+    order and dtypes; a KeyError when a column is missing (a bug)."""
+    cols = [c for g in EFFECT_GROUPS if g in effects for c in EFFECT_COLUMNS[g]]
+    missing = [c.name for c in cols if c.name not in values]
+    if missing:
+        raise KeyError(f"effect inputs lack {missing} (rcsim.analysis.campaign.schema)")
+    return pd.DataFrame({c.name: _cast(values[c.name], c.dtype) for c in cols})
+
+
+def check_run_frame(frame: pd.DataFrame, effects=()) -> pd.DataFrame:
+    """``frame`` if its columns are exactly :func:`run_columns` of ``effects``, in order;
+    else a KeyError."""
+    names = tuple(c.name for c in run_columns(effects))
+    if tuple(frame.columns) != names:
+        diff = sorted(set(frame.columns) ^ set(names)) or "(order)"
         raise KeyError(f"runs frame differs from rcsim.analysis.campaign.schema: {diff}")
     return frame
 
@@ -148,10 +212,14 @@ def _cast(value, dtype: str):
 
 
 def markdown_table() -> str:
-    """The schema as a Markdown table, per-axis and per-jet columns folded into one row."""
+    """The schema as a Markdown table (every column, the optional effect inputs included),
+    per-axis and per-jet columns folded into one row."""
     rows, seen = [], set()
-    for c in RUN_COLUMNS:
+    group_of = {c.name: g for g in EFFECT_GROUPS for c in EFFECT_COLUMNS[g]}
+    for c in ALL_COLUMNS:
         name, meaning = c.name, c.meaning
+        if name in group_of:
+            meaning = f"{meaning} (only with [dispersions.{group_of[name]}])"
         for axis in AXES:
             if f"_{axis}_" in name or name.endswith(f"_{axis}"):
                 name = name.replace(axis, "<axis>", 1)

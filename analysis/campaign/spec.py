@@ -8,9 +8,10 @@ dispersion at least as large as its nominal value, a hold disturbance beyond the
 the rates the physics step was validated for, a run too long for one chunk's memory.
 Units are in the key names (``_deg``, ``_deg_s``, ``_n``, ...); inside, everything is SI.
 
-About 400 lines: the commented :data:`EXAMPLE_SPEC` (55 lines of user documentation) and
+About 460 lines: the commented :data:`EXAMPLE_SPEC` (80 lines of user documentation) and
 the key-by-key validation describe the same keys and change together; the generic reader lives
-in :mod:`~rcsim.analysis.campaign.reader`, the physical ranges in
+in :mod:`~rcsim.analysis.campaign.reader`, the sensor / timing / fault tables in
+:mod:`~rcsim.analysis.campaign.effects`, the physical ranges in
 :mod:`~rcsim.analysis.campaign.limits`, the failure gate in :mod:`~rcsim.analysis.campaign.gate`.
 :data:`EXAMPLE_SPEC` (``rcsim campaign example``) documents every key.
 """
@@ -27,12 +28,13 @@ from pathlib import Path
 
 import numpy as np
 
+from rcsim.analysis.campaign.effects import Effects, parse_effects
 from rcsim.analysis.campaign.gate import check_max_failed_pct, max_failed_pct_problem
 from rcsim.analysis.campaign.limits import (MAX_INITIAL_RATE_DEG_S, check_three_sigma,
                                             max_duration_s, physical_limits)
 from rcsim.analysis.campaign.reader import Reader, file_digest, file_key
 from rcsim.analysis.flight import Scenario
-from rcsim.lookup.registry import CONTROLLERS
+from rcsim.lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
 from rcsim.models.errors import InputError
 from rcsim.models.tables import PAPER_LOOKUP_TABLES
 from rcsim.spacecraft.dispersions import DispersionSigmas
@@ -58,10 +60,12 @@ duration_s = 20.0        # simulated time of every run [s]
 # name = "yaw-5deg"  # maneuver/hold case name (default: the kind)
 
 [controller]
-name = "lookup"          # "phase-plane" or "lookup"  (required)
-table = "default"        # lookup only: "default" (the packaged generated table), "table6" or
-                         #   "table7" (the paper's Tables 6 / 7, packaged), or a table CSV
-                         #   path, relative to this file
+name = "lookup"          # "phase-plane", "lookup" or "adaptive" (the lookup controller whose
+                         #   table entries learn their firing times in flight)  (required)
+table = "default"        # lookup / adaptive: "default" (the packaged generated table), "table6"
+                         #   or "table7" (the paper's Tables 6 / 7, packaged), or a table CSV
+                         #   path, relative to this file (a table made by `rcsim lookup
+                         #   generate --jets-off` loads with its companion _settling.csv)
 
 [dispersions]
 table = "default"        # "default" = Gambone Table 5, or a CSV path in its format
@@ -76,7 +80,25 @@ scale = 1.0              # multiplies every 3-sigma (3.0 for the stress runs of 
 # izz_kg_m2 = 221.13
 # thrust_n = 2.0           # drawn per jet
 # thruster_angle_deg = 5.0 # drawn per jet: tilt ~ N(0, 3sigma/3) about a uniform azimuth
-# Sensor noise and delays are not supported yet; a [dispersions.sensor] table is rejected.
+# Sensors, delays and jet faults (docs/faults.md; absent tables: perfect sensors, no delays,
+# no faults).  Drawn from each run's noise stream: adding them leaves the vehicles as they were.
+# [dispersions.sensor]          # one number (all axes) or [roll, pitch, yaw]; all 1-sigma
+# att_noise_deg = 0.003         # white, per 40 ms sample
+# rate_noise_deg_s = 0.001      # white, per sample
+# att_bias_sigma_deg = 0.003    # bias drawn per run
+# rate_bias_sigma_deg_s = 0.003 # bias drawn per run
+# rate_walk_deg_s_per_sqrt_s = 0.0005
+# [dispersions.timing]          # seconds: mean and 1-sigma, normal per run (valves: per jet)
+# command_delay_s = 0.005       # sensor-to-actuator
+# open_delay_s = 0.008          # valve opening latency (open_delay_sigma_s = 0.001)
+# close_delay_s = 0.005         # valve closing latency (close_delay_sigma_s = 0.001)
+# [dispersions.fault]           # one jet fault per run, with a probability
+# mode = "off"                  # "off" (failed off), "stuck" (stuck on), "degraded" or "none"
+# jets = [13, 14, 15, 16]       # candidates; one chosen uniformly per run
+# probability = 1.0
+# time_s = [0.0, 3.0]           # uniform window of the fault's start [s]
+# stuck_for_s = [0.1, 0.5]      # mode "stuck": uniform window length [s]
+# thrust_factor = [0.8, 0.8]    # mode "degraded": uniform thrust fraction
 
 [failure]
 # A run fails when the simulation fails, or when any axis ends with |rate error| above this
@@ -134,6 +156,9 @@ class CampaignSpec:
     resolved : dict
         The spec with defaults filled in and paths made absolute (JSON-able); what the
         manifest records, what ``--resume`` compares and what ``replay`` rebuilds from.
+    effects : Effects
+        Sensors, valve timing and jet faults (:mod:`~rcsim.analysis.campaign.effects`);
+        each ``is_none()`` when the spec has no such table.
     max_failed_pct : float or None
         The failure gate, percent of runs (:mod:`~rcsim.analysis.campaign.gate`); None: no gate.
         Not in ``resolved``: it judges results and changes nothing that is flown, so a
@@ -155,6 +180,22 @@ class CampaignSpec:
     plots: bool
     resolved: dict
     max_failed_pct: float | None = None
+    effects: Effects = Effects()
+
+    @property
+    def sensor(self):
+        """:class:`rcsim.spacecraft.effect_draws.SensorSpec` of the campaign."""
+        return self.effects.sensor
+
+    @property
+    def timing(self):
+        """:class:`rcsim.spacecraft.effect_draws.TimingSpec` of the campaign."""
+        return self.effects.timing
+
+    @property
+    def fault(self):
+        """:class:`rcsim.spacecraft.effect_draws.FaultSpec` of the campaign."""
+        return self.effects.fault
 
     @property
     def n_cases(self) -> int:
@@ -281,6 +322,7 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
     base_dir : Path or None
         Relative file paths are relative to it (the spec file's directory).
     """
+    from rcsim.lookup.jet_sets import load_table_for_jets
     from rcsim.models.tables import load_dispersions, load_lookup_table
 
     top = Reader(data, "", source)
@@ -298,12 +340,21 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
     resolved["scenario"] = scen_resolved if isinstance(raw_scen, list) else scen_resolved[0]
 
     c = top.table_("controller")
-    name = c.choice("name", None, CONTROLLERS)
+    name = c.choice("name", None, ALL_CONTROLLERS)
     table = file_key(c, "table", base_dir, names=tuple(PAPER_LOOKUP_TABLES))
-    if name == "phase-plane" and table is not None:
-        raise c.error("table", "is only for the lookup controller", table)
-    if table is not None:
+    if name not in TABLE_CONTROLLERS and table is not None:
+        raise c.error("table", "is only for the lookup and adaptive controllers", table)
+    jets_off: tuple = ()
+    if table in PAPER_LOOKUP_TABLES:
         load_lookup_table(table)  # InputError naming the file, row and column
+    elif table is not None:
+        # Checked against the jets of the vehicle it was made for (its companion file).
+        jets_off = load_table_for_jets(table)[1]
+    if c.has("jets_off"):  # a manifest's: the companion must still name the same jets
+        expect = c.raw("jets_off")
+        if expect != list(jets_off):
+            raise c.error("table", f"companion file now names jets off {list(jets_off)}, "
+                          f"the campaign flew it for {expect}", table)
     if c.has("table_sha256"):  # present in a manifest's resolved spec (replay, resume)
         expect = c.raw("table_sha256")
         if expect != file_digest(table):
@@ -313,6 +364,8 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
     c.done()
     resolved["controller"] = {"name": name, "table": table or "default",
                               "table_sha256": file_digest(table)}
+    if jets_off:  # recorded only when there are some: other specs resolve as before
+        resolved["controller"]["jets_off"] = list(jets_off)
 
     d = top.table_("dispersions")
     disp_table = file_key(d, "table", base_dir)
@@ -333,16 +386,20 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
                 frame.loc[len(frame), ["name", "three_sigma"]] = [row, overrides[key] * factor]
     over.done()
     check_three_sigma(frame, scale, overrides, source, _SIGMA_KEYS)
-    if d.has("sensor"):
-        raise d.error("sensor", "sensor noise and delays are not supported yet")
+    effects, effects_resolved = parse_effects(d.table, source=source)
     d.done()
+    longest = max_duration_s(**effects.records())
+    if effects.groups and any(case.duration_s > longest for case in cases):
+        raise InputError(f"{source}: scenario.duration_s: must be <= {longest:.0f} s with "
+                         f"[dispersions.{'/'.join(effects.groups)}] (their per-cycle records "
+                         "must fit a chunk's memory budget too)")
     try:
         sigmas = DispersionSigmas.from_table(frame, scale)
     except InputError as exc:
         raise InputError(f"{source}: dispersions.table: {exc}") from None
     resolved["dispersions"] = {"table": disp_table or "default",
                                "table_sha256": file_digest(disp_table),
-                               "scale": scale, "three_sigma": overrides}
+                               "scale": scale, "three_sigma": overrides, **effects_resolved}
 
     f = top.table_("failure")
     rate_thr = f.number("rate_error_deg_s", _DEFAULT_RATE_ERROR_DEG_S, minimum=0.0, strict=True)
@@ -375,7 +432,7 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
         rate_threshold_rad_s=math.radians(rate_thr),
         attitude_threshold_rad=None if att_thr is None else math.radians(att_thr),
         histories=histories, first_k=first_k, plots=plots, resolved=resolved,
-        max_failed_pct=max_failed,
+        max_failed_pct=max_failed, effects=effects,
     )
 
 

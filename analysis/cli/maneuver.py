@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from rcsim.lookup.registry import CONTROLLERS
+from rcsim.lookup.registry import ALL_CONTROLLERS
 from rcsim.models.errors import InputError
 
 COMMAND = "maneuver"  # recorded in the output directory's marker
@@ -20,11 +20,15 @@ def register(sub) -> None:
         "DIR/history.parquet (one row per 40 ms control cycle), DIR/attitude_error.png, "
         "DIR/rates_jets.png and DIR/summary.json.",
     )
-    p.add_argument("--controller", choices=CONTROLLERS, default="phase-plane")
+    p.add_argument("--controller", choices=ALL_CONTROLLERS, default="phase-plane",
+                   help="phase-plane, lookup (the paper's pattern recognition) or adaptive "
+                        "(lookup whose table entries learn their firing times in flight); "
+                        "default phase-plane")
     p.add_argument("--attitude-deg", nargs=3, type=float, required=True, metavar=("R", "P", "Y"),
                    help="commanded attitude as roll, pitch, yaw rotation-vector components [deg]")
     p.add_argument("--duration-s", type=float, default=60.0, help="simulated time [s] (default 60)")
-    p.add_argument("--table", help="lookup table CSV for --controller lookup (default: packaged)")
+    p.add_argument("--table", help="lookup table CSV for --controller lookup or adaptive "
+                                   "(default: packaged)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output directory (created; an existing one is refused unless it holds "
                         "an earlier `rcsim maneuver`'s outputs and --overwrite is given)")

@@ -1,8 +1,10 @@
 """``rcsim scenario``: fly the paper's named scenarios and compare the two controllers.
 
 * ``rcsim scenario list``
-* ``rcsim scenario run NAME --controller lookup|phase-plane [--table T.csv] --out DIR``
-* ``rcsim scenario compare --out DIR`` (every scenario, both controllers: comparison.csv/.md)
+* ``rcsim scenario run NAME --controller lookup|phase-plane|adaptive [--table T.csv] --out DIR``
+* ``rcsim scenario compare --out DIR`` (every scenario, the paper's two controllers, lookup and
+  phase-plane: comparison.csv/.md; the adaptive controller is compared in campaigns,
+  ``docs/faults.md``)
 * ``rcsim scenario figures --out DIR`` (the lookup figure set of docs/figures, lookup_*.png)
 """
 from __future__ import annotations
@@ -10,6 +12,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from rcsim.lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
 from rcsim.models.errors import InputError
 
 
@@ -35,7 +38,9 @@ def register(sub) -> None:
         "40 ms cycle), DIR/metrics.csv, DIR/summary.json and the paper-style plots.",
     )
     run.add_argument("name", help="scenario name (see `rcsim scenario list`)")
-    run.add_argument("--controller", choices=("lookup", "phase-plane"), default="lookup")
+    run.add_argument("--controller", choices=ALL_CONTROLLERS, default="lookup",
+                     help="lookup (default), phase-plane or adaptive (lookup whose table "
+                          "entries learn their firing times in flight)")
     run.add_argument("--table", help="lookup table CSV (default: the packaged table)")
     run.add_argument("--no-fire-band-deg", type=float, metavar="DEG",
                      help="lookup no-firing half-width [deg] (default: the scenario's; 0 = off)")
@@ -92,8 +97,10 @@ def run_run(args: argparse.Namespace) -> int:
 
     scn = get_scenario(args.name)
     _check_table(args.table)
-    if args.controller != "lookup" and (args.table or args.no_fire_band_deg is not None):
-        raise InputError("--table and --no-fire-band-deg are only for --controller lookup")
+    if args.controller not in TABLE_CONTROLLERS and (args.table
+                                                     or args.no_fire_band_deg is not None):
+        raise InputError("--table and --no-fire-band-deg are only for --controller lookup or "
+                         "adaptive")
     overrides = {}
     if args.no_fire_band_deg is not None:
         if not math.isfinite(args.no_fire_band_deg) or args.no_fire_band_deg < 0:

@@ -97,7 +97,7 @@ def test_paper_tables_by_name(tmp_path):
             "name": "lookup", "table": name,
             "table_sha256": hashlib.sha256(packaged).hexdigest()}
     # A name is for the lookup controller only, like a path.
-    with pytest.raises(InputError, match="controller.table: is only for the lookup controller"):
+    with pytest.raises(InputError, match="controller.table: is only for the lookup and adaptive controllers"):
         load_spec(_write(tmp_path, MINIMAL.replace('"phase-plane"',
                                                    '"phase-plane"\ntable = "table6"')))
 
@@ -115,14 +115,15 @@ def test_a_file_named_like_a_paper_table_needs_dot_slash(tmp_path):
 
 
 def test_controller_names_are_the_registry_list(tmp_path):
-    """One list of controller names (rcsim.lookup.registry.CONTROLLERS): the spec accepts
-    each and its error lists them."""
-    from rcsim.lookup.registry import CONTROLLERS
+    """One list of controller names (rcsim.lookup.registry.ALL_CONTROLLERS, the adaptive
+    controller included): the spec accepts each and its error lists them."""
+    from rcsim.lookup.registry import ALL_CONTROLLERS
 
-    for name in CONTROLLERS:
+    assert "adaptive" in ALL_CONTROLLERS
+    for name in ALL_CONTROLLERS:
         spec = load_spec(_write(tmp_path, MINIMAL.replace('"phase-plane"', f'"{name}"')))
         assert spec.controller == name
-    listed = "controller.name: must be one of " + ", ".join(CONTROLLERS)
+    listed = "controller.name: must be one of " + ", ".join(ALL_CONTROLLERS)
     with pytest.raises(InputError, match=listed):
         load_spec(_write(tmp_path, MINIMAL.replace('"phase-plane"', '"pid"')))
 
@@ -139,8 +140,29 @@ BAD = [
      "runs_per_case: must be an integer >= 1"),
     ("missing table file", MINIMAL.replace('"phase-plane"', '"lookup"\ntable = "nope.csv"'),
      "controller.table: file not found"),
-    ("sensor noise", MINIMAL + "[dispersions.sensor]\nrate_noise_deg_s = 0.01\n",
-     "dispersions.sensor: sensor noise and delays are not supported yet"),
+    # Sensors, timing and faults (issue 11): the file, the table and the key in every message.
+    ("sensor key typo", MINIMAL + "[dispersions.sensor]\nnoise_deg = 0.01\n",
+     "spec.toml: [dispersions.sensor]: unknown key(s) noise_deg"),
+    ("negative sensor noise", MINIMAL + "[dispersions.sensor]\nrate_noise_deg_s = -0.01\n",
+     "[dispersions.sensor]: rate_noise_deg_s must be finite and >= 0, got -0.01"),
+    ("sensor noise of two axes", MINIMAL + "[dispersions.sensor]\natt_noise_deg = [1, 2]\n",
+     "[dispersions.sensor]: att_noise_deg must be a number or 3 numbers"),
+    ("sensor not a table", MINIMAL + "[dispersions]\nsensor = 0.01\n",
+     "[dispersions.sensor]: expected a table, got 0.01"),
+    ("negative delay", MINIMAL + "[dispersions.timing]\nopen_delay_s = -0.001\n",
+     "[dispersions.timing]: open_delay_s must be a number >= 0 [s], got -0.001"),
+    # 0.030 + 0.008 + 5 x 0.001 = 0.043 s: beyond the 40 ms cycle (a command must act in it).
+    ("delays beyond the cycle", MINIMAL + "[dispersions.timing]\ncommand_delay_s = 0.030\n"
+     "open_delay_s = 0.008\nopen_delay_sigma_s = 0.001\n",
+     "[dispersions.timing]: command_delay_s + open_delay_s + 5 x their sigmas is 0.043 s"),
+    ("fault mode typo", MINIMAL + "[dispersions.fault]\nmode = 'failed'\n",
+     "[dispersions.fault]: mode must be one of none, off, stuck, degraded, got 'failed'"),
+    ("fault jet 17", MINIMAL + "[dispersions.fault]\nmode = 'off'\njets = [13, 17]\n",
+     "[dispersions.fault]: jets must be a list of jet numbers 1..16, got [13, 17]"),
+    ("thrust factor above 1", MINIMAL + "[dispersions.fault]\nmode = 'degraded'\n"
+     "thrust_factor = 1.2\n", "[dispersions.fault]: thrust_factor must be [lo, hi]"),
+    ("table for phase-plane", MINIMAL.replace('"phase-plane"', '"phase-plane"\ntable = "table6"'),
+     "controller.table: is only for the lookup and adaptive controllers"),
     ("unknown controller", MINIMAL.replace('"phase-plane"', '"pid"'), "controller.name: must be one of"),
     ("bad case", MINIMAL.replace("[13]", "[27]"), "scenario.cases: no such rate case 27"),
     ("typo top level", "sead = 3\n" + MINIMAL, "unknown key 'sead'"),
