@@ -55,8 +55,12 @@ def _interrupt(spec_path: Path, out: Path, extra: list[str], sig: int, *, group:
     return (exit code, stderr)."""
     cli = [sys.executable, "-m", "rcsim.analysis.cli", "campaign", "run", str(spec_path),
            "--out", str(out), "--no-progress", *extra]
+    # A terminal's rcsim starts with Ctrl-C at its default; a test runner started in the
+    # background of a non-interactive shell passes SIGINT on *ignored*, and an ignored SIGINT
+    # stays ignored in Python.  Restore the default so the test sees what a user sees.
     proc = subprocess.Popen(cli, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and proc.poll() is None:
