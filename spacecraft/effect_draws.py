@@ -55,9 +55,14 @@ def effect_stream(seed: int, run_id: int, purpose: int) -> np.random.SeedSequenc
     return np.random.SeedSequence(noise.entropy, spawn_key=tuple(noise.spawn_key) + (purpose,))
 
 
-def _axes(table: Mapping, key: str, where: str, *, deg: bool, sigma: bool = True) -> np.ndarray:
-    """A 3-vector (or a scalar for all axes) from ``table[key]``; radians if ``deg``."""
+def _axes(table: Mapping, key: str, where: str, *, deg: bool, sigma: bool = True,
+          maximum: float = np.inf) -> np.ndarray:
+    """A 3-vector (or a scalar for all axes) from ``table[key]``, each at most ``maximum`` (in
+    the key's own unit); radians if ``deg``."""
     raw = table.get(key, 0.0)
+    if isinstance(raw, bool) or (isinstance(raw, (list, tuple))
+                                 and any(isinstance(x, bool) for x in raw)):
+        raise InputError(f"{where}: {key} must be a number or 3 numbers, got {raw!r}")
     try:
         v = np.broadcast_to(np.asarray(raw, float), (3,)).copy()
     except (ValueError, TypeError):
@@ -66,6 +71,8 @@ def _axes(table: Mapping, key: str, where: str, *, deg: bool, sigma: bool = True
     if not np.isfinite(v).all() or (sigma and (v < 0).any()):
         raise InputError(f"{where}: {key} must be finite{' and >= 0' if sigma else ''}, "
                          f"got {raw!r}")
+    if (np.abs(v) > maximum).any():
+        raise InputError(f"{where}: {key} must be at most {maximum:g}, got {raw!r}")
     return np.radians(v) if deg else v
 
 
@@ -92,6 +99,11 @@ class SensorSpec:
 
     KEYS: ClassVar[tuple] = ("att_noise_deg", "rate_noise_deg_s", "att_bias_sigma_deg",
             "rate_bias_sigma_deg_s", "rate_walk_deg_s_per_sqrt_s")
+    #: Largest one-sigma accepted per key (its unit): well past any star tracker or gyro an RCS
+    #: analyst would fly (arc-seconds and mdeg/s), short of values that only break the
+    #: navigation (a 10 deg attitude sigma is already a lost vehicle next to the 0.6 deg
+    #: maneuver limit; 1 deg/s of rate noise is 3x the 0.3 deg/s commands).
+    MAXIMA: ClassVar[tuple] = (10.0, 1.0, 10.0, 1.0, 0.1)
 
     @classmethod
     def from_mapping(cls, table: Mapping, where: str = "[dispersions.sensor]") -> "SensorSpec":
@@ -99,7 +111,8 @@ class SensorSpec:
         ``rate_bias_sigma_deg_s``, ``rate_walk_deg_s_per_sqrt_s`` (one number or three; all
         one-sigma, default 0).  ``where`` names the file and table in errors."""
         _unknown(table, cls.KEYS, where)
-        return cls(*(_axes(table, k, where, deg=True) for k in cls.KEYS))
+        return cls(*(_axes(table, k, where, deg=True, maximum=m)
+                     for k, m in zip(cls.KEYS, cls.MAXIMA)))
 
     def is_none(self) -> bool:
         return not any(np.any(getattr(self, f.name)) for f in fields(self))
@@ -173,10 +186,20 @@ class FaultSpec:
             raise InputError(f"{where}: mode must be one of {', '.join(FAULT_MODES)}, "
                              f"got {mode!r}")
         jets = table.get("jets", list(range(1, N_JETS + 1)))
-        if (not isinstance(jets, (list, tuple)) or not jets
-                or not all(isinstance(j, int) and 1 <= j <= N_JETS for j in jets)):
-            raise InputError(f"{where}: jets must be a list of jet numbers 1..{N_JETS}, "
-                             f"got {jets!r}")
+        if (not isinstance(jets, (list, tuple)) or not jets or len(set(jets)) != len(jets)
+                or not all(isinstance(j, int) and not isinstance(j, bool) and 1 <= j <= N_JETS
+                           for j in jets)):
+            raise InputError(f"{where}: jets must be a list of distinct jet numbers "
+                             f"1..{N_JETS}, got {jets!r}")
+        # Each window belongs to one mode: a key the mode ignores is a mistake, not a default.
+        for key, owner in (("time_s", ("off", "stuck")), ("stuck_for_s", ("stuck",)),
+                           ("thrust_factor", ("degraded",))):
+            if key in table and mode not in owner:
+                raise InputError(f"{where}: {key} applies to mode {' or '.join(owner)}, not "
+                                 f"{mode!r} (a degraded jet is degraded for the whole flight)"
+                                 if key == "time_s" else
+                                 f"{where}: {key} applies to mode {' or '.join(owner)}, "
+                                 f"not {mode!r}")
         p = table.get("probability", 1.0)
         if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0 <= p <= 1:
             raise InputError(f"{where}: probability must be in [0, 1], got {p!r}")

@@ -96,9 +96,9 @@ scale = 1.0              # multiplies every 3-sigma (3.0 for the stress runs of 
 # mode = "off"                  # "off" (failed off), "stuck" (stuck on), "degraded" or "none"
 # jets = [13, 14, 15, 16]       # candidates; one chosen uniformly per run
 # probability = 1.0
-# time_s = [0.0, 3.0]           # uniform window of the fault's start [s]
-# stuck_for_s = [0.1, 0.5]      # mode "stuck": uniform window length [s]
-# thrust_factor = [0.8, 0.8]    # mode "degraded": uniform thrust fraction
+# time_s = [0.0, 3.0]           # modes "off", "stuck": uniform window of the fault's start [s]
+# stuck_for_s = [0.1, 0.5]      # mode "stuck" only: uniform window length [s]
+# thrust_factor = [0.8, 0.8]    # mode "degraded" only (the whole flight): thrust fraction
 
 [failure]
 # A run fails when the simulation fails, or when any axis ends with |rate error| above this

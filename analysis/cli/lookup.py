@@ -178,7 +178,10 @@ def run_compare(args: argparse.Namespace) -> int:
     from rcsim.lookup.table_generation import compare_tables
     from rcsim.models.tables import load_lookup_table
 
-    table = load_default_table() if args.table is None else load_lookup_table(args.table)
+    from rcsim.lookup.jet_sets import load_table_for_jets
+
+    # A table for failed jets is checked against the jets it was made for (its companion).
+    table = load_default_table() if args.table is None else load_table_for_jets(args.table)[0]
     frame = compare_tables(table, load_lookup_table(which=args.which))
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(frame.to_string(index=False))
@@ -188,14 +191,15 @@ def run_compare(args: argparse.Namespace) -> int:
 
 
 def run_refine(args: argparse.Namespace) -> int:
-    from rcsim.analysis.refinement.outputs import check_outputs, run_refinement, write_refinement
-    from rcsim.models.tables import load_lookup_table
+    from rcsim.analysis.refinement.outputs import (
+        check_outputs, held_out_seed, load_refinable_table, run_refinement, write_refinement,
+    )
 
-    table = load_lookup_table(args.table)
+    table = load_refinable_table(args.table)
     # OUT.csv, OUT_changelog.csv and OUT_plots/ are checked before any flight; --overwrite
     # replaces all three.
     out = check_outputs(args.out, overwrite=args.overwrite)["table"]
-    fresh = args.seed + 1 if args.fresh_seed is None else args.fresh_seed
+    fresh = held_out_seed(args.seed) if args.fresh_seed is None else args.fresh_seed
     cases = None
     if args.cases is not None:
         bad = [c for c in args.cases if c not in set(int(c) for c in table.case)]

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 
 
 def register(sub) -> None:
@@ -34,7 +35,11 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from rcsim.analysis.loop.run import LoopSettings, run_loop
 
-    settings = LoopSettings(table=args.table, runs_per_case=args.runs_per_case,
+    from rcsim.models.tables import PAPER_LOOKUP_TABLES
+
+    # A CSV path is kept absolute: a resumed loop re-reads the same file from any directory.
+    table = args.table if args.table in PAPER_LOOKUP_TABLES else os.path.abspath(args.table)
+    settings = LoopSettings(table=table, runs_per_case=args.runs_per_case,
                             seed=args.seed, fresh_seed=args.fresh_seed)
     result = run_loop(settings, args.out, resume=args.resume, progress=args.progress)
     total = sum(result.stage_s.values())

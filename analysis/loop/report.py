@@ -72,7 +72,8 @@ def _summary(out: Path, settings, state: dict, log: pd.DataFrame, before: pd.Dat
             f"failed {fa} runs."),
         table_block(pd.DataFrame(rows, columns=["", "value"]), "The loop"),
         text_block(
-            "Use the refined table with `--table refined_table.csv` (any command), or gate a "
+            "Fly the refined table with `--table refined_table.csv` (`rcsim maneuver`, "
+            "`rcsim scenario run`) or as a campaign spec's `controller.table`, or gate a "
             "change in CI with `rcsim campaign run spec_after.toml --out DIR "
             "--max-failed-pct P`. Replay any run with `rcsim campaign replay "
             "campaign_before RUN_ID`."),
@@ -150,8 +151,9 @@ def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
         "failed_fresh_after", "repeated_fresh_before", "repeated_fresh_after"]
     blocks = [table_block(log[log["changed"]][cols], "Changed entries (refined_table_changelog.csv)",
                           max_rows=30, float_format="{:.2f}")]
-    if table == "table6":
-        t6, t7 = load_lookup_table("table6"), load_lookup_table("table7")
+    t6, t7 = load_lookup_table("table6"), load_lookup_table("table7")
+    # The paper's refinement is comparable when the table refined is Table 6 (by name or copy).
+    if np.array_equal(load_lookup_table(table).firing_time_s, t6.firing_time_s):
         ours = changed_cells(t6, load_lookup_table(refined))
         paper = changed_cells(t6, t7)
         both = ours.merge(paper, on=["case", "axis", "old_cycles"], how="outer",

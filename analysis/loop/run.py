@@ -21,10 +21,12 @@ import pandas as pd
 from rcsim.analysis.campaign import results as campaign_results
 from rcsim.analysis.campaign.runner import run_campaign
 from rcsim.analysis.campaign.spec import load_spec
-from rcsim.analysis.output import check_out_dir, write_marker
+from rcsim.analysis.output import check_out_dir, directory_owner, write_marker
 from rcsim.models.atomic import atomic_write
 from rcsim.models.errors import InputError
-from rcsim.analysis.refinement.outputs import check_parameters, held_out_seed, rate_cases_campaign
+from rcsim.analysis.refinement.outputs import (
+    check_parameters, held_out_seed, load_refinable_table, rate_cases_campaign,
+)
 from rcsim.models.tables import PAPER_LOOKUP_TABLES, load_lookup_table
 
 COMMAND = "loop"
@@ -118,8 +120,8 @@ class _State:
         self.path = out / STATE
         wanted = asdict(settings)
         if resume and self.path.is_file():
-            self.data = json.loads(self.path.read_text())
-            if self.data.get("settings") != wanted:
+            self.data = read_state(out)
+            if _comparable(self.data.get("settings")) != _comparable(wanted):
                 raise InputError(f"{out}: was started with other settings "
                                  f"({self.data.get('settings')}); choose another directory",
                                  parameter="out", value=str(out))
@@ -141,6 +143,31 @@ class _State:
                                                                   + "\n"))
 
 
+def _comparable(settings) -> dict | None:
+    """Settings as they decide what is flown: the held-out seed, not how it was given."""
+    if not isinstance(settings, dict):
+        return None
+    out = dict(settings)
+    if out.get("fresh_seed") is None and isinstance(out.get("seed"), int):
+        out["fresh_seed"] = held_out_seed(out["seed"])
+    return out
+
+
+def read_state(out: Path) -> dict:
+    """``out/loop.json``, checked; :class:`InputError` naming the file if it is not one."""
+    path = out / STATE
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{path}: not a readable loop state file ({exc})", parameter="out",
+                         value=str(out)) from None
+    if not (isinstance(data, dict) and isinstance(data.get("settings"), dict)
+            and isinstance(data.get("done"), dict)):
+        raise InputError(f"{path}: not a loop state file (no settings and stages)",
+                         parameter="out", value=str(out))
+    return data
+
+
 def check_loop_dir(out, *, resume: bool, overwrite: bool) -> Path:
     """Check ``out`` before any work: new, or a loop directory to resume."""
     out = Path(out)
@@ -148,6 +175,12 @@ def check_loop_dir(out, *, resume: bool, overwrite: bool) -> Path:
         if not (out / STATE).is_file():
             raise InputError(f"{out}: no {STATE} here to resume; start the loop without resume",
                              parameter="out", value=str(out))
+        owner = directory_owner(out)
+        if owner != COMMAND:
+            raise InputError(f"{out}: was not written by `rcsim loop`"
+                             + (f" (it holds `rcsim {owner}` outputs)" if owner else ""),
+                             parameter="out", value=str(out))
+        read_state(out)
         return out.absolute()
     if overwrite:
         raise InputError("a loop directory is resumed, never replaced: choose another directory",
@@ -177,7 +210,7 @@ def run_loop(settings: LoopSettings, out, *, resume: bool = False,
     )
     from rcsim.analysis.refinement.search import refine
 
-    table = load_lookup_table(settings.table)  # a table that does not load: before any work
+    table = load_refinable_table(settings.table)  # a table that does not load: before any work
     out = check_loop_dir(out, resume=resume, overwrite=False)
     out.mkdir(parents=True, exist_ok=True)
     write_marker(out, COMMAND)

@@ -31,6 +31,8 @@ from rcsim.spacecraft.dispersions import draw_runs
 from rcsim.spacecraft.vehicle import VehicleParams, load_model
 
 DPI = 90
+#: Most runs drawn in the before/after plot of one case.
+PLOT_RUNS = 200
 
 
 def rate_cases_campaign(*, runs_per_case: int, seed: int, duration_s: float = 20.0,
@@ -180,6 +182,26 @@ def load_search(path: str | Path, table: LookupTable) -> RefineResult:
 MAX_RUNS_PER_CASE = 100_000
 
 
+def load_refinable_table(table) -> LookupTable:
+    """The table to refine (a CSV path or ``table6`` / ``table7``).
+
+    Refinement flies the 16-jet vehicle; a table generated for failed jets (its companion file
+    records them, :mod:`rcsim.lookup.jet_sets`) is refused with that reason rather than with
+    the jet-map mismatch the plain loader would report.
+    """
+    from rcsim.lookup.jet_sets import jets_off_of
+    from rcsim.models.tables import PAPER_LOOKUP_TABLES, load_lookup_table
+
+    if str(table) not in PAPER_LOOKUP_TABLES and Path(table).is_file():
+        off = jets_off_of(table)
+        if off:
+            raise InputError(f"{table}: a table for jets {','.join(map(str, off))} off; "
+                             "refinement flies the full 16-jet vehicle (fly this table with "
+                             "`rcsim campaign run` and its spec's controller.table)",
+                             parameter="table", value=str(table))
+    return load_lookup_table(table)
+
+
 def held_out_seed(seed: int) -> int:
     """The default held-out seed of a search on ``seed``: ``seed + 1``.
 
@@ -203,8 +225,14 @@ def check_parameters(*, runs_per_case, seed, fresh_seed, duration_s, max_iterati
     if fresh_seed == seed:
         raise bad("fresh_seed", fresh_seed, "must differ from the search seed (it is the "
                                             "held-out check)")
-    if not (isinstance(duration_s, (int, float)) and np.isfinite(duration_s) and duration_s > 0):
-        raise bad("duration_s", duration_s, "must be a finite time > 0 s")
+    from rcsim.analysis.campaign.limits import max_duration_s
+
+    longest = max_duration_s()
+    # At least a second: the longest table firing (0.52 s), the 0.16 s hold and a correction.
+    if not (isinstance(duration_s, (int, float)) and np.isfinite(duration_s)
+            and 1.0 <= duration_s <= longest):
+        raise bad("duration_s", duration_s, f"must be a time in 1..{longest:.0f} s (a firing, "
+                  "its hold and a correction; at most what one campaign chunk holds)")
 
 
 def changelog(old: LookupTable, result: RefineResult, fresh_before: pd.DataFrame,
@@ -320,14 +348,17 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
                            duration_s=ref.duration_s)
     row = case - 1
     model = load_model()
-    ids = row * ref.runs_per_case + np.arange(ref.runs_per_case)
+    # At most PLOT_RUNS runs: enough to see the spread, and a fixed cost however many runs
+    # the search flew (the whole history of every run is kept for the plot).
+    shown = min(ref.runs_per_case, PLOT_RUNS)
+    ids = row * ref.runs_per_case + np.arange(shown)
     params = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, ids).params
     thr = np.degrees(spec.rate_threshold_rad_s)
     fig, axes = new_figure(1, 2, figsize=(12, 4.5), sharey=True)
     cmd = np.degrees(spec.cases[row].rate_cmd_rad_s[a])
     for ax, (label, table, old_new) in zip(axes, (("old table", ref.original, "old"),
                                                    ("refined table", ref.table, "new"))):
-        history = fly_batch([spec.cases[row]] * ref.runs_per_case, params,
+        history = fly_batch([spec.cases[row]] * shown, params,
                             LookupController(table), model=model)
         rate = np.degrees(history.omega_B[:, :, a])
         failed = outcomes(history, spec, CONTROL_CYCLE_S, params.isp_s)["failed"].to_numpy(bool)
@@ -337,7 +368,7 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
                 ax.plot(history.t_s, rate[sel].T, color=color, lw=0.6, alpha=0.5)
         ax.axhspan(cmd - thr, cmd + thr, color="0.8", alpha=0.6, label=f"command +-{thr:g} deg/s")
         ax.set_title(f"{label}: {axis} {log[f'{axis}_{old_new}_s']:.2f} s; "
-                     f"{int(failed.sum())} of {ref.runs_per_case} runs fail (red)", fontsize=10)
+                     f"{int(failed.sum())} of {shown} runs fail (red)", fontsize=10)
         ax.set_xlabel("time [s]")
         ax.grid(alpha=0.3)
         ax.legend(loc="lower right", fontsize=8)

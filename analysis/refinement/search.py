@@ -20,7 +20,7 @@ automated by measuring the number of firings and the final rate error".  Here:
    flown (fewest failures, then repeated firings, over all searched cases).
 
 Guarding against fitting the seed is the caller's job (:func:`refine` reports the search seed
-only; :mod:`rcsim.analysis.refinement.report` flies a fresh seed).
+only; :func:`rcsim.analysis.refinement.outputs.held_out_check` flies a fresh seed).
 """
 from __future__ import annotations
 

@@ -158,7 +158,7 @@ BAD = [
     ("fault mode typo", MINIMAL + "[dispersions.fault]\nmode = 'failed'\n",
      "[dispersions.fault]: mode must be one of none, off, stuck, degraded, got 'failed'"),
     ("fault jet 17", MINIMAL + "[dispersions.fault]\nmode = 'off'\njets = [13, 17]\n",
-     "[dispersions.fault]: jets must be a list of jet numbers 1..16, got [13, 17]"),
+     "[dispersions.fault]: jets must be a list of distinct jet numbers 1..16, got [13, 17]"),
     ("thrust factor above 1", MINIMAL + "[dispersions.fault]\nmode = 'degraded'\n"
      "thrust_factor = 1.2\n", "[dispersions.fault]: thrust_factor must be [lo, hi]"),
     ("table for phase-plane", MINIMAL.replace('"phase-plane"', '"phase-plane"\ntable = "table6"'),
