@@ -43,6 +43,7 @@ import pandas as pd
 
 # The comparison with the paper's tables lives in rcsim.lookup.table_compare; re-exported here for
 # the callers that import it from this module.
+from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.lookup.table_compare import axis_times, compare_tables  # noqa: F401
 from rcsim.models.errors import InputError
 from rcsim.models.tables import (
@@ -96,29 +97,6 @@ class RateFiringLoop:
         fire = (~done) * direction  # (n, 3)
         on = ((fire > 0) @ self._pos + (fire < 0) @ self._neg) * self.cycle_s
         return on, {"direction": direction, "done": done}
-
-
-class TableFiring:
-    """Fire each jet for its table time from t = 0, open loop.
-
-    Parameters
-    ----------
-    firing_time_s : ndarray, (n_runs, 16)
-        Total on-time per jet [s].
-    cycle_s : float
-        Control cycle [s].
-    """
-
-    def __init__(self, firing_time_s: np.ndarray, cycle_s: float = CONTROL_CYCLE_S):
-        self.firing_time_s = np.asarray(firing_time_s, float)
-        self.cycle_s = cycle_s
-
-    def initial_state(self, n_runs: int):
-        return self.firing_time_s.copy()
-
-    def step(self, nav: NavState, remaining: np.ndarray):
-        on = np.minimum(remaining, self.cycle_s)
-        return on, np.maximum(remaining - self.cycle_s, 0.0)
 
 
 # ------------------------------------------------------------------------------------------
@@ -380,7 +358,7 @@ def generate_table(
 
     # Verification: fly the table open loop under the rate command, then watch the rate.
     fire_end = times.max(axis=1)  # (26,), pairs end together; axes may end earlier
-    verify = simulate_batch(batch, TableFiring(times, cyc), Guidance.rate(rate),
+    verify = simulate_batch(batch, OpenLoopController(times, cyc), Guidance.rate(rate),
                             float(fire_end.max()) + settle_window_s,
                             propulsion=propulsion, model=model, faults=faults)
     err = np.concatenate([verify.rate_err_B, verify.final.rate_err_B[:, None]], axis=1)
@@ -411,16 +389,32 @@ def generate_table(
 
 
 def check_jets_off(jets_off) -> tuple:
-    """``jets_off`` as a sorted tuple of jet numbers 1..16; InputError otherwise."""
+    """``jets_off`` as a sorted tuple of distinct jet numbers 1..16 that leaves every rotation
+    axis at least one jet (a table for an axis without jets commands nothing); InputError
+    otherwise."""
     try:
         jets = [int(j) for j in jets_off]
     except (TypeError, ValueError):
         raise InputError(f"must be jet numbers 1..{N_JETS}, got {jets_off!r}",
                          parameter="jets_off", value=None) from None
     bad = [j for j in jets if not 1 <= j <= N_JETS]
-    if bad or len(set(jets)) != len(jets) or any(int(j) != j for j in jets_off):
-        raise InputError(f"must be distinct jet numbers 1..{N_JETS}, got {list(jets_off)}",
-                         parameter="jets_off", value=None)
+    if bad:
+        raise InputError(f"no jet {bad[0]}; jets are 1..{N_JETS}", parameter="jets_off",
+                         value=list(jets_off))
+    dup = sorted({j for j in jets if jets.count(j) > 1})
+    if dup:
+        raise InputError(f"jet {dup[0]} appears twice", parameter="jets_off",
+                         value=list(jets_off))
+    if any(int(j) != j for j in jets_off):
+        raise InputError(f"must be whole jet numbers, got {list(jets_off)}",
+                         parameter="jets_off", value=list(jets_off))
+    torque = load_jet_map()  # (16, 3): the sign of each jet's torque per axis, Table 2
+    for a, axis in enumerate(AXES):
+        axis_jets = {j + 1 for j in range(N_JETS) if torque[j, a] != 0}
+        if axis_jets <= set(jets):
+            raise InputError(f"every {axis} jet ({', '.join(map(str, sorted(axis_jets)))}) is "
+                             f"off; no table can control {axis}", parameter="jets_off",
+                             value=list(jets_off))
     return tuple(sorted(jets))
 
 

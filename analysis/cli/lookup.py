@@ -97,30 +97,20 @@ def register(sub) -> None:
 
 
 def _jets_off(text: str) -> tuple:
-    """``--jets-off`` value: distinct jet numbers 1..16, comma-separated, leaving every
-    rotation axis at least one jet (a table for an axis without jets commands nothing)."""
-    from rcsim.models.tables import load_jet_map
+    """``--jets-off`` value: comma-separated jet numbers, checked by the library's rule
+    (:func:`rcsim.lookup.table_generation.check_jets_off`)."""
+    from rcsim.lookup.table_generation import check_jets_off
+    from rcsim.models.errors import InputError
 
-    parts = [p.strip() for p in text.split(",")]
     try:
-        jets = [int(p) for p in parts]
+        jets = [int(p.strip()) for p in text.split(",")]
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"{text!r}: jet numbers 1..16 separated by commas expected, e.g. 13,15") from None
-    bad = [j for j in jets if not 1 <= j <= 16]
-    if bad:
-        raise argparse.ArgumentTypeError(f"{text!r}: no jet {bad[0]}; jets are 1..16")
-    dup = sorted({j for j in jets if jets.count(j) > 1})
-    if dup:
-        raise argparse.ArgumentTypeError(f"{text!r}: jet {dup[0]} appears twice")
-    torque = load_jet_map()  # (16, 3): the sign of each jet's torque per axis, Table 2
-    for a, axis in enumerate(("roll", "pitch", "yaw")):
-        axis_jets = {j + 1 for j in range(torque.shape[0]) if torque[j, a] != 0}
-        if axis_jets <= set(jets):
-            raise argparse.ArgumentTypeError(
-                f"{text!r}: every {axis} jet ({', '.join(map(str, sorted(axis_jets)))}) is off; "
-                f"no table can control {axis}")
-    return tuple(sorted(jets))
+    try:
+        return check_jets_off(jets)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(f"{text!r}: {exc.message}") from None
 
 
 def run_generate(args: argparse.Namespace) -> int:

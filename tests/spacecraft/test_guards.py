@@ -26,7 +26,8 @@ import pytest
 
 from rcsim.lookup.pattern_recognition import LookupController, LookupParams, load_default_table
 from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
-from rcsim.lookup.table_generation import RateFiringLoop, TableFiring
+from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.lookup.table_generation import RateFiringLoop
 from rcsim.models.errors import InputError
 from rcsim.models.tables import CONTROL_CYCLE_S, load_jet_map
 from rcsim.spacecraft import guards
@@ -130,7 +131,7 @@ def test_default_cycles_are_the_one_constant(phase_plane):
         "PhasePlaneController": phase_plane.cycle_s,
         "LookupController": lookup.cycle_s,
         "RateFiringLoop": RateFiringLoop(jet_map).cycle_s,
-        "TableFiring": TableFiring(np.zeros((1, 16))).cycle_s,
+        "OpenLoopController": OpenLoopController(np.zeros((1, 16))).cycle_s,
     }
     assert cycles == dict.fromkeys(cycles, CONTROL_CYCLE_S)
 
