@@ -46,7 +46,7 @@ chromium:
 test-min:
 	rm -rf $(MIN_VENV) build
 	$(PYTHON) -m venv $(MIN_VENV)
-	$(MIN_VENV)/bin/python -m pip install --quiet -c $(MIN_PINS) setuptools wheel
+	$(MIN_VENV)/bin/python -m pip install --quiet -c $(MIN_PINS) setuptools
 	$(MIN_VENV)/bin/python -m pip install --quiet --no-build-isolation -c $(MIN_PINS) '.[test]'
 	rm -rf build
 	$(MIN_VENV)/bin/python -m pip list --format=freeze >$(MIN_VENV)/versions.txt

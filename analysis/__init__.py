@@ -1,6 +1,16 @@
-"""What users run and read: scenarios, campaigns, failure drivers, reports, studies, the CLI.
+"""What users run and read, in three layers the tree shows (imports flow one way)::
 
-Owns flying named scenarios and writing their outputs (:mod:`rcsim.analysis.flight`), plots, Monte
-Carlo campaigns and their results, and the ``rcsim`` command line (:mod:`rcsim.analysis.cli`).
-Imports every layer below it (``models``, ``spacecraft``, ``lookup``); nothing imports it.
+    engine  <-  results  <-  apps
+
+* :mod:`analysis.engine` -- the engine that flies and writes: one flight
+  (:mod:`~analysis.engine.flight`), the paper's scenarios, Monte Carlo campaigns and the
+  runs table they write (:mod:`~analysis.engine.runs_table`), output directories and plots;
+* :mod:`analysis.results` -- the analysis that reads results: failure drivers, the scoring of
+  refinement candidates, the generic HTML report kit;
+* :mod:`analysis.apps` -- the applications: the analyst's loop, table refinement, the
+  published studies and the ``rcsim`` command line.
+
+Imports every layer below it (``models``, ``spacecraft``, ``lookup``).
+
+Must not import: rcsim.
 """

@@ -67,8 +67,8 @@ def _spec_file(folder: Path, *, runs, chunk, duration, controller="lookup", plot
 
 
 def bench_campaign(folder: Path, spec_path: Path, name: str, **kw) -> dict:
-    from rcsim.analysis.campaign.runner import run_campaign
-    from rcsim.analysis.campaign.spec import load_spec
+    from analysis.engine.campaign.runner import run_campaign
+    from analysis.engine.campaign.spec import load_spec
 
     spec = load_spec(spec_path)
     report = run_campaign(spec, folder / name, progress=False, **kw)
@@ -92,10 +92,10 @@ def bench_raw(spec_path: Path) -> dict:
     import numpy as np
     from mujoco.batch import Batch
 
-    from rcsim.analysis.campaign.chunk import plan_chunks
-    from rcsim.analysis.campaign.spec import load_spec
-    from rcsim.spacecraft.propulsion import PropulsionParams
-    from rcsim.spacecraft.vehicle import load_model
+    from analysis.engine.campaign.chunk import plan_chunks
+    from analysis.engine.campaign.spec import load_spec
+    from spacecraft.propulsion import PropulsionParams
+    from spacecraft.vehicle import load_model
 
     spec = load_spec(spec_path)
     cycle = PropulsionParams().cycle_s
@@ -135,9 +135,9 @@ def bench_single_core(spec_path: Path, n: int = 256, repeats: int = 3) -> dict:
     import numpy as np
     from mujoco.batch import Batch
 
-    from rcsim.analysis.campaign.chunk import Chunk, simulate_chunk, warm_up
-    from rcsim.analysis.campaign.spec import load_spec
-    from rcsim.spacecraft.vehicle import load_model
+    from analysis.engine.campaign.chunk import Chunk, simulate_chunk, warm_up
+    from analysis.engine.campaign.spec import load_spec
+    from spacecraft.vehicle import load_model
 
     spec = load_spec(spec_path)
     warm_up()
@@ -167,7 +167,7 @@ def bench_memory(folder: Path, runs_total: int, duration: float, chunk: int) -> 
     spec = _spec_file(folder, runs=runs, chunk=chunk, duration=duration, controller="lookup",
                       plots=True)
     out = folder / f"mem-{runs_total}"
-    code = ("import resource, sys; from rcsim.analysis.cli import main; rc = main(sys.argv[1:]); "
+    code = ("import resource, sys; from analysis.apps.cli import main; rc = main(sys.argv[1:]); "
             "print('MAXRSS_KB', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss); sys.exit(rc)")
     t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, "-c", code, "campaign", "run", str(spec), "--out",
@@ -191,7 +191,7 @@ def bench_interrupt(folder: Path, extra: list[str], repeats: int, *, runs: int =
     seconds, codes = [], []
     for k in range(repeats):
         out = folder / f"interrupt-{'-'.join(extra) or 'local'}-{k}"
-        cli = [sys.executable, "-m", "rcsim.analysis.cli", "campaign", "run", str(spec),
+        cli = [sys.executable, "-m", "rcsim", "campaign", "run", str(spec),
                "--out", str(out), "--no-progress", *extra]
         proc = subprocess.Popen(cli, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                                 text=True, start_new_session=True, cwd=ROOT)

@@ -12,7 +12,7 @@ physics steps that divide the 40 ms control cycle (1, 2, 4, 5, 8, 10, 20, 40 ms)
 * ``pulse_rel_err``: max over a set of pulses (sub-cycle, not a multiple of the step,
   multi-cycle; single-axis pairs and simultaneous three-axis pairs) of
   ``|dw_sim - dw_ref| / |dw_ref|``, flown through the production path
-  (:class:`rcsim.spacecraft.simulation.BatchSimulation`, exact per-step duty).  Single-axis oracle:
+  (:class:`spacecraft.simulation.BatchSimulation`, exact per-step duty).  Single-axis oracle:
   ``dw = 2 F r t / I`` (Table 1 F and I, design arm r).  Three-axis oracle: Euler's equations
   ``I dw/dt = tau - w x I w`` with the same body-fixed pair torques, integrated by SciPy's DOP853
   at rtol 1e-13 between the switch times (the gyroscopic term makes the closed form inexact
@@ -61,11 +61,11 @@ from scipy.integrate import solve_ivp
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
-from rcsim.models.tables import load_jet_map, load_mass_properties  # noqa: E402
-from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat  # noqa: E402
-from rcsim.spacecraft.simulation import BatchSimulation  # noqa: E402
-from rcsim.spacecraft.vehicle import VehicleParams, load_model  # noqa: E402
+from lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
+from models.tables import load_jet_map, load_mass_properties  # noqa: E402
+from spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat  # noqa: E402
+from spacecraft.simulation import BatchSimulation  # noqa: E402
+from spacecraft.vehicle import VehicleParams, load_model  # noqa: E402
 
 INTEGRATORS = ("RK4", "Euler", "implicitfast")
 STEPS_MS = (1, 2, 4, 5, 8, 10, 20, 40)
@@ -230,7 +230,7 @@ def study_scenarios():
     """(name, PaperScenario) of every paper scenario plus the long disturbed hold."""
     from dataclasses import replace
 
-    from rcsim.analysis.scenarios.catalog import all_scenarios
+    from analysis.engine.scenarios.catalog import all_scenarios
 
     out = list(all_scenarios().items())
     hold = all_scenarios()["attitude-hold-disturbed"]
@@ -242,8 +242,8 @@ def study_scenarios():
 
 
 def fly_scenario_at(scenario, controller: str, dt_ms: int):
-    from rcsim.analysis.flight import fly_batch
-    from rcsim.analysis.scenarios.flying import build_controller
+    from analysis.engine.flight import fly_batch
+    from analysis.engine.scenarios.flying import build_controller
 
     model = load_model(timestep_s=dt_ms * 1e-3, integrator="RK4")
     ctl = build_controller(scenario, controller, model=model)

@@ -3,7 +3,7 @@
 Prints simulated seconds per wall second for
 
 * ``closed loop``: 256 runs of the 5/5/5 deg three-axis phase-plane maneuver, 60 s each, through
-  :func:`rcsim.spacecraft.simulation.simulate_batch` (vectorized controller every 40 ms cycle,
+  :func:`spacecraft.simulation.simulate_batch` (vectorized controller every 40 ms cycle,
   MuJoCo batch rollout of the cycle's physics steps with the GIL released);
 * ``raw``: the same number of physics steps of 256 runs in :meth:`mujoco.batch.Batch.rollout`
   with a precomputed control array and no controller (long rollouts of ``CHUNK_S`` of simulated
@@ -38,14 +38,14 @@ from mujoco.batch import Batch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
-from rcsim.models.tables import load_jet_map  # noqa: E402
-from rcsim.spacecraft.navigation import Guidance, navigate  # noqa: E402
-from rcsim.spacecraft.propulsion import (  # noqa: E402
+from lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
+from models.tables import load_jet_map  # noqa: E402
+from spacecraft.navigation import Guidance, navigate  # noqa: E402
+from spacecraft.propulsion import (  # noqa: E402
     PropulsionParams, PropulsionState, apply_valve_limits, duty_profile,
 )
-from rcsim.spacecraft.simulation import simulate_batch  # noqa: E402
-from rcsim.spacecraft.vehicle import VehicleParams, jet_actuator_ids, load_model  # noqa: E402
+from spacecraft.simulation import simulate_batch  # noqa: E402
+from spacecraft.vehicle import VehicleParams, jet_actuator_ids, load_model  # noqa: E402
 
 DURATION_S = 60.0
 ATT_CMD_DEG = (5.0, 5.0, 5.0)

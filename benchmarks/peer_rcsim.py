@@ -36,10 +36,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from rcsim.spacecraft.navigation import Guidance, NavState  # noqa: E402
-from rcsim.spacecraft.propulsion import PropulsionParams  # noqa: E402
-from rcsim.spacecraft.simulation import BatchSimulation  # noqa: E402
-from rcsim.spacecraft.vehicle import N_JETS, VehicleParams, load_model, torque_per_jet_B  # noqa: E402
+from spacecraft.navigation import Guidance, NavState  # noqa: E402
+from spacecraft.propulsion import PropulsionParams  # noqa: E402
+from spacecraft.simulation import BatchSimulation  # noqa: E402
+from spacecraft.vehicle import N_JETS, VehicleParams, load_model, torque_per_jet_B  # noqa: E402
 
 DURATION_S = 20.0
 CYCLE_S = 0.04

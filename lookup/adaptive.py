@@ -4,7 +4,7 @@ Gambone (sec. IV) proposes a controller "that senses when multiple thruster firi
 necessary".  This one senses it per table entry, in flight, and corrects the entry:
 
 * a table entry is one case's firing on one axis (26 x 3 entries per run); the lookup logic
-  (:class:`rcsim.lookup.pattern_recognition.LookupController`) scales its firing time to the rate
+  (:class:`lookup.pattern_recognition.LookupController`) scales its firing time to the rate
   change it needs, so each firing *promises* a rate change ``need`` on its axis, at a constant
   rate over its planned time;
 * when a firing starts, the controller remembers the entry, the promise and the measured rate
@@ -36,7 +36,7 @@ It still knows no mass property and no jet geometry: only its table, its command
 measurements.  State is batched (``(n_runs, ...)`` arrays) like every controller; runs learn
 independently.
 
-Imports ``models``, ``rcsim.spacecraft.navigation`` and ``rcsim.lookup.pattern_recognition`` only.
+Imports ``models``, ``spacecraft.navigation`` and ``lookup.pattern_recognition`` only.
 """
 from __future__ import annotations
 
@@ -44,9 +44,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcsim.lookup.pattern_recognition import LookupController, LookupParams, LookupState
-from rcsim.models.tables import LookupTable
-from rcsim.spacecraft.navigation import NavState
+from lookup.pattern_recognition import LookupController, LookupParams, LookupState
+from models.tables import LookupTable
+from spacecraft.navigation import NavState
 
 N_AXES = 3
 

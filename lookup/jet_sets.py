@@ -1,5 +1,5 @@
 """Which jets a lookup table was made for, recorded beside it, so that a table generated for a
-vehicle with failed jets (:func:`rcsim.lookup.table_generation.generate_table` ``jets_off``) loads.
+vehicle with failed jets (:func:`lookup.table_generation.generate_table` ``jets_off``) loads.
 
 A table for the full vehicle is checked at load against Table 2 (the jet map).  A table
 generated without some jets fires none of them, and pairs with one jet left fire that jet
@@ -8,17 +8,21 @@ alone: checked against Table 2 it would be refused.  Its companion file
 ``jets_off`` column; :func:`load_table_for_jets` reads it and checks the table against the jet
 map *of the vehicle it was made for* (Table 2 without those jets).
 
-Imports ``models`` and ``rcsim.lookup.table_generation``'s helpers only.
+Owns the jet-set rules: which jet sets a table can be made for (:func:`check_jets_off`) and
+the jet map of the jets left (:func:`jet_map_without`).  Imports ``models`` and
+``spacecraft.vehicle`` only.
 """
 from __future__ import annotations
 
 import os
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
-from rcsim.models.errors import InputError
-from rcsim.models.tables import LookupTable, load_jet_map, load_lookup_table
+from models.errors import InputError
+from models.tables import LookupTable, load_jet_map, load_lookup_table
+from spacecraft.vehicle import AXES, N_JETS
 
 
 def companion_path(table: str | os.PathLike) -> Path:
@@ -30,8 +34,6 @@ def companion_path(table: str | os.PathLike) -> Path:
 def jets_off_of(table: str | os.PathLike) -> tuple:
     """Jets (1..16) the table at path ``table`` was generated without, from its companion
     file; ``()`` when there is no companion or it records none."""
-    from rcsim.lookup.table_generation import check_jets_off
-
     comp = companion_path(table)
     if not comp.is_file():
         return ()
@@ -65,9 +67,45 @@ def load_table_for_jets(table: str | os.PathLike, jets_off=None) -> tuple[Lookup
     -------
     (LookupTable, jets_off)
     """
-    from rcsim.lookup.table_generation import check_jets_off, jet_map_without
-
     jets_off = jets_off_of(table) if jets_off is None else check_jets_off(jets_off)
     if not jets_off:
         return load_lookup_table(table), ()
     return load_lookup_table(table, jet_map=jet_map_without(load_jet_map(), jets_off)), jets_off
+
+
+def check_jets_off(jets_off) -> tuple:
+    """``jets_off`` as a sorted tuple of distinct jet numbers 1..16 that leaves every rotation
+    axis at least one jet (a table for an axis without jets commands nothing); InputError
+    otherwise."""
+    try:
+        jets = [int(j) for j in jets_off]
+    except (TypeError, ValueError):
+        raise InputError(f"must be jet numbers 1..{N_JETS}, got {jets_off!r}",
+                         parameter="jets_off", value=None) from None
+    bad = [j for j in jets if not 1 <= j <= N_JETS]
+    if bad:
+        raise InputError(f"no jet {bad[0]}; jets are 1..{N_JETS}", parameter="jets_off",
+                         value=list(jets_off))
+    dup = sorted({j for j in jets if jets.count(j) > 1})
+    if dup:
+        raise InputError(f"jet {dup[0]} appears twice", parameter="jets_off",
+                         value=list(jets_off))
+    if any(int(j) != j for j in jets_off):
+        raise InputError(f"must be whole jet numbers, got {list(jets_off)}",
+                         parameter="jets_off", value=list(jets_off))
+    torque = load_jet_map()  # (16, 3): the sign of each jet's torque per axis, Table 2
+    for a, axis in enumerate(AXES):
+        axis_jets = {j + 1 for j in range(N_JETS) if torque[j, a] != 0}
+        if axis_jets <= set(jets):
+            raise InputError(f"every {axis} jet ({', '.join(map(str, sorted(axis_jets)))}) is "
+                             f"off; no table can control {axis}", parameter="jets_off",
+                             value=list(jets_off))
+    return tuple(sorted(jets))
+
+
+def jet_map_without(jet_map: np.ndarray, jets_off) -> np.ndarray:
+    """The jet map with the rows of ``jets_off`` (1..16) zeroed: the jets left."""
+    out = np.array(jet_map, int)
+    if len(jets_off):
+        out[np.asarray(jets_off, int) - 1] = 0
+    return out

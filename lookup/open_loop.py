@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rcsim.models.tables import CONTROL_CYCLE_S, N_JETS
+from models.tables import CONTROL_CYCLE_S, N_JETS
 
 
 class OpenLoopController:

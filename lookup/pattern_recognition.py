@@ -1,7 +1,7 @@
 """Pattern-recognition lookup controller (Gambone, *Pattern Recognition Control Design*, sec. II).
 
 The controller knows no mass property and no jet map: only a lookup table of firing times
-(26 rate cases x 16 jets, :class:`rcsim.models.tables.LookupTable`) and the five inputs of Table 4.
+(26 rate cases x 16 jets, :class:`models.tables.LookupTable`) and the five inputs of Table 4.
 
 What it learns from the table (paper: "first reads the lookup table to determine the thrusters
 firing in each axis, as well as the indices of opposing thrusters"):
@@ -49,11 +49,13 @@ from pathlib import Path
 
 import numpy as np
 
-from rcsim.models.errors import InputError
-from rcsim.models.tables import (
+from lookup.jet_sets import load_table_for_jets
+from models.errors import InputError
+from models.tables import (
     CONTROL_CYCLE_S, LookupTable, load_lookup_inputs, load_lookup_table,
 )
-from rcsim.spacecraft.navigation import NavState
+from models.tables.lookup_tables import PAPER_LOOKUP_TABLES
+from spacecraft.navigation import NavState
 
 N_AXES = 3
 #: Tolerance for "a timer has run out" [s]: timers are sums of multiples of the cycle and
@@ -64,7 +66,7 @@ _TIMER_EPS_S = 1e-9
 def default_table_path() -> Path:
     """The packaged table, ``lookup/data/generated_table.csv`` (generated for the nominal
     vehicle; see ``lookup/data/README.md``)."""
-    return Path(str(files("rcsim.lookup") / "data" / "generated_table.csv"))
+    return Path(str(files("lookup") / "data" / "generated_table.csv"))
 
 
 def load_default_table() -> LookupTable:
@@ -82,7 +84,7 @@ def learn_jets(table: LookupTable, allow_unserved: bool = False
         ``rate_cmd`` (26, 3) [rad/s] and ``firing_time_s`` (26, 16) [s].
     allow_unserved : bool
         Accept an axis direction no jet serves (a table made for a vehicle with failed jets,
-        :mod:`rcsim.lookup.jet_sets`): that direction is never fired.
+        :mod:`lookup.jet_sets`): that direction is never fired.
 
     Returns
     -------
@@ -149,7 +151,7 @@ class LookupParams:
         Half-width of the no-firing region around the maneuver limit [rad] (0.1 deg,
         paper Figs 17-18); 0 disables it.
     cycle_s : float
-        Control cycle [s]; default :data:`rcsim.models.tables.CONTROL_CYCLE_S` (40 ms).  Must be the
+        Control cycle [s]; default :data:`models.tables.CONTROL_CYCLE_S` (40 ms).  Must be the
         simulation's (``PropulsionParams.cycle_s``); the simulation refuses a mismatch.
     """
 
@@ -212,7 +214,7 @@ class LookupController:
     params : LookupParams, optional
         Default: Table 4 with the 0.1 deg no-firing region.
     jets_off : sequence of int
-        Jets (1..16) the table was made without (:mod:`rcsim.lookup.jet_sets`): an axis direction
+        Jets (1..16) the table was made without (:mod:`lookup.jet_sets`): an axis direction
         left without a jet is accepted and never fired.
     """
 
@@ -255,10 +257,10 @@ class LookupController:
         Parameters
         ----------
         table : path, optional
-            A table CSV, or anything else :func:`rcsim.models.tables.load_lookup_table` accepts;
+            A table CSV, or anything else :func:`models.tables.load_lookup_table` accepts;
             default the packaged generated table (`lookup/data/generated_table.csv`).  A table
             generated without some jets is checked against the jets left, as its companion
-            file records (:mod:`rcsim.lookup.jet_sets`).
+            file records (:mod:`lookup.jet_sets`).
         inputs : path, optional
             Table 4 CSV; default the packaged one.
         **overrides
@@ -271,9 +273,6 @@ class LookupController:
         """
         # The table loader is the one place that refuses a missing file (InputError naming
         # the path) and knows what else ``table`` may name.
-        from rcsim.lookup.jet_sets import load_table_for_jets
-        from rcsim.models.tables.lookup_tables import PAPER_LOOKUP_TABLES
-
         jets_off = ()
         if table is None:
             tab = load_default_table()

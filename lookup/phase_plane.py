@@ -24,9 +24,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from rcsim.models.tables import CONTROL_CYCLE_S
-from rcsim.spacecraft.navigation import NavState
-from rcsim.spacecraft.vehicle import VehicleParams, load_model, torque_per_jet_B
+from models.tables import CONTROL_CYCLE_S
+from spacecraft.navigation import NavState
+from spacecraft.vehicle import VehicleParams, load_model, torque_per_jet_B
 
 
 @dataclass(frozen=True)
@@ -47,7 +47,7 @@ class PhasePlaneParams:
         Maneuver rate limit [rad/s].
     cycle_s : float
         Control cycle [s] the firings are split into; default
-        :data:`rcsim.models.tables.CONTROL_CYCLE_S`.  Must be the simulation's
+        :data:`models.tables.CONTROL_CYCLE_S`.  Must be the simulation's
         (``PropulsionParams.cycle_s``); the simulation refuses a mismatch.
     """
 

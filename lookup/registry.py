@@ -13,12 +13,12 @@ import os
 
 import mujoco
 
-from rcsim.spacecraft.simulation import Controller
+from spacecraft.simulation import Controller
 
 #: The paper's two controllers: what the scenario comparison flies (module docstring).
 CONTROLLERS = ("phase-plane", "lookup")
 #: Built by :func:`make_controller` too, offered by the CLI and campaign specs, not flown by the
-#: scenario comparison: the adaptive lookup controller (:mod:`rcsim.lookup.adaptive`).
+#: scenario comparison: the adaptive lookup controller (:mod:`lookup.adaptive`).
 MORE_CONTROLLERS = ("adaptive",)
 #: Every controller :func:`make_controller` builds, by name: the CLI's and the specs' choices.
 ALL_CONTROLLERS = CONTROLLERS + MORE_CONTROLLERS
@@ -59,11 +59,11 @@ def make_controller(
         Unknown ``name``; ``table`` given for a controller other than ``"lookup"``; a table
         that does not load (a missing file is named by its path).
     """
-    from rcsim.models.errors import InputError
-    from rcsim.models.tables import load_jet_map
+    from models.errors import InputError
+    from models.tables import load_jet_map
 
     if name == "phase-plane":
-        from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
+        from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
 
         if table is not None:
             raise InputError(f"is only for the lookup controller, not {name!r} "
@@ -71,11 +71,11 @@ def make_controller(
         return PhasePlaneController(PhasePlaneParams.for_vehicle(
             load_jet_map(), model=model, **(phase_plane_options or {})))
     if name == "lookup":
-        from rcsim.lookup.pattern_recognition import LookupController
+        from lookup.pattern_recognition import LookupController
 
         return LookupController.from_files(table, **(lookup_options or {}))
     if name == "adaptive":
-        from rcsim.lookup.adaptive import AdaptiveLookupController, AdaptParams
+        from lookup.adaptive import AdaptiveLookupController, AdaptParams
 
         ctl = AdaptiveLookupController.from_files(table, **(lookup_options or {}))
         ctl.adapt = AdaptParams(**(adapt_options or {}))

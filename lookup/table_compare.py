@@ -1,14 +1,15 @@
 """Case-by-case comparison of two lookup tables (e.g. a generated one against the paper's).
 
-Imports ``models``, ``rcsim.spacecraft.vehicle`` and ``rcsim.lookup.pattern_recognition`` only.
+Imports ``models``, ``spacecraft.vehicle`` and ``lookup.pattern_recognition`` only.
 """
 from __future__ import annotations
 
 import numpy as np
 import pandas as pd
 
-from rcsim.models.tables import CONTROL_CYCLE_S, LookupTable
-from rcsim.spacecraft.vehicle import AXES
+from lookup.pattern_recognition import learn_jets
+from models.tables import CONTROL_CYCLE_S, LookupTable
+from spacecraft.vehicle import AXES
 
 
 def axis_times(table: LookupTable) -> tuple[np.ndarray, np.ndarray]:
@@ -21,8 +22,6 @@ def axis_times(table: LookupTable) -> tuple[np.ndarray, np.ndarray]:
     jets : ndarray of bool, (26, 16)
         Jets that fire.
     """
-    from rcsim.lookup.pattern_recognition import learn_jets
-
     axis, _, _ = learn_jets(table)
     ft = np.asarray(table.firing_time_s)
     time_s = np.stack([np.where(axis[None, :] == a, ft, 0.0).max(axis=1) for a in range(3)], 1)

@@ -5,9 +5,9 @@ can be automated") changes a case's firing time on one axis at a time: every jet
 that fires in the case (a jet pair, Table 2) moves by the same whole number of control cycles,
 so the pair stays balanced (no net force) and the time stays a whole number of cycles, as the
 table loader requires.  This module is the pure arithmetic of those edits; flying and scoring
-the candidates is :mod:`rcsim.analysis.refinement`.
+the candidates is :mod:`analysis.apps.refinement`.
 
-Imports ``rcsim.models`` and the controller's jet learning only; never ``rcsim.analysis``.
+Imports ``models`` and the controller's jet learning only; never ``analysis``.
 """
 from __future__ import annotations
 
@@ -15,8 +15,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from rcsim.lookup.pattern_recognition import learn_jets
-from rcsim.models.tables import AXES, CONTROL_CYCLE_S, LookupTable
+from lookup.pattern_recognition import learn_jets
+from models.tables import AXES, CONTROL_CYCLE_S, LookupTable
 
 #: Tolerance for "a whole number of cycles" [cycles]; table times are read from decimal text.
 _CYCLE_ATOL = 1e-6

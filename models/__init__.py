@@ -2,10 +2,11 @@
 
 Owns: ``models/vehicle/vehicle.xml`` (the 16-jet spacecraft), ``models/data/*.csv`` (Gambone
 Tables 1-7 with their SOURCES note), the loaders that validate them and the paper's design
-constants such as ``CONTROL_CYCLE_S`` (:mod:`rcsim.models.tables`), the one user-error type
-(:mod:`rcsim.models.errors`) and the atomic file writer (:mod:`rcsim.models.atomic`).
-Must not import ``rcsim.spacecraft``, ``rcsim.lookup`` or ``rcsim.analysis``: everything else
-builds on this layer.
+constants such as ``CONTROL_CYCLE_S`` (:mod:`models.tables`), the one user-error type
+(:mod:`models.errors`) and the atomic file writer (:mod:`models.atomic`).
+Everything else builds on this layer.
+
+Must not import: spacecraft, lookup, analysis, rcsim.
 """
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ def vehicle_xml() -> Path:
     until the interpreter exits (the pattern the ``importlib.resources`` documentation gives)
     instead of returning a path that is deleted on return.
     """
-    resource = files("rcsim.models") / "vehicle" / "vehicle.xml"
+    resource = files("models") / "vehicle" / "vehicle.xml"
     if isinstance(resource, Path):
         return resource
     keep = ExitStack()

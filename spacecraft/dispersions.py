@@ -34,8 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle import N_JETS, VehicleParams
+from models.errors import InputError
+from spacecraft.vehicle import N_JETS, VehicleParams
 
 #: Table 5 names this module models, in the order they are drawn.
 DISPERSION_NAMES = ("mass", "cg_x", "ixx", "iyy", "izz", "thrust", "thruster_angle")
@@ -79,7 +79,7 @@ class DispersionSigmas:
 
     @classmethod
     def from_table(cls, table: pd.DataFrame, scale: float = 1.0) -> "DispersionSigmas":
-        """Sigmas from a :func:`rcsim.models.tables.load_dispersions` frame (3-sigma, SI) times ``scale``.
+        """Sigmas from a :func:`models.tables.load_dispersions` frame (3-sigma, SI) times ``scale``.
 
         Raises
         ------

@@ -1,6 +1,6 @@
 """Campaign dispersions of sensors, valve timing and jet faults: specs and per-run draws.
 
-The vehicle dispersions of Table 5 live in :mod:`rcsim.spacecraft.dispersions`; this module adds what
+The vehicle dispersions of Table 5 live in :mod:`spacecraft.dispersions`; this module adds what
 Gambone's Monte Carlo left out (sensor noise, the sensor-to-actuator and firing delays) and jet
 faults, as campaign-level specs (:class:`SensorSpec`, :class:`TimingSpec`, :class:`FaultSpec`,
 SI inside) and functions drawing each run's values.
@@ -8,14 +8,14 @@ SI inside) and functions drawing each run's values.
 Seeding
 -------
 Run ``i`` of a campaign with root ``seed`` has the ``(dispersion, noise)`` streams of
-:func:`rcsim.spacecraft.dispersions.run_streams`.  Everything here draws from *children* of the noise
+:func:`spacecraft.dispersions.run_streams`.  Everything here draws from *children* of the noise
 stream ``N``, made explicitly as ``SeedSequence(N.entropy, spawn_key=N.spawn_key + (c,))``
 (what ``N.spawn`` would give, without its counter):
 
 ====  ====================================================
 c     purpose
 ====  ====================================================
-0     sensor noise in flight (:class:`rcsim.spacecraft.sensors.SensorNoise`)
+0     sensor noise in flight (:class:`spacecraft.sensors.SensorNoise`)
 1     sensor biases (6 normals)
 2     valve timing (1 + 16 + 16 normals)
 3     faults (4 uniforms)
@@ -39,11 +39,11 @@ from typing import ClassVar, Mapping
 import numpy as np
 import pandas as pd
 
-from rcsim.models.errors import InputError
-from rcsim.spacecraft.dispersions import run_streams
-from rcsim.spacecraft.sensors import SensorParams
-from rcsim.spacecraft.valves import JetFaults, ValveTiming
-from rcsim.spacecraft.vehicle import N_JETS
+from models.errors import InputError
+from spacecraft.dispersions import run_streams
+from spacecraft.sensors import SensorParams
+from spacecraft.valves import JetFaults, ValveTiming
+from spacecraft.vehicle import N_JETS
 
 SENSOR_NOISE, SENSOR_BIAS, TIMING, FAULT = 0, 1, 2, 3
 FAULT_MODES = ("none", "off", "stuck", "degraded")

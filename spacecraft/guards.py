@@ -7,9 +7,9 @@
   the bytes it needs and what to do instead, rather than dying in ``MemoryError`` (or in the
   operating system's out-of-memory killer) after the set-up.
 * :func:`warning_reasons`: the failure reason of a run whose MuJoCo warning counters rose
-  (see :mod:`rcsim.spacecraft.simulation`, "Failures").
+  (see :mod:`spacecraft.simulation`, "Failures").
 
-Imports ``models`` and ``rcsim.spacecraft.vehicle`` only.
+Imports ``models`` and ``spacecraft.vehicle`` only.
 """
 from __future__ import annotations
 
@@ -19,8 +19,8 @@ import os
 import mujoco
 import numpy as np
 
-from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle import N_JETS
+from models.errors import InputError
+from spacecraft.vehicle import N_JETS
 
 #: Bytes a history records per run per control cycle: ``q_BN`` (4), ``omega_B``,
 #: ``att_err_B``, ``rate_err_B`` (3 each) and ``on_time_s`` (16), float64.
@@ -40,7 +40,7 @@ def check_cycle(controller: object, cycle_s: float) -> None:
         raise InputError(
             f"{type(controller).__name__}.cycle_s = {ctl_cycle} s differs from "
             f"PropulsionParams.cycle_s = {cycle_s} s: give the controller and the propulsion the "
-            f"same control cycle (default rcsim.models.tables.CONTROL_CYCLE_S)"
+            f"same control cycle (default models.tables.CONTROL_CYCLE_S)"
         )
 
 

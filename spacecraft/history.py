@@ -1,6 +1,6 @@
 """The per-cycle record of a batch of flights (:class:`History`).
 
-Imports ``rcsim.spacecraft.navigation``, ``rcsim.spacecraft.propulsion`` and ``rcsim.spacecraft.vehicle`` only.
+Imports ``spacecraft.navigation``, ``spacecraft.propulsion`` and ``spacecraft.vehicle`` only.
 """
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rcsim.spacecraft.navigation import NavState
-from rcsim.spacecraft.propulsion import PropulsionState
-from rcsim.spacecraft.vehicle import VehicleParams
+from spacecraft.navigation import NavState
+from spacecraft.propulsion import PropulsionState
+from spacecraft.vehicle import VehicleParams
 
 
 @dataclass
@@ -41,12 +41,12 @@ class History:
         (:meth:`BatchSimulation.flown_params`); None for a history not made by a simulation.
     delivered_s : ndarray, (n_runs, n_cycles, 16), or None
         Time each jet thrust during the cycle [s]: the command moved by valve timing
-        (:mod:`rcsim.spacecraft.valves`), plus stuck-on windows, minus failed time (with a thrust
+        (:mod:`spacecraft.valves`), plus stuck-on windows, minus failed time (with a thrust
         profile, time with any thrust).  None when there is no valve timing, fault or profile:
         then it is ``on_time_s``.
     meas_att_err_B, meas_rate_err_B : ndarray, (n_runs, n_cycles, 3), or None
         Attitude and rate errors the controller saw (from the measured state,
-        :mod:`rcsim.spacecraft.sensors`) [rad, rad/s]; None when the sensors are perfect (then the
+        :mod:`spacecraft.sensors`) [rad, rad/s]; None when the sensors are perfect (then the
         controller saw ``att_err_B`` and ``rate_err_B``).  Outcomes use the true state.
     """
 

@@ -126,7 +126,7 @@ def cycle_pieces(start_s: np.ndarray, end_s: np.ndarray, cycle_s: float,
 
 def profile_pieces(start_s: np.ndarray, end_s: np.ndarray, cycle_s: float, dt_s: float | None,
                    rise_s: float, fall_s: float, segments: int) -> Pieces:
-    """:func:`cycle_pieces` with the thrust transients of :class:`rcsim.spacecraft.valves.ThrustProfile`.
+    """:func:`cycle_pieces` with the thrust transients of :class:`spacecraft.valves.ThrustProfile`.
 
     A jet whose valve opens at ``s`` and closes at ``e`` thrusts ``min((t - s) / rise_s, 1)``
     of its thrust while open, then decays linearly at ``1 / fall_s`` per second from the level

@@ -8,8 +8,8 @@ actuator control in step ``k`` is the fraction of that step the jet is on,
 (ENGINE.md, "Sub-cycle pulses": sampling the switch-off at steps instead is 4-16 % off).
 
 The closed loop no longer spreads a pulse over a step: it cuts each cycle at the jets' switch
-instants (:mod:`rcsim.spacecraft.pieces`), and a pulse may start anywhere in a cycle (a valve opening
-late, :mod:`rcsim.spacecraft.valves`): any on-interval ``[start, end]`` of a cycle is flown exactly.
+instants (:mod:`spacecraft.pieces`), and a pulse may start anywhere in a cycle (a valve opening
+late, :mod:`spacecraft.valves`): any on-interval ``[start, end]`` of a cycle is flown exactly.
 :func:`duty_profile` remains the impulse-exact duty of a fixed-step integration (benchmarks).
 """
 from __future__ import annotations
@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcsim.models.tables import CONTROL_CYCLE_S
-from rcsim.spacecraft.vehicle import G0_M_S2, N_JETS
+from models.tables import CONTROL_CYCLE_S
+from spacecraft.vehicle import G0_M_S2, N_JETS
 
 
 @dataclass(frozen=True)
@@ -29,7 +29,7 @@ class PropulsionParams:
     Attributes
     ----------
     cycle_s : float
-        Control cycle [s]; default :data:`rcsim.models.tables.CONTROL_CYCLE_S` (40 ms, paper sec. II).
+        Control cycle [s]; default :data:`models.tables.CONTROL_CYCLE_S` (40 ms, paper sec. II).
     min_pulse_s : float
         Shortest firing a valve can make [s].  A *new* firing commanded shorter than this is
         not made (the command is dropped and counted in ``dropped``); a firing continuing from
@@ -79,7 +79,7 @@ def apply_valve_limits(
 
     ``account=False`` leaves ``state.on_time_s`` and ``state.impulse_ns`` alone: the closed loop
     adds what the jets actually delivered once valve delays and faults are applied
-    (:mod:`rcsim.spacecraft.valves`); firings, drops and ``on_at_end`` are the commands' either way.
+    (:mod:`spacecraft.valves`); firings, drops and ``on_at_end`` are the commands' either way.
 
     Parameters
     ----------

@@ -11,12 +11,12 @@ controller reads its sensors):
   ``sigma_walk sqrt(t)``).
 
 The standard normals ``z`` come from one generator per run on that run's sensor-noise stream
-(:func:`rcsim.spacecraft.effect_draws.effect_streams`), nine per cycle in a fixed order (attitude
+(:func:`spacecraft.effect_draws.effect_streams`), nine per cycle in a fixed order (attitude
 x y z, rate x y z, walk x y z) whatever the sigmas: a zero sigma never shifts another draw, and a
 run's noise does not depend on the batch it flies in.  The draws are made in blocks of cycles
 (one Python loop over runs per block, not per cycle).
 
-Imports ``models`` and ``rcsim.spacecraft.navigation`` only.
+Imports ``models`` and ``spacecraft.navigation`` only.
 """
 from __future__ import annotations
 
@@ -24,8 +24,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from rcsim.models.errors import InputError
-from rcsim.spacecraft.navigation import quat_from_rotvec, quat_mul
+from models.errors import InputError
+from spacecraft.navigation import quat_from_rotvec, quat_mul
 
 #: Standard normals per run per cycle: attitude (3), rate (3), rate walk (3).
 N_SENSOR_NORMALS = 9

@@ -1,15 +1,15 @@
 """The closed loop over many runs at once: controller step (numpy) <-> MuJoCo (native threads).
 
-Each control cycle: the sensors read every run's state (:mod:`rcsim.spacecraft.sensors`; perfect by
+Each control cycle: the sensors read every run's state (:mod:`spacecraft.sensors`; perfect by
 default), navigation errors, one vectorized controller step, valve limits
-(:mod:`rcsim.spacecraft.propulsion`), valve timing and jet faults (:mod:`rcsim.spacecraft.valves`), then the
+(:mod:`spacecraft.propulsion`), valve timing and jet faults (:mod:`spacecraft.valves`), then the
 cycle's physics of all runs in MuJoCo's thread pool (:class:`mujoco.batch.Batch`, GIL
 released).  There is no Python loop over runs; one run is a batch of one.
 
 Exact in time
 -------------
 Each run's cycle is integrated in pieces cut at that run's own jet switch instants
-(:func:`rcsim.spacecraft.pieces.cycle_pieces`), the jets constant in each piece: the physics sees the
+(:func:`spacecraft.pieces.cycle_pieces`), the jets constant in each piece: the physics sees the
 exact thrust history, so impulse and attitude are exact whatever the pulse lengths and delays.
 The pieces' lengths are per-simulation physics steps (``opt.timestep`` expanded per run); piece
 ``p`` of every run that has one is one batched ``rollout`` of one step.  A cycle in which no
@@ -18,9 +18,9 @@ run switches a jet is one rollout of the model's fixed steps, as before.  Cost a
 
 Module size: about 480 lines, over the ~400 guideline: the cycle loop, its piecewise
 integration and the divergence handling share the loop's per-run state and read best together;
-what stands alone is already split out (:mod:`~rcsim.spacecraft.guards`,
-:mod:`~rcsim.spacecraft.history`, :mod:`~rcsim.spacecraft.pieces`,
-:mod:`~rcsim.spacecraft.valves`, :mod:`~rcsim.spacecraft.sensors`).
+what stands alone is already split out (:mod:`~spacecraft.guards`,
+:mod:`~spacecraft.history`, :mod:`~spacecraft.pieces`,
+:mod:`~spacecraft.valves`, :mod:`~spacecraft.sensors`).
 
 Failures
 --------
@@ -34,20 +34,20 @@ per run from :attr:`mujoco.batch.Batch.warning`, shape ``(n_runs, mjNWARNING, 2)
 warning's name, MuJoCo's text (:func:`mujoco.mju_warningText`) and the control cycle it rose in.
 A MuJoCo error (:class:`mujoco.batch.SimulationError`) and a non-finite state (a backstop) fail a
 run the same way.  The warning messages themselves go to the ``rcsim.mujoco`` logger
-(:func:`rcsim.spacecraft.vehicle.route_mujoco_warnings`), never to a ``MUJOCO_LOG.TXT``.
+(:func:`spacecraft.vehicle.route_mujoco_warnings`), never to a ``MUJOCO_LOG.TXT``.
 
 Refusals
 --------
 :meth:`BatchSimulation.run` refuses, before allocating anything, a controller whose control
 cycle disagrees with the propulsion's, and a history that would not fit in memory
-(:func:`rcsim.spacecraft.guards.memory_budget_bytes`).  The constructor refuses invalid sensor,
-timing and fault parameters (:class:`rcsim.models.errors.InputError`).
+(:func:`spacecraft.guards.memory_budget_bytes`).  The constructor refuses invalid sensor,
+timing and fault parameters (:class:`models.errors.InputError`).
 
 Module size: about 475 lines, over the ~400 guideline: the cycle loop (sensors, controller,
 valves, the cut) and the piecewise stepping share the batch's bound arrays, per-run timesteps
 and failure bookkeeping; splitting them would pass those around for no gain in clarity.  The
-pure parts live in :mod:`rcsim.spacecraft.pieces`, :mod:`rcsim.spacecraft.valves`,
-:mod:`rcsim.spacecraft.sensors` and :mod:`rcsim.spacecraft.history`.
+pure parts live in :mod:`spacecraft.pieces`, :mod:`spacecraft.valves`,
+:mod:`spacecraft.sensors` and :mod:`spacecraft.history`.
 """
 from __future__ import annotations
 
@@ -58,18 +58,18 @@ import mujoco
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 
-from rcsim.models.errors import InputError
-from rcsim.spacecraft.guards import check_cycle, check_history_memory, warning_reasons
-from rcsim.spacecraft.history import History
-from rcsim.spacecraft.navigation import Guidance, NavState, navigate
-from rcsim.spacecraft.pieces import Pieces, cycle_pieces, profile_pieces
-from rcsim.spacecraft.propulsion import PropulsionParams, PropulsionState, apply_valve_limits
-from rcsim.spacecraft.sensors import SensorNoise, SensorParams, SensorState, measure
-from rcsim.spacecraft.valves import (
+from models.errors import InputError
+from spacecraft.guards import check_cycle, check_history_memory, warning_reasons
+from spacecraft.history import History
+from spacecraft.navigation import Guidance, NavState, navigate
+from spacecraft.pieces import Pieces, cycle_pieces, profile_pieces
+from spacecraft.propulsion import PropulsionParams, PropulsionState, apply_valve_limits
+from spacecraft.sensors import SensorNoise, SensorParams, SensorState, measure
+from spacecraft.valves import (
     JetFaults, ThrustProfile, ValveState, ValveTiming, command_valves, cycle_intervals,
     end_cycle,
 )
-from rcsim.spacecraft.vehicle import (
+from spacecraft.vehicle import (
     BODY, N_JETS, VehicleParams, dist_actuator_ids, jet_actuator_ids, load_model,
     route_mujoco_warnings,
 )
@@ -131,7 +131,7 @@ class BatchSimulation:
         Sensor errors per run; default perfect sensors.
     sensor_streams : sequence of numpy.random.SeedSequence, optional
         One per run, the run's sensor-noise stream
-        (:func:`rcsim.spacecraft.effect_draws.effect_streams`); required when ``sensors`` has noise
+        (:func:`spacecraft.effect_draws.effect_streams`); required when ``sensors`` has noise
         or a random walk.
     timing : ValveTiming, optional
         Command (sensor-to-actuator) delay and valve latencies per run; default none.
@@ -302,7 +302,7 @@ class BatchSimulation:
         InputError
             ``duration_s`` not > 0; the controller's ``cycle_s`` differs from the
             propulsion's; the history would not fit in memory
-            (:func:`rcsim.spacecraft.guards.memory_budget_bytes`).
+            (:func:`spacecraft.guards.memory_budget_bytes`).
         """
         n, cycle = self.n_runs, self.propulsion.cycle_s
         if not np.isfinite(duration_s) or duration_s <= 0:

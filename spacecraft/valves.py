@@ -1,13 +1,13 @@
 """When each jet actually thrusts: command timing, valve latencies and jet faults.
 
 A controller commands, each control cycle ``[t_k, t_k + T]``, an on-time ``u`` per jet from the
-cycle's start (:mod:`rcsim.spacecraft.propulsion`).  The valve command is that signal shifted by the
+cycle's start (:mod:`spacecraft.propulsion`).  The valve command is that signal shifted by the
 sensor-to-actuator delay ``d``: on over ``[t_k + d, t_k + d + u]``, a full-cycle command
 continuing into the next cycle without a new opening.  The valve opens ``open_delay`` after a
 rising edge of its command and closes ``close_delay`` after a falling edge, so a pulse of
 commanded length ``u`` thrusts over ``[t_k + d + d_o, t_k + d + u + d_c]`` (nothing when that is
 empty: a pulse shorter than ``d_o - d_c`` never opens the valve).  Thrust can therefore start
-mid-cycle and spill into the next one; :func:`rcsim.spacecraft.pieces.cycle_pieces` integrates each
+mid-cycle and spill into the next one; :func:`spacecraft.pieces.cycle_pieces` integrates each
 cycle exactly at these instants.  With all delays zero the intervals are ``[0, u]`` of every
 cycle: today's firings exactly.
 
@@ -22,13 +22,13 @@ Faults (per run, per jet; :class:`JetFaults`):
 
 Propellant flow (optional, :class:`ThrustProfile`): thrust rises linearly over ``rise_s`` after
 the valve opens and decays linearly over ``fall_s`` after it closes (the paper's "non-linear
-thrust profile"); :func:`rcsim.spacecraft.pieces.profile_pieces` flies it with exact impulse.
+thrust profile"); :func:`spacecraft.pieces.profile_pieces` flies it with exact impulse.
 
 Each delay must be shorter than a control cycle once the command delay is added
 (``d + d_o < T`` and ``d + d_c < T``): then at most one earlier firing is still pending when a
 new one is commanded, and a cycle's command always acts before the next cycle's.
 
-Imports ``models`` and ``rcsim.spacecraft.vehicle`` only.
+Imports ``models`` and ``spacecraft.vehicle`` only.
 """
 from __future__ import annotations
 
@@ -36,8 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle import N_JETS
+from models.errors import InputError
+from spacecraft.vehicle import N_JETS
 
 # Pending on-intervals kept per jet: the firing in progress, the tail of the previous one
 # (close latency), and a spare (a new firing after a zero-length command gap).

@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 import mujoco
 import numpy as np
 
-from rcsim.models import vehicle_xml
+from models import vehicle_xml
 
 N_JETS = 16
 JET_NAMES = tuple(f"jet_{i:02d}" for i in range(1, N_JETS + 1))
@@ -38,7 +38,7 @@ def route_mujoco_warnings() -> None:
 
     Without a handler, MuJoCo prints each warning and appends it to ``MUJOCO_LOG.TXT`` in the
     current directory: a stray file in the user's directory.  What a warning means for a run
-    is recorded in that run's own failure reason (:mod:`rcsim.spacecraft.simulation` reads the
+    is recorded in that run's own failure reason (:mod:`spacecraft.simulation` reads the
     per-run warning counters), so the message itself is only logged.  A handler the caller
     installed (``mujoco.set_mju_user_warning``) is kept.  Idempotent; process-wide, as
     MuJoCo's handler is.

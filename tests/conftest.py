@@ -15,8 +15,8 @@ import mujoco
 import pytest
 from hypothesis import settings
 
-from rcsim.models.tables import load_mass_properties
-from rcsim.spacecraft.vehicle import load_model
+from models.tables import load_mass_properties
+from spacecraft.vehicle import load_model
 
 HYPOTHESIS_PROFILE = "rcsim-derandomized"
 settings.register_profile(HYPOTHESIS_PROFILE, derandomize=True, database=None)

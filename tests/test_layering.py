@@ -1,68 +1,220 @@
-"""The design card's one-way imports: models <- spacecraft <- lookup <- analysis.
+"""The design card's one-way imports, down to the subpackages, read from the tree alone.
 
-Oracle: the user's design card ("Imports flow one way") and the namespaced install (the four
-folders install as ``rcsim.models`` ... ``rcsim.analysis``).  The check reads every module's
-import statements (AST), so a violation anywhere -- even in a function body -- fails, and so
-does a bare ``import models`` (it would load a second copy of the module, or someone else's
-package of that name).
+Oracles:
+
+* the user's design card ("Imports flow one way"): ``models <- spacecraft <- lookup <- analysis``,
+  with ``rcsim`` (version, command line, public API) on top;
+* ``analysis/__init__.py``: its three layers ``engine <- results <- apps``;
+* every package's own ``__init__`` docstring, whose ``Must not import:`` and
+  ``Only imported by:`` paragraphs are the rules of that package (the docstring is their one
+  statement; this test reads it, so a rule cannot be written in one place and checked in
+  another);
+* no import cycles between modules, counting imports inside functions (a circle hidden in a
+  function body is still a circle: it only moves the failure to run time).
+
+Every import statement is read from the source (AST), so the tree is the whole truth: the
+folders are the packages (``pyproject.toml``), nothing is mapped at install time.
 """
+from __future__ import annotations
+
 import ast
+import re
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-LAYERS = ["models", "spacecraft", "lookup", "analysis"]
+#: Top-level packages, lowest first.
+LAYERS = ["models", "spacecraft", "lookup", "analysis", "rcsim"]
+#: The layers inside ``analysis``, lowest first.
+ANALYSIS_LAYERS = ["analysis.engine", "analysis.results", "analysis.apps"]
 
 
-def _layers_imported(path: Path) -> tuple[set[str], set[str]]:
-    """(layers imported as ``rcsim.<layer>``, bare layer names imported without ``rcsim.``)."""
+def _module_name(path: Path, root: Path = ROOT) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def imports_of(path: Path, root: Path = ROOT) -> set[str]:
+    """Dotted names a module imports, anywhere in it (relative imports resolved).
+
+    ``from a.b import c`` counts as importing ``a.b`` and ``a.b.c`` (``c`` may be a module);
+    ``importlib.import_module("x.y")`` with a literal name counts as importing ``x.y``.
+    """
     tree = ast.parse(path.read_text(), filename=str(path))
-    modules = []
+    here = _module_name(path, root).split(".")
+    package = here if path.name == "__init__.py" else here[:-1]
+    found: set[str] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            modules.extend(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            modules.append(node.module)
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[: len(package) - node.level + 1]
+                module = ".".join(base + ([node.module] if node.module else []))
+            else:
+                module = node.module or ""
+            found.add(module)
+            found.update(f"{module}.{alias.name}" for alias in node.names)
         elif isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "import_module":
-            modules.extend(a.value for a in node.args
-                           if isinstance(a, ast.Constant) and isinstance(a.value, str))
-    layered, bare = set(), set()
-    for name in modules:
-        parts = name.split(".")
-        if parts[0] == "rcsim" and len(parts) > 1:
-            layered.add(parts[1])
-        elif parts[0] in LAYERS:
-            bare.add(parts[0])
-    return layered & set(LAYERS), bare
+            found.update(a.value for a in node.args
+                         if isinstance(a, ast.Constant) and isinstance(a.value, str))
+    return found
 
 
-def _python_files(folder: Path):
-    return sorted(p for p in folder.rglob("*.py") if "__pycache__" not in p.parts)
+def _python_files(root: Path = ROOT) -> list[Path]:
+    return sorted(p for layer in LAYERS for p in (root / layer).rglob("*.py")
+                  if "__pycache__" not in p.parts)
 
 
-@pytest.mark.parametrize("layer", LAYERS)
-def test_imports_flow_one_way(layer):
-    allowed = set(LAYERS[: LAYERS.index(layer) + 1])
-    bad = {}
-    for path in _python_files(ROOT / layer):
-        above = _layers_imported(path)[0] - allowed
-        if above:
-            bad[str(path.relative_to(ROOT))] = sorted(above)
-    assert not bad, f"{layer} imports layers above it: {bad}"
+def _modules(root: Path = ROOT) -> dict[str, set[str]]:
+    """Every module of the code base -> the modules of the code base it imports."""
+    graph = {_module_name(p, root): imports_of(p, root) for p in _python_files(root)}
+    known = set(graph)
+    return {m: {i for i in imps if i in known and i != m} for m, imps in graph.items()}
 
 
-@pytest.mark.parametrize("folder", LAYERS + ["tests", "benchmarks"])
-def test_no_bare_layer_imports(folder):
-    """Everything imports ``rcsim.<layer>``: a bare ``models`` is not our package once installed."""
-    bad = {str(p.relative_to(ROOT)): sorted(_layers_imported(p)[1])
-           for p in _python_files(ROOT / folder) if _layers_imported(p)[1]}
-    assert not bad, f"bare (un-namespaced) imports: {bad}"
+def _within(name: str, prefix: str) -> bool:
+    return name == prefix or name.startswith(prefix + ".")
 
 
-def test_the_checker_sees_violations(tmp_path):
-    """The checker itself can fail: an upward and a bare import are both seen."""
-    probe = tmp_path / "probe.py"
-    probe.write_text("def f():\n    from rcsim.analysis.flight import fly\n    import models.tables\n")
-    layered, bare = _layers_imported(probe)
-    assert layered == {"analysis"} and bare == {"models"}
+def _rank(name: str, order: list[str]) -> int | None:
+    for k, prefix in enumerate(order):
+        if _within(name, prefix):
+            return k
+    return None
+
+
+def package_rules(root: Path = ROOT) -> dict[str, dict[str, list[str]]]:
+    """Each package's stated rules: ``{package: {"must_not": [...], "only_by": [...]}}``."""
+    rules = {}
+    for init in sorted(p for layer in LAYERS for p in (root / layer).rglob("__init__.py")):
+        doc = ast.get_docstring(ast.parse(init.read_text())) or ""
+        entry = {}
+        for key, label in (("must_not", "Must not import:"), ("only_by", "Only imported by:")):
+            match = re.search(re.escape(label) + r"(.*?)(?:\n\s*\n|\Z)", doc, re.S)
+            if match:
+                names = [n.strip().rstrip(".") for n in match.group(1).replace("\n", " ").split(",")]
+                entry[key] = [n for n in names if n]
+        if entry:
+            rules[_module_name(init, root)] = entry
+    return rules
+
+
+def violations(root: Path = ROOT) -> list[str]:
+    """Every broken rule, one line each (empty: the tree keeps its layers)."""
+    graph = _modules(root)
+    bad = []
+    for module, imports in graph.items():
+        for imp in sorted(imports):
+            for order in (LAYERS, ANALYSIS_LAYERS):
+                mine, theirs = _rank(module, order), _rank(imp, order)
+                if mine is not None and theirs is not None and theirs > mine:
+                    bad.append(f"{module} imports {imp}, a layer above it")
+    for package, rule in package_rules(root).items():
+        for module, imports in graph.items():
+            if _within(module, package):
+                for imp in sorted(imports):
+                    hit = [f for f in rule.get("must_not", []) if _within(imp, f)]
+                    if hit:
+                        bad.append(f"{module} imports {imp}; {package} must not import {hit[0]}")
+            elif "only_by" in rule and not any(_within(module, m) for m in rule["only_by"]):
+                for imp in sorted(imports):
+                    if _within(imp, package):
+                        bad.append(f"{module} imports {imp}; {package} is only imported by "
+                                   f"{', '.join(rule['only_by'])}")
+    bad += [f"import cycle: {' -> '.join(c)}" for c in cycles(graph)]
+    return bad
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """One cycle per strongly connected component of more than one module (Tarjan)."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                out.append(sorted(component) + [sorted(component)[0]])
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_the_tree_keeps_its_layers():
+    bad = violations()
+    assert not bad, "\n".join(bad)
+
+
+def test_every_package_states_its_rules_and_each_rule_names_a_real_package():
+    # A rule naming a module that does not exist checks nothing (a typo, or a module moved).
+    rules = package_rules()
+    assert {"models", "spacecraft", "lookup", "analysis", "analysis.engine", "analysis.results",
+            "analysis.results.report", "analysis.apps.cli"} <= set(rules)
+    known = set(_modules())
+    stale = [f"{package}: {name}" for package, rule in rules.items()
+             for names in rule.values() for name in names
+             if not any(_within(m, name) for m in known)]
+    assert not stale, f"rules naming no module of the tree: {stale}"
+
+
+def test_no_namespaced_layer_imports():
+    # The layers are top-level packages: ``rcsim.models`` does not exist (issue 15 moved the
+    # package-dir mapping away); only ``rcsim`` itself and its version are importable from it.
+    bad = sorted({f"{p.relative_to(ROOT)}: {i}" for folder in LAYERS + ["tests", "benchmarks"]
+                  for p in (ROOT / folder).rglob("*.py") if "__pycache__" not in p.parts
+                  for i in imports_of(p) if re.match(r"rcsim\.(models|spacecraft|lookup|analysis)", i)})
+    assert not bad, f"imports of the old namespace: {bad}"
+
+
+@pytest.mark.parametrize("case", ["upward", "analysis_layer", "must_not", "only_by", "cycle"])
+def test_the_checker_sees_violations(tmp_path, case):
+    """The checker itself can fail: each kind of violation, planted in a small tree, is seen."""
+    files = {
+        "models/__init__.py": '"""Bottom.\n\nMust not import: spacecraft.\n"""\n',
+        "spacecraft/__init__.py": '"""Physics."""\n',
+        "spacecraft/a.py": "import models\n",
+        "spacecraft/b.py": "",
+        "lookup/__init__.py": '"""Controllers.\n\nOnly imported by: analysis.apps.\n"""\n',
+        "analysis/__init__.py": "", "analysis/engine/__init__.py": "",
+        "analysis/results/__init__.py": "", "analysis/apps/__init__.py": "",
+        "rcsim/__init__.py": "",
+    }
+    planted = {
+        "upward": ("models/x.py", "def f():\n    from spacecraft import a\n"),
+        "analysis_layer": ("analysis/engine/x.py", "from analysis.apps import y\n"),
+        "must_not": ("models/x.py", "import models\n"),  # allowed...
+        "only_by": ("analysis/engine/x.py", "import lookup\n"),
+        "cycle": ("spacecraft/b.py", "from spacecraft import a\n"),
+    }
+    files["analysis/apps/y.py"] = ""
+    if case == "must_not":  # ...but a stated rule forbids spacecraft from models' subtree
+        files["models/__init__.py"] = '"""Bottom.\n\nMust not import: models.x.\n"""\n'
+        files["models/y.py"] = "from models import x\n"
+    if case == "cycle":
+        files["spacecraft/a.py"] = "from spacecraft import b\n"
+    path, text = planted[case]
+    files[path] = text
+    for name, content in files.items():
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text(content)
+    assert violations(tmp_path), f"the {case} violation went unseen"

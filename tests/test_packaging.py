@@ -20,80 +20,84 @@ from packaging.version import Version
 ROOT = Path(__file__).resolve().parents[1]
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
 SETUPTOOLS = PYPROJECT["tool"]["setuptools"]
-PACKAGE_DIR = SETUPTOOLS["package-dir"]  # "rcsim.models" -> "models", ...
-LISTED = SETUPTOOLS["packages"]
+FIND = SETUPTOOLS["packages"]["find"]
+TOP_LEVEL = ("rcsim", "models", "spacecraft", "lookup", "analysis")
 MIN_PINS = ROOT / ".ci" / "min-versions.txt"
 
 
-def _folder(package: str) -> Path:
-    """Source folder of a dotted package name through ``package-dir``."""
-    for prefix in sorted(PACKAGE_DIR, key=len, reverse=True):
-        if package == prefix or package.startswith(prefix + "."):
-            rest = package[len(prefix):].lstrip(".")
-            return ROOT / PACKAGE_DIR[prefix] / Path(*rest.split(".") if rest else ())
-    raise AssertionError(f"pyproject.toml lists {package!r}, which no package-dir entry maps")
+def _found_packages() -> set[str]:
+    """What setuptools installs: its own discovery with pyproject.toml's settings."""
+    from setuptools import find_namespace_packages
 
-
-def _package_of(folder: Path) -> str:
-    """Dotted name of a source folder (the inverse of :func:`_folder`)."""
-    for prefix, top in PACKAGE_DIR.items():
-        top_path = ROOT / top
-        if folder == top_path or top_path in folder.parents:
-            return ".".join([prefix, *folder.relative_to(top_path).parts])
-    raise AssertionError(f"{folder} is outside the package folders")
+    return set(find_namespace_packages(where=str(ROOT / FIND["where"][0]),
+                                       include=FIND["include"], exclude=FIND.get("exclude", ())))
 
 
 def _source_files(pattern: str) -> list[Path]:
-    return sorted(p for top in PACKAGE_DIR.values() for p in (ROOT / top).rglob(pattern)
+    return sorted(p for top in TOP_LEVEL for p in (ROOT / top).rglob(pattern)
                   if "__pycache__" not in p.parts)
 
 
+def _package_of(folder: Path) -> str:
+    return ".".join(folder.relative_to(ROOT).parts)
+
+
 # --------------------------------------------------------------------------- packages --
-def test_every_package_folder_is_listed():
-    # A folder with an __init__.py that is not listed is left out of a (non-editable) install:
-    # its modules import in the source tree and fail once installed.
-    found = {_package_of(p.parent) for p in _source_files("__init__.py")}
-    missing = sorted(found - set(LISTED))
-    assert not missing, f"add to [tool.setuptools] packages in pyproject.toml: {missing}"
+def test_the_layers_are_top_level_packages_of_the_tree():
+    # Issue 15: the tree is the package layout (no package-dir mapping onto other names), so
+    # tools resolve every import from the folders.  "" -> "." only makes the root the source
+    # root (an editable install is then one .pth entry).
+    assert SETUPTOOLS.get("package-dir", {}) in ({}, {"": "."})
+    found = _found_packages()
+    assert set(TOP_LEVEL) <= found
+    assert not any(p.startswith(("tests", "benchmarks", "docs")) for p in found)
 
 
-def test_every_listed_package_exists():
-    # A listed package without a folder (and __init__.py) breaks `pip install`.
-    absent = [p for p in LISTED if not (_folder(p) / "__init__.py").is_file()]
-    assert not absent, f"listed in pyproject.toml but no <folder>/__init__.py: {absent}"
-
-
-def test_every_python_module_is_inside_a_listed_package():
-    # A module in a folder without __init__.py imports from the source tree (namespace
-    # package) but is not installed: the listed packages must cover every .py file.
-    listed_folders = {_folder(p) for p in LISTED}
+def test_every_python_module_is_inside_an_installed_package():
+    # A module in a folder the discovery misses imports from the source tree and is absent
+    # from a wheel.
+    found = _found_packages()
     orphans = [str(p.relative_to(ROOT)) for p in _source_files("*.py")
-               if p.parent not in listed_folders]
-    assert not orphans, f"modules outside any listed package (add an __init__.py): {orphans}"
+               if _package_of(p.parent) not in found]
+    assert not orphans, f"modules outside any installed package: {orphans}"
+
+
+def test_every_regular_package_has_its_init():
+    # A code folder without __init__.py would be a namespace package: legal, but then its
+    # docstring (what it owns, what it must not import) is missing.  Only data folders may
+    # lack one.
+    bare = sorted({str(p.parent.relative_to(ROOT)) for p in _source_files("*.py")
+                   if not (p.parent / "__init__.py").is_file()})
+    assert not bare, f"code folders without __init__.py: {bare}"
 
 
 def test_package_data_globs_cover_every_data_file():
-    # Oracle: setuptools matches package-data globs relative to the package folder with
-    # recursive '**' (glob.glob(recursive=True)); pathlib's glob does the same.  Every file
-    # beside the code that is not Python (tables, MJCF, READMEs, templates) must ship.
+    # Oracle: setuptools matches package-data globs relative to the package folder.  Every
+    # file beside the code that is not Python (tables, MJCF, READMEs, py.typed) must ship.
     package_data = SETUPTOOLS.get("package-data", {})
     data_files = [p for p in _source_files("*") if p.is_file() and p.suffix not in (".py", ".pyc")]
     assert data_files, "no data files found: the tables and MJCF should be here"
     shipped = set()
     for package, globs in package_data.items():
         for pattern in globs:
-            shipped.update(_folder(package).glob(pattern))
+            shipped.update((ROOT / Path(*package.split("."))).glob(pattern))
     unshipped = [str(p.relative_to(ROOT)) for p in data_files if p not in shipped]
     assert not unshipped, f"data files no package-data glob covers: {unshipped}"
+
+
+def test_every_package_is_typed():
+    # PEP 561: a type checker uses an installed package's annotations only beside py.typed.
+    missing = [top for top in TOP_LEVEL if not (ROOT / top / "py.typed").is_file()]
+    assert not missing, f"py.typed missing in {missing}"
 
 
 def test_packaged_data_the_code_loads_is_present():
     # The loaders find these through importlib.resources; each is read at import or first use.
     from importlib.resources import files
 
-    for package, name in [("rcsim.models", "vehicle/vehicle.xml"),
-                          ("rcsim.models", "data/table1_mass_properties.csv"),
-                          ("rcsim.lookup", "data/generated_table.csv")]:
+    for package, name in [("models", "vehicle/vehicle.xml"),
+                          ("models", "data/table1_mass_properties.csv"),
+                          ("lookup", "data/generated_table.csv")]:
         assert (files(package) / name).is_file(), f"{package}: {name} missing"
 
 
@@ -197,6 +201,6 @@ def test_no_importorskip_of_our_own_modules():
         for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
             if (isinstance(node, ast.Call) and ast.unparse(node.func).endswith("importorskip")
                     and node.args and isinstance(node.args[0], ast.Constant)
-                    and str(node.args[0].value).split(".")[0] in ("rcsim", *PACKAGE_DIR.values())):
+                    and str(node.args[0].value).split(".")[0] in TOP_LEVEL):
                 bad.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.args[0].value}")
     assert not bad, f"importorskip on rcsim's own modules: {bad}"

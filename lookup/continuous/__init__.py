@@ -8,6 +8,7 @@ the rigid-body regression matrix Phi and the nonlinear feedforward ``u = J wd_do
 functions FFD, FB (PDI with the ``w x J w`` decoupling term), FFD+FB and the hybrid FFD+FB+DAI
 whose self-awareness statement learns Theta_hat by the Moore-Penrose pseudo-inverse
 (:mod:`.controllers`).  Controllers see arrays (measured Euler angles), never the simulator;
-gains are data (``rcsim.models.dai``).  Imports ``rcsim.models`` and ``rcsim.spacecraft``;
-never ``rcsim.analysis``.
+gains are data (``models.dai``).  Imports ``models`` and ``spacecraft``.
+
+Must not import: lookup.pattern_recognition, lookup.phase_plane, lookup.registry, analysis.
 """

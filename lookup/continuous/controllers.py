@@ -28,13 +28,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcsim.lookup.continuous.observer import observer_matrices, observer_step
-from rcsim.lookup.continuous.regression import (
+from lookup.continuous.observer import observer_matrices, observer_step
+from lookup.continuous.regression import (
     inertia_from_theta, regressor, theta_from_inertia,
 )
-from rcsim.lookup.continuous.trajectory import SinusoidalTrajectory
-from rcsim.models.errors import InputError
-from rcsim.spacecraft.continuous.kinematics import body_rate_from_euler
+from lookup.continuous.trajectory import SinusoidalTrajectory
+from models.errors import InputError
+from spacecraft.continuous.kinematics import body_rate_from_euler
 
 METHODS = ("ffd", "fb", "ffd+fb", "ffd+fb+dai")
 # Relative cut-off of the pseudo-inverse: singular values of W below it (unexcited inertia

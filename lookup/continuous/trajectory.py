@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcsim.models.errors import InputError
-from rcsim.spacecraft.continuous.kinematics import body_rate_from_euler, quat_from_euler321
+from models.errors import InputError
+from spacecraft.continuous.kinematics import body_rate_from_euler, quat_from_euler321
 
 
 @dataclass(frozen=True)

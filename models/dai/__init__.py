@@ -4,9 +4,9 @@ Owns ``models/dai/``: ``parameters.csv`` (one value per row: group, name, value,
 ``dispersions.csv`` (the Monte Carlo uncertainties), ``dai_spacecraft.xml`` (rigid body + three
 body-frame torque motors) and ``SOURCES.md`` (which table or equation each value came from and
 every reading chosen where a paper is garbled or contradicts itself).  The loaders validate
-every cell and convert to SI; a bad cell raises :class:`rcsim.models.errors.InputError` naming
-the file, the row, the field and the value.  Like the rest of ``rcsim.models`` this package
-must not import ``rcsim.spacecraft``, ``rcsim.lookup`` or ``rcsim.analysis``.
+every cell and convert to SI; a bad cell raises :class:`models.errors.InputError` naming
+the file, the row, the field and the value.  Like the rest of ``models`` this package
+must not import ``spacecraft``, ``lookup`` or ``analysis``.
 
 Papers: 001 = Wilt & Sands, "Microsatellite Uncertainty Control Using Deterministic Artificial
 Intelligence", Sensors 22 (2022) 8723 (group ``wilt2022``); 002 = Smeresky & Rizzo, "Modern
@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rcsim.models.errors import InputError
+from models.errors import InputError
 
 PAPERS = ("wilt2022", "smeresky2020")
 
@@ -44,7 +44,7 @@ _DISPERSION_COLUMNS = ("name", "distribution", "nominal", "bound", "unit", "sour
 
 def _resource(name: str) -> Path:
     """Real path of a packaged file of this folder (kept alive until exit, as ``vehicle_xml``)."""
-    resource = files("rcsim.models.dai") / name
+    resource = files("models.dai") / name
     if isinstance(resource, Path):
         return resource
     keep = ExitStack()

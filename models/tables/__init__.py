@@ -2,9 +2,10 @@
 
 Owns the loaders of ``models/data/*.csv`` (Tables 1-7 and ``corrections.csv``; provenance and
 every correction in ``models/data/SOURCES.md``) and the paper's design constants, above all
-``CONTROL_CYCLE_S`` -- the one definition of the 40 ms control cycle.  Must not import
-``rcsim.spacecraft``, ``rcsim.lookup`` or ``rcsim.analysis`` (it is the bottom layer; only
-``rcsim.models.errors`` and ``rcsim.models.atomic`` besides numpy/pandas).
+``CONTROL_CYCLE_S`` -- the one definition of the 40 ms control cycle.  It is the
+bottom layer: only ``models.errors`` and ``models.atomic`` besides numpy/pandas.
+
+Must not import: spacecraft, lookup, analysis, models.dai.
 
 Each loader reads a packaged table -- or a user file in the same format -- checks its
 *structure* and its *physical range*, and returns SI quantities:
@@ -39,15 +40,15 @@ Design rules
 * Physical ranges catch a well-formed table in the wrong unit: rates in rad/s under a deg/s
   header, firing times in ms under an s header (see ``RATE_TOTAL_MIN_DEG_S``,
   ``MAX_FIRING_TIME_S``).
-* Every failure is a :class:`rcsim.models.errors.InputError` whose one-line message names the
+* Every failure is a :class:`models.errors.InputError` whose one-line message names the
   file, the row (1-based data row, plus the case or jet number when known), the column and the
   bad value, so an analyst can go straight to the cell.
 """
 
 from __future__ import annotations
 
-from rcsim.models.tables.consistency import check_consistency
-from rcsim.models.tables.constants import (
+from models.tables.consistency import check_consistency
+from models.tables.constants import (
     AXES,
     CONTROL_CYCLE_S,
     JET_COLUMNS,
@@ -62,18 +63,18 @@ from rcsim.models.tables.constants import (
     SIGN_COLUMNS,
     TIME_ATOL_S,
 )
-from rcsim.models.tables.corrections import Correction, paper_corrections
-from rcsim.models.tables.dispersions import load_dispersions
-from rcsim.models.tables.jet_map import load_jet_map
-from rcsim.models.tables.lookup_inputs import LookupInputs, load_lookup_inputs
-from rcsim.models.tables.lookup_tables import (
+from models.tables.corrections import Correction, paper_corrections
+from models.tables.dispersions import load_dispersions
+from models.tables.jet_map import load_jet_map
+from models.tables.lookup_inputs import LookupInputs, load_lookup_inputs
+from models.tables.lookup_tables import (
     PAPER_LOOKUP_TABLES,
     LookupTable,
     load_lookup_table,
     lookup_table_source,
 )
-from rcsim.models.tables.mass_properties import MassProperties, load_mass_properties
-from rcsim.models.tables.rate_cases import RateCases, load_rate_cases, sign_patterns
+from models.tables.mass_properties import MassProperties, load_mass_properties
+from models.tables.rate_cases import RateCases, load_rate_cases, sign_patterns
 
 __all__ = [
     "AXES",

@@ -7,9 +7,9 @@ import math
 
 import numpy as np
 
-from rcsim.models.errors import InputError
-from rcsim.models.tables.constants import AXES, CONTROL_CYCLE_S, MAX_FIRING_TIME_S, TIME_ATOL_S
-from rcsim.models.tables.schema import cell_error
+from models.errors import InputError
+from models.tables.constants import AXES, CONTROL_CYCLE_S, MAX_FIRING_TIME_S, TIME_ATOL_S
+from models.tables.schema import cell_error
 
 
 def check_consistency(
@@ -30,7 +30,7 @@ def check_consistency(
 
     1. firing times are finite, >= 0 and (if ``max_firing_time_s``) at most
        ``max_firing_time_s`` (default ``MAX_FIRING_TIME_S`` = 5 s; why, see
-       :mod:`~rcsim.models.tables.constants`);
+       :mod:`~models.tables.constants`);
     2. (if ``cycle_s``) every firing time is a whole number of control cycles, within
        ``TIME_ATOL_S``;
     3. a jet whose jet-map row is all zero (unused, e.g. translation jets) never fires;
@@ -59,7 +59,7 @@ def check_consistency(
 
     Raises
     ------
-    rcsim.models.errors.InputError
+    models.errors.InputError
         At the first broken rule, naming file, row, case, column (``jet_NN``) and value.
     """
     case = np.asarray(case, dtype=int)

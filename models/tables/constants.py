@@ -1,7 +1,7 @@
 """Constants of the paper's control design, defined once for the whole code base.
 
 Every other module (``spacecraft``, ``lookup``, ``analysis``) imports these from
-:mod:`rcsim.models.tables`; none repeats the number.  Each value is one the paper states in its
+:mod:`models.tables`; none repeats the number.  Each value is one the paper states in its
 *text* (Gambone, *Pattern Recognition Control Design*, section II), not a table value, or a
 tolerance/range derived from such a value with the reason written beside it.
 """

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rcsim.models.tables.schema import (
+from models.tables.schema import (
     PathLike, cell_error, check_columns, integer, number, read_raw,
 )
 
@@ -57,7 +57,7 @@ def paper_corrections(path: PathLike | None = None) -> list[Correction]:
 
     Raises
     ------
-    rcsim.models.errors.InputError
+    models.errors.InputError
         Missing/unknown column, bad number, empty reason.
     """
     raw = read_raw(path, "corrections.csv")

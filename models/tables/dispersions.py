@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from rcsim.models.tables.schema import (
+from models.tables.schema import (
     SI_UNIT, UNITS, PathLike, cell_error, check_columns, number, read_raw, unit_factor,
 )
 
@@ -43,7 +43,7 @@ def load_dispersions(path: PathLike | None = None) -> pd.DataFrame:
 
     Raises
     ------
-    rcsim.models.errors.InputError
+    models.errors.InputError
         Missing/unknown column, empty name, duplicate name, unknown distribution, unknown
         unit or wrong dimension for a known name, bad or negative three_sigma.
     """

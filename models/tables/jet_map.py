@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rcsim.models.tables.constants import AXES, N_JETS, SIGN_COLUMNS
-from rcsim.models.tables.schema import (
+from models.tables.constants import AXES, N_JETS, SIGN_COLUMNS
+from models.tables.schema import (
     PathLike, cell_error, check_columns, index_column, number, read_raw,
 )
 
@@ -27,7 +27,7 @@ def load_jet_map(path: PathLike | None = None) -> np.ndarray:
 
     Raises
     ------
-    rcsim.models.errors.InputError
+    models.errors.InputError
         Missing/unknown column, a jet number missing/duplicated/outside 1..16, a sign not in
         {-1, 0, 1}, a jet with torque on two axes (paper section IV: "the current logic does
         not allow for a single thruster to be used for multiple axes"), or an axis direction

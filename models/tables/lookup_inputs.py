@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rcsim.models.tables.schema import PathLike, long_table
+from models.tables.schema import PathLike, long_table
 
 # parameter -> (dimension, must be strictly positive)
 _LOOKUP_PARAMETERS = {
@@ -60,7 +60,7 @@ def load_lookup_inputs(path: PathLike | None = None) -> LookupInputs:
 
     Raises
     ------
-    rcsim.models.errors.InputError
+    models.errors.InputError
         Missing/unknown column or parameter, bad or non-positive value, wrong unit dimension.
 
     Notes

@@ -13,15 +13,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rcsim.models.atomic import atomic_write
-from rcsim.models.errors import InputError
-from rcsim.models.tables.constants import (
+from models.atomic import atomic_write
+from models.errors import InputError
+from models.tables.constants import (
     CONTROL_CYCLE_S, JET_COLUMNS, MAX_FIRING_TIME_S, N_CASES, N_JETS, RATE_COLUMNS,
 )
-from rcsim.models.tables.consistency import check_consistency
-from rcsim.models.tables.jet_map import load_jet_map
-from rcsim.models.tables.rate_cases import RateCases, check_rate_rows, load_rate_cases
-from rcsim.models.tables.schema import (
+from models.tables.consistency import check_consistency
+from models.tables.jet_map import load_jet_map
+from models.tables.rate_cases import RateCases, check_rate_rows, load_rate_cases
+from models.tables.schema import (
     PathLike, check_columns, frozen_array, index_column, number, packaged, read_raw,
 )
 
@@ -55,7 +55,7 @@ class LookupTable:
     Notes
     -----
     Construction checks shapes only; :func:`load_lookup_table` and
-    :func:`~rcsim.models.tables.check_consistency` check the content.
+    :func:`~models.tables.check_consistency` check the content.
     """
 
     case: np.ndarray
@@ -82,7 +82,7 @@ class LookupTable:
         back gives the same doubles (rates up to the rad<->deg conversion, a few ulp).
 
         The file is written to a temporary file in the target directory and moved into place
-        (:func:`rcsim.models.atomic.atomic_write`), so a crash never leaves a half-written
+        (:func:`models.atomic.atomic_write`), so a crash never leaves a half-written
         table that a later campaign could load.
 
         Parameters
@@ -131,7 +131,7 @@ def lookup_table_source(table: "PathLike | Traversable") -> "Path | Traversable"
 
     Raises
     ------
-    rcsim.models.errors.InputError
+    models.errors.InputError
         ``table`` is a paper-table name and also a file in the current directory (ambiguous:
         write ``./table6`` for the file).
     """
@@ -205,11 +205,11 @@ def load_lookup_table(
 
     Raises
     ------
-    rcsim.models.errors.InputError
+    models.errors.InputError
         Unknown ``which``; missing file; missing/unknown column; empty, non-numeric or
         negative cell; case numbers not exactly 1..26; rates that are not distinct nonzero
         sign patterns or lie outside the physical range; or any rule of
-        :func:`~rcsim.models.tables.check_consistency` broken.
+        :func:`~models.tables.check_consistency` broken.
     """
     if which not in PAPER_LOOKUP_TABLES:
         raise InputError(f"which={which!r}: expected one of {', '.join(PAPER_LOOKUP_TABLES)}")

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcsim.models.tables.schema import PathLike, cell_error, frozen_array, long_table
+from models.tables.schema import PathLike, cell_error, frozen_array, long_table
 
 # parameter -> (dimension, must be strictly positive)
 _MASS_PARAMETERS = {
@@ -63,7 +63,7 @@ def load_mass_properties(path: PathLike | None = None) -> MassProperties:
 
     Raises
     ------
-    rcsim.models.errors.InputError
+    models.errors.InputError
         Missing/unknown column or parameter, empty or non-numeric value, non-positive mass,
         inertia or thrust, wrong unit dimension, or principal moments that violate the
         triangle inequality (no rigid body has them).

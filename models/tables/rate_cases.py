@@ -8,11 +8,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcsim.models.tables.constants import (
+from models.tables.constants import (
     AXES, N_CASES, PAPER_TOTAL_RATE_DEG_S, RATE_COLUMNS, RATE_RTOL, RATE_TOTAL_MAX_DEG_S,
     RATE_TOTAL_MIN_DEG_S,
 )
-from rcsim.models.tables.schema import (
+from models.tables.schema import (
     PathLike, cell_error, check_columns, frozen_array, index_column, number, read_raw,
 )
 
@@ -74,7 +74,7 @@ def check_rate_rows(
     sign pattern other than the case number's roll-major pattern; (``equal_split``) unequal
     magnitudes on the nonzero axes; a total rate outside the physical range
     ``RATE_TOTAL_MIN_DEG_S .. RATE_TOTAL_MAX_DEG_S`` (a unit mistake, see
-    :mod:`~rcsim.models.tables.constants`); a total rate off ``total_rate_deg_s`` (or, if
+    :mod:`~models.tables.constants`); a total rate off ``total_rate_deg_s`` (or, if
     None, off the common total of all rows) by more than RATE_RTOL relative.
     """
     signs = np.sign(rate_deg_s).astype(int)
@@ -185,7 +185,7 @@ def load_rate_cases(
 
     Raises
     ------
-    rcsim.models.errors.InputError
+    models.errors.InputError
         Missing/unknown column; bad cell; case numbers not exactly 1..26; an all-zero row;
         a row whose sign pattern is not its case's roll-major pattern (see
         :func:`sign_patterns`), e.g. a duplicate of another case; unequal magnitudes on the

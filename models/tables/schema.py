@@ -1,10 +1,10 @@
 """The validation core shared by every table loader: CSV reading, cell parsing, units, errors.
 
-Every failure is a :class:`rcsim.models.errors.InputError` whose one-line message names the
+Every failure is a :class:`models.errors.InputError` whose one-line message names the
 file, the row (1-based data row, plus the case or jet number when known), the column and the
 bad value, so an analyst can go straight to the cell.  Nothing here knows a table family; the
 family modules (``mass_properties``, ``jet_map``, ...) say which columns and parameters they
-need.  Internal to :mod:`rcsim.models.tables`: other packages use the loaders, not these.
+need.  Internal to :mod:`models.tables`: other packages use the loaders, not these.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Mapping, Sequence, Union
 
 import numpy as np
 
-from rcsim.models.errors import InputError
+from models.errors import InputError
 
 if TYPE_CHECKING:  # importlib.resources.abc is 3.11+; only the annotation needs it
     from importlib.resources.abc import Traversable
@@ -109,7 +109,7 @@ class RawTable:
 
 def packaged(name: str) -> "Traversable":
     """The installed package's own copy of data file ``name`` (``models/data/<name>``)."""
-    return files("rcsim.models") / "data" / name
+    return files("models") / "data" / name
 
 
 def read_raw(path: "PathLike | Traversable | None", default_name: str) -> RawTable:

@@ -5,5 +5,7 @@ once (:mod:`.plant`), the ideal three-axis torque actuator and the three single-
 with their Jacobian, determinant and pseudo-inverse steering (:mod:`.cmg`), the gravity-gradient
 and aerodynamic-drag torques at 150 km with 001 App. C's atmosphere (:mod:`.disturbances`) and
 the 3-2-1 Euler-angle / quaternion kinematics shared with the controllers (:mod:`.kinematics`).
-Imports ``rcsim.models`` only; never ``rcsim.lookup`` or ``rcsim.analysis``.
+Imports ``models`` only.
+
+Must not import: spacecraft.simulation, lookup, analysis.
 """

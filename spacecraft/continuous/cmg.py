@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcsim.models.dai import CmgSetup
+from models.dai import CmgSetup
 
 # Damping of the singularity-robust inverse inside the flagged set [1] (unit-momentum A):
 # small enough that the delivered torque stays within 1 % of the command at |det A| = 0.05,

@@ -31,9 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcsim.models.dai import Environment
-from rcsim.models.errors import InputError
-from rcsim.spacecraft.continuous.kinematics import dcm_NB
+from models.dai import Environment
+from models.errors import InputError
+from spacecraft.continuous.kinematics import dcm_NB
 
 _SUPPORTED_ALTITUDE_M = 150e3
 

@@ -23,11 +23,11 @@ import mujoco
 import numpy as np
 from mujoco.batch import Batch
 
-from rcsim.models.dai import Damage, dai_xml
-from rcsim.models.errors import InputError
-from rcsim.spacecraft.continuous.cmg import CmgArray
-from rcsim.spacecraft.continuous.disturbances import Disturbances
-from rcsim.spacecraft.continuous.kinematics import euler321_from_quat
+from models.dai import Damage, dai_xml
+from models.errors import InputError
+from spacecraft.continuous.cmg import CmgArray
+from spacecraft.continuous.disturbances import Disturbances
+from spacecraft.continuous.kinematics import euler321_from_quat
 
 BODY = "spacecraft"
 TORQUE_ACTUATORS = ("torque_x", "torque_y", "torque_z")
@@ -119,7 +119,7 @@ class ContinuousPlant:
 
 
 class Controller(Protocol):
-    """A batched continuous-torque controller with explicit state (``rcsim.lookup.continuous``)."""
+    """A batched continuous-torque controller with explicit state (``lookup.continuous``)."""
 
     def initial_state(self, n_runs: int) -> Any: ...
 

@@ -8,18 +8,18 @@ import math
 import numpy as np
 import pytest
 
-from rcsim.lookup.continuous.controllers import (
+from lookup.continuous.controllers import (
     ContinuousController, ControllerConfig, dai_update,
 )
-from rcsim.lookup.continuous.observer import error_poles, observer_matrices, observer_step
-from rcsim.lookup.continuous.regression import (
+from lookup.continuous.observer import error_poles, observer_matrices, observer_step
+from lookup.continuous.regression import (
     feedforward, inertia_from_theta, regressor, theta_from_inertia,
 )
-from rcsim.lookup.continuous.trajectory import SinusoidalTrajectory
-from rcsim.models.dai import load_setup
-from rcsim.models.errors import InputError
-from rcsim.spacecraft.continuous.kinematics import angle_between
-from rcsim.spacecraft.continuous.plant import ContinuousPlant, fly
+from lookup.continuous.trajectory import SinusoidalTrajectory
+from models.dai import load_setup
+from models.errors import InputError
+from spacecraft.continuous.kinematics import angle_between
+from spacecraft.continuous.plant import ContinuousPlant, fly
 
 J002 = np.full((3, 3), 0.1) + 9.9 * np.eye(3)
 

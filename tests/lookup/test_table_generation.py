@@ -14,9 +14,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rcsim.analysis.cli import main
-from rcsim.lookup.table_generation import compare_tables, generate_table
-from rcsim.models.tables import load_lookup_table
+from analysis.apps.cli import main
+from lookup.table_compare import compare_tables
+from lookup.table_generation import generate_table
+from models.tables import load_lookup_table
 
 CYCLE_S = 0.04  # paper sec. II: 40 ms control rate
 # Paper Table 2: jet -> (axis, sign); jets 5-8 unused.
@@ -107,7 +108,7 @@ def test_compare_with_table7(gen):
 
 def test_packaged_table_is_the_generated_one(gen):
     """lookup/data/generated_table.csv is reproducible from the code (README says how)."""
-    path = files("rcsim.lookup") / "data" / "generated_table.csv"
+    path = files("lookup") / "data" / "generated_table.csv"
     packaged = load_lookup_table(str(path))
     np.testing.assert_allclose(packaged.firing_time_s, gen.table.firing_time_s, atol=1e-12)
     np.testing.assert_allclose(packaged.rate_cmd, gen.table.rate_cmd, rtol=1e-12)
@@ -118,7 +119,7 @@ def test_packaged_settling_companion_is_the_generated_one(gen):
     same columns (``settle_after_firing_s``, the settling time measured from the end of the
     firing) and values (float64 round-trip through CSV; 1e-12 absolute allows for the last
     bit of the printed decimals)."""
-    path = files("rcsim.lookup") / "data" / "generated_table_settling.csv"
+    path = files("lookup") / "data" / "generated_table_settling.csv"
     packaged = pd.read_csv(str(path))
     frame = gen.settling_frame()
     assert list(packaged.columns) == list(frame.columns)

@@ -9,10 +9,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from rcsim.models.dai import (
+from models.dai import (
     dai_xml, load_cmg, load_damage, load_dispersions, load_environment, load_setup,
 )
-from rcsim.models.errors import InputError
+from models.errors import InputError
 
 
 def test_wilt_setup_as_printed():

@@ -1,10 +1,10 @@
-"""Tests for rcsim.models.tables beyond structure: physical ranges, tables by name, the BOM,
+"""Tests for models.tables beyond structure: physical ranges, tables by name, the BOM,
 the packaged vehicle path, and the package's shape (small modules, one control-cycle constant).
 
 Oracles: the paper's text (Gambone, *Pattern Recognition Control Design*, section II: 0.3 deg/s
 total rate command per case, 40 ms control cycle) and its Tables 6/7 (longest firing 0.52 s);
 the exact factor 180/pi between deg/s and rad/s; the ranges' written reasons in
-``rcsim.models.tables.constants`` (restated below, not imported, where the test needs a number).
+``models.tables.constants`` (restated below, not imported, where the test needs a number).
 """
 
 from __future__ import annotations
@@ -20,12 +20,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import rcsim.models
-from rcsim.models import tables
-from rcsim.models.errors import InputError
+import models
+from models import tables
+from models.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[2]
-DATA = files("rcsim.models") / "data"
+DATA = files("models") / "data"
 DEG_PER_RAD = 180.0 / math.pi  # rad/s written under a deg/s header is this much too small
 # Ranges as the brief and constants.py state them: total rate within a factor of ten of the
 # paper's 0.3 deg/s; firing times at most 5 s (about ten times the paper's longest, 0.52 s).
@@ -216,25 +216,25 @@ def test_utf8_bom_is_accepted(tmp_path, loader, name):
 
 # -------------------------------------------------------------------------- packaged vehicle
 def test_vehicle_xml_is_a_real_file_that_outlives_the_call():
-    path = rcsim.models.vehicle_xml()
+    path = models.vehicle_xml()
     assert path.is_file() and path.name == "vehicle.xml"
 
 
 def test_vehicle_xml_from_a_zip_install_stays_valid(tmp_path, monkeypatch):
     """From a zip archive ``as_file`` extracts to a temporary file; the old code returned the
     path after the context closed (the file was already deleted).  Simulate a zip install."""
-    xml = rcsim.models.vehicle_xml().read_bytes()
+    xml = models.vehicle_xml().read_bytes()
     archive = tmp_path / "pkg.zip"
     with zipfile.ZipFile(archive, "w") as zf:
         zf.writestr("vehicle/vehicle.xml", xml)
-    monkeypatch.setattr(rcsim.models, "files", lambda package: zipfile.Path(archive))
-    rcsim.models.vehicle_xml.cache_clear()
+    monkeypatch.setattr(models, "files", lambda package: zipfile.Path(archive))
+    models.vehicle_xml.cache_clear()
     try:
-        path = rcsim.models.vehicle_xml()
+        path = models.vehicle_xml()
         assert not str(path).startswith(str(tmp_path)), "an extracted copy, not the archive"
         assert path.is_file() and path.read_bytes() == xml
     finally:
-        rcsim.models.vehicle_xml.cache_clear()
+        models.vehicle_xml.cache_clear()
 
 
 # ------------------------------------------------------------------------- the package shape
@@ -262,7 +262,7 @@ def test_control_cycle_is_defined_once():
 
 
 def test_public_names_are_re_exported():
-    # Everything other packages and tests import from rcsim.models.tables (grep of the repo).
+    # Everything other packages and tests import from models.tables (grep of the repo).
     for name in ("AXES", "CONTROL_CYCLE_S", "N_CASES", "N_JETS", "PAPER_TOTAL_RATE_DEG_S",
                  "RATE_RTOL", "RATE_COLUMNS", "Correction", "LookupInputs", "LookupTable",
                  "MassProperties", "RateCases", "check_consistency", "load_dispersions",
@@ -271,4 +271,4 @@ def test_public_names_are_re_exported():
                  "sign_patterns"):
         assert name in tables.__all__ and hasattr(tables, name), name
     doc = tables.__doc__
-    assert "Must not import" in doc and "rcsim.spacecraft" in doc and "rcsim.analysis" in doc
+    assert "Must not import" in doc and "spacecraft" in doc and "analysis" in doc

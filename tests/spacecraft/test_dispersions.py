@@ -3,12 +3,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rcsim.models.errors import InputError
-from rcsim.models.tables import load_dispersions
-from rcsim.spacecraft.dispersions import (
+from models.errors import InputError
+from models.tables import load_dispersions
+from spacecraft.dispersions import (
     DispersionSigmas, dispersion_frame, draw_runs, run_streams, standard_draws,
 )
-from rcsim.spacecraft.vehicle import VehicleParams
+from spacecraft.vehicle import VehicleParams
 
 N_RUNS = 3000
 SEED = 12345

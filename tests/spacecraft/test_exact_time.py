@@ -1,4 +1,4 @@
-"""Exact in time: each cycle integrated in pieces at the jets' switch instants (rcsim.spacecraft.pieces).
+"""Exact in time: each cycle integrated in pieces at the jets' switch instants (spacecraft.pieces).
 
 Oracles
 -------
@@ -22,12 +22,12 @@ import pytest
 from mujoco.batch import Batch
 from scipy.integrate import solve_ivp
 
-from rcsim.lookup.open_loop import OpenLoopController
-from rcsim.models.tables import load_jet_map
-from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat
-from rcsim.spacecraft.pieces import cycle_pieces
-from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import VehicleParams, jet_actuator_ids, torque_per_jet_B
+from lookup.open_loop import OpenLoopController
+from models.tables import load_jet_map
+from spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat
+from spacecraft.pieces import cycle_pieces
+from spacecraft.simulation import BatchSimulation
+from spacecraft.vehicle import VehicleParams, jet_actuator_ids, torque_per_jet_B
 
 CYCLE_S = 0.04
 REL = 1e-9  # see the module docstring

@@ -2,7 +2,7 @@
 
 Oracles
 -------
-* The draw (rcsim.spacecraft.dispersions.draw_runs) is what each run must fly.  BatchSimulation writes
+* The draw (spacecraft.dispersions.draw_runs) is what each run must fly.  BatchSimulation writes
   it into MuJoCo's per-simulation model fields and runs mj_setConst; the values read back must
   equal the draw *exactly* (tolerance 0): they are float64 copies, and mj_setConst takes
   ``body_mass``, ``body_ipos``, ``body_iquat``, ``body_inertia`` and ``actuator_gear`` as inputs
@@ -17,12 +17,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rcsim.lookup.open_loop import OpenLoopController
-from rcsim.models.tables import load_dispersions
-from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs, run_generators
-from rcsim.spacecraft.navigation import Guidance
-from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import BODY, VehicleParams
+from lookup.open_loop import OpenLoopController
+from models.tables import load_dispersions
+from spacecraft.dispersions import DispersionSigmas, draw_runs, run_generators
+from spacecraft.navigation import Guidance
+from spacecraft.simulation import BatchSimulation
+from spacecraft.vehicle import BODY, VehicleParams
 
 FIELDS = ("mass_kg", "cg_B", "inertia_B", "thrust_n", "jet_dir_S")
 

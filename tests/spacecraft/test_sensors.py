@@ -1,5 +1,5 @@
-"""Sensors (rcsim.spacecraft.sensors) in the closed loop, and the per-run effect draws
-(rcsim.spacecraft.effect_draws).
+"""Sensors (spacecraft.sensors) in the closed loop, and the per-run effect draws
+(spacecraft.effect_draws).
 
 Oracles
 -------
@@ -20,16 +20,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rcsim.models.errors import InputError
-from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
-from rcsim.spacecraft.effect_draws import (
+from models.errors import InputError
+from spacecraft.dispersions import DispersionSigmas, draw_runs
+from spacecraft.effect_draws import (
     SENSOR_NOISE, FaultSpec, SensorSpec, TimingSpec, draw_faults, draw_sensors, draw_timing,
     effect_stream,
 )
-from rcsim.spacecraft.navigation import Guidance
-from rcsim.spacecraft.sensors import SensorParams
-from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import VehicleParams
+from spacecraft.navigation import Guidance
+from spacecraft.sensors import SensorParams
+from spacecraft.simulation import BatchSimulation
+from spacecraft.vehicle import VehicleParams
 
 CYCLE_S = 0.04
 

@@ -1,0 +1,138 @@
+"""``rcsim`` command line: a thin parser that hands a config to library functions.
+
+Each command lives in its own module exposing ``register(subparsers)``; the parser it adds
+sets ``func(args) -> int``.  CLI modules parse arguments and report errors; the work is done
+by library functions that tests import.
+
+User mistakes print one line on stderr and exit with code 2, never a traceback:
+
+* :class:`~models.errors.InputError` -- a library error about one of its parameters
+  (``parameter="runs"``) is shown under the flag or argument that fills it (``--runs``);
+* ``OSError`` on a user's path (permission, read-only or full filesystem, ``/proc``) -- the
+  path and the system's reason;
+* argparse errors (unknown option, bad number).
+
+The CLI writes files only, so it selects matplotlib's file backend (Agg) before any command
+runs; library plotting modules never choose a backend (that would switch a notebook's).
+
+Owns nothing a library needs: no module outside the CLI imports it.
+
+Only imported by: rcsim.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from models.errors import InputError
+
+# Every command group's module, in the order ``rcsim --help`` lists them.
+_COMMANDS = (
+    "analysis.apps.cli.loop",
+    "analysis.apps.cli.maneuver",
+    "analysis.apps.cli.lookup",
+    "analysis.apps.cli.scenario",
+    "analysis.apps.cli.campaign",
+    "analysis.apps.cli.study",
+    "analysis.apps.cli.analyze",
+)
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line and raise instead of exiting."""
+
+    def error(self, message: str):  # noqa: D401 - argparse API
+        # "rcsim: error: maneuver: argument --duration-s: ...", not "rcsim: error: rcsim ...".
+        command = self.prog.partition(" ")[2]
+        raise InputError(f"{command}: {message}" if command else message)
+
+
+def _leaf_parsers(parser: argparse.ArgumentParser):
+    """Every parser that runs a command (has a ``func`` default), depth first."""
+    # argparse exposes sub-parsers only through these long-stable private attributes.
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in dict.fromkeys(action.choices.values()):  # aliases share a parser
+                yield from _leaf_parsers(child)
+    if parser.get_default("func") is not None:
+        yield parser
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="rcsim",
+        description="Spacecraft reaction-control simulation (16 on/off jets, MuJoCo).",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    for name in _COMMANDS:
+        importlib.import_module(name).register(sub)
+    for leaf in _leaf_parsers(parser):
+        leaf.set_defaults(_parser=leaf)  # so that errors can name this command's flags
+    return parser
+
+
+def argument_name(parser: argparse.ArgumentParser | None, parameter: str) -> str:
+    """How ``parser``'s command line spells library parameter ``parameter``.
+
+    The flag whose destination is ``parameter`` (``runs`` -> ``--runs``), a positional
+    argument's metavar (``run_id`` -> ``RUN_ID``), else the parameter's own name.
+    """
+    for action in (parser._actions if parser is not None else ()):
+        if action.dest != parameter:
+            continue
+        if action.option_strings:
+            return max(action.option_strings, key=len)
+        metavar = action.metavar
+        return metavar if isinstance(metavar, str) else parameter.upper()
+    return parameter
+
+
+def error_line(exc: BaseException, parser: argparse.ArgumentParser | None = None) -> str:
+    """The one line reported for a user error (without the ``rcsim: error:`` prefix)."""
+    from analysis.engine.output import OutputExists
+
+    if isinstance(exc, OutputExists):
+        flag = argument_name(parser, exc.parameter)
+        if argument_name(parser, "overwrite") == "overwrite":  # this command never replaces
+            return f"{flag} {exc.path}: {exc.what}; choose another path"
+        return (f"{flag} {exc.path}: {exc.what}; use --overwrite to replace it, or choose "
+                "another path")
+    if isinstance(exc, InputError):
+        if exc.parameter is None:
+            return str(exc)
+        return exc.render(argument_name(parser, exc.parameter))
+    if isinstance(exc, OSError):
+        paths = " -> ".join(str(p) for p in (exc.filename, exc.filename2) if p is not None)
+        reason = exc.strerror or str(exc)
+        return f"{paths}: {reason}" if paths else reason
+    return str(exc)
+
+
+def _use_file_backend() -> None:
+    """Agg: the CLI only writes image files and must work without a display."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = None
+    try:
+        args = parser.parse_args(argv)
+        _use_file_backend()
+        return int(args.func(args) or 0)
+    except (InputError, OSError) as exc:
+        # One line even if a message carries a newline (a path, a parser's text).
+        line = " ".join(error_line(exc, getattr(args, "_parser", None)).split("\n"))
+        print(f"rcsim: error: {line}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("rcsim: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,10 @@
+"""The analyst's whole loop on defaults (``rcsim loop``, ``make run``).
+
+* :mod:`~analysis.apps.loop.run` -- campaign with the table, failure drivers, refinement,
+  the refined table's campaign on a fresh seed; resumable stage by stage;
+* :mod:`~analysis.apps.loop.report` -- the one ``report.html`` of the loop.
+
+Composes ``analysis.engine.campaign``, ``drivers``, ``refinement`` and ``report``.
+
+Only imported by: analysis.apps.cli, rcsim.
+"""

@@ -1,0 +1,296 @@
+"""The analyst's loop: campaign -> failure drivers -> refined table -> fresh campaign -> report.
+
+``rcsim loop`` (and ``make run``) on defaults: a Table 5 campaign of the 26 rate cases flown
+with the paper's Table 6, its failure-driver analysis, refinement of the table, the refined
+table re-flown on a fresh seed, and one ``report.html`` with the before/after.
+
+Every stage writes its own sub-directory of ``DIR`` completely or not at all, and the loop
+records each finished stage in ``DIR/loop.json``: a loop killed in its tenth minute resumes
+(``resume=True``) from the last finished stage, and the campaigns resume chunk by chunk.
+"""
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.engine.campaign import results as campaign_results
+from analysis.engine.campaign.runner import run_campaign
+from analysis.engine.campaign.spec import load_spec
+from analysis.engine.output import check_out_dir, directory_owner, write_marker
+from models.atomic import atomic_write
+from models.errors import InputError
+from analysis.apps.refinement.outputs import (
+    check_parameters, held_out_seed, load_refinable_table, rate_cases_campaign,
+)
+from models.tables import PAPER_LOOKUP_TABLES, load_lookup_table
+
+COMMAND = "loop"
+STATE = "loop.json"
+#: Stages in order, each a sub-directory (or file) of DIR.
+STAGES = ("campaign_before", "drivers", "refine", "campaign_after", "check", "report")
+
+
+@dataclass(frozen=True)
+class LoopSettings:
+    """What the loop flies (defaults: ``make run``).
+
+    Attributes
+    ----------
+    table : str
+        Table to refine: ``"table6"`` / ``"table7"`` (the paper's) or a CSV path.
+    runs_per_case : int
+        Dispersed runs per rate case, for the campaigns and the refinement search.
+    seed : int
+        Campaign and search seed; run i draws from ``SeedSequence(seed, spawn_key=(i,))``.
+    fresh_seed : int
+        Held-out seed: the refined table is re-flown on it (default ``seed + 1``).
+    duration_s : float
+        Simulated time of every run [s].
+    permutations : int
+        Label permutations of the driver analysis's p-values.
+    max_iterations : int
+        Most rounds of the refinement search.
+    """
+
+    table: str = "table6"
+    runs_per_case: int = 100
+    seed: int = 1
+    fresh_seed: int | None = None
+    duration_s: float = 20.0
+    permutations: int = 200
+    max_iterations: int = 8
+
+    def __post_init__(self):
+        # The refinement's and the driver analysis's own checks: one rule for each.
+        from analysis.results.drivers.pipeline import Settings
+
+        check_parameters(runs_per_case=self.runs_per_case, seed=self.seed,
+                         fresh_seed=self.held_out_seed, duration_s=self.duration_s,
+                         max_iterations=self.max_iterations)
+        Settings(n_permutations=self.permutations, random_state=self.seed)
+
+    @property
+    def held_out_seed(self) -> int:
+        return held_out_seed(self.seed) if self.fresh_seed is None else self.fresh_seed
+
+
+@dataclass
+class LoopResult:
+    """Where the loop wrote, and the time of each stage [s]."""
+
+    out: Path
+    report: Path
+    stage_s: dict = field(default_factory=dict)
+    summary: dict = field(default_factory=dict)
+
+
+def spec_text(*, table: str, runs_per_case: int, seed: int, duration_s: float) -> str:
+    """The refinement's rate-case campaign (:func:`rate_cases_campaign`) as a TOML spec, with
+    failure histories and plots kept (a user reads these campaigns)."""
+    data = rate_cases_campaign(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s,
+                               table=table, histories="failures", plots=True)
+    lines = ["# Written by `rcsim loop`: the 26 Table 3 rate cases, Table 5 dispersions."]
+    scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
+    lines += [f"{k} = {_toml(v)}" for k, v in scalars.items()]
+    for name, table_ in data.items():
+        if isinstance(table_, dict):
+            lines += ["", f"[{name}]"] + [f"{k} = {_toml(v)}" for k, v in table_.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _toml(value) -> str:
+    """A TOML scalar: JSON's spelling is TOML's for strings, numbers and booleans."""
+    return json.dumps(value)
+
+
+def _table_path(table: str) -> str:
+    """How a campaign spec names the table: the paper's by name, a file by absolute path."""
+    return table if table in PAPER_LOOKUP_TABLES else str(Path(table).absolute())
+
+
+class _State:
+    """``DIR/loop.json``: the settings and the stages already finished."""
+
+    def __init__(self, out: Path, settings: LoopSettings, resume: bool):
+        self.path = out / STATE
+        wanted = asdict(settings)
+        if resume and self.path.is_file():
+            self.data = read_state(out)
+            if _comparable(self.data.get("settings")) != _comparable(wanted):
+                raise InputError(f"{out}: was started with other settings "
+                                 f"({self.data.get('settings')}); choose another directory",
+                                 parameter="out", value=str(out))
+        else:
+            self.data = {"format": "rcsim-loop/1", "settings": wanted, "done": {},
+                         "code_version": campaign_results.code_version(),
+                         "started_utc": campaign_results.now_utc()}
+        self.save()
+
+    def done(self, stage: str) -> bool:
+        return stage in self.data["done"]
+
+    def finish(self, stage: str, seconds: float, **info) -> None:
+        self.data["done"][stage] = {"seconds": round(seconds, 2), **info}
+        self.save()
+
+    def save(self) -> None:
+        atomic_write(self.path, lambda tmp: Path(tmp).write_text(json.dumps(self.data, indent=2)
+                                                                  + "\n"))
+
+
+def _comparable(settings) -> dict | None:
+    """Settings as they decide what is flown: the held-out seed, not how it was given."""
+    if not isinstance(settings, dict):
+        return None
+    out = dict(settings)
+    if out.get("fresh_seed") is None and isinstance(out.get("seed"), int):
+        out["fresh_seed"] = held_out_seed(out["seed"])
+    return out
+
+
+def read_state(out: Path) -> dict:
+    """``out/loop.json``, checked; :class:`InputError` naming the file if it is not one."""
+    path = out / STATE
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{path}: not a readable loop state file ({exc})", parameter="out",
+                         value=str(out)) from None
+    if not (isinstance(data, dict) and isinstance(data.get("settings"), dict)
+            and isinstance(data.get("done"), dict)):
+        raise InputError(f"{path}: not a loop state file (no settings and stages)",
+                         parameter="out", value=str(out))
+    return data
+
+
+def check_loop_dir(out, *, resume: bool, overwrite: bool) -> Path:
+    """Check ``out`` before any work: new, or a loop directory to resume."""
+    out = Path(out)
+    if resume:
+        if not (out / STATE).is_file():
+            raise InputError(f"{out}: no {STATE} here to resume; start the loop without resume",
+                             parameter="out", value=str(out))
+        owner = directory_owner(out)
+        if owner != COMMAND:
+            raise InputError(f"{out}: was not written by `rcsim loop`"
+                             + (f" (it holds `rcsim {owner}` outputs)" if owner else ""),
+                             parameter="out", value=str(out))
+        read_state(out)
+        return out.absolute()
+    if overwrite:
+        raise InputError("a loop directory is resumed, never replaced: choose another directory",
+                         parameter="overwrite", value=True)
+    return check_out_dir(out, COMMAND)
+
+
+def run_loop(settings: LoopSettings, out, *, resume: bool = False,
+             progress: bool | None = None, echo=print) -> LoopResult:
+    """Run every stage of the loop into ``out`` (see the module docstring).
+
+    Parameters
+    ----------
+    settings : LoopSettings
+    out : path
+        A new directory, or one to finish (``resume``).
+    echo : callable
+        Receives one line per finished stage (the CLI prints them).
+    """
+    from analysis.results.drivers.inputs import load_runs
+    from analysis.results.drivers.outputs import write_analysis
+    from analysis.results.drivers.pipeline import Settings, analyze
+    from analysis.apps.loop.report import write_loop_report
+    from analysis.apps.refinement.evaluate import runs_from_campaign
+    from analysis.apps.refinement.outputs import (
+        held_out_check, load_search, refinement_spec, save_search, write_refinement,
+    )
+    from analysis.apps.refinement.search import refine
+
+    table = load_refinable_table(settings.table)  # a table that does not load: before any work
+    out = check_loop_dir(out, resume=resume, overwrite=False)
+    out.mkdir(parents=True, exist_ok=True)
+    write_marker(out, COMMAND)
+    state = _State(out, settings, resume)
+    paths = {"campaign_before": out / "campaign_before", "drivers": out / "drivers",
+             "refined": out / "refined_table.csv", "search": out / "refine_search.json",
+             "campaign_after": out / "campaign_after",
+             "report": out / "report.html"}
+    result = LoopResult(out=out, report=paths["report"])
+
+    def stage(name: str, work) -> None:
+        if state.done(name):
+            echo(f"{name}: already done")
+            return
+        t0 = time.perf_counter()
+        info = work() or {}
+        seconds = time.perf_counter() - t0
+        state.finish(name, seconds, **info)
+        echo(f"{name}: done in {seconds:.1f} s" + "".join(f"; {k} {v}" for k, v in info.items()))
+
+    def campaign(name: str, table_path: str, seed: int):
+        spec_file = out / f"spec_{name.split('_')[1]}.toml"
+        if not spec_file.exists():
+            atomic_write(spec_file, lambda tmp: Path(tmp).write_text(spec_text(
+                table=table_path, runs_per_case=settings.runs_per_case, seed=seed,
+                duration_s=settings.duration_s)))
+        spec = load_spec(spec_file)
+        report = run_campaign(spec, paths[name], resume=paths[name].exists(),
+                              progress=progress, spec_file=str(spec_file))
+        return {"runs": report.counts.get("runs"), "failed": report.counts.get("failed")}
+
+    def drivers():
+        runset = load_runs(paths["campaign_before"])
+        res = analyze(runset, Settings(n_permutations=settings.permutations,
+                                       random_state=settings.seed))
+        write_analysis(res, paths["drivers"], overwrite=True)
+        top = res.drivers[res.drivers["significant"]]["factor"].head(3).tolist() \
+            if res.has_failures else []
+        return {"significant": ", ".join(top) or "none"}
+
+    cases = np.arange(len(table.case))
+
+    def campaign_runs(name: str):
+        runs = pd.read_parquet(paths[name] / campaign_results.RUNS)
+        return runs_from_campaign(runs, cases, settings.runs_per_case)
+
+    def search():
+        # The search's baseline is the "before" campaign itself: same seed, same runs.
+        spec = refinement_spec(runs_per_case=settings.runs_per_case, seed=settings.seed,
+                               duration_s=settings.duration_s)
+        result = refine(spec, table, max_iterations=settings.max_iterations, progress=progress,
+                        baseline_runs=campaign_runs("campaign_before"))
+        save_search(result, paths["search"])
+        result.table.to_csv(paths["refined"])
+        return {"cases_changed": int((result.table.firing_time_s != table.firing_time_s)
+                                     .any(axis=1).sum()),
+                "runs_flown": result.runs_flown}
+
+    def check():
+        # The refined table's runs on the fresh seed are the "after" campaign's; only the old
+        # table is flown again, on that seed.
+        refined = load_lookup_table(paths["refined"])
+        ref = held_out_check(table, load_search(paths["search"], refined), seed=settings.seed,
+                             fresh_seed=settings.held_out_seed,
+                             runs_per_case=settings.runs_per_case, duration_s=settings.duration_s,
+                             fresh_after_runs=campaign_runs("campaign_after"), progress=progress)
+        write_refinement(ref, paths["refined"], overwrite=True)
+        log = ref.changelog
+        return {"failed_fresh": f"{int(log['failed_fresh_before'].sum())} -> "
+                                f"{int(log['failed_fresh_after'].sum())}"}
+
+    stage("campaign_before", lambda: campaign("campaign_before", _table_path(settings.table),
+                                              settings.seed))
+    stage("drivers", drivers)
+    stage("refine", search)
+    stage("campaign_after", lambda: campaign("campaign_after", str(paths["refined"]),
+                                             settings.held_out_seed))
+    stage("check", check)
+    stage("report", lambda: {"path": str(write_loop_report(out, settings, state.data))})
+    state.data["finished_utc"] = campaign_results.now_utc()
+    state.save()
+    result.stage_s = {k: v["seconds"] for k, v in state.data["done"].items()}
+    return result

@@ -1,0 +1,154 @@
+"""Fly candidate lookup tables over the same dispersed runs, all in one batched campaign.
+
+A *trial* is one candidate table flown on one rate case.  Run ``k`` of a trial on case ``c``
+flies the vehicle of campaign run ``c * runs_per_case + k`` -- the same draw from
+``SeedSequence(seed, spawn_key=(run_id,))`` for every candidate (common random numbers), so a
+difference between candidates is the table's doing, not sampling noise.  The baseline trials
+(the table as it is) are exactly the runs ``rcsim campaign run`` flies with the same seed.
+
+Every run of every trial goes into one list of runs, cut into chunks that are flown on a
+thread pool (MuJoCo releases the GIL), each chunk one batched simulation in which every run
+carries its own table (:meth:`lookup.pattern_recognition.LookupController.for_runs`).
+"""
+from __future__ import annotations
+
+import os
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from analysis.engine.campaign.chunk import max_chunk_runs
+from analysis.engine.campaign.outcomes import outcomes
+from analysis.engine.flight import fly_batch
+from analysis.results.scoring import trial_frame
+from lookup.pattern_recognition import LookupController, LookupParams
+from models.tables import AXES, CONTROL_CYCLE_S, LookupTable
+from spacecraft.dispersions import draw_runs
+from spacecraft.vehicle import VehicleParams, load_model
+
+
+@dataclass(frozen=True)
+class Trials:
+    """Candidate tables and the case each is flown on.
+
+    Attributes
+    ----------
+    times_s : ndarray, (n_trials, 26, 16)
+        Each candidate's firing times [s].
+    case : ndarray of int, (n_trials,)
+        Table row (0-based case index) the trial flies.
+    label : tuple of str
+        What the candidate is (for the changelog and messages).
+    """
+
+    times_s: np.ndarray
+    case: np.ndarray
+    label: tuple
+
+    @property
+    def n_trials(self) -> int:
+        return int(self.case.size)
+
+
+def _fly_chunk(spec, table: LookupTable, params_all: VehicleParams, row_of_run: np.ndarray,
+               run_times: np.ndarray, cases: np.ndarray, lookup_params: LookupParams,
+               model) -> pd.DataFrame:
+    """Fly one chunk: run ``i`` flies case ``cases[i]`` with vehicle ``row_of_run[i]`` of
+    ``params_all`` and table ``run_times[i]``; return its outcome columns."""
+    controller = LookupController.for_runs(table, run_times, lookup_params)
+    params = params_all.take(row_of_run)
+    history = fly_batch([spec.cases[c] for c in cases], params, controller, model=model,
+                        nthread=1)
+    return outcomes(history, spec, CONTROL_CYCLE_S, params.isp_s)
+
+
+def evaluate(spec, table: LookupTable, trials: Trials, *,
+             lookup_params: LookupParams | None = None, threads: int | None = None,
+             progress: bool | None = None, desc: str = "refine") -> pd.DataFrame:
+    """Fly every trial over ``spec.runs_per_case`` dispersed runs of its case.
+
+    Parameters
+    ----------
+    spec : analysis.engine.campaign.spec.CampaignSpec
+        A rate-cases campaign: its cases (one per table row), seed, dispersions, failure
+        threshold and runs per case.
+    table : LookupTable
+        The table the candidates edit (jet roles are learned from it).
+    trials : Trials
+    lookup_params : LookupParams, optional
+        Default: Table 4.
+    threads : int, optional
+        Chunks in flight (default: CPU count).
+    progress : bool, optional
+        Progress bar on stderr; default only when stderr is a terminal.
+
+    Returns
+    -------
+    DataFrame
+        One row per run: ``trial, case_index, k, failed, repeated`` (some axis needed more
+        than one firing event to reach its commanded rate), ``firings_to_rate_<axis>``,
+        ``final_rate_err_<axis>_deg_s``.
+    """
+    from tqdm import tqdm
+
+    n = spec.runs_per_case
+    lookup_params = LookupParams.from_table4() if lookup_params is None else lookup_params
+    model = load_model()
+    # Draw each involved case's runs once; every candidate of that case reuses them.
+    involved = np.unique(trials.case)
+    run_ids = (involved[:, None] * n + np.arange(n)[None, :]).ravel()
+    params_all = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids).params
+    first_row = {int(c): i * n for i, c in enumerate(involved)}
+
+    trial_of_run = np.repeat(np.arange(trials.n_trials), n)
+    k_of_run = np.tile(np.arange(n), trials.n_trials)
+    case_of_run = trials.case[trial_of_run]
+    row_of_run = np.array([first_row[int(c)] for c in trials.case])[trial_of_run] + k_of_run
+    threads = max(1, threads or os.cpu_count() or 1)
+    # Chunks as the campaign sizes them (its chunk size, under its per-chunk history memory
+    # budget for this duration), equal and a multiple of the thread count so that the threads
+    # finish together (one 512-run chunk and one 8-run chunk would idle one).
+    limit = max_chunk_runs(spec, spec.cases[0].duration_s)
+    count = -(-trial_of_run.size // limit)
+    count = min(trial_of_run.size, -(-count // threads) * threads)
+    bounds = np.linspace(0, trial_of_run.size, count + 1).round().astype(int)
+    chunks = [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+
+    def fly(sl: slice) -> pd.DataFrame:
+        return _fly_chunk(spec, table, params_all, row_of_run[sl],
+                          trials.times_s[trial_of_run[sl]], case_of_run[sl], lookup_params, model)
+
+    show = sys.stderr.isatty() if progress is None else progress
+    frames = []
+    with tqdm(total=trial_of_run.size, unit="run", desc=desc, disable=not show,
+              file=sys.stderr, dynamic_ncols=True) as bar, \
+            ThreadPoolExecutor(max_workers=threads) as pool:
+        for sl, frame in zip(chunks, pool.map(fly, chunks)):
+            frames.append(frame)
+            bar.update(sl.stop - sl.start)
+    return trial_frame(trial_of_run, case_of_run, k_of_run, pd.concat(frames, ignore_index=True))
+
+
+def runs_from_campaign(campaign_runs: pd.DataFrame, cases: np.ndarray,
+                       runs_per_case: int) -> pd.DataFrame:
+    """A campaign's ``runs.parquet`` rows as :func:`evaluate` would return them for trials
+    that fly the campaign's own table on ``cases`` (one trial per case, in that order).
+
+    A rate-cases campaign with the same seed, dispersions, duration and runs per case flies
+    exactly the runs of those trials (run ``c * runs_per_case + k``), so flying them again
+    would only repeat it.
+    """
+    want = np.asarray(cases, int)
+    rows = campaign_runs[campaign_runs["case_index"].isin(want)].sort_values("run_id")
+    if len(rows) != want.size * runs_per_case:
+        raise ValueError(f"the campaign has {len(rows)} runs of these cases, expected "
+                         f"{want.size * runs_per_case}")
+    trial_of_case = {int(c): t for t, c in enumerate(want)}
+    out = trial_frame(rows["case_index"].map(trial_of_case).to_numpy(),
+                       rows["case_index"].to_numpy(),
+                       (rows["run_id"] - rows["case_index"] * runs_per_case).to_numpy(),
+                       rows.reset_index(drop=True))
+    return out.sort_values(["trial", "k"], kind="stable").reset_index(drop=True)

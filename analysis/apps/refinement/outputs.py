@@ -1,0 +1,383 @@
+"""Refinement outputs: the refined table, its changelog on the search and a fresh seed, plots.
+
+``OUT.csv`` is a lookup table in the rcsim layout (loadable by ``--table``).
+``OUT_changelog.csv`` has one row per searched case: the firing time per axis before and
+after (control cycles and seconds), and failures and repeated-firing runs before and after on
+the search seed and on a fresh seed the search never saw.  ``OUT_plots/`` holds the
+before/after plots (Figs 9-10 style).
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.engine.campaign.outcomes import outcomes
+from analysis.engine.campaign.spec import parse_dict
+from analysis.engine.flight import fly_batch
+from analysis.engine.output import atomic_dir, check_out_dir, check_out_file
+from analysis.engine.plots import AXIS_COLORS, new_figure
+from analysis.apps.refinement.evaluate import Trials, evaluate
+from analysis.results.scoring import trial_scores
+from analysis.apps.refinement.search import RefineResult, changed_cells, refine
+from lookup.pattern_recognition import LookupController
+from lookup.table_edits import axis_cycles, jet_axes
+from models.atomic import atomic_write
+from models.errors import InputError
+from models.tables import AXES, CONTROL_CYCLE_S, LookupTable
+from spacecraft.dispersions import draw_runs
+from spacecraft.vehicle import VehicleParams, load_model
+
+DPI = 90
+#: Most runs drawn in the before/after plot of one case.
+PLOT_RUNS = 200
+
+
+def rate_cases_campaign(*, runs_per_case: int, seed: int, duration_s: float = 20.0,
+                        table: str = "default", histories: str = "none",
+                        plots: bool = False) -> dict:
+    """The campaign a refinement flies, as a spec dict: all 26 Table 3 cases from rest, Table 5
+    dispersions, the campaign's default failure threshold.
+
+    The one definition: ``rcsim loop`` writes it as the TOML of its campaigns, and uses the
+    "before" campaign's runs as the search's baseline -- the same runs only if both come
+    from here.
+    """
+    return {"seed": seed, "runs_per_case": runs_per_case,
+            "scenario": {"kind": "rate-cases", "cases": "all", "mode": "command",
+                         "duration_s": float(duration_s)},
+            "controller": {"name": "lookup", "table": table},
+            "dispersions": {"table": "default", "scale": 1.0},
+            "output": {"histories": histories, "plots": plots}}
+
+
+def refinement_spec(*, runs_per_case: int, seed: int, duration_s: float = 20.0,
+                    source: str = "lookup refine"):
+    """:func:`rate_cases_campaign` validated (a :class:`CampaignSpec`)."""
+    return parse_dict(rate_cases_campaign(runs_per_case=runs_per_case, seed=seed,
+                                          duration_s=duration_s), source=source, base_dir=None)
+
+
+@dataclass
+class Refinement:
+    """A refinement with its held-out check.
+
+    Attributes
+    ----------
+    original : LookupTable
+        The table refined.
+    result : RefineResult
+    fresh_before, fresh_after : DataFrame
+        Per searched case on the fresh seed: ``failed, repeated, runs``.
+    changelog : DataFrame
+    seed, fresh_seed, runs_per_case : int
+    duration_s : float
+        Simulated time of every run [s].
+    """
+
+    original: LookupTable
+    result: RefineResult
+    fresh_before: pd.DataFrame
+    fresh_after: pd.DataFrame
+    changelog: pd.DataFrame
+    seed: int
+    fresh_seed: int
+    runs_per_case: int
+    duration_s: float
+
+    @property
+    def table(self) -> LookupTable:
+        return self.result.table
+
+
+def run_refinement(table: LookupTable, *, runs_per_case: int, seed: int,
+                   fresh_seed: int | None = None,
+                   cases=None, duration_s: float = 20.0, max_iterations: int = 8,
+                   threads: int | None = None, progress: bool | None = None) -> Refinement:
+    """Refine ``table`` on ``seed`` and fly the old and new tables on ``fresh_seed``.
+
+    Parameters
+    ----------
+    table : LookupTable
+    runs_per_case : int
+        Dispersed runs of each case, 1 .. :data:`MAX_RUNS_PER_CASE`.
+    seed, fresh_seed : int
+        The search seed and the held-out seed (must differ), >= 0; default
+        :func:`held_out_seed` of ``seed``.
+    cases : sequence of int, optional
+        Table rows (0-based) to refine; default all.
+    duration_s : float
+        Simulated time of every run [s].
+    max_iterations : int
+        Most rounds of candidates, >= 1.
+
+    Raises
+    ------
+    InputError
+        A parameter out of range (named by ``parameter``).
+    """
+    fresh_seed = held_out_seed(seed) if fresh_seed is None else fresh_seed
+    check_parameters(runs_per_case=runs_per_case, seed=seed, fresh_seed=fresh_seed,
+                     duration_s=duration_s, max_iterations=max_iterations)
+    spec = refinement_spec(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s)
+    result = refine(spec, table, cases, max_iterations=max_iterations, threads=threads,
+                    progress=progress)
+    return held_out_check(table, result, seed=seed, fresh_seed=fresh_seed,
+                          runs_per_case=runs_per_case, duration_s=duration_s, threads=threads,
+                          progress=progress)
+
+
+def held_out_check(table: LookupTable, result: RefineResult, *, seed: int, fresh_seed: int,
+                   runs_per_case: int, duration_s: float = 20.0,
+                   fresh_after_runs: pd.DataFrame | None = None, threads: int | None = None,
+                   progress: bool | None = None) -> Refinement:
+    """Fly the old and the refined table on ``fresh_seed`` (the seed the search never saw).
+
+    ``fresh_after_runs``: the refined table's runs on the fresh seed if a campaign already
+    flew them (:func:`~analysis.apps.refinement.evaluate.runs_from_campaign`); then only the
+    old table is flown.
+    """
+    searched = result.before["case_index"].to_numpy()
+    fresh = refinement_spec(runs_per_case=runs_per_case, seed=fresh_seed, duration_s=duration_s)
+    tables = [np.asarray(table.firing_time_s)]
+    if fresh_after_runs is None:
+        tables.append(np.asarray(result.table.firing_time_s))
+    trials = Trials(np.concatenate([np.repeat(t[None], searched.size, 0) for t in tables]),
+                    np.tile(searched, len(tables)),
+                    tuple(["before"] * searched.size + ["after"] * (len(tables) - 1)
+                          * searched.size))
+    runs = evaluate(fresh, table, trials, threads=threads, progress=progress,
+                    desc="refine: fresh seed")
+    scores = trial_scores(runs, trials.n_trials)
+    fresh_before = scores.iloc[:searched.size].reset_index(drop=True)
+    if fresh_after_runs is None:
+        fresh_after = scores.iloc[searched.size:].reset_index(drop=True)
+    else:
+        fresh_after = trial_scores(fresh_after_runs, searched.size)
+    log = changelog(table, result, fresh_before, fresh_after)
+    return Refinement(table, result, fresh_before, fresh_after, log, seed, fresh_seed,
+                      runs_per_case, duration_s)
+
+
+def save_search(result: RefineResult, path: str | Path) -> None:
+    """The search's per-case scores and rounds as JSON (the refined table is its own CSV)."""
+    data = {"before": result.before.to_dict(orient="list"),
+            "after": result.after.to_dict(orient="list"),
+            "iterations": result.iterations, "runs_flown": result.runs_flown}
+    atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(data, indent=1, default=int)))
+
+
+def load_search(path: str | Path, table: LookupTable) -> RefineResult:
+    """:func:`save_search` read back, with ``table`` the refined table."""
+    data = json.loads(Path(path).read_text())
+    return RefineResult(table=table, before=pd.DataFrame(data["before"]),
+                        after=pd.DataFrame(data["after"]), iterations=data["iterations"],
+                        runs_flown=data["runs_flown"])
+
+
+#: Most runs per case a refinement accepts: 26 cases x 100,000 runs is 65 days of a 2-core
+#: machine's flying; a larger number is a typo, refused before any work.
+MAX_RUNS_PER_CASE = 100_000
+
+
+def load_refinable_table(table) -> LookupTable:
+    """The table to refine (a CSV path or ``table6`` / ``table7``).
+
+    Refinement flies the 16-jet vehicle; a table generated for failed jets (its companion file
+    records them, :mod:`lookup.jet_sets`) is refused with that reason rather than with
+    the jet-map mismatch the plain loader would report.
+    """
+    from lookup.jet_sets import jets_off_of
+    from models.tables import PAPER_LOOKUP_TABLES, load_lookup_table
+
+    if str(table) not in PAPER_LOOKUP_TABLES and Path(table).is_file():
+        off = jets_off_of(table)
+        if off:
+            raise InputError(f"{table}: a table for jets {','.join(map(str, off))} off; "
+                             "refinement flies the full 16-jet vehicle (fly this table with "
+                             "`rcsim campaign run` and its spec's controller.table)",
+                             parameter="table", value=str(table))
+    return load_lookup_table(table)
+
+
+def held_out_seed(seed: int) -> int:
+    """The default held-out seed of a search on ``seed``: ``seed + 1``.
+
+    Any other seed is as unseen (each seed's streams are independent); one rule keeps
+    ``rcsim lookup refine`` and ``rcsim loop`` on the same default.
+    """
+    return seed + 1
+
+
+def check_parameters(*, runs_per_case, seed, fresh_seed, duration_s, max_iterations) -> None:
+    """Raise :class:`InputError` naming the first out-of-range refinement parameter."""
+    def bad(name, value, problem):
+        return InputError(f"{problem}, got {value!r}", parameter=name, value=value)
+
+    for name, value, lo, hi in (("runs_per_case", runs_per_case, 1, MAX_RUNS_PER_CASE),
+                                ("seed", seed, 0, None), ("fresh_seed", fresh_seed, 0, None),
+                                ("max_iterations", max_iterations, 1, 1000)):
+        if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < lo or (
+                hi is not None and value > hi):
+            raise bad(name, value, f"must be an integer in {lo}..{hi if hi else 'inf'}")
+    if fresh_seed == seed:
+        raise bad("fresh_seed", fresh_seed, "must differ from the search seed (it is the "
+                                            "held-out check)")
+    from analysis.engine.campaign.limits import max_duration_s
+
+    longest = max_duration_s()
+    # At least a second: the longest table firing (0.52 s), the 0.16 s hold and a correction.
+    if not (isinstance(duration_s, (int, float)) and np.isfinite(duration_s)
+            and 1.0 <= duration_s <= longest):
+        raise bad("duration_s", duration_s, f"must be a time in 1..{longest:.0f} s (a firing, "
+                  "its hold and a correction; at most what one campaign chunk holds)")
+
+
+def changelog(old: LookupTable, result: RefineResult, fresh_before: pd.DataFrame,
+              fresh_after: pd.DataFrame) -> pd.DataFrame:
+    """One row per searched case: times per axis before/after, outcomes on both seeds."""
+    jet_axis = jet_axes(old)
+    searched = result.before["case_index"].to_numpy()
+    c_old = axis_cycles(old.firing_time_s, jet_axis)[searched]
+    c_new = axis_cycles(result.table.firing_time_s, jet_axis)[searched]
+    cols: dict = {"case": old.case[searched]}
+    for a, axis in enumerate(AXES):
+        cols[f"{axis}_old_s"] = c_old[:, a] * CONTROL_CYCLE_S
+        cols[f"{axis}_new_s"] = c_new[:, a] * CONTROL_CYCLE_S
+        cols[f"{axis}_change_cycles"] = c_new[:, a] - c_old[:, a]
+    frame = pd.DataFrame(cols)
+    frame["changed"] = (c_new != c_old).any(axis=1)
+    frame["runs"] = result.before["runs"].to_numpy()
+    for name, scores in (("search_before", result.before), ("search_after", result.after),
+                         ("fresh_before", fresh_before), ("fresh_after", fresh_after)):
+        frame[f"failed_{name}"] = scores["failed"].to_numpy()
+        frame[f"repeated_{name}"] = scores["repeated"].to_numpy()
+    return frame
+
+
+#: The command whose outputs :func:`write_refinement` writes (named in the plots' marker).
+COMMAND = "lookup refine"
+
+
+def output_paths(out_csv: str | Path) -> dict[str, Path]:
+    """Where a refinement writes: the table, its changelog and the plots folder."""
+    out_csv = Path(out_csv)
+    return {"table": out_csv,
+            "changelog": out_csv.with_name(f"{out_csv.stem}_changelog.csv"),
+            "plots": out_csv.with_name(f"{out_csv.stem}_plots")}
+
+
+def check_outputs(out_csv: str | Path, *, overwrite: bool = False) -> dict[str, Path]:
+    """Check all three outputs before any flight (existing ones need ``overwrite``)."""
+    paths = output_paths(out_csv)
+    check_out_file(paths["table"], overwrite=overwrite, parameter="out")
+    check_out_file(paths["changelog"], overwrite=overwrite, parameter="out")
+    check_out_dir(paths["plots"], COMMAND, overwrite=overwrite)
+    return paths
+
+
+def write_refinement(ref: Refinement, out_csv: str | Path, *, overwrite: bool = False
+                     ) -> dict[str, Path]:
+    """Write ``OUT.csv``, ``OUT_changelog.csv`` and ``OUT_plots/*.png``; returns the paths.
+
+    Each output is complete or absent: the plots folder is built aside and renamed into place,
+    the two CSV files are renamed into place, the table last, so a table on disk always has
+    its changelog beside it.
+    """
+    paths = check_outputs(out_csv, overwrite=overwrite)
+    written = dict(paths)
+    worst = most_improved_case(ref.changelog)
+    with atomic_dir(paths["plots"], COMMAND, overwrite=overwrite) as tmp:
+        plot_failures_by_case(ref.changelog, tmp / "failures_by_case.png",
+                              title=f"{ref.runs_per_case} dispersed runs per case")
+        written["summary_plot"] = paths["plots"] / "failures_by_case.png"
+        if worst is not None:
+            name = f"case_{int(worst['case']):02d}_before_after.png"
+            plot_case_before_after(ref, int(worst["case"]), tmp / name)
+            written["case_plot"] = paths["plots"] / name
+    atomic_write(paths["changelog"],
+                 lambda tmp: ref.changelog.to_csv(tmp, index=False, float_format="%.6g"))
+    ref.table.to_csv(paths["table"])  # last: the table appears only when the rest is written
+    del written["plots"]
+    return written
+
+
+def most_improved_case(log: pd.DataFrame):
+    """The changelog row of the changed case with the largest drop in failures (then in
+    repeated firings) on the search seed; None if no case changed."""
+    changed = log[log["changed"]]
+    if changed.empty:
+        return None
+    gain = (changed["failed_search_before"] - changed["failed_search_after"]) * 10_000 + (
+        changed["repeated_search_before"] - changed["repeated_search_after"])
+    return changed.loc[gain.idxmax()]
+
+
+def plot_failures_by_case(log: pd.DataFrame, path: Path, *, title: str) -> None:
+    """Failed and repeated-firing runs per case, before and after, on both seeds."""
+    fig, axes = new_figure(2, 2, figsize=(12, 6.5), sharex=True, sharey="row")
+    x = np.arange(len(log))
+    for col, seed in enumerate(("search", "fresh")):
+        for row, what in enumerate(("failed", "repeated")):
+            ax = axes[row, col]
+            ax.bar(x - 0.2, log[f"{what}_{seed}_before"], 0.4, color="tab:red", label="before")
+            ax.bar(x + 0.2, log[f"{what}_{seed}_after"], 0.4, color="tab:blue", label="after")
+            ax.set_ylabel(f"{what} runs" if col == 0 else "")
+            ax.grid(alpha=0.3, axis="y")
+            ax.set_title(f"{what} runs per case, {seed} seed "
+                         f"({int(log[f'{what}_{seed}_before'].sum())} -> "
+                         f"{int(log[f'{what}_{seed}_after'].sum())})", fontsize=10)
+            ax.legend(fontsize=8)
+        axes[1, col].set_xticks(x, [str(int(c)) + ("*" if ch else "")
+                                    for c, ch in zip(log["case"], log["changed"])], fontsize=7)
+        axes[1, col].set_xlabel("rate case (* = firing time changed)")
+    fig.suptitle(f"Lookup-table refinement: {title}; repeated = needed more than one firing "
+                 "to reach the commanded rate")
+    fig.savefig(path, dpi=DPI)
+
+
+def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
+    """Figs 9-10 style: the changed axis's body rate of every search-seed run of ``case``,
+    with the old table (left) and the refined one (right); failed runs in red."""
+    log = ref.changelog.set_index("case").loc[case]
+    axis = max(AXES, key=lambda a: abs(int(log[f"{a}_change_cycles"])))
+    a = AXES.index(axis)
+    spec = refinement_spec(runs_per_case=ref.runs_per_case, seed=ref.seed,
+                           duration_s=ref.duration_s)
+    row = case - 1
+    model = load_model()
+    # At most PLOT_RUNS runs: enough to see the spread, and a fixed cost however many runs
+    # the search flew (the whole history of every run is kept for the plot).
+    shown = min(ref.runs_per_case, PLOT_RUNS)
+    ids = row * ref.runs_per_case + np.arange(shown)
+    params = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, ids).params
+    thr = np.degrees(spec.rate_threshold_rad_s)
+    fig, axes = new_figure(1, 2, figsize=(12, 4.5), sharey=True)
+    cmd = np.degrees(spec.cases[row].rate_cmd_rad_s[a])
+    for ax, (label, table, old_new) in zip(axes, (("old table", ref.original, "old"),
+                                                   ("refined table", ref.table, "new"))):
+        history = fly_batch([spec.cases[row]] * shown, params,
+                            LookupController(table), model=model)
+        rate = np.degrees(history.omega_B[:, :, a])
+        failed = outcomes(history, spec, CONTROL_CYCLE_S, params.isp_s)["failed"].to_numpy(bool)
+        for fail, color in ((False, AXIS_COLORS["roll"]), (True, "tab:red")):
+            sel = failed == fail
+            if sel.any():
+                ax.plot(history.t_s, rate[sel].T, color=color, lw=0.6, alpha=0.5)
+        ax.axhspan(cmd - thr, cmd + thr, color="0.8", alpha=0.6, label=f"command +-{thr:g} deg/s")
+        ax.set_title(f"{label}: {axis} {log[f'{axis}_{old_new}_s']:.2f} s; "
+                     f"{int(failed.sum())} of {shown} runs fail (red)", fontsize=10)
+        ax.set_xlabel("time [s]")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="lower right", fontsize=8)
+    axes[0].set_ylabel(f"{axis} rate [deg/s]")
+    fig.suptitle(f"Rate case {case}: {axis} rate of every dispersed run, before and after "
+                 "refinement (search seed)")
+    fig.savefig(path, dpi=DPI)
+
+
+__all__ = ["Refinement", "changed_cells", "held_out_check", "rate_cases_campaign",
+           "refinement_spec", "run_refinement", "write_refinement"]

@@ -1,0 +1,349 @@
+"""One chunk of a campaign: draw the runs' vehicles, fly them as one batch, tabulate outcomes.
+
+A chunk is a contiguous range of run ids of one case.  Everything here is a function of the
+spec and the run ids only (per-run random streams, per-run independent simulations), so a
+chunk's table is the same whichever process, worker or chunk size produced it.  This module
+is what a Dask worker imports; it writes nothing.
+"""
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, replace
+from typing import Iterator
+
+import numpy as np
+import pandas as pd
+
+# firing_starts is re-exported only for old import paths (no in-tree importer is left; to be
+# dropped once the lead confirms).
+from analysis.engine.campaign.outcomes import axis_jets, firing_starts, outcomes  # noqa: F401
+from analysis.engine.campaign.effects import adapt_options, draw_effects
+from analysis.engine.runs_table import check_run_frame, missing_outcomes
+from spacecraft.dispersions import DispersedRuns, dispersion_frame, draw_runs
+from spacecraft.guards import history_bytes
+from spacecraft.propulsion import PropulsionParams
+from spacecraft.simulation import History, invalid_runs
+from spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
+
+
+@dataclass(frozen=True)
+class Chunk:
+    """Runs ``first .. stop - 1`` (a contiguous range; may span cases of equal duration)."""
+
+    first: int
+    stop: int
+
+    @property
+    def run_ids(self) -> np.ndarray:
+        return np.arange(self.first, self.stop, dtype=np.int64)
+
+    @property
+    def name(self) -> str:
+        return f"{self.first:07d}-{self.stop - 1:07d}"
+
+
+def warm_up() -> None:
+    """Import what a chunk needs and compile the model once (run on each Dask worker before the
+    campaign's clock starts, so start-up is not billed to the first chunk)."""
+    import importlib
+
+    for module in ("lookup.pattern_recognition", "lookup.phase_plane"):
+        importlib.import_module(module)
+
+    load_model()
+
+
+# A chunk's simulation records every cycle of every run (spacecraft.simulation.History,
+# sized by spacecraft.guards.history_bytes).  Long runs get smaller chunks so that one
+# chunk's record stays under this budget [bytes]: a 500 s maneuver in a 256-run chunk would
+# otherwise hold over 700 MB.
+HISTORY_BUDGET_BYTES = 192 * 2**20
+# Chunk counts are rounded up to a multiple of this, so that 1, 2 or 4 workers get equal shares
+# and finish together (5 chunks on 2 workers leave one idle for the last fifth of the work).
+CHUNK_COUNT_MULTIPLE = 4
+
+
+def max_chunk_runs(spec, duration_s: float) -> int:
+    """Most runs per chunk for runs of ``duration_s``: ``spec.chunk_size``, or fewer when the
+    chunk's per-cycle record would exceed :data:`HISTORY_BUDGET_BYTES`."""
+    cycles = int(np.ceil(duration_s / PropulsionParams().cycle_s))
+    # Imperfect sensors record what the controller measured; timing and faults record what
+    # the jets delivered (spacecraft.guards.history_bytes).
+    extra = spec.effects.records()
+    # history_bytes(n, cycles) is affine in n: the shared time column plus n runs' records.
+    shared = history_bytes(0, cycles, **extra)
+    per_run = history_bytes(1, cycles, **extra) - shared
+    by_memory = (HISTORY_BUDGET_BYTES - shared) // per_run
+    return int(max(1, min(spec.chunk_size, by_memory)))
+
+
+def plan_chunks(spec) -> list[Chunk]:
+    """:func:`iter_chunks` as a list (for small campaigns and tests)."""
+    return list(iter_chunks(spec))
+
+
+def iter_chunks(spec) -> Iterator[Chunk]:
+    """Chunks of at most :func:`max_chunk_runs` runs (sizes as equal as possible), in run-id
+    order, generated one at a time (a campaign of many runs never holds its whole plan).
+
+    A chunk is one batched simulation, so all its runs must last equally long: chunks span
+    consecutive cases of equal duration (e.g. all 26 rate cases), which keeps batches large
+    when runs per case are few.  The plan is a function of the spec only (results never depend
+    on it: every run draws from its own seed stream).
+    """
+    groups: list[list[int]] = []
+    for c, case in enumerate(spec.cases):
+        if groups and spec.cases[groups[-1][-1]].duration_s == case.duration_s:
+            groups[-1].append(c)
+        else:
+            groups.append([c])
+    for group in groups:
+        lo, hi = group[0] * spec.runs_per_case, (group[-1] + 1) * spec.runs_per_case
+        # Equal sizes (within one run), so parallel chunks finish together.
+        limit = max_chunk_runs(spec, spec.cases[group[0]].duration_s)
+        count = -(-(hi - lo) // limit)
+        count = min(hi - lo, -(-count // CHUNK_COUNT_MULTIPLE) * CHUNK_COUNT_MULTIPLE)
+        size, extra = divmod(hi - lo, count)
+        first = lo
+        for k in range(count):
+            stop = first + size + (1 if k < extra else 0)
+            yield Chunk(first, stop)
+            first = stop
+
+
+@dataclass
+class ChunkResult:
+    """What a chunk returns to the campaign runner (plain DataFrames: cheap to ship from Dask).
+
+    Attributes
+    ----------
+    chunk : Chunk
+    runs : DataFrame
+        One row per run (the runs.parquet columns).
+    envelope : DataFrame
+        Per-cycle min / max / sum over the chunk's simulated runs (for envelope plots).
+    histories : dict of int -> DataFrame
+        Per-cycle histories of the runs the spec keeps.
+    """
+
+    chunk: Chunk
+    runs: pd.DataFrame
+    envelope: pd.DataFrame
+    histories: dict
+
+
+class Cancelled(BaseException):
+    """A chunk was abandoned because its campaign was interrupted.
+
+    A BaseException, like KeyboardInterrupt: it must pass through the ``except Exception``
+    that records a raising run as failed.
+    """
+
+
+class _Cancellable:
+    """A controller that raises :class:`Cancelled` at its next step once ``cancel`` is set.
+
+    The controller is called once per control cycle of the batch, so an interrupted campaign
+    stops its chunks in flight within a cycle's computation instead of finishing them.
+    """
+
+    def __init__(self, inner, cancel: threading.Event):
+        self._inner, self._cancel = inner, cancel
+
+    def __getattr__(self, name):
+        return getattr(self._inner, name)
+
+    def initial_state(self, n_runs: int):
+        return self._inner.initial_state(n_runs)
+
+    def step(self, nav, state):
+        if self._cancel.is_set():
+            raise Cancelled()
+        return self._inner.step(nav, state)
+
+
+def fly_runs(spec, run_ids: np.ndarray, *, nthread: int = 1, model=None,
+             cancel: threading.Event | None = None) -> tuple[History, DispersedRuns]:
+    """Draw and fly campaign runs ``run_ids`` (cases of equal duration) as one batch.
+
+    The vehicles come from the runs' dispersion streams; sensors, timing and faults (those
+    the spec has) from children of their noise streams (:mod:`analysis.engine.campaign.effects`),
+    so a run flies the same whichever chunk holds it (and :func:`run_rows` records the same
+    draws).  ``cancel``: when set (from another thread), the flight raises :class:`Cancelled`.
+    """
+    from analysis.engine.flight import fly_batch
+    from lookup.registry import make_controller
+
+    model = load_model() if model is None else model
+    run_ids = np.asarray(run_ids, dtype=np.int64)
+    dispersed = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids)
+    scenarios = [spec.cases[c] for c in run_ids // spec.runs_per_case]
+    effects = draw_effects(spec.effects, spec.seed, run_ids)[0]
+    options = {"adapt_options": adapt_options(spec.effects)} if spec.controller == "adaptive" \
+        else {}
+    controller = make_controller(spec.controller, table=spec.table, model=model, **options)
+    if cancel is not None:
+        controller = _Cancellable(controller, cancel)
+    history = fly_batch(scenarios, dispersed.params, controller, model=model, nthread=nthread,
+                        **effects)
+    return history, dispersed
+
+
+def envelope(history: History, cases: np.ndarray, alive: np.ndarray) -> pd.DataFrame:
+    """Per case and cycle, min / max / sum over the runs ``alive`` (bool, (n,)) of that case
+    (``cases``: case index per run, (n,)), plus a row for the final sample.
+
+    Columns ``case_index, cycle, t_s, n_runs`` and, per axis, ``att_err_<axis>_deg_{min,max,sum}``,
+    ``rate_<axis>_deg_s_{min,max,sum}``, ``on_time_<axis>_s_sum`` (on-time of the axis's jets
+    summed over jets and runs) and ``firing_<axis>_runs`` (runs with any of them on).
+    """
+    frames = [_case_envelope(history, int(c), alive & (cases == c))
+              for c in np.unique(cases[alive])]
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+
+def _case_envelope(history: History, case: int, alive: np.ndarray) -> pd.DataFrame:
+    K = history.t_s.size
+    cycle = history.t_s[1] - history.t_s[0] if K > 1 else 0.0
+    att = np.degrees(np.concatenate([history.att_err_B[alive], history.final.att_err_B[alive, None]], 1))
+    rate = np.degrees(np.concatenate([history.omega_B[alive], history.final.omega_B[alive, None]], 1))
+    on = np.concatenate([history.on_time_s[alive], np.zeros((int(alive.sum()), 1, N_JETS))], 1)
+    jets = axis_jets()
+    cols = {
+        "case_index": np.full(K + 1, case, dtype=np.int64),
+        "cycle": np.arange(K + 1, dtype=np.int64),
+        "t_s": np.append(history.t_s, history.t_s[-1] + cycle) if K else np.zeros(1),
+        "n_runs": np.full(K + 1, int(alive.sum()), dtype=np.int64),
+    }
+    for a, axis in enumerate(AXES):
+        for stat in ("min", "max", "sum"):
+            cols[f"att_err_{axis}_deg_{stat}"] = getattr(att[:, :, a], stat)(axis=0)
+        for stat in ("min", "max", "sum"):
+            cols[f"rate_{axis}_deg_s_{stat}"] = getattr(rate[:, :, a], stat)(axis=0)
+        axis_on = on[:, :, jets[a]]
+        cols[f"on_time_{axis}_s_sum"] = axis_on.sum(axis=(0, 2))
+        cols[f"firing_{axis}_runs"] = (axis_on > 0).any(axis=2).sum(axis=0).astype(np.int64)
+    return pd.DataFrame(cols)
+
+
+def _keep(spec, run_ids: np.ndarray, failed: np.ndarray) -> np.ndarray:
+    """Which runs' histories the spec keeps."""
+    if spec.histories == "all":
+        return np.ones(run_ids.size, bool)
+    if spec.histories == "failures":
+        return failed.copy()
+    if spec.histories == "first":
+        return run_ids % spec.runs_per_case < spec.first_k
+    return np.zeros(run_ids.size, bool)
+
+
+def flown_inputs(dispersed: DispersedRuns, flown: VehicleParams | None) -> DispersedRuns:
+    """``dispersed`` with the vehicle values the simulation read back from MuJoCo's per-run
+    model (``History.flown_params``): what runs.parquet records is what the physics flew.
+
+    Runs with invalid parameters keep their draws: they were not flown (NaN outcomes,
+    ``sim_failed``; the reason names the invalid value).  Jet tilt and azimuth stay the draws
+    (MuJoCo holds only the direction they make; ``tests`` compare the two).
+    """
+    if flown is None:
+        return dispersed
+    drawn = dispersed.params
+    ok = np.array([not r for r in invalid_runs(drawn)], dtype=bool)
+
+    def pick(read, draw):
+        return np.where(ok.reshape((-1,) + (1,) * (draw.ndim - 1)), read, draw)
+
+    params = replace(drawn, mass_kg=pick(flown.mass_kg, drawn.mass_kg),
+                     cg_B=pick(flown.cg_B, drawn.cg_B),
+                     inertia_B=pick(flown.inertia_B, drawn.inertia_B),
+                     thrust_n=pick(flown.thrust_n, drawn.thrust_n),
+                     jet_dir_S=pick(flown.jet_dir_S, drawn.jet_dir_S))
+    return replace(dispersed, params=params)
+
+
+def run_rows(spec, dispersed: DispersedRuns, outcome: pd.DataFrame) -> pd.DataFrame:
+    """The runs.parquet rows of runs ``dispersed.run_ids``: identity, inputs (vehicle, then
+    the spec's sensor / timing / fault draws), ``outcome`` (columns:
+    :func:`analysis.engine.runs_table.run_columns` of ``spec.effects.groups``)."""
+    cases = dispersed.run_ids // spec.runs_per_case
+    # The effects' draws are a function of (seed, run id): the ones fly_runs flew (a few
+    # variates per run, negligible next to a flight).
+    effects = draw_effects(spec.effects, spec.seed, dispersed.run_ids)[1]
+    head = pd.DataFrame({
+        "run_id": dispersed.run_ids,
+        "case": [spec.cases[c].name for c in cases],
+        "case_index": cases.astype(np.int64),
+        "seed": np.full(dispersed.run_ids.size, spec.seed, dtype=np.int64),
+    })
+    return check_run_frame(
+        pd.concat([head, dispersion_frame(dispersed), effects.reset_index(drop=True),
+                   outcome.reset_index(drop=True)], axis=1), spec.effects.groups)
+
+
+def tabulate(spec, history: History, dispersed: DispersedRuns) -> pd.DataFrame:
+    """The runs.parquet rows of a flown batch (inputs as flown, outcomes)."""
+    out = outcomes(history, spec, PropulsionParams().cycle_s, dispersed.params.isp_s)
+    return run_rows(spec, flown_inputs(dispersed, history.flown_params), out)
+
+
+def _raised(spec, run_ids: np.ndarray, exc: BaseException, model) -> pd.DataFrame:
+    """Rows for runs whose flight raised: inputs (the draws) recorded, outcomes NaN, failed
+    with the exception as the reason."""
+    dispersed = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids)
+    reason = f"exception: {type(exc).__name__}: {exc}".replace("\n", " ")
+    return run_rows(spec, dispersed, missing_outcomes(run_ids.size, reason))
+
+
+def simulate_chunk(spec, chunk: Chunk, nthread: int = 1,
+                   cancel: threading.Event | None = None) -> ChunkResult:
+    """Fly one chunk; never raises for a run's sake.
+
+    If the batch raises (a controller or model error), each run is flown alone so that only
+    the runs that raise by themselves are recorded failed, with the exception as the reason.
+    ``cancel`` (local mode only; an Event does not travel to Dask workers): when set, the
+    chunk is abandoned with :class:`Cancelled`.
+    """
+    model = load_model()
+    try:
+        history, dispersed = fly_runs(spec, chunk.run_ids, nthread=nthread, model=model,
+                                      cancel=cancel)
+    except Exception as exc:  # noqa: BLE001 - recorded as the failure reason of its runs
+        if chunk.stop - chunk.first == 1:
+            return ChunkResult(chunk, _raised(spec, chunk.run_ids, exc, model),
+                               pd.DataFrame(), {})
+        parts = [simulate_chunk(spec, Chunk(i, i + 1), nthread, cancel)
+                 for i in range(chunk.first, chunk.stop)]
+        env = [p.envelope for p in parts if not p.envelope.empty]
+        return ChunkResult(
+            chunk=chunk,
+            runs=pd.concat([p.runs for p in parts], ignore_index=True),
+            envelope=combine_envelopes(env) if env else pd.DataFrame(),
+            histories={k: v for p in parts for k, v in p.histories.items()},
+        )
+    from analysis.engine.flight import history_frame
+
+    runs = tabulate(spec, history, dispersed)
+    keep = _keep(spec, chunk.run_ids, runs["failed"].to_numpy())
+    histories = {int(chunk.run_ids[i]): history_frame(history, int(i)) for i in np.flatnonzero(keep)}
+    env = envelope(history, chunk.run_ids // spec.runs_per_case, ~np.asarray(history.failed, bool))
+    return ChunkResult(chunk, runs, env, histories)
+
+
+def combine_envelopes(frames: list[pd.DataFrame]) -> pd.DataFrame:
+    """Merge envelope frames (of :func:`envelope`, or merged ones) per case and cycle: min of
+    mins, max of maxes, sum of sums and counts, first ``t_s``.  Associative, so partial merges
+    can be merged again."""
+    data = pd.concat(frames, ignore_index=True)
+    agg = {}
+    for col in data.columns:
+        if col in ("case_index", "cycle"):
+            continue
+        if col == "t_s":
+            agg[col] = "first"
+        elif col.endswith("_min"):
+            agg[col] = "min"
+        elif col.endswith("_max"):
+            agg[col] = "max"
+        else:
+            agg[col] = "sum"
+    return data.groupby(["case_index", "cycle"], as_index=False, sort=True).agg(agg)

@@ -1,0 +1,130 @@
+"""The outcomes of flown runs: firings, times to rate, final errors, failure and its reason.
+
+One row per run, columns :data:`analysis.engine.runs_table.OUTCOME_COLUMNS`; a function of the
+batch's :class:`~spacecraft.simulation.History` and the spec's thresholds only (no I/O).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from analysis.engine.runs_table import outcome_frame
+from spacecraft.simulation import History
+from spacecraft.vehicle import AXES, N_JETS
+
+# A firing continues into the next cycle only if it filled the previous one -- the same rule
+# (and tolerance) as spacecraft.propulsion.apply_valve_limits, so firing counts agree with it.
+_FULL_CYCLE_RTOL = 1e-12
+
+
+def axis_jets() -> np.ndarray:
+    """(3, 16) bool: the jets that torque roll, pitch, yaw (Table 2)."""
+    from models.tables import load_jet_map
+
+    return (load_jet_map() != 0).T
+
+
+def firing_starts(on_time_s: np.ndarray, cycle_s: float) -> np.ndarray:
+    """(n, K, 16) bool: a jet starts a new firing in the cycle (it was not on at the cycle's
+    start, i.e. did not fill the previous cycle)."""
+    full = on_time_s >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)
+    prev_full = np.zeros_like(full)
+    prev_full[:, 1:] = full[:, :-1]
+    return (on_time_s > 0) & ~prev_full
+
+
+def outcomes(history: History, spec, cycle_s: float, isp_s: float) -> pd.DataFrame:
+    """Outcome columns of each run of a flown batch (degrees and deg/s at this boundary).
+
+    Definitions (``thr`` = ``spec.rate_threshold_rad_s``; rate errors sampled at each cycle's
+    start and at the end of the run):
+
+    * ``firings_to_rate_<axis>``: firing events on the axis's jets (cycles in which at least
+      one of them starts a firing -- a jet pair firing together is one event) before the
+      commanded rate is first reached on that axis: the first sample with ``|rate error| < thr``
+      taken while none of the axis's jets is in the middle of a firing (a firing that
+      overshoots sweeps the error through zero mid-firing; that is not reaching the rate).
+      All of the run's events if never reached.
+    * ``time_to_rate_<axis>_s``: time of that first sample (NaN if never).
+    * ``rate_settled_time_s``: start of the final stretch in which every axis stays under
+      ``thr`` through the end of the run (NaN if the run does not end under it).
+    * ``failed``: the simulation failed, or some axis ends with ``|rate error| >= thr``, or
+      (if set) the final total attitude error exceeds ``spec.attitude_threshold_rad``.
+    Runs whose simulation failed get NaN outcomes: their state is not a flight.  Columns,
+    units and meanings: :data:`analysis.engine.runs_table.OUTCOME_COLUMNS`.
+    """
+    n, K = history.rate_err_B.shape[:2]
+    thr = spec.rate_threshold_rad_s
+    rate = np.concatenate([history.rate_err_B, history.final.rate_err_B[:, None]], axis=1)
+    below = np.abs(rate) < thr  # (n, K + 1, 3)
+    times = np.arange(K + 1) * cycle_s
+    jets = axis_jets()
+    # Sample k is taken mid-firing on an axis when one of its jets filled cycle k - 1 and is
+    # still on in cycle k.  A firing that overshoots sweeps the rate error through zero, so one
+    # such sample would lie under thr although the firing ends far from the command: only
+    # samples between firings count as "reached".
+    on = history.on_time_s
+    full = on >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)  # (n, K, 16)
+    going_on = full[:, :-1] & (on[:, 1:] > 0)  # filled cycle k - 1 and still on in cycle k
+    mid = np.zeros_like(below)
+    jets_f = jets.T.astype(float)  # (16, 3): a matmul counts an axis's jets, cheaper than any()
+    mid[:, 1:K] = (going_on.astype(float) @ jets_f) > 0
+    settled = below & ~mid
+    reached = settled.any(axis=1)  # (n, 3)
+    first = np.where(reached, settled.argmax(axis=1), K + 1)  # first sample reached
+
+    starts = firing_starts(history.on_time_s, cycle_s)  # (n, K, 16)
+    events = (starts.astype(float) @ jets_f) > 0  # (n, K, 3)
+    before = np.arange(K)[None, :, None] < first[:, None, :]
+    to_rate = (events & before).sum(axis=1)
+
+    all_below = below.all(axis=2)  # (n, K + 1)
+    # suffix[k]: all samples k..K are under thr; settling index = first such k.
+    suffix = np.flip(np.logical_and.accumulate(np.flip(all_below, axis=1), axis=1), axis=1)
+    settle = np.where(suffix[:, -1], times[suffix.argmax(axis=1)], np.nan)
+
+    final_rate_deg = np.degrees(history.final.rate_err_B)
+    final_att_deg = np.degrees(history.final.att_err_B)
+    att_total = np.linalg.norm(final_att_deg, axis=1)
+    prop = history.propulsion
+    cols: dict[str, np.ndarray] = {}
+    for a, axis in enumerate(AXES):
+        cols[f"final_rate_err_{axis}_deg_s"] = final_rate_deg[:, a]
+    for a, axis in enumerate(AXES):
+        cols[f"final_att_err_{axis}_deg"] = final_att_deg[:, a]
+    cols["final_att_err_deg"] = att_total
+    for a, axis in enumerate(AXES):
+        cols[f"firings_to_rate_{axis}"] = to_rate[:, a].astype(float)
+    for a, axis in enumerate(AXES):
+        cols[f"time_to_rate_{axis}_s"] = np.where(reached[:, a], times[np.minimum(first[:, a], K)],
+                                                  np.nan)
+    for a, axis in enumerate(AXES):
+        cols[f"firings_{axis}"] = events[:, :, a].sum(axis=1).astype(float)
+    cols["firings_total"] = prop.firings.sum(axis=1).astype(float)
+    for j in range(N_JETS):
+        cols[f"jet_{j + 1:02d}_on_time_s"] = prop.on_time_s[:, j]
+    cols["propellant_kg"] = prop.propellant_kg(isp_s)
+    cols["rate_settled_time_s"] = settle
+
+    sim_failed = np.asarray(history.failed, bool)
+    reasons = []
+    for i in range(n):
+        if sim_failed[i]:
+            reasons.append(history.reason[i] or "simulation failed")
+            continue
+        bad = [f"{AXES[a]} {abs(final_rate_deg[i, a]):.4g}" for a in range(3)
+               if not abs(rate[i, -1, a]) < thr]
+        why = []
+        if bad:
+            why.append(f"final |rate error| >= {np.degrees(thr):.4g} deg/s: " + ", ".join(bad))
+        if spec.attitude_threshold_rad is not None and not (
+                att_total[i] <= np.degrees(spec.attitude_threshold_rad)):
+            why.append(f"final attitude error {att_total[i]:.4g} deg > "
+                       f"{np.degrees(spec.attitude_threshold_rad):.4g} deg")
+        reasons.append("; ".join(why))
+    # Outcomes of a non-flight are not numbers.
+    cols = {k: np.where(sim_failed, np.nan, np.asarray(v, float)) for k, v in cols.items()}
+    cols["sim_failed"] = sim_failed
+    cols["failed"] = np.array([bool(r) for r in reasons], dtype=bool)
+    cols["reason"] = reasons
+    return outcome_frame(cols)

@@ -1,0 +1,75 @@
+"""Re-fly one run of a finished (or partial) campaign alone, with its full history and plots.
+
+A run is a function of the spec and its run id only, so the replay is the campaign's run; the
+replayed outcomes are compared with its row of ``runs.parquet`` (when present).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.engine.campaign import results as R
+from analysis.engine.campaign.chunk import fly_runs, tabulate
+from analysis.engine.campaign.spec import parse_dict
+from models.errors import InputError
+
+COMMAND = "campaign replay"  # recorded in a replay directory's marker (analysis.engine.output)
+
+
+def load_campaign_spec(campaign: Path):
+    manifest = R.read_manifest(campaign)
+    if manifest is None:
+        raise InputError(f"{campaign}: not a campaign directory (no readable {R.MANIFEST})")
+    return parse_dict(manifest["spec"], source=str(campaign / R.MANIFEST), base_dir=None)
+
+
+def replay(campaign: str | Path, run_id: int, out: str | Path | None = None, *,
+           overwrite: bool = False) -> dict:
+    """Re-fly run ``run_id`` of ``campaign`` and write its history
+    (see :func:`analysis.engine.flight.write_flight`).
+
+    Parameters
+    ----------
+    campaign : path
+        The campaign directory.
+    run_id : int
+        0 .. runs - 1.
+    out : path, optional
+        Output directory; default ``campaign/replays/run-NNNNNNN``.
+    overwrite : bool
+        Replace ``out`` if it holds an earlier replay's outputs (anything else is refused).
+
+    Returns
+    -------
+    dict
+        ``out`` (directory written), ``row`` (the replayed runs.parquet row as a dict),
+        ``matches`` (True/False if the campaign row exists, else None).
+    """
+    from analysis.engine.flight import write_flight
+
+    campaign = Path(campaign)
+    spec = load_campaign_spec(campaign)
+    if not 0 <= run_id < spec.n_runs:
+        raise InputError(f"{run_id}: the campaign has runs 0..{spec.n_runs - 1}",
+                         parameter="run_id", value=run_id)
+    out = Path(out) if out is not None else campaign / "replays" / f"run-{run_id:07d}"
+    if not out.parent.exists():
+        out.parent.mkdir(parents=True)
+    case = spec.case_of(run_id)
+    ids = np.array([run_id])
+    history, dispersed = fly_runs(spec, ids)
+    row = tabulate(spec, history, dispersed)
+    title = f"{spec.controller} {spec.cases[case].name} run {run_id}"
+    write_flight(history, out, title=title, isp_s=dispersed.params.isp_s, command=COMMAND,
+                 overwrite=overwrite)
+    matches = None
+    runs_path = campaign / R.RUNS
+    if runs_path.exists():
+        stored = pd.read_parquet(runs_path, filters=[("run_id", "==", run_id)])
+        stored = stored.rename(columns=R.RENAMED_COLUMNS)  # a campaign older than a rename
+        if len(stored) == 1:
+            matches = (list(stored.columns) == list(row.columns)
+                       and bool(stored.reset_index(drop=True).equals(row)))
+    return {"out": out, "row": row.iloc[0].to_dict(), "matches": matches, "case": spec.cases[case].name}

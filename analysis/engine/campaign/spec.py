@@ -1,0 +1,460 @@
+"""Campaign specs: a TOML file, validated key by key into a :class:`CampaignSpec`.
+
+Every mistake is an :class:`~models.errors.InputError` naming the file, the key path (e.g.
+``dispersions.three_sigma.thrust_n``) and the value, raised before anything is written.
+Values of the right type but outside the range the physics (or the paper) gives are refused
+too, with the range and its reason (:mod:`~analysis.engine.campaign.limits`): a 3-sigma
+dispersion at least as large as its nominal value, a hold disturbance beyond the jets' torque, an initial rate beyond
+the rates the physics step was validated for, a run too long for one chunk's memory.
+Units are in the key names (``_deg``, ``_deg_s``, ``_n``, ...); inside, everything is SI.
+
+About 460 lines: the commented :data:`EXAMPLE_SPEC` (80 lines of user documentation) and
+the key-by-key validation describe the same keys and change together; the generic reader lives
+in :mod:`~analysis.engine.campaign.reader`, the sensor / timing / fault tables in
+:mod:`~analysis.engine.campaign.effects`, the physical ranges in
+:mod:`~analysis.engine.campaign.limits`, the failure gate in :mod:`~analysis.engine.campaign.gate`.
+:data:`EXAMPLE_SPEC` (``rcsim campaign example``) documents every key.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from analysis.engine.campaign.effects import Effects, parse_effects
+from analysis.engine.campaign.gate import check_max_failed_pct, max_failed_pct_problem
+from analysis.engine.campaign.limits import (MAX_INITIAL_RATE_DEG_S, check_three_sigma,
+                                            max_duration_s, physical_limits)
+from analysis.engine.campaign.reader import Reader, file_digest, file_key
+from analysis.engine.flight import Scenario
+from lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
+from models.errors import InputError
+from models.tables import PAPER_LOOKUP_TABLES
+from spacecraft.dispersions import DispersionSigmas
+
+EXAMPLE_SPEC = '''\
+# rcsim campaign spec (TOML).  Units are in the key names; angles in degrees at this boundary.
+# Every key below is optional except where marked; the values shown are the defaults.
+
+seed = 1                 # root seed: run i draws from SeedSequence(seed, spawn_key=(i,))
+runs_per_case = 100      # dispersed runs of every case (rcsim campaign run --runs-per-case N)
+chunk_size = 512         # most runs per batched simulation; results do not depend on it
+
+# What to fly.  One table, or a list of them ([[scenario]] blocks) whose cases are appended.
+[scenario]
+kind = "rate-cases"      # "rate-cases" (Table 3), "maneuver" or "hold"
+cases = "all"            # rate-cases: "all" or a list of case numbers, e.g. [13, 14]
+mode = "command"         # rate-cases: "command" (from rest to the case rate, Fig 3)
+                         #   or "damp" (from the case rate to rest, Fig 4)
+duration_s = 20.0        # simulated time of every run [s]
+# kind = "maneuver":  attitude_deg = [0.0, 0.0, 5.0]   (rotation-vector components, required)
+# kind = "hold":      disturbance_n_m = [0.0, 0.0, 2.0], initial_rate_deg_s = [0.0, 0.0, 0.0]
+#   (disturbance within the jets' torque, +-[36.1, 34.5, 32.2] N m; initial rate <= 3 deg/s)
+# name = "yaw-5deg"  # maneuver/hold case name (default: the kind)
+
+[controller]
+name = "lookup"          # "phase-plane", "lookup" or "adaptive" (the lookup controller whose
+                         #   table entries learn their firing times in flight)  (required)
+table = "default"        # lookup / adaptive: "default" (the packaged generated table), "table6"
+                         #   or "table7" (the paper's Tables 6 / 7, packaged), or a table CSV
+                         #   path, relative to this file (a table made by `rcsim lookup
+                         #   generate --jets-off` loads with its companion _settling.csv)
+
+[dispersions]
+table = "default"        # "default" = Gambone Table 5, or a CSV path in its format
+scale = 1.0              # multiplies every 3-sigma (3.0 for the stress runs of Figs 13-14)
+                         #   (every 3-sigma x scale must stay below its nominal value; Table 5: < 11.1)
+# Override single 3-sigma values (after them, scale still applies):
+# [dispersions.three_sigma]
+# mass_kg = 73.6
+# cg_x_m = 0.01
+# ixx_kg_m2 = 322.48
+# iyy_kg_m2 = 284.42
+# izz_kg_m2 = 221.13
+# thrust_n = 2.0           # drawn per jet
+# thruster_angle_deg = 5.0 # drawn per jet: tilt ~ N(0, 3sigma/3) about a uniform azimuth
+# Sensors, delays and jet faults (docs/faults.md; absent tables: perfect sensors, no delays,
+# no faults).  Drawn from each run's noise stream: adding them leaves the vehicles as they were.
+# [dispersions.sensor]          # one number (all axes) or [roll, pitch, yaw]; all 1-sigma
+# att_noise_deg = 0.003         # white, per 40 ms sample
+# rate_noise_deg_s = 0.001      # white, per sample
+# att_bias_sigma_deg = 0.003    # bias drawn per run
+# rate_bias_sigma_deg_s = 0.003 # bias drawn per run
+# rate_walk_deg_s_per_sqrt_s = 0.0005
+# [dispersions.timing]          # seconds: mean and 1-sigma, normal per run (valves: per jet)
+# command_delay_s = 0.005       # sensor-to-actuator
+# open_delay_s = 0.008          # valve opening latency (open_delay_sigma_s = 0.001)
+# close_delay_s = 0.005         # valve closing latency (close_delay_sigma_s = 0.001)
+# [dispersions.fault]           # one jet fault per run, with a probability
+# mode = "off"                  # "off" (failed off), "stuck" (stuck on), "degraded" or "none"
+# jets = [13, 14, 15, 16]       # candidates; one chosen uniformly per run
+# probability = 1.0
+# time_s = [0.0, 3.0]           # modes "off", "stuck": uniform window of the fault's start [s]
+# stuck_for_s = [0.1, 0.5]      # mode "stuck" only: uniform window length [s]
+# thrust_factor = [0.8, 0.8]    # mode "degraded" only (the whole flight): thrust fraction
+
+[failure]
+# A run fails when the simulation fails, or when any axis ends with |rate error| above this
+# (0.04 deg/s: Gambone sec. III -- cutting the controller's rate-error limit from 0.06 to
+# 0.04 deg/s removed every failure, so "near-zero" lies in [0.04, 0.06); 0.04 is the strictest
+# threshold consistent with that).  The same threshold defines "commanded rate reached".
+rate_error_deg_s = 0.04
+# attitude_error_deg = 1.0  # optional: also fail when the final total attitude error exceeds it
+# max_failed_pct = 5.0      # optional gate, 0..100: when more than this percentage of the
+#                           #   campaign's runs fail, `rcsim campaign run` still writes every
+#                           #   output, then exits with status 3 (for CI); the option
+#                           #   --max-failed-pct P overrides it.  Unset: no gate.
+
+[output]
+histories = "failures"   # per-run histories to keep: "none", "failures", "all" or "first"
+first_k = 5              # histories = "first": keep the first K runs of every case
+plots = true             # Fig 9-14-like plots in DIR/plots/
+'''
+
+_DEFAULT_RATE_ERROR_DEG_S = 0.04
+HISTORY_MODES = ("none", "failures", "all", "first")
+SCENARIO_KINDS = ("rate-cases", "maneuver", "hold")
+_SIGMA_KEYS = {  # spec key -> (Table 5 name, factor to SI)
+    "mass_kg": ("mass", 1.0),
+    "cg_x_m": ("cg_x", 1.0),
+    "ixx_kg_m2": ("ixx", 1.0),
+    "iyy_kg_m2": ("iyy", 1.0),
+    "izz_kg_m2": ("izz", 1.0),
+    "thrust_n": ("thrust", 1.0),
+    "thruster_angle_deg": ("thruster_angle", math.pi / 180.0),
+}
+
+
+@dataclass(frozen=True)
+class CampaignSpec:
+    """A validated campaign (SI inside).
+
+    Attributes
+    ----------
+    source : str
+        Where it was read from (for messages).
+    seed, runs_per_case, chunk_size : int
+    cases : tuple of analysis.engine.flight.Scenario
+        Case ``c`` holds runs ``c * runs_per_case ... (c + 1) * runs_per_case - 1``.
+    controller : str
+    table : str or None
+        Absolute path of the lookup table (None: packaged default / phase-plane).
+    sigmas : DispersionSigmas
+        One-sigma dispersions after overrides and scale.
+    rate_threshold_rad_s : float
+    attitude_threshold_rad : float or None
+    histories : str
+    first_k : int
+    plots : bool
+    resolved : dict
+        The spec with defaults filled in and paths made absolute (JSON-able); what the
+        manifest records, what ``--resume`` compares and what ``replay`` rebuilds from.
+    effects : Effects
+        Sensors, valve timing and jet faults (:mod:`~analysis.engine.campaign.effects`);
+        each ``is_none()`` when the spec has no such table.
+    max_failed_pct : float or None
+        The failure gate, percent of runs (:mod:`~analysis.engine.campaign.gate`); None: no gate.
+        Not in ``resolved``: it judges results and changes nothing that is flown, so a
+        campaign can be resumed under another limit.
+    """
+
+    source: str
+    seed: int
+    runs_per_case: int
+    chunk_size: int
+    cases: tuple
+    controller: str
+    table: str | None
+    sigmas: DispersionSigmas
+    rate_threshold_rad_s: float
+    attitude_threshold_rad: float | None
+    histories: str
+    first_k: int
+    plots: bool
+    resolved: dict
+    max_failed_pct: float | None = None
+    effects: Effects = Effects()
+
+    @property
+    def sensor(self):
+        """:class:`spacecraft.effect_draws.SensorSpec` of the campaign."""
+        return self.effects.sensor
+
+    @property
+    def timing(self):
+        """:class:`spacecraft.effect_draws.TimingSpec` of the campaign."""
+        return self.effects.timing
+
+    @property
+    def fault(self):
+        """:class:`spacecraft.effect_draws.FaultSpec` of the campaign."""
+        return self.effects.fault
+
+    @property
+    def n_cases(self) -> int:
+        return len(self.cases)
+
+    @property
+    def n_runs(self) -> int:
+        return self.n_cases * self.runs_per_case
+
+    def case_of(self, run_id: int) -> int:
+        """Case index of a run (run ids are case-major)."""
+        return int(run_id) // self.runs_per_case
+
+    def digest(self) -> str:
+        """SHA-256 of the resolved spec: equal digests fly equal runs."""
+        return hashlib.sha256(json.dumps(self.resolved, sort_keys=True).encode()).hexdigest()
+
+    def with_runs_per_case(self, n: int) -> "CampaignSpec":
+        """The same campaign with ``n`` runs per case (what the CLI's ``--runs-per-case`` sets)."""
+        resolved = dict(self.resolved, runs_per_case=n)
+        spec = parse_dict(resolved, source=f"{self.source} with runs_per_case={n}",
+                          base_dir=None)
+        return dataclasses.replace(spec, max_failed_pct=self.max_failed_pct)
+
+    def with_max_failed_pct(self, pct) -> "CampaignSpec":
+        """The same campaign under the failure gate ``pct`` (overrides the spec's).
+
+        Raises
+        ------
+        InputError
+            About parameter ``max_failed_pct``: not a number in [0, 100].
+        """
+        return dataclasses.replace(self, max_failed_pct=check_max_failed_pct(pct))
+
+
+# ----------------------------------------------------------------------------------------------
+# Reading (the key-by-key reader is analysis.engine.campaign.reader)
+# ----------------------------------------------------------------------------------------------
+def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
+    from models.tables import load_rate_cases
+
+    blocks = raw if isinstance(raw, list) else [raw]
+    if not blocks:
+        raise InputError(f"{source}: scenario: the list is empty")
+    cases: list[Scenario] = []
+    for b, block in enumerate(blocks):
+        r = Reader(block, "scenario" if not isinstance(raw, list) else f"scenario[{b}]", source)
+        kind = r.choice("kind", "rate-cases", SCENARIO_KINDS)
+        duration = r.number("duration_s", 20.0, minimum=0.0, strict=True)
+        if duration > max_duration_s():
+            raise r.error("duration_s", f"must be <= {max_duration_s():.0f} s: one run's "
+                          "per-cycle record must fit a chunk's memory budget (analysis."
+                          "campaign.chunk.HISTORY_BUDGET_BYTES)", duration)
+        out = {"kind": kind, "duration_s": duration}
+        if kind == "rate-cases":
+            table = load_rate_cases()
+            numbers = r.raw("cases", "all")
+            if numbers == "all":
+                numbers = [int(c) for c in table.case]
+            elif (not isinstance(numbers, list) or not numbers
+                  or not all(isinstance(c, int) and not isinstance(c, bool) for c in numbers)):
+                raise r.error("cases", 'must be "all" or a non-empty list of case numbers', numbers)
+            bad = [c for c in numbers if c not in set(int(c) for c in table.case)]
+            if bad:
+                raise r.error("cases", f"no such rate case {bad[0]}; cases are 1..{len(table.case)}",
+                              numbers)
+            mode = r.choice("mode", "command", ("command", "damp"))
+            for c in numbers:
+                rate = table.rate_cmd[list(table.case).index(c)]
+                if mode == "command":
+                    cases.append(Scenario(name=f"rate-{c:02d}", duration_s=duration,
+                                          rate_cmd_rad_s=np.array(rate)))
+                else:
+                    cases.append(Scenario(name=f"damp-{c:02d}", duration_s=duration,
+                                          omega0_rad_s=np.array(rate)))
+            out.update(cases=list(numbers), mode=mode)
+        else:
+            name = r.raw("name", kind)
+            if not isinstance(name, str) or not name.replace("-", "").replace("_", "").isalnum():
+                raise r.error("name", "must be a name of letters, digits, '-' or '_'", name)
+            if kind == "maneuver":
+                att = r.vector3("attitude_deg", None)
+                if np.linalg.norm(att) >= 180.0:
+                    raise r.error("attitude_deg", "rotation must be under 180 deg", att)
+                cases.append(Scenario(name=name, duration_s=duration,
+                                      att_cmd_rad=np.radians(att)))
+                out.update(name=name, attitude_deg=att)
+            else:
+                dist = r.vector3("disturbance_n_m", [0.0, 0.0, 0.0])
+                torque = physical_limits()["torque_n_m"]
+                over = [a for a in range(3) if abs(dist[a]) > torque[a]]
+                if over:
+                    raise r.error("disturbance_n_m", "each component must be within the jets' "
+                                  "largest torque about that axis, +-[" + ", ".join(
+                                      f"{t:.4g}" for t in torque) + "] N m (nominal vehicle, "
+                                  "all jets of one sign firing): beyond it no controller can "
+                                  "hold attitude", dist)
+                w0 = r.vector3("initial_rate_deg_s", [0.0, 0.0, 0.0])
+                if np.linalg.norm(w0) > MAX_INITIAL_RATE_DEG_S:
+                    raise r.error("initial_rate_deg_s", f"magnitude must be <= "
+                                  f"{MAX_INITIAL_RATE_DEG_S:g} deg/s, the largest rate the 40 ms "
+                                  "physics step is validated for (docs/convergence.md)", w0)
+                cases.append(Scenario(name=name, duration_s=duration,
+                                      omega0_rad_s=np.radians(w0),
+                                      disturbance_n_m=np.array(dist)))
+                out.update(name=name, disturbance_n_m=dist, initial_rate_deg_s=w0)
+        r.done()
+        resolved.append(out)
+    names = [c.name for c in cases]
+    dup = next((n for n in names if names.count(n) > 1), None)
+    if dup is not None:
+        raise InputError(f"{source}: scenario: case name {dup!r} appears twice; give each a name")
+    return cases
+
+
+def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpec:
+    """Validate a spec already read into a dict (from TOML, or a manifest's ``resolved``).
+
+    Parameters
+    ----------
+    data : dict
+    source : str
+        Shown in error messages (the file name).
+    base_dir : Path or None
+        Relative file paths are relative to it (the spec file's directory).
+    """
+    from lookup.jet_sets import load_table_for_jets
+    from models.tables import load_dispersions, load_lookup_table
+
+    top = Reader(data, "", source)
+    seed = top.integer("seed", 1, minimum=0)
+    runs = top.integer("runs_per_case", 100, minimum=1)
+    chunk = top.integer("chunk_size", 512, minimum=1)
+    # A run is a function of (seed, run id); run ids are case * runs_per_case + k.
+    resolved: dict = {"seed": seed, "runs_per_case": runs, "chunk_size": chunk}
+
+    scen_resolved: list = []
+    if not top.has("scenario"):
+        raise InputError(f"{source}: scenario: missing; see `rcsim campaign example`")
+    raw_scen = top.raw("scenario")
+    cases = _scenarios(raw_scen, source, scen_resolved)
+    resolved["scenario"] = scen_resolved if isinstance(raw_scen, list) else scen_resolved[0]
+
+    c = top.table_("controller")
+    name = c.choice("name", None, ALL_CONTROLLERS)
+    table = file_key(c, "table", base_dir, names=tuple(PAPER_LOOKUP_TABLES))
+    if name not in TABLE_CONTROLLERS and table is not None:
+        raise c.error("table", "is only for the lookup and adaptive controllers", table)
+    jets_off: tuple = ()
+    if table in PAPER_LOOKUP_TABLES:
+        load_lookup_table(table)  # InputError naming the file, row and column
+    elif table is not None:
+        # Checked against the jets of the vehicle it was made for (its companion file).
+        jets_off = load_table_for_jets(table)[1]
+    if c.has("jets_off"):  # a manifest's: the companion must still name the same jets
+        expect = c.raw("jets_off")
+        if expect != list(jets_off):
+            raise c.error("table", f"companion file now names jets off {list(jets_off)}, "
+                          f"the campaign flew it for {expect}", table)
+    if c.has("table_sha256"):  # present in a manifest's resolved spec (replay, resume)
+        expect = c.raw("table_sha256")
+        if expect != file_digest(table):
+            what = "packaged paper table" if table in PAPER_LOOKUP_TABLES else "file"
+            raise c.error("table", f"{what} changed since the campaign ran (sha256 differs)",
+                          table)
+    c.done()
+    resolved["controller"] = {"name": name, "table": table or "default",
+                              "table_sha256": file_digest(table)}
+    if jets_off:  # recorded only when there are some: other specs resolve as before
+        resolved["controller"]["jets_off"] = list(jets_off)
+
+    d = top.table_("dispersions")
+    disp_table = file_key(d, "table", base_dir)
+    frame = load_dispersions(disp_table)
+    if d.has("table_sha256"):
+        if d.raw("table_sha256") != file_digest(disp_table):
+            raise d.error("table", "file changed since the campaign ran (sha256 differs)",
+                          disp_table)
+    scale = d.number("scale", 1.0, minimum=0.0)
+    over = d.table_("three_sigma")
+    overrides = {}
+    for key, (row, factor) in _SIGMA_KEYS.items():
+        if over.has(key):
+            overrides[key] = over.number(key, None, minimum=0.0)
+            if row in set(frame["name"]):
+                frame.loc[frame["name"] == row, "three_sigma"] = overrides[key] * factor
+            else:
+                frame.loc[len(frame), ["name", "three_sigma"]] = [row, overrides[key] * factor]
+    over.done()
+    check_three_sigma(frame, scale, overrides, source, _SIGMA_KEYS)
+    effects, effects_resolved = parse_effects(d.table, source=source)
+    d.done()
+    longest = max_duration_s(**effects.records())
+    if effects.groups and any(case.duration_s > longest for case in cases):
+        raise InputError(f"{source}: scenario.duration_s: must be <= {longest:.0f} s with "
+                         f"[dispersions.{'/'.join(effects.groups)}] (their per-cycle records "
+                         "must fit a chunk's memory budget too)")
+    try:
+        sigmas = DispersionSigmas.from_table(frame, scale)
+    except InputError as exc:
+        raise InputError(f"{source}: dispersions.table: {exc}") from None
+    resolved["dispersions"] = {"table": disp_table or "default",
+                               "table_sha256": file_digest(disp_table),
+                               "scale": scale, "three_sigma": overrides, **effects_resolved}
+
+    f = top.table_("failure")
+    rate_thr = f.number("rate_error_deg_s", _DEFAULT_RATE_ERROR_DEG_S, minimum=0.0, strict=True)
+    att_thr = f.number("attitude_error_deg", None, minimum=0.0, strict=True) \
+        if f.has("attitude_error_deg") else None
+    max_failed = f.raw("max_failed_pct") if f.has("max_failed_pct") else None
+    if max_failed is not None:
+        problem = max_failed_pct_problem(max_failed)
+        if problem is not None:
+            raise f.error("max_failed_pct", problem, max_failed)
+        max_failed = float(max_failed)
+    f.done()
+    resolved["failure"] = {"rate_error_deg_s": rate_thr}
+    if att_thr is not None:
+        resolved["failure"]["attitude_error_deg"] = att_thr
+
+    o = top.table_("output")
+    histories = o.choice("histories", "failures", HISTORY_MODES)
+    first_k = o.integer("first_k", 5, minimum=0)
+    plots = o.raw("plots", True)
+    if not isinstance(plots, bool):
+        raise o.error("plots", "must be true or false", plots)
+    o.done()
+    resolved["output"] = {"histories": histories, "first_k": first_k, "plots": plots}
+    top.done()
+
+    return CampaignSpec(
+        source=source, seed=seed, runs_per_case=runs, chunk_size=chunk, cases=tuple(cases),
+        controller=name, table=table, sigmas=sigmas,
+        rate_threshold_rad_s=math.radians(rate_thr),
+        attitude_threshold_rad=None if att_thr is None else math.radians(att_thr),
+        histories=histories, first_k=first_k, plots=plots, resolved=resolved,
+        max_failed_pct=max_failed, effects=effects,
+    )
+
+
+def load_spec(path: str | os.PathLike) -> CampaignSpec:
+    """Read and validate a campaign spec file.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, TOML syntax error, unknown key, bad value, missing table file.
+    """
+    path = Path(path)
+    try:
+        # utf-8-sig: a byte-order mark (what some Windows editors save) is not TOML syntax.
+        text = path.read_text(encoding="utf-8-sig")
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read campaign spec: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file (byte {exc.start}); a campaign spec "
+                         "is TOML") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML: {exc}") from None
+    return parse_dict(data, source=str(path), base_dir=path.absolute().parent)

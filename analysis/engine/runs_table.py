@@ -1,0 +1,237 @@
+"""The columns of ``runs.parquet``: one definition of every column's name, dtype, unit, meaning.
+
+Every producer and consumer of a run's row uses it:
+:func:`~analysis.engine.campaign.outcomes.outcomes` builds its frame through :func:`outcome_frame`, the rows of runs that raised come from
+:func:`missing_outcomes`, the campaign's assembly reads the per-case statistics' columns from
+here, and ``docs/campaigns.md`` carries the table :func:`markdown_table` prints (a test keeps
+them equal).
+
+Definitions used below: ``thr`` is the spec's ``failure.rate_error_deg_s``; rate errors
+(``omega - omega_cmd``, body axes) are sampled at the start of every 40 ms control cycle and at
+the end of the run; an axis's jets are those whose Table 2 torque has a component on it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from spacecraft.vehicle import AXES, N_JETS
+
+
+@dataclass(frozen=True)
+class Column:
+    """One column of ``runs.parquet``.
+
+    Attributes
+    ----------
+    name : str
+    dtype : str
+        pandas dtype: ``int64``, ``float64``, ``bool`` or ``str`` (a column of strings).
+    unit : str
+        ``-`` for counts, flags and names.
+    meaning : str
+    """
+
+    name: str
+    dtype: str
+    unit: str
+    meaning: str
+
+
+def _per_axis(pattern: str, dtype: str, unit: str, meaning: str) -> list[Column]:
+    return [Column(pattern.format(axis=a), dtype, unit, meaning.format(axis=a)) for a in AXES]
+
+
+def _per_jet(pattern: str, dtype: str, unit: str, meaning: str) -> list[Column]:
+    return [Column(pattern.format(jet=f"{j + 1:02d}"), dtype, unit, meaning)
+            for j in range(N_JETS)]
+
+
+#: Identity of a run.
+ID_COLUMNS: tuple[Column, ...] = (
+    Column("run_id", "int64", "-", "run number: case_index * runs_per_case + k"),
+    Column("case", "str", "-", "case name (rate-NN, damp-NN, or the maneuver / hold name)"),
+    Column("case_index", "int64", "-", "position of the case in the spec"),
+    Column("seed", "int64", "-", "the spec's root seed; run i draws from "
+           "SeedSequence(seed, spawn_key=(i,)).spawn(2)[0]"),
+)
+
+#: The dispersed vehicle the run flew (spacecraft.dispersions.dispersion_frame), read back
+#: from the simulation's per-run MuJoCo model where MuJoCo holds the value.
+INPUT_COLUMNS: tuple[Column, ...] = (
+    Column("mass_kg", "float64", "kg", "vehicle mass (read back from MuJoCo)"),
+    *[Column(f"cg_{a}_m", "float64", "m", "centre of gravity, body x, y, z (read back)")
+      for a in "xyz"],
+    *[Column(f"i{a}{a}_kg_m2", "float64", "kg m^2",
+             f"principal moment of inertia about body {a} (read back)") for a in "xyz"],
+    *_per_jet("jet_{jet}_thrust_n", "float64", "N", "thrust of the jet (read back)"),
+    *_per_jet("jet_{jet}_tilt_deg", "float64", "deg",
+              "signed tilt of the jet's thrust direction (the draw); misalignment = |tilt|"),
+    *_per_jet("jet_{jet}_azimuth_deg", "float64", "deg", "azimuth of the tilt, [0, 360) (the draw)"),
+)
+
+#: What the run did.  Runs whose simulation failed (``sim_failed``) have NaN in every numeric
+#: outcome: their state is not a flight.
+OUTCOME_COLUMNS: tuple[Column, ...] = (
+    *_per_axis("final_rate_err_{axis}_deg_s", "float64", "deg/s",
+               "rate error about {axis} at the end of the run"),
+    *_per_axis("final_att_err_{axis}_deg", "float64", "deg",
+               "attitude error about {axis} (rotation-vector component) at the end"),
+    Column("final_att_err_deg", "float64", "deg", "total attitude error at the end (norm)"),
+    *_per_axis("firings_to_rate_{axis}", "float64", "-",
+               "firing events on {axis}'s jets (cycles where one of them starts a firing; a "
+               "pair is one event) before the commanded rate is first reached on {axis}: the "
+               "first sample with |rate error| < thr not taken in the middle of a firing on "
+               "{axis}; all of the run's events if never reached"),
+    *_per_axis("time_to_rate_{axis}_s", "float64", "s",
+               "time of that first sample; NaN if never reached"),
+    *_per_axis("firings_{axis}", "float64", "-", "firing events on {axis}'s jets, whole run"),
+    Column("firings_total", "float64", "-", "jet firings, whole run (a pair counts 2)"),
+    *_per_jet("jet_{jet}_on_time_s", "float64", "s",
+              "total on-time of the jet: what it delivered (with [dispersions.timing] or "
+              "[dispersions.fault], the commands moved by the delays, plus stuck-on time, "
+              "minus failed time)"),
+    Column("propellant_kg", "float64", "kg", "propellant used, at the vehicle's Isp (280 s)"),
+    Column("rate_settled_time_s", "float64", "s",
+           "start of the final stretch in which every axis stays under thr through the end of "
+           "the run (NaN if the run does not end under thr); rates only, unlike the "
+           "att_rate_settled_time_s of `rcsim scenario compare` (attitude and rate)"),
+    Column("sim_failed", "bool", "-", "the simulation failed (invalid parameters, divergence, "
+           "or the run's flight raised)"),
+    Column("failed", "bool", "-", "sim_failed, or some axis ends with |rate error| >= thr, "
+           "or (if failure.attitude_error_deg is set) final_att_err_deg exceeds it"),
+    Column("reason", "str", "-", "why the run failed; empty if it did not"),
+)
+
+#: Optional inputs, present only in campaigns whose spec has the matching table
+#: (``[dispersions.sensor]``, ``[dispersions.timing]``, ``[dispersions.fault]``; draws of
+#: :mod:`spacecraft.effect_draws`), after the vehicle inputs in this order.  A campaign
+#: without them keeps exactly the columns it always had (it resumes and replays as before).
+EFFECT_COLUMNS: dict[str, tuple[Column, ...]] = {
+    "sensor": (
+        *_per_axis("att_bias_{axis}_deg", "float64", "deg",
+                   "attitude sensor bias about {axis} (drawn per run; the measured attitude is "
+                   "the true one rotated by bias and white noise)"),
+        *_per_axis("rate_bias_{axis}_deg_s", "float64", "deg/s",
+                   "rate gyro bias about {axis} at the start (drawn per run; a random walk "
+                   "and white noise add to it in flight)"),
+    ),
+    "timing": (
+        Column("command_delay_s", "float64", "s",
+               "sensor-to-actuator delay: valve commands start this late in each cycle"),
+        Column("open_delay_max_s", "float64", "s",
+               "largest valve opening latency of the run's 16 jets (drawn per jet)"),
+        Column("close_delay_max_s", "float64", "s",
+               "largest valve closing latency of the run's 16 jets (drawn per jet)"),
+    ),
+    "fault": (
+        Column("fault_jet", "int64", "-", "the faulty jet, 1..16; 0 if the run has no fault"),
+        Column("fault_time_s", "float64", "s",
+               "failure time (mode off) or start of the stuck window (mode stuck); NaN if "
+               "no fault or mode degraded (degraded for the whole run)"),
+        Column("fault_stuck_for_s", "float64", "s",
+               "length of the stuck-on window (mode stuck); NaN otherwise"),
+        Column("fault_thrust_factor", "float64", "-",
+               "thrust of the faulty jet as a fraction of its own (mode degraded); 1 for the "
+               "other modes and for runs without a fault"),
+    ),
+}
+EFFECT_GROUPS: tuple[str, ...] = tuple(EFFECT_COLUMNS)
+
+RUN_COLUMNS: tuple[Column, ...] = ID_COLUMNS + INPUT_COLUMNS + OUTCOME_COLUMNS
+#: Every column a runs.parquet may have (all effect groups), in order.
+ALL_COLUMNS: tuple[Column, ...] = (ID_COLUMNS + INPUT_COLUMNS
+                                   + tuple(c for g in EFFECT_GROUPS for c in EFFECT_COLUMNS[g])
+                                   + OUTCOME_COLUMNS)
+OUTCOME_NAMES: tuple[str, ...] = tuple(c.name for c in OUTCOME_COLUMNS)
+INPUT_NAMES: tuple[str, ...] = tuple(c.name for c in INPUT_COLUMNS)
+RUN_NAMES: tuple[str, ...] = tuple(c.name for c in RUN_COLUMNS)
+_NUMERIC_OUTCOMES = tuple(c.name for c in OUTCOME_COLUMNS if c.dtype == "float64")
+
+
+def outcome_frame(values: dict) -> pd.DataFrame:
+    """The outcome frame from ``values`` (column name -> (n,) array or list), in schema order.
+
+    Raises
+    ------
+    KeyError
+        ``values`` lacks a schema column or has one the schema does not define (a bug: the
+        schema is the one list of outcomes).
+    """
+    missing = [n for n in OUTCOME_NAMES if n not in values]
+    extra = [n for n in values if n not in OUTCOME_NAMES]
+    if missing or extra:
+        raise KeyError(f"outcomes differ from analysis.engine.runs_table: missing {missing}, "
+                       f"undefined {extra}")
+    return pd.DataFrame({c.name: _cast(values[c.name], c.dtype) for c in OUTCOME_COLUMNS})
+
+
+def missing_outcomes(n: int, reason: str) -> pd.DataFrame:
+    """Outcomes of ``n`` runs that have none (their flight raised): NaN, failed, ``reason``."""
+    values: dict = {name: np.full(n, np.nan) for name in _NUMERIC_OUTCOMES}
+    values.update(sim_failed=np.ones(n, bool), failed=np.ones(n, bool), reason=[reason] * n)
+    return outcome_frame(values)
+
+
+def run_columns(effects=()) -> tuple[Column, ...]:
+    """The columns of a campaign whose spec has the effect groups ``effects`` (names of
+    :data:`EFFECT_COLUMNS`), in order."""
+    unknown = [g for g in effects if g not in EFFECT_COLUMNS]
+    if unknown:
+        raise KeyError(f"unknown effect group(s) {unknown}; known: {list(EFFECT_GROUPS)}")
+    extra = tuple(c for g in EFFECT_GROUPS if g in effects for c in EFFECT_COLUMNS[g])
+    return ID_COLUMNS + INPUT_COLUMNS + extra + OUTCOME_COLUMNS
+
+
+def effect_frame_of(values: dict, effects) -> pd.DataFrame:
+    """The effect-input columns of ``effects`` from ``values`` (name -> (n,) array), in schema
+    order and dtypes; a KeyError when a column is missing (a bug)."""
+    cols = [c for g in EFFECT_GROUPS if g in effects for c in EFFECT_COLUMNS[g]]
+    missing = [c.name for c in cols if c.name not in values]
+    if missing:
+        raise KeyError(f"effect inputs lack {missing} (analysis.engine.runs_table)")
+    return pd.DataFrame({c.name: _cast(values[c.name], c.dtype) for c in cols})
+
+
+def check_run_frame(frame: pd.DataFrame, effects=()) -> pd.DataFrame:
+    """``frame`` if its columns are exactly :func:`run_columns` of ``effects``, in order;
+    else a KeyError."""
+    names = tuple(c.name for c in run_columns(effects))
+    if tuple(frame.columns) != names:
+        diff = sorted(set(frame.columns) ^ set(names)) or "(order)"
+        raise KeyError(f"runs frame differs from analysis.engine.runs_table: {diff}")
+    return frame
+
+
+def _cast(value, dtype: str):
+    if dtype == "str":
+        return list(value)  # pandas' own string inference, as for any list of str
+    return np.asarray(value, dtype=dtype)
+
+
+def markdown_table() -> str:
+    """The schema as a Markdown table (every column, the optional effect inputs included),
+    per-axis and per-jet columns folded into one row."""
+    rows, seen = [], set()
+    group_of = {c.name: g for g in EFFECT_GROUPS for c in EFFECT_COLUMNS[g]}
+    for c in ALL_COLUMNS:
+        name, meaning = c.name, c.meaning
+        if name in group_of:
+            meaning = f"{meaning} (only with [dispersions.{group_of[name]}])"
+        for axis in AXES:
+            if f"_{axis}_" in name or name.endswith(f"_{axis}"):
+                name = name.replace(axis, "<axis>", 1)
+                meaning = meaning.replace(f"{axis}'s", "the axis's").replace(axis, "the axis")
+                break
+        if name.startswith("jet_") and name[4:6].isdigit():
+            name = "jet_NN" + name[6:]
+        if name.startswith("cg_") and name.endswith("_m"):
+            name = "cg_{x,y,z}_m"
+        if name in seen:
+            continue
+        seen.add(name)
+        meaning = meaning.replace("|", "\\|")  # a literal | inside a Markdown table cell
+        rows.append(f"| `{name}` | {c.dtype} | {c.unit} | {meaning} |")
+    return "\n".join(["| column | type | unit | meaning |", "|---|---|---|---|", *rows])

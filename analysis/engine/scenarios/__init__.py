@@ -1,0 +1,28 @@
+"""The paper's named scenarios (Gambone Figs 3-8, 17-28): definitions, flights, metrics, figures.
+
+* :mod:`~analysis.engine.scenarios.catalog` -- :class:`PaperScenario` and the named scenarios;
+* :mod:`~analysis.engine.scenarios.flying` -- fly one with either controller, measure it,
+  compare the two controllers;
+* :mod:`~analysis.engine.scenarios.plots` -- scenario and lookup-table plots;
+* :mod:`~analysis.engine.scenarios.outputs` -- write one flight's output directory;
+* :mod:`~analysis.engine.scenarios.figure_set` -- regenerate the docs figure set.
+
+Inside, imports flow catalog <- flying <- (outputs, figure_set) and plots <- (outputs,
+figure_set).  Imports ``analysis.engine.flight``/``plots``/``output`` and the layers below.
+
+Must not import: analysis.engine.campaign.
+"""
+from analysis.engine.scenarios.catalog import (
+    PaperScenario, all_scenarios, get_scenario, scenario_names,
+)
+from analysis.engine.scenarios.flying import (
+    compare_controllers, comparison_markdown, fly_scenario, scenario_metrics, settled_time,
+    summarize,
+)
+from analysis.engine.scenarios.outputs import write_scenario
+
+__all__ = [
+    "PaperScenario", "all_scenarios", "get_scenario", "scenario_names", "compare_controllers",
+    "comparison_markdown", "fly_scenario", "scenario_metrics", "settled_time", "summarize",
+    "write_scenario",
+]

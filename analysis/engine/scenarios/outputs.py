@@ -1,0 +1,45 @@
+"""Write one scenario flight: ``history.parquet``, ``metrics.csv``, ``summary.json``, plots."""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pandas as pd
+
+from analysis.engine.flight import history_frame
+from analysis.engine.output import atomic_dir
+from analysis.engine.scenarios.catalog import PaperScenario
+from analysis.engine.scenarios.flying import scenario_metrics, summarize
+from analysis.engine.scenarios.plots import plot_scenario
+from spacecraft.simulation import History
+
+
+def write_scenario(history: History, scenario: PaperScenario, out_dir: str | os.PathLike, *,
+                   controller: str, command: str | None = None,
+                   overwrite: bool = False) -> dict[str, Path]:
+    """Write ``history.parquet`` (all runs, column ``run``), ``metrics.csv``,
+    ``summary.json`` and the paper-style plots into ``out_dir``, atomically.
+
+    ``command`` (e.g. ``"scenario run"``) is recorded in the directory's marker, and
+    ``overwrite`` allows replacing an earlier output of that command
+    (:func:`analysis.engine.output.atomic_dir`)."""
+    frames = []
+    for i in range(history.n_runs):  # post-processing only; the flight was batched
+        f = history_frame(history, i)
+        f.insert(0, "run", i)
+        frames.append(f)
+    frame = pd.concat(frames, ignore_index=True)
+    metrics = scenario_metrics(history, scenario)
+    summary = {"scenario": scenario.name, "controller": controller,
+               "description": scenario.description, "figures": scenario.figures,
+               **summarize(metrics)}
+    title = f"{controller}: {scenario.name}"
+    with atomic_dir(out_dir, command, overwrite=overwrite) as tmp:
+        frame.to_parquet(tmp / "history.parquet", index=False)
+        metrics.to_csv(tmp / "metrics.csv", index=False)
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=2, allow_nan=True) + "\n")
+        plots = plot_scenario(history, scenario, tmp, title=title)
+    out = Path(out_dir)
+    return {name: out / name for name in
+            ("history.parquet", "metrics.csv", "summary.json", *[p.name for p in plots])}

@@ -1,0 +1,164 @@
+"""Physics-aware derived factors: what an analyst thinks in, computed from the recorded inputs.
+
+A campaign records ~55 raw inputs per run (mass, CG, three inertias, and per jet thrust, tilt
+and azimuth).  The jets act in groups: Table 2 of Gambone (``models/data/table2_jet_map.csv``)
+gives, for each axis and direction, the two jets that fire about it.  For every run and every
+group ``G`` (axis ``a`` in roll/pitch/yaw, direction ``pos``/``neg``) this module derives
+
+``authority_{a}_{dir}_rad_s2``
+    Control authority: the torque of the group's jets about the run's dispersed CG (dispersed
+    thrust and pointing), component along axis ``a`` and signed so that positive means "in the
+    group's direction", divided by the run's inertia about ``a`` -- the angular acceleration
+    the group gives [rad/s^2].
+``thrust_{a}_{dir}_n``
+    Total thrust of the group [N].
+``imbalance_{a}_{dir}_n``
+    Thrust of the group's first jet minus its second [N] (a pair imbalance torques the other
+    axes).
+``pointing_loss_{a}_{dir}``
+    ``1 - torque / torque with nominal pointing`` about ``a`` (same thrust and CG): the share
+    of authority lost to jet misalignment alone (dimensionless).
+
+and, when the campaign's cases are rate commands (``rate-NN``; or damping, ``damp-NN``), the
+same three quantities **in the firing direction** of each case: ``authority_{a}_fire_rad_s2``,
+``thrust_{a}_fire_n``, ``pointing_loss_{a}_fire`` take the group that fires toward the
+commanded rate change (for an axis with no commanded change, the mean of both groups, which
+hold it at rest).  Torques come from :func:`spacecraft.vehicle.torque_per_jet_B` and jet
+directions from :func:`spacecraft.dispersions.apply_draws`, the simulator's own code.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from spacecraft.dispersions import N_NORMALS, DispersionSigmas, apply_draws
+from spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model, torque_per_jet_B
+
+_DIRS = ((1, "pos"), (-1, "neg"))
+
+
+def raw_input_columns() -> list[str]:
+    """Names of the dispersed-input columns a campaign's ``runs.parquet`` records."""
+    cols = ["mass_kg", "cg_x_m", "cg_y_m", "cg_z_m", "ixx_kg_m2", "iyy_kg_m2", "izz_kg_m2"]
+    for kind in ("thrust_n", "tilt_deg", "azimuth_deg"):
+        cols += [f"jet_{j:02d}_{kind}" for j in range(1, N_JETS + 1)]
+    return cols
+
+
+def vehicles_from_runs(runs: pd.DataFrame) -> tuple[VehicleParams, VehicleParams]:
+    """Rebuild each run's vehicle from its recorded inputs.
+
+    Returns
+    -------
+    dispersed : VehicleParams
+        As flown (thrust, pointing, CG, inertia).
+    nominal_pointing : VehicleParams
+        The same with every jet pointing nominally.
+    """
+    n = len(runs)
+    model = load_model()
+    nominal = VehicleParams.nominal(1, model)
+    tilt = np.radians(runs[[f"jet_{j:02d}_tilt_deg" for j in range(1, N_JETS + 1)]].to_numpy())
+    az = np.radians(runs[[f"jet_{j:02d}_azimuth_deg" for j in range(1, N_JETS + 1)]].to_numpy())
+    # apply_draws lays out one run's normals as mass, cg_x, 3 inertias, 16 thrusts, 16 tilts;
+    # with a unit tilt sigma and every other sigma 0 the tilt normals are the tilts [rad].
+    z = np.zeros((n, N_NORMALS))
+    z[:, N_NORMALS - N_JETS:] = tilt
+    pointed, _, _ = apply_draws(nominal, DispersionSigmas(thruster_angle_rad=1.0), z,
+                                az / (2.0 * np.pi))
+    kw = dict(
+        mass_kg=runs["mass_kg"].to_numpy(float),
+        cg_B=runs[["cg_x_m", "cg_y_m", "cg_z_m"]].to_numpy(float),
+        inertia_B=runs[["ixx_kg_m2", "iyy_kg_m2", "izz_kg_m2"]].to_numpy(float),
+        thrust_n=runs[[f"jet_{j:02d}_thrust_n" for j in range(1, N_JETS + 1)]].to_numpy(float),
+        isp_s=nominal.isp_s,
+    )
+    dispersed = VehicleParams(jet_dir_S=pointed.jet_dir_S, **kw)
+    straight = VehicleParams(jet_dir_S=np.repeat(nominal.jet_dir_S, n, axis=0), **kw)
+    return dispersed, straight
+
+
+def physics_factors(runs: pd.DataFrame, fire_sign: np.ndarray | None = None,
+                    jet_map: np.ndarray | None = None) -> pd.DataFrame:
+    """Derived factors of every run (see the module docstring).
+
+    Parameters
+    ----------
+    runs : DataFrame
+        Holds :func:`raw_input_columns`.
+    fire_sign : ndarray of int (n, 3), optional
+        Per run and axis, the sign of the commanded rate change (0: none); adds the
+        firing-direction factors.
+    jet_map : ndarray of int (16, 3), optional
+        Table 2 signs; default the packaged table.
+
+    Returns
+    -------
+    DataFrame, one row per run, index aligned with ``runs``.
+    """
+    missing = [c for c in raw_input_columns() if c not in runs.columns]
+    if missing:
+        raise ValueError(f"runs lack the recorded inputs {missing[:3]}"
+                         f"{' ...' if len(missing) > 3 else ''}")
+    if jet_map is None:
+        from models.tables import load_jet_map
+        jet_map = load_jet_map()
+    dispersed, straight = vehicles_from_runs(runs)
+    model = load_model()
+    torque = torque_per_jet_B(dispersed, model)        # (n, 16, 3) [N m]
+    torque_nom = torque_per_jet_B(straight, model)
+    inertia = dispersed.inertia_B
+    thrust = dispersed.thrust_n
+    cols: dict[str, np.ndarray] = {}
+    per_group = {}
+    for a, axis in enumerate(AXES):
+        for sign, dname in _DIRS:
+            jets = np.flatnonzero(jet_map[:, a] == sign)
+            if jets.size == 0:
+                continue
+            t_disp = sign * torque[:, jets, a].sum(axis=1)
+            t_nom = sign * torque_nom[:, jets, a].sum(axis=1)
+            auth = t_disp / inertia[:, a]
+            group_thrust = thrust[:, jets].sum(axis=1)
+            loss = 1.0 - t_disp / t_nom
+            cols[f"authority_{axis}_{dname}_rad_s2"] = auth
+            cols[f"thrust_{axis}_{dname}_n"] = group_thrust
+            if jets.size >= 2:
+                cols[f"imbalance_{axis}_{dname}_n"] = thrust[:, jets[0]] - thrust[:, jets[1]]
+            cols[f"pointing_loss_{axis}_{dname}"] = loss
+            per_group[(a, sign)] = (auth, group_thrust, loss)
+    if fire_sign is not None:
+        fire_sign = np.asarray(fire_sign)
+        for a, axis in enumerate(AXES):
+            if (a, 1) not in per_group or (a, -1) not in per_group:
+                continue
+            pos, neg = per_group[(a, 1)], per_group[(a, -1)]
+            s = fire_sign[:, a]
+            for k, name in enumerate((f"authority_{axis}_fire_rad_s2", f"thrust_{axis}_fire_n",
+                                      f"pointing_loss_{axis}_fire")):
+                cols[name] = np.where(s > 0, pos[k], np.where(s < 0, neg[k],
+                                                               0.5 * (pos[k] + neg[k])))
+    return pd.DataFrame(cols, index=runs.index)
+
+
+def fire_signs(case_names) -> np.ndarray | None:
+    """Sign of the commanded rate change per axis of every run, from its case name.
+
+    ``rate-NN`` (Table 3 case NN flown from rest to its rate) fires toward the rate;
+    ``damp-NN`` (from the case rate to rest) fires against it.  Returns ``(n, 3)`` ints, or
+    None when any case is not such a rate case (maneuvers and holds have no single firing
+    direction).
+    """
+    from models.tables import load_rate_cases
+
+    table = load_rate_cases()
+    numbers = {int(c): k for k, c in enumerate(table.case)}
+    names = pd.Series(np.asarray(case_names, dtype=object))
+    signs = {}
+    for name in names.unique():
+        kind, _, num = str(name).partition("-")
+        if kind not in ("rate", "damp") or not num.isdigit() or int(num) not in numbers:
+            return None
+        sign = np.sign(np.asarray(table.rate_cmd[numbers[int(num)]])).astype(int)
+        signs[name] = sign if kind == "rate" else -sign
+    return np.stack([signs[c] for c in names])

@@ -1,0 +1,86 @@
+"""Writing an analysis: ``drivers.csv``, ``pairs.csv``, ``cases.csv``, figures, ``report.html``.
+
+Everything is written into a temporary directory that replaces the output directory only when
+complete (:func:`analysis.engine.output.atomic_dir`): a failure never leaves half-written files.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from analysis.results.drivers.pipeline import DriverResults
+from analysis.engine.output import atomic_dir
+from analysis.results.drivers import report_sections as sections
+from analysis.results.report.html import build_report
+
+DRIVER_COLUMNS = ["factor", "score", "p_value", "rank", "failure_region", "region_fail_share",
+                  "region_run_share", "significant", "stability", "second_opinion"]
+PAIR_COLUMNS = ["factor_a", "factor_b", "score", "p_value", "gain", "rank", "significant",
+                "stability"]
+
+
+def case_table(res: DriverResults) -> pd.DataFrame:
+    """Per case: runs, failures, share of all failures, and each significant driver."""
+    rows = []
+    nf = max(int(res.runset.y.sum()), 1)
+    for c in res.cases:
+        base = {"case": c.case, "runs": c.runs, "failed": c.failed,
+                "share_of_all_failures": c.failed / nf}
+        if c.singles is None:
+            rows.append({**base, "factor": "", "score": float("nan"),
+                         "p_value": float("nan"), "rank": 0})
+            continue
+        t = c.singles.table()
+        t = t[t["p_value"] < res.settings.alpha]
+        if not len(t):
+            rows.append({**base, "factor": "", "score": float("nan"),
+                         "p_value": float("nan"), "rank": 0})
+        for _, r in t.iterrows():
+            rows.append({**base, "factor": r["factor"], "score": r["score"],
+                         "p_value": r["p_value"], "rank": int(r["rank"])})
+    return pd.DataFrame(rows)
+
+
+#: The command named in the output directory's marker (:mod:`analysis.engine.output`).
+COMMAND = "analyze"
+
+
+def write_analysis(res: DriverResults, out, *, overwrite: bool = False) -> Path:
+    """Write every output of ``res`` into directory ``out``; returns the report path.
+
+    ``overwrite`` replaces a directory an earlier ``rcsim analyze`` wrote (never another's).
+    """
+    title = f"Failure drivers: {res.runset.source.name}"
+    subtitle = "rcsim analyze: which dispersions make runs fail, and where"
+    html = build_report(title, sections.driver_sections(res), subtitle)
+    with atomic_dir(out, COMMAND, overwrite=overwrite) as tmp:
+        tmp = Path(tmp)
+        if res.has_failures:
+            d = res.drivers
+            d[[c for c in DRIVER_COLUMNS if c in d] +
+              [c for c in d.columns if c not in DRIVER_COLUMNS]].to_csv(
+                tmp / "drivers.csv", index=False)
+            if res.pair_table is not None:
+                p = res.pair_table
+                p[[c for c in PAIR_COLUMNS if c in p] +
+                  [c for c in p.columns if c not in PAIR_COLUMNS]].to_csv(
+                    tmp / "pairs.csv", index=False)
+            else:
+                pd.DataFrame(columns=PAIR_COLUMNS[:6]).to_csv(tmp / "pairs.csv", index=False)
+        else:
+            pd.DataFrame(columns=DRIVER_COLUMNS[:5]).to_csv(tmp / "drivers.csv", index=False)
+            pd.DataFrame(columns=PAIR_COLUMNS[:6]).to_csv(tmp / "pairs.csv", index=False)
+        case_table(res).to_csv(tmp / "cases.csv", index=False)
+        _write_figures(res, tmp / "figures")
+        (tmp / "report.html").write_text(html, encoding="utf-8")
+    return Path(out) / "report.html"
+
+
+def _write_figures(res: DriverResults, folder: Path) -> None:
+    """The report's figures also as PNG files (for slides): the same bytes as the report's."""
+    from analysis.results.drivers.figures import report_pngs
+
+    folder.mkdir()
+    for name, png in report_pngs(res).items():
+        (folder / name).write_bytes(png)

@@ -1,0 +1,269 @@
+"""The whole failure-driver analysis of one set of runs, as ``rcsim analyze`` performs it.
+
+Order: single factors (KDE, permutation p-values) -> every pair -> stability (half samples)
+-> random-forest second opinion -> per-case singles, and pairs for the cases that carry the
+most failures -> kNN maps of the top pairs.  Everything is seeded from ``random_state``
+through one ``SeedSequence``, spawned per step in a fixed order.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from analysis.results.drivers.inputs import RunSet
+from analysis.results.drivers.maps import KNNFailureMap
+from analysis.results.drivers.pairs import PairKDE
+from analysis.results.drivers.second_opinion import ForestImportance, compare
+from analysis.results.drivers.single import SingleFactorKDE
+from analysis.results.drivers.stability import HalfSampleStability
+from models.errors import InputError
+
+
+#: Fewest label permutations accepted: with B permutations the smallest p-value is 1/(B+1).
+MIN_PERMUTATIONS = 19
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Knobs of :func:`analyze` (defaults are what ``rcsim analyze`` uses).
+
+    Attributes
+    ----------
+    n_permutations : int
+        Label permutations for the single-factor p-values (smallest p: 1/(B+1)), >= 19.
+    pair_permutations : int or None
+        For the pair p-values, >= 19 (default: half of ``n_permutations``, at least 19): a pair
+        permutation costs ~40x a single one (3,655 pairs of 16x16 cells against 86 inputs of
+        32 bins), and 100 permutations resolve p = 0.01.
+    n_splits : int
+        Half-sample splits for stability (2 halves each).
+    alpha : float
+        Family-wise level at which a factor or pair is called significant.
+    min_case_failures : int
+        A case is analysed on its own when it has at least this many failed and successful
+        runs.
+    case_pairs : int
+        Cases (most failures first) whose pairs are analysed on their own.
+    n_maps : int
+        kNN maps drawn (top pooled pairs and the top pair of each such case).
+    forest : bool
+        Compute the random-forest second opinion.
+    random_state : int
+        Seed of the permutations and resamples, >= 0.
+
+    Raises
+    ------
+    InputError
+        ``n_permutations`` or ``pair_permutations`` below 19, or a negative ``random_state``
+        (the error's ``parameter`` is the field's name).
+    """
+
+    n_permutations: int = 200
+    pair_permutations: int | None = None
+    n_splits: int = 5
+    alpha: float = 0.05
+    min_case_failures: int = 5
+    case_pairs: int = 2
+    n_maps: int = 4
+    forest: bool = True
+    random_state: int = 0
+
+    def __post_init__(self) -> None:
+        # Fewer than 19 permutations cannot give p < 0.05 (smallest p is 1/(B+1)), so a
+        # significance call would be impossible, silently.
+        for name in ("n_permutations", "pair_permutations"):
+            value = getattr(self, name)
+            if value is None and name == "pair_permutations":
+                continue
+            if not _is_int(value) or value < MIN_PERMUTATIONS:
+                raise InputError(f"must be an integer >= {MIN_PERMUTATIONS} (fewer cannot reach "
+                                 f"p < 0.05), got {value!r}", parameter=name, value=value)
+        if not _is_int(self.random_state) or self.random_state < 0:
+            raise InputError(f"must be an integer >= 0, got {self.random_state!r}",
+                             parameter="random_state", value=self.random_state)
+
+    @property
+    def pair_b(self) -> int:
+        """Permutations actually used for pairs."""
+        return self.pair_permutations or max(self.n_permutations // 2, MIN_PERMUTATIONS)
+
+
+@dataclass
+class CaseResult:
+    case: str
+    runs: int
+    failed: int
+    singles: SingleFactorKDE | None = None
+    pairs: PairKDE | None = None
+
+
+@dataclass
+class DriverResults:
+    """Everything :func:`analyze` found (``None`` parts were not computed: no failures)."""
+
+    runset: RunSet
+    settings: Settings
+    singles: SingleFactorKDE | None = None
+    pairs: PairKDE | None = None
+    stability: HalfSampleStability | None = None
+    forest: ForestImportance | None = None
+    drivers: pd.DataFrame | None = None
+    pair_table: pd.DataFrame | None = None
+    cases: list = field(default_factory=list)
+    maps: list = field(default_factory=list)   # (case or None, KNNFailureMap)
+    timings_s: dict = field(default_factory=dict)
+    # PNG bytes of the figures shown both in the report and in figures/, rendered once
+    # (filled by analysis.results.drivers.figures.report_pngs).
+    pngs: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def has_failures(self) -> bool:
+        return self.singles is not None
+
+
+def analyze(runset: RunSet, settings: Settings = Settings()) -> DriverResults:
+    """Run the analysis (see the module docstring); returns :class:`DriverResults`.
+
+    With no failed (or no successful) runs there is nothing to compare: the result holds the
+    run set only and :attr:`DriverResults.has_failures` is False.
+    """
+    res = DriverResults(runset=runset, settings=settings)
+    X, y, strata = runset.X, runset.y, runset.strata
+    res.cases = _case_counts(runset)
+    if y.all() or not y.any():
+        return res
+    seeds = np.random.SeedSequence(settings.random_state).spawn(6)
+    clock = time.perf_counter()
+
+    def lap(name):
+        nonlocal clock
+        now = time.perf_counter()
+        res.timings_s[name] = now - clock
+        clock = now
+
+    B = settings.n_permutations
+    B2 = settings.pair_b
+    res.singles = SingleFactorKDE(n_permutations=B, random_state=np.random.default_rng(seeds[0])
+                                  ).fit(X, y, strata)
+    lap("singles")
+    if X.shape[1] >= 2:
+        res.pairs = PairKDE(n_permutations=B2, random_state=np.random.default_rng(seeds[1])
+                            ).fit(X, y, strata, single_score=res.singles.score_)
+        lap("pairs")
+    minority = min(int(y.sum()), int((~y).sum()))
+    if minority >= 4:
+        res.stability = HalfSampleStability(
+            settings.n_splits, random_state=np.random.default_rng(seeds[2])
+        ).fit(X, y, res.singles, res.pairs, strata)
+        lap("stability")
+    drivers = res.singles.table()
+    if res.stability is not None:
+        stab = pd.Series(res.stability.single_stability_, index=res.singles.feature_names_in_)
+        drivers["stability"] = drivers["factor"].map(stab)
+    if settings.forest and minority >= 4:
+        res.forest = ForestImportance(random_state=int(seeds[3].generate_state(1)[0] >> 1),
+                                      n_jobs=2).fit(X, y)
+        drivers = compare(drivers, res.forest, alpha=settings.alpha)
+        lap("forest")
+    drivers.insert(3, "significant", drivers["p_value"] < settings.alpha)
+    res.drivers = drivers
+    if res.pairs is not None:
+        pt = res.pairs.table()
+        if res.stability is not None:
+            key = list(zip(pt["factor_a"], pt["factor_b"]))
+            names = res.pairs.feature_names_in_
+            stab = {(names[a], names[b]): s for (a, b), s in
+                    zip(res.pairs.pairs_, res.stability.pair_stability_)}
+            pt["stability"] = [stab[k] for k in key]
+        pt.insert(4, "significant", pt["p_value"] < settings.alpha)
+        res.pair_table = pt
+    _per_case(res, np.random.default_rng(seeds[4]))
+    lap("cases")
+    _maps(res, int(seeds[5].generate_state(1)[0] >> 1))
+    lap("maps")
+    return res
+
+
+def _case_counts(runset: RunSet) -> list[CaseResult]:
+    if runset.strata is None:
+        return [CaseResult("all", int(runset.y.size), int(runset.y.sum()))]
+    df = pd.DataFrame({"case": runset.strata, "failed": runset.y})
+    g = df.groupby("case", sort=True)["failed"].agg(["size", "sum"])
+    return [CaseResult(str(c), int(r["size"]), int(r["sum"])) for c, r in g.iterrows()]
+
+
+def _per_case(res: DriverResults, rng: np.random.Generator) -> None:
+    rs, st = res.runset, res.settings
+    if rs.strata is None or len(res.cases) < 2:
+        return
+    by_fail = sorted(res.cases, key=lambda c: -c.failed)
+    pair_cases = {c.case for c in by_fail[:st.case_pairs]}
+    for c in res.cases:
+        if c.failed < st.min_case_failures or c.runs - c.failed < st.min_case_failures:
+            continue
+        rows = rs.strata == c.case
+        X, y = rs.X[rows], rs.y[rows]
+        # Within one case the firing-direction factors duplicate a pos/neg factor: keep one.
+        X = X.loc[:, (X.nunique() > 1) & ~X.T.duplicated().to_numpy()]
+        c.singles = SingleFactorKDE(n_permutations=st.n_permutations,
+                                    random_state=rng).fit(X, y)
+        if c.case in pair_cases and X.shape[1] >= 2:
+            c.pairs = PairKDE(n_permutations=st.pair_b,
+                              random_state=rng).fit(X, y, single_score=c.singles.score_)
+
+
+#: Pairs whose rank correlation exceeds this are not mapped (two views of one quantity).
+MAP_MAX_CORRELATION = 0.5
+
+
+def _distinct_top(table: pd.DataFrame, X: pd.DataFrame, seen: set, only_significant: bool):
+    """The best pair of ``table`` whose inputs are not two views of one quantity."""
+    for _, row in table.iterrows():
+        a, b = row["factor_a"], row["factor_b"]
+        if only_significant and not row["significant"]:
+            return None
+        if frozenset((a, b)) in seen:
+            continue
+        if abs(X[a].corr(X[b], method="spearman")) <= MAP_MAX_CORRELATION:
+            return a, b
+    return None
+
+
+def _maps(res: DriverResults, seed: int) -> None:
+    """kNN maps: the top pair of the cases with most failures, then the best pooled pairs.
+
+    Pairs of strongly rank-correlated inputs (e.g. a group's authority and its firing-direction
+    copy) are skipped: their map is a line, not a picture of two drivers.
+    """
+    rs, st = res.runset, res.settings
+    chosen: list = []
+    seen: set = set()
+    if res.pair_table is not None:
+        for c in sorted(res.cases, key=lambda c: -c.failed):
+            if c.pairs is not None and len(chosen) < max(st.n_maps // 2, 1):
+                t = c.pairs.table()
+                t["significant"] = t["p_value"] < st.alpha
+                top = _distinct_top(t, rs.X[rs.strata == c.case], seen, False)
+                if top is not None:
+                    chosen.append((c.case, *top))
+                    seen.add(frozenset(top))
+        while len(chosen) < st.n_maps:
+            top = _distinct_top(res.pair_table, rs.X, seen, True)
+            if top is None:
+                break
+            chosen.append((None, *top))
+            seen.add(frozenset(top))
+    for case, a, b in chosen:
+        rows = np.ones(rs.y.size, bool) if case is None else rs.strata == case
+        y = rs.y[rows]
+        if y.all() or not y.any():
+            continue
+        m = KNNFailureMap(random_state=seed).fit(rs.X.loc[rows, [a, b]], y)
+        res.maps.append((case, m))

@@ -1,0 +1,15 @@
+"""Self-contained HTML reports a review board can read without rcsim.
+
+Owns the page template and generic blocks (:mod:`analysis.results.report.html`: text, tables,
+figures inlined as base64 PNG, no network).  A report is a list of :class:`Section`; each
+analysis builds its own sections (e.g. :mod:`analysis.results.drivers.report_sections`, the
+loop's :mod:`analysis.apps.loop.report`) and calls :func:`build_report`.  A kit: it knows no
+analysis.
+
+Must not import: analysis.results.drivers, analysis.results.scoring, analysis.engine,
+analysis.apps, spacecraft, lookup.
+"""
+from analysis.results.report.html import Section, build_report, figure_block, table_block, text_block, write_report
+
+__all__ = ["Section", "build_report", "figure_block", "table_block", "text_block",
+           "write_report"]

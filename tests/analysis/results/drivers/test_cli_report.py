@@ -1,0 +1,203 @@
+"""``rcsim analyze`` end to end, its errors, and the report in a real browser.
+
+Oracles: the issue's contract (files and columns written; one-line errors with exit code 2 and
+no output left behind; a report that says when there are no failures), and headless Chromium
+for "the page loads without JavaScript errors and shows its sections".
+"""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis.apps.cli import main
+from analysis.results.drivers.synthetic import planted_campaign
+
+SECTIONS = ("summary", "method", "drivers", "pairs", "cases", "rate-errors", "second-opinion",
+            "failed-runs", "notes")
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory, model):
+    """A campaign directory in the layout ``rcsim campaign run`` writes, with the inputs of
+    two yaw cases drawn by the simulator's dispersion code (3x Table 5) and a planted outcome:
+    a run fails when the yaw authority of its firing group is in the top 15 % (over-rotation
+    with fixed firing times).  Planting keeps the test fast and its answer known; the real
+    campaign is analysed in docs/drivers.md."""
+    import json
+
+    from analysis.results.drivers.factors import fire_signs, physics_factors
+    from models.tables import load_dispersions
+    from spacecraft.dispersions import DispersionSigmas, dispersion_frame, draw_runs
+    from spacecraft.vehicle import VehicleParams
+
+    root = tmp_path_factory.mktemp("campaign") / "camp"
+    root.mkdir()
+    n = 150
+    sigmas = DispersionSigmas.from_table(load_dispersions(), scale=3.0)
+    frame = dispersion_frame(draw_runs(VehicleParams.nominal(1, model), sigmas, 3,
+                                       np.arange(2 * n)))
+    case = np.repeat(["rate-13", "rate-14"], n)
+    auth = physics_factors(frame, fire_signs(case))["authority_yaw_fire_rad_s2"].to_numpy()
+    failed = np.zeros(2 * n, bool)
+    for c in ("rate-13", "rate-14"):
+        rows = case == c
+        failed[rows] = auth[rows] > np.quantile(auth[rows], 0.85)
+    rng = np.random.default_rng(0)
+    err = np.where(failed, 0.06, 0.01) * rng.choice([-1, 1], 2 * n)
+    runs = pd.concat([pd.DataFrame({"run_id": np.arange(2 * n), "case": case,
+                                    "case_index": np.repeat([0, 1], n), "seed": 3}),
+                      frame,
+                      pd.DataFrame({"final_rate_err_roll_deg_s": 0.001,
+                                    "final_rate_err_pitch_deg_s": 0.002,
+                                    "final_rate_err_yaw_deg_s": err,
+                                    "sim_failed": False, "failed": failed,
+                                    "reason": np.where(failed, "rate error", "")})], axis=1)
+    runs.to_parquet(root / "runs.parquet")
+    manifest = {"format": "rcsim-campaign/1",
+                "spec": {"seed": 3, "runs_per_case": n,
+                         "scenario": {"kind": "rate-cases", "cases": [13, 14],
+                                      "mode": "command", "duration_s": 20.0},
+                         "controller": {"name": "lookup", "table": "table6"},
+                         "dispersions": {"table": "default", "scale": 3.0}},
+                "thresholds": {"rate_error_deg_s": 0.04, "attitude_error_deg": None},
+                "counts": {"runs": 2 * n, "failed": int(failed.sum())}}
+    (root / "manifest.json").write_text(json.dumps(manifest))
+    return root
+
+
+@pytest.fixture(scope="module")
+def analysed(campaign, tmp_path_factory):
+    out = tmp_path_factory.mktemp("an") / "drivers"
+    assert main(["analyze", str(campaign), "--permutations", "39", "--out", str(out)]) == 0
+    return out
+
+
+def test_outputs_and_columns(analysed):
+    d = pd.read_csv(analysed / "drivers.csv")
+    assert list(d.columns[:5]) == ["factor", "score", "p_value", "rank", "failure_region"]
+    assert sorted(d["rank"]) == list(range(1, len(d) + 1))
+    p = pd.read_csv(analysed / "pairs.csv")
+    assert list(p.columns[:6]) == ["factor_a", "factor_b", "score", "p_value", "gain", "rank"]
+    assert len(p) == len(d) * (len(d) - 1) // 2  # every pair
+    # The planted driver (fixture docstring) ranks first and is significant.
+    assert d["factor"][0] == "authority_yaw_fire_rad_s2" and d["p_value"][0] < 0.05
+    cases = pd.read_csv(analysed / "cases.csv")
+    assert set(cases["case"]) == {"rate-13", "rate-14"}
+    html = (analysed / "report.html").read_text()
+    for anchor in SECTIONS:
+        assert f"id='{anchor}'" in html
+    assert "rcsim campaign replay" in html
+    assert "http://" not in html and "https://" not in html  # self-contained: no network
+
+
+def test_figure_files_are_the_reports_figures(analysed):
+    """Oracle: the contract of figures/ ("the report's figures as PNG files"): every file is
+    byte for byte an image inlined in report.html, and the shared figures are all there."""
+    import base64
+
+    html = (analysed / "report.html").read_text()
+    files = sorted((analysed / "figures").glob("*.png"))
+    names = {f.name for f in files}
+    assert {"failures_per_case.png", "ranking.png"} <= names
+    assert any(n.startswith("map_1_") for n in names)
+    for f in files:
+        assert f"data:image/png;base64,{base64.b64encode(f.read_bytes()).decode()}'" in html, f
+
+
+def test_shared_figures_are_rendered_once(monkeypatch):
+    """report_pngs keeps its PNG bytes on the result: asked again (by the report's sections,
+    then by the figures/ writer), it draws nothing more."""
+    from analysis.results.drivers import figures
+    from analysis.results.drivers.pipeline import DriverResults, Settings
+
+    class _Case:
+        def __init__(self, case, runs, failed):
+            self.case, self.runs, self.failed = case, runs, failed
+
+    res = DriverResults(runset=None, settings=Settings(),
+                        cases=[_Case("rate-01", 10, 1), _Case("rate-02", 10, 0)])
+    calls = []
+    real = figures.failures_per_case
+    monkeypatch.setattr(figures, "failures_per_case",
+                        lambda cases: calls.append(1) or real(cases))
+    first = figures.report_pngs(res)
+    assert figures.report_pngs(res) is first and len(calls) == 1
+    assert list(first) == ["failures_per_case.png"]  # no failures analysed: no ranking, maps
+    assert first["failures_per_case.png"].startswith(b"\x89PNG")
+
+
+def _write(tmp_path, df, name="runs.csv"):
+    path = tmp_path / name
+    df.to_csv(path, index=False)
+    return path
+
+
+@pytest.mark.parametrize("case", ["missing-path", "missing-input", "missing-outcome",
+                                  "non-binary", "single-run", "nan-input", "unknown-case",
+                                  "few-permutations", "not-a-table"])
+def test_bad_input_is_one_line_and_leaves_nothing(case, tmp_path, capsys):
+    X, y = planted_campaign("one-sided", seed=0, n_runs=200, n_noise=2)
+    df = X.assign(failed=y)
+    tables = {
+        "missing-input": df, "missing-outcome": df, "few-permutations": df,
+        "non-binary": df.assign(n=np.arange(200)),
+        "single-run": df.head(1),
+        "nan-input": df.assign(thrust=df["thrust"].where(np.arange(200) != 7)),
+        "unknown-case": df.assign(case="rate-01"),
+    }
+    table = str(_write(tmp_path, tables.get(case, df),
+                       "runs.txt" if case == "not-a-table" else "runs.csv"))
+    args = {
+        "missing-path": [str(tmp_path / "nope")],
+        "missing-input": [table, "--inputs", "thrust,mass"],
+        "missing-outcome": [table, "--outcome", "broken"],
+        "non-binary": [table, "--outcome", "n"],
+        "single-run": [table],
+        "nan-input": [table],
+        "unknown-case": [table, "--case", "rate-99"],
+        "few-permutations": [table, "--permutations", "5"],
+        "not-a-table": [table],
+    }[case]
+    out = tmp_path / "out"
+    assert main(["analyze", *args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("rcsim: error:") and "\n" not in err and "Traceback" not in err
+    expected = {"missing-input": "--inputs 'mass'", "missing-outcome": "--outcome 'broken'",
+                "non-binary": "not binary", "single-run": "1 run(s)", "nan-input": "'thrust'",
+                "unknown-case": "--case 'rate-99'", "few-permutations": "--permutations",
+                "missing-path": "no such", "not-a-table": ".txt"}[case]
+    assert expected in err
+    assert not out.exists()
+
+
+def test_no_failures_gives_a_report_that_says_so(tmp_path):
+    X, _ = planted_campaign("null", seed=0, n_runs=100, n_noise=3)
+    table = _write(tmp_path, X.assign(failed=False))
+    out = tmp_path / "out"
+    assert main(["analyze", str(table), "--out", str(out)]) == 0
+    assert "No failures to analyse" in (out / "report.html").read_text()
+    assert len(pd.read_csv(out / "drivers.csv")) == 0
+
+
+def test_existing_output_needs_overwrite(tmp_path, capsys):
+    X, y = planted_campaign("one-sided", seed=0, n_runs=300, n_noise=2)
+    table = _write(tmp_path, X.assign(failed=y))
+    out = tmp_path / "out"
+    base = ["analyze", str(table), "--permutations", "19", "--out", str(out)]
+    assert main(base) == 0
+    assert main(base) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert main(base + ["--overwrite"]) == 0
+
+
+def test_report_renders_in_chromium(analysed, render_page, tmp_path):
+    """Headless Chromium loads the page: the inline error hook found no JavaScript error,
+    the closing script ran (``data-loaded``), every section is in the DOM, and a screenshot
+    is produced (look at it by hand when the report changes)."""
+    shot = tmp_path / "report.png"
+    dom = render_page(analysed / "report.html", shot)
+    assert 'data-loaded="yes"' in dom
+    assert '<pre id="js-errors"></pre>' in dom
+    for anchor in SECTIONS:
+        assert f'id="{anchor}"' in dom
+    assert shot.stat().st_size > 10_000
