@@ -156,6 +156,36 @@ def _perpendicular_basis(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, np.cross(d, e1)
 
 
+def pointing(nominal_dir_S: np.ndarray, tilt_rad: np.ndarray,
+             azimuth_rad: np.ndarray) -> np.ndarray:
+    """Jet force directions tilted from their nominal ones (the module docstring's model).
+
+    The one definition of how a tilt and its azimuth point a jet: the draws use it, and so
+    does everything that rebuilds a flown vehicle from its recorded tilt and azimuth
+    (:func:`analysis.engine.runs_table.vehicles_from_runs`).
+
+    Parameters
+    ----------
+    nominal_dir_S : ndarray, (..., 16, 3)
+        Nominal directions (need not be unit), broadcast against the angles.
+    tilt_rad : ndarray, (n, 16)
+        Signed tilt ``theta`` [rad]; the misalignment angle is ``|theta|``.
+    azimuth_rad : ndarray, (n, 16)
+        Azimuth ``phi`` of the tilt in the plane normal to the nominal direction [rad].
+
+    Returns
+    -------
+    ndarray, (n, 16, 3)
+        Unit directions.
+    """
+    d = nominal_dir_S / np.linalg.norm(nominal_dir_S, axis=-1, keepdims=True)
+    e1, e2 = _perpendicular_basis(d)
+    lateral = np.cos(azimuth_rad)[..., None] * e1 + np.sin(azimuth_rad)[..., None] * e2
+    direction = np.cos(tilt_rad)[..., None] * d + np.sin(tilt_rad)[..., None] * lateral
+    # Renormalise: cos/sin rounding leaves |direction| off 1 by ~1e-16, inside check()'s 1e-9.
+    return direction / np.linalg.norm(direction, axis=-1, keepdims=True)
+
+
 def apply_draws(
     nominal: VehicleParams, sigmas: DispersionSigmas, z: np.ndarray, u: np.ndarray
 ) -> tuple[VehicleParams, np.ndarray, np.ndarray]:
@@ -185,12 +215,7 @@ def apply_draws(
     thrust = base.thrust_n + sigmas.thrust_n * z[:, _Z_THRUST]
     tilt = sigmas.thruster_angle_rad * z[:, _Z_TILT]
     azimuth = 2.0 * np.pi * u
-    d = base.jet_dir_S / np.linalg.norm(base.jet_dir_S, axis=-1, keepdims=True)
-    e1, e2 = _perpendicular_basis(d)
-    lateral = np.cos(azimuth)[..., None] * e1 + np.sin(azimuth)[..., None] * e2
-    direction = np.cos(tilt)[..., None] * d + np.sin(tilt)[..., None] * lateral
-    # Renormalise: cos/sin rounding leaves |direction| off 1 by ~1e-16, inside check()'s 1e-9.
-    direction /= np.linalg.norm(direction, axis=-1, keepdims=True)
+    direction = pointing(base.jet_dir_S, tilt, azimuth)
     params = VehicleParams(mass_kg=mass, cg_B=cg, inertia_B=inertia, thrust_n=thrust,
                            jet_dir_S=direction, isp_s=nominal.isp_s)
     return params, tilt, azimuth
@@ -211,25 +236,3 @@ def draw_runs(
         z[k], u[k] = standard_draws(np.random.default_rng(run_streams(seed, i)[0]))
     params, tilt, azimuth = apply_draws(nominal, sigmas, z, u)
     return DispersedRuns(run_ids=run_ids, params=params, tilt_rad=tilt, azimuth_rad=azimuth)
-
-
-def dispersion_frame(runs: DispersedRuns) -> pd.DataFrame:
-    """The dispersed inputs of each run as columns with unit suffixes (SI; angles in deg).
-
-    Columns: ``mass_kg, cg_x_m, cg_y_m, cg_z_m, ixx_kg_m2, iyy_kg_m2, izz_kg_m2``, then per jet
-    ``jet_NN_thrust_n``, ``jet_NN_tilt_deg`` (signed theta; misalignment = |theta|) and
-    ``jet_NN_azimuth_deg``.
-    """
-    p = runs.params
-    cols: dict[str, np.ndarray] = {"mass_kg": p.mass_kg}
-    for a, axis in enumerate("xyz"):
-        cols[f"cg_{axis}_m"] = p.cg_B[:, a]
-    for a, name in enumerate(("ixx", "iyy", "izz")):
-        cols[f"{name}_kg_m2"] = p.inertia_B[:, a]
-    for j in range(N_JETS):
-        cols[f"jet_{j + 1:02d}_thrust_n"] = p.thrust_n[:, j]
-    for j in range(N_JETS):
-        cols[f"jet_{j + 1:02d}_tilt_deg"] = np.degrees(runs.tilt_rad[:, j])
-    for j in range(N_JETS):
-        cols[f"jet_{j + 1:02d}_azimuth_deg"] = np.degrees(runs.azimuth_rad[:, j])
-    return pd.DataFrame(cols)

@@ -25,21 +25,17 @@ Each child draws a fixed count of standard variates whatever the spec, so no spe
 another draw, and none of them touches the dispersion stream or the noise stream's own draws:
 adding these effects to a campaign leaves every existing run's vehicle bit for bit the same.
 
-Spec keys (TOML, units in the names, degrees at this boundary only): see
-:meth:`SensorSpec.from_mapping`, :meth:`TimingSpec.from_mapping`, :meth:`FaultSpec.from_mapping`
-and ``docs/faults.md``.
-
-Imports ``models`` and ``spacecraft`` only.
+The specs are SI dataclasses; reading them from a campaign's TOML (keys in degrees, ranges,
+messages naming the file) is the campaign's job (:mod:`analysis.engine.campaign.effects`), at
+the input edge.  Imports ``models`` and ``spacecraft`` only.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
-from typing import ClassVar, Mapping
 
 import numpy as np
 import pandas as pd
 
-from models.errors import InputError
 from spacecraft.dispersions import run_streams
 from spacecraft.sensors import SensorParams
 from spacecraft.valves import JetFaults, ValveTiming
@@ -53,34 +49,6 @@ def effect_stream(seed: int, run_id: int, purpose: int) -> np.random.SeedSequenc
     """Child ``purpose`` (module table) of run ``run_id``'s noise stream."""
     noise = run_streams(seed, run_id)[1]
     return np.random.SeedSequence(noise.entropy, spawn_key=tuple(noise.spawn_key) + (purpose,))
-
-
-def _axes(table: Mapping, key: str, where: str, *, deg: bool, sigma: bool = True,
-          maximum: float = np.inf) -> np.ndarray:
-    """A 3-vector (or a scalar for all axes) from ``table[key]``, each at most ``maximum`` (in
-    the key's own unit); radians if ``deg``."""
-    raw = table.get(key, 0.0)
-    if isinstance(raw, bool) or (isinstance(raw, (list, tuple))
-                                 and any(isinstance(x, bool) for x in raw)):
-        raise InputError(f"{where}: {key} must be a number or 3 numbers, got {raw!r}")
-    try:
-        v = np.broadcast_to(np.asarray(raw, float), (3,)).copy()
-    except (ValueError, TypeError):
-        raise InputError(f"{where}: {key} must be a number or 3 numbers (roll, pitch, yaw), "
-                         f"got {raw!r}") from None
-    if not np.isfinite(v).all() or (sigma and (v < 0).any()):
-        raise InputError(f"{where}: {key} must be finite{' and >= 0' if sigma else ''}, "
-                         f"got {raw!r}")
-    if (np.abs(v) > maximum).any():
-        raise InputError(f"{where}: {key} must be at most {maximum:g}, got {raw!r}")
-    return np.radians(v) if deg else v
-
-
-def _unknown(table: Mapping, known: tuple, where: str) -> None:
-    extra = sorted(set(table) - set(known))
-    if extra:
-        raise InputError(f"{where}: unknown key(s) {', '.join(extra)}; known: "
-                         f"{', '.join(known)}")
 
 
 @dataclass(frozen=True)
@@ -97,23 +65,6 @@ class SensorSpec:
     rate_bias_sigma_rad_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
     rate_walk_rad_s_per_sqrt_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
-    KEYS: ClassVar[tuple] = ("att_noise_deg", "rate_noise_deg_s", "att_bias_sigma_deg",
-            "rate_bias_sigma_deg_s", "rate_walk_deg_s_per_sqrt_s")
-    #: Largest one-sigma accepted per key (its unit): well past any star tracker or gyro an RCS
-    #: analyst would fly (arc-seconds and mdeg/s), short of values that only break the
-    #: navigation (a 10 deg attitude sigma is already a lost vehicle next to the 0.6 deg
-    #: maneuver limit; 1 deg/s of rate noise is 3x the 0.3 deg/s commands).
-    MAXIMA: ClassVar[tuple] = (10.0, 1.0, 10.0, 1.0, 0.1)
-
-    @classmethod
-    def from_mapping(cls, table: Mapping, where: str = "[dispersions.sensor]") -> "SensorSpec":
-        """From spec keys ``att_noise_deg``, ``rate_noise_deg_s``, ``att_bias_sigma_deg``,
-        ``rate_bias_sigma_deg_s``, ``rate_walk_deg_s_per_sqrt_s`` (one number or three; all
-        one-sigma, default 0).  ``where`` names the file and table in errors."""
-        _unknown(table, cls.KEYS, where)
-        return cls(*(_axes(table, k, where, deg=True, maximum=m)
-                     for k, m in zip(cls.KEYS, cls.MAXIMA)))
-
     def is_none(self) -> bool:
         return not any(np.any(getattr(self, f.name)) for f in fields(self))
 
@@ -129,20 +80,6 @@ class TimingSpec:
     open_delay_sigma_s: float = 0.0
     close_delay_s: float = 0.0
     close_delay_sigma_s: float = 0.0
-
-    @classmethod
-    def from_mapping(cls, table: Mapping, where: str = "[dispersions.timing]") -> "TimingSpec":
-        """From the spec keys named as the fields (seconds, default 0)."""
-        keys = tuple(f.name for f in fields(cls))
-        _unknown(table, keys, where)
-        out = {}
-        for k in keys:
-            v = table.get(k, 0.0)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) \
-                    or v < 0:
-                raise InputError(f"{where}: {k} must be a number >= 0 [s], got {v!r}")
-            out[k] = float(v)
-        return cls(**out)
 
     def is_none(self) -> bool:
         return not any(getattr(self, f.name) for f in fields(self))
@@ -174,51 +111,6 @@ class FaultSpec:
     time_s: tuple = (0.0, 0.0)
     stuck_for_s: tuple = (0.0, 0.0)
     thrust_factor: tuple = (1.0, 1.0)
-
-    @classmethod
-    def from_mapping(cls, table: Mapping, where: str = "[dispersions.fault]") -> "FaultSpec":
-        """From spec keys ``mode``, ``jets``, ``probability``, ``time_s = [lo, hi]``,
-        ``stuck_for_s = [lo, hi]``, ``thrust_factor = [lo, hi]`` (a number means [x, x])."""
-        keys = tuple(f.name for f in fields(cls))
-        _unknown(table, keys, where)
-        mode = table.get("mode", "none")
-        if mode not in FAULT_MODES:
-            raise InputError(f"{where}: mode must be one of {', '.join(FAULT_MODES)}, "
-                             f"got {mode!r}")
-        jets = table.get("jets", list(range(1, N_JETS + 1)))
-        if (not isinstance(jets, (list, tuple)) or not jets or len(set(jets)) != len(jets)
-                or not all(isinstance(j, int) and not isinstance(j, bool) and 1 <= j <= N_JETS
-                           for j in jets)):
-            raise InputError(f"{where}: jets must be a list of distinct jet numbers "
-                             f"1..{N_JETS}, got {jets!r}")
-        # Each window belongs to one mode: a key the mode ignores is a mistake, not a default.
-        for key, owner in (("time_s", ("off", "stuck")), ("stuck_for_s", ("stuck",)),
-                           ("thrust_factor", ("degraded",))):
-            if key in table and mode not in owner:
-                raise InputError(f"{where}: {key} applies to mode {' or '.join(owner)}, not "
-                                 f"{mode!r} (a degraded jet is degraded for the whole flight)"
-                                 if key == "time_s" else
-                                 f"{where}: {key} applies to mode {' or '.join(owner)}, "
-                                 f"not {mode!r}")
-        p = table.get("probability", 1.0)
-        if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0 <= p <= 1:
-            raise InputError(f"{where}: probability must be in [0, 1], got {p!r}")
-
-        def window(key, default, lo_ok, hi_ok):
-            raw = table.get(key, default)
-            v = np.broadcast_to(np.asarray(raw, float), (2,)) if np.size(raw) in (1, 2) \
-                else None
-            if v is None or not np.isfinite(v).all() or v[0] > v[1] or v[0] < lo_ok \
-                    or v[1] > hi_ok:
-                raise InputError(f"{where}: {key} must be [lo, hi] with {lo_ok:g} <= lo <= hi"
-                                 f"{f' <= {hi_ok:g}' if np.isfinite(hi_ok) else ''}, "
-                                 f"got {raw!r}")
-            return (float(v[0]), float(v[1]))
-
-        return cls(mode=mode, jets=tuple(jets), probability=float(p),
-                   time_s=window("time_s", 0.0, 0.0, np.inf),
-                   stuck_for_s=window("stuck_for_s", 0.0, 0.0, np.inf),
-                   thrust_factor=window("thrust_factor", 1.0, 0.0, 1.0))
 
     def is_none(self) -> bool:
         return self.mode == "none" or self.probability == 0

@@ -19,7 +19,11 @@ class History:
 
     Attributes
     ----------
+    cycle_s : float
+        The control cycle flown [s] (``PropulsionParams.cycle_s``): the one carrier of the
+        cycle downstream of a flight (outcomes, envelopes, manifests read it here).
     t_s : ndarray, (n_cycles,)
+        Start of each cycle, ``k * cycle_s`` [s].
     q_BN : ndarray, (n_runs, n_cycles, 4)
     omega_B, att_err_B, rate_err_B : ndarray, (n_runs, n_cycles, 3)
         Body rate, attitude error and rate error at the cycle's start [rad/s, rad, rad/s].
@@ -50,6 +54,7 @@ class History:
         controller saw ``att_err_B`` and ``rate_err_B``).  Outcomes use the true state.
     """
 
+    cycle_s: float
     t_s: np.ndarray
     q_BN: np.ndarray
     omega_B: np.ndarray

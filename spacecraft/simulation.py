@@ -385,7 +385,7 @@ class BatchSimulation:
         # (n_runs, n_cycles, k) views of the cycle-major buffers: a copy would double the peak
         # memory of a large batch and cost a tenth of its wall time.
         rec = {key: value.swapaxes(0, 1) for key, value in rec.items()}
-        return History(t_s=t_s, final=final, propulsion=prop, failed=failed, reason=reason,
+        return History(cycle_s=cycle, t_s=t_s, final=final, propulsion=prop, failed=failed, reason=reason,
                        flown_params=self.flown_params(), **rec)
 
     def _reset(self, q0_BN, omega0_B) -> None:

@@ -1,10 +1,21 @@
-"""The columns of ``runs.parquet``: one definition of every column's name, dtype, unit, meaning.
+"""``runs.parquet`` and the campaign directory: the one owner of the data contract between the
+engine that writes campaigns and everything that reads them.
+
+It owns
+
+* every column's name, dtype, unit and meaning (:data:`RUN_COLUMNS`, :data:`EFFECT_COLUMNS`);
+* the file names of a campaign directory (:data:`MANIFEST`, :data:`RUNS`, ...) and how a
+  directory is recognised as a campaign (:func:`is_campaign`);
+* the mapping between a run's vehicle and its row, both ways: :func:`input_frame` writes the
+  dispersed vehicle's columns, :func:`vehicles_from_runs` rebuilds the vehicles from them with
+  the simulator's own pointing rule (:func:`spacecraft.dispersions.pointing`).
 
 Every producer and consumer of a run's row uses it:
-:func:`~analysis.engine.campaign.outcomes.outcomes` builds its frame through :func:`outcome_frame`, the rows of runs that raised come from
-:func:`missing_outcomes`, the campaign's assembly reads the per-case statistics' columns from
-here, and ``docs/campaigns.md`` carries the table :func:`markdown_table` prints (a test keeps
-them equal).
+:func:`~analysis.engine.campaign.outcomes.outcomes` builds its frame through
+:func:`outcome_frame`, the rows of runs that raised come from :func:`missing_outcomes`, the
+campaign's assembly reads the per-case statistics' columns from here, the failure drivers read
+inputs and vehicles through it, and ``docs/campaigns.md`` carries the table
+:func:`markdown_table` prints (a test keeps them equal).
 
 Definitions used below: ``thr`` is the spec's ``failure.rate_error_deg_s``; rate errors
 (``omega - omega_cmd``, body axes) are sampled at the start of every 40 ms control cycle and at
@@ -12,12 +23,24 @@ the end of the run; an axis's jets are those whose Table 2 torque has a componen
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import os
+from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from spacecraft.vehicle import AXES, N_JETS
+from spacecraft.dispersions import DispersedRuns, pointing
+from spacecraft.vehicle import AXES, N_JETS, VehicleParams
+
+# The campaign directory (analysis.engine.campaign.results writes it):
+MANIFEST = "manifest.json"      # spec (resolved), code version, control cycle, times, status
+RUNS = "runs.parquet"           # one row per run, these columns, sorted by run_id
+ENVELOPES = "envelopes.parquet"  # per case and cycle: min / max / sum over runs
+CASES = "cases.csv"             # per-case summary
+CHUNKS = "chunks"               # finished chunks while the campaign runs
+HISTORIES = "histories"         # kept per-run histories, run-NNNNNNN.parquet
+PLOTS = "plots"                 # Fig 9-14-like plots
 
 
 @dataclass(frozen=True)
@@ -58,8 +81,8 @@ ID_COLUMNS: tuple[Column, ...] = (
            "SeedSequence(seed, spawn_key=(i,)).spawn(2)[0]"),
 )
 
-#: The dispersed vehicle the run flew (spacecraft.dispersions.dispersion_frame), read back
-#: from the simulation's per-run MuJoCo model where MuJoCo holds the value.
+#: The dispersed vehicle the run flew (:func:`input_frame`), read back from the simulation's
+#: per-run MuJoCo model where MuJoCo holds the value.
 INPUT_COLUMNS: tuple[Column, ...] = (
     Column("mass_kg", "float64", "kg", "vehicle mass (read back from MuJoCo)"),
     *[Column(f"cg_{a}_m", "float64", "m", "centre of gravity, body x, y, z (read back)")
@@ -235,3 +258,66 @@ def markdown_table() -> str:
         meaning = meaning.replace("|", "\\|")  # a literal | inside a Markdown table cell
         rows.append(f"| `{name}` | {c.dtype} | {c.unit} | {meaning} |")
     return "\n".join(["| column | type | unit | meaning |", "|---|---|---|---|", *rows])
+
+
+# ----------------------------------------------------------------------- vehicles <-> rows --
+def _jet_columns(kind: str) -> list[str]:
+    """``jet_NN_<kind>`` of every jet, in jet order (``thrust_n``, ``tilt_deg``, ...)."""
+    return [f"jet_{j + 1:02d}_{kind}" for j in range(N_JETS)]
+
+
+_CG = [f"cg_{a}_m" for a in "xyz"]
+_INERTIA = [f"i{a}{a}_kg_m2" for a in "xyz"]
+
+
+def input_frame(runs: DispersedRuns) -> pd.DataFrame:
+    """The :data:`INPUT_COLUMNS` of dispersed runs (SI; angles in degrees at this boundary).
+
+    Jet tilt and azimuth are the draws (MuJoCo holds only the direction they make);
+    :func:`vehicles_from_runs` is the inverse.
+    """
+    p = runs.params
+    cols = {"mass_kg": p.mass_kg,
+            **{c: p.cg_B[:, a] for a, c in enumerate(_CG)},
+            **{c: p.inertia_B[:, a] for a, c in enumerate(_INERTIA)},
+            **dict(zip(_jet_columns("thrust_n"), p.thrust_n.T)),
+            **dict(zip(_jet_columns("tilt_deg"), np.degrees(runs.tilt_rad).T)),
+            **dict(zip(_jet_columns("azimuth_deg"), np.degrees(runs.azimuth_rad).T))}
+    return pd.DataFrame(cols)[list(INPUT_NAMES)]  # a KeyError if the two ever disagree
+
+
+def vehicles_from_runs(runs: pd.DataFrame,
+                       nominal: VehicleParams) -> tuple[VehicleParams, VehicleParams]:
+    """Rebuild each run's vehicle from its recorded :data:`INPUT_COLUMNS`.
+
+    Parameters
+    ----------
+    runs : DataFrame
+        Rows of ``runs.parquet`` (or any table with the input columns).
+    nominal : VehicleParams
+        The nominal vehicle (one run) whose jets the tilts are measured from.
+
+    Returns
+    -------
+    dispersed : VehicleParams
+        As flown (thrust, pointing, CG, inertia), one entry per row.
+    nominal_pointing : VehicleParams
+        The same with every jet pointing nominally.
+    """
+    n = len(runs)
+    tilt = np.radians(runs[_jet_columns("tilt_deg")].to_numpy(float))
+    azimuth = np.radians(runs[_jet_columns("azimuth_deg")].to_numpy(float))
+    straight = VehicleParams(
+        mass_kg=runs["mass_kg"].to_numpy(float), cg_B=runs[_CG].to_numpy(float),
+        inertia_B=runs[_INERTIA].to_numpy(float),
+        thrust_n=runs[_jet_columns("thrust_n")].to_numpy(float),
+        jet_dir_S=np.repeat(nominal.jet_dir_S, n, axis=0), isp_s=nominal.isp_s)
+    dispersed = replace(straight, jet_dir_S=pointing(nominal.jet_dir_S, tilt, azimuth))
+    return dispersed, straight
+
+
+# ------------------------------------------------------------------------- the directory --
+def is_campaign(path: str | os.PathLike) -> bool:
+    """``path`` is a campaign directory: it holds a :data:`MANIFEST` (its runs may still be
+    running: :data:`RUNS` appears when the campaign completes)."""
+    return (Path(path) / MANIFEST).is_file()

@@ -108,7 +108,8 @@ def test_effect_draws_leave_vehicles_alone_and_do_not_depend_on_the_batch(model)
     nominal = VehicleParams.nominal(1, model)
     sig = DispersionSigmas(mass_kg=10.0, thrust_n=0.5)
     before = draw_runs(nominal, sig, 11, [0, 1, 2]).params
-    spec = SensorSpec.from_mapping({"att_bias_sigma_deg": 0.01, "rate_noise_deg_s": 0.001})
+    spec = SensorSpec(att_bias_sigma_rad=np.full(3, np.radians(0.01)),
+                      rate_noise_rad_s=np.full(3, np.radians(0.001)))
     together, _ = draw_sensors(spec, 11, [0, 1, 2])
     alone, _ = draw_sensors(spec, 11, [2])
     np.testing.assert_array_equal(together.att_bias_rad[2], alone.att_bias_rad[0])
@@ -121,7 +122,7 @@ def test_effect_draws_leave_vehicles_alone_and_do_not_depend_on_the_batch(model)
 
 
 def test_fault_draw_fails_one_listed_jet_per_run_in_the_window():
-    spec = FaultSpec.from_mapping({"mode": "off", "jets": [13, 15], "time_s": [1.0, 2.0]})
+    spec = FaultSpec(mode="off", jets=(13, 15), time_s=(1.0, 2.0))
     faults, drawn = draw_faults(spec, 4, np.arange(200))
     failed = np.isfinite(faults.off_from_s)
     np.testing.assert_array_equal(failed.sum(axis=1), 1)
@@ -130,14 +131,3 @@ def test_fault_draw_fails_one_listed_jet_per_run_in_the_window():
     assert ((t >= 1.0) & (t <= 2.0)).all()
     np.testing.assert_array_equal(drawn.fault_jet.to_numpy(),
                                   np.argmax(failed, axis=1) + 1)
-
-
-@pytest.mark.parametrize("table, key", [
-    ({"mode": "melted"}, "mode"),
-    ({"mode": "off", "jets": [0]}, "jets"),
-    ({"mode": "degraded", "thrust_factor": [0.5, 1.5]}, "thrust_factor"),
-    ({"mode": "off", "when": 3}, "when"),
-])
-def test_bad_fault_specs_name_the_key(table, key):
-    with pytest.raises(InputError, match=key):
-        FaultSpec.from_mapping(table, where="spec.toml [dispersions.fault]")

@@ -114,35 +114,17 @@ def _jets_off(text: str) -> tuple:
 
 
 def run_generate(args: argparse.Namespace) -> int:
-    from analysis.engine.output import check_out_file, make_parents, remove_parents
+    from analysis.engine.table_files import generate_table_files
     from lookup.table_compare import compare_tables
-    from lookup.table_generation import generate_table
-    from models.atomic import atomic_write
     from models.tables import load_lookup_table
 
     jets_off = args.jets_off or ()
-    if jets_off and args.settling_out is not None:
-        # The loader finds a table's jet set in <stem>_settling.csv only
-        # (lookup.jet_sets.companion_path): elsewhere the table would not load.
+    if jets_off and args.settling_out is not None:  # the library refuses it too, in its words
         raise InputError(f"--settling-out {args.settling_out}: not with --jets-off; the table "
                          "loads only with its companion beside it, named <TABLE stem>_settling.csv")
-    # Both outputs are checked before the 26 flights, not after.
-    out = check_out_file(args.out, overwrite=args.overwrite, parameter="out")
-    settling = check_out_file(
-        args.settling_out or out.with_name(f"{out.stem}_settling.csv"),
-        overwrite=args.overwrite, parameter="settling_out")
-    if settling == out:
-        raise InputError(f"--settling-out {settling}: is the table itself (--out)")
-    gen = generate_table(jets_off=jets_off)
-    frame = gen.settling_frame()
-    created = make_parents(out) + make_parents(settling)
-    try:
-        # Each file is complete or absent (atomic rename), never half written.
-        atomic_write(out, lambda tmp: gen.table.to_csv(tmp))
-        atomic_write(settling, lambda tmp: frame.to_csv(tmp, index=False))
-    except BaseException:
-        remove_parents(created)
-        raise
+    files = generate_table_files(args.out, settling_out=args.settling_out, jets_off=jets_off,
+                                 overwrite=args.overwrite)
+    gen, out, settling = files.generated, files.table, files.settling
     print(f"wrote {out} (26 cases) and {settling}"
           + (f" for jets {','.join(map(str, jets_off))} off" if jets_off else ""))
     print(f"rate damping: equal firing times on the opposing jets in "

@@ -123,30 +123,19 @@ def run_run(args: argparse.Namespace) -> int:
 
 
 def run_compare(args: argparse.Namespace) -> int:
-    from analysis.engine.output import atomic_dir, check_out_dir
-    from analysis.engine.scenarios import compare_controllers, comparison_markdown, get_scenario
+    from analysis.engine.scenarios.outputs import write_comparison
 
     _check_table(args.table)
-    for name in args.names or ():
-        get_scenario(name)  # fail before flying anything
-    check_out_dir(args.out, "scenario compare", overwrite=args.overwrite)  # before the work
-    frame = compare_controllers(args.names, table=args.table)
-    md = comparison_markdown(frame)
-    with atomic_dir(args.out, "scenario compare", overwrite=args.overwrite) as tmp:
-        frame.to_csv(tmp / "comparison.csv", index=False)
-        (tmp / "comparison.md").write_text(md)
+    _, md = write_comparison(args.out, args.names, table=args.table, overwrite=args.overwrite)
     print(md, end="")
     print(f"outputs in {Path(args.out)}/: comparison.csv, comparison.md")
     return 0
 
 
 def run_figures(args: argparse.Namespace) -> int:
-    from analysis.engine.output import atomic_dir, check_out_dir
-    from analysis.engine.scenarios.figure_set import write_figure_set
+    from analysis.engine.scenarios.outputs import write_figures
 
     _check_table(args.table)
-    check_out_dir(args.out, "scenario figures", overwrite=args.overwrite)
-    with atomic_dir(args.out, "scenario figures", overwrite=args.overwrite) as tmp:
-        names = write_figure_set(tmp, table=args.table)
+    names = write_figures(args.out, table=args.table, overwrite=args.overwrite)
     print(f"wrote {len(names)} figures in {Path(args.out)}/: " + ", ".join(names))
     return 0

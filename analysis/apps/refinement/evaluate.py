@@ -25,7 +25,7 @@ from analysis.engine.campaign.outcomes import outcomes
 from analysis.engine.flight import fly_batch
 from analysis.results.scoring import trial_frame
 from lookup.pattern_recognition import LookupController, LookupParams
-from models.tables import AXES, CONTROL_CYCLE_S, LookupTable
+from models.tables import AXES, LookupTable
 from spacecraft.dispersions import draw_runs
 from spacecraft.vehicle import VehicleParams, load_model
 
@@ -62,7 +62,7 @@ def _fly_chunk(spec, table: LookupTable, params_all: VehicleParams, row_of_run: 
     params = params_all.take(row_of_run)
     history = fly_batch([spec.cases[c] for c in cases], params, controller, model=model,
                         nthread=1)
-    return outcomes(history, spec, CONTROL_CYCLE_S, params.isp_s)
+    return outcomes(history, spec)
 
 
 def evaluate(spec, table: LookupTable, trials: Trials, *,

@@ -362,7 +362,7 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
         history = fly_batch([spec.cases[row]] * shown, params,
                             LookupController(table), model=model)
         rate = np.degrees(history.omega_B[:, :, a])
-        failed = outcomes(history, spec, CONTROL_CYCLE_S, params.isp_s)["failed"].to_numpy(bool)
+        failed = outcomes(history, spec)["failed"].to_numpy(bool)
         for fail, color in ((False, AXIS_COLORS["roll"]), (True, "tab:red")):
             sel = failed == fail
             if sel.any():

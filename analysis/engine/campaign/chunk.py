@@ -18,10 +18,9 @@ import pandas as pd
 # dropped once the lead confirms).
 from analysis.engine.campaign.outcomes import axis_jets, firing_starts, outcomes  # noqa: F401
 from analysis.engine.campaign.effects import adapt_options, draw_effects
-from analysis.engine.runs_table import check_run_frame, missing_outcomes
-from spacecraft.dispersions import DispersedRuns, dispersion_frame, draw_runs
+from analysis.engine.runs_table import check_run_frame, input_frame, missing_outcomes
+from spacecraft.dispersions import DispersedRuns, draw_runs
 from spacecraft.guards import history_bytes
-from spacecraft.propulsion import PropulsionParams
 from spacecraft.simulation import History, invalid_runs
 from spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
 
@@ -66,7 +65,7 @@ CHUNK_COUNT_MULTIPLE = 4
 def max_chunk_runs(spec, duration_s: float) -> int:
     """Most runs per chunk for runs of ``duration_s``: ``spec.chunk_size``, or fewer when the
     chunk's per-cycle record would exceed :data:`HISTORY_BUDGET_BYTES`."""
-    cycles = int(np.ceil(duration_s / PropulsionParams().cycle_s))
+    cycles = int(np.ceil(duration_s / spec.cycle_s))
     # Imperfect sensors record what the controller measured; timing and faults record what
     # the jets delivered (spacecraft.guards.history_bytes).
     extra = spec.effects.records()
@@ -204,7 +203,7 @@ def envelope(history: History, cases: np.ndarray, alive: np.ndarray) -> pd.DataF
 
 def _case_envelope(history: History, case: int, alive: np.ndarray) -> pd.DataFrame:
     K = history.t_s.size
-    cycle = history.t_s[1] - history.t_s[0] if K > 1 else 0.0
+    cycle = history.cycle_s
     att = np.degrees(np.concatenate([history.att_err_B[alive], history.final.att_err_B[alive, None]], 1))
     rate = np.degrees(np.concatenate([history.omega_B[alive], history.final.omega_B[alive, None]], 1))
     on = np.concatenate([history.on_time_s[alive], np.zeros((int(alive.sum()), 1, N_JETS))], 1)
@@ -276,13 +275,13 @@ def run_rows(spec, dispersed: DispersedRuns, outcome: pd.DataFrame) -> pd.DataFr
         "seed": np.full(dispersed.run_ids.size, spec.seed, dtype=np.int64),
     })
     return check_run_frame(
-        pd.concat([head, dispersion_frame(dispersed), effects.reset_index(drop=True),
+        pd.concat([head, input_frame(dispersed), effects.reset_index(drop=True),
                    outcome.reset_index(drop=True)], axis=1), spec.effects.groups)
 
 
 def tabulate(spec, history: History, dispersed: DispersedRuns) -> pd.DataFrame:
     """The runs.parquet rows of a flown batch (inputs as flown, outcomes)."""
-    out = outcomes(history, spec, PropulsionParams().cycle_s, dispersed.params.isp_s)
+    out = outcomes(history, spec)
     return run_rows(spec, flown_inputs(dispersed, history.flown_params), out)
 
 

@@ -1,11 +1,13 @@
 """Sensors, valve timing and jet faults of a campaign: the spec's ``[dispersions.sensor]``,
 ``[dispersions.timing]`` and ``[dispersions.fault]`` tables, and each chunk's draws of them.
 
-The specs and the per-run draws are :mod:`spacecraft.effect_draws`' (``SensorSpec``,
-``TimingSpec``, ``FaultSpec``, ``draw_*``); this module reads them from a campaign spec, records
-them in its resolved form (what the manifest keeps, so that ``--resume`` and ``replay`` rebuild
-the same effects) and turns a chunk's draws into ``fly_batch`` keywords and ``runs.parquet``
-columns (:data:`analysis.engine.runs_table.EFFECT_COLUMNS`).
+The physics' SI specs and the per-run draws are :mod:`spacecraft.effect_draws`' (``SensorSpec``,
+``TimingSpec``, ``FaultSpec``, ``draw_*``).  This module is their input edge: it reads them
+from a campaign spec's TOML (keys with units in their names, degrees converted here, ranges
+and one-line errors naming the file, table and key), records them in their resolved form (what
+the manifest keeps, so that ``--resume`` and ``replay`` rebuild the same effects) and turns a
+chunk's draws into ``fly_batch`` keywords and ``runs.parquet`` columns
+(:data:`analysis.engine.runs_table.EFFECT_COLUMNS`).
 
 A table that is absent, or present with every value zero (``is_none``), is *not* recorded:
 such a spec resolves exactly as one written before these tables existed (same digest), so
@@ -24,12 +26,34 @@ import pandas as pd
 from analysis.engine.runs_table import effect_frame_of
 from models.errors import InputError
 from spacecraft.effect_draws import (
-    FaultSpec, SensorSpec, TimingSpec, draw_faults, draw_sensors, draw_timing, effect_frame,
+    FAULT_MODES, FaultSpec, SensorSpec, TimingSpec, draw_faults, draw_sensors, draw_timing,
+    effect_frame,
 )
-from spacecraft.propulsion import PropulsionParams
+from spacecraft.vehicle import N_JETS
 
-#: Spec table name -> spec class.
-TABLES = {"sensor": SensorSpec, "timing": TimingSpec, "fault": FaultSpec}
+#: ``[dispersions.sensor]`` keys (one number for all axes or [roll, pitch, yaw], one-sigma, in
+#: the unit of the name) -> (SensorSpec field, largest value accepted).  The largest values lie
+#: well past any star tracker or gyro an RCS analyst would fly (arc-seconds and mdeg/s), short
+#: of values that only break the navigation (a 10 deg attitude sigma is already a lost vehicle
+#: next to the 0.6 deg maneuver limit; 1 deg/s of rate noise is 3x the 0.3 deg/s commands).
+SENSOR_KEYS = {
+    "att_noise_deg": ("att_noise_rad", 10.0),
+    "rate_noise_deg_s": ("rate_noise_rad_s", 1.0),
+    "att_bias_sigma_deg": ("att_bias_sigma_rad", 10.0),
+    "rate_bias_sigma_deg_s": ("rate_bias_sigma_rad_s", 1.0),
+    "rate_walk_deg_s_per_sqrt_s": ("rate_walk_rad_s_per_sqrt_s", 0.1),
+}
+#: ``[dispersions.timing]`` keys: the TimingSpec fields, in seconds.
+TIMING_KEYS = ("command_delay_s", "command_delay_sigma_s", "open_delay_s", "open_delay_sigma_s",
+               "close_delay_s", "close_delay_sigma_s")
+#: ``[dispersions.fault]`` windows -> (the modes they belong to, default, lowest, highest or
+#: None for the run's duration).
+FAULT_WINDOWS = {
+    "time_s": (("off", "stuck"), 0.0, 0.0, None),
+    "stuck_for_s": (("stuck",), 0.0, 0.0, None),
+    "thrust_factor": (("degraded",), 1.0, 0.0, 1.0),
+}
+FAULT_KEYS = ("mode", "jets", "probability", *FAULT_WINDOWS)
 #: How many one-sigmas of the delay draws must stay inside the control cycle: beyond about
 #: 5 sigma a normal draw is rarer than 3e-7 per run, so no campaign of practical size meets
 #: one; a run that still did would be recorded failed with the simulator's refusal as reason.
@@ -57,8 +81,100 @@ class Effects:
                 "delivered": not (self.timing.is_none() and self.fault.is_none())}
 
 
-def parse_effects(dispersions: dict, *, source: str) -> tuple[Effects, dict]:
+def _unknown(table: dict, known, where: str) -> None:
+    extra = sorted(set(table) - set(known))
+    if extra:
+        raise InputError(f"{where}: unknown key(s) {', '.join(map(str, extra))}; known: "
+                         f"{', '.join(known)}")
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _axes_deg(table: dict, key: str, where: str, maximum: float) -> np.ndarray:
+    """A one-sigma per axis from ``table[key]`` (one number or three, in the key's unit, each
+    in [0, maximum]), in radians."""
+    raw = table.get(key, 0.0)
+    values = raw if isinstance(raw, list) else [raw]
+    if len(values) not in (1, 3) or not all(_is_number(v) for v in values):
+        raise InputError(f"{where}: {key} must be a number or 3 numbers (roll, pitch, yaw), "
+                         f"got {raw!r}")
+    v = np.broadcast_to(np.asarray(values, float), (3,)).copy()
+    if (v < 0).any():
+        raise InputError(f"{where}: {key} must be finite and >= 0, got {raw!r}")
+    if (v > maximum).any():
+        raise InputError(f"{where}: {key} must be at most {maximum:g}, got {raw!r}")
+    return np.radians(v)
+
+
+def sensor_spec(table: dict, where: str) -> SensorSpec:
+    """``[dispersions.sensor]`` (:data:`SENSOR_KEYS`) as the physics' SI spec."""
+    _unknown(table, tuple(SENSOR_KEYS), where)
+    return SensorSpec(**{field_: _axes_deg(table, key, where, maximum)
+                         for key, (field_, maximum) in SENSOR_KEYS.items()})
+
+
+def timing_spec(table: dict, where: str) -> TimingSpec:
+    """``[dispersions.timing]`` (:data:`TIMING_KEYS`, seconds, default 0) as the SI spec."""
+    _unknown(table, TIMING_KEYS, where)
+    out = {}
+    for key in TIMING_KEYS:
+        v = table.get(key, 0.0)
+        if not _is_number(v) or v < 0:
+            raise InputError(f"{where}: {key} must be a number >= 0 [s], got {v!r}")
+        out[key] = float(v)
+    return TimingSpec(**out)
+
+
+def fault_spec(table: dict, where: str, longest_s: float) -> FaultSpec:
+    """``[dispersions.fault]`` as the SI spec: ``mode``, ``jets``, ``probability`` and the
+    windows ``[lo, hi]`` of :data:`FAULT_WINDOWS` (a number means [x, x]); times within the
+    longest run, ``longest_s`` [s] (a fault after the end never happens)."""
+    _unknown(table, FAULT_KEYS, where)
+    mode = table.get("mode", "none")
+    if not isinstance(mode, str) or mode not in FAULT_MODES:
+        raise InputError(f"{where}: mode must be one of {', '.join(FAULT_MODES)}, "
+                         f"got {mode!r}")
+    jets = table.get("jets", list(range(1, N_JETS + 1)))
+    if (not isinstance(jets, list) or not jets
+            or not all(isinstance(j, int) and not isinstance(j, bool) and 1 <= j <= N_JETS
+                       for j in jets)
+            or len(set(jets)) != len(jets)):
+        raise InputError(f"{where}: jets must be a list of distinct jet numbers "
+                         f"1..{N_JETS}, got {jets!r}")
+    p = table.get("probability", 1.0)
+    if not _is_number(p) or not 0 <= p <= 1:
+        raise InputError(f"{where}: probability must be in [0, 1], got {p!r}")
+    windows = {}
+    for key, (owner, default, lo_ok, hi_ok) in FAULT_WINDOWS.items():
+        # Each window belongs to its modes: a key the mode ignores is a mistake, not a default.
+        if key in table and mode not in owner:
+            why = " (a degraded jet is degraded for the whole flight)" if key == "time_s" else ""
+            raise InputError(f"{where}: {key} applies to mode {' or '.join(owner)}, not "
+                             f"{mode!r}{why}")
+        hi = longest_s if hi_ok is None else hi_ok
+        raw = table.get(key, default)
+        values = raw if isinstance(raw, list) else [raw]
+        if (len(values) not in (1, 2) or not all(_is_number(v) for v in values)
+                or not lo_ok <= values[0] <= values[-1] <= hi):
+            unit = " s, the longest run" if hi_ok is None else ""
+            raise InputError(f"{where}: {key} must be [lo, hi] with {lo_ok:g} <= lo <= hi "
+                             f"<= {hi:g}{unit}, got {raw!r}")
+        windows[key] = (float(values[0]), float(values[-1]))
+    return FaultSpec(mode=mode, jets=tuple(jets), probability=float(p), **windows)
+
+
+#: Spec table name -> its reader.
+TABLES = {"sensor": sensor_spec, "timing": timing_spec, "fault": fault_spec}
+
+
+def parse_effects(dispersions: dict, *, source: str, cycle_s: float,
+                  longest_s: float) -> tuple[Effects, dict]:
     """Read the ``sensor``, ``timing`` and ``fault`` sub-tables (popped from ``dispersions``).
+
+    ``cycle_s``: the campaign's control cycle [s] (delays must act within it); ``longest_s``:
+    its longest run [s] (fault windows must start within it).
 
     Returns
     -------
@@ -70,29 +186,28 @@ def parse_effects(dispersions: dict, *, source: str) -> tuple[Effects, dict]:
     Raises
     ------
     InputError
-        Naming the file, table and key: what ``from_mapping`` refuses, a table that is not a
+        Naming the file, table and key: a bad value, a table that is not a
         table, delays that do not fit in the control cycle.
     """
     specs, resolved = {}, {}
-    for name, cls in TABLES.items():
+    for name, read in TABLES.items():
         raw = dispersions.pop(name, {})
         where = f"{source}: [dispersions.{name}]"
         if not isinstance(raw, dict):
             raise InputError(f"{where}: expected a table, got {raw!r}")
-        spec = cls.from_mapping(raw, where=where)
+        spec = read(raw, where, longest_s) if name == "fault" else read(raw, where)
         specs[name] = spec
         if not spec.is_none():
             # TOML values of these keys (numbers, lists, strings) are JSON as they are.
             resolved[name] = dict(sorted(raw.items()))
     effects = Effects(**specs)
-    _check_timing(effects.timing, f"{source}: [dispersions.timing]")
+    _check_timing(effects.timing, f"{source}: [dispersions.timing]", cycle_s)
     return effects, resolved
 
 
-def _check_timing(t: TimingSpec, where: str) -> None:
-    """Refuse delays whose draws would leave the control cycle (the simulator requires
-    ``command + open < cycle`` and ``command + close < cycle``)."""
-    cycle = PropulsionParams().cycle_s
+def _check_timing(t: TimingSpec, where: str, cycle: float) -> None:
+    """Refuse delays whose draws would leave the control cycle ``cycle`` [s] (the simulator
+    requires ``command + open < cycle`` and ``command + close < cycle``)."""
     for valve in ("open", "close"):
         mean = t.command_delay_s + getattr(t, f"{valve}_delay_s")
         sigma = t.command_delay_sigma_s + getattr(t, f"{valve}_delay_sigma_s")

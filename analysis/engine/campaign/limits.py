@@ -24,11 +24,12 @@ def max_duration_s(measured: bool = False, delivered: bool = False) -> float:
     faults, :func:`spacecraft.guards.history_bytes`)."""
     from analysis.engine.campaign.chunk import HISTORY_BUDGET_BYTES
     from spacecraft.guards import history_bytes
-    from spacecraft.propulsion import PropulsionParams
+    from models.tables import CONTROL_CYCLE_S
 
-    # history_bytes(1, 1): one run's record of one cycle, with its share of the time column.
+    # history_bytes(1, 1): one run's record of one cycle, with its share of the time column;
+    # campaigns fly the paper's cycle (CampaignSpec.cycle_s).
     return ((HISTORY_BUDGET_BYTES // history_bytes(1, 1, measured, delivered))
-            * PropulsionParams().cycle_s)
+            * CONTROL_CYCLE_S)
 
 
 _LIMITS: dict = {}

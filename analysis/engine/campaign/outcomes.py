@@ -33,8 +33,11 @@ def firing_starts(on_time_s: np.ndarray, cycle_s: float) -> np.ndarray:
     return (on_time_s > 0) & ~prev_full
 
 
-def outcomes(history: History, spec, cycle_s: float, isp_s: float) -> pd.DataFrame:
+def outcomes(history: History, spec) -> pd.DataFrame:
     """Outcome columns of each run of a flown batch (degrees and deg/s at this boundary).
+
+    The control cycle is the one the batch flew (``history.cycle_s``); propellant is at the
+    flown vehicles' Isp (``history.flown_params``).
 
     Definitions (``thr`` = ``spec.rate_threshold_rad_s``; rate errors sampled at each cycle's
     start and at the end of the run):
@@ -54,6 +57,7 @@ def outcomes(history: History, spec, cycle_s: float, isp_s: float) -> pd.DataFra
     units and meanings: :data:`analysis.engine.runs_table.OUTCOME_COLUMNS`.
     """
     n, K = history.rate_err_B.shape[:2]
+    cycle_s = history.cycle_s
     thr = spec.rate_threshold_rad_s
     rate = np.concatenate([history.rate_err_B, history.final.rate_err_B[:, None]], axis=1)
     below = np.abs(rate) < thr  # (n, K + 1, 3)
@@ -103,7 +107,7 @@ def outcomes(history: History, spec, cycle_s: float, isp_s: float) -> pd.DataFra
     cols["firings_total"] = prop.firings.sum(axis=1).astype(float)
     for j in range(N_JETS):
         cols[f"jet_{j + 1:02d}_on_time_s"] = prop.on_time_s[:, j]
-    cols["propellant_kg"] = prop.propellant_kg(isp_s)
+    cols["propellant_kg"] = prop.propellant_kg(history.flown_params.isp_s)
     cols["rate_settled_time_s"] = settle
 
     sim_failed = np.asarray(history.failed, bool)

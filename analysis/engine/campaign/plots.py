@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.ticker import MaxNLocator
 
+from analysis.engine import runs_table
 from analysis.engine.plots import new_figure
 from spacecraft.vehicle import AXES
 
@@ -85,11 +86,11 @@ def plot_campaign(out: Path, spec) -> list[Path]:
     """All plots of a finished campaign directory into ``out/plots``."""
     from analysis.engine.campaign import results as R
 
-    folder = out / R.PLOTS
+    folder = out / runs_table.PLOTS
     folder.mkdir(exist_ok=True)
     who = spec.controller + (f" ({Path(spec.table).name})" if spec.table else "")
     paths = []
-    env_path = out / R.ENVELOPES
+    env_path = out / runs_table.ENVELOPES
     if env_path.exists():
         env = pd.read_parquet(env_path)
         for c, case in enumerate(spec.cases):
@@ -101,8 +102,8 @@ def plot_campaign(out: Path, spec) -> list[Path]:
                       rate_cmd_deg_s=np.degrees(case.rate_cmd_rad_s))
             paths.append(path)
     cols = [f"final_rate_err_{a}_deg_s" for a in AXES]
-    runs = pd.read_parquet(out / R.RUNS, columns=cols)
-    cases = pd.read_csv(out / R.CASES)
+    runs = pd.read_parquet(out / runs_table.RUNS, columns=cols)
+    cases = pd.read_csv(out / runs_table.CASES)
     path = folder / "summary.png"
     n_runs, n_failed = int(cases["runs"].sum()), int(cases["failed"].sum())
     pct = 100.0 * n_failed / n_runs if n_runs else 0.0

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from analysis.engine import runs_table
 from analysis.engine.campaign import results as R
 from analysis.engine.campaign.chunk import fly_runs, tabulate
 from analysis.engine.campaign.spec import parse_dict
@@ -21,8 +22,8 @@ COMMAND = "campaign replay"  # recorded in a replay directory's marker (analysis
 def load_campaign_spec(campaign: Path):
     manifest = R.read_manifest(campaign)
     if manifest is None:
-        raise InputError(f"{campaign}: not a campaign directory (no readable {R.MANIFEST})")
-    return parse_dict(manifest["spec"], source=str(campaign / R.MANIFEST), base_dir=None)
+        raise InputError(f"{campaign}: not a campaign directory (no readable {runs_table.MANIFEST})")
+    return parse_dict(manifest["spec"], source=str(campaign / runs_table.MANIFEST), base_dir=None)
 
 
 def replay(campaign: str | Path, run_id: int, out: str | Path | None = None, *,
@@ -65,7 +66,7 @@ def replay(campaign: str | Path, run_id: int, out: str | Path | None = None, *,
     write_flight(history, out, title=title, isp_s=dispersed.params.isp_s, command=COMMAND,
                  overwrite=overwrite)
     matches = None
-    runs_path = campaign / R.RUNS
+    runs_path = campaign / runs_table.RUNS
     if runs_path.exists():
         stored = pd.read_parquet(runs_path, filters=[("run_id", "==", run_id)])
         stored = stored.rename(columns=R.RENAMED_COLUMNS)  # a campaign older than a rename

@@ -31,17 +31,11 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from analysis.engine.runs_table import RUN_NAMES
+from analysis.engine.runs_table import (
+    CASES, CHUNKS, ENVELOPES, HISTORIES, MANIFEST, PLOTS, RUN_NAMES, RUNS,
+)
 from models.atomic import atomic_write, remove_temporaries
 from spacecraft.vehicle import AXES
-
-MANIFEST = "manifest.json"
-RUNS = "runs.parquet"
-ENVELOPES = "envelopes.parquet"
-CASES = "cases.csv"
-CHUNKS = "chunks"
-HISTORIES = "histories"
-PLOTS = "plots"
 
 
 def now_utc() -> str:

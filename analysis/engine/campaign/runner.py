@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 from itertools import islice
 from pathlib import Path
 
+from analysis.engine import runs_table
 from analysis.engine.campaign import results as R
 from analysis.engine.campaign.chunk import iter_chunks, simulate_chunk
 from analysis.engine.campaign.cluster import close, connect, dask_results
@@ -152,11 +153,10 @@ def check_fits(spec, out: Path) -> None:
         Naming the spec's ``runs_per_case``, the estimate and the free space.
     """
     from spacecraft.guards import human_bytes
-    from spacecraft.propulsion import PropulsionParams
 
     need = spec.n_runs * _ROW_BYTES
     if spec.histories in ("all", "first"):
-        cycle_s = PropulsionParams().cycle_s
+        cycle_s = spec.cycle_s
         per_case = spec.runs_per_case if spec.histories == "all" else min(spec.first_k,
                                                                            spec.runs_per_case)
         need += sum(per_case * int(case.duration_s / cycle_s + 1) * _HISTORY_ROW_BYTES
@@ -187,7 +187,7 @@ def _prepare_dir(spec, out: Path, resume: bool) -> tuple[dict | None, bool]:
     manifest = R.read_manifest(out)
     if manifest is None:
         raise InputError(f"{out}: exists and is not a campaign directory (no readable "
-                         f"{R.MANIFEST}); choose a new directory", parameter="out",
+                         f"{runs_table.MANIFEST}); choose a new directory", parameter="out",
                          value=str(out))
     if not resume:
         raise InputError(f"{out}: holds a campaign ({manifest.get('status', 'unknown')}); "
@@ -280,7 +280,7 @@ def run_campaign(
 def _run(spec, out, manifest, resume, client, cluster, workers, threads, progress,
          spec_file) -> CampaignReport:
     t0 = time.perf_counter()
-    for sub in (R.CHUNKS, R.HISTORIES):
+    for sub in (runs_table.CHUNKS, runs_table.HISTORIES):
         (out / sub).mkdir(parents=True, exist_ok=True)
     # A campaign killed mid-write (SIGKILL) left its temporaries: this process owns them now.
     R.remove_temporaries_in(out)
@@ -288,11 +288,12 @@ def _run(spec, out, manifest, resume, client, cluster, workers, threads, progres
     write_marker(out, COMMAND)
     manifest = manifest or _new_manifest(spec, spec_file)
     manifest["code_version"] = R.code_version()
+    manifest["control_cycle_s"] = spec.cycle_s  # the cycle every chunk's History flies
     if spec.controller in ("lookup", "adaptive") and spec.table is None:
         manifest["lookup_default_table"] = R.default_lookup_table()
     if resume and manifest.get("status") == "running":
         manifest.setdefault("resumed_utc", []).append(R.now_utc())
-    R.write_json(manifest, out / R.MANIFEST)
+    R.write_json(manifest, out / runs_table.MANIFEST)
 
     done = R.done_chunks(out)
     n_chunks = n_done = n_done_chunks = 0
@@ -324,7 +325,7 @@ def _run(spec, out, manifest, resume, client, cluster, workers, threads, progres
         plot_campaign(out, spec)
     wall = time.perf_counter() - t0
     manifest.update(status="complete", finished_utc=R.now_utc(), counts=counts,
-                    histories_kept=sum(1 for _ in (out / R.HISTORIES).glob("run-*.parquet")))
+                    histories_kept=sum(1 for _ in (out / runs_table.HISTORIES).glob("run-*.parquet")))
     manifest["last_session"] = {"mode": mode, "runs_flown": flown, "fly_s": round(fly_s, 3),
                                 "wall_s": round(wall, 3)}
     gate = _gate(spec, counts)
@@ -332,8 +333,8 @@ def _run(spec, out, manifest, resume, client, cluster, workers, threads, progres
         manifest["gate"] = gate.to_json()
     else:
         manifest.pop("gate", None)  # an earlier session's verdict is not this one's
-    R.write_json(manifest, out / R.MANIFEST)
-    shutil.rmtree(out / R.CHUNKS, ignore_errors=True)
+    R.write_json(manifest, out / runs_table.MANIFEST)
+    shutil.rmtree(out / runs_table.CHUNKS, ignore_errors=True)
     R.remove_temporaries_in(out)
     return CampaignReport(out, counts, wall, flown, simulated, n_done_chunks, mode, fly_s=fly_s,
                           gate=gate)
@@ -387,7 +388,7 @@ def summary_text(report: CampaignReport, spec) -> str:
     effects = describe(spec.effects)
     if effects:
         lines.append(f"with {effects}")
-    cases_csv = report.out / R.CASES
+    cases_csv = report.out / runs_table.CASES
     if cases_csv.exists():
         cases = pd.read_csv(cases_csv)
         lines.append("case        runs  failed  firings/run  one-firing %")

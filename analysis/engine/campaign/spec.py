@@ -36,7 +36,7 @@ from analysis.engine.campaign.reader import Reader, file_digest, file_key
 from analysis.engine.flight import Scenario
 from lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
 from models.errors import InputError
-from models.tables import PAPER_LOOKUP_TABLES
+from models.tables import CONTROL_CYCLE_S, PAPER_LOOKUP_TABLES
 from spacecraft.dispersions import DispersionSigmas
 
 EXAMPLE_SPEC = '''\
@@ -202,6 +202,14 @@ class CampaignSpec:
         return len(self.cases)
 
     @property
+    def cycle_s(self) -> float:
+        """The control cycle the campaign flies [s]: every controller and valve model it builds
+        takes :data:`models.tables.CONTROL_CYCLE_S`, so its plans (chunk sizes, delay limits,
+        disk estimates) use it before any flight; each flight's :class:`spacecraft.history.History`
+        then carries the cycle it flew."""
+        return CONTROL_CYCLE_S
+
+    @property
     def n_runs(self) -> int:
         return self.n_cases * self.runs_per_case
 
@@ -311,35 +319,58 @@ def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
     return cases
 
 
-def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpec:
-    """Validate a spec already read into a dict (from TOML, or a manifest's ``resolved``).
+def parse_dict(data: dict, *, source: str = "<dict>",
+               base_dir: str | os.PathLike | None = None) -> CampaignSpec:
+    """Validate a spec already read into a dict (from TOML, a manifest's ``resolved``, or code).
 
     Parameters
     ----------
     data : dict
+        The spec's tables and keys, as the TOML file has them (``rcsim campaign example``).
     source : str
-        Shown in error messages (the file name).
-    base_dir : Path or None
-        Relative file paths are relative to it (the spec file's directory).
-    """
-    from lookup.jet_sets import load_table_for_jets
-    from models.tables import load_dispersions, load_lookup_table
+        Shown in error messages (the file name); default ``"<dict>"``.
+    base_dir : path, optional
+        Relative file paths (tables) are relative to it; default the working directory.
 
+    Raises
+    ------
+    InputError
+        Naming ``source``, the key path and the value.
+    """
+    base_dir = Path.cwd() if base_dir is None else Path(base_dir)
     top = Reader(data, "", source)
     seed = top.integer("seed", 1, minimum=0)
     runs = top.integer("runs_per_case", 100, minimum=1)
     chunk = top.integer("chunk_size", 512, minimum=1)
     # A run is a function of (seed, run id); run ids are case * runs_per_case + k.
     resolved: dict = {"seed": seed, "runs_per_case": runs, "chunk_size": chunk}
-
-    scen_resolved: list = []
     if not top.has("scenario"):
         raise InputError(f"{source}: scenario: missing; see `rcsim campaign example`")
     raw_scen = top.raw("scenario")
+    scen_resolved: list = []
     cases = _scenarios(raw_scen, source, scen_resolved)
     resolved["scenario"] = scen_resolved if isinstance(raw_scen, list) else scen_resolved[0]
+    name, table, resolved["controller"] = _controller(top.table_("controller"), base_dir)
+    sigmas, effects, resolved["dispersions"] = _dispersions(top.table_("dispersions"), base_dir,
+                                                            cases, source)
+    rate_thr, att_thr, max_failed, resolved["failure"] = _failure(top.table_("failure"))
+    histories, first_k, plots, resolved["output"] = _output(top.table_("output"))
+    top.done()
+    return CampaignSpec(
+        source=source, seed=seed, runs_per_case=runs, chunk_size=chunk, cases=tuple(cases),
+        controller=name, table=table, sigmas=sigmas,
+        rate_threshold_rad_s=math.radians(rate_thr),
+        attitude_threshold_rad=None if att_thr is None else math.radians(att_thr),
+        histories=histories, first_k=first_k, plots=plots, resolved=resolved,
+        max_failed_pct=max_failed, effects=effects,
+    )
 
-    c = top.table_("controller")
+
+def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
+    """``[controller]``: name, table (absolute path, paper table name or None), resolved."""
+    from lookup.jet_sets import load_table_for_jets
+    from models.tables import load_lookup_table
+
     name = c.choice("name", None, ALL_CONTROLLERS)
     table = file_key(c, "table", base_dir, names=tuple(PAPER_LOOKUP_TABLES))
     if name not in TABLE_CONTROLLERS and table is not None:
@@ -362,12 +393,18 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
             raise c.error("table", f"{what} changed since the campaign ran (sha256 differs)",
                           table)
     c.done()
-    resolved["controller"] = {"name": name, "table": table or "default",
-                              "table_sha256": file_digest(table)}
+    resolved = {"name": name, "table": table or "default", "table_sha256": file_digest(table)}
     if jets_off:  # recorded only when there are some: other specs resolve as before
-        resolved["controller"]["jets_off"] = list(jets_off)
+        resolved["jets_off"] = list(jets_off)
+    return name, table, resolved
 
-    d = top.table_("dispersions")
+
+def _dispersions(d: Reader, base_dir: Path, cases: list[Scenario],
+                 source: str) -> tuple[DispersionSigmas, Effects, dict]:
+    """``[dispersions]``: Table 5 (file, scale, 3-sigma overrides, converted to SI one-sigmas
+    here) and the sensor / timing / fault tables."""
+    from models.tables import load_dispersions
+
     disp_table = file_key(d, "table", base_dir)
     frame = load_dispersions(disp_table)
     if d.has("table_sha256"):
@@ -386,7 +423,9 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
                 frame.loc[len(frame), ["name", "three_sigma"]] = [row, overrides[key] * factor]
     over.done()
     check_three_sigma(frame, scale, overrides, source, _SIGMA_KEYS)
-    effects, effects_resolved = parse_effects(d.table, source=source)
+    effects, effects_resolved = parse_effects(
+        d.table, source=source, cycle_s=CONTROL_CYCLE_S,
+        longest_s=max(case.duration_s for case in cases))
     d.done()
     longest = max_duration_s(**effects.records())
     if effects.groups and any(case.duration_s > longest for case in cases):
@@ -397,11 +436,13 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
         sigmas = DispersionSigmas.from_table(frame, scale)
     except InputError as exc:
         raise InputError(f"{source}: dispersions.table: {exc}") from None
-    resolved["dispersions"] = {"table": disp_table or "default",
-                               "table_sha256": file_digest(disp_table),
-                               "scale": scale, "three_sigma": overrides, **effects_resolved}
+    resolved = {"table": disp_table or "default", "table_sha256": file_digest(disp_table),
+                "scale": scale, "three_sigma": overrides, **effects_resolved}
+    return sigmas, effects, resolved
 
-    f = top.table_("failure")
+
+def _failure(f: Reader) -> tuple[float, float | None, float | None, dict]:
+    """``[failure]``: rate and attitude thresholds [deg/s, deg], the gate [%], resolved."""
     rate_thr = f.number("rate_error_deg_s", _DEFAULT_RATE_ERROR_DEG_S, minimum=0.0, strict=True)
     att_thr = f.number("attitude_error_deg", None, minimum=0.0, strict=True) \
         if f.has("attitude_error_deg") else None
@@ -412,28 +453,22 @@ def parse_dict(data: dict, *, source: str, base_dir: Path | None) -> CampaignSpe
             raise f.error("max_failed_pct", problem, max_failed)
         max_failed = float(max_failed)
     f.done()
-    resolved["failure"] = {"rate_error_deg_s": rate_thr}
+    resolved: dict = {"rate_error_deg_s": rate_thr}
     if att_thr is not None:
-        resolved["failure"]["attitude_error_deg"] = att_thr
+        resolved["attitude_error_deg"] = att_thr
+    return rate_thr, att_thr, max_failed, resolved
 
-    o = top.table_("output")
+
+def _output(o: Reader) -> tuple[str, int, bool, dict]:
+    """``[output]``: histories kept, first K, plots, resolved."""
     histories = o.choice("histories", "failures", HISTORY_MODES)
     first_k = o.integer("first_k", 5, minimum=0)
     plots = o.raw("plots", True)
     if not isinstance(plots, bool):
         raise o.error("plots", "must be true or false", plots)
     o.done()
-    resolved["output"] = {"histories": histories, "first_k": first_k, "plots": plots}
-    top.done()
-
-    return CampaignSpec(
-        source=source, seed=seed, runs_per_case=runs, chunk_size=chunk, cases=tuple(cases),
-        controller=name, table=table, sigmas=sigmas,
-        rate_threshold_rad_s=math.radians(rate_thr),
-        attitude_threshold_rad=None if att_thr is None else math.radians(att_thr),
-        histories=histories, first_k=first_k, plots=plots, resolved=resolved,
-        max_failed_pct=max_failed, effects=effects,
-    )
+    return histories, first_k, plots, {"histories": histories, "first_k": first_k,
+                                       "plots": plots}
 
 
 def load_spec(path: str | os.PathLike) -> CampaignSpec:

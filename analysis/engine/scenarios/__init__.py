@@ -4,11 +4,12 @@
 * :mod:`~analysis.engine.scenarios.flying` -- fly one with either controller, measure it,
   compare the two controllers;
 * :mod:`~analysis.engine.scenarios.plots` -- scenario and lookup-table plots;
-* :mod:`~analysis.engine.scenarios.outputs` -- write one flight's output directory;
+* :mod:`~analysis.engine.scenarios.outputs` -- write one flight's output directory, the
+  controllers' comparison and the figure set as output directories;
 * :mod:`~analysis.engine.scenarios.figure_set` -- regenerate the docs figure set.
 
-Inside, imports flow catalog <- flying <- (outputs, figure_set) and plots <- (outputs,
-figure_set).  Imports ``analysis.engine.flight``/``plots``/``output`` and the layers below.
+Inside, imports flow catalog <- flying <- figure_set <- outputs and plots <- (figure_set,
+outputs).  Imports ``analysis.engine.flight``/``plots``/``output`` and the layers below.
 
 Must not import: analysis.engine.campaign.
 """

@@ -1,4 +1,5 @@
-"""Write one scenario flight: ``history.parquet``, ``metrics.csv``, ``summary.json``, plots."""
+"""Scenario outputs: one flight's directory (``history.parquet``, ``metrics.csv``,
+``summary.json``, plots), the two controllers' comparison, the paper's figure set."""
 from __future__ import annotations
 
 import json
@@ -8,9 +9,12 @@ from pathlib import Path
 import pandas as pd
 
 from analysis.engine.flight import history_frame
-from analysis.engine.output import atomic_dir
-from analysis.engine.scenarios.catalog import PaperScenario
-from analysis.engine.scenarios.flying import scenario_metrics, summarize
+from analysis.engine.output import atomic_dir, check_out_dir
+from analysis.engine.scenarios.catalog import PaperScenario, get_scenario
+from analysis.engine.scenarios.figure_set import write_figure_set
+from analysis.engine.scenarios.flying import (
+    compare_controllers, comparison_markdown, scenario_metrics, summarize,
+)
 from analysis.engine.scenarios.plots import plot_scenario
 from spacecraft.simulation import History
 
@@ -43,3 +47,30 @@ def write_scenario(history: History, scenario: PaperScenario, out_dir: str | os.
     out = Path(out_dir)
     return {name: out / name for name in
             ("history.parquet", "metrics.csv", "summary.json", *[p.name for p in plots])}
+
+
+def write_comparison(out_dir: str | os.PathLike, names=None, *, table=None,
+                     overwrite: bool = False) -> tuple[pd.DataFrame, str]:
+    """Fly every scenario (or ``names``) with both controllers and write
+    ``comparison.csv`` and ``comparison.md`` into ``out_dir`` (checked before any flight).
+
+    Returns the comparison frame and its Markdown.
+    """
+    for name in names or ():
+        get_scenario(name)  # fail before flying anything
+    check_out_dir(out_dir, "scenario compare", overwrite=overwrite)
+    frame = compare_controllers(names, table=table)
+    md = comparison_markdown(frame)
+    with atomic_dir(out_dir, "scenario compare", overwrite=overwrite) as tmp:
+        frame.to_csv(tmp / "comparison.csv", index=False)
+        (tmp / "comparison.md").write_text(md)
+    return frame, md
+
+
+def write_figures(out_dir: str | os.PathLike, *, table=None,
+                  overwrite: bool = False) -> list[str]:
+    """The paper's figure set (:func:`~analysis.engine.scenarios.figure_set.write_figure_set`)
+    as an output directory of ``rcsim scenario figures``; returns the file names."""
+    check_out_dir(out_dir, "scenario figures", overwrite=overwrite)
+    with atomic_dir(out_dir, "scenario figures", overwrite=overwrite) as tmp:
+        return write_figure_set(tmp, table=table)

@@ -23,59 +23,19 @@ and, when the campaign's cases are rate commands (``rate-NN``; or damping, ``dam
 same three quantities **in the firing direction** of each case: ``authority_{a}_fire_rad_s2``,
 ``thrust_{a}_fire_n``, ``pointing_loss_{a}_fire`` take the group that fires toward the
 commanded rate change (for an axis with no commanded change, the mean of both groups, which
-hold it at rest).  Torques come from :func:`spacecraft.vehicle.torque_per_jet_B` and jet
-directions from :func:`spacecraft.dispersions.apply_draws`, the simulator's own code.
+hold it at rest).  Vehicles come back from the recorded inputs through the runs table's
+owner (:func:`analysis.engine.runs_table.vehicles_from_runs`, with the simulator's own pointing
+rule) and torques from :func:`spacecraft.vehicle.torque_per_jet_B`.
 """
 from __future__ import annotations
 
 import numpy as np
 import pandas as pd
 
-from spacecraft.dispersions import N_NORMALS, DispersionSigmas, apply_draws
-from spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model, torque_per_jet_B
+from analysis.engine.runs_table import INPUT_NAMES, vehicles_from_runs
+from spacecraft.vehicle import AXES, VehicleParams, load_model, torque_per_jet_B
 
 _DIRS = ((1, "pos"), (-1, "neg"))
-
-
-def raw_input_columns() -> list[str]:
-    """Names of the dispersed-input columns a campaign's ``runs.parquet`` records."""
-    cols = ["mass_kg", "cg_x_m", "cg_y_m", "cg_z_m", "ixx_kg_m2", "iyy_kg_m2", "izz_kg_m2"]
-    for kind in ("thrust_n", "tilt_deg", "azimuth_deg"):
-        cols += [f"jet_{j:02d}_{kind}" for j in range(1, N_JETS + 1)]
-    return cols
-
-
-def vehicles_from_runs(runs: pd.DataFrame) -> tuple[VehicleParams, VehicleParams]:
-    """Rebuild each run's vehicle from its recorded inputs.
-
-    Returns
-    -------
-    dispersed : VehicleParams
-        As flown (thrust, pointing, CG, inertia).
-    nominal_pointing : VehicleParams
-        The same with every jet pointing nominally.
-    """
-    n = len(runs)
-    model = load_model()
-    nominal = VehicleParams.nominal(1, model)
-    tilt = np.radians(runs[[f"jet_{j:02d}_tilt_deg" for j in range(1, N_JETS + 1)]].to_numpy())
-    az = np.radians(runs[[f"jet_{j:02d}_azimuth_deg" for j in range(1, N_JETS + 1)]].to_numpy())
-    # apply_draws lays out one run's normals as mass, cg_x, 3 inertias, 16 thrusts, 16 tilts;
-    # with a unit tilt sigma and every other sigma 0 the tilt normals are the tilts [rad].
-    z = np.zeros((n, N_NORMALS))
-    z[:, N_NORMALS - N_JETS:] = tilt
-    pointed, _, _ = apply_draws(nominal, DispersionSigmas(thruster_angle_rad=1.0), z,
-                                az / (2.0 * np.pi))
-    kw = dict(
-        mass_kg=runs["mass_kg"].to_numpy(float),
-        cg_B=runs[["cg_x_m", "cg_y_m", "cg_z_m"]].to_numpy(float),
-        inertia_B=runs[["ixx_kg_m2", "iyy_kg_m2", "izz_kg_m2"]].to_numpy(float),
-        thrust_n=runs[[f"jet_{j:02d}_thrust_n" for j in range(1, N_JETS + 1)]].to_numpy(float),
-        isp_s=nominal.isp_s,
-    )
-    dispersed = VehicleParams(jet_dir_S=pointed.jet_dir_S, **kw)
-    straight = VehicleParams(jet_dir_S=np.repeat(nominal.jet_dir_S, n, axis=0), **kw)
-    return dispersed, straight
 
 
 def physics_factors(runs: pd.DataFrame, fire_sign: np.ndarray | None = None,
@@ -85,7 +45,7 @@ def physics_factors(runs: pd.DataFrame, fire_sign: np.ndarray | None = None,
     Parameters
     ----------
     runs : DataFrame
-        Holds :func:`raw_input_columns`.
+        Holds the recorded inputs (:data:`analysis.engine.runs_table.INPUT_NAMES`).
     fire_sign : ndarray of int (n, 3), optional
         Per run and axis, the sign of the commanded rate change (0: none); adds the
         firing-direction factors.
@@ -96,15 +56,15 @@ def physics_factors(runs: pd.DataFrame, fire_sign: np.ndarray | None = None,
     -------
     DataFrame, one row per run, index aligned with ``runs``.
     """
-    missing = [c for c in raw_input_columns() if c not in runs.columns]
+    missing = [c for c in INPUT_NAMES if c not in runs.columns]
     if missing:
         raise ValueError(f"runs lack the recorded inputs {missing[:3]}"
                          f"{' ...' if len(missing) > 3 else ''}")
     if jet_map is None:
         from models.tables import load_jet_map
         jet_map = load_jet_map()
-    dispersed, straight = vehicles_from_runs(runs)
     model = load_model()
+    dispersed, straight = vehicles_from_runs(runs, VehicleParams.nominal(1, model))
     torque = torque_per_jet_B(dispersed, model)        # (n, 16, 3) [N m]
     torque_nom = torque_per_jet_B(straight, model)
     inertia = dispersed.inertia_B

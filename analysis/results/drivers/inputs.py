@@ -1,7 +1,7 @@
 """Loading what ``rcsim analyze`` reads: a campaign directory or a Parquet/CSV table of runs.
 
 A campaign directory (``manifest.json`` + ``runs.parquet``) gives the recorded inputs (the
-columns of :func:`spacecraft.dispersions.dispersion_frame`), the ``failed`` outcome and
+columns of :data:`analysis.engine.runs_table.INPUT_COLUMNS`), the ``failed`` outcome and
 the rate case of every run; any other table is taken as it is, with the inputs named by the
 caller or, by default, the recorded-input columns when present, else every numeric column other
 than the outcome and identifiers.  Physics-aware factors
@@ -17,13 +17,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.results.drivers.factors import fire_signs, physics_factors, raw_input_columns
+from analysis.engine import runs_table
+from analysis.results.drivers.factors import fire_signs, physics_factors
 from models.errors import InputError
 
 #: Fewest runs an analysis accepts (a distribution needs more than a handful of points).
 MIN_RUNS = 10
 #: Columns that identify a run rather than describe it; never inputs by default.
-ID_COLUMNS = ("run_id", "case", "case_index", "seed")
+ID_COLUMNS = tuple(c.name for c in runs_table.ID_COLUMNS)
 
 
 @dataclass
@@ -89,7 +90,7 @@ def load_runs(path, inputs=None, outcome: str = "failed", case: str | None = Non
     source = Path(path)
     manifest = None
     if source.is_dir():
-        manifest_path, runs_path = source / "manifest.json", source / "runs.parquet"
+        manifest_path, runs_path = source / runs_table.MANIFEST, source / runs_table.RUNS
         if not manifest_path.is_file() or not runs_path.is_file():
             raise InputError(f"{source}: not a campaign directory (needs manifest.json and "
                              "runs.parquet) and not a table file", parameter="path",
@@ -119,7 +120,7 @@ def load_runs(path, inputs=None, outcome: str = "failed", case: str | None = Non
     y = _outcome(runs, outcome, where)
 
     notes: list[str] = []
-    raw_cols = raw_input_columns()
+    raw_cols = list(runs_table.INPUT_NAMES)
     has_raw = all(c in runs.columns for c in raw_cols)
     factors = pd.DataFrame(index=runs.index)
     if derived and has_raw:

@@ -227,6 +227,7 @@ def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
     from spacecraft.navigation import NavState
     from spacecraft.propulsion import PropulsionState
     from spacecraft.simulation import History
+    from spacecraft.vehicle import VehicleParams
 
     cycle, K = 0.04, 8
     yaw_err = np.radians([-0.3, -0.2, -0.1, 0.0, 0.1, 0.1, 0.02, 0.02])
@@ -237,11 +238,12 @@ def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
     on[0, 5, [13, 15]] = 0.01  # jets 14 and 16 (+yaw), one short pulse
     q = np.tile([1.0, 0, 0, 0], (1, K, 1))
     final = NavState(K * cycle, q[:, -1], rate[:, -1], np.zeros((1, 3)), rate[:, -1], np.zeros((1, 3)))
-    hist = History(t_s=np.arange(K) * cycle, q_BN=q, omega_B=rate, att_err_B=np.zeros((1, K, 3)),
+    hist = History(cycle_s=cycle, t_s=np.arange(K) * cycle, q_BN=q, omega_B=rate, att_err_B=np.zeros((1, K, 3)),
                    rate_err_B=rate, on_time_s=on, final=final,
-                   propulsion=PropulsionState.zeros(1), failed=np.zeros(1, bool), reason=[""])
+                   propulsion=PropulsionState.zeros(1), failed=np.zeros(1, bool), reason=[""],
+                   flown_params=VehicleParams.nominal(1))
     spec = SimpleNamespace(rate_threshold_rad_s=np.radians(0.04), attitude_threshold_rad=None)
-    row = outcomes(hist, spec, cycle, 280.0).iloc[0]
+    row = outcomes(hist, spec).iloc[0]
     assert row["firings_to_rate_yaw"] == 2
     assert row["time_to_rate_yaw_s"] == pytest.approx(6 * cycle)
     assert row["firings_yaw"] == 2

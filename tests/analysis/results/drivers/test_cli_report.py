@@ -27,14 +27,15 @@ def campaign(tmp_path_factory, model):
 
     from analysis.results.drivers.factors import fire_signs, physics_factors
     from models.tables import load_dispersions
-    from spacecraft.dispersions import DispersionSigmas, dispersion_frame, draw_runs
+    from analysis.engine.runs_table import input_frame
+    from spacecraft.dispersions import DispersionSigmas, draw_runs
     from spacecraft.vehicle import VehicleParams
 
     root = tmp_path_factory.mktemp("campaign") / "camp"
     root.mkdir()
     n = 150
     sigmas = DispersionSigmas.from_table(load_dispersions(), scale=3.0)
-    frame = dispersion_frame(draw_runs(VehicleParams.nominal(1, model), sigmas, 3,
+    frame = input_frame(draw_runs(VehicleParams.nominal(1, model), sigmas, 3,
                                        np.arange(2 * n)))
     case = np.repeat(["rate-13", "rate-14"], n)
     auth = physics_factors(frame, fire_signs(case))["authority_yaw_fire_rad_s2"].to_numpy()

@@ -2,18 +2,17 @@
 
 Oracle: the simulator's own vehicle model -- :func:`spacecraft.dispersions.draw_runs` builds
 the dispersed vehicles the campaign flies and :func:`spacecraft.vehicle.torque_per_jet_B`
-their jet torques; rebuilding the vehicles from the *recorded* columns
-(:func:`dispersion_frame`) must give the same torques (to float round-off of the degree
-conversion, rtol 1e-9).
+their jet torques; the factors are computed from the vehicles the runs table rebuilds from
+the *recorded* columns (:func:`analysis.engine.runs_table.input_frame`; the round trip itself is
+``tests/analysis/engine/test_runs_table.py``).
 """
 import numpy as np
 import pytest
 
-from analysis.results.drivers.factors import (
-    fire_signs, physics_factors, raw_input_columns, vehicles_from_runs,
-)
+from analysis.engine.runs_table import input_frame
+from analysis.results.drivers.factors import fire_signs, physics_factors
 from models.tables import load_dispersions, load_jet_map
-from spacecraft.dispersions import DispersionSigmas, dispersion_frame, draw_runs
+from spacecraft.dispersions import DispersionSigmas, draw_runs
 from spacecraft.vehicle import VehicleParams, torque_per_jet_B
 
 
@@ -21,21 +20,7 @@ from spacecraft.vehicle import VehicleParams, torque_per_jet_B
 def drawn(model):
     sigmas = DispersionSigmas.from_table(load_dispersions(), scale=3.0)
     runs = draw_runs(VehicleParams.nominal(1, model), sigmas, seed=11, run_ids=np.arange(40))
-    return runs, dispersion_frame(runs)
-
-
-def test_raw_columns_are_the_recorded_ones(drawn):
-    assert raw_input_columns() == list(drawn[1].columns)
-
-
-def test_rebuilt_vehicles_give_the_simulators_torques(drawn, model):
-    runs, frame = drawn
-    rebuilt, straight = vehicles_from_runs(frame)
-    np.testing.assert_allclose(rebuilt.jet_dir_S, runs.params.jet_dir_S, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(torque_per_jet_B(rebuilt, model),
-                               torque_per_jet_B(runs.params, model), rtol=1e-9, atol=1e-12)
-    # Nominal pointing: every jet along its site z axis (0, 0, 1).
-    np.testing.assert_array_equal(straight.jet_dir_S[..., 2], 1.0)
+    return runs, input_frame(runs)
 
 
 def test_authority_is_group_torque_over_inertia(drawn, model):
