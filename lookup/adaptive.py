@@ -136,7 +136,6 @@ class AdaptiveLookupController(LookupController):
                  adapt: AdaptParams | None = None, *, jets_off=()):
         super().__init__(table, params, jets_off=jets_off)
         self.adapt = AdaptParams() if adapt is None else adapt
-        self._scale_now = None  # (n, 26, 3) during a step
 
     def initial_state(self, n_runs: int) -> AdaptiveState:
         n_cases = self._rate_abs.shape[0]
@@ -153,13 +152,6 @@ class AdaptiveLookupController(LookupController):
         a = self.adapt
         noise = a.k_sigma * np.sqrt(2.0) * a.rate_noise_rad_s
         return np.abs(achieved - promised) > np.maximum(noise, a.min_rel * np.abs(promised))
-
-    def _case_times(self, case: np.ndarray) -> np.ndarray:
-        times = super()._case_times(case)
-        if self._scale_now is None:
-            return times
-        per_axis = self._scale_now[np.arange(case.size), case]  # (n, 3)
-        return times * (per_axis @ self._axis_onehot.T)
 
     def step(self, nav: NavState, state: AdaptiveState) -> tuple[np.ndarray, AdaptiveState]:
         """One control cycle: learn from the firings that just settled, then fly the
@@ -230,11 +222,7 @@ class AdaptiveLookupController(LookupController):
             # A firing checked mid-course has given its evidence already.
             learn(due & ~checked, self._significant(achieved, state.promised), ratio)
 
-        self._scale_now = scale
-        try:
-            on, base, detail = self.step_detail(nav, state.base)
-        finally:
-            self._scale_now = None
+        on, base, detail = self.step_detail(nav, state.base, case_scale=scale)
         entry = np.where(due, -1, state.entry)
         new = detail["axis_new"]
         case = np.broadcast_to(detail["case"][:, None], new.shape)

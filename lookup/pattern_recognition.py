@@ -312,11 +312,15 @@ class LookupController:
         controller._times = times
         return controller
 
-    def _case_times(self, case: np.ndarray) -> np.ndarray:
-        """(n_runs, 16) table times of each run's selected case."""
-        if self._times.ndim == 2:
-            return self._times[case]
-        return self._times[np.arange(case.size), case]
+    def _case_times(self, case: np.ndarray, case_scale: np.ndarray | None = None) -> np.ndarray:
+        """(n_runs, 16) table times of each run's selected case, each axis's jets times
+        ``case_scale[run, case, axis]`` when given (n_runs, n_cases, 3)."""
+        times = (self._times[case] if self._times.ndim == 2
+                 else self._times[np.arange(case.size), case])
+        if case_scale is None:
+            return times
+        per_axis = case_scale[np.arange(case.size), case]  # (n, 3)
+        return times * (per_axis @ self._axis_onehot.T)
 
     def initial_state(self, n_runs: int) -> LookupState:
         if self._times.ndim == 3 and self._times.shape[0] != n_runs:
@@ -345,7 +349,8 @@ class LookupController:
         on, nxt, _ = self.step_detail(nav, state)
         return on, nxt
 
-    def step_detail(self, nav: NavState, state: LookupState
+    def step_detail(self, nav: NavState, state: LookupState,
+                    case_scale: np.ndarray | None = None
                     ) -> tuple[np.ndarray, LookupState, dict]:
         """One control cycle, with what it decided (for controllers built on this one).
 
@@ -354,6 +359,9 @@ class LookupController:
         nav : NavState
             Errors at the cycle start (arrays over ``n_runs``).
         state : LookupState
+        case_scale : ndarray, (n_runs, n_cases, 3), optional
+            Per run, table row and axis, a factor on that axis's firing times (what an
+            adaptive controller has learned, :mod:`lookup.adaptive`); default 1.
 
         Returns
         -------
@@ -376,7 +384,7 @@ class LookupController:
         denom = self._rate_abs[case]  # (n, 3); zero where the case commands no rate
         scale = np.divide(np.abs(need), denom, out=np.zeros_like(need), where=denom > 0)
         jet_scale = scale @ self._axis_onehot.T  # (n, 16): scale of each jet's axis
-        new = np.where(any_err[:, None], self._case_times(case) * jet_scale, 0.0)
+        new = np.where(any_err[:, None], self._case_times(case, case_scale) * jet_scale, 0.0)
 
         no_fire = np.abs(theta - p.maneuver_limit_rad) < p.no_fire_band_rad  # (n,)
 

@@ -5,7 +5,7 @@ starting at the cycle's start (a longer firing is a run of whole-cycle commands 
 partial one).  The physics steps at ``dt`` with ``n_sub = cycle / dt`` steps per cycle; the jet's
 actuator control in step ``k`` is the fraction of that step the jet is on,
 ``clip((t_on - k dt) / dt, 0, 1)``, so the impulse is ``thrust * t_on`` exactly whatever ``dt``
-(ENGINE.md, "Sub-cycle pulses": sampling the switch-off at steps instead is 4-16 % off).
+(docs/engine_facts.md, "Sub-cycle pulses": sampling the switch-off at steps instead is 4-16 % off).
 
 The closed loop no longer spreads a pulse over a step: it cuts each cycle at the jets' switch
 instants (:mod:`spacecraft.pieces`), and a pulse may start anywhere in a cycle (a valve opening

@@ -38,7 +38,7 @@ CYCLE_S = 0.040  # paper section II: 40 ms control rate
 TRANSLATION_JETS = [4, 5, 6, 7]  # 0-based rows of jets 5..8 (Table 2: all zero)
 # The accuracy target for any pulse's rate change.  With exact per-step duty the error is
 # float rounding (~1e-15) at any step; a switch-off sampled at physics steps instead is 4-16 %
-# off (ENGINE.md), so 1e-6 separates the two by orders of magnitude either way.
+# off (docs/engine_facts.md), so 1e-6 separates the two by orders of magnitude either way.
 PULSE_RTOL = 1e-6
 # "Zero" for quantities that vanish in exact arithmetic (cross-axis rate, CG velocity of a
 # couple, rotation from a jet through the CG): relative to the same pulse's main effect, 1e-9

@@ -22,6 +22,7 @@ import pandas as pd
 
 from analysis.engine.campaign.chunk import max_chunk_runs
 from analysis.engine.campaign.outcomes import outcomes
+from analysis.engine.campaign.spec import CampaignSpec
 from analysis.engine.flight import fly_batch
 from analysis.results.scoring import trial_frame
 from lookup.pattern_recognition import LookupController, LookupParams
@@ -53,7 +54,7 @@ class Trials:
         return int(self.case.size)
 
 
-def _fly_chunk(spec, table: LookupTable, params_all: VehicleParams, row_of_run: np.ndarray,
+def _fly_chunk(spec: CampaignSpec, table: LookupTable, params_all: VehicleParams, row_of_run: np.ndarray,
                run_times: np.ndarray, cases: np.ndarray, lookup_params: LookupParams,
                model) -> pd.DataFrame:
     """Fly one chunk: run ``i`` flies case ``cases[i]`` with vehicle ``row_of_run[i]`` of
@@ -65,7 +66,7 @@ def _fly_chunk(spec, table: LookupTable, params_all: VehicleParams, row_of_run: 
     return outcomes(history, spec)
 
 
-def evaluate(spec, table: LookupTable, trials: Trials, *,
+def evaluate(spec: CampaignSpec, table: LookupTable, trials: Trials, *,
              lookup_params: LookupParams | None = None, threads: int | None = None,
              progress: bool | None = None, desc: str = "refine") -> pd.DataFrame:
     """Fly every trial over ``spec.runs_per_case`` dispersed runs of its case.

@@ -30,6 +30,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.apps.refinement.evaluate import Trials, evaluate
+from analysis.engine.campaign.spec import CampaignSpec
 from analysis.results.scoring import offending_runs, score_key, total, trial_scores
 from lookup.table_edits import axis_cycles, jet_axes, shift_axes, with_times
 from models.tables import AXES, LookupTable
@@ -61,7 +62,7 @@ class RefineResult:
     runs_flown: int = 0
 
 
-def refine(spec, table: LookupTable, cases=None, *, max_iterations: int = 8,
+def refine(spec: CampaignSpec, table: LookupTable, cases=None, *, max_iterations: int = 8,
            threads: int | None = None, progress: bool | None = None,
            lookup_params=None, baseline_runs: pd.DataFrame | None = None) -> RefineResult:
     """Refine ``table`` against the dispersed runs of ``spec``.

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, replace
-from typing import Iterator
+from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 import pandas as pd
@@ -18,11 +18,15 @@ import pandas as pd
 # dropped once the lead confirms).
 from analysis.engine.campaign.outcomes import axis_jets, firing_starts, outcomes  # noqa: F401
 from analysis.engine.campaign.effects import adapt_options, draw_effects
+from analysis.engine.campaign.limits import HISTORY_BUDGET_BYTES
 from analysis.engine.runs_table import check_run_frame, input_frame, missing_outcomes
 from spacecraft.dispersions import DispersedRuns, draw_runs
 from spacecraft.guards import history_bytes
 from spacecraft.simulation import History, invalid_runs
 from spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
+
+if TYPE_CHECKING:
+    from analysis.engine.campaign.spec import CampaignSpec
 
 
 @dataclass(frozen=True)
@@ -52,17 +56,12 @@ def warm_up() -> None:
     load_model()
 
 
-# A chunk's simulation records every cycle of every run (spacecraft.simulation.History,
-# sized by spacecraft.guards.history_bytes).  Long runs get smaller chunks so that one
-# chunk's record stays under this budget [bytes]: a 500 s maneuver in a 256-run chunk would
-# otherwise hold over 700 MB.
-HISTORY_BUDGET_BYTES = 192 * 2**20
 # Chunk counts are rounded up to a multiple of this, so that 1, 2 or 4 workers get equal shares
 # and finish together (5 chunks on 2 workers leave one idle for the last fifth of the work).
 CHUNK_COUNT_MULTIPLE = 4
 
 
-def max_chunk_runs(spec, duration_s: float) -> int:
+def max_chunk_runs(spec: CampaignSpec, duration_s: float) -> int:
     """Most runs per chunk for runs of ``duration_s``: ``spec.chunk_size``, or fewer when the
     chunk's per-cycle record would exceed :data:`HISTORY_BUDGET_BYTES`."""
     cycles = int(np.ceil(duration_s / spec.cycle_s))
@@ -76,12 +75,12 @@ def max_chunk_runs(spec, duration_s: float) -> int:
     return int(max(1, min(spec.chunk_size, by_memory)))
 
 
-def plan_chunks(spec) -> list[Chunk]:
+def plan_chunks(spec: CampaignSpec) -> list[Chunk]:
     """:func:`iter_chunks` as a list (for small campaigns and tests)."""
     return list(iter_chunks(spec))
 
 
-def iter_chunks(spec) -> Iterator[Chunk]:
+def iter_chunks(spec: CampaignSpec) -> Iterator[Chunk]:
     """Chunks of at most :func:`max_chunk_runs` runs (sizes as equal as possible), in run-id
     order, generated one at a time (a campaign of many runs never holds its whole plan).
 
@@ -161,7 +160,7 @@ class _Cancellable:
         return self._inner.step(nav, state)
 
 
-def fly_runs(spec, run_ids: np.ndarray, *, nthread: int = 1, model=None,
+def fly_runs(spec: CampaignSpec, run_ids: np.ndarray, *, nthread: int = 1, model=None,
              cancel: threading.Event | None = None) -> tuple[History, DispersedRuns]:
     """Draw and fly campaign runs ``run_ids`` (cases of equal duration) as one batch.
 
@@ -225,7 +224,7 @@ def _case_envelope(history: History, case: int, alive: np.ndarray) -> pd.DataFra
     return pd.DataFrame(cols)
 
 
-def _keep(spec, run_ids: np.ndarray, failed: np.ndarray) -> np.ndarray:
+def _keep(spec: CampaignSpec, run_ids: np.ndarray, failed: np.ndarray) -> np.ndarray:
     """Which runs' histories the spec keeps."""
     if spec.histories == "all":
         return np.ones(run_ids.size, bool)
@@ -260,7 +259,7 @@ def flown_inputs(dispersed: DispersedRuns, flown: VehicleParams | None) -> Dispe
     return replace(dispersed, params=params)
 
 
-def run_rows(spec, dispersed: DispersedRuns, outcome: pd.DataFrame) -> pd.DataFrame:
+def run_rows(spec: CampaignSpec, dispersed: DispersedRuns, outcome: pd.DataFrame) -> pd.DataFrame:
     """The runs.parquet rows of runs ``dispersed.run_ids``: identity, inputs (vehicle, then
     the spec's sensor / timing / fault draws), ``outcome`` (columns:
     :func:`analysis.engine.runs_table.run_columns` of ``spec.effects.groups``)."""
@@ -279,13 +278,13 @@ def run_rows(spec, dispersed: DispersedRuns, outcome: pd.DataFrame) -> pd.DataFr
                    outcome.reset_index(drop=True)], axis=1), spec.effects.groups)
 
 
-def tabulate(spec, history: History, dispersed: DispersedRuns) -> pd.DataFrame:
+def tabulate(spec: CampaignSpec, history: History, dispersed: DispersedRuns) -> pd.DataFrame:
     """The runs.parquet rows of a flown batch (inputs as flown, outcomes)."""
     out = outcomes(history, spec)
     return run_rows(spec, flown_inputs(dispersed, history.flown_params), out)
 
 
-def _raised(spec, run_ids: np.ndarray, exc: BaseException, model) -> pd.DataFrame:
+def _raised(spec: CampaignSpec, run_ids: np.ndarray, exc: BaseException, model) -> pd.DataFrame:
     """Rows for runs whose flight raised: inputs (the draws) recorded, outcomes NaN, failed
     with the exception as the reason."""
     dispersed = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids)
@@ -293,7 +292,7 @@ def _raised(spec, run_ids: np.ndarray, exc: BaseException, model) -> pd.DataFram
     return run_rows(spec, dispersed, missing_outcomes(run_ids.size, reason))
 
 
-def simulate_chunk(spec, chunk: Chunk, nthread: int = 1,
+def simulate_chunk(spec: CampaignSpec, chunk: Chunk, nthread: int = 1,
                    cancel: threading.Event | None = None) -> ChunkResult:
     """Fly one chunk; never raises for a run's sake.
 

@@ -8,6 +8,8 @@ traceback per worker.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import contextlib
 import logging
 import signal
@@ -17,8 +19,11 @@ from itertools import islice
 from analysis.engine.campaign.chunk import simulate_chunk
 from models.errors import InputError
 
+if TYPE_CHECKING:
+    from analysis.engine.campaign.spec import CampaignSpec
 
-def dask_results(spec, chunks, client, in_flight: int):
+
+def dask_results(spec: CampaignSpec, chunks, client, in_flight: int):
     """Yield ChunkResults from a Dask client, at most ``in_flight`` tasks submitted; tasks
     still queued or running when the consumer stops are cancelled."""
     from distributed import as_completed

@@ -17,12 +17,17 @@ from models.errors import InputError
 # rate (0.3 deg/s, Table 3); beyond it the step's accuracy is not established.
 MAX_INITIAL_RATE_DEG_S = 3.0
 
+# A chunk's simulation records every cycle of every run (spacecraft.simulation.History,
+# sized by spacecraft.guards.history_bytes).  Long runs get smaller chunks so that one
+# chunk's record stays under this budget [bytes]: a 500 s maneuver in a 256-run chunk would
+# otherwise hold over 700 MB.
+HISTORY_BUDGET_BYTES = 192 * 2**20
+
 
 def max_duration_s(measured: bool = False, delivered: bool = False) -> float:
     """Longest run a campaign flies [s]: one run's per-cycle record within a chunk's budget
     (``measured``, ``delivered``: with the records of imperfect sensors and of valve timing or
     faults, :func:`spacecraft.guards.history_bytes`)."""
-    from analysis.engine.campaign.chunk import HISTORY_BUDGET_BYTES
     from spacecraft.guards import history_bytes
     from models.tables import CONTROL_CYCLE_S
 

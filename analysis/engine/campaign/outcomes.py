@@ -5,12 +5,17 @@ batch's :class:`~spacecraft.simulation.History` and the spec's thresholds only (
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 
 from analysis.engine.runs_table import outcome_frame
 from spacecraft.simulation import History
 from spacecraft.vehicle import AXES, N_JETS
+
+if TYPE_CHECKING:
+    from analysis.engine.campaign.spec import CampaignSpec
 
 # A firing continues into the next cycle only if it filled the previous one -- the same rule
 # (and tolerance) as spacecraft.propulsion.apply_valve_limits, so firing counts agree with it.
@@ -33,7 +38,7 @@ def firing_starts(on_time_s: np.ndarray, cycle_s: float) -> np.ndarray:
     return (on_time_s > 0) & ~prev_full
 
 
-def outcomes(history: History, spec) -> pd.DataFrame:
+def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     """Outcome columns of each run of a flown batch (degrees and deg/s at this boundary).
 
     The control cycle is the one the batch flew (``history.cycle_s``); propellant is at the

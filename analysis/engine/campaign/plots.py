@@ -8,6 +8,8 @@
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +19,9 @@ from matplotlib.ticker import MaxNLocator
 from analysis.engine import runs_table
 from analysis.engine.plots import new_figure
 from spacecraft.vehicle import AXES
+
+if TYPE_CHECKING:
+    from analysis.engine.campaign.spec import CampaignSpec
 
 COLORS = {"roll": "tab:blue", "pitch": "tab:orange", "yaw": "tab:green"}
 DPI = 80  # keeps a 3-panel figure near 60-90 KB
@@ -82,7 +87,7 @@ def plot_summary(runs: pd.DataFrame, cases: pd.DataFrame, path: Path, *, title: 
     fig.savefig(path, dpi=DPI)
 
 
-def plot_campaign(out: Path, spec) -> list[Path]:
+def plot_campaign(out: Path, spec: CampaignSpec) -> list[Path]:
     """All plots of a finished campaign directory into ``out/plots``."""
     from analysis.engine.campaign import results as R
 

@@ -44,6 +44,7 @@ from analysis.engine.campaign.chunk import iter_chunks, simulate_chunk
 from analysis.engine.campaign.cluster import close, connect, dask_results
 from analysis.engine.campaign.effects import describe
 from analysis.engine.campaign.gate import GateResult, judge
+from analysis.engine.campaign.spec import CampaignSpec
 from analysis.engine.runs_table import ALL_COLUMNS
 from analysis.engine.output import check_out_dir, write_marker
 from models.errors import InputError
@@ -79,7 +80,7 @@ class CampaignReport:
     gate: GateResult | None = None
 
 
-def _local_results(spec, chunks, threads: int, n_chunks: int, cancel: threading.Event):
+def _local_results(spec: CampaignSpec, chunks, threads: int, n_chunks: int, cancel: threading.Event):
     """Yield ChunkResults as chunks finish, up to ``threads`` chunks in flight.
 
     CPUs are shared out: with fewer chunks than threads, each chunk gets more MuJoCo threads.
@@ -143,7 +144,7 @@ _ROW_BYTES = 8 * len(ALL_COLUMNS)  # with every optional effect column: an upper
 _HISTORY_ROW_BYTES = 8 * 40
 
 
-def check_fits(spec, out: Path) -> None:
+def check_fits(spec: CampaignSpec, out: Path) -> None:
     """Refuse, before anything is written, a campaign whose results cannot fit on the disk of
     ``out`` (runs.parquet, and per-run histories when the spec keeps them all).
 
@@ -176,7 +177,7 @@ def check_fits(spec, out: Path) -> None:
             f"but only {human_bytes(free)} is free where {out} would be written")
 
 
-def _prepare_dir(spec, out: Path, resume: bool) -> tuple[dict | None, bool]:
+def _prepare_dir(spec: CampaignSpec, out: Path, resume: bool) -> tuple[dict | None, bool]:
     """Check ``out`` before any work; return (existing manifest, already complete)."""
     # overwrite=True lets an earlier campaign's directory through; it is resumed or refused
     # below, never replaced.
@@ -200,7 +201,7 @@ def _prepare_dir(spec, out: Path, resume: bool) -> tuple[dict | None, bool]:
     return manifest, manifest.get("status") == "complete"
 
 
-def _new_manifest(spec, spec_file: str | None) -> dict:
+def _new_manifest(spec: CampaignSpec, spec_file: str | None) -> dict:
     return {
         "format": "rcsim-campaign/1",
         "spec_file": None if spec_file is None else str(Path(spec_file).absolute()),
@@ -218,7 +219,7 @@ def _new_manifest(spec, spec_file: str | None) -> dict:
 
 
 def run_campaign(
-    spec,
+    spec: CampaignSpec,
     out: str | os.PathLike,
     *,
     workers: int | None = None,
@@ -277,7 +278,7 @@ def run_campaign(
             close(client, cluster)
 
 
-def _run(spec, out, manifest, resume, client, cluster, workers, threads, progress,
+def _run(spec: CampaignSpec, out, manifest, resume, client, cluster, workers, threads, progress,
          spec_file) -> CampaignReport:
     t0 = time.perf_counter()
     for sub in (runs_table.CHUNKS, runs_table.HISTORIES):
@@ -340,11 +341,11 @@ def _run(spec, out, manifest, resume, client, cluster, workers, threads, progres
                           gate=gate)
 
 
-def _gate(spec, counts: dict) -> GateResult | None:
+def _gate(spec: CampaignSpec, counts: dict) -> GateResult | None:
     return None if spec.max_failed_pct is None else judge(counts, spec.max_failed_pct)
 
 
-def _drain(results, out: Path, spec, n_done: int, progress: bool) -> tuple[int, float, float]:
+def _drain(results, out: Path, spec: CampaignSpec, n_done: int, progress: bool) -> tuple[int, float, float]:
     """Commit each finished chunk; progress bar with runs done, runs/s and ETA.
 
     Returns
@@ -367,7 +368,7 @@ def _drain(results, out: Path, spec, n_done: int, progress: bool) -> tuple[int, 
     return flown, simulated, time.perf_counter() - t0
 
 
-def summary_text(report: CampaignReport, spec) -> str:
+def summary_text(report: CampaignReport, spec: CampaignSpec) -> str:
     """The end-of-campaign summary: runs, failures by case, time."""
     import pandas as pd
 

@@ -8,12 +8,11 @@ dispersion at least as large as its nominal value, a hold disturbance beyond the
 the rates the physics step was validated for, a run too long for one chunk's memory.
 Units are in the key names (``_deg``, ``_deg_s``, ``_n``, ...); inside, everything is SI.
 
-About 460 lines: the commented :data:`EXAMPLE_SPEC` (80 lines of user documentation) and
-the key-by-key validation describe the same keys and change together; the generic reader lives
-in :mod:`~analysis.engine.campaign.reader`, the sensor / timing / fault tables in
+The commented example (``example_spec.toml`` beside this module, :data:`EXAMPLE_SPEC`,
+``rcsim campaign example``) documents every key; the generic reader lives in
+:mod:`~analysis.engine.campaign.reader`, the sensor / timing / fault tables in
 :mod:`~analysis.engine.campaign.effects`, the physical ranges in
 :mod:`~analysis.engine.campaign.limits`, the failure gate in :mod:`~analysis.engine.campaign.gate`.
-:data:`EXAMPLE_SPEC` (``rcsim campaign example``) documents every key.
 """
 from __future__ import annotations
 
@@ -24,6 +23,7 @@ import math
 import os
 import tomllib
 from dataclasses import dataclass
+from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
@@ -39,84 +39,9 @@ from models.errors import InputError
 from models.tables import CONTROL_CYCLE_S, PAPER_LOOKUP_TABLES
 from spacecraft.dispersions import DispersionSigmas
 
-EXAMPLE_SPEC = '''\
-# rcsim campaign spec (TOML).  Units are in the key names; angles in degrees at this boundary.
-# Every key below is optional except where marked; the values shown are the defaults.
-
-seed = 1                 # root seed: run i draws from SeedSequence(seed, spawn_key=(i,))
-runs_per_case = 100      # dispersed runs of every case (rcsim campaign run --runs-per-case N)
-chunk_size = 512         # most runs per batched simulation; results do not depend on it
-
-# What to fly.  One table, or a list of them ([[scenario]] blocks) whose cases are appended.
-[scenario]
-kind = "rate-cases"      # "rate-cases" (Table 3), "maneuver" or "hold"
-cases = "all"            # rate-cases: "all" or a list of case numbers, e.g. [13, 14]
-mode = "command"         # rate-cases: "command" (from rest to the case rate, Fig 3)
-                         #   or "damp" (from the case rate to rest, Fig 4)
-duration_s = 20.0        # simulated time of every run [s]
-# kind = "maneuver":  attitude_deg = [0.0, 0.0, 5.0]   (rotation-vector components, required)
-# kind = "hold":      disturbance_n_m = [0.0, 0.0, 2.0], initial_rate_deg_s = [0.0, 0.0, 0.0]
-#   (disturbance within the jets' torque, +-[36.1, 34.5, 32.2] N m; initial rate <= 3 deg/s)
-# name = "yaw-5deg"  # maneuver/hold case name (default: the kind)
-
-[controller]
-name = "lookup"          # "phase-plane", "lookup" or "adaptive" (the lookup controller whose
-                         #   table entries learn their firing times in flight)  (required)
-table = "default"        # lookup / adaptive: "default" (the packaged generated table), "table6"
-                         #   or "table7" (the paper's Tables 6 / 7, packaged), or a table CSV
-                         #   path, relative to this file (a table made by `rcsim lookup
-                         #   generate --jets-off` loads with its companion _settling.csv)
-
-[dispersions]
-table = "default"        # "default" = Gambone Table 5, or a CSV path in its format
-scale = 1.0              # multiplies every 3-sigma (3.0 for the stress runs of Figs 13-14)
-                         #   (every 3-sigma x scale must stay below its nominal value; Table 5: < 11.1)
-# Override single 3-sigma values (after them, scale still applies):
-# [dispersions.three_sigma]
-# mass_kg = 73.6
-# cg_x_m = 0.01
-# ixx_kg_m2 = 322.48
-# iyy_kg_m2 = 284.42
-# izz_kg_m2 = 221.13
-# thrust_n = 2.0           # drawn per jet
-# thruster_angle_deg = 5.0 # drawn per jet: tilt ~ N(0, 3sigma/3) about a uniform azimuth
-# Sensors, delays and jet faults (docs/faults.md; absent tables: perfect sensors, no delays,
-# no faults).  Drawn from each run's noise stream: adding them leaves the vehicles as they were.
-# [dispersions.sensor]          # one number (all axes) or [roll, pitch, yaw]; all 1-sigma
-# att_noise_deg = 0.003         # white, per 40 ms sample
-# rate_noise_deg_s = 0.001      # white, per sample
-# att_bias_sigma_deg = 0.003    # bias drawn per run
-# rate_bias_sigma_deg_s = 0.003 # bias drawn per run
-# rate_walk_deg_s_per_sqrt_s = 0.0005
-# [dispersions.timing]          # seconds: mean and 1-sigma, normal per run (valves: per jet)
-# command_delay_s = 0.005       # sensor-to-actuator
-# open_delay_s = 0.008          # valve opening latency (open_delay_sigma_s = 0.001)
-# close_delay_s = 0.005         # valve closing latency (close_delay_sigma_s = 0.001)
-# [dispersions.fault]           # one jet fault per run, with a probability
-# mode = "off"                  # "off" (failed off), "stuck" (stuck on), "degraded" or "none"
-# jets = [13, 14, 15, 16]       # candidates; one chosen uniformly per run
-# probability = 1.0
-# time_s = [0.0, 3.0]           # modes "off", "stuck": uniform window of the fault's start [s]
-# stuck_for_s = [0.1, 0.5]      # mode "stuck" only: uniform window length [s]
-# thrust_factor = [0.8, 0.8]    # mode "degraded" only (the whole flight): thrust fraction
-
-[failure]
-# A run fails when the simulation fails, or when any axis ends with |rate error| above this
-# (0.04 deg/s: Gambone sec. III -- cutting the controller's rate-error limit from 0.06 to
-# 0.04 deg/s removed every failure, so "near-zero" lies in [0.04, 0.06); 0.04 is the strictest
-# threshold consistent with that).  The same threshold defines "commanded rate reached".
-rate_error_deg_s = 0.04
-# attitude_error_deg = 1.0  # optional: also fail when the final total attitude error exceeds it
-# max_failed_pct = 5.0      # optional gate, 0..100: when more than this percentage of the
-#                           #   campaign's runs fail, `rcsim campaign run` still writes every
-#                           #   output, then exits with status 3 (for CI); the option
-#                           #   --max-failed-pct P overrides it.  Unset: no gate.
-
-[output]
-histories = "failures"   # per-run histories to keep: "none", "failures", "all" or "first"
-first_k = 5              # histories = "first": keep the first K runs of every case
-plots = true             # Fig 9-14-like plots in DIR/plots/
-'''
+#: The commented example spec ``rcsim campaign example`` prints: every key, its default and
+#: what it means (a data file beside this module, ``example_spec.toml``; a test loads it).
+EXAMPLE_SPEC = (files("analysis.engine.campaign") / "example_spec.toml").read_text(encoding="utf-8")
 
 _DEFAULT_RATE_ERROR_DEG_S = 0.04
 HISTORY_MODES = ("none", "failures", "all", "first")
@@ -256,7 +181,7 @@ def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
         if duration > max_duration_s():
             raise r.error("duration_s", f"must be <= {max_duration_s():.0f} s: one run's "
                           "per-cycle record must fit a chunk's memory budget (analysis."
-                          "campaign.chunk.HISTORY_BUDGET_BYTES)", duration)
+                          "engine.campaign.limits.HISTORY_BUDGET_BYTES)", duration)
         out = {"kind": kind, "duration_s": duration}
         if kind == "rate-cases":
             table = load_rate_cases()

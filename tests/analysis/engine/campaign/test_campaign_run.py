@@ -8,6 +8,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from analysis.engine.campaign import limits as limits_mod
 import pandas as pd
 import pytest
 
@@ -260,11 +262,11 @@ def test_long_runs_get_chunks_within_the_history_budget(tmp_path):
     long_spec = load_spec(_spec(tmp_path, runs=300, chunk=256, duration=500.0, name="long.toml"))
     chunks = chunk_mod.plan_chunks(long_spec)
     largest = max(c.stop - c.first for c in chunks)
-    assert history_bytes(largest, 12_500) <= chunk_mod.HISTORY_BUDGET_BYTES
+    assert history_bytes(largest, 12_500) <= limits_mod.HISTORY_BUDGET_BYTES
     # Not needlessly small either: one run more than the per-chunk limit would not fit.
     limit = chunk_mod.max_chunk_runs(long_spec, 500.0)
     assert largest <= limit
-    assert history_bytes(limit + 1, 12_500) > chunk_mod.HISTORY_BUDGET_BYTES
+    assert history_bytes(limit + 1, 12_500) > limits_mod.HISTORY_BUDGET_BYTES
     assert largest < 256
     # Every run is planned exactly once, in order.
     assert np.array_equal(np.concatenate([c.run_ids for c in chunks]), np.arange(600))

@@ -6,6 +6,8 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+
+from analysis.engine.campaign import limits as limits_mod
 import pandas as pd
 import pytest
 
@@ -188,8 +190,8 @@ def test_chunks_count_the_effect_records(tmp_path):
     spec = load_spec(path)
     limit = chunk_mod.max_chunk_runs(spec, 500.0)
     cycles = 12_500
-    assert history_bytes(limit, cycles, True, True) <= chunk_mod.HISTORY_BUDGET_BYTES
-    assert history_bytes(limit + 1, cycles, True, True) > chunk_mod.HISTORY_BUDGET_BYTES
+    assert history_bytes(limit, cycles, True, True) <= limits_mod.HISTORY_BUDGET_BYTES
+    assert history_bytes(limit + 1, cycles, True, True) > limits_mod.HISTORY_BUDGET_BYTES
     plain = load_spec(_spec(tmp_path, name="plain.toml"))
     assert limit < chunk_mod.max_chunk_runs(plain, 500.0)
 
