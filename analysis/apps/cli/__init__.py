@@ -59,11 +59,23 @@ def _leaf_parsers(parser: argparse.ArgumentParser):
         yield parser
 
 
+def _version() -> str:
+    """The installed rcsim's version (``rcsim.__version__``, read from the package metadata:
+    the CLI sits below ``rcsim`` and does not import it)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("rcsim")
+    except PackageNotFoundError:  # run from a source tree that was never installed
+        return "(not installed)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="rcsim",
         description="Spacecraft reaction-control simulation (16 on/off jets, MuJoCo).",
     )
+    parser.add_argument("--version", action="version", version=f"rcsim {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     for name in _COMMANDS:

@@ -70,8 +70,9 @@ def load_runs(path, inputs=None, outcome: str = "failed", case: str | None = Non
 
     Parameters
     ----------
-    path : str or Path
-        Campaign directory, or a ``.parquet`` / ``.csv`` table with one row per run.
+    path : str, Path or pandas.DataFrame
+        Campaign directory, a ``.parquet`` / ``.csv`` table with one row per run, or such a
+        table already in memory (e.g. ``pd.read_parquet(...)`` filtered in a notebook).
     inputs : list of str, optional
         Input columns (raw or derived names); default as the module docstring says.
     outcome : str
@@ -87,24 +88,7 @@ def load_runs(path, inputs=None, outcome: str = "failed", case: str | None = Non
         Missing path or column, unreadable file, non-binary outcome, too few runs, NaN or
         non-numeric inputs, unknown case.
     """
-    source = Path(path)
-    manifest = None
-    if source.is_dir():
-        manifest_path, runs_path = source / runs_table.MANIFEST, source / runs_table.RUNS
-        if not manifest_path.is_file() or not runs_path.is_file():
-            raise InputError(f"{source}: not a campaign directory (needs manifest.json and "
-                             "runs.parquet) and not a table file", parameter="path",
-                             value=str(source))
-        try:
-            manifest = json.loads(manifest_path.read_text())
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise InputError(f"{manifest_path}: cannot read the manifest ({exc})") from None
-        runs, where, kind = _read_table(runs_path), runs_path, "campaign"
-    elif source.is_file():
-        runs, where, kind = _read_table(source), source, "table"
-    else:
-        raise InputError(f"{source}: no such campaign directory or table file",
-                         parameter="path", value=str(source))
+    source, runs, where, kind, manifest = _read_source(path)
 
     if case is not None:
         if "case" not in runs.columns:
@@ -171,6 +155,29 @@ def load_runs(path, inputs=None, outcome: str = "failed", case: str | None = Non
     return RunSet(source=source, kind=kind, runs=runs, X=X, raw_inputs=raw,
                   derived_inputs=der, outcome=outcome, y=y, strata=strata,
                   manifest=manifest, notes=notes)
+
+
+def _read_source(path) -> tuple[Path, pd.DataFrame, object, str, dict | None]:
+    """``(source, runs, where, kind, manifest)`` of a campaign directory, a table file or a
+    DataFrame (``where`` names it in messages)."""
+    if isinstance(path, pd.DataFrame):
+        return Path("<DataFrame>"), path.reset_index(drop=True), "the DataFrame", "table", None
+    source = Path(path)
+    if source.is_dir():
+        manifest_path, runs_path = source / runs_table.MANIFEST, source / runs_table.RUNS
+        if not manifest_path.is_file() or not runs_path.is_file():
+            raise InputError(f"{source}: not a campaign directory (needs manifest.json and "
+                             "runs.parquet) and not a table file", parameter="path",
+                             value=str(source))
+        try:
+            manifest = json.loads(manifest_path.read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise InputError(f"{manifest_path}: cannot read the manifest ({exc})") from None
+        return source, _read_table(runs_path), runs_path, "campaign", manifest
+    if source.is_file():
+        return source, _read_table(source), source, "table", None
+    raise InputError(f"{source}: no such campaign directory or table file",
+                     parameter="path", value=str(source))
 
 
 def _read_table(path: Path) -> pd.DataFrame:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from analysis.results.drivers.inputs import RunSet
+from analysis.results.drivers.inputs import RunSet, load_runs
 from analysis.results.drivers.maps import KNNFailureMap
 from analysis.results.drivers.pairs import PairKDE
 from analysis.results.drivers.second_opinion import ForestImportance, compare
@@ -128,12 +128,22 @@ class DriverResults:
         return self.singles is not None
 
 
-def analyze(runset: RunSet, settings: Settings = Settings()) -> DriverResults:
+def analyze(runset, settings: Settings = Settings()) -> DriverResults:
     """Run the analysis (see the module docstring); returns :class:`DriverResults`.
+
+    Parameters
+    ----------
+    runset : RunSet, pandas.DataFrame, str or Path
+        Runs prepared by :func:`~analysis.results.drivers.inputs.load_runs`, or what it reads
+        (a campaign directory, a table file, a DataFrame of runs), loaded with its defaults
+        (outcome ``failed``, the recorded inputs and the physics-aware factors).
+    settings : Settings
 
     With no failed (or no successful) runs there is nothing to compare: the result holds the
     run set only and :attr:`DriverResults.has_failures` is False.
     """
+    if not isinstance(runset, RunSet):
+        runset = load_runs(runset)
     res = DriverResults(runset=runset, settings=settings)
     X, y, strata = runset.X, runset.y, runset.strata
     res.cases = _case_counts(runset)
