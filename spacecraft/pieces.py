@@ -90,22 +90,53 @@ def cycle_pieces(start_s: np.ndarray, end_s: np.ndarray, cycle_s: float,
         grid step, so switch-free cycles reproduce a fixed-step rollout bit for bit.
     """
     n = start_s.shape[0]
-    # Live: overlaps the cycle (NaN compares False).  Checked on the raw bounds first: most
-    # cycles have no switch inside, and this is the closed loop's per-cycle overhead.
+    # Live: overlaps the cycle (NaN compares False).  Checked on the raw bounds first: in most
+    # cycles most runs have no switch inside, and this is the closed loop's per-cycle overhead.
     live = (end_s > start_s) & (start_s < cycle_s) & (end_s > 0.0)
     n_grid = 1 if dt_s is None or dt_s >= cycle_s else int(round(cycle_s / dt_s))
-    if extra_cuts is None and not (live & ((start_s > 0.0) | (end_s < cycle_s))).any():
-        # Every interval empty or the whole cycle: the grid steps themselves.
-        step = np.full((n, n_grid), cycle_s if n_grid == 1 else dt_s)
+    step = cycle_s if n_grid == 1 else dt_s
+    if extra_cuts is None:
+        # A run switches inside the cycle when one of its live intervals starts after the
+        # cycle's start or ends before its end; the others fly the grid steps themselves.
+        switching = (live & ((start_s > 0.0) | (end_s < cycle_s))).any(axis=(1, 2))
+    else:  # given cuts force every run through the cut
+        switching = np.ones(n, bool)
+    rows = np.flatnonzero(switching)
+    if rows.size == 0:  # every interval empty or the whole cycle: the grid steps themselves
         on = np.broadcast_to(live.any(axis=-1)[:, None, :], (n, n_grid, live.shape[1]))
-        return Pieces(step, on, np.full(n, n_grid), uniform=True)
+        return Pieces(np.full((n, n_grid), step), on, np.full(n, n_grid), uniform=True)
+    cut = _cut(start_s[rows], end_s[rows], live[rows], cycle_s, n_grid, dt_s,
+               None if extra_cuts is None else np.asarray(extra_cuts, float)[rows])
+    if rows.size == n:
+        return cut
+    # Runs without a switch: their grid steps (what the cut gives them, bit for bit), padded
+    # with zero-length pieces to the longest run's count.
+    width = max(cut.n_pieces, n_grid)
+    length = np.zeros((n, width))
+    on = np.zeros((n, width, live.shape[1]), bool)
+    count = np.full(n, n_grid)
+    length[:, :n_grid] = step
+    on[:, :n_grid] = live.any(axis=-1)[:, None, :]
+    length[rows] = 0.0
+    on[rows] = False
+    length[rows, : cut.n_pieces] = cut.length_s
+    on[rows, : cut.n_pieces] = cut.on
+    count[rows] = cut.count
+    return Pieces(length, on, count, uniform=False)
+
+
+def _cut(start_s: np.ndarray, end_s: np.ndarray, live: np.ndarray, cycle_s: float, n_grid: int,
+         dt_s: float | None, extra_cuts: np.ndarray | None) -> Pieces:
+    """:func:`cycle_pieces` of runs that switch inside the cycle: boundaries at every switch
+    instant and grid point, sorted per run."""
+    n = start_s.shape[0]
     s = np.where(live, np.clip(start_s, 0.0, cycle_s), 0.0)
     e = np.where(live, np.clip(end_s, 0.0, cycle_s), 0.0)
     grid = np.arange(n_grid + 1) * (cycle_s / n_grid)
     grid[-1] = cycle_s
     parts = [s.reshape(n, -1), e.reshape(n, -1), np.broadcast_to(grid, (n, grid.size))]
     if extra_cuts is not None:
-        cuts = np.asarray(extra_cuts, float).reshape(n, -1)
+        cuts = extra_cuts.reshape(n, -1)
         parts.append(np.where(np.isfinite(cuts), np.clip(cuts, 0.0, cycle_s), 0.0))
     inner = np.concatenate(parts, axis=1)
     bounds = np.sort(inner, axis=1)
