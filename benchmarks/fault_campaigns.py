@@ -156,7 +156,7 @@ def speed(out: Path, runs: int, repeats: int) -> None:
         for k in range(repeats):
             where = out / "speed" / f"{path.stem}-{k}"
             c0 = resource.getrusage(resource.RUSAGE_SELF)
-            run_campaign(load_spec(path), where, threads=1, progress=False)
+            run_campaign(load_spec(path), where, local_workers=1, progress=False)
             c1 = resource.getrusage(resource.RUSAGE_SELF)
             best = min(best, (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime))
         n = 26 * runs

@@ -2,10 +2,10 @@
 
 Execution modes (same results in all; only speed differs):
 
-* local (default): one process; ``threads`` chunks in flight on a thread pool, each flown
-  with one MuJoCo thread.  MuJoCo's batched rollout releases the GIL, so one chunk's physics
-  overlaps another's numpy controller step (better than one chunk on MuJoCo's own pool, which
-  idles during the Python part of each control cycle).
+* local (default): ``local_workers`` chunks in flight (default one per CPU), each in its own
+  worker process with one MuJoCo thread (:mod:`~analysis.engine.campaign.local`: the
+  control cycle's numpy work of one chunk then never waits for another's); with one worker,
+  in this process on MuJoCo's own thread pool.
 * ``workers=N``: a local Dask cluster, ``LocalCluster(n_workers=N, threads_per_worker=1)``.
 * ``scheduler=ADDRESS``: an existing Dask cluster (workers must see the same files: the
   lookup table path, and rcsim installed).  Dask mode lives in
@@ -33,9 +33,7 @@ import signal
 import sys
 import threading
 import time
-from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
-from itertools import islice
 from pathlib import Path
 
 from analysis.engine import runs_table
@@ -43,6 +41,7 @@ from analysis.engine.campaign import results as R
 from analysis.engine.campaign.chunk import iter_chunks, simulate_chunk
 from analysis.engine.campaign.cluster import close, connect, dask_results
 from analysis.engine.campaign.effects import describe
+from analysis.engine.campaign.local import local_results
 from analysis.engine.campaign.gate import GateResult, judge
 from analysis.engine.campaign.spec import CampaignSpec
 from analysis.engine.runs_table import ALL_COLUMNS
@@ -78,38 +77,6 @@ class CampaignReport:
     notes: list = field(default_factory=list)
     fly_s: float = 0.0
     gate: GateResult | None = None
-
-
-def _local_results(spec: CampaignSpec, chunks, threads: int, n_chunks: int, cancel: threading.Event):
-    """Yield ChunkResults as chunks finish, up to ``threads`` chunks in flight.
-
-    CPUs are shared out: with fewer chunks than threads, each chunk gets more MuJoCo threads.
-    When the consumer stops early (an interrupt), ``cancel`` is set so that chunks in flight
-    stop at their next control cycle, and queued ones never start.
-    """
-    cpus = os.cpu_count() or 1
-    threads = max(1, min(threads, n_chunks))
-    nthread = max(1, cpus // threads)
-    if threads == 1:  # in this thread: an interrupt stops it between two control cycles
-        for chunk in chunks:
-            yield simulate_chunk(spec, chunk, nthread=nthread)
-        return
-    pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="rcsim-chunk")
-    pending: set = set()
-    try:
-        while True:
-            for chunk in islice(chunks, threads - len(pending)):
-                pending.add(pool.submit(simulate_chunk, spec, chunk, nthread, cancel))
-            if not pending:
-                return
-            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in finished:
-                yield fut.result()
-    finally:
-        if pending:
-            cancel.set()
-        # Never wait: a chunk abandoned mid-flight is redone on --resume.
-        pool.shutdown(wait=False, cancel_futures=True)
 
 
 @contextlib.contextmanager
@@ -225,7 +192,7 @@ def run_campaign(
     workers: int | None = None,
     scheduler: str | None = None,
     resume: bool = False,
-    threads: int | None = None,
+    local_workers: int | None = None,
     progress: bool | None = None,
     spec_file: str | None = None,
 ) -> CampaignReport:
@@ -240,8 +207,9 @@ def run_campaign(
         Dask execution (see the module docstring); default local.
     resume : bool
         Finish the campaign in ``out``: committed chunks are kept, the rest are flown.
-    threads : int, optional
-        Local mode: chunks in flight (default: CPU count).
+    local_workers : int, optional
+        Local mode: chunks in flight, each in a worker process when more than one (default:
+        the CPU count).
     progress : bool, optional
         Progress bars (flying, assembling) and a status line for plotting, on stderr; default
         only when stderr is a terminal.
@@ -272,14 +240,14 @@ def run_campaign(
     with _sigterm_interrupts():
         client, cluster = connect(workers, scheduler)  # before creating DIR: no debris
         try:
-            return _run(spec, out, manifest, resume, client, cluster, workers, threads,
+            return _run(spec, out, manifest, resume, client, cluster, workers, local_workers,
                         progress, spec_file)
         finally:
             close(client, cluster)
 
 
-def _run(spec: CampaignSpec, out, manifest, resume, client, cluster, workers, threads, progress,
-         spec_file) -> CampaignReport:
+def _run(spec: CampaignSpec, out, manifest, resume, client, cluster, workers, local_workers,
+         progress, spec_file) -> CampaignReport:
     t0 = time.perf_counter()
     for sub in (runs_table.CHUNKS, runs_table.HISTORIES):
         (out / sub).mkdir(parents=True, exist_ok=True)
@@ -307,8 +275,8 @@ def _run(spec: CampaignSpec, out, manifest, resume, client, cluster, workers, th
     mode = "local" if client is None else ("dask-local" if cluster is not None else "dask")
     cancel = threading.Event()
     if client is None:
-        results = _local_results(spec, todo, threads or os.cpu_count() or 1,
-                                 n_chunks - n_done_chunks, cancel)
+        results = local_results(spec, todo, local_workers or os.cpu_count() or 1,
+                                n_chunks - n_done_chunks, cancel)
     else:
         n_workers = max(1, len(client.scheduler_info().get("workers", {})) or (workers or 1))
         results = dask_results(spec, todo, client, in_flight=2 * n_workers)

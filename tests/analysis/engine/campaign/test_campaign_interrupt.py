@@ -45,7 +45,7 @@ def _write_spec(tmp_path, histories="none", plots="false") -> Path:
 @pytest.fixture(scope="module")
 def uninterrupted(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("whole")
-    run_campaign(load_spec(_write_spec(tmp)), tmp / "out", threads=2, progress=False)
+    run_campaign(load_spec(_write_spec(tmp)), tmp / "out", local_workers=2, progress=False)
     return pd.read_parquet(tmp / "out" / "runs.parquet")
 
 
@@ -98,7 +98,7 @@ def test_interrupt_stops_with_one_line_and_is_resumable(tmp_path, uninterrupted,
     assert not (out / "runs.parquet").exists()
     committed = len(list((out / "chunks").glob("runs-*.parquet")))
     assert 1 <= committed < 8
-    report = run_campaign(load_spec(spec_path), out, resume=True, threads=2, progress=False)
+    report = run_campaign(load_spec(spec_path), out, resume=True, local_workers=2, progress=False)
     assert report.resumed_chunks == committed
     pd.testing.assert_frame_equal(pd.read_parquet(out / "runs.parquet"), uninterrupted,
                                   check_exact=True)
@@ -110,7 +110,7 @@ def test_resume_and_completion_remove_leftover_temporaries(tmp_path, uninterrupt
     --resume of a complete campaign."""
     spec = load_spec(_write_spec(tmp_path))
     out = tmp_path / "out"
-    report = run_campaign(spec, out, threads=2, progress=False)
+    report = run_campaign(spec, out, local_workers=2, progress=False)
     assert report.runs_flown == 16
     # Make it an interrupted campaign again (status running, no runs.parquet, no chunks).
     import json
@@ -127,7 +127,7 @@ def test_resume_and_completion_remove_leftover_temporaries(tmp_path, uninterrupt
         path.write_bytes(b"partial")
         assert path.match(TEMP_GLOB)
     (out / "histories" / "notes.txt").write_text("a user's file is not a temporary")
-    run_campaign(spec, out, resume=True, threads=2, progress=False)
+    run_campaign(spec, out, resume=True, local_workers=2, progress=False)
     assert not [p for p in planted if p.exists()]
     assert (out / "histories" / "notes.txt").exists()
     pd.testing.assert_frame_equal(pd.read_parquet(out / "runs.parquet"), uninterrupted,

@@ -50,10 +50,10 @@ def _runs(out) -> pd.DataFrame:
 
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
-    """The campaign flown serially, one chunk at a time (threads=1)."""
+    """The campaign flown serially, one chunk at a time (local_workers=1)."""
     tmp = tmp_path_factory.mktemp("ref")
     spec = load_spec(_spec(tmp))
-    run_campaign(spec, tmp / "out", threads=1, progress=False)
+    run_campaign(spec, tmp / "out", local_workers=1, progress=False)
     return _runs(tmp / "out")
 
 
@@ -73,7 +73,7 @@ def test_same_results_for_chunk_sizes_and_threads(tmp_path, reference):
     spec = load_spec(_spec(tmp_path, chunk=1))
     reference_plan = chunk_mod.plan_chunks(load_spec(_spec(tmp_path, name="ref.toml")))
     assert len(chunk_mod.plan_chunks(spec)) == 10 != len(reference_plan)  # really another chunking
-    run_campaign(spec, tmp_path / "out", threads=2, progress=False)
+    run_campaign(spec, tmp_path / "out", local_workers=2, progress=False)
     pd.testing.assert_frame_equal(_runs(tmp_path / "out"), reference, check_exact=True)
 
 
@@ -112,9 +112,9 @@ def test_killed_campaign_resumes_to_the_same_result(tmp_path):
     assert manifest["status"] == "running"
 
     spec = load_spec(spec_path)
-    report = run_campaign(spec, out, resume=True, threads=2, progress=False)
+    report = run_campaign(spec, out, resume=True, local_workers=2, progress=False)
     assert report.resumed_chunks == committed and report.runs_flown == 16 - 2 * committed
-    run_campaign(spec, tmp_path / "whole", threads=2, progress=False)
+    run_campaign(spec, tmp_path / "whole", local_workers=2, progress=False)
     pd.testing.assert_frame_equal(_runs(out), _runs(tmp_path / "whole"), check_exact=True)
     assert not (out / "chunks").exists()
     assert json.loads((out / "manifest.json").read_text())["status"] == "complete"
@@ -133,7 +133,7 @@ def test_nan_run_is_recorded_failed_and_the_rest_complete(tmp_path, reference, m
 
     monkeypatch.setattr(chunk_mod, "draw_runs", planted)
     spec = load_spec(_spec(tmp_path, histories="failures"))
-    run_campaign(spec, tmp_path / "out", threads=1, progress=False)
+    run_campaign(spec, tmp_path / "out", local_workers=1, progress=False)
     runs = _runs(tmp_path / "out")
     bad = runs["run_id"] == 3
     assert runs.loc[bad, "failed"].all() and runs.loc[bad, "sim_failed"].all()
@@ -155,7 +155,7 @@ def test_a_run_that_raises_is_isolated(tmp_path, reference, monkeypatch):
         return real(spec, run_ids, **kw)
 
     monkeypatch.setattr(chunk_mod, "fly_runs", flaky)
-    run_campaign(load_spec(_spec(tmp_path)), tmp_path / "out", threads=1, progress=False)
+    run_campaign(load_spec(_spec(tmp_path)), tmp_path / "out", local_workers=1, progress=False)
     runs = _runs(tmp_path / "out")
     bad = runs["run_id"] == 7
     assert runs.loc[bad, "reason"].iloc[0] == "exception: FloatingPointError: planted controller error"
@@ -213,7 +213,7 @@ def test_lookup_controller_campaign(tmp_path):
     spec_path = _spec(tmp_path)
     spec_path.write_text(spec_path.read_text().replace('"phase-plane"', '"lookup"'))
     spec = load_spec(spec_path)
-    run_campaign(spec, tmp_path / "out", threads=2, progress=False)
+    run_campaign(spec, tmp_path / "out", local_workers=2, progress=False)
     runs = _runs(tmp_path / "out")
     assert len(runs) == 10 and not runs["sim_failed"].any()
 
@@ -283,7 +283,7 @@ def test_progress_phases_and_the_flying_rate(tmp_path, capsys):
     from analysis.apps.cli import main
 
     spec = load_spec(_spec(tmp_path, plots="true"))
-    report = run_campaign(spec, tmp_path / "out", threads=2, progress=True)
+    report = run_campaign(spec, tmp_path / "out", local_workers=2, progress=True)
     err = capsys.readouterr().err
     assert "flying" in err and "assembling" in err and "campaign: plotting" in err
     assert 0 < report.fly_s < report.wall_s

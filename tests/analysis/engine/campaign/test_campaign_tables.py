@@ -49,7 +49,7 @@ def many_chunks(tmp_path_factory):
     # cases, which the counts must add up (the test asserts both occur).
     spec = _spec(tmp, threshold=0.01)
     assert len(chunk_mod.plan_chunks(spec)) == 70 > 2 * R.MERGE_EVERY
-    run_campaign(spec, tmp / "out", threads=2, progress=False)
+    run_campaign(spec, tmp / "out", local_workers=2, progress=False)
     return spec, tmp / "out"
 
 
@@ -123,7 +123,7 @@ def test_merging_is_independent_of_chunking(many_chunks, tmp_path):
     spec, out = many_chunks
     coarse = _spec(tmp_path, chunk=512, threshold=0.01)
     assert len(chunk_mod.plan_chunks(coarse)) == 4
-    run_campaign(coarse, tmp_path / "out", threads=2, progress=False)
+    run_campaign(coarse, tmp_path / "out", local_workers=2, progress=False)
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "out" / "cases.csv"),
                                   pd.read_csv(out / "cases.csv"), check_exact=True)
     pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "out" / "envelopes.parquet"),
@@ -191,7 +191,7 @@ def test_recorded_inputs_are_the_flown_values(tmp_path, monkeypatch):
         return history, dispersed
 
     monkeypatch.setattr(chunk_mod, "fly_runs", keep)
-    run_campaign(spec, tmp_path / "plain", threads=1, progress=False)
+    run_campaign(spec, tmp_path / "plain", local_workers=1, progress=False)
     runs = pd.read_parquet(tmp_path / "plain" / "runs.parquet")
     np.testing.assert_array_equal(runs["mass_kg"], drawn.mass_kg)
     np.testing.assert_array_equal(runs[["ixx_kg_m2", "iyy_kg_m2", "izz_kg_m2"]], drawn.inertia_B)
@@ -216,7 +216,7 @@ def test_recorded_inputs_are_the_flown_values(tmp_path, monkeypatch):
         return history, dispersed
 
     monkeypatch.setattr(chunk_mod, "fly_runs", planted)
-    run_campaign(spec, tmp_path / "planted", threads=1, progress=False)
+    run_campaign(spec, tmp_path / "planted", local_workers=1, progress=False)
     runs = pd.read_parquet(tmp_path / "planted" / "runs.parquet")
     np.testing.assert_array_equal(runs["mass_kg"], drawn.mass_kg + 1.0)
     np.testing.assert_array_equal(runs["jet_03_thrust_n"], drawn.thrust_n[:, 2] * 1.5)
@@ -235,7 +235,7 @@ def test_an_invalid_run_records_its_draw(tmp_path, monkeypatch):
 
     monkeypatch.setattr(chunk_mod, "draw_runs", nan_inertia)
     spec = _spec(tmp_path, runs=2, chunk=8, duration=0.2)
-    run_campaign(spec, tmp_path / "out", threads=1, progress=False)
+    run_campaign(spec, tmp_path / "out", local_workers=1, progress=False)
     runs = pd.read_parquet(tmp_path / "out" / "runs.parquet").set_index("run_id")
     assert np.isnan(runs.loc[1, "ixx_kg_m2"]) and runs.loc[1, "sim_failed"]
     assert np.isfinite(runs.drop(index=1)["ixx_kg_m2"]).all()

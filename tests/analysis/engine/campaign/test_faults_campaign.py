@@ -149,7 +149,7 @@ def test_replay_of_a_noisy_faulty_run_matches_its_row(tmp_path, capsys):
         assert result["matches"] is True
     one = tmp_path / "mc1"
     run_campaign(load_spec(_spec(tmp_path, extra, chunk=1, controller="adaptive",
-                                 name="one.toml")), one, threads=1, progress=False)
+                                 name="one.toml")), one, local_workers=1, progress=False)
     pd.testing.assert_frame_equal(pd.read_parquet(one / "runs.parquet"), runs, check_exact=True)
     hist = pd.read_parquet(out / "histories" / "run-0000000.parquet")
     assert {"meas_rate_err_yaw_deg_s", "meas_att_err_roll_deg", "jet_13_delivered_s"} \

@@ -1,0 +1,92 @@
+"""Local execution of a campaign's chunks: in this process, or one worker process per CPU.
+
+Why processes.  A chunk alternates between MuJoCo's batched rollout (native, GIL released)
+and the control cycle's numpy work (navigation, controller, valves, the cut at switch
+instants), which holds the interpreter.  Two chunks on two threads of one process take turns
+at the interpreter, so the second core idles during the other chunk's Python work; two
+processes do not share an interpreter (``docs/performance.md`` has the measurements).  Each
+chunk is a pure function of the spec and its run ids, so results are the same in any process,
+bit for bit, whatever the worker count or the order chunks finish in.
+
+Workers are started by a fork server with the chunk machinery preloaded (no per-worker import
+cost, and no fork of a process that runs MuJoCo threads), ignore SIGINT (a terminal's Ctrl-C
+reaches the whole process group; it is this process that stops them) and are killed, not
+waited for, when the campaign is interrupted: a chunk abandoned mid-flight is redone on
+``--resume`` (chunks commit in this process only).
+"""
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import threading
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from itertools import islice
+from typing import TYPE_CHECKING, Iterator
+
+from analysis.engine.campaign.chunk import Chunk, ChunkResult, simulate_chunk, warm_up
+
+if TYPE_CHECKING:
+    from analysis.engine.campaign.spec import CampaignSpec
+
+#: Modules the fork server imports once, so that every worker starts with them loaded.
+_PRELOAD = ["analysis.engine.campaign.chunk"]
+
+
+def _worker_init() -> None:
+    """Run in each worker: Ctrl-C is the parent's to handle; load what chunks need."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    warm_up()
+
+
+def worker_pool(workers: int) -> ProcessPoolExecutor:
+    """A pool of ``workers`` chunk processes (see the module docstring)."""
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(_PRELOAD)
+    return ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                               initializer=_worker_init)
+
+
+def kill_pool(pool: ProcessPoolExecutor) -> None:
+    """Stop ``pool`` at once: queued chunks are dropped and running workers killed."""
+    # concurrent.futures has no public way to stop a running worker before Python 3.14
+    # (ProcessPoolExecutor.kill_workers); its process table is the documented-in-source way.
+    for process in list(getattr(pool, "_processes", {}).values()):
+        process.kill()
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+def local_results(spec: CampaignSpec, chunks: Iterator[Chunk], workers: int, n_chunks: int,
+                  cancel: threading.Event) -> Iterator[ChunkResult]:
+    """Yield the results of ``chunks`` as they finish, at most ``workers`` in flight.
+
+    One worker (or one chunk): in this process, with MuJoCo's own threads on every CPU (an
+    interrupt stops it between two control cycles, through ``cancel``).  More: a
+    :func:`worker_pool`, each chunk flown with one MuJoCo thread; when the consumer stops early
+    (an interrupt), the workers are killed.
+    """
+    workers = max(1, min(workers, n_chunks))
+    if workers == 1:
+        nthread = os.cpu_count() or 1
+        for chunk in chunks:
+            yield simulate_chunk(spec, chunk, nthread=nthread, cancel=cancel)
+        return
+    pool = worker_pool(workers)
+    pending: set = set()
+    finished_normally = False
+    try:
+        while True:
+            for chunk in islice(chunks, workers - len(pending)):
+                pending.add(pool.submit(simulate_chunk, spec, chunk, 1))
+            if not pending:
+                finished_normally = True
+                return
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                yield future.result()
+    finally:
+        if finished_normally:
+            pool.shutdown(wait=True)
+        else:
+            kill_pool(pool)
