@@ -52,9 +52,15 @@ def kill_pool(pool: ProcessPoolExecutor) -> None:
     """Stop ``pool`` at once: queued chunks are dropped and running workers killed."""
     # concurrent.futures has no public way to stop a running worker before Python 3.14
     # (ProcessPoolExecutor.kill_workers); its process table is the documented-in-source way.
-    for process in list(getattr(pool, "_processes", {}).values()):
+    manager = getattr(pool, "_executor_manager_thread", None)
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
         process.kill()
     pool.shutdown(wait=False, cancel_futures=True)
+    # Wait for the pool's manager thread to see its workers gone and close its wake-up pipe.
+    # Left running, it races the interpreter's exit hook, which writes to that pipe while the
+    # thread closes it (CPython 3.11 prints "OSError: Bad file descriptor" after our one line).
+    if manager is not None:
+        manager.join(timeout=10.0)
 
 
 def local_results(spec: CampaignSpec, chunks: Iterator[Chunk], workers: int, n_chunks: int,
