@@ -44,6 +44,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from spacecraft.mujoco_timers import quiet_stage_timers  # noqa: E402
+
+# The raw ceilings step MuJoCo as the campaign does: stage timers on the zero clock.
+quiet_stage_timers()
+
 SPEC = """
 seed = 1
 runs_per_case = {runs}

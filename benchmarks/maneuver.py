@@ -40,12 +40,16 @@ sys.path.insert(0, str(ROOT))
 
 from lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
 from models.tables import load_jet_map  # noqa: E402
+from spacecraft.mujoco_timers import quiet_stage_timers  # noqa: E402
 from spacecraft.navigation import Guidance, navigate  # noqa: E402
 from spacecraft.propulsion import (  # noqa: E402
     PropulsionParams, PropulsionState, apply_valve_limits, duty_profile,
 )
 from spacecraft.simulation import simulate_batch  # noqa: E402
 from spacecraft.vehicle import VehicleParams, jet_actuator_ids, load_model  # noqa: E402
+
+# The raw ceiling steps MuJoCo as the closed loop does: stage timers on the zero clock.
+quiet_stage_timers()
 
 DURATION_S = 60.0
 ATT_CMD_DEG = (5.0, 5.0, 5.0)

@@ -61,6 +61,7 @@ from mujoco.batch import Batch, SimulationError
 from models.errors import InputError
 from spacecraft.guards import check_cycle, check_history_memory, warning_reasons
 from spacecraft.history import History
+from spacecraft.mujoco_timers import quiet_stage_timers
 from spacecraft.navigation import Guidance, NavState, navigate
 from spacecraft.pieces import Pieces, cycle_pieces, profile_pieces
 from spacecraft.propulsion import PropulsionParams, PropulsionState, apply_valve_limits
@@ -160,6 +161,7 @@ class BatchSimulation:
         profile: ThrustProfile | None = None,
     ):
         route_mujoco_warnings()
+        quiet_stage_timers()
         n = params.n_runs
         if sensors is not None:
             sensors.check(n)

@@ -8,6 +8,7 @@ honesty rules that are cheap to check statically: Hypothesis runs derandomized w
 database (CI is reproducible), and no test skips because one of our own modules fails to import.
 """
 import ast
+import re
 import tomllib
 from pathlib import Path
 
@@ -75,7 +76,9 @@ def test_package_data_globs_cover_every_data_file():
     # Oracle: setuptools matches package-data globs relative to the package folder.  Every
     # file beside the code that is not Python (tables, MJCF, READMEs, py.typed) must ship.
     package_data = SETUPTOOLS.get("package-data", {})
-    data_files = [p for p in _source_files("*") if p.is_file() and p.suffix not in (".py", ".pyc")]
+    # C sources and the extensions built from them are setup.py's (next test), not data.
+    data_files = [p for p in _source_files("*") if p.is_file()
+                  and p.suffix not in (".py", ".pyc", ".c", ".so")]
     assert data_files, "no data files found: the tables and MJCF should be here"
     shipped = set()
     for package, globs in package_data.items():
@@ -83,6 +86,14 @@ def test_package_data_globs_cover_every_data_file():
             shipped.update((ROOT / Path(*package.split("."))).glob(pattern))
     unshipped = [str(p.relative_to(ROOT)) for p in data_files if p not in shipped]
     assert not unshipped, f"data files no package-data glob covers: {unshipped}"
+
+
+def test_every_c_source_is_a_declared_extension():
+    # A C file setup.py does not name would never be compiled; one it names must exist.
+    setup_py = (ROOT / "setup.py").read_text()
+    named = set(re.findall(r'"([\w/]+\.c)"', setup_py))
+    present = {str(p.relative_to(ROOT)) for p in _source_files("*.c")}
+    assert present == named, f"C sources {sorted(present)} against setup.py's {sorted(named)}"
 
 
 def test_every_package_is_typed():

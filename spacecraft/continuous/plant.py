@@ -28,6 +28,7 @@ from models.errors import InputError
 from spacecraft.continuous.cmg import CmgArray
 from spacecraft.continuous.disturbances import Disturbances
 from spacecraft.continuous.kinematics import euler321_from_quat
+from spacecraft.mujoco_timers import quiet_stage_timers
 
 BODY = "spacecraft"
 TORQUE_ACTUATORS = ("torque_x", "torque_y", "torque_z")
@@ -73,6 +74,7 @@ class ContinuousPlant:
             raise InputError(f"must have shape (n_runs, 3, 3), got {inertia_B.shape}",
                              parameter="inertia_B")
         self.model = load_dai_model(timestep_s)
+        quiet_stage_timers()
         self.dt_s = timestep_s
         self.n_runs = inertia_B.shape[0]
         self._batch = Batch(self.model, self.n_runs, nthread)
