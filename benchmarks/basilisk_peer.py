@@ -353,6 +353,10 @@ def main(argv=None) -> int:
                 entry["timing"][name] = {"wall_s": walls, "median_wall_s": wall,
                                          "sim_s_per_wall_s": sim_s / wall}
                 print(f"{dt * 1e3:4g}ms {name:<24} {wall:8.2f} {sim_s / wall:13.0f}", flush=True)
+        if results is None:
+            # Only multi-process Controller runs were timed: their final states stay in the
+            # worker processes, so fly the same vehicles once here for the accuracy figures.
+            _, results = run_loop(dt, args.runs, 1, args.fsw)
         entry["accuracy"] = accuracy(dt, results, args.fsw)
         entry["final_omega_rad_s"] = [r[1].tolist() for r in results]
         out["steps"][f"{dt:g}"] = entry

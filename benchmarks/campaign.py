@@ -100,6 +100,7 @@ def bench_raw(spec_path: Path) -> dict:
     from analysis.engine.campaign.chunk import plan_chunks
     from analysis.engine.campaign.spec import load_spec
     from spacecraft.propulsion import PropulsionParams
+    from spacecraft.flight_model import flight_model
     from spacecraft.vehicle import load_model
 
     spec = load_spec(spec_path)
@@ -107,7 +108,7 @@ def bench_raw(spec_path: Path) -> dict:
     chunks = plan_chunks(spec)
 
     def roll(chunk, nthread):
-        model = load_model()
+        model = flight_model(load_model())  # the model the campaign's MuJoCo integrates
         n = chunk.stop - chunk.first
         duration = spec.cases[spec.case_of(chunk.first)].duration_s
         nstep = int(round(np.ceil(duration / cycle - 1e-9) * cycle / model.opt.timestep))
@@ -142,13 +143,14 @@ def bench_single_core(spec_path: Path, n: int = 256, repeats: int = 3) -> dict:
 
     from analysis.engine.campaign.chunk import Chunk, simulate_chunk, warm_up
     from analysis.engine.campaign.spec import load_spec
+    from spacecraft.flight_model import flight_model
     from spacecraft.vehicle import load_model
 
     spec = load_spec(spec_path)
     warm_up()
     n = min(n, spec.n_runs)
     duration = spec.cases[0].duration_s
-    model = load_model()
+    model = flight_model(load_model())  # the model the campaign's MuJoCo integrates
     nstep = int(round(duration / model.opt.timestep))
     best_chunk, best_raw = float("inf"), float("inf")
     for _ in range(repeats):

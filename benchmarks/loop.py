@@ -3,8 +3,10 @@
 Runs ``rcsim loop --runs-per-case N`` in a subprocess for each N asked (default 100 and 1,000),
 and while it runs samples, twice a second:
 
-* the resident memory of the loop's whole process tree (the CLI, its fork server and chunk
-  workers), summed: the figure the "under 1 GB" target is about;
+* the memory of the loop's whole process tree (the CLI, its fork server and chunk workers):
+  the sum of each process's proportional set size (PSS: a page shared by k processes, such
+  as the libraries the fork server preloads, counts 1/k in each), the figure the "under 1 GB"
+  target is about.  Summed RSS would count every shared library once per worker;
 * foreign load: every other process that used more than 10 % of a CPU over the sample.  A
   run during which one was seen is marked ``watched_clean: false``; quote clean runs only.
 
@@ -33,6 +35,17 @@ SAMPLE_S = 0.5
 FOREIGN_CPU = 0.10  # fraction of one CPU over a sample
 TICKS = os.sysconf("SC_CLK_TCK")
 PAGE = os.sysconf("SC_PAGE_SIZE")
+
+
+def _pss_bytes(pid: int) -> int | None:
+    """Proportional set size of ``pid`` [bytes], None when the kernel does not tell."""
+    try:
+        for line in Path(f"/proc/{pid}/smaps_rollup").read_text().splitlines():
+            if line.startswith("Pss:"):
+                return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
 
 
 def _processes() -> dict[int, tuple[int, int, int]]:
@@ -67,7 +80,7 @@ def _tree(root: int, table: dict) -> set[int]:
 
 
 def run_loop(runs_per_case: int, folder: Path) -> dict:
-    """One watched ``rcsim loop`` run; returns its stage times, peak RSS and load record."""
+    """One watched ``rcsim loop`` run; returns its stage times, peak memory and load record."""
     out = folder / f"loop-{runs_per_case}"
     cmd = [sys.executable, "-m", "rcsim", "loop", "--runs-per-case", str(runs_per_case),
            "--out", str(out)]
@@ -79,10 +92,10 @@ def run_loop(runs_per_case: int, folder: Path) -> dict:
     while proc.poll() is None:
         time.sleep(SAMPLE_S)
         now = _processes()
-        ours = _tree(proc.pid, now) | {me}
-        peak = max(peak, sum(now[p][2] for p in ours if p in now))
+        ours = _tree(proc.pid, now)
+        peak = max(peak, sum(_pss_bytes(p) or now[p][2] for p in ours if p in now))
         for pid, (_, ticks, _) in now.items():
-            if pid in ours or pid not in before:
+            if pid in ours or pid == me or pid not in before:
                 continue
             share = (ticks - before[pid][1]) / TICKS / SAMPLE_S
             if share > FOREIGN_CPU:
@@ -96,7 +109,7 @@ def run_loop(runs_per_case: int, folder: Path) -> dict:
     state = json.loads((out / "loop.json").read_text())
     return {"runs_per_case": runs_per_case, "wall_s": round(wall, 1),
             "stage_s": {k: v["seconds"] for k, v in state["done"].items()},
-            "peak_rss_mb": round(peak / 2**20), "watched_clean": not foreign,
+            "peak_pss_mb": round(peak / 2**20), "watched_clean": not foreign,
             "foreign_load_at_s": foreign[:20], "load_avg_1min_after": os.getloadavg()[0]}
 
 
@@ -111,8 +124,8 @@ def main(argv=None) -> int:
             res = run_loop(n, Path(tmp))
             results.append(res)
             stages = ", ".join(f"{k} {v:.1f}" for k, v in res["stage_s"].items())
-            print(f"{n} runs/case: {res['wall_s']:.1f} s wall ({stages}); peak RSS "
-                  f"{res['peak_rss_mb']} MB; "
+            print(f"{n} runs/case: {res['wall_s']:.1f} s wall ({stages}); peak memory "
+                  f"(PSS) {res['peak_pss_mb']} MB; "
                   f"{'no foreign load seen' if res['watched_clean'] else 'FOREIGN LOAD at ' + str(res['foreign_load_at_s'])}",
                   flush=True)
     if args.json:

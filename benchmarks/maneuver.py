@@ -40,6 +40,7 @@ sys.path.insert(0, str(ROOT))
 
 from lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
 from models.tables import load_jet_map  # noqa: E402
+from spacecraft.flight_model import flight_model, jet_wrench_B  # noqa: E402
 from spacecraft.mujoco_timers import quiet_stage_timers  # noqa: E402
 from spacecraft.navigation import Guidance, navigate  # noqa: E402
 from spacecraft.propulsion import (  # noqa: E402
@@ -69,14 +70,14 @@ def raw(model, hist, n_runs: int, nthread: int) -> float:
     n_sub = int(round(0.04 / dt))
     n_total = int(round(DURATION_S / dt))
     chunk = min(n_total, int(round(CHUNK_S / dt)))
-    jets = jet_actuator_ids(model)
-    # Duties of the closed loop's first chunk, per run: (n_runs, chunk, nu).
+    # Duties of the closed loop's first chunk, per run, as the flight model's wrench controls
+    # (n_runs, chunk, 6): the steps the closed loop's MuJoCo takes (spacecraft/flight_model.py).
     n_cyc = chunk // n_sub
     duty = duty_profile(hist.on_time_s[:, :n_cyc].reshape(-1, 16), dt, n_sub)
-    control = np.zeros((n_runs, chunk, model.nu))
-    control[:, :, jets] = duty.reshape(n_runs, n_cyc * n_sub, 16)
+    wrench = jet_wrench_B(VehicleParams.nominal(n_runs, model), model)
+    control = np.einsum("nwj,nsj->nsw", wrench, duty.reshape(n_runs, n_cyc * n_sub, 16))
     spec = int(mujoco.mjtState.mjSTATE_CTRL)
-    b = Batch(model, n_runs, nthread)
+    b = Batch(flight_model(model), n_runs, nthread)
     b.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
     b.forward()
     t0 = time.perf_counter()

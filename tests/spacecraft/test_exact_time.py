@@ -27,7 +27,8 @@ from models.tables import load_jet_map
 from spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat
 from spacecraft.pieces import cycle_pieces
 from spacecraft.simulation import BatchSimulation
-from spacecraft.vehicle import VehicleParams, jet_actuator_ids, torque_per_jet_B
+from spacecraft.flight_model import flight_model, jet_wrench_B
+from spacecraft.vehicle import VehicleParams, torque_per_jet_B
 
 CYCLE_S = 0.04
 REL = 1e-9  # see the module docstring
@@ -112,16 +113,20 @@ def test_three_axis_pulses_with_distinct_switch_times_match_dop853(model):
 
 
 def test_whole_cycle_firings_are_the_fixed_step_rollout_bit_for_bit(model):
-    """No switch inside a cycle: exactly the steps of a plain rollout (ctrl 1 or 0)."""
+    """No switch inside a cycle: exactly the steps of a plain rollout of the flight model
+    (jets 1 or 0, summed into its wrench controls the way the simulation sums them; that sum
+    itself is checked against the jets' MJCF in tests/spacecraft/test_flight_model.py)."""
     on = np.zeros((1, 16))
     on[0, roll_plus_jets()] = 3 * CYCLE_S
-    hist = BatchSimulation(VehicleParams.nominal(1, model), model=model, nthread=1).run(
+    params = VehicleParams.nominal(1, model)
+    hist = BatchSimulation(params, model=model, nthread=1).run(
         OpenLoopController(on), Guidance.attitude(np.zeros((1, 3))), 5 * CYCLE_S)
-    batch = Batch(model, 1, 1)
+    batch = Batch(flight_model(model), 1, 1)
     batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
     batch.forward()
-    ctrl = np.zeros((1, 5, model.nu))
-    ctrl[0, :3, jet_actuator_ids(model)[roll_plus_jets()]] = 1.0
+    duty = np.zeros((1, 5, 16))
+    duty[0, :3, roll_plus_jets()] = 1.0
+    ctrl = np.einsum("nwj,nsj->nsw", jet_wrench_B(params, model), duty)
     batch.rollout(5, control=ctrl, control_spec=int(mujoco.mjtState.mjSTATE_CTRL), record=())
     np.testing.assert_array_equal(hist.final.q_BN[0], batch.bind("qpos")[0, 3:7])
     np.testing.assert_array_equal(hist.final.omega_B[0], batch.bind("qvel")[0, 3:6])
