@@ -27,10 +27,15 @@ import os
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from analysis.apps.loop.run import STAGES  # noqa: E402
+
 SAMPLE_S = 0.5
 FOREIGN_CPU = 0.10  # fraction of one CPU over a sample
 TICKS = os.sysconf("SC_CLK_TCK")
@@ -87,13 +92,23 @@ def run_loop(runs_per_case: int, folder: Path) -> dict:
     me = os.getpid()
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)
+                            text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    # The loop prints "<stage>: done in ..." as each stage ends: the stage in progress is the
+    # one after the last line seen, and each memory sample is charged to it.
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True)
+    reader.start()
+    stage_peak = dict.fromkeys(STAGES, 0)
     peak, foreign, before = 0, [], _processes()
     while proc.poll() is None:
         time.sleep(SAMPLE_S)
         now = _processes()
         ours = _tree(proc.pid, now)
-        peak = max(peak, sum(_pss_bytes(p) or now[p][2] for p in ours if p in now))
+        memory = sum(_pss_bytes(p) or now[p][2] for p in ours if p in now)
+        peak = max(peak, memory)
+        done = [st for st in STAGES if any(line.startswith(f"{st}: ") for line in lines)]
+        current = STAGES[min(len(done), len(STAGES) - 1)]
+        stage_peak[current] = max(stage_peak[current], memory)
         for pid, (_, ticks, _) in now.items():
             if pid in ours or pid == me or pid not in before:
                 continue
@@ -103,13 +118,16 @@ def run_loop(runs_per_case: int, folder: Path) -> dict:
                 break
         before = now
     wall = time.perf_counter() - t0
-    log = proc.stdout.read()
+    reader.join()
+    log = "".join(lines)
     if proc.returncode != 0:
         raise SystemExit(f"rcsim loop failed ({proc.returncode}):\n{log}")
     state = json.loads((out / "loop.json").read_text())
     return {"runs_per_case": runs_per_case, "wall_s": round(wall, 1),
             "stage_s": {k: v["seconds"] for k, v in state["done"].items()},
-            "peak_pss_mb": round(peak / 2**20), "watched_clean": not foreign,
+            "peak_pss_mb": round(peak / 2**20),
+            "stage_peak_pss_mb": {k: round(v / 2**20) for k, v in stage_peak.items()},
+            "watched_clean": not foreign,
             "foreign_load_at_s": foreign[:20], "load_avg_1min_after": os.getloadavg()[0]}
 
 
@@ -125,7 +143,7 @@ def main(argv=None) -> int:
             results.append(res)
             stages = ", ".join(f"{k} {v:.1f}" for k, v in res["stage_s"].items())
             print(f"{n} runs/case: {res['wall_s']:.1f} s wall ({stages}); peak memory "
-                  f"(PSS) {res['peak_pss_mb']} MB; "
+                  f"(PSS) {res['peak_pss_mb']} MB (by stage: {res['stage_peak_pss_mb']}); "
                   f"{'no foreign load seen' if res['watched_clean'] else 'FOREIGN LOAD at ' + str(res['foreign_load_at_s'])}",
                   flush=True)
     if args.json:

@@ -87,6 +87,9 @@ def register(sub) -> None:
                      help="simulated time of every run [s] (default 20, as campaigns)")
     ref.add_argument("--max-iterations", type=int, default=8, metavar="K",
                      help="most rounds of candidates (default 8)")
+    ref.add_argument("--search-runs", dest="search_runs_per_case", type=int, default=200,
+                     metavar="M", help="runs per case the search flies: the first M of the N "
+                     "(the same draws); the fresh-seed check flies all N (default 200)")
     ref.add_argument("--out", required=True, metavar="OUT.csv",
                      help="refined table to write (missing parent directories are created)")
     ref.add_argument("--overwrite", action="store_true",
@@ -181,7 +184,8 @@ def run_refine(args: argparse.Namespace) -> int:
         cases = [list(table.case).index(c) for c in args.cases]
     ref = run_refinement(table, runs_per_case=args.runs_per_case, seed=args.seed, fresh_seed=fresh,
                          cases=cases, duration_s=args.duration_s,
-                         max_iterations=args.max_iterations, progress=args.progress)
+                         max_iterations=args.max_iterations,
+                         search_runs_per_case=args.search_runs_per_case, progress=args.progress)
     paths = write_refinement(ref, out, overwrite=args.overwrite)
     log = ref.changelog
     print(f"refined {args.table}: {int(log['changed'].sum())} of {len(log)} cases changed "

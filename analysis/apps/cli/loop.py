@@ -24,6 +24,10 @@ def register(sub) -> None:
                    help="campaign and search seed (default 1)")
     p.add_argument("--fresh-seed", type=int, metavar="S2",
                    help="held-out seed for the refined table (default S + 1)")
+    p.add_argument("--search-runs-per-case", type=int, default=200, metavar="M",
+                   help="runs per case the refinement search flies: the first M of each "
+                        "case's N (the same draws); the refined table is then checked on all N "
+                        "runs of the held-out seed (default 200)")
     p.add_argument("--out", required=True, metavar="DIR", help="loop directory (new, or --resume)")
     p.add_argument("--resume", action="store_true",
                    help="finish the loop in DIR from its last finished stage")
@@ -40,7 +44,8 @@ def run(args: argparse.Namespace) -> int:
     # A CSV path is kept absolute: a resumed loop re-reads the same file from any directory.
     table = args.table if args.table in PAPER_LOOKUP_TABLES else os.path.abspath(args.table)
     settings = LoopSettings(table=table, runs_per_case=args.runs_per_case,
-                            seed=args.seed, fresh_seed=args.fresh_seed)
+                            seed=args.seed, fresh_seed=args.fresh_seed,
+                            search_runs_per_case=args.search_runs_per_case)
     result = run_loop(settings, args.out, resume=args.resume, progress=args.progress)
     total = sum(result.stage_s.values())
     print(f"loop finished in {total:.0f} s; report: {result.report}")

@@ -24,6 +24,7 @@ from analysis.engine.campaign.spec import load_spec
 from analysis.engine.output import check_out_dir, directory_owner, write_marker
 from models.atomic import atomic_write
 from models.errors import InputError
+from analysis.apps.refinement.search import SEARCH_RUNS_PER_CASE
 from analysis.apps.refinement.outputs import (
     check_parameters, held_out_seed, load_refinable_table, rate_cases_campaign,
 )
@@ -55,6 +56,9 @@ class LoopSettings:
         Label permutations of the driver analysis's p-values.
     max_iterations : int
         Most rounds of the refinement search.
+    search_runs_per_case : int
+        Runs per case the refinement search flies (the first of the "before" campaign's, the
+        same draws); the refined table is then flown on every run of the held-out seed.
     """
 
     table: str = "table6"
@@ -64,6 +68,7 @@ class LoopSettings:
     duration_s: float = 20.0
     permutations: int = 200
     max_iterations: int = 8
+    search_runs_per_case: int = SEARCH_RUNS_PER_CASE
 
     def __post_init__(self):
         # The refinement's and the driver analysis's own checks: one rule for each.
@@ -71,7 +76,8 @@ class LoopSettings:
 
         check_parameters(runs_per_case=self.runs_per_case, seed=self.seed,
                          fresh_seed=self.held_out_seed, duration_s=self.duration_s,
-                         max_iterations=self.max_iterations)
+                         max_iterations=self.max_iterations,
+                         search_runs_per_case=self.search_runs_per_case)
         Settings(n_permutations=self.permutations, random_state=self.seed)
 
     @property
@@ -262,6 +268,7 @@ def run_loop(settings: LoopSettings, out, *, resume: bool = False,
         spec = refinement_spec(runs_per_case=settings.runs_per_case, seed=settings.seed,
                                duration_s=settings.duration_s)
         result = refine(spec, table, max_iterations=settings.max_iterations, progress=progress,
+                        search_runs_per_case=settings.search_runs_per_case,
                         baseline_runs=campaign_runs("campaign_before"))
         save_search(result, paths["search"])
         result.table.to_csv(paths["refined"])

@@ -6,21 +6,23 @@ flies the vehicle of campaign run ``c * runs_per_case + k`` -- the same draw fro
 difference between candidates is the table's doing, not sampling noise.  The baseline trials
 (the table as it is) are exactly the runs ``rcsim campaign run`` flies with the same seed.
 
-Every run of every trial goes into one list of runs, cut into chunks that are flown on a
-thread pool (MuJoCo releases the GIL), each chunk one batched simulation in which every run
-carries its own table (:meth:`lookup.pattern_recognition.LookupController.for_runs`).
+Every run of every trial goes into one list of runs, cut into chunks that are flown by the
+campaign's local worker processes (:mod:`analysis.engine.campaign.local`: one per CPU, so a
+chunk's numpy work never waits on another's), each chunk one batched simulation in which every
+run carries its own table (:meth:`lookup.pattern_recognition.LookupController.for_runs`).
+Results are the same for any worker count: each chunk is a pure function of its runs.
 """
 from __future__ import annotations
 
 import os
 import sys
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
 from analysis.engine.campaign.chunk import max_chunk_runs
+from analysis.engine.campaign.local import kill_pool, submit, worker_pool
 from analysis.engine.campaign.outcomes import outcomes
 from analysis.engine.campaign.spec import CampaignSpec
 from analysis.engine.flight import fly_batch
@@ -54,22 +56,22 @@ class Trials:
         return int(self.case.size)
 
 
-def _fly_chunk(spec: CampaignSpec, table: LookupTable, params_all: VehicleParams, row_of_run: np.ndarray,
+def _fly_chunk(spec: CampaignSpec, table: LookupTable, params: VehicleParams,
                run_times: np.ndarray, cases: np.ndarray, lookup_params: LookupParams,
-               model) -> pd.DataFrame:
-    """Fly one chunk: run ``i`` flies case ``cases[i]`` with vehicle ``row_of_run[i]`` of
-    ``params_all`` and table ``run_times[i]``; return its outcome columns."""
+               nthread: int = 1) -> pd.DataFrame:
+    """Fly one chunk: run ``i`` flies case ``cases[i]`` with vehicle ``params.take(i)`` and
+    table ``run_times[i]``; return its outcome columns.  Runs in a worker process."""
     controller = LookupController.for_runs(table, run_times, lookup_params)
-    params = params_all.take(row_of_run)
-    history = fly_batch([spec.cases[c] for c in cases], params, controller, model=model,
-                        nthread=1)
+    history = fly_batch([spec.cases[c] for c in cases], params, controller, model=load_model(),
+                        nthread=nthread)
     return outcomes(history, spec)
 
 
 def evaluate(spec: CampaignSpec, table: LookupTable, trials: Trials, *,
              lookup_params: LookupParams | None = None, threads: int | None = None,
-             progress: bool | None = None, desc: str = "refine") -> pd.DataFrame:
-    """Fly every trial over ``spec.runs_per_case`` dispersed runs of its case.
+             progress: bool | None = None, desc: str = "refine",
+             runs_per_case: int | None = None) -> pd.DataFrame:
+    """Fly every trial over the first ``runs_per_case`` dispersed runs of its case.
 
     Parameters
     ----------
@@ -82,9 +84,13 @@ def evaluate(spec: CampaignSpec, table: LookupTable, trials: Trials, *,
     lookup_params : LookupParams, optional
         Default: Table 4.
     threads : int, optional
-        Chunks in flight (default: CPU count).
+        Chunks in flight, each in its own worker process (default: CPU count; 1: in this
+        process, on MuJoCo's threads).
     progress : bool, optional
         Progress bar on stderr; default only when stderr is a terminal.
+    runs_per_case : int, optional
+        Runs ``0 .. runs_per_case - 1`` of each case (numbered as the campaign numbers them,
+        ``case * spec.runs_per_case + k``: the campaign's own draws); default all of them.
 
     Returns
     -------
@@ -95,12 +101,13 @@ def evaluate(spec: CampaignSpec, table: LookupTable, trials: Trials, *,
     """
     from tqdm import tqdm
 
-    n = spec.runs_per_case
+    stride = spec.runs_per_case
+    n = stride if runs_per_case is None else min(int(runs_per_case), stride)
     lookup_params = LookupParams.from_table4() if lookup_params is None else lookup_params
     model = load_model()
     # Draw each involved case's runs once; every candidate of that case reuses them.
     involved = np.unique(trials.case)
-    run_ids = (involved[:, None] * n + np.arange(n)[None, :]).ravel()
+    run_ids = (involved[:, None] * stride + np.arange(n)[None, :]).ravel()
     params_all = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids).params
     first_row = {int(c): i * n for i, c in enumerate(involved)}
 
@@ -118,18 +125,30 @@ def evaluate(spec: CampaignSpec, table: LookupTable, trials: Trials, *,
     bounds = np.linspace(0, trial_of_run.size, count + 1).round().astype(int)
     chunks = [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
 
-    def fly(sl: slice) -> pd.DataFrame:
-        return _fly_chunk(spec, table, params_all, row_of_run[sl],
-                          trials.times_s[trial_of_run[sl]], case_of_run[sl], lookup_params, model)
+    def work(sl: slice) -> tuple:
+        return (spec, table, params_all.take(row_of_run[sl]), trials.times_s[trial_of_run[sl]],
+                case_of_run[sl], lookup_params)
 
     show = sys.stderr.isatty() if progress is None else progress
     frames = []
     with tqdm(total=trial_of_run.size, unit="run", desc=desc, disable=not show,
-              file=sys.stderr, dynamic_ncols=True) as bar, \
-            ThreadPoolExecutor(max_workers=threads) as pool:
-        for sl, frame in zip(chunks, pool.map(fly, chunks)):
-            frames.append(frame)
-            bar.update(sl.stop - sl.start)
+              file=sys.stderr, dynamic_ncols=True) as bar:
+        workers = min(threads, len(chunks))
+        if workers == 1:
+            for sl in chunks:
+                frames.append(_fly_chunk(*work(sl), nthread=threads))
+                bar.update(sl.stop - sl.start)
+        else:
+            pool = worker_pool(workers)
+            try:
+                futures = [submit(pool, _fly_chunk, *work(sl)) for sl in chunks]
+                for sl, future in zip(chunks, futures):
+                    frames.append(future.result())
+                    bar.update(sl.stop - sl.start)
+            except BaseException:  # an interrupt: stop the workers now, not after their chunks
+                kill_pool(pool)
+                raise
+            pool.shutdown(wait=True)
     return trial_frame(trial_of_run, case_of_run, k_of_run, pd.concat(frames, ignore_index=True))
 
 

@@ -22,7 +22,9 @@ from analysis.engine.output import atomic_dir, check_out_dir, check_out_file
 from analysis.engine.plots import AXIS_COLORS, new_figure
 from analysis.apps.refinement.evaluate import Trials, evaluate
 from analysis.results.scoring import trial_scores
-from analysis.apps.refinement.search import RefineResult, changed_cells, refine
+from analysis.apps.refinement.search import (
+    SEARCH_RUNS_PER_CASE, RefineResult, changed_cells, refine,
+)
 from lookup.pattern_recognition import LookupController
 from lookup.table_edits import axis_cycles, jet_axes
 from models.atomic import atomic_write
@@ -96,6 +98,7 @@ class Refinement:
 def run_refinement(table: LookupTable, *, runs_per_case: int, seed: int,
                    fresh_seed: int | None = None,
                    cases=None, duration_s: float = 20.0, max_iterations: int = 8,
+                   search_runs_per_case: int = SEARCH_RUNS_PER_CASE,
                    threads: int | None = None, progress: bool | None = None) -> Refinement:
     """Refine ``table`` on ``seed`` and fly the old and new tables on ``fresh_seed``.
 
@@ -113,6 +116,9 @@ def run_refinement(table: LookupTable, *, runs_per_case: int, seed: int,
         Simulated time of every run [s].
     max_iterations : int
         Most rounds of candidates, >= 1.
+    search_runs_per_case : int
+        Runs per case the search flies: the first ones of each case's ``runs_per_case``
+        (:func:`~analysis.apps.refinement.search.refine`); the held-out check flies them all.
 
     Raises
     ------
@@ -121,10 +127,11 @@ def run_refinement(table: LookupTable, *, runs_per_case: int, seed: int,
     """
     fresh_seed = held_out_seed(seed) if fresh_seed is None else fresh_seed
     check_parameters(runs_per_case=runs_per_case, seed=seed, fresh_seed=fresh_seed,
-                     duration_s=duration_s, max_iterations=max_iterations)
+                     duration_s=duration_s, max_iterations=max_iterations,
+                     search_runs_per_case=search_runs_per_case)
     spec = refinement_spec(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s)
     result = refine(spec, table, cases, max_iterations=max_iterations, threads=threads,
-                    progress=progress)
+                    progress=progress, search_runs_per_case=search_runs_per_case)
     return held_out_check(table, result, seed=seed, fresh_seed=fresh_seed,
                           runs_per_case=runs_per_case, duration_s=duration_s, threads=threads,
                           progress=progress)
@@ -212,14 +219,17 @@ def held_out_seed(seed: int) -> int:
     return seed + 1
 
 
-def check_parameters(*, runs_per_case, seed, fresh_seed, duration_s, max_iterations) -> None:
+def check_parameters(*, runs_per_case, seed, fresh_seed, duration_s, max_iterations,
+                     search_runs_per_case=SEARCH_RUNS_PER_CASE) -> None:
     """Raise :class:`InputError` naming the first out-of-range refinement parameter."""
     def bad(name, value, problem):
         return InputError(f"{problem}, got {value!r}", parameter=name, value=value)
 
     for name, value, lo, hi in (("runs_per_case", runs_per_case, 1, MAX_RUNS_PER_CASE),
                                 ("seed", seed, 0, None), ("fresh_seed", fresh_seed, 0, None),
-                                ("max_iterations", max_iterations, 1, 1000)):
+                                ("max_iterations", max_iterations, 1, 1000),
+                                ("search_runs_per_case", search_runs_per_case, 1,
+                                 MAX_RUNS_PER_CASE)):
         if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < lo or (
                 hi is not None and value > hi):
             raise bad(name, value, f"must be an integer in {lo}..{hi if hi else 'inf'}")

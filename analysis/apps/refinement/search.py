@@ -14,10 +14,14 @@ automated by measuring the number of firings and the final rate error".  Here:
 3. Every candidate of every case is flown in one batch over the same dispersed runs as the
    current table (common random numbers).  A case takes its best candidate when it is strictly
    better: fewer failures first, then fewer repeated firings.
-4. The current table is flown again with all accepted changes (one entry's change can alter
-   another case's correction firings), and 2-3 repeat until every case is robust, no entry
-   is left to try, or ``max_iterations`` is reached.  The table returned is the best one
-   flown (fewest failures, then repeated firings, over all searched cases).
+4. The cases whose rows changed are flown again with all accepted changes, and 2-3 repeat
+   until every case is robust, no entry is left to try, or ``max_iterations`` is reached.
+   The table returned is the best one flown (fewest failures, then repeated firings, over
+   all searched cases).
+
+The search flies a subset of each case's runs, the first ``search_runs_per_case`` (200 by
+default) of the campaign's own draws: its cost scales with the evidence a decision needs, not
+with the campaign (a 26 x 1,000 campaign is searched on 26 x 200 runs).
 
 Guarding against fitting the seed is the caller's job (:func:`refine` reports the search seed
 only; :func:`analysis.apps.refinement.outputs.held_out_check` flies a fresh seed).
@@ -62,9 +66,16 @@ class RefineResult:
     runs_flown: int = 0
 
 
+#: Runs per case the search flies by default: the first 200 of each case's campaign runs (the
+#: same draws).  Enough to tell a candidate that removes failures at a rate of a few percent
+#: from one that does not (issue 19); the held-out check then flies every run at full size.
+SEARCH_RUNS_PER_CASE = 200
+
+
 def refine(spec: CampaignSpec, table: LookupTable, cases=None, *, max_iterations: int = 8,
            threads: int | None = None, progress: bool | None = None,
-           lookup_params=None, baseline_runs: pd.DataFrame | None = None) -> RefineResult:
+           lookup_params=None, baseline_runs: pd.DataFrame | None = None,
+           search_runs_per_case: int | None = SEARCH_RUNS_PER_CASE) -> RefineResult:
     """Refine ``table`` against the dispersed runs of ``spec``.
 
     Parameters
@@ -75,100 +86,162 @@ def refine(spec: CampaignSpec, table: LookupTable, cases=None, *, max_iterations
     cases : sequence of int, optional
         Table rows (0-based) to search; default all.
     max_iterations : int
-        Most rounds of candidates (each round: candidates, then the current table again).
+        Most rounds of candidates (each round: candidates, then the changed cases again).
     baseline_runs : DataFrame, optional
         The table's own runs on ``spec`` if already flown (a campaign's, through
         :func:`~analysis.apps.refinement.evaluate.runs_from_campaign`); default: fly them.
+    search_runs_per_case : int or None
+        The search flies runs ``0 .. search_runs_per_case - 1`` of each case (the campaign's
+        own draws, numbered as the campaign numbers them); None or more than
+        ``spec.runs_per_case``: all of them.  The result depends on this number and the seed,
+        never on how the flying is split (chunks, threads).
     """
     if len(spec.cases) != len(table.case):
         raise ValueError(f"spec has {len(spec.cases)} cases, the table {len(table.case)}")
     if max_iterations < 1:
         raise ValueError(f"max_iterations must be >= 1, got {max_iterations}")
+    if search_runs_per_case is not None and search_runs_per_case < 1:
+        raise ValueError(f"search_runs_per_case must be >= 1, got {search_runs_per_case}")
     cases = np.arange(len(table.case)) if cases is None else np.asarray(sorted(set(cases)), int)
-    jet_axis = jet_axes(table)
-    threshold_deg_s = float(np.degrees(spec.rate_threshold_rad_s))
-    kw = dict(threads=threads, progress=progress, lookup_params=lookup_params)
-
-    def fly_current(times: np.ndarray, desc: str):
-        trials = Trials(np.repeat(times[None], cases.size, axis=0), cases,
-                        tuple(f"case {c + 1}: current" for c in cases))
-        runs = evaluate(spec, table, trials, desc=desc, **kw)
-        return runs, trial_scores(runs, trials.n_trials)
-
-    current = np.asarray(table.firing_time_s, float)
-    if baseline_runs is None:
-        runs, scores = fly_current(current, "refine: baseline")
-        flown = len(runs)
-    else:
-        runs, scores, flown = baseline_runs, trial_scores(baseline_runs, cases.size), 0
-    before = scores.assign(case_index=cases)
-    best = (current, before)
-    iterations = []
-    # Entries already flown, per case (its firing cycles per axis): a candidate that returns
-    # to one of them (the step back after a step that helped) or repeats a rejected one is not
-    # flown again.  Other entries may have changed since, which could shift the verdict
-    # slightly; the re-fly of the whole table after each round still measures what is kept.
-    visited = {(int(c), tuple(axis_cycles(current, jet_axis)[c])) for c in cases}
+    search = _Search(spec, table, cases, dict(threads=threads, progress=progress,
+                                              lookup_params=lookup_params),
+                     min(spec.runs_per_case, search_runs_per_case or spec.runs_per_case))
+    search.start(baseline_runs)
     for it in range(max_iterations):
-        offending = offending_runs(runs, threshold_deg_s, cases.size)
+        trials, edits = search.candidates()
+        if trials is None:
+            break
+        search.round(it + 1, trials, edits)
+    refined = with_times(table, search.best[0], source=f"refined from {table.source or 'a table'}")
+    return RefineResult(table=refined, before=search.before, after=search.best[1],
+                        iterations=search.iterations, runs_flown=search.flown)
+
+
+class _Search:
+    """The state of one :func:`refine` search: the current table, its runs and scores per
+    searched case, the entries already flown, the best table so far (steps 2-4 of the module
+    docstring, one method each)."""
+
+    def __init__(self, spec: CampaignSpec, table: LookupTable, cases: np.ndarray, kw: dict,
+                 runs_per_case: int):
+        self.spec, self.table, self.cases, self.kw = spec, table, cases, kw
+        self.runs_per_case = runs_per_case
+        self.jet_axis = jet_axes(table)
+        self.threshold_deg_s = float(np.degrees(spec.rate_threshold_rad_s))
+        self.current = np.asarray(table.firing_time_s, float)
+        self.iterations: list = []
+        self.flown = 0
+        # Entries already flown, per case (its firing cycles per axis): a candidate that
+        # returns to one of them (the step back after a step that helped) or repeats a
+        # rejected one is not flown again.  Other entries may have changed since, which could
+        # shift the verdict slightly; the re-fly after each round measures what is kept.
+        self.visited = {(int(c), tuple(axis_cycles(self.current, self.jet_axis)[c]))
+                        for c in cases}
+
+    def _fly(self, times: np.ndarray, trial_cases: np.ndarray, desc: str) -> pd.DataFrame:
+        trials = Trials(np.repeat(times[None], trial_cases.size, axis=0), trial_cases,
+                        tuple(f"case {c + 1}: current" for c in trial_cases))
+        runs = evaluate(self.spec, self.table, trials, desc=desc,
+                        runs_per_case=self.runs_per_case, **self.kw)
+        self.flown += len(runs)
+        return runs
+
+    def start(self, baseline_runs: pd.DataFrame | None) -> None:
+        """Step 1: the table's own runs, flown or taken from the campaign that flew them."""
+        if baseline_runs is None:
+            self.runs = self._fly(self.current, self.cases, "refine: baseline")
+        else:
+            mine = baseline_runs[baseline_runs["k"] < self.runs_per_case]
+            self.runs = mine.reset_index(drop=True)
+        self.scores = trial_scores(self.runs, self.cases.size)
+        self.before = self.scores.assign(case_index=self.cases)
+        self.best = (self.current, self.before)
+
+    def candidates(self) -> tuple[Trials | None, list]:
+        """Step 2: one axis per non-robust case, one cycle shorter and longer."""
+        offending = offending_runs(self.runs, self.threshold_deg_s, self.cases.size)
         times, labels, trial_case, edits = [], [], [], []
-        for t, c in enumerate(cases):
-            if score_key(scores.iloc[t]) == (0, 0):
+        for t, c in enumerate(self.cases):
+            if score_key(self.scores.iloc[t]) == (0, 0):
                 continue
             # One axis per case and round: the one most runs fail or re-fire on (the paper's
             # yaw), before axes with a stray run or two; the next round moves on if it does
             # not help (its entries are then visited).
-            n_before = len(times)
             for a in sorted(np.flatnonzero(offending[t]), key=lambda a: -offending[t, a]):
-                if len(times) > n_before:
-                    break
-                for step in STEP_CYCLES:
-                    shift = np.zeros((len(table.case), len(AXES)), int)
-                    shift[c, a] = step
-                    try:
-                        candidate = shift_axes(current, jet_axis, shift)
-                    except ValueError:  # would leave less than a cycle: not a candidate
-                        continue
-                    state = (int(c), tuple(axis_cycles(candidate, jet_axis)[c]))
-                    if state in visited:
-                        continue
-                    visited.add(state)
+                found = self._axis_candidates(t, c, a)
+                for candidate, label, shift in found:
                     times.append(candidate)
-                    labels.append(f"case {c + 1}: {AXES[a]} {step:+d} cycle")
+                    labels.append(label)
                     trial_case.append(c)
                     edits.append((t, shift))
+                if found:
+                    break
         if not times:
-            break
-        trials = Trials(np.array(times), np.array(trial_case), tuple(labels))
-        cand_runs = evaluate(spec, table, trials, desc=f"refine: round {it + 1} candidates", **kw)
-        flown += len(cand_runs)
+            return None, []
+        return Trials(np.array(times), np.array(trial_case), tuple(labels)), edits
+
+    def _axis_candidates(self, t: int, c: int, a: int) -> list:
+        """Case ``c``'s axis ``a`` one cycle either way, the entries not flown yet."""
+        found = []
+        for step in STEP_CYCLES:
+            shift = np.zeros((len(self.table.case), len(AXES)), int)
+            shift[c, a] = step
+            try:
+                candidate = shift_axes(self.current, self.jet_axis, shift)
+            except ValueError:  # would leave less than a cycle: not a candidate
+                continue
+            state = (int(c), tuple(axis_cycles(candidate, self.jet_axis)[c]))
+            if state in self.visited:
+                continue
+            self.visited.add(state)
+            found.append((candidate, f"case {c + 1}: {AXES[a]} {step:+d} cycle", shift))
+        return found
+
+    def round(self, number: int, trials: Trials, edits: list) -> None:
+        """Steps 3-4: fly the candidates, keep each case's best if strictly better, fly the
+        changed cases again with every accepted change."""
+        cand_runs = evaluate(self.spec, self.table, trials,
+                             desc=f"refine: round {number} candidates",
+                             runs_per_case=self.runs_per_case, **self.kw)
+        self.flown += len(cand_runs)
         cand = trial_scores(cand_runs, trials.n_trials)
-        accepted = np.zeros((len(table.case), len(AXES)), int)
+        accepted = np.zeros((len(self.table.case), len(AXES)), int)
         changed = []
         for t in np.unique([e[0] for e in edits]):
             mine = [i for i, e in enumerate(edits) if e[0] == t]
             # Best candidate: fewest failures, then fewest repeated firings; first wins a tie
             # (shorter before longer, roll before yaw), so the search is deterministic.
             i = min(mine, key=lambda i: score_key(cand.iloc[i]))
-            if score_key(cand.iloc[i]) < score_key(scores.iloc[t]):
+            if score_key(cand.iloc[i]) < score_key(self.scores.iloc[t]):
                 accepted += edits[i][1]
-                changed.append(labels[i])
+                changed.append(trials.label[i])
         if not changed:
             # Nothing helped: the table and its runs stand; the next round tries the entries
             # not flown yet (other axes), and the search ends when there are none.
-            iterations.append({"round": it + 1, "candidates": trials.n_trials, "changed": []})
-            continue
-        current = shift_axes(current, jet_axis, accepted)
-        runs, scores = fly_current(current, f"refine: round {it + 1} re-fly")
-        flown += len(runs)
-        totals = scores[["failed", "repeated"]].sum()
-        iterations.append({"round": it + 1, "candidates": trials.n_trials, "changed": changed,
-                           "failed": int(totals["failed"]), "repeated": int(totals["repeated"])})
-        if total(scores) < total(best[1]):
-            best = (current, scores.assign(case_index=cases))
-    refined = with_times(table, best[0], source=f"refined from {table.source or 'a table'}")
-    return RefineResult(table=refined, before=before, after=best[1], iterations=iterations,
-                        runs_flown=flown)
+            self.iterations.append({"round": number, "candidates": trials.n_trials,
+                                    "changed": []})
+            return
+        self.current = shift_axes(self.current, self.jet_axis, accepted)
+        self._refly(np.flatnonzero(np.isin(self.cases, np.flatnonzero(accepted.any(axis=1)))),
+                    f"refine: round {number} re-fly")
+        totals = self.scores[["failed", "repeated"]].sum()
+        self.iterations.append({"round": number, "candidates": trials.n_trials,
+                                "changed": changed, "failed": int(totals["failed"]),
+                                "repeated": int(totals["repeated"])})
+        if total(self.scores) < total(self.best[1]):
+            self.best = (self.current, self.scores.assign(case_index=self.cases))
+
+    def _refly(self, positions: np.ndarray, desc: str) -> None:
+        """Fly the current table on the searched cases at ``positions`` (indices into
+        ``cases``) and replace their runs.  Only the cases whose own rows changed are flown
+        again: a row change could in principle alter another case's late correction firings,
+        which the held-out check at full size measures."""
+        fresh = self._fly(self.current, self.cases[positions], desc)
+        fresh["trial"] = positions[fresh["trial"].to_numpy()]
+        kept = self.runs[~self.runs["trial"].isin(positions)]
+        self.runs = (pd.concat([kept, fresh], ignore_index=True)
+                     .sort_values(["trial", "k"], kind="stable").reset_index(drop=True))
+        self.scores = trial_scores(self.runs, self.cases.size)
 
 
 def changed_cells(old: LookupTable, new: LookupTable) -> pd.DataFrame:

@@ -19,8 +19,10 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
+import sys
 import threading
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from contextlib import contextmanager
 from itertools import islice
 from typing import TYPE_CHECKING, Iterator
 
@@ -46,6 +48,34 @@ def worker_pool(workers: int) -> ProcessPoolExecutor:
     context.set_forkserver_preload(_PRELOAD)
     return ProcessPoolExecutor(max_workers=workers, mp_context=context,
                                initializer=_worker_init)
+
+
+@contextmanager
+def _main_script_hidden():
+    """Start workers without re-running the user's script in them.
+
+    A worker started by a fork server or by spawning re-imports the parent's ``__main__`` from
+    its file, to find functions defined there.  Chunks need nothing from it, and a script or a
+    notebook export written without the ``if __name__ == "__main__":`` guard would run its
+    whole campaign again in every worker.  Hidden only while a worker may start (a ``-m``
+    module is re-imported by name, which its own guard protects, and is left alone).
+    """
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if path is None or getattr(main, "__spec__", None) is not None:
+        yield
+        return
+    del main.__file__
+    try:
+        yield
+    finally:
+        main.__file__ = path
+
+
+def submit(pool: ProcessPoolExecutor, fn, *args) -> Future:
+    """``pool.submit(fn, *args)``; a worker it starts does not re-run the user's script."""
+    with _main_script_hidden():
+        return pool.submit(fn, *args)
 
 
 def kill_pool(pool: ProcessPoolExecutor) -> None:
@@ -84,7 +114,7 @@ def local_results(spec: CampaignSpec, chunks: Iterator[Chunk], workers: int, n_c
     try:
         while True:
             for chunk in islice(chunks, workers - len(pending)):
-                pending.add(pool.submit(simulate_chunk, spec, chunk, 1))
+                pending.add(submit(pool, simulate_chunk, spec, chunk, 1))
             if not pending:
                 finished_normally = True
                 return

@@ -67,3 +67,24 @@ def test_cli_writes_a_loadable_table_and_its_changelog(tmp_path, capsys):
     assert {"failed_fresh_before", "failed_fresh_after", "repeated_search_after"} <= set(log)
     assert (out.parent / "T_plots" / "failures_by_case.png").stat().st_size > 10_000
     assert "case  3: yaw 0.28->0.24 s" in capsys.readouterr().out
+
+
+def test_the_search_flies_the_first_runs_and_does_not_depend_on_the_split():
+    """Issue 19: the search flies runs 0..M-1 of each case (the campaign's own draws, so the
+    baseline it flies is the campaign's first M runs), and the table it returns is the same
+    whether the runs are flown in this process or by two worker processes."""
+    spec = refinement_spec(runs_per_case=16, seed=1, duration_s=8.0)
+    table = load_lookup_table(which="table6")
+    one = refine(spec, table, CASES, progress=False, threads=1, search_runs_per_case=8)
+    two = refine(spec, table, CASES, progress=False, threads=2, search_runs_per_case=8)
+    assert list(one.before["runs"]) == [8, 8]
+    np.testing.assert_array_equal(one.table.firing_time_s, two.table.firing_time_s)
+    pd.testing.assert_frame_equal(one.after, two.after)
+    assert one.iterations == two.iterations
+    # Against the campaign numbering: a 16-run campaign's first 8 runs of each case.
+    from analysis.apps.refinement.evaluate import Trials, evaluate
+
+    base = evaluate(spec, table, Trials(np.repeat(table.firing_time_s[None], 2, 0),
+                                        np.array(CASES), ("a", "b")), progress=False, threads=1)
+    first = base[base["k"] < 8].groupby("trial")["failed"].sum().to_numpy()
+    np.testing.assert_array_equal(first, one.before["failed"].to_numpy())
