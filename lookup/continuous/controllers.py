@@ -10,14 +10,29 @@ Every step ``k`` (time ``t_k``, torque held over ``[t_k, t_k + dt]``):
 * FB: the PDI of 001 Eq. (3), ``u_fb = Kp (theta_d - theta_hat) + Kd (theta_d' - omega_hat)
   + Ki int(theta_d - theta_hat) dt + w_hat x J w_hat`` per Euler angle (the decoupling term's
   sign is lost in the transcription; + cancels the gyroscopic term of Eq. 1, SOURCES.md);
-* DAI (hybrid only): the self-awareness statement ``u = Phi_d Theta_hat`` (001 Eq. 5) is
-  solved for ``Theta_hat = Theta_model + dTheta`` over every torque applied so far, weighted by
-  ``exp(-age / memory)``: ``dTheta = W^+ r`` with ``W = sum lam^(k-j) Phi_j^T Phi_j`` and
-  ``r = sum lam^(k-j) Phi_j^T (u_j - Phi_j Theta_model)`` -- the Moore-Penrose solution of the
-  stacked, weighted statements (``(A^T A)^+ A^T = A^+`` for any A), i.e. the minimum-norm
-  change of the model inertia (001 App. A.2: ``J = model + learned``) that explains the
-  applied torque along the desired trajectory.  Directions the trajectory does not excite
-  keep the model value.  The feedforward then uses ``Theta_hat``.
+* DAI (hybrid only), two readings of the papers (``docs/dai.md`` compares them):
+
+  - ``ffd+fb+dai``, the papers' (default): Smeresky & Rizzo Eqs. (9), (13),
+    ``Theta_hat = (Phi^T Phi)^-1 Phi^T delta_u`` with ``delta_u`` the *feedback correction*,
+    and the learned term ``Phi_d Theta_hat`` added to the command as "an additional control
+    input ... in addition to that of our PID algorithm" (Wilt & Sands).  The feedforward keeps
+    the model inertia.  Physically: the learned term takes over, along the trajectory's
+    regressor, the torque the feedback has been supplying -- an inertia error learned from
+    the loop's own corrections.
+  - ``ffd+fb+dai-total``, the earlier reading: the self-awareness statement
+    ``u = Phi_d Theta_hat`` (001 Eq. 5) solved over the *total* torque applied, for
+    ``Theta_hat = Theta_model + dTheta``, and the feedforward then uses ``Theta_hat``.
+    Physically: the inertia that explains everything the actuators did, feedback torque
+    that is not inertia (noise, disturbances, ringing) included.
+
+  Both solve their statements over every step so far, weighted by ``exp(-age / memory)``:
+  ``dTheta = W^+ r`` with ``W = sum lam^(k-j) Phi_j^T Phi_j`` and ``r = sum lam^(k-j)
+  Phi_j^T y_j`` (``y`` the feedback correction, or ``u - Phi Theta_model``) -- the
+  Moore-Penrose solution of the stacked, weighted statements (``(A^T A)^+ A^T = A^+`` for any
+  A); directions the trajectory does not excite are not learned.  With no memory (one
+  statement) the papers' reading is a projection, ``Phi_d Phi_d^+ u_fb``: for a yaw-only
+  trajectory that is the yaw feedback itself whenever the desired acceleration is not zero,
+  i.e. a doubled yaw feedback (``tests/lookup/test_continuous_controllers.py``).
 
 Controllers see arrays only: measured Euler angles in, commanded body torque out.
 """
@@ -36,7 +51,10 @@ from lookup.continuous.trajectory import SinusoidalTrajectory
 from models.errors import InputError
 from spacecraft.continuous.kinematics import body_rate_from_euler
 
-METHODS = ("ffd", "fb", "ffd+fb", "ffd+fb+dai")
+METHODS = ("ffd", "fb", "ffd+fb", "ffd+fb+dai", "ffd+fb+dai-total")
+#: The DAI methods and the learning law each reads from the papers (module docstring).
+DAI_LAWS = {"ffd+fb+dai": "feedback correction, added to the command (the papers')",
+            "ffd+fb+dai-total": "total torque, into the feedforward's inertia"}
 # Relative cut-off of the pseudo-inverse: singular values of W below it (unexcited inertia
 # directions; exactly zero for a single-axis trajectory) are dropped.
 PINV_RCOND = 1e-10
@@ -46,6 +64,9 @@ def dai_update(info: np.ndarray, rhs: np.ndarray, phi_d: np.ndarray, u: np.ndarr
                theta_model: np.ndarray, lam: float
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Add one self-awareness statement ``u = Phi_d (Theta_model + dTheta)`` and re-solve.
+
+    The papers' reading passes the feedback correction as ``u`` and a zero ``theta_model``
+    (the statement ``u_fb = Phi_d dTheta``).
 
     Parameters
     ----------
@@ -153,7 +174,8 @@ class ContinuousController:
         self._lam = math.exp(-config.dt_s / config.dai_memory_s)
         self._ffd = config.method != "fb"
         self._fb = config.method != "ffd"
-        self._dai = config.method == "ffd+fb+dai"
+        self._dai = config.method in DAI_LAWS
+        self._learn_total = config.method == "ffd+fb+dai-total"
 
     def initial_state(self, n_runs: int) -> ControllerState:
         z3 = np.zeros((n_runs, 3))
@@ -189,10 +211,16 @@ class ContinuousController:
         if self._ffd:
             _, w_d, wdot_d = self.trajectory.body(t_s + 0.5 * cfg.dt_s)
             phi_d = regressor(w_d, wdot_d)  # (3, 6), the same for every run
+            # Model feedforward plus the learned term Phi_d dTheta: inside the feedforward's
+            # inertia (total-torque reading) or as an added input (the papers'); the same sum.
             u = u + (self.theta_model + d_theta) @ phi_d.T
             if self._dai and np.any(phi_d):
-                info, rhs, d_theta = dai_update(info, rhs, phi_d, u, self.theta_model,
-                                                self._lam)
+                if self._learn_total:
+                    info, rhs, d_theta = dai_update(info, rhs, phi_d, u, self.theta_model,
+                                                    self._lam)
+                else:
+                    info, rhs, d_theta = dai_update(info, rhs, phi_d, u_fb,
+                                                    np.zeros_like(self.theta_model), self._lam)
         return u, ControllerState(x_hat=x_hat, integral=integral, u_prev=u,
                                   y_prev=np.asarray(euler_meas, float), info=info, rhs=rhs,
                                   d_theta=d_theta, u_fb=u_fb)

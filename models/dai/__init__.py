@@ -1,7 +1,8 @@
 """The DAI papers' spacecraft, gains, timelines, disturbances and CMGs as data (SI).
 
 Owns ``models/dai/``: ``parameters.csv`` (one value per row: group, name, value, unit, source),
-``dispersions.csv`` (the Monte Carlo uncertainties), ``dai_spacecraft.xml`` (rigid body + three
+``dispersions.csv`` (the Monte Carlo uncertainties), ``paper_figures_of_merit.csv`` (001 Tables
+6-9, the reference results), ``dai_spacecraft.xml`` (rigid body + three
 body-frame torque motors) and ``SOURCES.md`` (which table or equation each value came from and
 every reading chosen where a paper is garbled or contradicts itself).  The loaders validate
 every cell and convert to SI; a bad cell raises :class:`models.errors.InputError` naming
@@ -351,3 +352,44 @@ def load_dispersions(path: str | os.PathLike | None = None) -> dict[str, Dispers
         out[name] = Dispersion(name, dist, _number(p, i, "nominal", row["nominal"]) *
                                _UNITS[unit], bound)
     return out
+
+
+@dataclass(frozen=True)
+class PaperFigure:
+    """One row of 001 Tables 6-9 (``paper_figures_of_merit.csv``).
+
+    Attributes
+    ----------
+    table : int
+        The paper's table number (6, 7, 8; 9 for the percent improvements).
+    scenario, method : str
+        The study's scenario name and method (``"improvement"`` for Table 9).
+    mean, std, effort : float
+        Mean tracking error and its standard deviation [deg], and the "control effort"
+        column (run time [s], SOURCES.md reading 11); percentages for Table 9.
+    """
+
+    table: int
+    scenario: str
+    method: str
+    mean: float
+    std: float
+    effort: float
+
+
+def load_paper_figures(path: str | os.PathLike | None = None) -> list[PaperFigure]:
+    """001 Tables 6-9 as transcribed in ``paper_figures_of_merit.csv`` (comment lines ``#``)."""
+    p = Path(path) if path else _resource("paper_figures_of_merit.csv")
+    try:
+        lines = [line for line in p.read_text().splitlines() if not line.startswith("#")]
+    except OSError as exc:
+        raise InputError(f"{p}: cannot read it ({exc.strerror or exc})") from None
+    reader = csv.DictReader(lines)
+    missing = [c for c in ("table", "scenario", "method", "mean", "std", "effort")
+               if c not in (reader.fieldnames or ())]
+    if missing:
+        raise InputError(f"{p}: missing column(s) {', '.join(missing)}")
+    return [PaperFigure(int(_number(p, i, "table", row["table"])), row["scenario"].strip(),
+                        row["method"].strip(), *(_number(p, i, k, row[k])
+                                                  for k in ("mean", "std", "effort")))
+            for i, row in enumerate(reader, start=1)]

@@ -24,7 +24,9 @@ def register_dai(studies) -> None:
         description=(
             "Fly the 30 deg and 100 deg yaw scenarios of Wilt & Sands (nominal, with gravity "
             "gradient and drag at 150 km, with a sudden inertia change) with FFD+FB and the "
-            "hybrid FFD+FB+DAI, and the 30 deg yaw of Smeresky & Rizzo with FFD, FB and "
+            "hybrid FFD+FB+DAI in two readings of its learning law (the papers': the feedback "
+            "correction, learned and added to the command; and the total torque, learned into "
+            "the feedforward's inertia), and the 30 deg yaw of Smeresky & Rizzo with FFD, FB and "
             "FFD+FB at 0.001 s and 0.01 s, through three CMGs in MuJoCo.  Writes summary.csv "
             "(mean tracking error, its standard deviation, control effort, wall time), "
             "improvement.csv (Table 9), montecarlo.csv and the time-history plots."

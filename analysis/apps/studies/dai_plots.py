@@ -11,7 +11,8 @@ from analysis.engine.plots import new_figure
 from spacecraft.continuous.kinematics import angle_between, euler321_from_quat
 
 METHOD_LABELS = {"ffd": "FFD", "fb": "FB (PDI)", "ffd+fb": "FFD + FB",
-                 "ffd+fb+dai": "FFD + FB + DAI"}
+                 "ffd+fb+dai": "FFD + FB + DAI (learns the feedback correction)",
+                 "ffd+fb+dai-total": "FFD + FB + DAI (learns the total torque)"}
 # Floor of the log error axis [deg]: below it the errors are round-off of the attitude.
 ERROR_FLOOR_DEG = 1e-12
 
@@ -50,15 +51,19 @@ def plot_scenario(name: str, results: list, path) -> None:
 
 
 def plot_theta_hat(name: str, results: list, path) -> None:
-    """Theta_hat (the DAI's learned inertia) of the nominal run vs time, with the true Jzz."""
-    res = next(r for r in results if r.method == "ffd+fb+dai")
-    theta = res.history.telemetry["theta_hat"][0]
+    """Theta_hat (model + learned inertia) of the nominal run vs time, for each DAI reading."""
     fig, axes = new_figure(2, 3, figsize=(10.0, 5.5), sharex=True)
     labels = ("Jxx", "Jxy", "Jxz", "Jyy", "Jyz", "Jzz")
+    for res in results:
+        if "dai" not in res.method:
+            continue
+        theta = res.history.telemetry["theta_hat"][0]
+        for i, ax in enumerate(axes.ravel()):
+            ax.plot(res.history.t_s, theta[:, i], lw=1.0, label=METHOD_LABELS[res.method])
     for i, ax in enumerate(axes.ravel()):
-        ax.plot(res.history.t_s, theta[:, i], lw=1.0)
         ax.set_title(f"Theta_hat {labels[i]} [kg m^2]", fontsize=9)
         ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(fontsize=7, loc="best")
     for ax in axes[1]:
         ax.set_xlabel("time [s]")
     fig.suptitle(f"{name}: DAI self-awareness estimate (nominal run)")
