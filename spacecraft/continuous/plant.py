@@ -29,6 +29,7 @@ from spacecraft.continuous.cmg import CmgArray
 from spacecraft.continuous.disturbances import Disturbances
 from spacecraft.continuous.kinematics import euler321_from_quat
 from spacecraft.mujoco_timers import quiet_stage_timers
+from spacecraft.vehicle import route_mujoco_warnings
 
 BODY = "spacecraft"
 TORQUE_ACTUATORS = ("torque_x", "torque_y", "torque_z")
@@ -40,6 +41,7 @@ def load_dai_model(timestep_s: float) -> mujoco.MjModel:
     if not (math.isfinite(timestep_s) and timestep_s > 0):
         raise InputError(f"must be > 0, got {timestep_s}", parameter="timestep_s",
                          value=timestep_s)
+    route_mujoco_warnings()  # a diverging run's warning goes to the log, not MUJOCO_LOG.TXT
     model = mujoco.MjModel.from_xml_path(str(dai_xml()))
     model.opt.timestep = timestep_s
     return model

@@ -150,3 +150,21 @@ def test_damage_changes_inertia_at_its_time():
     np.testing.assert_allclose(np.diag(plant.inertia_B[0]), [21.0, 18.0, 58.5])
     np.testing.assert_allclose(plant.omega_B[0, 2], 0.5 / 90 + 0.5 / 58.5, rtol=1e-10)
     np.testing.assert_allclose(hist.omega_B[0, 50, 2], 0.5 / 90, rtol=1e-10)
+
+
+def test_a_diverging_run_leaves_no_mujoco_log_in_the_working_directory(tmp_path, monkeypatch):
+    """MuJoCo's warning on a blown-up state goes to the rcsim.mujoco logger, never to a
+    MUJOCO_LOG.TXT in the user's directory (as for the RCS vehicle)."""
+    import mujoco
+
+    monkeypatch.chdir(tmp_path)
+    before = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(None)  # as in a fresh process (another test may have set it)
+    try:
+        plant = ContinuousPlant(np.diag([30.0, 60.0, 90.0])[None], timestep_s=0.01)
+        plant.reset(None, None)
+        for _ in range(3):
+            plant.step(np.full((1, 3), 1e300))
+        assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+    finally:
+        mujoco.set_mju_user_warning(before)
