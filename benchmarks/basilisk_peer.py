@@ -44,7 +44,6 @@ import sys
 import time
 
 import numpy as np
-
 from Basilisk import __version__ as BSK_VERSION
 from Basilisk.architecture import messaging, sysModel
 from Basilisk.simulation import spacecraft, thrusterDynamicEffector

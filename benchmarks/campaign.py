@@ -99,8 +99,8 @@ def bench_raw(spec_path: Path) -> dict:
 
     from analysis.engine.campaign.chunk import plan_chunks
     from analysis.engine.campaign.spec import load_spec
-    from spacecraft.propulsion import PropulsionParams
     from spacecraft.flight_model import flight_model
+    from spacecraft.propulsion import PropulsionParams
     from spacecraft.vehicle import load_model
 
     spec = load_spec(spec_path)

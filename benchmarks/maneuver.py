@@ -44,7 +44,10 @@ from spacecraft.flight_model import flight_model, jet_wrench_B  # noqa: E402
 from spacecraft.mujoco_timers import quiet_stage_timers  # noqa: E402
 from spacecraft.navigation import Guidance, navigate  # noqa: E402
 from spacecraft.propulsion import (  # noqa: E402
-    PropulsionParams, PropulsionState, apply_valve_limits, duty_profile,
+    PropulsionParams,
+    PropulsionState,
+    apply_valve_limits,
+    duty_profile,
 )
 from spacecraft.simulation import simulate_batch  # noqa: E402
 from spacecraft.vehicle import VehicleParams, jet_actuator_ids, load_model  # noqa: E402

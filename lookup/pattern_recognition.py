@@ -52,7 +52,10 @@ import numpy as np
 from lookup.jet_sets import load_table_for_jets
 from models.errors import InputError
 from models.tables import (
-    CONTROL_CYCLE_S, LookupTable, load_lookup_inputs, load_lookup_table,
+    CONTROL_CYCLE_S,
+    LookupTable,
+    load_lookup_inputs,
+    load_lookup_table,
 )
 from models.tables.lookup_tables import PAPER_LOOKUP_TABLES
 from spacecraft.navigation import NavState
@@ -175,7 +178,7 @@ class LookupParams:
                 raise InputError(f"LookupParams.{name} must be >= 0, got {value}")
 
     @classmethod
-    def from_table4(cls, path: str | os.PathLike | None = None, **overrides) -> "LookupParams":
+    def from_table4(cls, path: str | os.PathLike | None = None, **overrides) -> LookupParams:
         """Table 4 inputs (packaged, or the CSV at ``path``) with keyword overrides."""
         inputs = load_lookup_inputs(path)
         base = cls(
@@ -251,7 +254,7 @@ class LookupController:
 
     @classmethod
     def from_files(cls, table: str | os.PathLike | None = None,
-                   inputs: str | os.PathLike | None = None, **overrides) -> "LookupController":
+                   inputs: str | os.PathLike | None = None, **overrides) -> LookupController:
         """Controller from a table CSV (rcsim or paper layout) and a Table 4 CSV.
 
         Parameters
@@ -284,7 +287,7 @@ class LookupController:
 
     @classmethod
     def for_runs(cls, table: LookupTable, run_times_s: np.ndarray,
-                 params: LookupParams | None = None) -> "LookupController":
+                 params: LookupParams | None = None) -> LookupController:
         """A controller in which every run flies its own firing times (candidate tables).
 
         Parameters

@@ -65,7 +65,7 @@ class PhasePlaneParams:
         params: VehicleParams | None = None,
         model: mujoco.MjModel | None = None,
         **gains,
-    ) -> "PhasePlaneParams":
+    ) -> PhasePlaneParams:
         """Gains for the (nominal) vehicle: ``a`` = pair torque / inertia per axis."""
         model = load_model() if model is None else model
         params = VehicleParams.nominal(1, model) if params is None else params.take(slice(0, 1))

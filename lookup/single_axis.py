@@ -39,8 +39,8 @@ A. Pittella and T. Sands, "Proposals for Surmounting Sensor Noises", Sensors 23 
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 

@@ -43,9 +43,13 @@ import pandas as pd
 
 from lookup.jet_sets import check_jets_off, jet_map_without
 from lookup.open_loop import OpenLoopController
-from models.errors import InputError
 from models.tables import (
-    CONTROL_CYCLE_S, LookupTable, RateCases, check_consistency, load_jet_map, load_rate_cases,
+    CONTROL_CYCLE_S,
+    LookupTable,
+    RateCases,
+    check_consistency,
+    load_jet_map,
+    load_rate_cases,
 )
 from spacecraft.navigation import Guidance, NavState
 from spacecraft.propulsion import PropulsionParams

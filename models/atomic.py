@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 #: Glob of the temporaries :func:`atomic_write` creates (and of nothing else rcsim writes).
 TEMP_GLOB = ".*.tmp"

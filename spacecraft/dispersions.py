@@ -78,7 +78,7 @@ class DispersionSigmas:
             raise ValueError(f"sigmas must be finite and >= 0, got {values}")
 
     @classmethod
-    def from_table(cls, table: pd.DataFrame, scale: float = 1.0) -> "DispersionSigmas":
+    def from_table(cls, table: pd.DataFrame, scale: float = 1.0) -> DispersionSigmas:
         """Sigmas from a :func:`models.tables.load_dispersions` frame (3-sigma, SI) times ``scale``.
 
         Raises

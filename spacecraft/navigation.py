@@ -86,13 +86,13 @@ class Guidance:
     omega_cmd_B: np.ndarray
 
     @classmethod
-    def attitude(cls, att_cmd_rad: np.ndarray) -> "Guidance":
+    def attitude(cls, att_cmd_rad: np.ndarray) -> Guidance:
         """Rest-to-rest maneuver to the rotation vector ``att_cmd_rad`` (n_runs, 3) from identity."""
         att = np.atleast_2d(np.asarray(att_cmd_rad, float))
         return cls(quat_from_rotvec(att), np.zeros_like(att))
 
     @classmethod
-    def rate(cls, omega_cmd_B: np.ndarray) -> "Guidance":
+    def rate(cls, omega_cmd_B: np.ndarray) -> Guidance:
         """Rate command (n_runs, 3) [rad/s] from the identity attitude."""
         omega = np.atleast_2d(np.asarray(omega_cmd_B, float))
         q0 = np.zeros((omega.shape[0], 4))

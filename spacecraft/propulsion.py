@@ -62,7 +62,7 @@ class PropulsionState:
     dropped: np.ndarray
 
     @classmethod
-    def zeros(cls, n_runs: int) -> "PropulsionState":
+    def zeros(cls, n_runs: int) -> PropulsionState:
         z = lambda dtype: np.zeros((n_runs, N_JETS), dtype)  # noqa: E731
         return cls(z(bool), z(np.int64), z(float), z(float), z(np.int64))
 

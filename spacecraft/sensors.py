@@ -52,7 +52,7 @@ class SensorParams:
     rate_walk_rad_s_per_sqrt_s: np.ndarray
 
     @classmethod
-    def of(cls, n_runs: int, **values) -> "SensorParams":
+    def of(cls, n_runs: int, **values) -> SensorParams:
         """Parameters broadcast to ``n_runs`` runs (scalars, per-axis rows or full arrays);
         omitted ones are zero."""
         names = [f.name for f in fields(cls)]

@@ -55,8 +55,9 @@ pure parts live in :mod:`spacecraft.pieces`, :mod:`spacecraft.valves`,
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
-from typing import Any, Callable, Protocol
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
@@ -72,11 +73,19 @@ from spacecraft.pieces import Pieces, cycle_pieces, profile_pieces
 from spacecraft.propulsion import PropulsionParams, PropulsionState, apply_valve_limits
 from spacecraft.sensors import SensorNoise, SensorParams, SensorState, measure
 from spacecraft.valves import (
-    JetFaults, ThrustProfile, ValveState, ValveTiming, command_valves, cycle_intervals,
+    JetFaults,
+    ThrustProfile,
+    ValveState,
+    ValveTiming,
+    command_valves,
+    cycle_intervals,
     end_cycle,
 )
 from spacecraft.vehicle import (
-    BODY, N_JETS, VehicleParams, load_model,
+    BODY,
+    N_JETS,
+    VehicleParams,
+    load_model,
     route_mujoco_warnings,
 )
 

@@ -72,7 +72,7 @@ class ValveTiming:
 
     @classmethod
     def of(cls, n_runs: int, *, command_delay_s=0.0, open_delay_s=0.0,
-           close_delay_s=0.0) -> "ValveTiming":
+           close_delay_s=0.0) -> ValveTiming:
         """Delays broadcast to ``n_runs`` runs (scalars, per-jet rows or full arrays)."""
         return cls(_per_run(command_delay_s, n_runs, (), "command_delay_s"),
                    _per_run(open_delay_s, n_runs, (N_JETS,), "open_delay_s"),
@@ -129,7 +129,7 @@ class JetFaults:
 
     @classmethod
     def of(cls, n_runs: int, *, off_from_s=np.inf, stuck_from_s=np.inf, stuck_for_s=0.0,
-           thrust_factor=1.0) -> "JetFaults":
+           thrust_factor=1.0) -> JetFaults:
         """Faults broadcast to ``n_runs`` runs (scalars, per-jet rows or full arrays)."""
         return cls(*(_per_run(v, n_runs, (N_JETS,), name) for name, v in (
             ("off_from_s", off_from_s), ("stuck_from_s", stuck_from_s),
@@ -204,7 +204,7 @@ class ValveState:
     was_on: np.ndarray  # (n_runs, 16): valve command on at the end of the last cycle
 
     @classmethod
-    def closed(cls, n_runs: int) -> "ValveState":
+    def closed(cls, n_runs: int) -> ValveState:
         shape = (n_runs, N_JETS, _SLOTS)
         return cls(np.full(shape, np.nan), np.full(shape, np.nan),
                    np.zeros((n_runs, N_JETS), bool))

@@ -108,7 +108,7 @@ class VehicleParams:
         return int(self.mass_kg.shape[0])
 
     @classmethod
-    def nominal(cls, n_runs: int = 1, model: mujoco.MjModel | None = None) -> "VehicleParams":
+    def nominal(cls, n_runs: int = 1, model: mujoco.MjModel | None = None) -> VehicleParams:
         """The packaged vehicle, repeated ``n_runs`` times."""
         if n_runs < 1:
             raise ValueError(f"n_runs must be >= 1, got {n_runs}")
@@ -124,7 +124,7 @@ class VehicleParams:
             jet_dir_S=rep(model.actuator_gear[jets, 0:3]),
         )
 
-    def take(self, index) -> "VehicleParams":
+    def take(self, index) -> VehicleParams:
         """The runs selected by ``index`` (slice, int array or boolean mask)."""
         index = np.atleast_1d(np.arange(self.n_runs)[index])
         return replace(

@@ -8,9 +8,9 @@ boundary only); :func:`write_flight` writes ``history.parquet`` and the paper-st
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 import pandas as pd
@@ -20,7 +20,6 @@ from spacecraft.navigation import Guidance, euler321_deg, quat_from_rotvec
 from spacecraft.propulsion import PropulsionParams
 from spacecraft.simulation import Controller, History, simulate_batch
 from spacecraft.vehicle import AXES, JET_NAMES, VehicleParams, load_model
-
 
 #: What :func:`fly_batch` passes on to the simulation besides the vehicle and the scenarios.
 EFFECT_KEYS = ("sensors", "sensor_streams", "timing", "faults", "profile")

@@ -45,7 +45,9 @@ import numpy as np
 
 from lookup.continuous.observer import observer_matrices, observer_step
 from lookup.continuous.regression import (
-    inertia_from_theta, regressor, theta_from_inertia,
+    inertia_from_theta,
+    regressor,
+    theta_from_inertia,
 )
 from lookup.continuous.trajectory import SinusoidalTrajectory
 from models.errors import InputError

@@ -6,7 +6,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from models.tables.schema import (
-    PathLike, cell_error, check_columns, integer, number, read_raw,
+    PathLike,
+    cell_error,
+    check_columns,
+    integer,
+    number,
+    read_raw,
 )
 
 

@@ -5,7 +5,14 @@ from __future__ import annotations
 import pandas as pd
 
 from models.tables.schema import (
-    SI_UNIT, UNITS, PathLike, cell_error, check_columns, number, read_raw, unit_factor,
+    SI_UNIT,
+    UNITS,
+    PathLike,
+    cell_error,
+    check_columns,
+    number,
+    read_raw,
+    unit_factor,
 )
 
 # Dispersions the vehicle model knows; other names are allowed (a campaign may add its own) but

@@ -6,7 +6,12 @@ import numpy as np
 
 from models.tables.constants import AXES, N_JETS, SIGN_COLUMNS
 from models.tables.schema import (
-    PathLike, cell_error, check_columns, index_column, number, read_raw,
+    PathLike,
+    cell_error,
+    check_columns,
+    index_column,
+    number,
+    read_raw,
 )
 
 

@@ -15,14 +15,25 @@ import numpy as np
 
 from models.atomic import atomic_write
 from models.errors import InputError
-from models.tables.constants import (
-    CONTROL_CYCLE_S, JET_COLUMNS, MAX_FIRING_TIME_S, N_CASES, N_JETS, RATE_COLUMNS,
-)
 from models.tables.consistency import check_consistency
+from models.tables.constants import (
+    CONTROL_CYCLE_S,
+    JET_COLUMNS,
+    MAX_FIRING_TIME_S,
+    N_CASES,
+    N_JETS,
+    RATE_COLUMNS,
+)
 from models.tables.jet_map import load_jet_map
 from models.tables.rate_cases import RateCases, check_rate_rows, load_rate_cases
 from models.tables.schema import (
-    PathLike, check_columns, frozen_array, index_column, number, packaged, read_raw,
+    PathLike,
+    check_columns,
+    frozen_array,
+    index_column,
+    number,
+    packaged,
+    read_raw,
 )
 
 if TYPE_CHECKING:  # importlib.resources.abc is 3.11+; only the annotation needs it
@@ -115,7 +126,7 @@ class LookupTable:
         return atomic_write(Path(path), write)
 
 
-def lookup_table_source(table: "PathLike | Traversable") -> "Path | Traversable":
+def lookup_table_source(table: PathLike | Traversable) -> Path | Traversable:
     """Where a lookup table named by ``table`` is read from.
 
     Parameters
@@ -149,7 +160,7 @@ def lookup_table_source(table: "PathLike | Traversable") -> "Path | Traversable"
 
 
 def load_lookup_table(
-    path: "PathLike | Traversable | None" = None,
+    path: PathLike | Traversable | None = None,
     *,
     which: str = "table7",
     rate_cases: RateCases | None = None,

@@ -9,11 +9,22 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.tables.constants import (
-    AXES, N_CASES, PAPER_TOTAL_RATE_DEG_S, RATE_COLUMNS, RATE_RTOL, RATE_TOTAL_MAX_DEG_S,
+    AXES,
+    N_CASES,
+    PAPER_TOTAL_RATE_DEG_S,
+    RATE_COLUMNS,
+    RATE_RTOL,
+    RATE_TOTAL_MAX_DEG_S,
     RATE_TOTAL_MIN_DEG_S,
 )
 from models.tables.schema import (
-    PathLike, cell_error, check_columns, frozen_array, index_column, number, read_raw,
+    PathLike,
+    cell_error,
+    check_columns,
+    frozen_array,
+    index_column,
+    number,
+    read_raw,
 )
 
 

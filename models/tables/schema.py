@@ -13,10 +13,11 @@ import csv
 import io
 import math
 import os
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from importlib.resources import files
 from pathlib import Path
-from typing import TYPE_CHECKING, Mapping, Sequence, Union
+from typing import TYPE_CHECKING, Union
 
 import numpy as np
 
@@ -107,12 +108,12 @@ class RawTable:
         return self.rows[i][self.header.index(column)]
 
 
-def packaged(name: str) -> "Traversable":
+def packaged(name: str) -> Traversable:
     """The installed package's own copy of data file ``name`` (``models/data/<name>``)."""
     return files("models") / "data" / name
 
 
-def read_raw(path: "PathLike | Traversable | None", default_name: str) -> RawTable:
+def read_raw(path: PathLike | Traversable | None, default_name: str) -> RawTable:
     """Read a CSV (``path``, or the packaged ``default_name`` if None) into a :class:`RawTable`.
 
     A UTF-8 byte-order mark is accepted (spreadsheet programs put one on exported CSV); blank

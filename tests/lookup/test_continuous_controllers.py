@@ -9,11 +9,16 @@ import numpy as np
 import pytest
 
 from lookup.continuous.controllers import (
-    ContinuousController, ControllerConfig, dai_update,
+    ContinuousController,
+    ControllerConfig,
+    dai_update,
 )
 from lookup.continuous.observer import error_poles, observer_matrices, observer_step
 from lookup.continuous.regression import (
-    feedforward, inertia_from_theta, regressor, theta_from_inertia,
+    feedforward,
+    inertia_from_theta,
+    regressor,
+    theta_from_inertia,
 )
 from lookup.continuous.trajectory import SinusoidalTrajectory
 from models.dai import load_setup

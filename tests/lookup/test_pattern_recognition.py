@@ -17,7 +17,11 @@ import models.tables as model_tables
 import spacecraft.vehicle as vehicle_mod
 from analysis.engine.scenarios import PaperScenario, fly_scenario, get_scenario
 from lookup.pattern_recognition import (
-    LookupController, LookupParams, LookupState, learn_jets, load_default_table,
+    LookupController,
+    LookupParams,
+    LookupState,
+    learn_jets,
+    load_default_table,
 )
 from lookup.registry import make_controller
 from models.errors import InputError

@@ -10,7 +10,12 @@ import numpy as np
 import pytest
 
 from models.dai import (
-    dai_xml, load_cmg, load_damage, load_dispersions, load_environment, load_setup,
+    dai_xml,
+    load_cmg,
+    load_damage,
+    load_dispersions,
+    load_environment,
+    load_setup,
 )
 from models.errors import InputError
 

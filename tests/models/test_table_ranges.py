@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import ast
 import csv
-import math
 import io
+import math
 import zipfile
 from importlib.resources import files
 from pathlib import Path

@@ -14,7 +14,11 @@ import pytest
 
 from models import vehicle_xml
 from spacecraft.vehicle import (
-    BODY, DIST_NAMES, JET_NAMES, dist_actuator_ids, jet_actuator_ids,
+    BODY,
+    DIST_NAMES,
+    JET_NAMES,
+    dist_actuator_ids,
+    jet_actuator_ids,
 )
 
 # The MJCF writes Table 1's decimals verbatim and MuJoCo stores them as parsed doubles; 1e-12

@@ -12,7 +12,9 @@ from scipy.integrate import solve_ivp
 from models.dai import Damage, load_cmg, load_environment
 from spacecraft.continuous.cmg import CmgArray, CmgState, determinant, jacobian, unit_momenta
 from spacecraft.continuous.disturbances import (
-    Disturbances, density_kg_m3, thermosphere_temperature_k,
+    Disturbances,
+    density_kg_m3,
+    thermosphere_temperature_k,
 )
 from spacecraft.continuous.kinematics import dcm_NB
 from spacecraft.continuous.plant import ContinuousPlant, fly

@@ -6,7 +6,11 @@ import pytest
 from models.errors import InputError
 from models.tables import load_dispersions
 from spacecraft.dispersions import (
-    DispersionSigmas, draw_runs, pointing, run_streams, standard_draws,
+    DispersionSigmas,
+    draw_runs,
+    pointing,
+    run_streams,
+    standard_draws,
 )
 from spacecraft.vehicle import VehicleParams
 

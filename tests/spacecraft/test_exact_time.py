@@ -24,10 +24,10 @@ from scipy.integrate import solve_ivp
 
 from lookup.open_loop import OpenLoopController
 from models.tables import load_jet_map
+from spacecraft.flight_model import flight_model, jet_wrench_B
 from spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat
 from spacecraft.pieces import cycle_pieces
 from spacecraft.simulation import BatchSimulation
-from spacecraft.flight_model import flight_model, jet_wrench_B
 from spacecraft.vehicle import VehicleParams, torque_per_jet_B
 
 CYCLE_S = 0.04

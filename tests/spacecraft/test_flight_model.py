@@ -19,7 +19,12 @@ from spacecraft.dispersions import DispersionSigmas, draw_runs
 from spacecraft.flight_model import WRENCH_NAMES, flight_model, jet_wrench_B
 from spacecraft.simulation import BatchSimulation
 from spacecraft.vehicle import (
-    BODY, N_JETS, VehicleParams, dist_actuator_ids, jet_actuator_ids, load_model,
+    BODY,
+    N_JETS,
+    VehicleParams,
+    dist_actuator_ids,
+    jet_actuator_ids,
+    load_model,
 )
 
 STATE_ATOL = 1e-12

@@ -24,9 +24,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from lookup.open_loop import OpenLoopController
 from lookup.pattern_recognition import LookupController, LookupParams, load_default_table
 from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
-from lookup.open_loop import OpenLoopController
 from lookup.table_generation import RateFiringLoop
 from models.errors import InputError
 from models.tables import CONTROL_CYCLE_S, load_jet_map

@@ -30,7 +30,11 @@ from models.tables import load_jet_map, load_lookup_table
 from spacecraft.navigation import Guidance
 from spacecraft.simulation import BatchSimulation
 from spacecraft.vehicle import (
-    BODY, VehicleParams, jet_actuator_ids, jet_geometry_B, torque_per_jet_B,
+    BODY,
+    VehicleParams,
+    jet_actuator_ids,
+    jet_geometry_B,
+    torque_per_jet_B,
 )
 
 ARM_M = np.array([0.812, 0.776, 0.724])  # design arms roll, pitch, yaw (README)

@@ -14,7 +14,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from spacecraft.propulsion import (
-    PropulsionParams, PropulsionState, apply_valve_limits, duty_profile,
+    PropulsionParams,
+    PropulsionState,
+    apply_valve_limits,
+    duty_profile,
 )
 
 CYCLE_S = 0.04

@@ -23,7 +23,13 @@ import pytest
 from models.errors import InputError
 from spacecraft.dispersions import DispersionSigmas, draw_runs
 from spacecraft.effect_draws import (
-    SENSOR_NOISE, FaultSpec, SensorSpec, TimingSpec, draw_faults, draw_sensors, draw_timing,
+    SENSOR_NOISE,
+    FaultSpec,
+    SensorSpec,
+    TimingSpec,
+    draw_faults,
+    draw_sensors,
+    draw_timing,
     effect_stream,
 )
 from spacecraft.navigation import Guidance

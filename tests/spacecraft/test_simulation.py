@@ -19,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
 from lookup.open_loop import OpenLoopController
+from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
 from models.tables import load_jet_map
 from spacecraft.navigation import Guidance, quat_conj, quat_mul
 from spacecraft.propulsion import PropulsionParams

@@ -59,9 +59,9 @@ def _run(args) -> int:
         inputs = [s.strip() for s in args.inputs.split(",") if s.strip()]
         if not inputs:
             raise InputError(f"names no column: {args.inputs!r}", parameter="inputs")
+    from analysis.engine.output import check_out_dir
     from analysis.results.drivers.inputs import load_runs
     from analysis.results.drivers.outputs import COMMAND, write_analysis
-    from analysis.engine.output import check_out_dir
 
     check_out_dir(args.out, COMMAND, overwrite=args.overwrite)  # before minutes of work
     runset = load_runs(args.path, inputs=inputs, outcome=args.outcome, case=args.case)

@@ -150,11 +150,10 @@ def run_generate(args: argparse.Namespace) -> int:
 def run_compare(args: argparse.Namespace) -> int:
     import pandas as pd
 
+    from lookup.jet_sets import load_table_for_jets
     from lookup.pattern_recognition import load_default_table
     from lookup.table_compare import compare_tables
     from models.tables import load_lookup_table
-
-    from lookup.jet_sets import load_table_for_jets
 
     # A table for failed jets is checked against the jets it was made for (its companion).
     table = load_default_table() if args.table is None else load_table_for_jets(args.table)[0]
@@ -168,7 +167,11 @@ def run_compare(args: argparse.Namespace) -> int:
 
 def run_refine(args: argparse.Namespace) -> int:
     from analysis.apps.refinement.outputs import (
-        check_outputs, held_out_seed, load_refinable_table, run_refinement, write_refinement,
+        check_outputs,
+        held_out_seed,
+        load_refinable_table,
+        run_refinement,
+        write_refinement,
     )
 
     table = load_refinable_table(args.table)

@@ -38,7 +38,6 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from analysis.apps.loop.run import LoopSettings, run_loop
-
     from models.tables import PAPER_LOOKUP_TABLES
 
     # A CSV path is kept absolute: a resumed loop re-reads the same file from any directory.

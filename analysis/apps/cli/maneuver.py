@@ -38,7 +38,7 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from analysis.engine.flight import Scenario, fly, flight_summary, write_flight
+    from analysis.engine.flight import Scenario, flight_summary, fly, write_flight
     from analysis.engine.output import check_out_dir
 
     if not math.isfinite(args.duration_s) or args.duration_s <= 0:

@@ -65,8 +65,8 @@ def _add_noisy_sensor(studies) -> None:
 
 def _run_noisy_sensor(args: argparse.Namespace) -> int:
     # Imported here so that `rcsim --help` does not pay for pandas and matplotlib.
-    from analysis.engine.output import check_out_dir
     from analysis.apps.studies import noisy_sensor as ns
+    from analysis.engine.output import check_out_dir
 
     cfg = ns.StudyConfig(runs=args.runs, seed=args.seed, noise_var=args.noise_var,
                          inertia_spread=args.inertia_spread)

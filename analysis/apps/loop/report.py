@@ -14,11 +14,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.engine.campaign.spec import load_spec
 from analysis.apps.refinement.outputs import most_improved_case
 from analysis.apps.refinement.search import changed_cells
+from analysis.engine.campaign.spec import load_spec
 from analysis.results.report.html import (
-    Section, figure_block, table_block, text_block, write_report,
+    Section,
+    figure_block,
+    table_block,
+    text_block,
+    write_report,
 )
 from models.tables import AXES, load_lookup_table
 

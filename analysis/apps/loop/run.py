@@ -18,16 +18,19 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from analysis.apps.refinement.outputs import (
+    check_parameters,
+    held_out_seed,
+    load_refinable_table,
+    rate_cases_campaign,
+)
+from analysis.apps.refinement.search import SEARCH_RUNS_PER_CASE
 from analysis.engine.campaign import results as campaign_results
 from analysis.engine.campaign.runner import run_campaign
 from analysis.engine.campaign.spec import load_spec
 from analysis.engine.output import check_out_dir, directory_owner, write_marker
 from models.atomic import atomic_write
 from models.errors import InputError
-from analysis.apps.refinement.search import SEARCH_RUNS_PER_CASE
-from analysis.apps.refinement.outputs import (
-    check_parameters, held_out_seed, load_refinable_table, rate_cases_campaign,
-)
 from models.tables import PAPER_LOOKUP_TABLES, load_lookup_table
 
 COMMAND = "loop"
@@ -206,15 +209,19 @@ def run_loop(settings: LoopSettings, out, *, resume: bool = False,
     echo : callable
         Receives one line per finished stage (the CLI prints them).
     """
-    from analysis.results.drivers.inputs import load_runs
-    from analysis.results.drivers.outputs import write_analysis
-    from analysis.results.drivers.pipeline import Settings, analyze
     from analysis.apps.loop.report import write_loop_report
     from analysis.apps.refinement.evaluate import runs_from_campaign
     from analysis.apps.refinement.outputs import (
-        held_out_check, load_search, refinement_spec, save_search, write_refinement,
+        held_out_check,
+        load_search,
+        refinement_spec,
+        save_search,
+        write_refinement,
     )
     from analysis.apps.refinement.search import refine
+    from analysis.results.drivers.inputs import load_runs
+    from analysis.results.drivers.outputs import write_analysis
+    from analysis.results.drivers.pipeline import Settings, analyze
 
     table = load_refinable_table(settings.table)  # a table that does not load: before any work
     out = check_loop_dir(out, resume=resume, overwrite=False)

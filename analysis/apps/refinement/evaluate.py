@@ -28,7 +28,7 @@ from analysis.engine.campaign.spec import CampaignSpec
 from analysis.engine.flight import fly_batch
 from analysis.results.scoring import trial_frame
 from lookup.pattern_recognition import LookupController, LookupParams
-from models.tables import AXES, LookupTable
+from models.tables import LookupTable
 from spacecraft.dispersions import draw_runs
 from spacecraft.vehicle import VehicleParams, load_model
 

@@ -15,16 +15,19 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from analysis.apps.refinement.evaluate import Trials, evaluate
+from analysis.apps.refinement.search import (
+    SEARCH_RUNS_PER_CASE,
+    RefineResult,
+    changed_cells,
+    refine,
+)
 from analysis.engine.campaign.outcomes import outcomes
 from analysis.engine.campaign.spec import parse_dict
 from analysis.engine.flight import fly_batch
 from analysis.engine.output import atomic_dir, check_out_dir, check_out_file
 from analysis.engine.plots import AXIS_COLORS, new_figure
-from analysis.apps.refinement.evaluate import Trials, evaluate
 from analysis.results.scoring import trial_scores
-from analysis.apps.refinement.search import (
-    SEARCH_RUNS_PER_CASE, RefineResult, changed_cells, refine,
-)
 from lookup.pattern_recognition import LookupController
 from lookup.table_edits import axis_cycles, jet_axes
 from models.atomic import atomic_write

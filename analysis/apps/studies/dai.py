@@ -33,12 +33,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.engine.output import atomic_dir, check_out_dir
 from analysis.apps.studies.dai_plots import plot_scenario, plot_theta_hat, plot_timestep
+from analysis.engine.output import atomic_dir, check_out_dir
 from lookup.continuous.controllers import DAI_LAWS, ContinuousController, ControllerConfig
 from lookup.continuous.trajectory import SinusoidalTrajectory
 from models.dai import (
-    PaperSetup, load_cmg, load_damage, load_dispersions, load_environment, load_setup,
+    PaperSetup,
+    load_cmg,
+    load_damage,
+    load_dispersions,
+    load_environment,
+    load_setup,
 )
 from models.errors import InputError
 from spacecraft.continuous.cmg import CmgArray

@@ -41,8 +41,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.engine.output import atomic_dir
 from analysis.apps.studies.noisy_sensor_plots import plot_scatter
+from analysis.engine.output import atomic_dir
 from lookup.single_axis import ARCHITECTURES, Architecture
 from models.errors import InputError
 from spacecraft.dispersions import run_generators

@@ -8,17 +8,19 @@ is what a Dask worker imports; it writes nothing.
 from __future__ import annotations
 
 import threading
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Iterator
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
+from analysis.engine.campaign.effects import adapt_options, draw_effects
+from analysis.engine.campaign.limits import HISTORY_BUDGET_BYTES
+
 # firing_starts is re-exported only for old import paths (no in-tree importer is left; to be
 # dropped once the lead confirms).
 from analysis.engine.campaign.outcomes import axis_jets, firing_starts, outcomes  # noqa: F401
-from analysis.engine.campaign.effects import adapt_options, draw_effects
-from analysis.engine.campaign.limits import HISTORY_BUDGET_BYTES
 from analysis.engine.runs_table import check_run_frame, input_frame, missing_outcomes
 from spacecraft.dispersions import DispersedRuns, draw_runs
 from spacecraft.guards import history_bytes

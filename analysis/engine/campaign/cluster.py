@@ -8,13 +8,12 @@ traceback per worker.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import contextlib
 import logging
 import signal
 import threading
 from itertools import islice
+from typing import TYPE_CHECKING
 
 from analysis.engine.campaign.chunk import simulate_chunk
 from models.errors import InputError

@@ -26,7 +26,13 @@ import pandas as pd
 from analysis.engine.runs_table import effect_frame_of
 from models.errors import InputError
 from spacecraft.effect_draws import (
-    FAULT_MODES, FaultSpec, SensorSpec, TimingSpec, draw_faults, draw_sensors, draw_timing,
+    FAULT_MODES,
+    FaultSpec,
+    SensorSpec,
+    TimingSpec,
+    draw_faults,
+    draw_sensors,
+    draw_timing,
     effect_frame,
 )
 from spacecraft.vehicle import N_JETS

@@ -28,8 +28,8 @@ def max_duration_s(measured: bool = False, delivered: bool = False) -> float:
     """Longest run a campaign flies [s]: one run's per-cycle record within a chunk's budget
     (``measured``, ``delivered``: with the records of imperfect sensors and of valve timing or
     faults, :func:`spacecraft.guards.history_bytes`)."""
-    from spacecraft.guards import history_bytes
     from models.tables import CONTROL_CYCLE_S
+    from spacecraft.guards import history_bytes
 
     # history_bytes(1, 1): one run's record of one cycle, with its share of the time column;
     # campaigns fly the paper's cycle (CampaignSpec.cycle_s).
@@ -54,8 +54,7 @@ def physical_limits() -> dict:
         (the CG must stay inside the jet layout).
     """
     if not _LIMITS:
-        from spacecraft.vehicle import (VehicleParams, jet_geometry_B, load_model,
-                                              torque_per_jet_B)
+        from spacecraft.vehicle import VehicleParams, jet_geometry_B, load_model, torque_per_jet_B
 
         model = load_model()
         nom = VehicleParams.nominal(1, model)

@@ -8,9 +8,8 @@
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -89,7 +88,6 @@ def plot_summary(runs: pd.DataFrame, cases: pd.DataFrame, path: Path, *, title: 
 
 def plot_campaign(out: Path, spec: CampaignSpec) -> list[Path]:
     """All plots of a finished campaign directory into ``out/plots``."""
-    from analysis.engine.campaign import results as R
 
     folder = out / runs_table.PLOTS
     folder.mkdir(exist_ok=True)

@@ -67,7 +67,7 @@ class Reader:
             raise self.error(name, "must be a list of 3 finite numbers", value)
         return [float(v) for v in value]
 
-    def table_(self, name: str) -> "Reader":
+    def table_(self, name: str) -> Reader:
         return Reader(self.table.pop(name, {}), self.key(name), self.source)
 
     def done(self) -> None:

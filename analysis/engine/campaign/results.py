@@ -23,8 +23,8 @@ import os
 import platform
 import subprocess
 import sys
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable
 
 import numpy as np
 import pandas as pd
@@ -32,14 +32,21 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from analysis.engine.runs_table import (
-    CASES, CHUNKS, ENVELOPES, HISTORIES, MANIFEST, PLOTS, RUN_NAMES, RUNS,
+    CASES,
+    CHUNKS,
+    ENVELOPES,
+    HISTORIES,
+    MANIFEST,
+    PLOTS,
+    RUN_NAMES,
+    RUNS,
 )
 from models.atomic import atomic_write, remove_temporaries
 from spacecraft.vehicle import AXES
 
 
 def now_utc() -> str:
-    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
 
 
 def write_frame(frame: pd.DataFrame, path: Path) -> None:

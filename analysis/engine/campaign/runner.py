@@ -38,14 +38,14 @@ from pathlib import Path
 
 from analysis.engine import runs_table
 from analysis.engine.campaign import results as R
-from analysis.engine.campaign.chunk import iter_chunks, simulate_chunk
+from analysis.engine.campaign.chunk import iter_chunks
 from analysis.engine.campaign.cluster import close, connect, dask_results
 from analysis.engine.campaign.effects import describe
-from analysis.engine.campaign.local import local_results
 from analysis.engine.campaign.gate import GateResult, judge
+from analysis.engine.campaign.local import local_results
 from analysis.engine.campaign.spec import CampaignSpec
-from analysis.engine.runs_table import ALL_COLUMNS
 from analysis.engine.output import check_out_dir, write_marker
+from analysis.engine.runs_table import ALL_COLUMNS
 from models.errors import InputError
 
 COMMAND = "campaign run"  # recorded in the directory's marker (analysis.engine.output)

@@ -30,8 +30,12 @@ import numpy as np
 
 from analysis.engine.campaign.effects import Effects, parse_effects
 from analysis.engine.campaign.gate import check_max_failed_pct, max_failed_pct_problem
-from analysis.engine.campaign.limits import (MAX_INITIAL_RATE_DEG_S, check_three_sigma,
-                                            max_duration_s, physical_limits)
+from analysis.engine.campaign.limits import (
+    MAX_INITIAL_RATE_DEG_S,
+    check_three_sigma,
+    max_duration_s,
+    physical_limits,
+)
 from analysis.engine.campaign.reader import Reader, file_digest, file_key
 from analysis.engine.flight import Scenario
 from lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
@@ -146,14 +150,14 @@ class CampaignSpec:
         """SHA-256 of the resolved spec: equal digests fly equal runs."""
         return hashlib.sha256(json.dumps(self.resolved, sort_keys=True).encode()).hexdigest()
 
-    def with_runs_per_case(self, n: int) -> "CampaignSpec":
+    def with_runs_per_case(self, n: int) -> CampaignSpec:
         """The same campaign with ``n`` runs per case (what the CLI's ``--runs-per-case`` sets)."""
         resolved = dict(self.resolved, runs_per_case=n)
         spec = parse_dict(resolved, source=f"{self.source} with runs_per_case={n}",
                           base_dir=None)
         return dataclasses.replace(spec, max_failed_pct=self.max_failed_pct)
 
-    def with_max_failed_pct(self, pct) -> "CampaignSpec":
+    def with_max_failed_pct(self, pct) -> CampaignSpec:
         """The same campaign under the failure gate ``pct`` (overrides the spec's).
 
         Raises

@@ -14,10 +14,17 @@ outputs).  Imports ``analysis.engine.flight``/``plots``/``output`` and the layer
 Must not import: analysis.engine.campaign.
 """
 from analysis.engine.scenarios.catalog import (
-    PaperScenario, all_scenarios, get_scenario, scenario_names,
+    PaperScenario,
+    all_scenarios,
+    get_scenario,
+    scenario_names,
 )
 from analysis.engine.scenarios.flying import (
-    compare_controllers, comparison_markdown, fly_scenario, scenario_metrics, settled_time,
+    compare_controllers,
+    comparison_markdown,
+    fly_scenario,
+    scenario_metrics,
+    settled_time,
     summarize,
 )
 from analysis.engine.scenarios.outputs import write_scenario

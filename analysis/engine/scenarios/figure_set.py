@@ -15,7 +15,10 @@ from analysis.engine.plots import plot_attitude_error, plot_axes_jets
 from analysis.engine.scenarios.catalog import get_scenario
 from analysis.engine.scenarios.flying import fly_scenario
 from analysis.engine.scenarios.plots import (
-    plot_hold, plot_runs_rates, plot_sweep_case, plot_table_heatmap,
+    plot_hold,
+    plot_runs_rates,
+    plot_sweep_case,
+    plot_table_heatmap,
 )
 from lookup.table_generation import generate_table
 

@@ -13,7 +13,10 @@ from analysis.engine.output import atomic_dir, check_out_dir
 from analysis.engine.scenarios.catalog import PaperScenario, get_scenario
 from analysis.engine.scenarios.figure_set import write_figure_set
 from analysis.engine.scenarios.flying import (
-    compare_controllers, comparison_markdown, scenario_metrics, summarize,
+    compare_controllers,
+    comparison_markdown,
+    scenario_metrics,
+    summarize,
 )
 from analysis.engine.scenarios.plots import plot_scenario
 from spacecraft.simulation import History

@@ -15,7 +15,11 @@ import numpy as np
 
 from analysis.engine.flight import history_frame
 from analysis.engine.plots import (
-    AXIS_COLORS, new_figure, plot_attitude_error, plot_rates_and_jets, signed_jets,
+    AXIS_COLORS,
+    new_figure,
+    plot_attitude_error,
+    plot_rates_and_jets,
+    signed_jets,
 )
 from models.tables import CONTROL_CYCLE_S
 

@@ -94,7 +94,7 @@ class Strata:
     take: np.ndarray
 
     @classmethod
-    def build(cls, strata: np.ndarray, minority: np.ndarray) -> "Strata":
+    def build(cls, strata: np.ndarray, minority: np.ndarray) -> Strata:
         labels, inverse = np.unique(strata, return_inverse=True)
         size = np.bincount(inverse, minlength=labels.size)
         take = np.bincount(inverse, weights=minority.astype(float), minlength=labels.size)

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis.results.drivers.pipeline import DriverResults
 from analysis.engine.output import atomic_dir
 from analysis.results.drivers import report_sections as sections
+from analysis.results.drivers.pipeline import DriverResults
 from analysis.results.report.html import build_report
 
 DRIVER_COLUMNS = ["factor", "score", "p_value", "rank", "failure_region", "region_fail_share",

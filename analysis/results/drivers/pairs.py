@@ -15,7 +15,13 @@ import pandas as pd
 
 from analysis.results.drivers.base import as_rng, check_xy, minority_of
 from analysis.results.drivers.kde import (
-    N_BINS_2D, BinnedTV, Strata, bandwidth, bin_codes, permutation_test, rank_scale,
+    N_BINS_2D,
+    BinnedTV,
+    Strata,
+    bandwidth,
+    bin_codes,
+    permutation_test,
+    rank_scale,
 )
 from analysis.results.drivers.single import SingleFactorKDE, _ranks
 

@@ -21,7 +21,6 @@ from analysis.results.drivers.single import SingleFactorKDE
 from analysis.results.drivers.stability import HalfSampleStability
 from models.errors import InputError
 
-
 #: Fewest label permutations accepted: with B permutations the smallest p-value is 1/(B+1).
 MIN_PERMUTATIONS = 19
 

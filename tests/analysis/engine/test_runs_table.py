@@ -10,7 +10,11 @@ import numpy as np
 import pytest
 
 from analysis.engine.runs_table import (
-    INPUT_NAMES, MANIFEST, input_frame, is_campaign, vehicles_from_runs,
+    INPUT_NAMES,
+    MANIFEST,
+    input_frame,
+    is_campaign,
+    vehicles_from_runs,
 )
 from models.tables import load_dispersions
 from spacecraft.dispersions import DispersionSigmas, draw_runs

@@ -13,8 +13,13 @@ import pytest
 
 from analysis.apps.cli import main
 from analysis.engine.scenarios import (
-    all_scenarios, comparison_markdown, compare_controllers, fly_scenario, get_scenario,
-    scenario_metrics, settled_time,
+    all_scenarios,
+    compare_controllers,
+    comparison_markdown,
+    fly_scenario,
+    get_scenario,
+    scenario_metrics,
+    settled_time,
 )
 from lookup.pattern_recognition import load_default_table
 from models.errors import InputError

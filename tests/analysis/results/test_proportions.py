@@ -11,7 +11,11 @@ import pytest
 from scipy import stats
 
 from analysis.results.proportions import (
-    clopper_pearson, mcnemar_exact, runs_to_bound, upper_bound, wilson,
+    clopper_pearson,
+    mcnemar_exact,
+    runs_to_bound,
+    upper_bound,
+    wilson,
 )
 
 

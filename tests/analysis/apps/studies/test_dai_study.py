@@ -10,7 +10,11 @@ import pytest
 
 from analysis.apps.cli.study_dai import SCENARIO_NAMES, register_dai
 from analysis.apps.studies.dai import (
-    SCENARIOS, SUMMARY_COLUMNS, improvement_table, run_dai_study, run_method,
+    SCENARIOS,
+    SUMMARY_COLUMNS,
+    improvement_table,
+    run_dai_study,
+    run_method,
 )
 from models.errors import InputError
 

@@ -9,8 +9,8 @@ import pandas as pd
 import pytest
 from scipy.integrate import quad, solve_ivp
 
-from analysis.apps.studies import noisy_sensor as ns
 from analysis.apps.cli import main
+from analysis.apps.studies import noisy_sensor as ns
 from lookup import single_axis as sa
 from models.errors import InputError
 

@@ -13,9 +13,9 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from analysis.engine.campaign.gate import GateResult, check_max_failed_pct, judge
 from analysis.apps.cli import main
 from analysis.apps.cli.campaign import GATE_FAILED
+from analysis.engine.campaign.gate import GateResult, check_max_failed_pct, judge
 from models.errors import InputError
 
 # The paper's Table 6 in two yaw-coupled three-axis cases (3, 20), where Gambone's Fig 9 and

@@ -8,12 +8,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-from analysis.engine.campaign import limits as limits_mod
 import pandas as pd
 import pytest
 
 from analysis.engine.campaign import chunk as chunk_mod
+from analysis.engine.campaign import limits as limits_mod
 from analysis.engine.campaign.outcomes import firing_starts
 from analysis.engine.campaign.runner import run_campaign
 from analysis.engine.campaign.spec import load_spec
@@ -279,8 +278,8 @@ def test_long_runs_get_chunks_within_the_history_budget(tmp_path):
 def test_progress_phases_and_the_flying_rate(tmp_path, capsys):
     """With progress: a bar for flying and for assembling, a status line for plotting; the
     runs/s of the summary is over the flying time alone (plots take time after it)."""
-    from analysis.engine.campaign.runner import summary_text
     from analysis.apps.cli import main
+    from analysis.engine.campaign.runner import summary_text
 
     spec = load_spec(_spec(tmp_path, plots="true"))
     report = run_campaign(spec, tmp_path / "out", local_workers=2, progress=True)

@@ -4,8 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from analysis.engine.campaign.spec import EXAMPLE_SPEC, load_spec
 from analysis.apps.cli import main
+from analysis.engine.campaign.spec import EXAMPLE_SPEC, load_spec
 from models.errors import InputError
 from spacecraft.guards import history_bytes
 

@@ -8,9 +8,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from analysis.engine import runs_table as schema
 from analysis.engine.campaign import chunk as chunk_mod
 from analysis.engine.campaign import results as R
-from analysis.engine import runs_table as schema
 from analysis.engine.campaign.runner import run_campaign
 from analysis.engine.campaign.spec import load_spec
 

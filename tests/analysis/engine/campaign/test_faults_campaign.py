@@ -6,17 +6,16 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
-
-from analysis.engine.campaign import limits as limits_mod
 import pandas as pd
 import pytest
 
+from analysis.apps.cli import main
 from analysis.engine.campaign import chunk as chunk_mod
+from analysis.engine.campaign import limits as limits_mod
 from analysis.engine.campaign.replay import replay
 from analysis.engine.campaign.runner import run_campaign
-from analysis.engine.runs_table import EFFECT_COLUMNS, INPUT_NAMES, OUTCOME_NAMES
 from analysis.engine.campaign.spec import load_spec, parse_dict
-from analysis.apps.cli import main
+from analysis.engine.runs_table import EFFECT_COLUMNS, INPUT_NAMES, OUTCOME_NAMES
 from models.errors import InputError
 from spacecraft.guards import history_bytes
 

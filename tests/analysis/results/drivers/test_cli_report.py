@@ -25,9 +25,9 @@ def campaign(tmp_path_factory, model):
     campaign is analysed in docs/drivers.md."""
     import json
 
+    from analysis.engine.runs_table import input_frame
     from analysis.results.drivers.factors import fire_signs, physics_factors
     from models.tables import load_dispersions
-    from analysis.engine.runs_table import input_frame
     from spacecraft.dispersions import DispersionSigmas, draw_runs
     from spacecraft.vehicle import VehicleParams
 
