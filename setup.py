@@ -6,7 +6,9 @@ It is optional: without a C compiler the build skips it and rcsim runs with MuJo
 timers.  Declared here rather than in pyproject.toml because setuptools still calls its
 ``ext-modules`` table experimental and warns on every install.
 """
+
 from setuptools import Extension, setup
 
-setup(ext_modules=[Extension("spacecraft._zero_clock", ["spacecraft/_zero_clock.c"],
-                             optional=True)])
+setup(
+    ext_modules=[Extension("spacecraft._zero_clock", ["spacecraft/_zero_clock.c"], optional=True)]
+)

@@ -32,6 +32,7 @@ Usage::
 
     python benchmarks/basilisk_peer.py [--runs 100] [--repeat 3] [--json FILE]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -60,14 +61,22 @@ THRUST_N = 22.24
 # (position in B [m], unit force direction on the vehicle in B), jets 1..16, copied from the
 # <site> elements of models/vehicle/vehicle.xml (zaxis = force direction).
 JETS = (
-    ((1.41, 0.812, 0.0), (0, 0, -1)), ((1.41, 0.812, 0.0), (0, 0, 1)),     # 1, 2 roll
-    ((1.41, -0.812, 0.0), (0, 0, 1)), ((1.41, -0.812, 0.0), (0, 0, -1)),   # 3, 4 roll
-    ((0.41, 0.0, 0.0), (1, 0, 0)), ((2.41, 0.0, 0.0), (-1, 0, 0)),         # 5, 6 translation
-    ((1.41, 0.0, -1.0), (0, 0, 1)), ((1.41, 0.0, 1.0), (0, 0, -1)),        # 7, 8 translation
-    ((1.41, 0.0, 0.776), (-1, 0, 0)), ((1.41, 0.0, 0.776), (1, 0, 0)),     # 9, 10 pitch
-    ((1.41, 0.0, -0.776), (1, 0, 0)), ((1.41, 0.0, -0.776), (-1, 0, 0)),   # 11, 12 pitch
-    ((2.134, 0.0, 0.0), (0, -1, 0)), ((2.134, 0.0, 0.0), (0, 1, 0)),       # 13, 14 yaw
-    ((0.686, 0.0, 0.0), (0, 1, 0)), ((0.686, 0.0, 0.0), (0, -1, 0)),       # 15, 16 yaw
+    ((1.41, 0.812, 0.0), (0, 0, -1)),
+    ((1.41, 0.812, 0.0), (0, 0, 1)),  # 1, 2 roll
+    ((1.41, -0.812, 0.0), (0, 0, 1)),
+    ((1.41, -0.812, 0.0), (0, 0, -1)),  # 3, 4 roll
+    ((0.41, 0.0, 0.0), (1, 0, 0)),
+    ((2.41, 0.0, 0.0), (-1, 0, 0)),  # 5, 6 translation
+    ((1.41, 0.0, -1.0), (0, 0, 1)),
+    ((1.41, 0.0, 1.0), (0, 0, -1)),  # 7, 8 translation
+    ((1.41, 0.0, 0.776), (-1, 0, 0)),
+    ((1.41, 0.0, 0.776), (1, 0, 0)),  # 9, 10 pitch
+    ((1.41, 0.0, -0.776), (1, 0, 0)),
+    ((1.41, 0.0, -0.776), (-1, 0, 0)),  # 11, 12 pitch
+    ((2.134, 0.0, 0.0), (0, -1, 0)),
+    ((2.134, 0.0, 0.0), (0, 1, 0)),  # 13, 14 yaw
+    ((0.686, 0.0, 0.0), (0, 1, 0)),
+    ((0.686, 0.0, 0.0), (0, -1, 0)),  # 15, 16 yaw
 )
 N_JETS = len(JETS)
 
@@ -108,7 +117,11 @@ def draw_params(run: int | None) -> dict:
     vehicles run for run.
     """
     if run is None:
-        return {"mass": MASS_KG, "inertia": np.array(INERTIA_B), "thrust": np.full(N_JETS, THRUST_N)}
+        return {
+            "mass": MASS_KG,
+            "inertia": np.array(INERTIA_B),
+            "thrust": np.full(N_JETS, THRUST_N),
+        }
     np.random.seed(10 * run)
     return _draw()
 
@@ -179,8 +192,9 @@ def build_sim(dt_s: float, params: dict, on_s: np.ndarray = CASE26_ON_S, fsw: st
 
     factory = simIncludeThruster.thrusterFactory()
     for (r, d), f in zip(JETS, params["thrust"]):
-        th = factory.create("MOOG_Monarc_1", r, np.asarray(d, float), MaxThrust=float(f),
-                            useMinPulseTime=False)
+        th = factory.create(
+            "MOOG_Monarc_1", r, np.asarray(d, float), MaxThrust=float(f), useMinPulseTime=False
+        )
         th.updateOnly = True  # no mass-depletion (jet damping) terms: rcsim has none
     thrusters = thrusterDynamicEffector.ThrusterDynamicEffector()
     factory.addToSpacecraft("jets", thrusters, sc)
@@ -312,20 +326,35 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="timings repeated, median reported")
     ap.add_argument("--steps", type=float, nargs="+", default=[0.04, 0.001])
     ap.add_argument("--procs", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--fsw", choices=("python", "none"), default="python",
-                    help="on-times from a Python module every 40 ms cycle, or one message "
-                         "written before the run (no flight software)")
-    ap.add_argument("--methods", nargs="+", choices=("controller", "loop"),
-                    default=["controller", "loop"])
+    ap.add_argument(
+        "--fsw",
+        choices=("python", "none"),
+        default="python",
+        help="on-times from a Python module every 40 ms cycle, or one message "
+        "written before the run (no flight software)",
+    )
+    ap.add_argument(
+        "--methods", nargs="+", choices=("controller", "loop"), default=["controller", "loop"]
+    )
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args(argv)
 
     sim_s = args.runs * DURATION_S
-    out = {"bsk_version": BSK_VERSION, "python": platform.python_version(),
-           "numpy": np.__version__, "cpus": mp.cpu_count(), "runs": args.runs,
-           "duration_s": DURATION_S, "repeat": args.repeat, "fsw": args.fsw, "steps": {}}
-    print(f"Basilisk {BSK_VERSION}, Python {platform.python_version()}, {mp.cpu_count()} CPUs; "
-          f"{args.runs} runs x {DURATION_S:g} s, median of {args.repeat}; flight software: {args.fsw}")
+    out = {
+        "bsk_version": BSK_VERSION,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "cpus": mp.cpu_count(),
+        "runs": args.runs,
+        "duration_s": DURATION_S,
+        "repeat": args.repeat,
+        "fsw": args.fsw,
+        "steps": {},
+    }
+    print(
+        f"Basilisk {BSK_VERSION}, Python {platform.python_version()}, {mp.cpu_count()} CPUs; "
+        f"{args.runs} runs x {DURATION_S:g} s, median of {args.repeat}; flight software: {args.fsw}"
+    )
     print(f"{'step':>6} {'method':<24} {'wall s':>8} {'sim-s/wall-s':>13}")
     for dt in args.steps:
         entry = {"timing": {}}
@@ -349,8 +378,11 @@ def main(argv=None) -> int:
                         results = results or res
                 wall = statistics.median(walls)
                 name = f"{method}, {n_proc} proc"
-                entry["timing"][name] = {"wall_s": walls, "median_wall_s": wall,
-                                         "sim_s_per_wall_s": sim_s / wall}
+                entry["timing"][name] = {
+                    "wall_s": walls,
+                    "median_wall_s": wall,
+                    "sim_s_per_wall_s": sim_s / wall,
+                }
                 print(f"{dt * 1e3:4g}ms {name:<24} {wall:8.2f} {sim_s / wall:13.0f}", flush=True)
         if results is None:
             # Only multi-process Controller runs were timed: their final states stay in the
@@ -364,8 +396,10 @@ def main(argv=None) -> int:
     for dt, entry in out["steps"].items():
         acc = entry["accuracy"]
         nom = ", ".join(f"{e:+.2e}" for e in acc["nominal_impulse_rel_err_xyz"])
-        print(f"{float(dt) * 1e3:4g}ms case 26 nominal [{nom}]  dispersed max |err| "
-              f"{acc['dispersed_max_abs_rel_err']:.2e}  12 ms pulse {acc['probe_12ms_rel_err']:+.3f}")
+        print(
+            f"{float(dt) * 1e3:4g}ms case 26 nominal [{nom}]  dispersed max |err| "
+            f"{acc['dispersed_max_abs_rel_err']:.2e}  12 ms pulse {acc['probe_12ms_rel_err']:+.3f}"
+        )
     if args.json:
         with open(args.json, "w") as f:
             json.dump(out, f, indent=1)

@@ -28,6 +28,7 @@ Usage::
 
 Timings are wall-clock on a shared machine: run it on an idle one for numbers to quote.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -66,8 +67,15 @@ plots = {plots}
 
 def _spec_file(folder: Path, *, runs, chunk, duration, controller="lookup", plots=False) -> Path:
     path = folder / f"spec-{runs}-{chunk}-{duration}-{controller}.toml"
-    path.write_text(SPEC.format(runs=runs, chunk=chunk, duration=duration, controller=controller,
-                                plots=str(plots).lower()))
+    path.write_text(
+        SPEC.format(
+            runs=runs,
+            chunk=chunk,
+            duration=duration,
+            controller=controller,
+            plots=str(plots).lower(),
+        )
+    )
     return path
 
 
@@ -77,11 +85,14 @@ def bench_campaign(folder: Path, spec_path: Path, name: str, **kw) -> dict:
 
     spec = load_spec(spec_path)
     report = run_campaign(spec, folder / name, progress=False, **kw)
-    return {"runs": report.runs_flown, "wall_s": report.wall_s,
-            "fly_s": report.fly_s,
-            # runs/s over the flying alone (start-up, assembly and plots are in wall_s).
-            "runs_per_s": report.runs_flown / report.fly_s,
-            "sim_s_per_s": report.simulated_s / report.fly_s}
+    return {
+        "runs": report.runs_flown,
+        "wall_s": report.wall_s,
+        "fly_s": report.fly_s,
+        # runs/s over the flying alone (start-up, assembly and plots are in wall_s).
+        "runs_per_s": report.runs_flown / report.fly_s,
+        "sim_s_per_s": report.simulated_s / report.fly_s,
+    }
 
 
 def bench_raw(spec_path: Path) -> dict:
@@ -115,8 +126,9 @@ def bench_raw(spec_path: Path) -> dict:
         batch = Batch(model, n, nthread)
         batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
         control = np.zeros((n, nstep, model.nu))
-        batch.rollout(nstep, control=control, control_spec=int(mujoco.mjtState.mjSTATE_CTRL),
-                      record=())
+        batch.rollout(
+            nstep, control=control, control_spec=int(mujoco.mjtState.mjSTATE_CTRL), record=()
+        )
         return n * nstep * model.opt.timestep
 
     out = {}
@@ -161,34 +173,68 @@ def bench_single_core(spec_path: Path, n: int = 256, repeats: int = 3) -> dict:
         batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
         control = np.zeros((n, nstep, model.nu))
         t0 = time.perf_counter()
-        batch.rollout(nstep, control=control, control_spec=int(mujoco.mjtState.mjSTATE_CTRL),
-                      record=())
+        batch.rollout(
+            nstep, control=control, control_spec=int(mujoco.mjtState.mjSTATE_CTRL), record=()
+        )
         best_raw = min(best_raw, time.perf_counter() - t0)
-    return {"runs": n, "chunk_sim_s_per_s": n * duration / best_chunk,
-            "raw_sim_s_per_s": n * duration / best_raw, "ratio": best_raw / best_chunk}
+    return {
+        "runs": n,
+        "chunk_sim_s_per_s": n * duration / best_chunk,
+        "raw_sim_s_per_s": n * duration / best_raw,
+        "ratio": best_raw / best_chunk,
+    }
 
 
 def bench_memory(folder: Path, runs_total: int, duration: float, chunk: int) -> dict:
     """Peak RSS of a separate ``rcsim campaign run`` process (summary-only, short runs)."""
     runs = max(1, round(runs_total / 26))
-    spec = _spec_file(folder, runs=runs, chunk=chunk, duration=duration, controller="lookup",
-                      plots=True)
+    spec = _spec_file(
+        folder, runs=runs, chunk=chunk, duration=duration, controller="lookup", plots=True
+    )
     out = folder / f"mem-{runs_total}"
-    code = ("import resource, sys; from analysis.apps.cli import main; rc = main(sys.argv[1:]); "
-            "print('MAXRSS_KB', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss); sys.exit(rc)")
+    code = (
+        "import resource, sys; from analysis.apps.cli import main; rc = main(sys.argv[1:]); "
+        "print('MAXRSS_KB', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss); sys.exit(rc)"
+    )
     t0 = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-c", code, "campaign", "run", str(spec), "--out",
-                           str(out), "--no-progress"], capture_output=True, text=True, cwd=ROOT)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            code,
+            "campaign",
+            "run",
+            str(spec),
+            "--out",
+            str(out),
+            "--no-progress",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
         raise RuntimeError(proc.stderr)
     rss_kb = int(proc.stdout.split("MAXRSS_KB")[1].split()[0])
-    return {"runs": runs * 26, "duration_s": duration, "wall_s": wall,
-            "peak_rss_mb": rss_kb / 1024, "runs_per_s": runs * 26 / wall}
+    return {
+        "runs": runs * 26,
+        "duration_s": duration,
+        "wall_s": wall,
+        "peak_rss_mb": rss_kb / 1024,
+        "runs_per_s": runs * 26 / wall,
+    }
 
 
-def bench_interrupt(folder: Path, extra: list[str], repeats: int, *, runs: int = 8,
-                    chunk: int = 50, duration: float = 20.0) -> dict:
+def bench_interrupt(
+    folder: Path,
+    extra: list[str],
+    repeats: int,
+    *,
+    runs: int = 8,
+    chunk: int = 50,
+    duration: float = 20.0,
+) -> dict:
     """Seconds from Ctrl-C to the exit of ``rcsim campaign run`` (``extra``: its options).
 
     The 26 cases x ``runs`` runs of ``duration`` s in ``chunk``-run chunks: many chunks, each
@@ -198,10 +244,26 @@ def bench_interrupt(folder: Path, extra: list[str], repeats: int, *, runs: int =
     seconds, codes = [], []
     for k in range(repeats):
         out = folder / f"interrupt-{'-'.join(extra) or 'local'}-{k}"
-        cli = [sys.executable, "-m", "rcsim", "campaign", "run", str(spec),
-               "--out", str(out), "--no-progress", *extra]
-        proc = subprocess.Popen(cli, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                text=True, start_new_session=True, cwd=ROOT)
+        cli = [
+            sys.executable,
+            "-m",
+            "rcsim",
+            "campaign",
+            "run",
+            str(spec),
+            "--out",
+            str(out),
+            "--no-progress",
+            *extra,
+        ]
+        proc = subprocess.Popen(
+            cli,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+            start_new_session=True,
+            cwd=ROOT,
+        )
         try:
             deadline = time.monotonic() + 300
             while proc.poll() is None and time.monotonic() < deadline:
@@ -219,9 +281,13 @@ def bench_interrupt(folder: Path, extra: list[str], repeats: int, *, runs: int =
             if proc.poll() is None:
                 os.killpg(proc.pid, signal.SIGKILL)
                 proc.wait()
-    return {"repeats": repeats, "exit_codes": sorted(set(codes)),
-            "median_s": statistics.median(seconds), "max_s": max(seconds),
-            "seconds": seconds}
+    return {
+        "repeats": repeats,
+        "exit_codes": sorted(set(codes)),
+        "median_s": statistics.median(seconds),
+        "max_s": max(seconds),
+        "seconds": seconds,
+    }
 
 
 def main(argv=None) -> int:
@@ -231,9 +297,12 @@ def main(argv=None) -> int:
     p.add_argument("--chunk-size", type=int, default=512)
     p.add_argument("--memory-runs", type=int, nargs="+", default=[10_000, 100_000])
     p.add_argument("--memory-duration-s", type=float, default=0.2)
-    p.add_argument("--only", nargs="+", default=None,
-                   choices=["campaign", "raw", "single-core", "local-modes", "dask", "memory",
-                            "interrupt"])
+    p.add_argument(
+        "--only",
+        nargs="+",
+        default=None,
+        choices=["campaign", "raw", "single-core", "local-modes", "dask", "memory", "interrupt"],
+    )
     p.add_argument("--skip", nargs="+", default=[])
     p.add_argument("--interrupt-repeats", type=int, default=3)
     p.add_argument("--json", help="also write the figures to this JSON file")
@@ -243,8 +312,9 @@ def main(argv=None) -> int:
     results: dict = {"machine": {"cpus": os.cpu_count(), "load_avg_at_start": os.getloadavg()}}
     with tempfile.TemporaryDirectory(prefix="rcsim-bench-") as tmp:
         folder = Path(tmp)
-        spec = _spec_file(folder, runs=args.runs_per_case, chunk=args.chunk_size,
-                          duration=args.duration_s)
+        spec = _spec_file(
+            folder, runs=args.runs_per_case, chunk=args.chunk_size, duration=args.duration_s
+        )
         label = f"26 cases x {args.runs_per_case} runs x {args.duration_s:g} s, lookup"
         if want("campaign"):
             results["campaign"] = bench_campaign(folder, spec, "local")
@@ -261,8 +331,11 @@ def main(argv=None) -> int:
             print(f"one core, one chunk: {results['single_core']}", flush=True)
         if want("local-modes"):
             results["local_one_chunk_mujoco_pool"] = bench_campaign(folder, spec, "pool", threads=1)
-            print(f"local, one chunk at a time on MuJoCo's pool: "
-                  f"{results['local_one_chunk_mujoco_pool']}", flush=True)
+            print(
+                f"local, one chunk at a time on MuJoCo's pool: "
+                f"{results['local_one_chunk_mujoco_pool']}",
+                flush=True,
+            )
         if want("dask"):
             for w in (1, 2):
                 t0 = time.perf_counter()
@@ -276,8 +349,11 @@ def main(argv=None) -> int:
             for n in args.memory_runs:
                 key = f"memory_{n}"
                 results[key] = bench_memory(folder, n, args.memory_duration_s, 256)
-                print(f"summary-only campaign, {results[key]['runs']} runs of "
-                      f"{args.memory_duration_s:g} s: {results[key]}", flush=True)
+                print(
+                    f"summary-only campaign, {results[key]['runs']} runs of "
+                    f"{args.memory_duration_s:g} s: {results[key]}",
+                    flush=True,
+                )
         if want("interrupt"):
             for name, extra in (("local", []), ("dask_2", ["--workers", "2"])):
                 key = f"interrupt_{name}"

@@ -44,6 +44,7 @@ Usage: ``python benchmarks/convergence.py [--quick] [--part steps|scenarios|all]
 Markdown tables and the choice; ``--quick`` skips the 600 s tumbling and the long hold).  The
 step study takes about two minutes on two shared cores, the scenario study about ten.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -132,8 +133,9 @@ def pulse_reference(mass) -> np.ndarray:
         ends = sorted({t for _, _, t in active} | {0.0, PULSE_HORIZON_S})
         w = np.zeros(3)
         for t0, t1 in zip(ends[:-1], ends[1:]):
-            on = np.array([1.0 if any(a == b and t > t0 for b, _, t in active) else 0.0
-                           for a in range(3)])
+            on = np.array(
+                [1.0 if any(a == b and t > t0 for b, _, t in active) else 0.0 for a in range(3)]
+            )
             torque = tau * on
 
             def rhs(_, x, torque=torque):
@@ -234,10 +236,15 @@ def study_scenarios():
 
     out = list(all_scenarios().items())
     hold = all_scenarios()["attitude-hold-disturbed"]
-    long_runs = tuple(replace(r, name="attitude-hold-disturbed-600s", duration_s=LONG_HOLD_S)
-                      for r in hold.runs)
-    out.append(("attitude-hold-disturbed-600s", replace(hold, name="attitude-hold-disturbed-600s",
-                                                        runs=long_runs)))
+    long_runs = tuple(
+        replace(r, name="attitude-hold-disturbed-600s", duration_s=LONG_HOLD_S) for r in hold.runs
+    )
+    out.append(
+        (
+            "attitude-hold-disturbed-600s",
+            replace(hold, name="attitude-hold-disturbed-600s", runs=long_runs),
+        )
+    )
     return out
 
 
@@ -247,8 +254,7 @@ def fly_scenario_at(scenario, controller: str, dt_ms: int):
 
     model = load_model(timestep_s=dt_ms * 1e-3, integrator="RK4")
     ctl = build_controller(scenario, controller, model=model)
-    return fly_batch(scenario.runs, VehicleParams.nominal(scenario.n_runs, model), ctl,
-                     model=model)
+    return fly_batch(scenario.runs, VehicleParams.nominal(scenario.n_runs, model), ctl, model=model)
 
 
 def boundary_q(hist) -> np.ndarray:
@@ -269,42 +275,64 @@ def scenario_study(quick: bool) -> list[dict]:
         for controller in ("phase-plane", "lookup"):
             t0 = time.perf_counter()
             ref = fly_scenario_at(scenario, controller, 1)
-            row = {"scenario": name, "controller": controller, "runs": scenario.n_runs,
-                   "duration_s": scenario.duration_s}
+            row = {
+                "scenario": name,
+                "controller": controller,
+                "runs": scenario.n_runs,
+                "duration_s": scenario.duration_s,
+            }
             for dt_ms in SCENARIO_STEPS_MS:
                 hist = fly_scenario_at(scenario, controller, dt_ms)
                 row[f"loop_dev_{dt_ms}ms_deg"] = float(
-                    angle_deg(boundary_q(ref), boundary_q(hist)).max())
+                    angle_deg(boundary_q(ref), boundary_q(hist)).max()
+                )
                 diff = np.abs(hist.on_time_s - ref.on_time_s).max(axis=(0, 2))
                 row[f"cmd_diff_{dt_ms}ms_s"] = float(diff.max())
                 # A decision that flips although the two attitudes agree to rounding just
                 # before is a tie of the controller's switching test, not integration error.
                 flips = np.flatnonzero(diff > 1e-9)
                 row[f"dev_before_flip_{dt_ms}ms_deg"] = (
-                    float(angle_deg(boundary_q(ref)[:, : flips[0] + 1],
-                                    boundary_q(hist)[:, : flips[0] + 1]).max())
-                    if flips.size else float("nan"))
+                    float(
+                        angle_deg(
+                            boundary_q(ref)[:, : flips[0] + 1], boundary_q(hist)[:, : flips[0] + 1]
+                        ).max()
+                    )
+                    if flips.size
+                    else float("nan")
+                )
                 if dt_ms == 40:
                     model = load_model()
                     q = boundary_q(hist)
                     dev = 0.0
                     for i, run in enumerate(scenario.runs):
                         replay = replay_run(
-                            VehicleParams.nominal(1, model), model, hist.on_time_s[i], CYCLE_S,
-                            q[i, 0], hist.omega_B[i, 0], np.asarray(run.disturbance_n_m, float))
+                            VehicleParams.nominal(1, model),
+                            model,
+                            hist.on_time_s[i],
+                            CYCLE_S,
+                            q[i, 0],
+                            hist.omega_B[i, 0],
+                            np.asarray(run.disturbance_n_m, float),
+                        )
                         dev = max(dev, float(angle_deg(replay, q[i]).max()))
                     row["replay_dev_deg"] = dev
             rows.append(row)
-            print(f"  {name:32s} {controller:11s} replay {row['replay_dev_deg']:.1e} deg  "
-                  f"loop 40 ms {row['loop_dev_40ms_deg']:.1e} deg  "
-                  f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
+            print(
+                f"  {name:32s} {controller:11s} replay {row['replay_dev_deg']:.1e} deg  "
+                f"loop 40 ms {row['loop_dev_40ms_deg']:.1e} deg  "
+                f"({time.perf_counter() - t0:.0f} s)",
+                file=sys.stderr,
+                flush=True,
+            )
     return rows
 
 
 def print_scenario_table(rows: list[dict]) -> None:
-    print("| scenario | controller | runs x s | replay dev. 40 ms [deg] | "
-          + " | ".join(f"loop dev. {d} ms [deg] | cmd diff {d} ms [s]" for d in SCENARIO_STEPS_MS)
-          + " |")
+    print(
+        "| scenario | controller | runs x s | replay dev. 40 ms [deg] | "
+        + " | ".join(f"loop dev. {d} ms [deg] | cmd diff {d} ms [s]" for d in SCENARIO_STEPS_MS)
+        + " |"
+    )
     print("|---|---|---|---|" + "---|---|" * len(SCENARIO_STEPS_MS))
 
     def flip(r, d):
@@ -312,21 +340,30 @@ def print_scenario_table(rows: list[dict]) -> None:
         return "" if np.isnan(before) else f" (tie: {before:.0e} before)"
 
     for r in rows:
-        cells = " | ".join(f"{r[f'loop_dev_{d}ms_deg']:.1e} | {r[f'cmd_diff_{d}ms_s']:.1e}"
-                           f"{flip(r, d)}" for d in SCENARIO_STEPS_MS)
-        print(f"| {r['scenario']} | {r['controller']} | {r['runs']} x {r['duration_s']:g} | "
-              f"{r['replay_dev_deg']:.1e} | {cells} |")
+        cells = " | ".join(
+            f"{r[f'loop_dev_{d}ms_deg']:.1e} | {r[f'cmd_diff_{d}ms_s']:.1e}{flip(r, d)}"
+            for d in SCENARIO_STEPS_MS
+        )
+        print(
+            f"| {r['scenario']} | {r['controller']} | {r['runs']} x {r['duration_s']:g} | "
+            f"{r['replay_dev_deg']:.1e} | {cells} |"
+        )
     worst = max(r["replay_dev_deg"] for r in rows)
-    print(f"\nworst attitude deviation at 40 ms from the exact replay: {worst:.1e} deg "
-          f"({'within' if worst <= ATT_TOL_DEG else 'BEYOND'} the {ATT_TOL_DEG:g} deg standard)")
+    print(
+        f"\nworst attitude deviation at 40 ms from the exact replay: {worst:.1e} deg "
+        f"({'within' if worst <= ATT_TOL_DEG else 'BEYOND'} the {ATT_TOL_DEG:g} deg standard)"
+    )
     untied = [r["loop_dev_40ms_deg"] for r in rows if np.isnan(r["dev_before_flip_40ms_deg"])]
     print(f"worst closed-loop deviation at 40 ms from 1 ms without a tie: {max(untied):.1e} deg")
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true",
-                    help="skip the 600 s tumbling runs and the scenarios over 120 s")
+    ap.add_argument(
+        "--quick",
+        action="store_true",
+        help="skip the 600 s tumbling runs and the scenarios over 120 s",
+    )
     ap.add_argument("--part", choices=("steps", "scenarios", "all"), default="all")
     ap.add_argument("--json", help="also write the results to this JSON file")
     args = ap.parse_args(argv)
@@ -356,8 +393,9 @@ def step_study(args) -> list[dict]:
             model = load_model(timestep_s=dt_ms * 1e-3, integrator=integ)
             r = Result(integ, dt_ms)
             w = fly_pulses(model, on_total)
-            r.pulse_rel_err = float(np.max(
-                np.linalg.norm(w - ref_w, axis=1) / np.linalg.norm(ref_w, axis=1)))
+            r.pulse_rel_err = float(
+                np.max(np.linalg.norm(w - ref_w, axis=1) / np.linalg.norm(ref_w, axis=1))
+            )
             q, cmd = fly_maneuver(model)
             dev = np.linalg.norm(rotvec_from_quat(quat_mul(quat_conj(ref_q), q)), axis=1)
             r.att_dev_deg = float(np.degrees(dev.max()))
@@ -366,22 +404,31 @@ def step_study(args) -> list[dict]:
                 r.dH_rel = tumble_dh(model)
             r.us_per_step = step_cost_us(model)
             results.append(r)
-            print(f"  {integ:12s} {dt_ms:2d} ms  pulse {r.pulse_rel_err:.1e}  att "
-                  f"{r.att_dev_deg:.1e} deg  dH {r.dH_rel:.1e}  {r.us_per_step:.1f} us/step",
-                  file=sys.stderr, flush=True)
+            print(
+                f"  {integ:12s} {dt_ms:2d} ms  pulse {r.pulse_rel_err:.1e}  att "
+                f"{r.att_dev_deg:.1e} deg  dH {r.dH_rel:.1e}  {r.us_per_step:.1f} us/step",
+                file=sys.stderr,
+                flush=True,
+            )
 
-    print("| integrator | step [ms] | max pulse rel. err | max att. dev. [deg] | "
-          "max cmd diff [s] | dH/H 600 s | us/step | us per sim-s | pass |")
+    print(
+        "| integrator | step [ms] | max pulse rel. err | max att. dev. [deg] | "
+        "max cmd diff [s] | dH/H 600 s | us/step | us per sim-s | pass |"
+    )
     print("|---|---|---|---|---|---|---|---|---|")
     for r in results:
-        print(f"| {r.integrator} | {r.dt_ms} | {r.pulse_rel_err:.1e} | {r.att_dev_deg:.1e} | "
-              f"{r.cmd_diff_s:.1e} | {r.dH_rel:.1e} | {r.us_per_step:.1f} | "
-              f"{r.us_per_sim_s:.0f} | {'yes' if r.passes() else 'no'} |")
+        print(
+            f"| {r.integrator} | {r.dt_ms} | {r.pulse_rel_err:.1e} | {r.att_dev_deg:.1e} | "
+            f"{r.cmd_diff_s:.1e} | {r.dH_rel:.1e} | {r.us_per_step:.1f} | "
+            f"{r.us_per_sim_s:.0f} | {'yes' if r.passes() else 'no'} |"
+        )
     passing = [r for r in results if r.passes()]
     if passing:
         best = min(passing, key=lambda r: r.us_per_sim_s)
-        print(f"\ncheapest passing: integrator={best.integrator} timestep={best.dt_ms * 1e-3:g} s "
-              f"({best.us_per_sim_s:.0f} us of physics per simulated second)")
+        print(
+            f"\ncheapest passing: integrator={best.integrator} timestep={best.dt_ms * 1e-3:g} s "
+            f"({best.us_per_sim_s:.0f} us of physics per simulated second)"
+        )
     else:
         print("\nno candidate passes")
     return [dict(vars(r), us_per_sim_s=r.us_per_sim_s, passes=r.passes()) for r in results]

@@ -5,12 +5,14 @@ Usage::
     python benchmarks/drivers.py speed CAMPAIGN_DIR      # time and peak memory of the analysis
     python benchmarks/drivers.py planted [--seeds 100]   # recovery rates for docs/drivers.md
 
-``speed`` runs :func:`analysis.results.drivers.pipeline.analyze` (what ``rcsim analyze`` does, without
+``speed`` runs :func:`analysis.results.drivers.pipeline.analyze` (what ``rcsim analyze`` does,
+without
 writing files) on a campaign directory and prints the time per step and the peak resident
 memory.  The issue's target: the full Table 5 campaign (26 cases x 1,000 runs, 86 inputs,
 3,655 pairs) in <= 30 s with < 2 GB on a 2-core machine.  ``planted`` prints the Markdown
 table of :func:`analysis.results.drivers.synthetic.recovery` over seeds 0..N-1 per scenario.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,16 +41,25 @@ def speed(path: str) -> None:
 def planted(n_seeds: int, n_permutations: int) -> None:
     from analysis.results.drivers.synthetic import SCENARIOS, recovery
 
-    keys = ["drivers_top", "drivers_significant", "pair_first", "false_positive",
-            "ttest_drivers_top", "ttest_drivers_significant", "ttest_false_positive"]
+    keys = [
+        "drivers_top",
+        "drivers_significant",
+        "pair_first",
+        "false_positive",
+        "ttest_drivers_top",
+        "ttest_drivers_significant",
+        "ttest_false_positive",
+    ]
     print("| scenario | failures/run set | " + " | ".join(keys) + " |")
     print("|---" * (len(keys) + 2) + "|")
     for sc in SCENARIOS:
         t = time.perf_counter()
         r = recovery(sc, range(n_seeds), n_permutations=n_permutations)
         cells = [str(r.get(k, "--")) for k in keys]
-        print(f"| {sc} | | " + " | ".join(cells) + f" |   <!-- {time.perf_counter() - t:.0f} s -->",
-              flush=True)
+        print(
+            f"| {sc} | | " + " | ".join(cells) + f" |   <!-- {time.perf_counter() - t:.0f} s -->",
+            flush=True,
+        )
 
 
 def main() -> None:

@@ -13,6 +13,7 @@ exact switch instants*, so the forcing is constant in every integration interval
 is the attitude at every cycle boundary: what the simulation should have produced for the same
 commands.  Used by ``benchmarks/convergence.py``.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -30,11 +31,19 @@ def _rhs(inertia: np.ndarray, torque: np.ndarray):
         dq = 0.5 * quat_mul(q, np.concatenate([[0.0], w]))
         dw = (torque - np.cross(w, inertia * w)) / inertia
         return np.concatenate([dq, dw])
+
     return f
 
 
-def replay_run(params: VehicleParams, model, on_time_s: np.ndarray, cycle_s: float,
-               q0: np.ndarray, w0: np.ndarray, disturbance_n_m: np.ndarray) -> np.ndarray:
+def replay_run(
+    params: VehicleParams,
+    model,
+    on_time_s: np.ndarray,
+    cycle_s: float,
+    q0: np.ndarray,
+    w0: np.ndarray,
+    disturbance_n_m: np.ndarray,
+) -> np.ndarray:
     """Attitude at every cycle boundary of one run, ``(n_cycles + 1, 4)``.
 
     Parameters
@@ -57,8 +66,9 @@ def replay_run(params: VehicleParams, model, on_time_s: np.ndarray, cycle_s: flo
         for a, b in zip(cuts[:-1], cuts[1:]):
             mid = 0.5 * (a + b)
             torque = tau_j[on > mid].sum(axis=0) + disturbance_n_m
-            x = solve_ivp(_rhs(inertia, torque), (a, b), x, method="DOP853", rtol=RTOL,
-                          atol=ATOL).y[:, -1]
+            x = solve_ivp(
+                _rhs(inertia, torque), (a, b), x, method="DOP853", rtol=RTOL, atol=ATOL
+            ).y[:, -1]
         x[:4] /= np.linalg.norm(x[:4])
         out.append(x[:4].copy())
     return np.array(out)

@@ -17,6 +17,7 @@ another ``spacecraft`` package on the path to compare versions.
 
 Usage: ``python benchmarks/exact_time_cost.py [--runs-per-case 10] [--duration-s 20]``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -43,8 +44,11 @@ def noisy_options(n: int, seed: int, run_ids) -> dict:
     from spacecraft.valves import ValveTiming
 
     sensors = SensorParams.of(
-        n, att_noise_rad=np.radians(0.003), rate_noise_rad_s=np.radians(0.001),
-        rate_walk_rad_s_per_sqrt_s=np.radians(0.0005))
+        n,
+        att_noise_rad=np.radians(0.003),
+        rate_noise_rad_s=np.radians(0.001),
+        rate_walk_rad_s_per_sqrt_s=np.radians(0.0005),
+    )
     streams = [run_streams(seed, i)[1].spawn(1)[0] for i in run_ids]
     timing = ValveTiming.of(n, command_delay_s=0.005, open_delay_s=0.008, close_delay_s=0.005)
     return {"sensors": sensors, "sensor_streams": streams, "timing": timing}
@@ -69,8 +73,10 @@ def main(argv=None) -> int:
     variants = {"nominal": {}}
     if has_effects:
         variants["noisy"] = noisy_options(n, 1, run_ids)
-    print(f"{n} runs x {args.duration_s:g} s, lookup controller, one thread; spacecraft from "
-          f"{Path(simulation.__file__).parent}")
+    print(
+        f"{n} runs x {args.duration_s:g} s, lookup controller, one thread; spacecraft from "
+        f"{Path(simulation.__file__).parent}"
+    )
     for name, opts in variants.items():
         best = np.inf
         for _ in range(args.repeats):
@@ -78,9 +84,9 @@ def main(argv=None) -> int:
             rollouts = []
             real = sim._batch.rollout
 
-            def counting(nstep, *a, **kw):
+            def counting(nstep, *a, rollouts=rollouts, real=real, **kw):
                 ids = kw.get("ids")
-                if len(rollouts) < 10 ** 7:
+                if len(rollouts) < 10**7:
                     rollouts.append(nstep * (n if ids is None else len(ids)))
                 return real(nstep, *a, **kw)
 
@@ -89,8 +95,10 @@ def main(argv=None) -> int:
             sim.run(ctl, Guidance.rate(np.zeros((n, 3))), args.duration_s, omega0_B=rate)
             best = min(best, time.process_time() - t0)
         cycles = int(np.ceil(args.duration_s / 0.04 - 1e-9))
-        print(f"{name:8s}: {n * args.duration_s / best:8.0f} sim-s per CPU-s  "
-              f"({best:.2f} s)  physics pieces per run-cycle {sum(rollouts) / (n * cycles):.4f}")
+        print(
+            f"{name:8s}: {n * args.duration_s / best:8.0f} sim-s per CPU-s  "
+            f"({best:.2f} s)  physics pieces per run-cycle {sum(rollouts) / (n * cycles):.4f}"
+        )
     return 0
 
 

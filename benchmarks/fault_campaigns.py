@@ -17,6 +17,7 @@ MuJoCo thread (best of ``--repeats``; CPU time, not wall time, because the machi
 
 Usage: ``python benchmarks/fault_campaigns.py --out DIR [--runs-per-case 50] [--speed]``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -94,16 +95,23 @@ CONFIGS = [
     ("+ one jet stuck on 0.1-0.5 s", STUCK, ("lookup", "adaptive")),
     ("+ one jet failed off", OFF_ANY, ("lookup", "adaptive")),
     ("+ jet 13 failed off", OFF_13, ("lookup", "adaptive", "regenerated")),
-    ("+ jet 13 failed off, noise and delays", OFF_13 + SENSOR + TIMING,
-     ("lookup", "adaptive", "regenerated")),
+    (
+        "+ jet 13 failed off, noise and delays",
+        OFF_13 + SENSOR + TIMING,
+        ("lookup", "adaptive", "regenerated"),
+    ),
 ]
 
 
 def score(runs: pd.DataFrame) -> dict:
     """Failed %, mean firing events to rate (summed over axes), repeated-firing runs %."""
     ev = runs[[f"firings_to_rate_{a}" for a in ("roll", "pitch", "yaw")]]
-    return {"runs": len(runs), "failed_pct": 100 * runs["failed"].mean(),
-            "firings": ev.sum(axis=1).mean(), "repeated_pct": 100 * (ev > 1).any(axis=1).mean()}
+    return {
+        "runs": len(runs),
+        "failed_pct": 100 * runs["failed"].mean(),
+        "firings": ev.sum(axis=1).mean(),
+        "repeated_pct": 100 * (ev > 1).any(axis=1).mean(),
+    }
 
 
 def campaign(out: Path, name: str, text: str) -> pd.DataFrame:
@@ -127,20 +135,37 @@ def evidence(out: Path, runs: int) -> None:
     for k, (config, extra, controllers) in enumerate(CONFIGS):
         for ctl in controllers:
             name = f"c{k}-{ctl}"
-            text = BASE.format(runs=runs, controller="lookup" if ctl == "regenerated" else ctl,
-                               table=table if ctl == "regenerated" else "default") + extra
+            text = (
+                BASE.format(
+                    runs=runs,
+                    controller="lookup" if ctl == "regenerated" else ctl,
+                    table=table if ctl == "regenerated" else "default",
+                )
+                + extra
+            )
             t0 = time.perf_counter()
             r = score(campaign(out, name, text))
-            rows.append({"configuration": config, "controller": ctl, **r,
-                         "wall_s": time.perf_counter() - t0, "dir": name})
+            rows.append(
+                {
+                    "configuration": config,
+                    "controller": ctl,
+                    **r,
+                    "wall_s": time.perf_counter() - t0,
+                    "dir": name,
+                }
+            )
     frame = pd.DataFrame(rows)
     frame.to_csv(out / "evidence.csv", index=False)
-    print("| configuration | controller | runs | failed % | firing events to rate | "
-          "runs with a repeated firing % |")
+    print(
+        "| configuration | controller | runs | failed % | firing events to rate | "
+        "runs with a repeated firing % |"
+    )
     print("|---|---|---|---|---|---|")
     for r in frame.itertuples():
-        print(f"| {r.configuration} | {r.controller} | {r.runs} | {r.failed_pct:.1f} | "
-              f"{r.firings:.2f} | {r.repeated_pct:.1f} |")
+        print(
+            f"| {r.configuration} | {r.controller} | {r.runs} | {r.failed_pct:.1f} | "
+            f"{r.firings:.2f} | {r.repeated_pct:.1f} |"
+        )
 
 
 def speed(out: Path, runs: int, repeats: int) -> None:
@@ -160,8 +185,11 @@ def speed(out: Path, runs: int, repeats: int) -> None:
             c1 = resource.getrusage(resource.RUSAGE_SELF)
             best = min(best, (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime))
         n = 26 * runs
-        print(f"{label}: {n} runs x 20 s in {best:.2f} CPU s (best of {repeats}): "
-              f"{n * 20.0 / best:.0f} simulated s per CPU s", flush=True)
+        print(
+            f"{label}: {n} runs x 20 s in {best:.2f} CPU s (best of {repeats}): "
+            f"{n * 20.0 / best:.0f} simulated s per CPU s",
+            flush=True,
+        )
 
 
 def main(argv=None) -> int:

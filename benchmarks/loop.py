@@ -19,6 +19,7 @@ Usage::
 
 Linux only (reads ``/proc``).  Timings are wall-clock: run it on an idle machine.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -64,9 +65,12 @@ def _processes() -> dict[int, tuple[int, int, int]]:
             statm = Path(f"/proc/{entry}/statm").read_text().split()
         except OSError:  # gone between listdir and read
             continue
-        fields = stat[stat.rindex(")") + 2:].split()  # after "pid (comm) "
-        table[int(entry)] = (int(fields[1]), int(fields[11]) + int(fields[12]),
-                             int(statm[1]) * PAGE)
+        fields = stat[stat.rindex(")") + 2 :].split()  # after "pid (comm) "
+        table[int(entry)] = (
+            int(fields[1]),
+            int(fields[11]) + int(fields[12]),
+            int(statm[1]) * PAGE,
+        )
     return table
 
 
@@ -87,12 +91,26 @@ def _tree(root: int, table: dict) -> set[int]:
 def run_loop(runs_per_case: int, folder: Path) -> dict:
     """One watched ``rcsim loop`` run; returns its stage times, peak memory and load record."""
     out = folder / f"loop-{runs_per_case}"
-    cmd = [sys.executable, "-m", "rcsim", "loop", "--runs-per-case", str(runs_per_case),
-           "--out", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "rcsim",
+        "loop",
+        "--runs-per-case",
+        str(runs_per_case),
+        "--out",
+        str(out),
+    ]
     me = os.getpid()
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    proc = subprocess.Popen(
+        cmd,
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
     # The loop prints "<stage>: done in ..." as each stage ends: the stage in progress is the
     # one after the last line seen, and each memory sample is charged to it.
     lines: list[str] = []
@@ -123,12 +141,16 @@ def run_loop(runs_per_case: int, folder: Path) -> dict:
     if proc.returncode != 0:
         raise SystemExit(f"rcsim loop failed ({proc.returncode}):\n{log}")
     state = json.loads((out / "loop.json").read_text())
-    return {"runs_per_case": runs_per_case, "wall_s": round(wall, 1),
-            "stage_s": {k: v["seconds"] for k, v in state["done"].items()},
-            "peak_pss_mb": round(peak / 2**20),
-            "stage_peak_pss_mb": {k: round(v / 2**20) for k, v in stage_peak.items()},
-            "watched_clean": not foreign,
-            "foreign_load_at_s": foreign[:20], "load_avg_1min_after": os.getloadavg()[0]}
+    return {
+        "runs_per_case": runs_per_case,
+        "wall_s": round(wall, 1),
+        "stage_s": {k: v["seconds"] for k, v in state["done"].items()},
+        "peak_pss_mb": round(peak / 2**20),
+        "stage_peak_pss_mb": {k: round(v / 2**20) for k, v in stage_peak.items()},
+        "watched_clean": not foreign,
+        "foreign_load_at_s": foreign[:20],
+        "load_avg_1min_after": os.getloadavg()[0],
+    }
 
 
 def main(argv=None) -> int:
@@ -142,10 +164,16 @@ def main(argv=None) -> int:
             res = run_loop(n, Path(tmp))
             results.append(res)
             stages = ", ".join(f"{k} {v:.1f}" for k, v in res["stage_s"].items())
-            print(f"{n} runs/case: {res['wall_s']:.1f} s wall ({stages}); peak memory "
-                  f"(PSS) {res['peak_pss_mb']} MB (by stage: {res['stage_peak_pss_mb']}); "
-                  f"{'no foreign load seen' if res['watched_clean'] else 'FOREIGN LOAD at ' + str(res['foreign_load_at_s'])}",
-                  flush=True)
+            load = (
+                "no foreign load seen"
+                if res["watched_clean"]
+                else f"FOREIGN LOAD at {res['foreign_load_at_s']}"
+            )
+            print(
+                f"{n} runs/case: {res['wall_s']:.1f} s wall ({stages}); peak memory "
+                f"(PSS) {res['peak_pss_mb']} MB (by stage: {res['stage_peak_pss_mb']}); {load}",
+                flush=True,
+            )
     if args.json:
         args.json.write_text(json.dumps(results, indent=1))
     return 0

@@ -21,6 +21,7 @@ closed loop under cProfile and prints the top functions by cumulative and intern
 
 Usage: ``python benchmarks/maneuver.py [--runs 256] [--threads 2] [--timestep S] [--profile]``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -108,8 +109,12 @@ def naive(model, controller, n_runs: int) -> float:
         state = controller.initial_state(1)
         prop = PropulsionState.zeros(1)
         for k in range(n_cycles):
-            nav = navigate(k * prop_params.cycle_s, d.qpos[None, 3:7].copy(),
-                           d.qvel[None, 3:6].copy(), guidance)
+            nav = navigate(
+                k * prop_params.cycle_s,
+                d.qpos[None, 3:7].copy(),
+                d.qvel[None, 3:6].copy(),
+                guidance,
+            )
             command, state = controller.step(nav, state)
             on = apply_valve_limits(command, prop, prop_params, thrust)
             duty = duty_profile(on, dt, n_sub)[0]
@@ -133,8 +138,10 @@ def main(argv=None) -> int:
     controller = PhasePlaneController(PhasePlaneParams.for_vehicle(load_jet_map(), model=model))
     dt = float(model.opt.timestep)
     integ = mujoco.mjtIntegrator(model.opt.integrator).name
-    print(f"model: {integ}, step {dt * 1e3:g} ms; {args.runs} runs x {DURATION_S:g} s of the "
-          f"{ATT_CMD_DEG} deg phase-plane maneuver; {args.threads} MuJoCo threads")
+    print(
+        f"model: {integ}, step {dt * 1e3:g} ms; {args.runs} runs x {DURATION_S:g} s of the "
+        f"{ATT_CMD_DEG} deg phase-plane maneuver; {args.threads} MuJoCo threads"
+    )
 
     closed_loop(model, controller, min(args.runs, 8), args.threads)  # warm-up (imports, pools)
     t_closed, hist = closed_loop(model, controller, args.runs, args.threads)
@@ -148,8 +155,10 @@ def main(argv=None) -> int:
     print(f"closed loop : {closed_rate:9.0f} sim-s per wall-s  ({t_closed:.2f} s wall)")
     print(f"raw stepping: {raw_rate:9.0f} sim-s per wall-s  ({t_raw:.2f} s wall)")
     print(f"ratio       : {closed_rate / raw_rate:9.2f}  (target >= 0.7)")
-    print(f"naive loop  : {naive_rate:9.0f} sim-s per wall-s  ({args.naive_runs} runs one at a "
-          f"time, MjData + mj_step, {t_naive:.2f} s wall)")
+    print(
+        f"naive loop  : {naive_rate:9.0f} sim-s per wall-s  ({args.naive_runs} runs one at a "
+        f"time, MjData + mj_step, {t_naive:.2f} s wall)"
+    )
     print(f"closed loop / naive: {closed_rate / naive_rate:.1f}x")
 
     if args.profile:

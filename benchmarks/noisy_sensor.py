@@ -20,6 +20,7 @@ records the measured numbers.
 
 Usage: ``python benchmarks/noisy_sensor.py [--runs N] [--repeat R] [--json FILE]``
 """
+
 from __future__ import annotations
 
 import argparse
@@ -46,8 +47,10 @@ def _rcsim_command() -> list[str]:
         return [str(script)]
     found = shutil.which("rcsim")
     if found is None:
-        sys.exit("benchmarks/noisy_sensor.py: no `rcsim` executable next to this Python or on "
-                 "PATH; install rcsim (make test) and run with its venv's python")
+        sys.exit(
+            "benchmarks/noisy_sensor.py: no `rcsim` executable next to this Python or on "
+            "PATH; install rcsim (make test) and run with its venv's python"
+        )
     return [found]
 
 
@@ -61,8 +64,12 @@ def _timed_run(cmd: list[str], env: dict | None = None) -> float:
 
 
 def _stats(walls: list[float]) -> dict:
-    return {"median_s": statistics.median(walls), "min_s": min(walls), "max_s": max(walls),
-            "runs_s": walls}
+    return {
+        "median_s": statistics.median(walls),
+        "min_s": min(walls),
+        "max_s": max(walls),
+        "runs_s": walls,
+    }
 
 
 def main() -> None:
@@ -91,30 +98,73 @@ def main() -> None:
             write.append(time.perf_counter() - start)
         for i in range(args.repeat):
             startup.append(_timed_run(rcsim + ["study", "noisy-sensor", "--help"]))
-            cli.append(_timed_run(rcsim + ["study", "noisy-sensor", "--runs", str(args.runs),
-                                           "--out", str(Path(tmp) / f"cli{i}")]))
+            cli.append(
+                _timed_run(
+                    rcsim
+                    + [
+                        "study",
+                        "noisy-sensor",
+                        "--runs",
+                        str(args.runs),
+                        "--out",
+                        str(Path(tmp) / f"cli{i}"),
+                    ]
+                )
+            )
         for i in range(args.repeat):
             caches = Path(tmp) / f"caches{i}"
-            env = dict(os.environ, PYTHONPYCACHEPREFIX=str(caches / "pycache"),
-                       MPLCONFIGDIR=str(caches / "matplotlib"))
-            cold.append(_timed_run(rcsim + ["study", "noisy-sensor", "--runs", str(args.runs),
-                                            "--out", str(Path(tmp) / f"cold{i}")], env=env))
+            env = dict(
+                os.environ,
+                PYTHONPYCACHEPREFIX=str(caches / "pycache"),
+                MPLCONFIGDIR=str(caches / "matplotlib"),
+            )
+            cold.append(
+                _timed_run(
+                    rcsim
+                    + [
+                        "study",
+                        "noisy-sensor",
+                        "--runs",
+                        str(args.runs),
+                        "--out",
+                        str(Path(tmp) / f"cold{i}"),
+                    ],
+                    env=env,
+                )
+            )
 
-    figures = {"study": _stats(study), "write": _stats(write), "cli": _stats(cli),
-               "cli_startup": _stats(startup), "cli_cold": _stats(cold),
-               "conditions": {"runs": args.runs, "repeat": args.repeat,
-                              "python": platform.python_version(), "numpy": np.__version__,
-                              "cpu_count": os.cpu_count(), "machine": platform.machine()}}
+    figures = {
+        "study": _stats(study),
+        "write": _stats(write),
+        "cli": _stats(cli),
+        "cli_startup": _stats(startup),
+        "cli_cold": _stats(cold),
+        "conditions": {
+            "runs": args.runs,
+            "repeat": args.repeat,
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "cpu_count": os.cpu_count(),
+            "machine": platform.machine(),
+        },
+    }
     c = figures["conditions"]
-    print(f"noisy-sensor study, 6 architectures x {args.runs} runs, {args.repeat} repeats "
-          f"(Python {c['python']}, numpy {c['numpy']}, {c['cpu_count']} CPUs)")
-    for key, label in [("study", "library run_study"), ("write", "library write_outputs"),
-                       ("cli", "CLI `rcsim study noisy-sensor` wall"),
-                       ("cli_startup", "CLI start only (--help)"),
-                       ("cli_cold", "CLI wall, first run (empty caches)")]:
+    print(
+        f"noisy-sensor study, 6 architectures x {args.runs} runs, {args.repeat} repeats "
+        f"(Python {c['python']}, numpy {c['numpy']}, {c['cpu_count']} CPUs)"
+    )
+    for key, label in [
+        ("study", "library run_study"),
+        ("write", "library write_outputs"),
+        ("cli", "CLI `rcsim study noisy-sensor` wall"),
+        ("cli_startup", "CLI start only (--help)"),
+        ("cli_cold", "CLI wall, first run (empty caches)"),
+    ]:
         f = figures[key]
-        print(f"  {label:<38s} median {f['median_s']:.3f} s  "
-              f"(min {f['min_s']:.3f}, max {f['max_s']:.3f})")
+        print(
+            f"  {label:<38s} median {f['median_s']:.3f} s  "
+            f"(min {f['min_s']:.3f}, max {f['max_s']:.3f})"
+        )
     print(f"  of the study, random draws: {result.draw_s:.3f} s (shared by all architectures)")
     for label, wall in zip(result.summary["architecture"], result.summary["wall_s"]):
         print(f"  {label:<38s} {wall:.4f} s")

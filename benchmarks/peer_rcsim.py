@@ -18,6 +18,7 @@ Usage::
     python benchmarks/peer_rcsim.py [--runs 100] [--repeat 3] [--json FILE]
                                     [--compare BASILISK_JSON]   # run-by-run final rates
 """
+
 from __future__ import annotations
 
 import argparse
@@ -86,12 +87,14 @@ def dispersed_params(n_runs: int, model: mujoco.MjModel) -> VehicleParams:
     return replace(params, mass_kg=mass, inertia_B=inertia, thrust_n=thrust)
 
 
-def fly(params: VehicleParams, model: mujoco.MjModel, on_s: np.ndarray, duration_s: float,
-        nthread: int):
+def fly(
+    params: VehicleParams, model: mujoco.MjModel, on_s: np.ndarray, duration_s: float, nthread: int
+):
     """Build the batch and fly it; returns (history, wall seconds including set-up)."""
     t0 = time.perf_counter()
-    sim = BatchSimulation(params, propulsion=PropulsionParams(cycle_s=CYCLE_S), model=model,
-                          nthread=nthread)
+    sim = BatchSimulation(
+        params, propulsion=PropulsionParams(cycle_s=CYCLE_S), model=model, nthread=nthread
+    )
     guidance = Guidance.rate(np.full((params.n_runs, 3), RATE_CMD_RAD_S))
     hist = sim.run(OpenLoopFiring(on_s), guidance, duration_s)
     return hist, time.perf_counter() - t0
@@ -118,8 +121,9 @@ def accuracy(model: mujoco.MjModel, params: VehicleParams, hist) -> dict:
     h_nom, _ = fly(nominal, model, CASE26_ON_S, DURATION_S, 1)
     ref = analytic_impulse(nominal, model, CASE26_ON_S)[0]
     h = momentum_N(h_nom, nominal)[0]
-    disp = (momentum_N(hist, params) - analytic_impulse(params, model, CASE26_ON_S)) \
-        / analytic_impulse(params, model, CASE26_ON_S)
+    disp = (
+        momentum_N(hist, params) - analytic_impulse(params, model, CASE26_ON_S)
+    ) / analytic_impulse(params, model, CASE26_ON_S)
     h_probe, _ = fly(nominal, model, PROBE_ON_S, PROBE_DURATION_S, 1)
     probe_ref = analytic_impulse(nominal, model, PROBE_ON_S)[0]
     probe = momentum_N(h_probe, nominal)[0]
@@ -138,19 +142,33 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--runs", type=int, default=100)
     ap.add_argument("--repeat", type=int, default=3, help="timings repeated, median reported")
-    ap.add_argument("--steps", type=float, nargs="+", default=[0.04],
-                    help="physics steps [s] (each must divide the 40 ms cycle)")
+    ap.add_argument(
+        "--steps",
+        type=float,
+        nargs="+",
+        default=[0.04],
+        help="physics steps [s] (each must divide the 40 ms cycle)",
+    )
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("--compare", help="a basilisk_peer.py --json file: compare final rates")
     args = ap.parse_args(argv)
 
     sim_s = args.runs * DURATION_S
-    out = {"mujoco": mujoco.__version__, "python": platform.python_version(),
-           "numpy": np.__version__, "cpus": os.cpu_count(), "runs": args.runs,
-           "duration_s": DURATION_S, "repeat": args.repeat, "steps": {}}
-    print(f"rcsim on MuJoCo {mujoco.__version__}, Python {platform.python_version()}, "
-          f"{os.cpu_count()} CPUs; {args.runs} runs x {DURATION_S:g} s, median of {args.repeat}")
+    out = {
+        "mujoco": mujoco.__version__,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "cpus": os.cpu_count(),
+        "runs": args.runs,
+        "duration_s": DURATION_S,
+        "repeat": args.repeat,
+        "steps": {},
+    }
+    print(
+        f"rcsim on MuJoCo {mujoco.__version__}, Python {platform.python_version()}, "
+        f"{os.cpu_count()} CPUs; {args.runs} runs x {DURATION_S:g} s, median of {args.repeat}"
+    )
     print(f"{'step':>6} {'threads':<10} {'wall s':>8} {'sim-s/wall-s':>13}")
     for dt in args.steps:
         model = load_model(timestep_s=dt)
@@ -163,8 +181,11 @@ def main(argv=None) -> int:
                 hist, wall = fly(params, model, CASE26_ON_S, DURATION_S, nthread)
                 walls.append(wall)
             wall = statistics.median(walls)
-            entry["timing"][f"{nthread} thread"] = {"wall_s": walls, "median_wall_s": wall,
-                                                    "sim_s_per_wall_s": sim_s / wall}
+            entry["timing"][f"{nthread} thread"] = {
+                "wall_s": walls,
+                "median_wall_s": wall,
+                "sim_s_per_wall_s": sim_s / wall,
+            }
             print(f"{dt * 1e3:4g}ms {nthread:<10} {wall:8.3f} {sim_s / wall:13.0f}", flush=True)
         if hist.failed.any():
             raise RuntimeError(f"runs failed: {set(hist.reason) - {''}}")
@@ -176,13 +197,17 @@ def main(argv=None) -> int:
     for dt, entry in out["steps"].items():
         acc = entry["accuracy"]
         nom = ", ".join(f"{e:+.2e}" for e in acc["nominal_impulse_rel_err_xyz"])
-        print(f"{float(dt) * 1e3:4g}ms case 26 nominal [{nom}]  dispersed max |err| "
-              f"{acc['dispersed_max_abs_rel_err']:.2e}  12 ms pulse {acc['probe_12ms_rel_err']:+.2e}")
+        print(
+            f"{float(dt) * 1e3:4g}ms case 26 nominal [{nom}]  dispersed max |err| "
+            f"{acc['dispersed_max_abs_rel_err']:.2e}  12 ms pulse {acc['probe_12ms_rel_err']:+.2e}"
+        )
 
     if args.compare:
         other = json.loads(Path(args.compare).read_text())
-        print(f"\nfinal body rates, run by run, against {Path(args.compare).name} "
-              f"(Basilisk {other.get('bsk_version')}, flight software {other.get('fsw')})")
+        print(
+            f"\nfinal body rates, run by run, against {Path(args.compare).name} "
+            f"(Basilisk {other.get('bsk_version')}, flight software {other.get('fsw')})"
+        )
         out["compare"] = {}
         for dt, entry in out["steps"].items():
             mine = np.array(entry["final_omega_rad_s"])
@@ -192,10 +217,15 @@ def main(argv=None) -> int:
                 diff = np.abs(mine[:n] - theirs[:n]).max(axis=1)
                 rel = float((diff / np.linalg.norm(mine[:n], axis=1)).max())
                 key = f"rcsim {float(dt) * 1e3:g} ms vs Basilisk {float(bdt) * 1e3:g} ms"
-                out["compare"][key] = {"runs": n, "max_abs_rad_s": float(diff.max()),
-                                       "max_rel": rel}
-                print(f"  {key}: {n} runs, max |d omega| {diff.max():.2e} rad/s "
-                      f"({rel:.2e} of |omega|)")
+                out["compare"][key] = {
+                    "runs": n,
+                    "max_abs_rad_s": float(diff.max()),
+                    "max_rel": rel,
+                }
+                print(
+                    f"  {key}: {n} runs, max |d omega| {diff.max():.2e} rad/s "
+                    f"({rel:.2e} of |omega|)"
+                )
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=1))
     return 0

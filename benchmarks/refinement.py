@@ -18,6 +18,7 @@ Usage::
 
 Timings are wall-clock: run it on an idle machine for numbers to quote.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -48,37 +49,60 @@ def main() -> None:
         runs = original(spec, table, trials, **kw)
         wall = time.perf_counter() - t0
         sim = len(runs) * spec.cases[0].duration_s
-        phases.append({"phase": kw.get("desc", "?").replace("refine: ", ""), "runs": len(runs),
-                       "wall_s": round(wall, 2), "sim_s_per_s": round(sim / wall)})
-        print(f"{phases[-1]['phase']:<28} {len(runs):7d} runs {wall:8.1f} s "
-              f"{sim / wall:8.0f} sim-s/s", flush=True)
+        phases.append(
+            {
+                "phase": kw.get("desc", "?").replace("refine: ", ""),
+                "runs": len(runs),
+                "wall_s": round(wall, 2),
+                "sim_s_per_s": round(sim / wall),
+            }
+        )
+        print(
+            f"{phases[-1]['phase']:<28} {len(runs):7d} runs {wall:8.1f} s "
+            f"{sim / wall:8.0f} sim-s/s",
+            flush=True,
+        )
         return runs
 
     # Time every batched evaluation without changing what is flown.
     search.evaluate = outputs.evaluate = timed
     t0 = time.perf_counter()
-    ref = outputs.run_refinement(load_lookup_table(args.table),
-                                 runs_per_case=args.runs_per_case, seed=args.seed,
-                                 fresh_seed=args.fresh_seed, progress=False)
+    ref = outputs.run_refinement(
+        load_lookup_table(args.table),
+        runs_per_case=args.runs_per_case,
+        seed=args.seed,
+        fresh_seed=args.fresh_seed,
+        progress=False,
+    )
     total = time.perf_counter() - t0
     log = ref.changelog
     summary = {
-        "runs_per_case": args.runs_per_case, "total_wall_s": round(total, 1),
+        "runs_per_case": args.runs_per_case,
+        "total_wall_s": round(total, 1),
         "runs_flown": int(sum(p["runs"] for p in phases)),
         "cases_changed": int(log["changed"].sum()),
-        "changed": [f"case {int(r.case)}: " + ", ".join(
-            f"{a} {getattr(r, f'{a}_old_s'):.2f}->{getattr(r, f'{a}_new_s'):.2f}"
-            for a in ("roll", "pitch", "yaw") if getattr(r, f"{a}_change_cycles"))
-            for r in log[log["changed"]].itertuples()],
+        "changed": [
+            f"case {int(r.case)}: "
+            + ", ".join(
+                f"{a} {getattr(r, f'{a}_old_s'):.2f}->{getattr(r, f'{a}_new_s'):.2f}"
+                for a in ("roll", "pitch", "yaw")
+                if getattr(r, f"{a}_change_cycles")
+            )
+            for r in log[log["changed"]].itertuples()
+        ],
         **{c: int(log[c].sum()) for c in log.columns if c.startswith(("failed_", "repeated_"))},
         "phases": phases,
     }
-    print(f"total {total:.1f} s for {summary['runs_flown']} runs; "
-          f"{summary['cases_changed']} cases changed")
+    print(
+        f"total {total:.1f} s for {summary['runs_flown']} runs; "
+        f"{summary['cases_changed']} cases changed"
+    )
     for key in ("failed", "repeated"):
-        print(f"{key}: search seed {summary[f'{key}_search_before']} -> "
-              f"{summary[f'{key}_search_after']}, fresh seed {summary[f'{key}_fresh_before']}"
-              f" -> {summary[f'{key}_fresh_after']}")
+        print(
+            f"{key}: search seed {summary[f'{key}_search_before']} -> "
+            f"{summary[f'{key}_search_after']}, fresh seed {summary[f'{key}_fresh_before']}"
+            f" -> {summary[f'{key}_fresh_after']}"
+        )
     print("\n".join(summary["changed"]))
     if args.json:
         with open(args.json, "w") as fh:

@@ -38,6 +38,7 @@ independently.
 
 Imports ``models``, ``spacecraft.navigation`` and ``lookup.pattern_recognition`` only.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -85,10 +86,15 @@ class AdaptParams:
     check_after_s: float = 0.12
 
     def __post_init__(self):
-        if not (self.rate_noise_rad_s >= 0 and self.k_sigma >= 0 and self.min_rel >= 0
-                and 0 < self.gain <= 1 and 0 < self.scale_min <= 1 <= self.scale_max
-                and self.settle_cycles >= 1
-                and (self.check_after_s == 0 or self.check_after_s > 0.04)):
+        if not (
+            self.rate_noise_rad_s >= 0
+            and self.k_sigma >= 0
+            and self.min_rel >= 0
+            and 0 < self.gain <= 1
+            and 0 < self.scale_min <= 1 <= self.scale_max
+            and self.settle_cycles >= 1
+            and (self.check_after_s == 0 or self.check_after_s > 0.04)
+        ):
             raise ValueError(f"invalid AdaptParams {self}")
 
 
@@ -132,8 +138,14 @@ class AdaptiveLookupController(LookupController):
         As :class:`LookupController`.
     """
 
-    def __init__(self, table: LookupTable, params: LookupParams | None = None,
-                 adapt: AdaptParams | None = None, *, jets_off=()):
+    def __init__(
+        self,
+        table: LookupTable,
+        params: LookupParams | None = None,
+        adapt: AdaptParams | None = None,
+        *,
+        jets_off=(),
+    ):
         super().__init__(table, params, jets_off=jets_off)
         self.adapt = AdaptParams() if adapt is None else adapt
 
@@ -141,12 +153,21 @@ class AdaptiveLookupController(LookupController):
         n_cases = self._rate_abs.shape[0]
         axes = (n_runs, N_AXES)
         return AdaptiveState(
-            base=super().initial_state(n_runs), scale=np.ones((n_runs, n_cases, N_AXES)),
-            entry=np.full(axes, -1), promised=np.zeros(axes), start_rate=np.zeros(axes),
-            countdown=np.zeros(axes, int), updates=np.zeros((n_runs, n_cases, N_AXES), int),
-            planned_s=np.zeros(axes), fired_s=np.zeros(axes), checked=np.zeros(axes, bool),
-            replans=np.zeros(axes, int), evidence=np.zeros((n_runs, n_cases, N_AXES), int),
-            ref_rate=np.full(axes, np.nan), ref_fired_s=np.full(axes, np.nan))
+            base=super().initial_state(n_runs),
+            scale=np.ones((n_runs, n_cases, N_AXES)),
+            entry=np.full(axes, -1),
+            promised=np.zeros(axes),
+            start_rate=np.zeros(axes),
+            countdown=np.zeros(axes, int),
+            updates=np.zeros((n_runs, n_cases, N_AXES), int),
+            planned_s=np.zeros(axes),
+            fired_s=np.zeros(axes),
+            checked=np.zeros(axes, bool),
+            replans=np.zeros(axes, int),
+            evidence=np.zeros((n_runs, n_cases, N_AXES), int),
+            ref_rate=np.full(axes, np.nan),
+            ref_fired_s=np.full(axes, np.nan),
+        )
 
     def _significant(self, achieved: np.ndarray, promised: np.ndarray) -> np.ndarray:
         a = self.adapt
@@ -174,8 +195,9 @@ class AdaptiveLookupController(LookupController):
             evidence[runs, cases, axes] = np.where(act, 0, sign)
             runs, axes, cases = runs[act], axes[act], cases[act]
             factor = np.maximum(ratio[runs, axes], 0.2) ** -a.gain  # wrong sign/tiny: clipped
-            scale[runs, cases, axes] = np.clip(scale[runs, cases, axes] * factor,
-                                               a.scale_min, a.scale_max)
+            scale[runs, cases, axes] = np.clip(
+                scale[runs, cases, axes] * factor, a.scale_min, a.scale_max
+            )
             updates[runs, cases, axes] += 1
 
         # Mid-course: a long firing that has fired check_after_s is re-planned at the rate
@@ -187,13 +209,20 @@ class AdaptiveLookupController(LookupController):
         first = firing & np.isnan(state.ref_fired_s) & (state.fired_s >= cyc - 1e-9)
         ref_rate = np.where(first, rate, state.ref_rate)
         ref_fired = np.where(first, state.fired_s, state.ref_fired_s)
-        check = firing & ~state.checked & ~first & ~np.isnan(ref_fired) & (
-            a.check_after_s > 0) & (state.fired_s >= a.check_after_s - 1e-9)
+        check = (
+            firing
+            & ~state.checked
+            & ~first
+            & ~np.isnan(ref_fired)
+            & (a.check_after_s > 0)
+            & (state.fired_s >= a.check_after_s - 1e-9)
+        )
         checked = state.checked | check
         if check.any():
             span = np.where(check, state.fired_s - ref_fired, 1.0)
-            slope_gain = np.divide(state.promised, state.planned_s, out=np.zeros_like(rate),
-                                   where=state.planned_s > 0)
+            slope_gain = np.divide(
+                state.promised, state.planned_s, out=np.zeros_like(rate), where=state.planned_s > 0
+            )
             expected = slope_gain * span  # promised rate change over the sampled span
             observed = rate - ref_rate
             ratio = np.divide(observed, expected, out=np.ones_like(rate), where=expected != 0)
@@ -201,13 +230,13 @@ class AdaptiveLookupController(LookupController):
             if replan.any():
                 # Total on-time at the observed slope, bounded by the entry's scale bounds.
                 total = state.planned_s / np.maximum(ratio, 0.2)
-                total = np.clip(total, a.scale_min * state.planned_s,
-                                a.scale_max * state.planned_s)
+                total = np.clip(total, a.scale_min * state.planned_s, a.scale_max * state.planned_s)
                 new_rem = np.maximum(total - state.fired_s, 0.0)
                 jet_new = new_rem @ self._axis_onehot.T  # (n, 16)
                 jet_replan = (replan.astype(float) @ self._axis_onehot.T > 0) & (rem > 0)
-                base = LookupState(remaining_s=np.where(jet_replan, jet_new, rem),
-                                   hold_s=state.base.hold_s)
+                base = LookupState(
+                    remaining_s=np.where(jet_replan, jet_new, rem), hold_s=state.base.hold_s
+                )
                 state = AdaptiveState(**{**vars(state), "base": base})
                 replans += replan
             learn(check, replan, ratio)
@@ -217,8 +246,9 @@ class AdaptiveLookupController(LookupController):
         due = (state.entry >= 0) & (countdown == 1)
         countdown = np.where(countdown > 0, countdown - 1, 0)
         if due.any():
-            ratio = np.divide(achieved, state.promised, out=np.ones_like(rate),
-                              where=state.promised != 0)
+            ratio = np.divide(
+                achieved, state.promised, out=np.ones_like(rate), where=state.promised != 0
+            )
             # A firing checked mid-course has given its evidence already.
             learn(due & ~checked, self._significant(achieved, state.promised), ratio)
 
@@ -240,8 +270,19 @@ class AdaptiveLookupController(LookupController):
         ref_fired = np.where(new, np.nan, ref_fired)
         done = detail["axis_done"] & (entry >= 0) & (countdown == 0)
         countdown = np.where(done, a.settle_cycles, countdown)
-        return on, AdaptiveState(base=base, scale=scale, entry=entry, promised=promised,
-                                 start_rate=start_rate, countdown=countdown, updates=updates,
-                                 planned_s=planned, fired_s=fired, checked=checked,
-                                 replans=replans, evidence=evidence, ref_rate=ref_rate,
-                                 ref_fired_s=ref_fired)
+        return on, AdaptiveState(
+            base=base,
+            scale=scale,
+            entry=entry,
+            promised=promised,
+            start_rate=start_rate,
+            countdown=countdown,
+            updates=updates,
+            planned_s=planned,
+            fired_s=fired,
+            checked=checked,
+            replans=replans,
+            evidence=evidence,
+            ref_rate=ref_rate,
+            ref_fired_s=ref_fired,
+        )

@@ -12,6 +12,7 @@ Owns the jet-set rules: which jet sets a table can be made for (:func:`check_jet
 the jet map of the jets left (:func:`jet_map_without`).  Imports ``models`` and
 ``spacecraft.vehicle`` only.
 """
+
 from __future__ import annotations
 
 import os
@@ -50,8 +51,9 @@ def jets_off_of(table: str | os.PathLike) -> tuple:
     try:
         return check_jets_off([int(j) for j in text.split()])
     except (ValueError, InputError):
-        raise InputError(f"{comp}: column jets_off: jet numbers 1..16 separated by spaces "
-                         f"expected, got {text!r}") from None
+        raise InputError(
+            f"{comp}: column jets_off: jet numbers 1..16 separated by spaces expected, got {text!r}"
+        ) from None
 
 
 def load_table_for_jets(table: str | os.PathLike, jets_off=None) -> tuple[LookupTable, tuple]:
@@ -80,26 +82,33 @@ def check_jets_off(jets_off) -> tuple:
     try:
         jets = [int(j) for j in jets_off]
     except (TypeError, ValueError):
-        raise InputError(f"must be jet numbers 1..{N_JETS}, got {jets_off!r}",
-                         parameter="jets_off", value=None) from None
+        raise InputError(
+            f"must be jet numbers 1..{N_JETS}, got {jets_off!r}", parameter="jets_off", value=None
+        ) from None
     bad = [j for j in jets if not 1 <= j <= N_JETS]
     if bad:
-        raise InputError(f"no jet {bad[0]}; jets are 1..{N_JETS}", parameter="jets_off",
-                         value=list(jets_off))
+        raise InputError(
+            f"no jet {bad[0]}; jets are 1..{N_JETS}", parameter="jets_off", value=list(jets_off)
+        )
     dup = sorted({j for j in jets if jets.count(j) > 1})
     if dup:
-        raise InputError(f"jet {dup[0]} appears twice", parameter="jets_off",
-                         value=list(jets_off))
+        raise InputError(f"jet {dup[0]} appears twice", parameter="jets_off", value=list(jets_off))
     if any(int(j) != j for j in jets_off):
-        raise InputError(f"must be whole jet numbers, got {list(jets_off)}",
-                         parameter="jets_off", value=list(jets_off))
+        raise InputError(
+            f"must be whole jet numbers, got {list(jets_off)}",
+            parameter="jets_off",
+            value=list(jets_off),
+        )
     torque = load_jet_map()  # (16, 3): the sign of each jet's torque per axis, Table 2
     for a, axis in enumerate(AXES):
         axis_jets = {j + 1 for j in range(N_JETS) if torque[j, a] != 0}
         if axis_jets <= set(jets):
-            raise InputError(f"every {axis} jet ({', '.join(map(str, sorted(axis_jets)))}) is "
-                             f"off; no table can control {axis}", parameter="jets_off",
-                             value=list(jets_off))
+            raise InputError(
+                f"every {axis} jet ({', '.join(map(str, sorted(axis_jets)))}) is "
+                f"off; no table can control {axis}",
+                parameter="jets_off",
+                value=list(jets_off),
+            )
     return tuple(sorted(jets))
 
 

@@ -4,6 +4,7 @@ For replaying a firing pattern without feedback (a table entry flown as it stand
 a coasting vehicle), and the oracle flights of the propulsion and integration tests: the
 impulse and timing it commands are known exactly.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -30,8 +31,10 @@ class OpenLoopController:
     def __init__(self, total_s, cycle_s: float = CONTROL_CYCLE_S):
         self.total_s = np.asarray(total_s, float)
         if self.total_s.shape[-1] != N_JETS or self.total_s.ndim not in (1, 2):
-            raise ValueError(f"total_s must have shape (n_runs, {N_JETS}) or ({N_JETS},), "
-                             f"got {self.total_s.shape}")
+            raise ValueError(
+                f"total_s must have shape (n_runs, {N_JETS}) or ({N_JETS},), "
+                f"got {self.total_s.shape}"
+            )
         self.cycle_s = float(cycle_s)
 
     def initial_state(self, n_runs: int) -> int:

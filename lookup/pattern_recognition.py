@@ -40,6 +40,7 @@ See ``docs/lookup.md`` for the readings of the paper and why.  (About 400 lines:
 above, the table's jet roles it learns, and the per-run candidate tables of refinement,
 :meth:`LookupController.for_runs`.)
 """
+
 from __future__ import annotations
 
 import os
@@ -77,8 +78,9 @@ def load_default_table() -> LookupTable:
     return load_lookup_table(default_table_path())
 
 
-def learn_jets(table: LookupTable, allow_unserved: bool = False
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def learn_jets(
+    table: LookupTable, allow_unserved: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Which axis and direction each jet serves, and which jets oppose, from the table alone.
 
     Parameters
@@ -127,8 +129,10 @@ def learn_jets(table: LookupTable, allow_unserved: bool = False
                 raise InputError(f"{src}: no jet fires for a {s:+d} rate on axis {a}")
     used = axis >= 0
     opposing = (
-        (axis[:, None] == axis[None, :]) & (sign[:, None] == -sign[None, :])
-        & used[:, None] & used[None, :]
+        (axis[:, None] == axis[None, :])
+        & (sign[:, None] == -sign[None, :])
+        & used[:, None]
+        & used[None, :]
     )
     return axis, sign, opposing
 
@@ -167,8 +171,13 @@ class LookupParams:
     cycle_s: float = CONTROL_CYCLE_S
 
     def __post_init__(self):
-        for name in ("maneuver_limit_rad", "maneuver_rate_rad_s", "rate_error_limit_rad_s",
-                     "on_time_limit_s", "cycle_s"):
+        for name in (
+            "maneuver_limit_rad",
+            "maneuver_rate_rad_s",
+            "rate_error_limit_rad_s",
+            "on_time_limit_s",
+            "cycle_s",
+        ):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise InputError(f"LookupParams.{name} must be > 0, got {value}")
@@ -221,13 +230,13 @@ class LookupController:
         left without a jet is accepted and never fired.
     """
 
-    def __init__(self, table: LookupTable, params: LookupParams | None = None, *,
-                 jets_off=()):
+    def __init__(self, table: LookupTable, params: LookupParams | None = None, *, jets_off=()):
         self.table = table
         self.params = LookupParams.from_table4() if params is None else params
         self.jets_off = tuple(jets_off)
         self.jet_axis_, self.jet_sign_, self.opposing_ = learn_jets(
-            table, allow_unserved=bool(self.jets_off))
+            table, allow_unserved=bool(self.jets_off)
+        )
         signs = np.sign(np.asarray(table.rate_cmd)).astype(int)
         # Case row of each sign pattern, indexed by the base-3 code of (roll, pitch, yaw) + 1.
         codes = ((signs + 1) * np.array([9, 3, 1])).sum(axis=1)
@@ -253,8 +262,12 @@ class LookupController:
         return self.params.cycle_s
 
     @classmethod
-    def from_files(cls, table: str | os.PathLike | None = None,
-                   inputs: str | os.PathLike | None = None, **overrides) -> LookupController:
+    def from_files(
+        cls,
+        table: str | os.PathLike | None = None,
+        inputs: str | os.PathLike | None = None,
+        **overrides,
+    ) -> LookupController:
         """Controller from a table CSV (rcsim or paper layout) and a Table 4 CSV.
 
         Parameters
@@ -286,8 +299,9 @@ class LookupController:
         return cls(tab, LookupParams.from_table4(inputs, **overrides), jets_off=jets_off)
 
     @classmethod
-    def for_runs(cls, table: LookupTable, run_times_s: np.ndarray,
-                 params: LookupParams | None = None) -> LookupController:
+    def for_runs(
+        cls, table: LookupTable, run_times_s: np.ndarray, params: LookupParams | None = None
+    ) -> LookupController:
         """A controller in which every run flies its own firing times (candidate tables).
 
         Parameters
@@ -307,8 +321,10 @@ class LookupController:
         times = np.asarray(run_times_s, float)
         base = np.asarray(table.firing_time_s, float)
         if times.ndim != 3 or times.shape[1:] != base.shape:
-            raise ValueError(f"run_times_s must have shape (n_runs, {base.shape[0]}, "
-                             f"{base.shape[1]}), got {times.shape}")
+            raise ValueError(
+                f"run_times_s must have shape (n_runs, {base.shape[0]}, "
+                f"{base.shape[1]}), got {times.shape}"
+            )
         if np.any((times > 0) != (base > 0)[None]):
             raise ValueError("a candidate table changes which jets fire; only times may change")
         controller = cls(table, params)
@@ -318,8 +334,9 @@ class LookupController:
     def _case_times(self, case: np.ndarray, case_scale: np.ndarray | None = None) -> np.ndarray:
         """(n_runs, 16) table times of each run's selected case, each axis's jets times
         ``case_scale[run, case, axis]`` when given (n_runs, n_cases, 3)."""
-        times = (self._times[case] if self._times.ndim == 2
-                 else self._times[np.arange(case.size), case])
+        times = (
+            self._times[case] if self._times.ndim == 2 else self._times[np.arange(case.size), case]
+        )
         if case_scale is None:
             return times
         per_axis = case_scale[np.arange(case.size), case]  # (n, 3)
@@ -327,10 +344,12 @@ class LookupController:
 
     def initial_state(self, n_runs: int) -> LookupState:
         if self._times.ndim == 3 and self._times.shape[0] != n_runs:
-            raise ValueError(f"controller has tables for {self._times.shape[0]} runs, "
-                             f"asked for {n_runs}")
-        return LookupState(remaining_s=np.zeros((n_runs, self._times.shape[-1])),
-                           hold_s=np.zeros((n_runs, N_AXES)))
+            raise ValueError(
+                f"controller has tables for {self._times.shape[0]} runs, asked for {n_runs}"
+            )
+        return LookupState(
+            remaining_s=np.zeros((n_runs, self._times.shape[-1])), hold_s=np.zeros((n_runs, N_AXES))
+        )
 
     def rate_error(self, nav: NavState, theta: np.ndarray | None = None) -> np.ndarray:
         """Dead-banded rate error the logic acts on, (n_runs, 3) [rad/s] (steps 1-2).
@@ -352,9 +371,9 @@ class LookupController:
         on, nxt, _ = self.step_detail(nav, state)
         return on, nxt
 
-    def step_detail(self, nav: NavState, state: LookupState,
-                    case_scale: np.ndarray | None = None
-                    ) -> tuple[np.ndarray, LookupState, dict]:
+    def step_detail(
+        self, nav: NavState, state: LookupState, case_scale: np.ndarray | None = None
+    ) -> tuple[np.ndarray, LookupState, dict]:
         """One control cycle, with what it decided (for controllers built on this one).
 
         Parameters
@@ -398,8 +417,12 @@ class LookupController:
                 group_max[:, g] = rem[:, jets].max(axis=1)
         opp_max = group_max[:, self._opp_group]  # (n, 16): max remaining on opposing jets
         hold_jet = state.hold_s @ self._axis_onehot.T  # (n, 16)
-        gate = ((rem < p.on_time_limit_s) & (opp_max < p.on_time_limit_s)
-                & (hold_jet <= _TIMER_EPS_S) & ~no_fire[:, None])
+        gate = (
+            (rem < p.on_time_limit_s)
+            & (opp_max < p.on_time_limit_s)
+            & (hold_jet <= _TIMER_EPS_S)
+            & ~no_fire[:, None]
+        )
         fire_new = gate & (new > 0)
         # An axis with a new firing is re-planned: new times on its firing jets, 0 elsewhere.
         axis_new = (fire_new.astype(float) @ self._axis_onehot) > 0  # (n, 3)

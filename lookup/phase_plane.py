@@ -17,6 +17,7 @@ Per axis, with attitude error ``e`` and rate error ``r = omega - omega_cmd``:
 See ``docs/phase_plane.md`` for the diagram.  The controller knows the nominal mass properties
 and the jet map (unlike the lookup controller); the control acceleration comes from them.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

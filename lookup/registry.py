@@ -7,6 +7,7 @@ the phase-plane baseline); the adaptive lookup controller is a variant of the lo
 whose purpose (learning under dispersions, sensor noise and jet faults) the named nominal
 scenarios do not exercise, so it is compared in campaigns (``docs/faults.md``) instead.
 """
+
 from __future__ import annotations
 
 import os
@@ -66,10 +67,14 @@ def make_controller(
         from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
 
         if table is not None:
-            raise InputError(f"is only for the lookup controller, not {name!r} "
-                             f"(got {str(table)!r})", parameter="table", value=table)
-        return PhasePlaneController(PhasePlaneParams.for_vehicle(
-            load_jet_map(), model=model, **(phase_plane_options or {})))
+            raise InputError(
+                f"is only for the lookup controller, not {name!r} (got {str(table)!r})",
+                parameter="table",
+                value=table,
+            )
+        return PhasePlaneController(
+            PhasePlaneParams.for_vehicle(load_jet_map(), model=model, **(phase_plane_options or {}))
+        )
     if name == "lookup":
         from lookup.pattern_recognition import LookupController
 
@@ -80,5 +85,4 @@ def make_controller(
         ctl = AdaptiveLookupController.from_files(table, **(lookup_options or {}))
         ctl.adapt = AdaptParams(**(adapt_options or {}))
         return ctl
-    raise InputError(f"unknown controller {name!r}; choose one of "
-                     f"{', '.join(ALL_CONTROLLERS)}")
+    raise InputError(f"unknown controller {name!r}; choose one of {', '.join(ALL_CONTROLLERS)}")

@@ -37,6 +37,7 @@ A. Pittella and T. Sands, "Proposals for Surmounting Sensor Noises", Sensors 23 
 3169: Eqs. 1-6 (task), 7-9 (P+V gains), 10-12 (open-loop optimal), 13 (RTOC), 14-17
 (control-law inversion), Section 2.5-2.6 (double-integrator filters), Table 1 (gains).
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable

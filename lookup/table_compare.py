@@ -2,6 +2,7 @@
 
 Imports ``models``, ``spacecraft.vehicle`` and ``lookup.pattern_recognition`` only.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -28,8 +29,9 @@ def axis_times(table: LookupTable) -> tuple[np.ndarray, np.ndarray]:
     return time_s, ft > 0
 
 
-def compare_tables(generated: LookupTable, paper: LookupTable,
-                   cycle_s: float = CONTROL_CYCLE_S) -> pd.DataFrame:
+def compare_tables(
+    generated: LookupTable, paper: LookupTable, cycle_s: float = CONTROL_CYCLE_S
+) -> pd.DataFrame:
     """Case-by-case comparison of two lookup tables (e.g. generated vs paper Table 6).
 
     Returns

@@ -9,6 +9,7 @@ the candidates is :mod:`analysis.apps.refinement`.
 
 Imports ``models`` and the controller's jet learning only; never ``analysis``.
 """
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -32,8 +33,9 @@ def jet_axes(table: LookupTable) -> np.ndarray:
     return learn_jets(table)[0]
 
 
-def axis_cycles(firing_time_s: np.ndarray, jet_axis: np.ndarray,
-                cycle_s: float = CONTROL_CYCLE_S) -> np.ndarray:
+def axis_cycles(
+    firing_time_s: np.ndarray, jet_axis: np.ndarray, cycle_s: float = CONTROL_CYCLE_S
+) -> np.ndarray:
     """Firing time of each case's jets per axis, in control cycles (0: the axis does not fire).
 
     Parameters
@@ -60,8 +62,12 @@ def axis_cycles(firing_time_s: np.ndarray, jet_axis: np.ndarray,
     return np.round(cycles).astype(int)
 
 
-def shift_axes(firing_time_s: np.ndarray, jet_axis: np.ndarray, shift_cycles: np.ndarray,
-               cycle_s: float = CONTROL_CYCLE_S) -> np.ndarray:
+def shift_axes(
+    firing_time_s: np.ndarray,
+    jet_axis: np.ndarray,
+    shift_cycles: np.ndarray,
+    cycle_s: float = CONTROL_CYCLE_S,
+) -> np.ndarray:
     """Move every firing jet of an axis in a case by a whole number of cycles.
 
     Parameters
@@ -89,8 +95,9 @@ def shift_axes(firing_time_s: np.ndarray, jet_axis: np.ndarray, shift_cycles: np
     times = np.array(firing_time_s, float)
     shift = np.asarray(shift_cycles)
     if shift.shape != times.shape[:-1] + (len(AXES),):
-        raise ValueError(f"shift_cycles must have shape {times.shape[:-1] + (len(AXES),)}, "
-                         f"got {shift.shape}")
+        raise ValueError(
+            f"shift_cycles must have shape {times.shape[:-1] + (len(AXES),)}, got {shift.shape}"
+        )
     per_jet = np.where(jet_axis >= 0, shift[:, np.maximum(jet_axis, 0)], 0)  # (26, 16)
     firing = times > 0
     cycles_now = axis_cycles(times, jet_axis, cycle_s)
@@ -101,8 +108,10 @@ def shift_axes(firing_time_s: np.ndarray, jet_axis: np.ndarray, shift_cycles: np
     new = np.where(firing, times + per_jet * cycle_s, 0.0)
     if np.any(firing & (new < cycle_s * (1 - 1e-9))):
         c, j = np.argwhere(firing & (new < cycle_s * (1 - 1e-9)))[0]
-        raise ValueError(f"case row {c}, jet_{j + 1:02d}: a shift of {per_jet[c, j]} cycles "
-                         "leaves less than one control cycle")
+        raise ValueError(
+            f"case row {c}, jet_{j + 1:02d}: a shift of {per_jet[c, j]} cycles "
+            "leaves less than one control cycle"
+        )
     # Snap to whole cycles: repeated shifts must not accumulate decimal error.
     return np.where(firing, np.round(new / cycle_s) * cycle_s, 0.0)
 

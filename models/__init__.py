@@ -8,6 +8,7 @@ Everything else builds on this layer.
 
 Must not import: spacecraft, lookup, analysis, rcsim.
 """
+
 from __future__ import annotations
 
 import atexit

@@ -10,6 +10,7 @@ Permissions: ``tempfile.mkstemp`` creates its file with mode 0600 whatever the u
 final file gets :func:`mode_under_umask` ``(0o666)`` -- what ``open(path, "w")`` would give --
 like every other file the user's tools write.
 """
+
 from __future__ import annotations
 
 import os

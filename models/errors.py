@@ -11,6 +11,7 @@ which reads "runs must be >= 2, got 1" from Python and "--runs must be >= 2, got
 (a campaign spec key, a table column) is not a parameter: its message names the file, the
 field and the value itself, and leaves ``parameter`` unset.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -38,8 +39,7 @@ class InputError(ValueError):
     '--runs must be >= 2, got 1'
     """
 
-    def __init__(self, message: str, *, parameter: str | None = None,
-                 value: Any = None) -> None:
+    def __init__(self, message: str, *, parameter: str | None = None, value: Any = None) -> None:
         self.message = message
         self.parameter = parameter
         self.value = value

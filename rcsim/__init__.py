@@ -26,6 +26,7 @@ The analyst's loop
 Units are SI and radians inside; degrees, deg/s and N appear only in file columns and CLI flags,
 with the unit in the name (``rate_deg_s``).
 """
+
 from __future__ import annotations
 
 import importlib

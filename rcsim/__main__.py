@@ -1,4 +1,5 @@
 """``python -m rcsim`` is the ``rcsim`` command."""
+
 import sys
 
 from rcsim._layers import check_layers

@@ -5,6 +5,7 @@ package of the same name earlier on ``sys.path`` -- typically a ``models.py`` or
 ``analysis/`` package in the working directory of ``python -m rcsim`` or a notebook -- would be
 imported in its place, and fail far from the cause.  This check names it instead.
 """
+
 from __future__ import annotations
 
 import importlib.util
@@ -24,4 +25,5 @@ def check_layers() -> None:
             raise ImportError(
                 f"rcsim: import {name!r} finds {found}, not rcsim's {home / name}; a module or "
                 f"package named {name!r} earlier on sys.path (often the working directory) "
-                "shadows it: rename it, or run from another directory")
+                "shadows it: rename it, or run from another directory"
+            )

@@ -27,6 +27,7 @@ one sigma (or setting it to zero) never changes the other dispersions of a run. 
 vehicle is therefore a function of ``(seed, i)`` and the sigmas only: independent of the
 chunk it is simulated in, of the worker and of the order.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -70,8 +71,13 @@ class DispersionSigmas:
     thruster_angle_rad: float = 0.0
 
     def __post_init__(self):
-        values = [self.mass_kg, self.cg_x_m, *self.inertia_kg_m2, self.thrust_n,
-                  self.thruster_angle_rad]
+        values = [
+            self.mass_kg,
+            self.cg_x_m,
+            *self.inertia_kg_m2,
+            self.thrust_n,
+            self.thruster_angle_rad,
+        ]
         if len(self.inertia_kg_m2) != 3:
             raise ValueError("inertia_kg_m2 needs 3 values")
         if not all(np.isfinite(v) and v >= 0 for v in values):
@@ -96,9 +102,11 @@ class DispersionSigmas:
                 )
             sig[name] = float(three_sigma) / 3.0 * float(scale)
         return cls(
-            mass_kg=sig["mass"], cg_x_m=sig["cg_x"],
+            mass_kg=sig["mass"],
+            cg_x_m=sig["cg_x"],
             inertia_kg_m2=(sig["ixx"], sig["iyy"], sig["izz"]),
-            thrust_n=sig["thrust"], thruster_angle_rad=sig["thruster_angle"],
+            thrust_n=sig["thrust"],
+            thruster_angle_rad=sig["thruster_angle"],
         )
 
 
@@ -156,8 +164,9 @@ def _perpendicular_basis(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, np.cross(d, e1)
 
 
-def pointing(nominal_dir_S: np.ndarray, tilt_rad: np.ndarray,
-             azimuth_rad: np.ndarray) -> np.ndarray:
+def pointing(
+    nominal_dir_S: np.ndarray, tilt_rad: np.ndarray, azimuth_rad: np.ndarray
+) -> np.ndarray:
     """Jet force directions tilted from their nominal ones (the module docstring's model).
 
     The one definition of how a tilt and its azimuth point a jet: the draws use it, and so
@@ -216,8 +225,14 @@ def apply_draws(
     tilt = sigmas.thruster_angle_rad * z[:, _Z_TILT]
     azimuth = 2.0 * np.pi * u
     direction = pointing(base.jet_dir_S, tilt, azimuth)
-    params = VehicleParams(mass_kg=mass, cg_B=cg, inertia_B=inertia, thrust_n=thrust,
-                           jet_dir_S=direction, isp_s=nominal.isp_s)
+    params = VehicleParams(
+        mass_kg=mass,
+        cg_B=cg,
+        inertia_B=inertia,
+        thrust_n=thrust,
+        jet_dir_S=direction,
+        isp_s=nominal.isp_s,
+    )
     return params, tilt, azimuth
 
 

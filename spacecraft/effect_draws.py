@@ -29,6 +29,7 @@ The specs are SI dataclasses; reading them from a campaign's TOML (keys in degre
 messages naming the file) is the campaign's job (:mod:`analysis.engine.campaign.effects`), at
 the input edge.  Imports ``models`` and ``spacecraft`` only.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
@@ -119,26 +120,35 @@ class FaultSpec:
 def draw_sensors(spec: SensorSpec, seed: int, run_ids) -> tuple[SensorParams, list]:
     """Per-run sensor parameters and sensor-noise streams of campaign runs ``run_ids``."""
     run_ids = np.asarray(run_ids, np.int64).reshape(-1)
-    z = np.array([np.random.default_rng(effect_stream(seed, i, SENSOR_BIAS)).standard_normal(6)
-                  for i in run_ids]).reshape(-1, 6)
+    z = np.array(
+        [
+            np.random.default_rng(effect_stream(seed, i, SENSOR_BIAS)).standard_normal(6)
+            for i in run_ids
+        ]
+    ).reshape(-1, 6)
     params = SensorParams.of(
-        run_ids.size, att_noise_rad=spec.att_noise_rad, rate_noise_rad_s=spec.rate_noise_rad_s,
+        run_ids.size,
+        att_noise_rad=spec.att_noise_rad,
+        rate_noise_rad_s=spec.rate_noise_rad_s,
         att_bias_rad=spec.att_bias_sigma_rad * z[:, :3],
         rate_bias_rad_s=spec.rate_bias_sigma_rad_s * z[:, 3:],
-        rate_walk_rad_s_per_sqrt_s=spec.rate_walk_rad_s_per_sqrt_s)
+        rate_walk_rad_s_per_sqrt_s=spec.rate_walk_rad_s_per_sqrt_s,
+    )
     return params, [effect_stream(seed, i, SENSOR_NOISE) for i in run_ids]
 
 
 def draw_timing(spec: TimingSpec, seed: int, run_ids) -> ValveTiming:
     """Per-run delays of campaign runs ``run_ids`` (normal about the means, clipped at 0)."""
     run_ids = np.asarray(run_ids, np.int64).reshape(-1)
-    z = np.array([np.random.default_rng(effect_stream(seed, i, TIMING)).standard_normal(33)
-                  for i in run_ids]).reshape(-1, 33)
+    z = np.array(
+        [np.random.default_rng(effect_stream(seed, i, TIMING)).standard_normal(33) for i in run_ids]
+    ).reshape(-1, 33)
     pos = lambda v: np.maximum(v, 0.0)  # noqa: E731
     return ValveTiming(
         command_delay_s=pos(spec.command_delay_s + spec.command_delay_sigma_s * z[:, 0]),
         open_delay_s=pos(spec.open_delay_s + spec.open_delay_sigma_s * z[:, 1:17]),
-        close_delay_s=pos(spec.close_delay_s + spec.close_delay_sigma_s * z[:, 17:33]))
+        close_delay_s=pos(spec.close_delay_s + spec.close_delay_sigma_s * z[:, 17:33]),
+    )
 
 
 def draw_faults(spec: FaultSpec, seed: int, run_ids) -> tuple[JetFaults, pd.DataFrame]:
@@ -153,11 +163,13 @@ def draw_faults(spec: FaultSpec, seed: int, run_ids) -> tuple[JetFaults, pd.Data
     """
     run_ids = np.asarray(run_ids, np.int64).reshape(-1)
     n = run_ids.size
-    u = np.array([np.random.default_rng(effect_stream(seed, i, FAULT)).random(4)
-                  for i in run_ids]).reshape(-1, 4)
+    u = np.array(
+        [np.random.default_rng(effect_stream(seed, i, FAULT)).random(4) for i in run_ids]
+    ).reshape(-1, 4)
     faulty = (u[:, 0] < spec.probability) & (spec.mode != "none")
-    jets = np.asarray(spec.jets)[np.minimum((u[:, 1] * len(spec.jets)).astype(int),
-                                            len(spec.jets) - 1)]
+    jets = np.asarray(spec.jets)[
+        np.minimum((u[:, 1] * len(spec.jets)).astype(int), len(spec.jets) - 1)
+    ]
     lerp = lambda lo_hi, x: lo_hi[0] + (lo_hi[1] - lo_hi[0]) * x  # noqa: E731
     when = lerp(spec.time_s, u[:, 2])
     faults = JetFaults.of(n)
@@ -173,12 +185,14 @@ def draw_faults(spec: FaultSpec, seed: int, run_ids) -> tuple[JetFaults, pd.Data
     elif spec.mode == "degraded":
         factor[rows] = lerp(spec.thrust_factor, u[rows, 3])
         faults.thrust_factor[rows, cols] = factor[rows]
-    drawn = pd.DataFrame({
-        "fault_jet": np.where(faulty, jets, 0),
-        "fault_time_s": np.where(faulty & (spec.mode != "degraded"), when, np.nan),
-        "fault_stuck_for_s": stuck_for,
-        "fault_thrust_factor": factor,
-    })
+    drawn = pd.DataFrame(
+        {
+            "fault_jet": np.where(faulty, jets, 0),
+            "fault_time_s": np.where(faulty & (spec.mode != "degraded"), when, np.nan),
+            "fault_stuck_for_s": stuck_for,
+            "fault_thrust_factor": factor,
+        }
+    )
     return faults, drawn
 
 

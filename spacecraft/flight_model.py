@@ -17,6 +17,7 @@ agree with the jet model to rounding (``tests/spacecraft/test_flight_model.py``,
 step costs about 40 % less (``docs/performance.md``).  The disturbance torque is added to the
 torque components.
 """
+
 from __future__ import annotations
 
 import mujoco
@@ -80,12 +81,20 @@ def flight_model(model: mujoco.MjModel) -> mujoco.MjModel:
         ``model`` is not one free body: the wrench sum assumes a single rigid body.
     """
     if model.nbody != 2 or model.njnt != 1 or model.jnt_type[0] != mujoco.mjtJoint.mjJNT_FREE:
-        raise ValueError("the flight model needs a vehicle of one free body "
-                         f"(got {model.nbody - 1} bodies, {model.njnt} joints)")
+        raise ValueError(
+            "the flight model needs a vehicle of one free body "
+            f"(got {model.nbody - 1} bodies, {model.njnt} joints)"
+        )
     body = model.body(BODY).id
-    flight = mujoco.MjModel.from_xml_string(_XML.format(
-        body=BODY, ipos=_numbers(model.body_ipos[body]), iquat=_numbers(model.body_iquat[body]),
-        mass=repr(float(model.body_mass[body])), inertia=_numbers(model.body_inertia[body])))
+    flight = mujoco.MjModel.from_xml_string(
+        _XML.format(
+            body=BODY,
+            ipos=_numbers(model.body_ipos[body]),
+            iquat=_numbers(model.body_iquat[body]),
+            mass=repr(float(model.body_mass[body])),
+            inertia=_numbers(model.body_inertia[body]),
+        )
+    )
     _copy_options(model.opt, flight.opt)
     # The body's inertial values exactly as compiled (the XML round trip is exact for the
     # repr of a double; this makes it independent of the compiler's own arithmetic).

@@ -11,6 +11,7 @@
 
 Imports ``models`` and ``spacecraft.vehicle`` only.
 """
+
 from __future__ import annotations
 
 import math
@@ -68,13 +69,17 @@ MEASURED_BYTES_PER_RUN_CYCLE = 6 * 8
 DELIVERED_BYTES_PER_RUN_CYCLE = N_JETS * 8
 
 
-def history_bytes(n_runs: int, n_cycles: int, measured: bool = False,
-                  delivered: bool = False) -> int:
+def history_bytes(
+    n_runs: int, n_cycles: int, measured: bool = False, delivered: bool = False
+) -> int:
     """Bytes of the per-cycle record of ``n_runs`` runs over ``n_cycles`` cycles (with ``t_s``;
     ``measured``: with the measured errors of imperfect sensors; ``delivered``: with the
     delivered on-times)."""
-    per_run = (HISTORY_BYTES_PER_RUN_CYCLE + (MEASURED_BYTES_PER_RUN_CYCLE if measured else 0)
-               + (DELIVERED_BYTES_PER_RUN_CYCLE if delivered else 0))
+    per_run = (
+        HISTORY_BYTES_PER_RUN_CYCLE
+        + (MEASURED_BYTES_PER_RUN_CYCLE if measured else 0)
+        + (DELIVERED_BYTES_PER_RUN_CYCLE if delivered else 0)
+    )
     return int(n_cycles) * (int(n_runs) * per_run + 8)
 
 
@@ -87,8 +92,9 @@ def human_bytes(n: float) -> str:
     return f"{n:.3g} PiB"
 
 
-def check_history_memory(n_runs: int, n_cycles: int, duration_s: float,
-                         measured: bool = False, delivered: bool = False) -> None:
+def check_history_memory(
+    n_runs: int, n_cycles: int, duration_s: float, measured: bool = False, delivered: bool = False
+) -> None:
     """Raise InputError if recording ``n_cycles`` cycles of ``n_runs`` runs exceeds
     :func:`memory_budget_bytes` (``measured``, ``delivered``: the optional records of
     :func:`history_bytes`)."""
@@ -101,12 +107,14 @@ def check_history_memory(n_runs: int, n_cycles: int, duration_s: float,
             f"{HISTORY_BYTES_PER_RUN_CYCLE} bytes per run per cycle), more than the "
             f"{human_bytes(budget)} allowed (half of this machine's memory): shorten the "
             f"flight, or split the runs into smaller batches",
-            parameter="duration_s", value=duration_s,
+            parameter="duration_s",
+            value=duration_s,
         )
 
 
-def warning_reasons(warning: np.ndarray, candidates: np.ndarray, t0_s: float,
-                    t1_s: float) -> dict[int, str]:
+def warning_reasons(
+    warning: np.ndarray, candidates: np.ndarray, t0_s: float, t1_s: float
+) -> dict[int, str]:
     """Failure reasons of the candidate runs whose MuJoCo warning counters are nonzero.
 
     Parameters
@@ -131,6 +139,7 @@ def warning_reasons(warning: np.ndarray, candidates: np.ndarray, t0_s: float,
     for i in np.flatnonzero(warned):  # only the runs that just failed
         kind = int(np.flatnonzero(warning[i, :, 1] > 0)[0])
         info = int(warning[i, kind, 0])
-        reasons[int(i)] = (f"MuJoCo {mujoco.mjtWarning(kind).name} at {when}: "
-                           f"{mujoco.mju_warningText(kind, info)}")
+        reasons[int(i)] = (
+            f"MuJoCo {mujoco.mjtWarning(kind).name} at {when}: {mujoco.mju_warningText(kind, info)}"
+        )
     return reasons

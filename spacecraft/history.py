@@ -2,6 +2,7 @@
 
 Imports ``spacecraft.navigation``, ``spacecraft.propulsion`` and ``spacecraft.vehicle`` only.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field

@@ -11,6 +11,7 @@ The callback is process-wide.  It is installed only where none is set, so a user
 callback is never replaced, and not at all when the optional extension was not built (no C
 compiler at install): rcsim then runs as before, with MuJoCo's own timers.
 """
+
 from __future__ import annotations
 
 import ctypes

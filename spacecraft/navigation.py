@@ -6,6 +6,7 @@ the rotation vector of ``q_cmd^-1 * q`` (body relative to the commanded frame; i
 are the same in both frames since a rotation leaves its own axis fixed): positive when the body
 is rotated past the command in the positive sense, so a controller drives it to zero.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -87,7 +88,8 @@ class Guidance:
 
     @classmethod
     def attitude(cls, att_cmd_rad: np.ndarray) -> Guidance:
-        """Rest-to-rest maneuver to the rotation vector ``att_cmd_rad`` (n_runs, 3) from identity."""
+        """Rest-to-rest maneuver to the rotation vector ``att_cmd_rad`` (n_runs, 3) from
+        identity."""
         att = np.atleast_2d(np.asarray(att_cmd_rad, float))
         return cls(quat_from_rotvec(att), np.zeros_like(att))
 

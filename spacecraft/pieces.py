@@ -14,6 +14,7 @@ steps of a plain fixed-step rollout (bit for bit).
 
 Imports nothing of rcsim.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -65,8 +66,13 @@ class Pieces:
         return self.on if self.level is None else self.level
 
 
-def cycle_pieces(start_s: np.ndarray, end_s: np.ndarray, cycle_s: float,
-                 dt_s: float | None = None, extra_cuts: np.ndarray | None = None) -> Pieces:
+def cycle_pieces(
+    start_s: np.ndarray,
+    end_s: np.ndarray,
+    cycle_s: float,
+    dt_s: float | None = None,
+    extra_cuts: np.ndarray | None = None,
+) -> Pieces:
     """Cut one control cycle at every switch instant of every jet, per run.
 
     Parameters
@@ -105,8 +111,15 @@ def cycle_pieces(start_s: np.ndarray, end_s: np.ndarray, cycle_s: float,
     if rows.size == 0:  # every interval empty or the whole cycle: the grid steps themselves
         on = np.broadcast_to(live.any(axis=-1)[:, None, :], (n, n_grid, live.shape[1]))
         return Pieces(np.full((n, n_grid), step), on, np.full(n, n_grid), uniform=True)
-    cut = _cut(start_s[rows], end_s[rows], live[rows], cycle_s, n_grid, dt_s,
-               None if extra_cuts is None else np.asarray(extra_cuts, float)[rows])
+    cut = _cut(
+        start_s[rows],
+        end_s[rows],
+        live[rows],
+        cycle_s,
+        n_grid,
+        dt_s,
+        None if extra_cuts is None else np.asarray(extra_cuts, float)[rows],
+    )
     if rows.size == n:
         return cut
     # Runs without a switch: their grid steps (what the cut gives them, bit for bit), padded
@@ -125,8 +138,15 @@ def cycle_pieces(start_s: np.ndarray, end_s: np.ndarray, cycle_s: float,
     return Pieces(length, on, count, uniform=False)
 
 
-def _cut(start_s: np.ndarray, end_s: np.ndarray, live: np.ndarray, cycle_s: float, n_grid: int,
-         dt_s: float | None, extra_cuts: np.ndarray | None) -> Pieces:
+def _cut(
+    start_s: np.ndarray,
+    end_s: np.ndarray,
+    live: np.ndarray,
+    cycle_s: float,
+    n_grid: int,
+    dt_s: float | None,
+    extra_cuts: np.ndarray | None,
+) -> Pieces:
     """:func:`cycle_pieces` of runs that switch inside the cycle: boundaries at every switch
     instant and grid point, sorted per run."""
     n = start_s.shape[0]
@@ -155,8 +175,15 @@ def _cut(start_s: np.ndarray, end_s: np.ndarray, live: np.ndarray, cycle_s: floa
     return Pieces(length, on, count, uniform=False)
 
 
-def profile_pieces(start_s: np.ndarray, end_s: np.ndarray, cycle_s: float, dt_s: float | None,
-                   rise_s: float, fall_s: float, segments: int) -> Pieces:
+def profile_pieces(
+    start_s: np.ndarray,
+    end_s: np.ndarray,
+    cycle_s: float,
+    dt_s: float | None,
+    rise_s: float,
+    fall_s: float,
+    segments: int,
+) -> Pieces:
     """:func:`cycle_pieces` with the thrust transients of :class:`spacecraft.valves.ThrustProfile`.
 
     A jet whose valve opens at ``s`` and closes at ``e`` thrusts ``min((t - s) / rise_s, 1)``
@@ -170,8 +197,9 @@ def profile_pieces(start_s: np.ndarray, end_s: np.ndarray, cycle_s: float, dt_s:
     """
     with np.errstate(invalid="ignore"):
         valid = end_s > start_s
-    peak = np.where(valid, np.clip((end_s - start_s) / rise_s, 0.0, 1.0) if rise_s > 0
-                    else 1.0, 0.0)
+    peak = np.where(
+        valid, np.clip((end_s - start_s) / rise_s, 0.0, 1.0) if rise_s > 0 else 1.0, 0.0
+    )
     peak = np.where(np.isnan(peak), 0.0, peak)
     tail_end = end_s + peak * fall_s  # thrust reaches zero
     live = valid & (start_s < cycle_s) & (tail_end > 0.0)
@@ -183,17 +211,24 @@ def profile_pieces(start_s: np.ndarray, end_s: np.ndarray, cycle_s: float, dt_s:
     down = end_s[..., None] + (peak * fall_s)[..., None] * k
     cuts = np.where(ramping[..., None], np.concatenate([up, down], axis=-1), np.nan)
     s = np.where(live, start_s, np.nan)
-    p = cycle_pieces(s, np.where(live, tail_end, np.nan), cycle_s, dt_s,
-                     extra_cuts=cuts.reshape(start_s.shape[0], -1))
-    t0 = np.concatenate([np.zeros((p.length_s.shape[0], 1)),
-                         np.cumsum(p.length_s, axis=1)[:, :-1]], axis=1)
+    p = cycle_pieces(
+        s,
+        np.where(live, tail_end, np.nan),
+        cycle_s,
+        dt_s,
+        extra_cuts=cuts.reshape(start_s.shape[0], -1),
+    )
+    t0 = np.concatenate(
+        [np.zeros((p.length_s.shape[0], 1)), np.cumsum(p.length_s, axis=1)[:, :-1]], axis=1
+    )
     mid = (t0 + 0.5 * p.length_s)[:, :, None, None]  # (n, pieces, 1, 1)
     s4, e4, pk4 = (a[:, None] for a in (start_s, end_s, peak))  # (n, 1, jets, slots)
     with np.errstate(invalid="ignore"):
         rising = np.clip((mid - s4) / rise_s, 0.0, 1.0) if rise_s > 0 else np.ones_like(mid - s4)
         opening = (mid >= s4) & (mid < e4)
-        decay = (np.clip(pk4 - (mid - e4) / fall_s, 0.0, None) if fall_s > 0
-                 else np.zeros_like(mid - e4))
+        decay = (
+            np.clip(pk4 - (mid - e4) / fall_s, 0.0, None) if fall_s > 0 else np.zeros_like(mid - e4)
+        )
         closed = mid >= e4
     level = np.where(opening, rising, 0.0) + np.where(closed & live[:, None], decay, 0.0)
     level = np.minimum(np.nan_to_num(level).sum(axis=-1), 1.0)

@@ -12,6 +12,7 @@ instants (:mod:`spacecraft.pieces`), and a pulse may start anywhere in a cycle (
 late, :mod:`spacecraft.valves`): any on-interval ``[start, end]`` of a cycle is flown exactly.
 :func:`duty_profile` remains the impulse-exact duty of a fixed-step integration (benchmarks).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -72,8 +73,12 @@ class PropulsionState:
 
 
 def apply_valve_limits(
-    on_time_s: np.ndarray, state: PropulsionState, params: PropulsionParams, thrust_n: np.ndarray,
-    *, account: bool = True,
+    on_time_s: np.ndarray,
+    state: PropulsionState,
+    params: PropulsionParams,
+    thrust_n: np.ndarray,
+    *,
+    account: bool = True,
 ) -> np.ndarray:
     """Clip commands to ``[0, cycle]``, drop too-short new firings, and update ``state``.
 

@@ -18,6 +18,7 @@ run's noise does not depend on the batch it flies in.  The draws are made in blo
 
 Imports ``models`` and ``spacecraft.navigation`` only.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
@@ -62,11 +63,15 @@ class SensorParams:
         out = {}
         for name in names:
             try:
-                out[name] = np.array(np.broadcast_to(np.asarray(values.get(name, 0.0), float),
-                                                     (n_runs, 3)))
+                out[name] = np.array(
+                    np.broadcast_to(np.asarray(values.get(name, 0.0), float), (n_runs, 3))
+                )
             except ValueError:
-                raise InputError(f"cannot be shaped as ({n_runs}, 3): shape "
-                                 f"{np.shape(values[name])}", parameter=name, value=None) from None
+                raise InputError(
+                    f"cannot be shaped as ({n_runs}, 3): shape {np.shape(values[name])}",
+                    parameter=name,
+                    value=None,
+                ) from None
         return cls(**out)
 
     @property
@@ -79,22 +84,29 @@ class SensorParams:
 
     def is_random(self) -> bool:
         """Any noise or walk to draw (biases alone need no random numbers in flight)."""
-        return bool(self.att_noise_rad.any() or self.rate_noise_rad_s.any()
-                    or self.rate_walk_rad_s_per_sqrt_s.any())
+        return bool(
+            self.att_noise_rad.any()
+            or self.rate_noise_rad_s.any()
+            or self.rate_walk_rad_s_per_sqrt_s.any()
+        )
 
     def check(self, n_runs: int) -> None:
         """Raise InputError on a wrong run count, non-finite values or a negative sigma."""
         if self.n_runs != n_runs:
-            raise InputError(f"has {self.n_runs} runs, the simulation {n_runs}",
-                             parameter="sensors", value=None)
+            raise InputError(
+                f"has {self.n_runs} runs, the simulation {n_runs}", parameter="sensors", value=None
+            )
         for f in fields(self):
             v = getattr(self, f.name)
             bad = ~np.isfinite(v)
             if "bias" not in f.name:
                 bad |= v < 0
             if bad.any():
-                raise InputError(f"must be finite{'' if 'bias' in f.name else ' and >= 0'}, "
-                                 f"got {v[bad][0]!r}", parameter=f.name, value=float(v[bad][0]))
+                raise InputError(
+                    f"must be finite{'' if 'bias' in f.name else ' and >= 0'}, got {v[bad][0]!r}",
+                    parameter=f.name,
+                    value=float(v[bad][0]),
+                )
 
 
 class SensorNoise:
@@ -121,8 +133,9 @@ class SensorNoise:
             self._first = k
             # Consecutive blocks continue each run's stream: the sequence does not depend on
             # the block length (tests/spacecraft/test_sensors.py).
-            self._block = np.stack([rng.standard_normal((_BLOCK_CYCLES, N_SENSOR_NORMALS))
-                                    for rng in self._rngs])
+            self._block = np.stack(
+                [rng.standard_normal((_BLOCK_CYCLES, N_SENSOR_NORMALS)) for rng in self._rngs]
+            )
         return self._block[:, k - self._first]
 
 
@@ -133,9 +146,14 @@ class SensorState:
     walk_rad_s: np.ndarray
 
 
-def measure(q_BN: np.ndarray, omega_B: np.ndarray, z: np.ndarray | None,
-            params: SensorParams, state: SensorState, cycle_s: float
-            ) -> tuple[np.ndarray, np.ndarray]:
+def measure(
+    q_BN: np.ndarray,
+    omega_B: np.ndarray,
+    z: np.ndarray | None,
+    params: SensorParams,
+    state: SensorState,
+    cycle_s: float,
+) -> tuple[np.ndarray, np.ndarray]:
     """Measured attitude and rate at a cycle's start; advances the random walk.
 
     Parameters
@@ -161,6 +179,7 @@ def measure(q_BN: np.ndarray, omega_B: np.ndarray, z: np.ndarray | None,
         d_att = d_att + params.att_noise_rad * z[:, 0:3]
         omega = omega + params.rate_noise_rad_s * z[:, 3:6]
         state.walk_rad_s = state.walk_rad_s + (
-            params.rate_walk_rad_s_per_sqrt_s * np.sqrt(cycle_s) * z[:, 6:9])
+            params.rate_walk_rad_s_per_sqrt_s * np.sqrt(cycle_s) * z[:, 6:9]
+        )
     q = quat_mul(q_BN, quat_from_rotvec(d_att)) if d_att.any() else q_BN
     return q, omega

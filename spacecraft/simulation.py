@@ -52,6 +52,7 @@ and failure bookkeeping; splitting them would pass those around for no gain in c
 pure parts live in :mod:`spacecraft.pieces`, :mod:`spacecraft.valves`,
 :mod:`spacecraft.sensors` and :mod:`spacecraft.history`.
 """
+
 from __future__ import annotations
 
 import math
@@ -189,7 +190,9 @@ class BatchSimulation:
                 raise InputError(
                     f"noisy sensors need one noise stream per run ({n}), got "
                     f"{'none' if sensor_streams is None else len(sensor_streams)}",
-                    parameter="sensor_streams", value=None)
+                    parameter="sensor_streams",
+                    value=None,
+                )
         self.sensor_streams = sensor_streams
         self.timing = ValveTiming.of(n) if timing is None else timing
         self.faults = None if faults is None or faults.is_none() else faults
@@ -215,8 +218,9 @@ class BatchSimulation:
         # Per-run physics step: the length of each run's current piece of a cycle.
         self._timestep = self._batch.expand("opt.timestep")
         self._stretched = False  # some run's timestep is not the model's
-        self._level = (np.ones((n, N_JETS)) if self.faults is None
-                       else self.faults.thrust_factor.copy())
+        self._level = (
+            np.ones((n, N_JETS)) if self.faults is None else self.faults.thrust_factor.copy()
+        )
         # Live (n_runs, mjNWARNING, 2) view of each simulation's MjData.warning (lastinfo, number).
         self._warning = self._batch.warning
 
@@ -239,8 +243,9 @@ class BatchSimulation:
         # The jets as flown: thrust and direction per run, summed into the wrench matrix.
         self._flown_thrust_n = pick(p.thrust_n, nominal.thrust_n)
         self._flown_dir_S = pick(p.jet_dir_S, nominal.jet_dir_S)
-        self._wrench = jet_wrench_B(replace(p, thrust_n=self._flown_thrust_n,
-                                            jet_dir_S=self._flown_dir_S), m)
+        self._wrench = jet_wrench_B(
+            replace(p, thrust_n=self._flown_thrust_n, jet_dir_S=self._flown_dir_S), m
+        )
         # mass, CG and inertia feed constants (body_subtreemass, body_invweight0, dof_M0,
         # actuator_acc0, ...) that MuJoCo only recomputes in mj_setConst; without it some
         # changes are silently ignored.
@@ -327,13 +332,18 @@ class BatchSimulation:
         """
         n, cycle = self.n_runs, self.propulsion.cycle_s
         if not np.isfinite(duration_s) or duration_s <= 0:
-            raise InputError(f"must be > 0, got {duration_s}", parameter="duration_s",
-                             value=duration_s)
+            raise InputError(
+                f"must be > 0, got {duration_s}", parameter="duration_s", value=duration_s
+            )
         check_cycle(controller, cycle)
         n_cycles = int(math.ceil(duration_s / cycle - 1e-9))
-        check_history_memory(n, n_cycles, duration_s, measured=self.sensors is not None,
-                             delivered=not (self.timing.is_zero() and self.faults is None
-                                            and self.profile is None))
+        check_history_memory(
+            n,
+            n_cycles,
+            duration_s,
+            measured=self.sensors is not None,
+            delivered=not (self.timing.is_zero() and self.faults is None and self.profile is None),
+        )
         self._reset(q0_BN, omega0_B)
         state = controller.initial_state(n) if ctrl_state is None else ctrl_state
         prop = PropulsionState.zeros(n)
@@ -357,7 +367,7 @@ class BatchSimulation:
         if sensed:
             rec["meas_att_err_B"] = np.empty((n_cycles, n, 3))
             rec["meas_rate_err_B"] = np.empty((n_cycles, n, 3))
-            noise = (SensorNoise(self.sensor_streams) if self.sensors.is_random() else None)
+            noise = SensorNoise(self.sensor_streams) if self.sensors.is_random() else None
             sensor_state = SensorState(np.zeros((n, 3)))
         valves = ValveState.closed(n)
         thrust = self.params.thrust_n * self._level
@@ -367,23 +377,35 @@ class BatchSimulation:
             q, w = self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy()
             nav = truth = navigate(t0, q, w, guidance)
             if sensed:
-                q_m, w_m = measure(q, w, None if noise is None else noise.draw(k), self.sensors,
-                                   sensor_state, cycle)
+                q_m, w_m = measure(
+                    q,
+                    w,
+                    None if noise is None else noise.draw(k),
+                    self.sensors,
+                    sensor_state,
+                    cycle,
+                )
                 nav = navigate(t0, q_m, w_m, guidance)
                 rec["meas_att_err_B"][k] = nav.att_err_B
                 rec["meas_rate_err_B"][k] = nav.rate_err_B
             command, state = controller.step(nav, state)
             command = np.where(failed[:, None], 0.0, command)
-            on = apply_valve_limits(command, prop, self.propulsion, self.params.thrust_n,
-                                    account=False)
+            on = apply_valve_limits(
+                command, prop, self.propulsion, self.params.thrust_n, account=False
+            )
             command_valves(valves, on, self.timing, cycle)
             grid = self.dt_s if self.n_sub > 1 else None
             if self.profile is None:
                 pieces = cycle_pieces(*cycle_intervals(valves, self.faults, t0), cycle, grid)
             else:
-                pieces = profile_pieces(*cycle_intervals(valves, self.faults, t0), cycle, grid,
-                                        self.profile.rise_s, self.profile.fall_s,
-                                        self.profile.segments)
+                pieces = profile_pieces(
+                    *cycle_intervals(valves, self.faults, t0),
+                    cycle,
+                    grid,
+                    self.profile.rise_s,
+                    self.profile.fall_s,
+                    self.profile.segments,
+                )
             delivered = pieces.on_time_s()
             prop.on_time_s += delivered
             prop.impulse_ns += pieces.thrust_time_s() * thrust
@@ -395,19 +417,29 @@ class BatchSimulation:
             if effects:
                 rec["delivered_s"][k] = delivered
             if disturbance_B is not None:
-                torque = np.asarray(disturbance_B(t0) if callable(disturbance_B)
-                                    else disturbance_B, float)
+                torque = np.asarray(
+                    disturbance_B(t0) if callable(disturbance_B) else disturbance_B, float
+                )
             self._step(pieces, torque, failed, reason, t0, t0 + cycle)
             end_cycle(valves, cycle, 0.0 if self.profile is None else self.profile.fall_s)
             if progress is not None:
                 progress(k + 1)
-        final = navigate(n_cycles * cycle, self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy(),
-                         guidance)
+        final = navigate(
+            n_cycles * cycle, self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy(), guidance
+        )
         # (n_runs, n_cycles, k) views of the cycle-major buffers: a copy would double the peak
         # memory of a large batch and cost a tenth of its wall time.
         rec = {key: value.swapaxes(0, 1) for key, value in rec.items()}
-        return History(cycle_s=cycle, t_s=t_s, final=final, propulsion=prop, failed=failed, reason=reason,
-                       flown_params=self.flown_params(), **rec)
+        return History(
+            cycle_s=cycle,
+            t_s=t_s,
+            final=final,
+            propulsion=prop,
+            failed=failed,
+            reason=reason,
+            flown_params=self.flown_params(),
+            **rec,
+        )
 
     def _reset(self, q0_BN, omega0_B) -> None:
         n = self.n_runs
@@ -419,8 +451,9 @@ class BatchSimulation:
             self._qvel[:, 3:6] = np.asarray(omega0_B, float).reshape(n, 3)
         self._batch.forward()
 
-    def _check_warnings(self, failed: np.ndarray, reason: list[str], t0_s: float,
-                        t1_s: float) -> None:
+    def _check_warnings(
+        self, failed: np.ndarray, reason: list[str], t0_s: float, t1_s: float
+    ) -> None:
         """Fail the runs whose MuJoCo warning counters rose in ``[t0_s, t1_s]``.
 
         MuJoCo resets a diverged simulation and goes on; its warning counters (zeroed at
@@ -430,8 +463,15 @@ class BatchSimulation:
             failed[i] = True
             reason[i] = why
 
-    def _step(self, pieces: Pieces, torque: np.ndarray, failed: np.ndarray,
-              reason: list[str], t0_s: float, t1_s: float) -> None:
+    def _step(
+        self,
+        pieces: Pieces,
+        torque: np.ndarray,
+        failed: np.ndarray,
+        reason: list[str],
+        t0_s: float,
+        t1_s: float,
+    ) -> None:
         """Integrate cycle ``[t0_s, t1_s]`` of the runs still alive, piece by piece; newly
         failed ones are frozen.
 
@@ -445,21 +485,23 @@ class BatchSimulation:
                 self._timestep[:] = self.dt_s
                 self._stretched = False
             # Flight-model controls: each run's jet wrench matrix times its on-fractions.
-            control = np.einsum("nwj,nsj->nsw", self._wrench,
-                                pieces.control() * self._level[:, None, :])
+            control = np.einsum(
+                "nwj,nsj->nsw", self._wrench, pieces.control() * self._level[:, None, :]
+            )
             if control.shape[1] != self.n_sub:  # one on-fraction for all the cycle's steps
                 control = np.repeat(control, self.n_sub, axis=1)
             control[:, :, 3:6] += torque[:, None, :]
             self._rollout(self.n_sub, control, alive, failed, reason)
         else:
             self._stretched = True
-            wrench = np.einsum("nwj,npj->npw", self._wrench,
-                               pieces.control() * self._level[:, None, :])
+            wrench = np.einsum(
+                "nwj,npj->npw", self._wrench, pieces.control() * self._level[:, None, :]
+            )
             wrench[:, :, 3:6] += torque[:, None, :]
             for p in range(pieces.n_pieces):
                 runs = alive & ~failed & (pieces.count > p)
                 self._timestep[runs] = pieces.length_s[runs, p]
-                self._rollout(1, wrench[:, p:p + 1], runs, failed, reason)
+                self._rollout(1, wrench[:, p : p + 1], runs, failed, reason)
         self._check_warnings(failed, reason, t0_s, t1_s)
         state_ok = np.isfinite(self._qvel.sum(axis=1) + self._qpos.sum(axis=1))
         if state_ok.all():
@@ -471,8 +513,14 @@ class BatchSimulation:
         self._qpos[~state_ok] = np.nan_to_num(self._qpos[~state_ok])
         self._qvel[~state_ok] = 0.0
 
-    def _rollout(self, nstep: int, control: np.ndarray, runs: np.ndarray, failed: np.ndarray,
-                 reason: list[str]) -> None:
+    def _rollout(
+        self,
+        nstep: int,
+        control: np.ndarray,
+        runs: np.ndarray,
+        failed: np.ndarray,
+        reason: list[str],
+    ) -> None:
         """``nstep`` physics steps of the runs ``runs`` (bool, (n_runs,)) with ``control``
         (n_runs, nstep, nu); a MuJoCo error fails the run it names."""
         ids = np.flatnonzero(runs)
@@ -480,8 +528,13 @@ class BatchSimulation:
             return
         everyone = ids.size == self.n_runs
         try:
-            self._batch.rollout(nstep, control=control if everyone else control[ids],
-                                control_spec=_CTRL, record=(), ids=None if everyone else ids)
+            self._batch.rollout(
+                nstep,
+                control=control if everyone else control[ids],
+                control_spec=_CTRL,
+                record=(),
+                ids=None if everyone else ids,
+            )
         except SimulationError as exc:
             for i in exc.ids:
                 failed[i] = True
@@ -499,7 +552,15 @@ def simulate_batch(
     ``sensors``, ``sensor_streams``, ``timing``, ``faults``, ``profile`` go to the simulation,
     the rest to
     :meth:`BatchSimulation.run`)."""
-    sim_keys = {"propulsion", "model", "nthread", "sensors", "sensor_streams", "timing", "faults",
-                "profile"}
+    sim_keys = {
+        "propulsion",
+        "model",
+        "nthread",
+        "sensors",
+        "sensor_streams",
+        "timing",
+        "faults",
+        "profile",
+    }
     sim_kw = {k: kwargs.pop(k) for k in list(kwargs) if k in sim_keys}
     return BatchSimulation(params, **sim_kw).run(controller, guidance, duration_s, **kwargs)

@@ -30,6 +30,7 @@ new one is commanded, and a cycle's command always acts before the next cycle's.
 
 Imports ``models`` and ``spacecraft.vehicle`` only.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -49,8 +50,11 @@ def _per_run(value, n_runs: int, shape: tuple, name: str, dtype=float) -> np.nda
     try:
         return np.array(np.broadcast_to(np.asarray(value, dtype), (n_runs,) + shape))
     except ValueError:
-        raise InputError(f"cannot be shaped as {(n_runs,) + shape}: shape "
-                         f"{np.shape(value)}", parameter=name, value=None) from None
+        raise InputError(
+            f"cannot be shaped as {(n_runs,) + shape}: shape {np.shape(value)}",
+            parameter=name,
+            value=None,
+        ) from None
 
 
 @dataclass(frozen=True)
@@ -71,41 +75,52 @@ class ValveTiming:
     close_delay_s: np.ndarray
 
     @classmethod
-    def of(cls, n_runs: int, *, command_delay_s=0.0, open_delay_s=0.0,
-           close_delay_s=0.0) -> ValveTiming:
+    def of(
+        cls, n_runs: int, *, command_delay_s=0.0, open_delay_s=0.0, close_delay_s=0.0
+    ) -> ValveTiming:
         """Delays broadcast to ``n_runs`` runs (scalars, per-jet rows or full arrays)."""
-        return cls(_per_run(command_delay_s, n_runs, (), "command_delay_s"),
-                   _per_run(open_delay_s, n_runs, (N_JETS,), "open_delay_s"),
-                   _per_run(close_delay_s, n_runs, (N_JETS,), "close_delay_s"))
+        return cls(
+            _per_run(command_delay_s, n_runs, (), "command_delay_s"),
+            _per_run(open_delay_s, n_runs, (N_JETS,), "open_delay_s"),
+            _per_run(close_delay_s, n_runs, (N_JETS,), "close_delay_s"),
+        )
 
     @property
     def n_runs(self) -> int:
         return int(self.command_delay_s.shape[0])
 
     def is_zero(self) -> bool:
-        return not (self.command_delay_s.any() or self.open_delay_s.any()
-                    or self.close_delay_s.any())
+        return not (
+            self.command_delay_s.any() or self.open_delay_s.any() or self.close_delay_s.any()
+        )
 
     def check(self, cycle_s: float, n_runs: int) -> None:
         """Raise InputError unless every delay is finite, >= 0 and, with the command delay,
         shorter than the control cycle ``cycle_s`` [s]; or the run count differs."""
         if self.n_runs != n_runs:
-            raise InputError(f"has {self.n_runs} runs, the simulation {n_runs}",
-                             parameter="timing", value=None)
+            raise InputError(
+                f"has {self.n_runs} runs, the simulation {n_runs}", parameter="timing", value=None
+            )
         d = self.command_delay_s[:, None]
         for name in ("command_delay_s", "open_delay_s", "close_delay_s"):
             v = getattr(self, name)
             bad = ~(np.isfinite(v) & (v >= 0))
             if bad.any():
-                raise InputError(f"must be finite and >= 0 [s], got {v[bad][0]!r}",
-                                 parameter=name, value=float(v[bad][0]))
+                raise InputError(
+                    f"must be finite and >= 0 [s], got {v[bad][0]!r}",
+                    parameter=name,
+                    value=float(v[bad][0]),
+                )
         for name in ("open_delay_s", "close_delay_s"):
             total = d + getattr(self, name)
             if (total >= cycle_s).any():
                 worst = float(total.max())
                 raise InputError(
                     f"plus command_delay_s is {worst:g} s, not shorter than the {cycle_s:g} s "
-                    f"control cycle", parameter=name, value=worst)
+                    f"control cycle",
+                    parameter=name,
+                    value=worst,
+                )
 
 
 @dataclass(frozen=True)
@@ -128,37 +143,61 @@ class JetFaults:
     thrust_factor: np.ndarray
 
     @classmethod
-    def of(cls, n_runs: int, *, off_from_s=np.inf, stuck_from_s=np.inf, stuck_for_s=0.0,
-           thrust_factor=1.0) -> JetFaults:
+    def of(
+        cls,
+        n_runs: int,
+        *,
+        off_from_s=np.inf,
+        stuck_from_s=np.inf,
+        stuck_for_s=0.0,
+        thrust_factor=1.0,
+    ) -> JetFaults:
         """Faults broadcast to ``n_runs`` runs (scalars, per-jet rows or full arrays)."""
-        return cls(*(_per_run(v, n_runs, (N_JETS,), name) for name, v in (
-            ("off_from_s", off_from_s), ("stuck_from_s", stuck_from_s),
-            ("stuck_for_s", stuck_for_s), ("thrust_factor", thrust_factor))))
+        return cls(
+            *(
+                _per_run(v, n_runs, (N_JETS,), name)
+                for name, v in (
+                    ("off_from_s", off_from_s),
+                    ("stuck_from_s", stuck_from_s),
+                    ("stuck_for_s", stuck_for_s),
+                    ("thrust_factor", thrust_factor),
+                )
+            )
+        )
 
     @property
     def n_runs(self) -> int:
         return int(self.off_from_s.shape[0])
 
     def is_none(self) -> bool:
-        return bool(np.isinf(self.off_from_s).all() and np.isinf(self.stuck_from_s).all()
-                    and (self.thrust_factor == 1.0).all())
+        return bool(
+            np.isinf(self.off_from_s).all()
+            and np.isinf(self.stuck_from_s).all()
+            and (self.thrust_factor == 1.0).all()
+        )
 
     def check(self, n_runs: int) -> None:
         """Raise InputError on a wrong run count, NaN times, a negative stuck length or a
         thrust factor outside [0, 1]."""
         if self.n_runs != n_runs:
-            raise InputError(f"has {self.n_runs} runs, the simulation {n_runs}",
-                             parameter="faults", value=None)
-        checks = (("off_from_s", lambda v: ~np.isnan(v)),
-                  ("stuck_from_s", lambda v: ~np.isnan(v)),
-                  ("stuck_for_s", lambda v: np.isfinite(v) & (v >= 0)),
-                  ("thrust_factor", lambda v: np.isfinite(v) & (v >= 0) & (v <= 1)))
+            raise InputError(
+                f"has {self.n_runs} runs, the simulation {n_runs}", parameter="faults", value=None
+            )
+        checks = (
+            ("off_from_s", lambda v: ~np.isnan(v)),
+            ("stuck_from_s", lambda v: ~np.isnan(v)),
+            ("stuck_for_s", lambda v: np.isfinite(v) & (v >= 0)),
+            ("thrust_factor", lambda v: np.isfinite(v) & (v >= 0) & (v <= 1)),
+        )
         for name, ok in checks:
             v = getattr(self, name)
             bad = ~ok(v)
             if bad.any():
-                raise InputError("NaN, negative or (thrust_factor) outside [0, 1]: "
-                                 f"{v[bad][0]!r}", parameter=name, value=float(v[bad][0]))
+                raise InputError(
+                    f"NaN, negative or (thrust_factor) outside [0, 1]: {v[bad][0]!r}",
+                    parameter=name,
+                    value=float(v[bad][0]),
+                )
 
 
 @dataclass(frozen=True)
@@ -184,8 +223,11 @@ class ThrustProfile:
     def __post_init__(self):
         ok = all(np.isfinite(v) and 0 <= v < 0.04 for v in (self.rise_s, self.fall_s))
         if not ok or int(self.segments) != self.segments or self.segments < 1:
-            raise InputError(f"rise_s and fall_s must be in [0, 0.04) s and segments >= 1, "
-                             f"got {self}", parameter="profile", value=None)
+            raise InputError(
+                f"rise_s and fall_s must be in [0, 0.04) s and segments >= 1, got {self}",
+                parameter="profile",
+                value=None,
+            )
 
     def is_none(self) -> bool:
         return self.rise_s == 0 and self.fall_s == 0
@@ -206,12 +248,12 @@ class ValveState:
     @classmethod
     def closed(cls, n_runs: int) -> ValveState:
         shape = (n_runs, N_JETS, _SLOTS)
-        return cls(np.full(shape, np.nan), np.full(shape, np.nan),
-                   np.zeros((n_runs, N_JETS), bool))
+        return cls(np.full(shape, np.nan), np.full(shape, np.nan), np.zeros((n_runs, N_JETS), bool))
 
 
-def command_valves(state: ValveState, on_s: np.ndarray, timing: ValveTiming,
-                   cycle_s: float) -> None:
+def command_valves(
+    state: ValveState, on_s: np.ndarray, timing: ValveTiming, cycle_s: float
+) -> None:
     """Turn this cycle's delivered commands into valve on-intervals (``state`` in place).
 
     Parameters
@@ -249,8 +291,9 @@ def command_valves(state: ValveState, on_s: np.ndarray, timing: ValveTiming,
     state.was_on = full
 
 
-def cycle_intervals(state: ValveState, faults: JetFaults | None, t0_s: float
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def cycle_intervals(
+    state: ValveState, faults: JetFaults | None, t0_s: float
+) -> tuple[np.ndarray, np.ndarray]:
     """This cycle's thrust intervals, relative to its start ``t0_s``: the valve's plus the
     stuck-on window, ended at a failure.  Shapes ``(n_runs, 16, k)``."""
     start, end = state.start, state.end
@@ -258,7 +301,8 @@ def cycle_intervals(state: ValveState, faults: JetFaults | None, t0_s: float
         return start, end
     start = np.concatenate([start, (faults.stuck_from_s - t0_s)[..., None]], axis=-1)
     end = np.concatenate(
-        [end, (faults.stuck_from_s + faults.stuck_for_s - t0_s)[..., None]], axis=-1)
+        [end, (faults.stuck_from_s + faults.stuck_for_s - t0_s)[..., None]], axis=-1
+    )
     return start, np.minimum(end, (faults.off_from_s - t0_s)[..., None])
 
 

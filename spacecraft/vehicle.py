@@ -4,6 +4,7 @@ The nominal vehicle is the packaged MJCF (Gambone Table 1 mass properties, the j
 ``models/vehicle/README.md``).  A batch of runs is a :class:`VehicleParams` whose arrays have a
 leading ``n_runs`` axis; dispersions replace some of them.
 """
+
 from __future__ import annotations
 
 import logging
@@ -140,8 +141,11 @@ class VehicleParams:
         """Raise ValueError if any array has the wrong shape or a non-physical value."""
         n = self.n_runs
         shapes = {
-            "mass_kg": (n,), "cg_B": (n, 3), "inertia_B": (n, 3),
-            "thrust_n": (n, N_JETS), "jet_dir_S": (n, N_JETS, 3),
+            "mass_kg": (n,),
+            "cg_B": (n, 3),
+            "inertia_B": (n, 3),
+            "thrust_n": (n, N_JETS),
+            "jet_dir_S": (n, N_JETS, 3),
         }
         for name, shape in shapes.items():
             value = getattr(self, name)

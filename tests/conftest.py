@@ -9,6 +9,7 @@ change ``max_examples`` or ``deadline``, never these two (``tests/test_packaging
 Browser tests take the ``chromium`` fixture: the path of headless Chromium, or a skip that says
 why it is missing (``make test`` installs the Debian package when it can).
 """
+
 import shutil
 
 import mujoco
@@ -42,12 +43,21 @@ def chromium() -> str:
         path = shutil.which(name)
         if path:
             return path
-    pytest.skip("headless Chromium not found on PATH: `make test` installs the Debian package "
-                "`chromium` when run as root with apt-get; otherwise install it by hand")
+    pytest.skip(
+        "headless Chromium not found on PATH: `make test` installs the Debian package "
+        "`chromium` when run as root with apt-get; otherwise install it by hand"
+    )
 
 
-CHROMIUM_FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                  "--disable-component-update", "--disable-sync", "--no-first-run")
+CHROMIUM_FLAGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+)
 
 
 @pytest.fixture
@@ -61,11 +71,15 @@ def render_page(chromium, tmp_path):
 
     def render(page, screenshot=None) -> str:
         url = page.as_uri()
-        dom = subprocess.run([chromium, *flags, "--dump-dom", url], capture_output=True,
-                             text=True, timeout=120).stdout
+        dom = subprocess.run(
+            [chromium, *flags, "--dump-dom", url], capture_output=True, text=True, timeout=120
+        ).stdout
         if screenshot is not None:
-            subprocess.run([chromium, *flags, "--window-size=1280,2000",
-                            f"--screenshot={screenshot}", url], capture_output=True, timeout=120)
+            subprocess.run(
+                [chromium, *flags, "--window-size=1280,2000", f"--screenshot={screenshot}", url],
+                capture_output=True,
+                timeout=120,
+            )
         return dom
 
     return render

@@ -4,6 +4,7 @@ Oracle: the page itself -- its own assertions (e.g. the maneuver ends inside the
 controller's attitude band) and the absence of any exception.  The blocks share one namespace,
 as cells of a notebook do.
 """
+
 import os
 import re
 from pathlib import Path

@@ -15,6 +15,7 @@ Oracles:
 Every import statement is read from the source (AST), so the tree is the whole truth: the
 folders are the packages (``pyproject.toml``), nothing is mapped at install time.
 """
+
 from __future__ import annotations
 
 import ast
@@ -59,14 +60,18 @@ def imports_of(path: Path, root: Path = ROOT) -> set[str]:
             found.add(module)
             found.update(f"{module}.{alias.name}" for alias in node.names)
         elif isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "import_module":
-            found.update(a.value for a in node.args
-                         if isinstance(a, ast.Constant) and isinstance(a.value, str))
+            found.update(
+                a.value
+                for a in node.args
+                if isinstance(a, ast.Constant) and isinstance(a.value, str)
+            )
     return found
 
 
 def _python_files(root: Path = ROOT) -> list[Path]:
-    return sorted(p for layer in LAYERS for p in (root / layer).rglob("*.py")
-                  if "__pycache__" not in p.parts)
+    return sorted(
+        p for layer in LAYERS for p in (root / layer).rglob("*.py") if "__pycache__" not in p.parts
+    )
 
 
 def _modules(root: Path = ROOT) -> dict[str, set[str]]:
@@ -96,7 +101,9 @@ def package_rules(root: Path = ROOT) -> dict[str, dict[str, list[str]]]:
         for key, label in (("must_not", "Must not import:"), ("only_by", "Only imported by:")):
             match = re.search(re.escape(label) + r"(.*?)(?:\n\s*\n|\Z)", doc, re.S)
             if match:
-                names = [n.strip().rstrip(".") for n in match.group(1).replace("\n", " ").split(",")]
+                names = [
+                    n.strip().rstrip(".") for n in match.group(1).replace("\n", " ").split(",")
+                ]
                 entry[key] = [n for n in names if n]
         if entry:
             rules[_module_name(init, root)] = entry
@@ -123,8 +130,10 @@ def violations(root: Path = ROOT) -> list[str]:
             elif "only_by" in rule and not any(_within(module, m) for m in rule["only_by"]):
                 for imp in sorted(imports):
                     if _within(imp, package):
-                        bad.append(f"{module} imports {imp}; {package} is only imported by "
-                                   f"{', '.join(rule['only_by'])}")
+                        bad.append(
+                            f"{module} imports {imp}; {package} is only imported by "
+                            f"{', '.join(rule['only_by'])}"
+                        )
     bad += [f"import cycle: {' -> '.join(c)}" for c in cycles(graph)]
     return bad
 
@@ -168,21 +177,40 @@ def test_the_tree_keeps_its_layers():
 def test_every_package_states_its_rules_and_each_rule_names_a_real_package():
     # A rule naming a module that does not exist checks nothing (a typo, or a module moved).
     rules = package_rules()
-    assert {"models", "spacecraft", "lookup", "analysis", "analysis.engine", "analysis.results",
-            "analysis.results.report", "analysis.apps.cli"} <= set(rules)
+    assert {
+        "models",
+        "spacecraft",
+        "lookup",
+        "analysis",
+        "analysis.engine",
+        "analysis.results",
+        "analysis.results.report",
+        "analysis.apps.cli",
+    } <= set(rules)
     known = set(_modules())
-    stale = [f"{package}: {name}" for package, rule in rules.items()
-             for names in rule.values() for name in names
-             if not any(_within(m, name) for m in known)]
+    stale = [
+        f"{package}: {name}"
+        for package, rule in rules.items()
+        for names in rule.values()
+        for name in names
+        if not any(_within(m, name) for m in known)
+    ]
     assert not stale, f"rules naming no module of the tree: {stale}"
 
 
 def test_no_namespaced_layer_imports():
     # The layers are top-level packages: ``rcsim.models`` does not exist (issue 15 moved the
     # package-dir mapping away); only ``rcsim`` itself and its version are importable from it.
-    bad = sorted({f"{p.relative_to(ROOT)}: {i}" for folder in LAYERS + ["tests", "benchmarks"]
-                  for p in (ROOT / folder).rglob("*.py") if "__pycache__" not in p.parts
-                  for i in imports_of(p) if re.match(r"rcsim\.(models|spacecraft|lookup|analysis)", i)})
+    bad = sorted(
+        {
+            f"{p.relative_to(ROOT)}: {i}"
+            for folder in LAYERS + ["tests", "benchmarks"]
+            for p in (ROOT / folder).rglob("*.py")
+            if "__pycache__" not in p.parts
+            for i in imports_of(p)
+            if re.match(r"rcsim\.(models|spacecraft|lookup|analysis)", i)
+        }
+    )
     assert not bad, f"imports of the old namespace: {bad}"
 
 
@@ -195,8 +223,10 @@ def test_the_checker_sees_violations(tmp_path, case):
         "spacecraft/a.py": "import models\n",
         "spacecraft/b.py": "",
         "lookup/__init__.py": '"""Controllers.\n\nOnly imported by: analysis.apps.\n"""\n',
-        "analysis/__init__.py": "", "analysis/engine/__init__.py": "",
-        "analysis/results/__init__.py": "", "analysis/apps/__init__.py": "",
+        "analysis/__init__.py": "",
+        "analysis/engine/__init__.py": "",
+        "analysis/results/__init__.py": "",
+        "analysis/apps/__init__.py": "",
         "rcsim/__init__.py": "",
     }
     planted = {

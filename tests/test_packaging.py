@@ -7,6 +7,7 @@ this file checks that the pins and the bounds say the same thing).  Also the sui
 honesty rules that are cheap to check statically: Hypothesis runs derandomized with no example
 database (CI is reproducible), and no test skips because one of our own modules fails to import.
 """
+
 import ast
 import re
 import tomllib
@@ -30,13 +31,19 @@ def _found_packages() -> set[str]:
     """What setuptools installs: its own discovery with pyproject.toml's settings."""
     from setuptools import find_namespace_packages
 
-    return set(find_namespace_packages(where=str(ROOT / FIND["where"][0]),
-                                       include=FIND["include"], exclude=FIND.get("exclude", ())))
+    return set(
+        find_namespace_packages(
+            where=str(ROOT / FIND["where"][0]),
+            include=FIND["include"],
+            exclude=FIND.get("exclude", ()),
+        )
+    )
 
 
 def _source_files(pattern: str) -> list[Path]:
-    return sorted(p for top in TOP_LEVEL for p in (ROOT / top).rglob(pattern)
-                  if "__pycache__" not in p.parts)
+    return sorted(
+        p for top in TOP_LEVEL for p in (ROOT / top).rglob(pattern) if "__pycache__" not in p.parts
+    )
 
 
 def _package_of(folder: Path) -> str:
@@ -58,8 +65,11 @@ def test_every_python_module_is_inside_an_installed_package():
     # A module in a folder the discovery misses imports from the source tree and is absent
     # from a wheel.
     found = _found_packages()
-    orphans = [str(p.relative_to(ROOT)) for p in _source_files("*.py")
-               if _package_of(p.parent) not in found]
+    orphans = [
+        str(p.relative_to(ROOT))
+        for p in _source_files("*.py")
+        if _package_of(p.parent) not in found
+    ]
     assert not orphans, f"modules outside any installed package: {orphans}"
 
 
@@ -67,8 +77,13 @@ def test_every_regular_package_has_its_init():
     # A code folder without __init__.py would be a namespace package: legal, but then its
     # docstring (what it owns, what it must not import) is missing.  Only data folders may
     # lack one.
-    bare = sorted({str(p.parent.relative_to(ROOT)) for p in _source_files("*.py")
-                   if not (p.parent / "__init__.py").is_file()})
+    bare = sorted(
+        {
+            str(p.parent.relative_to(ROOT))
+            for p in _source_files("*.py")
+            if not (p.parent / "__init__.py").is_file()
+        }
+    )
     assert not bare, f"code folders without __init__.py: {bare}"
 
 
@@ -77,8 +92,11 @@ def test_package_data_globs_cover_every_data_file():
     # file beside the code that is not Python (tables, MJCF, READMEs, py.typed) must ship.
     package_data = SETUPTOOLS.get("package-data", {})
     # C sources and the extensions built from them are setup.py's (next test), not data.
-    data_files = [p for p in _source_files("*") if p.is_file()
-                  and p.suffix not in (".py", ".pyc", ".c", ".so")]
+    data_files = [
+        p
+        for p in _source_files("*")
+        if p.is_file() and p.suffix not in (".py", ".pyc", ".c", ".so")
+    ]
     assert data_files, "no data files found: the tables and MJCF should be here"
     shipped = set()
     for package, globs in package_data.items():
@@ -106,9 +124,11 @@ def test_packaged_data_the_code_loads_is_present():
     # The loaders find these through importlib.resources; each is read at import or first use.
     from importlib.resources import files
 
-    for package, name in [("models", "vehicle/vehicle.xml"),
-                          ("models", "data/table1_mass_properties.csv"),
-                          ("lookup", "data/generated_table.csv")]:
+    for package, name in [
+        ("models", "vehicle/vehicle.xml"),
+        ("models", "data/table1_mass_properties.csv"),
+        ("lookup", "data/generated_table.csv"),
+    ]:
         assert (files(package) / name).is_file(), f"{package}: {name} missing"
 
 
@@ -169,8 +189,13 @@ def test_requires_python_covers_the_standard_library_the_code_imports():
     needed = {}
     for path in _source_files("*.py"):
         for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
-            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
-                     [node.module] if isinstance(node, ast.ImportFrom) and node.module else [])
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module]
+                if isinstance(node, ast.ImportFrom) and node.module
+                else []
+            )
             for name in names:
                 top = name.split(".")[0]
                 if top in newer_stdlib and newer_stdlib[top] > claimed:
@@ -196,11 +221,13 @@ def test_no_test_turns_hypothesis_randomness_or_database_back_on():
         for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
             if isinstance(node, ast.Call) and ast.unparse(node.func).endswith("settings"):
                 for kw in node.keywords:
-                    if kw.arg == "derandomize" and not (isinstance(kw.value, ast.Constant)
-                                                        and kw.value.value is True):
+                    if kw.arg == "derandomize" and not (
+                        isinstance(kw.value, ast.Constant) and kw.value.value is True
+                    ):
                         bad.append(f"{path.relative_to(ROOT)}:{node.lineno} derandomize")
-                    if kw.arg == "database" and not (isinstance(kw.value, ast.Constant)
-                                                     and kw.value.value is None):
+                    if kw.arg == "database" and not (
+                        isinstance(kw.value, ast.Constant) and kw.value.value is None
+                    ):
                         bad.append(f"{path.relative_to(ROOT)}:{node.lineno} database")
     assert not bad, f"Hypothesis settings that make CI irreproducible: {bad}"
 
@@ -210,8 +237,12 @@ def test_no_importorskip_of_our_own_modules():
     bad = []
     for path in _test_sources():
         for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
-            if (isinstance(node, ast.Call) and ast.unparse(node.func).endswith("importorskip")
-                    and node.args and isinstance(node.args[0], ast.Constant)
-                    and str(node.args[0].value).split(".")[0] in TOP_LEVEL):
+            if (
+                isinstance(node, ast.Call)
+                and ast.unparse(node.func).endswith("importorskip")
+                and node.args
+                and isinstance(node.args[0], ast.Constant)
+                and str(node.args[0].value).split(".")[0] in TOP_LEVEL
+            ):
                 bad.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.args[0].value}")
     assert not bad, f"importorskip on rcsim's own modules: {bad}"

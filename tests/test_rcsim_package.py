@@ -4,6 +4,7 @@ Oracles: the installed distribution's metadata (``importlib.metadata``) for the 
 package's own ``__all__`` for the public API (each name resolves, is documented, and is listed
 in the package docstring that ``help(rcsim)`` shows).
 """
+
 import importlib.metadata
 import subprocess
 import sys
@@ -15,8 +16,9 @@ import rcsim
 
 def test_version_is_the_installed_one_and_the_cli_prints_it():
     assert rcsim.__version__ == importlib.metadata.version("rcsim")
-    out = subprocess.run([sys.executable, "-m", "rcsim", "--version"], capture_output=True,
-                         text=True, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "rcsim", "--version"], capture_output=True, text=True, check=True
+    ).stdout
     assert out.strip() == f"rcsim {rcsim.__version__}"
 
 
@@ -35,10 +37,15 @@ def test_an_unknown_name_is_an_attribute_error():
 def test_a_shadowing_module_in_the_working_directory_is_named(tmp_path):
     # A user's models.py next to their notebook would be imported instead of rcsim's layer.
     (tmp_path / "models.py").write_text("x = 1\n")
-    run = subprocess.run([sys.executable, "-m", "rcsim", "--help"], capture_output=True,
-                         text=True, cwd=tmp_path)
+    run = subprocess.run(
+        [sys.executable, "-m", "rcsim", "--help"], capture_output=True, text=True, cwd=tmp_path
+    )
     assert run.returncode == 2
     assert run.stderr.count("\n") == 1 and "models.py" in run.stderr and "shadows" in run.stderr
-    probe = subprocess.run([sys.executable, "-c", "import rcsim; rcsim.fly"],
-                           capture_output=True, text=True, cwd=tmp_path)
+    probe = subprocess.run(
+        [sys.executable, "-c", "import rcsim; rcsim.fly"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
     assert probe.returncode != 0 and "shadows it" in probe.stderr

@@ -5,6 +5,7 @@
 boundary only); :func:`write_flight` writes ``history.parquet`` and the paper-style plots
 (Figs 1-2: attitude error; rates with jet commands) atomically.
 """
+
 from __future__ import annotations
 
 import os
@@ -85,8 +86,9 @@ def fly_batch(
     """
     unknown = sorted(set(effects) - set(EFFECT_KEYS))
     if unknown:
-        raise TypeError(f"fly_batch: unknown effect(s) {', '.join(unknown)}; "
-                        f"known: {', '.join(EFFECT_KEYS)}")
+        raise TypeError(
+            f"fly_batch: unknown effect(s) {', '.join(unknown)}; known: {', '.join(EFFECT_KEYS)}"
+        )
     durations = {s.duration_s for s in scenarios}
     if len(durations) != 1:
         raise ValueError(f"a batch must have one duration, got {sorted(durations)}")
@@ -96,10 +98,15 @@ def fly_batch(
     guidance = Guidance(quat_from_rotvec(stack("att_cmd_rad")), stack("rate_cmd_rad_s"))
     disturbance = stack("disturbance_n_m")
     return simulate_batch(
-        params, controller, guidance, durations.pop(),
+        params,
+        controller,
+        guidance,
+        durations.pop(),
         omega0_B=stack("omega0_rad_s"),
         disturbance_B=disturbance if np.any(disturbance) else None,
-        propulsion=propulsion, model=model, nthread=nthread,
+        propulsion=propulsion,
+        model=model,
+        nthread=nthread,
         **{k: v for k, v in effects.items() if v is not None},
     )
 
@@ -171,9 +178,16 @@ def flight_summary(history: History, run: int = 0) -> dict:
     }
 
 
-def write_flight(history: History, out_dir: str | os.PathLike, *, title: str, run: int = 0,
-                 isp_s: float = VehicleParams.isp_s, command: str | None = None,
-                 overwrite: bool = False) -> dict[str, Path]:
+def write_flight(
+    history: History,
+    out_dir: str | os.PathLike,
+    *,
+    title: str,
+    run: int = 0,
+    isp_s: float = VehicleParams.isp_s,
+    command: str | None = None,
+    overwrite: bool = False,
+) -> dict[str, Path]:
     """Write ``history.parquet``, ``attitude_error.png``, ``rates_jets.png`` and
     ``summary.json`` for one run into ``out_dir`` (atomically).
 
@@ -195,5 +209,7 @@ def write_flight(history: History, out_dir: str | os.PathLike, *, title: str, ru
         plot_rates_and_jets(frame, tmp / "rates_jets.png", title=title)
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     out = Path(out_dir)
-    return {name: out / name for name in
-            ("history.parquet", "attitude_error.png", "rates_jets.png", "summary.json")}
+    return {
+        name: out / name
+        for name in ("history.parquet", "attitude_error.png", "rates_jets.png", "summary.json")
+    }

@@ -23,6 +23,7 @@ or a pseudo-filesystem (``/proc``) is reported before minutes of simulation, who
 Errors name the library parameter (``out``), never a command-line flag; the ``rcsim`` CLI
 shows them as ``--out`` (:class:`models.errors.InputError`).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -55,8 +56,11 @@ class OutputExists(InputError):
         self.path = path
         self.command = command
         self.what = what
-        super().__init__(f"{path}: {what}; pass overwrite=True to replace it, or choose "
-                         "another path", parameter=parameter, value=str(path))
+        super().__init__(
+            f"{path}: {what}; pass overwrite=True to replace it, or choose another path",
+            parameter=parameter,
+            value=str(path),
+        )
 
 
 def marker_text(command: str) -> str:
@@ -92,7 +96,7 @@ def directory_owner(path: str | os.PathLike) -> str | None:
     line = first[0].strip() if first else ""
     if not line.startswith(_MARKER_PREFIX):
         return ""
-    rest = line[len(_MARKER_PREFIX):]
+    rest = line[len(_MARKER_PREFIX) :]
     # Older markers read "written by rcsim; this directory is replaced by the next run".
     return rest.strip() if rest.startswith(" ") else ""
 
@@ -104,8 +108,9 @@ def _as_path(out, parameter: str) -> Path:
     if not text.strip():
         raise InputError(f"must be a path, got {text!r}", parameter=parameter, value=text)
     if "\0" in text:
-        raise InputError(f"{text!r}: a path cannot contain a NUL character",
-                         parameter=parameter, value=text)
+        raise InputError(
+            f"{text!r}: a path cannot contain a NUL character", parameter=parameter, value=text
+        )
     # abspath, not resolve: normalises "a/.." without following a symlink the user named.
     return Path(os.path.abspath(text))
 
@@ -116,20 +121,25 @@ def _check_creatable(path: Path, parameter: str) -> None:
     while not ancestor.exists():
         ancestor = ancestor.parent
     if not ancestor.is_dir():
-        raise InputError(f"{path}: {ancestor} is not a directory", parameter=parameter,
-                         value=str(path))
+        raise InputError(
+            f"{path}: {ancestor} is not a directory", parameter=parameter, value=str(path)
+        )
     # A real attempt, not os.access: root passes os.access everywhere, and a read-only
     # filesystem or /proc answers only to an attempt.
     try:
         probe = tempfile.mkdtemp(prefix=".rcsim-probe-", dir=ancestor)
     except OSError as exc:
-        raise InputError(f"{path}: cannot create it in {ancestor} ({exc.strerror or exc})",
-                         parameter=parameter, value=str(path)) from None
+        raise InputError(
+            f"{path}: cannot create it in {ancestor} ({exc.strerror or exc})",
+            parameter=parameter,
+            value=str(path),
+        ) from None
     os.rmdir(probe)
 
 
-def check_out_dir(out: str | os.PathLike, command: str | None = None, *,
-                  overwrite: bool = False) -> Path:
+def check_out_dir(
+    out: str | os.PathLike, command: str | None = None, *, overwrite: bool = False
+) -> Path:
     """Validate an output directory before any work.
 
     Parameters
@@ -156,31 +166,43 @@ def check_out_dir(out: str | os.PathLike, command: str | None = None, *,
     """
     path = _as_path(out, "out")
     if path.exists() and not path.is_dir():
-        raise InputError(f"{path}: exists and is not a directory", parameter="out",
-                         value=str(path))
+        raise InputError(f"{path}: exists and is not a directory", parameter="out", value=str(path))
     if path.is_dir() and any(path.iterdir()):
         owner = directory_owner(path)
         if owner is None:
-            raise InputError(f"{path}: exists and holds files rcsim did not write; choose "
-                             "another directory", parameter="out", value=str(path))
+            raise InputError(
+                f"{path}: exists and holds files rcsim did not write; choose another directory",
+                parameter="out",
+                value=str(path),
+            )
         if command is None:
             if owner == "campaign run":  # written in place, never by atomic_dir
-                raise InputError(f"{path}: is a campaign directory; choose another directory",
-                                 parameter="out", value=str(path))
+                raise InputError(
+                    f"{path}: is a campaign directory; choose another directory",
+                    parameter="out",
+                    value=str(path),
+                )
         elif owner and owner != command:
-            raise InputError(f"{path}: holds the outputs of `rcsim {owner}`, which "
-                             f"`rcsim {command}` does not replace; choose another directory",
-                             parameter="out", value=str(path))
+            raise InputError(
+                f"{path}: holds the outputs of `rcsim {owner}`, which "
+                f"`rcsim {command}` does not replace; choose another directory",
+                parameter="out",
+                value=str(path),
+            )
         elif not overwrite:
-            what = (f"holds the outputs of an earlier `rcsim {command}`" if owner else
-                    "holds the outputs of an earlier rcsim command")
+            what = (
+                f"holds the outputs of an earlier `rcsim {command}`"
+                if owner
+                else "holds the outputs of an earlier rcsim command"
+            )
             raise OutputExists(path, command, what)
     _check_creatable(path, "out")
     return path
 
 
-def check_out_file(out: str | os.PathLike, *, overwrite: bool = False,
-                   parameter: str = "out") -> Path:
+def check_out_file(
+    out: str | os.PathLike, *, overwrite: bool = False, parameter: str = "out"
+) -> Path:
     """Validate an output file before any work: not a directory, replaced only on request.
 
     Parameters
@@ -246,8 +268,7 @@ def _make_temp_dir(parent: Path, name: str) -> Path:
 
 
 @contextlib.contextmanager
-def atomic_dir(out: str | os.PathLike, command: str | None = None, *,
-               overwrite: bool = False):
+def atomic_dir(out: str | os.PathLike, command: str | None = None, *, overwrite: bool = False):
     """Yield a temporary directory that becomes ``out`` when the block succeeds.
 
     ``out`` is checked first (:func:`check_out_dir` with ``command`` and ``overwrite``), and
@@ -264,8 +285,10 @@ def atomic_dir(out: str | os.PathLike, command: str | None = None, *,
     try:
         yield tmp
         (tmp / MARKER).write_text(
-            marker_text(command) if command else
-            f"{_MARKER_PREFIX}; this directory is replaced by the next run\n")
+            marker_text(command)
+            if command
+            else f"{_MARKER_PREFIX}; this directory is replaced by the next run\n"
+        )
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         remove_parents(created)

@@ -5,6 +5,7 @@ Every rcsim figure is made by :func:`new_figure`: matplotlib's object API, never
 importing or calling rcsim's plotting never switches the backend of a user's notebook, never
 pops up a window, and is safe from several threads at once (campaign chunks).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -15,7 +16,9 @@ AXIS_COLORS = {"roll": "tab:blue", "pitch": "tab:orange", "yaw": "tab:green"}
 
 # Jets of each axis by torque sign (Table 2), for plotting only: + jets drawn up, - jets down.
 SIGNED_JETS = {
-    "roll": ((2, 4), (1, 3)), "pitch": ((10, 12), (9, 11)), "yaw": ((14, 16), (13, 15)),
+    "roll": ((2, 4), (1, 3)),
+    "pitch": ((10, 12), (9, 11)),
+    "yaw": ((14, 16), (13, 15)),
 }
 JET_COLORS = ("tab:red", "tab:purple")  # first / second jet of a pair
 # Smallest rate axis span [deg/s]: keeps an idle axis's 1e-30 deg/s numerical noise flat
@@ -46,12 +49,18 @@ def signed_jets(ax, t, frame, axis: str, *, offset_ms: float = 1.0) -> None:
             on = frame[f"jet_{jet:02d}_on_s"].to_numpy()
             if np.any(on > 0):
                 y = sign * (on * 1e3 + offset_ms * k) * (on > 0)
-                ax.step(t, y, where="post", lw=0.9, color=JET_COLORS[k],
-                        ls="-" if sign > 0 else "--", label=f"jet {jet} ({'+' if sign > 0 else '-'})")
+                ax.step(
+                    t,
+                    y,
+                    where="post",
+                    lw=0.9,
+                    color=JET_COLORS[k],
+                    ls="-" if sign > 0 else "--",
+                    label=f"jet {jet} ({'+' if sign > 0 else '-'})",
+                )
 
 
-def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"),
-                   windows=None) -> None:
+def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"), windows=None) -> None:
     """Per axis: body rate (top) and signed jet commands (bottom), optionally zoomed.
 
     Parameters
@@ -64,8 +73,13 @@ def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"),
         Time windows [s] shown as extra zoomed columns (e.g. the two firings of Figs 5-6).
     """
     spans = [None] + list(windows or [])
-    fig, grid = new_figure(2 * len(axes), len(spans), figsize=(max(3.4 * len(spans) + 2.4, 8.0),
-                             1.6 * 2 * len(axes) + 0.6), sharex="col", squeeze=False)
+    fig, grid = new_figure(
+        2 * len(axes),
+        len(spans),
+        figsize=(max(3.4 * len(spans) + 2.4, 8.0), 1.6 * 2 * len(axes) + 0.6),
+        sharex="col",
+        squeeze=False,
+    )
     t_all = frame["t_s"].to_numpy()
     for c, span in enumerate(spans):
         sel = np.ones_like(t_all, bool) if span is None else (t_all >= span[0]) & (t_all <= span[1])
@@ -74,8 +88,9 @@ def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"),
         for r, axis in enumerate(axes):
             ax_rate, ax_jet = grid[2 * r, c], grid[2 * r + 1, c]
             rate = sub[f"rate_{axis}_deg_s"].to_numpy()
-            ax_rate.plot(t, rate, color=AXIS_COLORS[axis], lw=1.2, marker="." if span else None,
-                         ms=3)
+            ax_rate.plot(
+                t, rate, color=AXIS_COLORS[axis], lw=1.2, marker="." if span else None, ms=3
+            )
             lo, hi = float(rate.min()), float(rate.max())
             if hi - lo < MIN_RATE_SPAN_DEG_S:
                 mid = 0.5 * (hi + lo)
@@ -90,13 +105,12 @@ def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"),
                 ax_jet.set_ylabel(f"{axis} jets\n[ms/cycle]")
                 if ax_jet.get_legend_handles_labels()[0]:
                     ax_jet.legend(loc="upper right", fontsize=7, ncol=2)
-        grid[0, c].set_title("whole flight" if span is None else
-                             f"zoom {span[0]:g}-{span[1]:g} s", fontsize=9)
+        grid[0, c].set_title(
+            "whole flight" if span is None else f"zoom {span[0]:g}-{span[1]:g} s", fontsize=9
+        )
         grid[-1, c].set_xlabel("time [s]")
     fig.suptitle(f"{title}: rates and jet commands (+ jets up, - jets down)", fontsize=10)
     fig.savefig(path, dpi=85)  # big multi-panel figure: keeps the PNG under 200 KB
-
-
 
 
 def plot_attitude_error(frame: pd.DataFrame, path, *, title: str = "") -> None:

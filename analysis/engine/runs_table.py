@@ -21,6 +21,7 @@ Definitions used below: ``thr`` is the spec's ``failure.rate_error_deg_s``; rate
 (``omega - omega_cmd``, body axes) are sampled at the start of every 40 ms control cycle and at
 the end of the run; an axis's jets are those whose Table 2 torque has a component on it.
 """
+
 from __future__ import annotations
 
 import os
@@ -34,13 +35,13 @@ from spacecraft.dispersions import DispersedRuns, pointing
 from spacecraft.vehicle import AXES, N_JETS, VehicleParams
 
 # The campaign directory (analysis.engine.campaign.results writes it):
-MANIFEST = "manifest.json"      # spec (resolved), code version, control cycle, times, status
-RUNS = "runs.parquet"           # one row per run, these columns, sorted by run_id
+MANIFEST = "manifest.json"  # spec (resolved), code version, control cycle, times, status
+RUNS = "runs.parquet"  # one row per run, these columns, sorted by run_id
 ENVELOPES = "envelopes.parquet"  # per case and cycle: min / max / sum over runs
-CASES = "cases.csv"             # per-case summary
-CHUNKS = "chunks"               # finished chunks while the campaign runs
-HISTORIES = "histories"         # kept per-run histories, run-NNNNNNN.parquet
-PLOTS = "plots"                 # Fig 9-14-like plots
+CASES = "cases.csv"  # per-case summary
+CHUNKS = "chunks"  # finished chunks while the campaign runs
+HISTORIES = "histories"  # kept per-run histories, run-NNNNNNN.parquet
+PLOTS = "plots"  # Fig 9-14-like plots
 
 
 @dataclass(frozen=True)
@@ -68,8 +69,7 @@ def _per_axis(pattern: str, dtype: str, unit: str, meaning: str) -> list[Column]
 
 
 def _per_jet(pattern: str, dtype: str, unit: str, meaning: str) -> list[Column]:
-    return [Column(pattern.format(jet=f"{j + 1:02d}"), dtype, unit, meaning)
-            for j in range(N_JETS)]
+    return [Column(pattern.format(jet=f"{j + 1:02d}"), dtype, unit, meaning) for j in range(N_JETS)]
 
 
 #: Identity of a run.
@@ -77,54 +77,103 @@ ID_COLUMNS: tuple[Column, ...] = (
     Column("run_id", "int64", "-", "run number: case_index * runs_per_case + k"),
     Column("case", "str", "-", "case name (rate-NN, damp-NN, or the maneuver / hold name)"),
     Column("case_index", "int64", "-", "position of the case in the spec"),
-    Column("seed", "int64", "-", "the spec's root seed; run i draws from "
-           "SeedSequence(seed, spawn_key=(i,)).spawn(2)[0]"),
+    Column(
+        "seed",
+        "int64",
+        "-",
+        "the spec's root seed; run i draws from SeedSequence(seed, spawn_key=(i,)).spawn(2)[0]",
+    ),
 )
 
 #: The dispersed vehicle the run flew (:func:`input_frame`), read back from the simulation's
 #: per-run MuJoCo model where MuJoCo holds the value.
 INPUT_COLUMNS: tuple[Column, ...] = (
     Column("mass_kg", "float64", "kg", "vehicle mass (read back from MuJoCo)"),
-    *[Column(f"cg_{a}_m", "float64", "m", "centre of gravity, body x, y, z (read back)")
-      for a in "xyz"],
-    *[Column(f"i{a}{a}_kg_m2", "float64", "kg m^2",
-             f"principal moment of inertia about body {a} (read back)") for a in "xyz"],
+    *[
+        Column(f"cg_{a}_m", "float64", "m", "centre of gravity, body x, y, z (read back)")
+        for a in "xyz"
+    ],
+    *[
+        Column(
+            f"i{a}{a}_kg_m2",
+            "float64",
+            "kg m^2",
+            f"principal moment of inertia about body {a} (read back)",
+        )
+        for a in "xyz"
+    ],
     *_per_jet("jet_{jet}_thrust_n", "float64", "N", "thrust of the jet (read back)"),
-    *_per_jet("jet_{jet}_tilt_deg", "float64", "deg",
-              "signed tilt of the jet's thrust direction (the draw); misalignment = |tilt|"),
-    *_per_jet("jet_{jet}_azimuth_deg", "float64", "deg", "azimuth of the tilt, [0, 360) (the draw)"),
+    *_per_jet(
+        "jet_{jet}_tilt_deg",
+        "float64",
+        "deg",
+        "signed tilt of the jet's thrust direction (the draw); misalignment = |tilt|",
+    ),
+    *_per_jet(
+        "jet_{jet}_azimuth_deg", "float64", "deg", "azimuth of the tilt, [0, 360) (the draw)"
+    ),
 )
 
 #: What the run did.  Runs whose simulation failed (``sim_failed``) have NaN in every numeric
 #: outcome: their state is not a flight.
 OUTCOME_COLUMNS: tuple[Column, ...] = (
-    *_per_axis("final_rate_err_{axis}_deg_s", "float64", "deg/s",
-               "rate error about {axis} at the end of the run"),
-    *_per_axis("final_att_err_{axis}_deg", "float64", "deg",
-               "attitude error about {axis} (rotation-vector component) at the end"),
+    *_per_axis(
+        "final_rate_err_{axis}_deg_s",
+        "float64",
+        "deg/s",
+        "rate error about {axis} at the end of the run",
+    ),
+    *_per_axis(
+        "final_att_err_{axis}_deg",
+        "float64",
+        "deg",
+        "attitude error about {axis} (rotation-vector component) at the end",
+    ),
     Column("final_att_err_deg", "float64", "deg", "total attitude error at the end (norm)"),
-    *_per_axis("firings_to_rate_{axis}", "float64", "-",
-               "firing events on {axis}'s jets (cycles where one of them starts a firing; a "
-               "pair is one event) before the commanded rate is first reached on {axis}: the "
-               "first sample with |rate error| < thr not taken in the middle of a firing on "
-               "{axis}; all of the run's events if never reached"),
-    *_per_axis("time_to_rate_{axis}_s", "float64", "s",
-               "time of that first sample; NaN if never reached"),
+    *_per_axis(
+        "firings_to_rate_{axis}",
+        "float64",
+        "-",
+        "firing events on {axis}'s jets (cycles where one of them starts a firing; a "
+        "pair is one event) before the commanded rate is first reached on {axis}: the "
+        "first sample with |rate error| < thr not taken in the middle of a firing on "
+        "{axis}; all of the run's events if never reached",
+    ),
+    *_per_axis(
+        "time_to_rate_{axis}_s", "float64", "s", "time of that first sample; NaN if never reached"
+    ),
     *_per_axis("firings_{axis}", "float64", "-", "firing events on {axis}'s jets, whole run"),
     Column("firings_total", "float64", "-", "jet firings, whole run (a pair counts 2)"),
-    *_per_jet("jet_{jet}_on_time_s", "float64", "s",
-              "total on-time of the jet: what it delivered (with [dispersions.timing] or "
-              "[dispersions.fault], the commands moved by the delays, plus stuck-on time, "
-              "minus failed time)"),
+    *_per_jet(
+        "jet_{jet}_on_time_s",
+        "float64",
+        "s",
+        "total on-time of the jet: what it delivered (with [dispersions.timing] or "
+        "[dispersions.fault], the commands moved by the delays, plus stuck-on time, "
+        "minus failed time)",
+    ),
     Column("propellant_kg", "float64", "kg", "propellant used, at the vehicle's Isp (280 s)"),
-    Column("rate_settled_time_s", "float64", "s",
-           "start of the final stretch in which every axis stays under thr through the end of "
-           "the run (NaN if the run does not end under thr); rates only, unlike the "
-           "att_rate_settled_time_s of `rcsim scenario compare` (attitude and rate)"),
-    Column("sim_failed", "bool", "-", "the simulation failed (invalid parameters, divergence, "
-           "or the run's flight raised)"),
-    Column("failed", "bool", "-", "sim_failed, or some axis ends with |rate error| >= thr, "
-           "or (if failure.attitude_error_deg is set) final_att_err_deg exceeds it"),
+    Column(
+        "rate_settled_time_s",
+        "float64",
+        "s",
+        "start of the final stretch in which every axis stays under thr through the end of "
+        "the run (NaN if the run does not end under thr); rates only, unlike the "
+        "att_rate_settled_time_s of `rcsim scenario compare` (attitude and rate)",
+    ),
+    Column(
+        "sim_failed",
+        "bool",
+        "-",
+        "the simulation failed (invalid parameters, divergence, or the run's flight raised)",
+    ),
+    Column(
+        "failed",
+        "bool",
+        "-",
+        "sim_failed, or some axis ends with |rate error| >= thr, "
+        "or (if failure.attitude_error_deg is set) final_att_err_deg exceeds it",
+    ),
     Column("reason", "str", "-", "why the run failed; empty if it did not"),
 )
 
@@ -134,40 +183,75 @@ OUTCOME_COLUMNS: tuple[Column, ...] = (
 #: without them keeps exactly the columns it always had (it resumes and replays as before).
 EFFECT_COLUMNS: dict[str, tuple[Column, ...]] = {
     "sensor": (
-        *_per_axis("att_bias_{axis}_deg", "float64", "deg",
-                   "attitude sensor bias about {axis} (drawn per run; the measured attitude is "
-                   "the true one rotated by bias and white noise)"),
-        *_per_axis("rate_bias_{axis}_deg_s", "float64", "deg/s",
-                   "rate gyro bias about {axis} at the start (drawn per run; a random walk "
-                   "and white noise add to it in flight)"),
+        *_per_axis(
+            "att_bias_{axis}_deg",
+            "float64",
+            "deg",
+            "attitude sensor bias about {axis} (drawn per run; the measured attitude is "
+            "the true one rotated by bias and white noise)",
+        ),
+        *_per_axis(
+            "rate_bias_{axis}_deg_s",
+            "float64",
+            "deg/s",
+            "rate gyro bias about {axis} at the start (drawn per run; a random walk "
+            "and white noise add to it in flight)",
+        ),
     ),
     "timing": (
-        Column("command_delay_s", "float64", "s",
-               "sensor-to-actuator delay: valve commands start this late in each cycle"),
-        Column("open_delay_max_s", "float64", "s",
-               "largest valve opening latency of the run's 16 jets (drawn per jet)"),
-        Column("close_delay_max_s", "float64", "s",
-               "largest valve closing latency of the run's 16 jets (drawn per jet)"),
+        Column(
+            "command_delay_s",
+            "float64",
+            "s",
+            "sensor-to-actuator delay: valve commands start this late in each cycle",
+        ),
+        Column(
+            "open_delay_max_s",
+            "float64",
+            "s",
+            "largest valve opening latency of the run's 16 jets (drawn per jet)",
+        ),
+        Column(
+            "close_delay_max_s",
+            "float64",
+            "s",
+            "largest valve closing latency of the run's 16 jets (drawn per jet)",
+        ),
     ),
     "fault": (
         Column("fault_jet", "int64", "-", "the faulty jet, 1..16; 0 if the run has no fault"),
-        Column("fault_time_s", "float64", "s",
-               "failure time (mode off) or start of the stuck window (mode stuck); NaN if "
-               "no fault or mode degraded (degraded for the whole run)"),
-        Column("fault_stuck_for_s", "float64", "s",
-               "length of the stuck-on window (mode stuck); NaN otherwise"),
-        Column("fault_thrust_factor", "float64", "-",
-               "thrust of the faulty jet as a fraction of its own (mode degraded); 1 for the "
-               "other modes and for runs without a fault"),
+        Column(
+            "fault_time_s",
+            "float64",
+            "s",
+            "failure time (mode off) or start of the stuck window (mode stuck); NaN if "
+            "no fault or mode degraded (degraded for the whole run)",
+        ),
+        Column(
+            "fault_stuck_for_s",
+            "float64",
+            "s",
+            "length of the stuck-on window (mode stuck); NaN otherwise",
+        ),
+        Column(
+            "fault_thrust_factor",
+            "float64",
+            "-",
+            "thrust of the faulty jet as a fraction of its own (mode degraded); 1 for the "
+            "other modes and for runs without a fault",
+        ),
     ),
 }
 EFFECT_GROUPS: tuple[str, ...] = tuple(EFFECT_COLUMNS)
 
 RUN_COLUMNS: tuple[Column, ...] = ID_COLUMNS + INPUT_COLUMNS + OUTCOME_COLUMNS
 #: Every column a runs.parquet may have (all effect groups), in order.
-ALL_COLUMNS: tuple[Column, ...] = (ID_COLUMNS + INPUT_COLUMNS
-                                   + tuple(c for g in EFFECT_GROUPS for c in EFFECT_COLUMNS[g])
-                                   + OUTCOME_COLUMNS)
+ALL_COLUMNS: tuple[Column, ...] = (
+    ID_COLUMNS
+    + INPUT_COLUMNS
+    + tuple(c for g in EFFECT_GROUPS for c in EFFECT_COLUMNS[g])
+    + OUTCOME_COLUMNS
+)
 OUTCOME_NAMES: tuple[str, ...] = tuple(c.name for c in OUTCOME_COLUMNS)
 INPUT_NAMES: tuple[str, ...] = tuple(c.name for c in INPUT_COLUMNS)
 RUN_NAMES: tuple[str, ...] = tuple(c.name for c in RUN_COLUMNS)
@@ -186,8 +270,9 @@ def outcome_frame(values: dict) -> pd.DataFrame:
     missing = [n for n in OUTCOME_NAMES if n not in values]
     extra = [n for n in values if n not in OUTCOME_NAMES]
     if missing or extra:
-        raise KeyError(f"outcomes differ from analysis.engine.runs_table: missing {missing}, "
-                       f"undefined {extra}")
+        raise KeyError(
+            f"outcomes differ from analysis.engine.runs_table: missing {missing}, undefined {extra}"
+        )
     return pd.DataFrame({c.name: _cast(values[c.name], c.dtype) for c in OUTCOME_COLUMNS})
 
 
@@ -277,17 +362,20 @@ def input_frame(runs: DispersedRuns) -> pd.DataFrame:
     :func:`vehicles_from_runs` is the inverse.
     """
     p = runs.params
-    cols = {"mass_kg": p.mass_kg,
-            **{c: p.cg_B[:, a] for a, c in enumerate(_CG)},
-            **{c: p.inertia_B[:, a] for a, c in enumerate(_INERTIA)},
-            **dict(zip(_jet_columns("thrust_n"), p.thrust_n.T)),
-            **dict(zip(_jet_columns("tilt_deg"), np.degrees(runs.tilt_rad).T)),
-            **dict(zip(_jet_columns("azimuth_deg"), np.degrees(runs.azimuth_rad).T))}
+    cols = {
+        "mass_kg": p.mass_kg,
+        **{c: p.cg_B[:, a] for a, c in enumerate(_CG)},
+        **{c: p.inertia_B[:, a] for a, c in enumerate(_INERTIA)},
+        **dict(zip(_jet_columns("thrust_n"), p.thrust_n.T)),
+        **dict(zip(_jet_columns("tilt_deg"), np.degrees(runs.tilt_rad).T)),
+        **dict(zip(_jet_columns("azimuth_deg"), np.degrees(runs.azimuth_rad).T)),
+    }
     return pd.DataFrame(cols)[list(INPUT_NAMES)]  # a KeyError if the two ever disagree
 
 
-def vehicles_from_runs(runs: pd.DataFrame,
-                       nominal: VehicleParams) -> tuple[VehicleParams, VehicleParams]:
+def vehicles_from_runs(
+    runs: pd.DataFrame, nominal: VehicleParams
+) -> tuple[VehicleParams, VehicleParams]:
     """Rebuild each run's vehicle from its recorded :data:`INPUT_COLUMNS`.
 
     Parameters
@@ -308,10 +396,13 @@ def vehicles_from_runs(runs: pd.DataFrame,
     tilt = np.radians(runs[_jet_columns("tilt_deg")].to_numpy(float))
     azimuth = np.radians(runs[_jet_columns("azimuth_deg")].to_numpy(float))
     straight = VehicleParams(
-        mass_kg=runs["mass_kg"].to_numpy(float), cg_B=runs[_CG].to_numpy(float),
+        mass_kg=runs["mass_kg"].to_numpy(float),
+        cg_B=runs[_CG].to_numpy(float),
         inertia_B=runs[_INERTIA].to_numpy(float),
         thrust_n=runs[_jet_columns("thrust_n")].to_numpy(float),
-        jet_dir_S=np.repeat(nominal.jet_dir_S, n, axis=0), isp_s=nominal.isp_s)
+        jet_dir_S=np.repeat(nominal.jet_dir_S, n, axis=0),
+        isp_s=nominal.isp_s,
+    )
     dispersed = replace(straight, jet_dir_S=pointing(nominal.jet_dir_S, tilt, azimuth))
     return dispersed, straight
 

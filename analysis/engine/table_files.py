@@ -5,6 +5,7 @@ outputs are checked before the 26 flights (an existing file is replaced only wit
 ``overwrite``), missing parent directories are created and removed again if the writing
 fails, and each file appears by an atomic rename, never half written.
 """
+
 from __future__ import annotations
 
 import os
@@ -27,8 +28,13 @@ class TableFiles:
     settling: Path
 
 
-def generate_table_files(out: str | os.PathLike, *, settling_out: str | os.PathLike | None = None,
-                         jets_off=(), overwrite: bool = False) -> TableFiles:
+def generate_table_files(
+    out: str | os.PathLike,
+    *,
+    settling_out: str | os.PathLike | None = None,
+    jets_off=(),
+    overwrite: bool = False,
+) -> TableFiles:
     """Generate the lookup table (:func:`lookup.table_generation.generate_table`) and write
     ``out`` and its companion (default ``<out stem>_settling.csv``).
 
@@ -42,16 +48,21 @@ def generate_table_files(out: str | os.PathLike, *, settling_out: str | os.PathL
     """
     jets_off = tuple(jets_off or ())
     if jets_off and settling_out is not None:
-        raise InputError(f"{settling_out}: not with jets_off; the table loads only with its "
-                         "companion beside it, named <TABLE stem>_settling.csv",
-                         parameter="settling_out", value=str(settling_out))
+        raise InputError(
+            f"{settling_out}: not with jets_off; the table loads only with its "
+            "companion beside it, named <TABLE stem>_settling.csv",
+            parameter="settling_out",
+            value=str(settling_out),
+        )
     # Both outputs are checked before the 26 flights, not after.
     table = check_out_file(out, overwrite=overwrite, parameter="out")
-    settling = check_out_file(settling_out or companion_path(table), overwrite=overwrite,
-                              parameter="settling_out")
+    settling = check_out_file(
+        settling_out or companion_path(table), overwrite=overwrite, parameter="settling_out"
+    )
     if settling == table:
-        raise InputError(f"{settling}: is the table itself (out)", parameter="settling_out",
-                         value=str(settling))
+        raise InputError(
+            f"{settling}: is the table itself (out)", parameter="settling_out", value=str(settling)
+        )
     gen = generate_table(jets_off=jets_off)
     frame = gen.settling_frame()
     created = make_parents(table) + make_parents(settling)

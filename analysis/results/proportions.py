@@ -25,6 +25,7 @@ sampling error of the difference between correlated proportions or percentages",
 Psychometrika 12(2).  Hanley, J. A. and Lippman-Hand, A. (1983), "If nothing goes wrong, is
 everything all right?", JAMA 249(13) (the rule of three).
 """
+
 from __future__ import annotations
 
 import numpy as np

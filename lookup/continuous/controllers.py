@@ -36,6 +36,7 @@ Every step ``k`` (time ``t_k``, torque held over ``[t_k, t_k + dt]``):
 
 Controllers see arrays only: measured Euler angles in, commanded body torque out.
 """
+
 from __future__ import annotations
 
 import math
@@ -55,16 +56,23 @@ from spacecraft.continuous.kinematics import body_rate_from_euler
 
 METHODS = ("ffd", "fb", "ffd+fb", "ffd+fb+dai", "ffd+fb+dai-total")
 #: The DAI methods and the learning law each reads from the papers (module docstring).
-DAI_LAWS = {"ffd+fb+dai": "feedback correction, added to the command (the papers')",
-            "ffd+fb+dai-total": "total torque, into the feedforward's inertia"}
+DAI_LAWS = {
+    "ffd+fb+dai": "feedback correction, added to the command (the papers')",
+    "ffd+fb+dai-total": "total torque, into the feedforward's inertia",
+}
 # Relative cut-off of the pseudo-inverse: singular values of W below it (unexcited inertia
 # directions; exactly zero for a single-axis trajectory) are dropped.
 PINV_RCOND = 1e-10
 
 
-def dai_update(info: np.ndarray, rhs: np.ndarray, phi_d: np.ndarray, u: np.ndarray,
-               theta_model: np.ndarray, lam: float
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def dai_update(
+    info: np.ndarray,
+    rhs: np.ndarray,
+    phi_d: np.ndarray,
+    u: np.ndarray,
+    theta_model: np.ndarray,
+    lam: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Add one self-awareness statement ``u = Phi_d (Theta_model + dTheta)`` and re-solve.
 
     The papers' reading passes the feedback correction as ``u`` and a zero ``theta_model``
@@ -92,8 +100,7 @@ def dai_update(info: np.ndarray, rhs: np.ndarray, phi_d: np.ndarray, u: np.ndarr
     info = lam * info + np.einsum("nki,nkj->nij", phi_b, phi_b)
     resid = u - np.einsum("nki,i->nk", phi_b, theta_model)
     rhs = lam * rhs + np.einsum("nki,nk->ni", phi_b, resid)
-    d_theta = np.einsum("nij,nj->ni", np.linalg.pinv(info, rcond=PINV_RCOND, hermitian=True),
-                        rhs)
+    d_theta = np.einsum("nij,nj->ni", np.linalg.pinv(info, rcond=PINV_RCOND, hermitian=True), rhs)
     return info, rhs, d_theta
 
 
@@ -124,8 +131,11 @@ class ControllerConfig:
 
     def __post_init__(self):
         if self.method not in METHODS:
-            raise InputError(f"must be one of {', '.join(METHODS)}, got {self.method!r}",
-                             parameter="method", value=self.method)
+            raise InputError(
+                f"must be one of {', '.join(METHODS)}, got {self.method!r}",
+                parameter="method",
+                value=self.method,
+            )
         if not (math.isfinite(self.dt_s) and self.dt_s > 0):
             raise InputError(f"must be > 0, got {self.dt_s}", parameter="dt_s", value=self.dt_s)
 
@@ -172,7 +182,8 @@ class ContinuousController:
         self.trajectory = trajectory
         self.theta_model = theta_from_inertia(config.inertia_B)
         self._ad, self._bd, self._ld = observer_matrices(
-            np.diag(config.inertia_B), config.observer_gains, config.dt_s)
+            np.diag(config.inertia_B), config.observer_gains, config.dt_s
+        )
         self._lam = math.exp(-config.dt_s / config.dai_memory_s)
         self._ffd = config.method != "fb"
         self._fb = config.method != "ffd"
@@ -181,13 +192,20 @@ class ContinuousController:
 
     def initial_state(self, n_runs: int) -> ControllerState:
         z3 = np.zeros((n_runs, 3))
-        return ControllerState(x_hat=np.zeros((n_runs, 3, 3)), integral=z3.copy(),
-                               u_prev=z3.copy(), y_prev=np.full((n_runs, 3), np.nan),
-                               info=np.zeros((n_runs, 6, 6)), rhs=np.zeros((n_runs, 6)),
-                               d_theta=np.zeros((n_runs, 6)), u_fb=z3.copy())
+        return ControllerState(
+            x_hat=np.zeros((n_runs, 3, 3)),
+            integral=z3.copy(),
+            u_prev=z3.copy(),
+            y_prev=np.full((n_runs, 3), np.nan),
+            info=np.zeros((n_runs, 6, 6)),
+            rhs=np.zeros((n_runs, 6)),
+            d_theta=np.zeros((n_runs, 6)),
+            u_fb=z3.copy(),
+        )
 
-    def step(self, t_s: float, euler_meas: np.ndarray, state: ControllerState
-             ) -> tuple[np.ndarray, ControllerState]:
+    def step(
+        self, t_s: float, euler_meas: np.ndarray, state: ControllerState
+    ) -> tuple[np.ndarray, ControllerState]:
         """Commanded body torque [N m] (n_runs, 3) at ``t_s`` from measured Euler angles [rad]."""
         cfg, n = self.config, euler_meas.shape[0]
         if np.isnan(state.y_prev).all():
@@ -196,8 +214,9 @@ class ContinuousController:
             x_hat = np.zeros((n, 3, 3))
             x_hat[..., 0] = euler_meas
         else:
-            x_hat = observer_step(state.x_hat, state.u_prev, state.y_prev,
-                                  self._ad, self._bd, self._ld)
+            x_hat = observer_step(
+                state.x_hat, state.u_prev, state.y_prev, self._ad, self._bd, self._ld
+            )
         u = np.zeros((n, 3))
         integral, u_fb = state.integral, np.zeros((n, 3))
         if self._fb:
@@ -206,8 +225,12 @@ class ContinuousController:
             integral = state.integral + err * cfg.dt_s
             kp, kd, ki = cfg.pdi_gains
             w_hat = body_rate_from_euler(x_hat[..., 0], x_hat[..., 1], np.zeros((n, 3)))[0]
-            u_fb = (kp * err + kd * (rate_d - x_hat[..., 1]) + ki * integral
-                    + np.cross(w_hat, w_hat @ cfg.inertia_B.T))
+            u_fb = (
+                kp * err
+                + kd * (rate_d - x_hat[..., 1])
+                + ki * integral
+                + np.cross(w_hat, w_hat @ cfg.inertia_B.T)
+            )
             u = u + u_fb
         info, rhs, d_theta = state.info, state.rhs, state.d_theta
         if self._ffd:
@@ -218,14 +241,23 @@ class ContinuousController:
             u = u + (self.theta_model + d_theta) @ phi_d.T
             if self._dai and np.any(phi_d):
                 if self._learn_total:
-                    info, rhs, d_theta = dai_update(info, rhs, phi_d, u, self.theta_model,
-                                                    self._lam)
+                    info, rhs, d_theta = dai_update(
+                        info, rhs, phi_d, u, self.theta_model, self._lam
+                    )
                 else:
-                    info, rhs, d_theta = dai_update(info, rhs, phi_d, u_fb,
-                                                    np.zeros_like(self.theta_model), self._lam)
-        return u, ControllerState(x_hat=x_hat, integral=integral, u_prev=u,
-                                  y_prev=np.asarray(euler_meas, float), info=info, rhs=rhs,
-                                  d_theta=d_theta, u_fb=u_fb)
+                    info, rhs, d_theta = dai_update(
+                        info, rhs, phi_d, u_fb, np.zeros_like(self.theta_model), self._lam
+                    )
+        return u, ControllerState(
+            x_hat=x_hat,
+            integral=integral,
+            u_prev=u,
+            y_prev=np.asarray(euler_meas, float),
+            info=info,
+            rhs=rhs,
+            d_theta=d_theta,
+            u_fb=u_fb,
+        )
 
     def telemetry(self, state: ControllerState) -> dict[str, np.ndarray]:
         """Theta_hat (n_runs, 6) [kg m^2] and the feedback torque (n_runs, 3) [N m]."""

@@ -16,6 +16,7 @@ estimate by about ``omega dt / 2`` -- the angle moves during the step while the 
 does not -- which at the papers' gains is larger than the tracking errors being compared;
 with pole placement the error dynamics are ``e(k+1) = (Ad - Ld C) e(k)`` exactly.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -29,8 +30,9 @@ def error_poles(j: float, gains: np.ndarray) -> np.ndarray:
     return np.roots([j, kd, kp, ki])
 
 
-def observer_matrices(j_axis: np.ndarray, gains: np.ndarray, dt_s: float
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def observer_matrices(
+    j_axis: np.ndarray, gains: np.ndarray, dt_s: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Ad (3, 3, 3), Bd (3, 3), Ld (3, 3) for the three axes (first index: axis).
 
     Parameters
@@ -44,9 +46,9 @@ def observer_matrices(j_axis: np.ndarray, gains: np.ndarray, dt_s: float
     """
     ad, bd, ld = np.empty((3, 3, 3)), np.empty((3, 3)), np.empty((3, 3))
     for axis, j in enumerate(j_axis):  # three axes, once at construction
-        a = np.array([[1.0, dt_s, dt_s ** 2 / (2 * j)], [0.0, 1.0, dt_s / j], [0.0, 0.0, 1.0]])
+        a = np.array([[1.0, dt_s, dt_s**2 / (2 * j)], [0.0, 1.0, dt_s / j], [0.0, 0.0, 1.0]])
         ad[axis] = a
-        bd[axis] = [dt_s ** 2 / (2 * j), dt_s / j, 0.0]
+        bd[axis] = [dt_s**2 / (2 * j), dt_s / j, 0.0]
         # Ackermann: L = p(A) O^-1 e3, p the desired characteristic polynomial.
         coeffs = np.real(np.poly(np.exp(error_poles(j, gains) * dt_s)))
         p_a = sum(c * np.linalg.matrix_power(a, 3 - i) for i, c in enumerate(coeffs))
@@ -55,8 +57,9 @@ def observer_matrices(j_axis: np.ndarray, gains: np.ndarray, dt_s: float
     return ad, bd, ld
 
 
-def observer_step(x_hat: np.ndarray, u: np.ndarray, y: np.ndarray, ad: np.ndarray,
-                  bd: np.ndarray, ld: np.ndarray) -> np.ndarray:
+def observer_step(
+    x_hat: np.ndarray, u: np.ndarray, y: np.ndarray, ad: np.ndarray, bd: np.ndarray, ld: np.ndarray
+) -> np.ndarray:
     """One step of Eq. (4) for every run and axis.
 
     Parameters
@@ -74,5 +77,8 @@ def observer_step(x_hat: np.ndarray, u: np.ndarray, y: np.ndarray, ad: np.ndarra
     """
     # Innovation wrapped to (-pi, pi]: a measured angle that wraps at +-180 deg is not a jump.
     innovation = np.angle(np.exp(1j * (y - x_hat[..., 0])))
-    return (np.einsum("aij,naj->nai", ad, x_hat) + bd[None] * u[..., None]
-            + ld[None] * innovation[..., None])
+    return (
+        np.einsum("aij,naj->nai", ad, x_hat)
+        + bd[None] * u[..., None]
+        + ld[None] * innovation[..., None]
+    )

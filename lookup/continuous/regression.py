@@ -6,6 +6,7 @@ Column ``i`` of Phi is ``E_i w_dot + w x (E_i w)`` for the symmetric basis matri
 ``tests/lookup/test_continuous_controllers.py``).  The transcriptions of 001 Eq. (6) and
 002 Eq. (10) lost their signs and layout; this construction does not depend on them.
 """
+
 from __future__ import annotations
 
 import numpy as np

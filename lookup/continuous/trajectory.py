@@ -10,6 +10,7 @@ zero at both ends; acceleration jumps there, as in the papers.  002 prints ``w_f
 its 5 s maneuver; ``pi / T`` is the value a rest-to-rest half-cosine over T needs
 (models/dai/SOURCES.md).
 """
+
 from __future__ import annotations
 
 import math
@@ -40,11 +41,15 @@ class SinusoidalTrajectory:
 
     def __post_init__(self):
         if not (math.isfinite(self.maneuver_s) and self.maneuver_s > 0):
-            raise InputError(f"must be > 0, got {self.maneuver_s}", parameter="maneuver_s",
-                             value=self.maneuver_s)
+            raise InputError(
+                f"must be > 0, got {self.maneuver_s}", parameter="maneuver_s", value=self.maneuver_s
+            )
         if not (math.isfinite(self.quiescent_s) and self.quiescent_s >= 0):
-            raise InputError(f"must be >= 0, got {self.quiescent_s}",
-                             parameter="quiescent_s", value=self.quiescent_s)
+            raise InputError(
+                f"must be >= 0, got {self.quiescent_s}",
+                parameter="quiescent_s",
+                value=self.quiescent_s,
+            )
 
     def euler(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Desired Euler angles, rates and accelerations at ``t_s``, (3,) each."""
@@ -56,8 +61,11 @@ class SinusoidalTrajectory:
             return a0.copy(), np.zeros(3), np.zeros(3)
         if tau >= self.maneuver_s:
             return a1.copy(), np.zeros(3), np.zeros(3)
-        return (a0 + half * (1 - math.cos(w * tau)), half * w * math.sin(w * tau),
-                half * w * w * math.cos(w * tau))
+        return (
+            a0 + half * (1 - math.cos(w * tau)),
+            half * w * math.sin(w * tau),
+            half * w * w * math.cos(w * tau),
+        )
 
     def body(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Desired attitude (4,), body rate (3,) [rad/s] and its derivative (3,) at ``t_s``."""
@@ -70,5 +78,10 @@ class SinusoidalTrajectory:
         rows = [self.euler(float(t)) for t in np.asarray(t_s, float)]
         ang, rate, acc = (np.array(x) for x in zip(*rows))
         omega, omega_dot = body_rate_from_euler(ang, rate, acc)
-        return {"euler": ang, "euler_rate": rate, "q": quat_from_euler321(ang),
-                "omega": omega, "omega_dot": omega_dot}
+        return {
+            "euler": ang,
+            "euler_rate": rate,
+            "q": quat_from_euler321(ang),
+            "omega": omega,
+            "omega_dot": omega_dot,
+        }

@@ -14,6 +14,7 @@ Intelligence", Sensors 22 (2022) 8723 (group ``wilt2022``); 002 = Smeresky & Riz
 Control System Learning", in *Deterministic Artificial Intelligence*, IntechOpen (2020)
 (group ``smeresky2020``).
 """
+
 from __future__ import annotations
 
 import atexit
@@ -35,9 +36,24 @@ PAPERS = ("wilt2022", "smeresky2020")
 # unit -> factor to SI.  Units are checked per row so a user file in other units converts
 # instead of being misread.
 _UNITS = {
-    "1": 1.0, "kg": 1.0, "kg*m^2": 1.0, "s": 1.0, "m": 1.0, "km": 1e3, "K": 1.0, "Pa": 1.0,
-    "K/km": 1e-3, "km^3/s^2": 1e9, "kg/mol": 1.0, "J/(mol*K)": 1.0, "deg": math.pi / 180.0,
-    "rad": 1.0, "N*m/rad": 1.0, "N*m*s/rad": 1.0, "N*m/(rad*s)": 1.0, "N*m*s": 1.0,
+    "1": 1.0,
+    "kg": 1.0,
+    "kg*m^2": 1.0,
+    "s": 1.0,
+    "m": 1.0,
+    "km": 1e3,
+    "K": 1.0,
+    "Pa": 1.0,
+    "K/km": 1e-3,
+    "km^3/s^2": 1e9,
+    "kg/mol": 1.0,
+    "J/(mol*K)": 1.0,
+    "deg": math.pi / 180.0,
+    "rad": 1.0,
+    "N*m/rad": 1.0,
+    "N*m*s/rad": 1.0,
+    "N*m/(rad*s)": 1.0,
+    "N*m*s": 1.0,
 }
 _COLUMNS = ("group", "name", "value", "unit", "source")
 _DISPERSION_COLUMNS = ("name", "distribution", "nominal", "bound", "unit", "source")
@@ -69,8 +85,9 @@ def _read_rows(path: Path, columns: tuple[str, ...]) -> list[dict[str, str]]:
         raise InputError(f"{path}: cannot read it ({exc.strerror or exc})") from None
     missing = [c for c in columns if c not in header]
     if missing:
-        raise InputError(f"{path}: missing column(s) {', '.join(missing)} (header: "
-                         f"{', '.join(header)})")
+        raise InputError(
+            f"{path}: missing column(s) {', '.join(missing)} (header: {', '.join(header)})"
+        )
     return rows
 
 
@@ -91,12 +108,15 @@ def _parameters_cached(path: str) -> dict[str, dict[str, float]]:
     for i, row in enumerate(_read_rows(p, _COLUMNS), start=1):
         group, name, unit = row["group"].strip(), row["name"].strip(), row["unit"].strip()
         if unit not in _UNITS:
-            raise InputError(f"{p}: row {i} ({group}.{name}), unit: unknown unit {unit!r} "
-                             f"(known: {', '.join(sorted(_UNITS))})")
+            raise InputError(
+                f"{p}: row {i} ({group}.{name}), unit: unknown unit {unit!r} "
+                f"(known: {', '.join(sorted(_UNITS))})"
+            )
         if name in table.get(group, {}):
             raise InputError(f"{p}: row {i}, name: {group}.{name} appears twice")
-        table.setdefault(group, {})[name] = _number(p, i, f"value of {group}.{name}",
-                                                    row["value"]) * _UNITS[unit]
+        table.setdefault(group, {})[name] = (
+            _number(p, i, f"value of {group}.{name}", row["value"]) * _UNITS[unit]
+        )
     return table
 
 
@@ -127,8 +147,9 @@ def _check_positive(value: float, group: str, name: str, path) -> float:
 
 def _check_paper(paper: str) -> None:
     if paper not in PAPERS:
-        raise InputError(f"must be one of {', '.join(PAPERS)}, got {paper!r}",
-                         parameter="paper", value=paper)
+        raise InputError(
+            f"must be one of {', '.join(PAPERS)}, got {paper!r}", parameter="paper", value=paper
+        )
 
 
 @dataclass(frozen=True)
@@ -179,26 +200,41 @@ def load_setup(paper: str, path: str | os.PathLike | None = None) -> PaperSetup:
     _check_paper(paper)
     p = load_parameters(path)
     g = lambda name: _get(p, paper, name, path)  # noqa: E731
-    j = np.array([[g("jxx"), g("jxy"), g("jxz")],
-                  [g("jxy"), g("jyy"), g("jyz")],
-                  [g("jxz"), g("jyz"), g("jzz")]])
+    j = np.array(
+        [
+            [g("jxx"), g("jxy"), g("jxz")],
+            [g("jxy"), g("jyy"), g("jyz")],
+            [g("jxz"), g("jyz"), g("jzz")],
+        ]
+    )
     moments = np.linalg.eigvalsh(j)
     if moments.min() <= 0 or 2 * moments.max() > moments.sum() * (1 + 1e-12):
-        raise InputError(f"{path or 'parameters.csv'}: {paper} inertia {j.tolist()} is not "
-                         "a rigid body's (principal moments must be > 0 and obey the "
-                         "triangle inequality)")
+        raise InputError(
+            f"{path or 'parameters.csv'}: {paper} inertia {j.tolist()} is not "
+            "a rigid body's (principal moments must be > 0 and obey the "
+            "triangle inequality)"
+        )
     names = ("kp", "kd", "ki")
     pdi = np.array([_check_positive(g(f"pdi_{n}"), paper, f"pdi_{n}", path) for n in names])
-    obs = np.array([_check_positive(g(f"observer_{n}"), paper, f"observer_{n}", path)
-                    for n in names])
-    periods = {n: _check_positive(g(n), paper, n, path)
-               for n in ("quiescent", "maneuver", "observation", "timestep")}
-    return PaperSetup(paper=paper, inertia_B=j, mass_kg=_check_positive(g("mass"), paper,
-                      "mass", path), pdi_gains=pdi, observer_gains=obs,
-                      quiescent_s=periods["quiescent"], maneuver_s=periods["maneuver"],
-                      observation_s=periods["observation"], timestep_s=periods["timestep"],
-                  dai_memory_s=_check_positive(_get(p, "dai", "memory", path), "dai", "memory",
-                                               path))
+    obs = np.array(
+        [_check_positive(g(f"observer_{n}"), paper, f"observer_{n}", path) for n in names]
+    )
+    periods = {
+        n: _check_positive(g(n), paper, n, path)
+        for n in ("quiescent", "maneuver", "observation", "timestep")
+    }
+    return PaperSetup(
+        paper=paper,
+        inertia_B=j,
+        mass_kg=_check_positive(g("mass"), paper, "mass", path),
+        pdi_gains=pdi,
+        observer_gains=obs,
+        quiescent_s=periods["quiescent"],
+        maneuver_s=periods["maneuver"],
+        observation_s=periods["observation"],
+        timestep_s=periods["timestep"],
+        dai_memory_s=_check_positive(_get(p, "dai", "memory", path), "dai", "memory", path),
+    )
 
 
 @dataclass(frozen=True)
@@ -213,10 +249,15 @@ def load_damage(path: str | os.PathLike | None = None) -> Damage:
     """The simulated damage of 001 App. A.2."""
     p = load_parameters(path)
     g = lambda name: _get(p, "wilt2022", name, path)  # noqa: E731
-    factors = np.array([_check_positive(g(f"damage_factor_{a}"), "wilt2022",
-                                        f"damage_factor_{a}", path) for a in ("xx", "yy", "zz")])
-    return Damage(time_s=_check_positive(g("damage_time"), "wilt2022", "damage_time", path),
-                  factors=factors)
+    factors = np.array(
+        [
+            _check_positive(g(f"damage_factor_{a}"), "wilt2022", f"damage_factor_{a}", path)
+            for a in ("xx", "yy", "zz")
+        ]
+    )
+    return Damage(
+        time_s=_check_positive(g("damage_time"), "wilt2022", "damage_time", path), factors=factors
+    )
 
 
 @dataclass(frozen=True)
@@ -258,7 +299,7 @@ class Environment:
     @property
     def mean_motion_rad_s(self) -> float:
         """Circular-orbit rate w0 = sqrt(mu / R^3) (001 App. C)."""
-        return math.sqrt(self.mu_m3_s2 / self.radius_m ** 3)
+        return math.sqrt(self.mu_m3_s2 / self.radius_m**3)
 
     @property
     def speed_m_s(self) -> float:
@@ -280,12 +321,17 @@ def load_environment(path: str | os.PathLike | None = None) -> Environment:
         return _check_positive(_get(p, group, name, path), group, name, path)
 
     return Environment(
-        earth_radius_m=g("orbit", "earth_radius"), mu_m3_s2=g("orbit", "mu"),
-        altitude_m=g("orbit", "altitude"), t_inf_k=g("atmosphere", "t_inf"),
-        t_10_k=g("atmosphere", "t_10"), lapse_k10_k_m=g("atmosphere", "lapse_k10"),
-        z_10_m=g("atmosphere", "z_10"), pressure_pa=g("atmosphere", "pressure_150km"),
+        earth_radius_m=g("orbit", "earth_radius"),
+        mu_m3_s2=g("orbit", "mu"),
+        altitude_m=g("orbit", "altitude"),
+        t_inf_k=g("atmosphere", "t_inf"),
+        t_10_k=g("atmosphere", "t_10"),
+        lapse_k10_k_m=g("atmosphere", "lapse_k10"),
+        z_10_m=g("atmosphere", "z_10"),
+        pressure_pa=g("atmosphere", "pressure_150km"),
         molar_mass_kg_mol=g("atmosphere", "molar_mass_150km"),
-        gas_constant=g("atmosphere", "gas_constant"), cd=g("drag", "cd"),
+        gas_constant=g("atmosphere", "gas_constant"),
+        cd=g("drag", "cd"),
         size_m=np.array([g("drag", f"size_{k}") for k in "abc"]),
         cp_cg_B=np.array([_get(p, "drag", f"cp_cg_{k}", path) for k in "xyz"]),
     )
@@ -317,12 +363,12 @@ def load_cmg(path: str | os.PathLike | None = None) -> CmgSetup:
     """The CMG array parameters in SI."""
     p = load_parameters(path)
     g = lambda name: _get(p, "cmg", name, path)  # noqa: E731
-    return CmgSetup(skew_rad=np.full(3, g("skew_angle")),
-                    gimbal0_rad=np.full(3, g("initial_gimbal_angle")),
-                    wheel_momentum_nms=_check_positive(g("wheel_momentum"), "cmg",
-                                                       "wheel_momentum", path),
-                    singular_det=_check_positive(g("singular_det"), "cmg", "singular_det",
-                                                 path))
+    return CmgSetup(
+        skew_rad=np.full(3, g("skew_angle")),
+        gimbal0_rad=np.full(3, g("initial_gimbal_angle")),
+        wheel_momentum_nms=_check_positive(g("wheel_momentum"), "cmg", "wheel_momentum", path),
+        singular_det=_check_positive(g("singular_det"), "cmg", "singular_det", path),
+    )
 
 
 @dataclass(frozen=True)
@@ -342,15 +388,17 @@ def load_dispersions(path: str | os.PathLike | None = None) -> dict[str, Dispers
     for i, row in enumerate(_read_rows(p, _DISPERSION_COLUMNS), start=1):
         name, dist, unit = row["name"].strip(), row["distribution"].strip(), row["unit"].strip()
         if dist not in ("uniform", "normal"):
-            raise InputError(f"{p}: row {i} ({name}), distribution: must be uniform or "
-                             f"normal, got {dist!r}")
+            raise InputError(
+                f"{p}: row {i} ({name}), distribution: must be uniform or normal, got {dist!r}"
+            )
         if unit not in _UNITS:
             raise InputError(f"{p}: row {i} ({name}), unit: unknown unit {unit!r}")
         bound = _number(p, i, "bound", row["bound"]) * _UNITS[unit]
         if bound < 0:
             raise InputError(f"{p}: row {i} ({name}), bound: must be >= 0, got {row['bound']}")
-        out[name] = Dispersion(name, dist, _number(p, i, "nominal", row["nominal"]) *
-                               _UNITS[unit], bound)
+        out[name] = Dispersion(
+            name, dist, _number(p, i, "nominal", row["nominal"]) * _UNITS[unit], bound
+        )
     return out
 
 
@@ -385,11 +433,19 @@ def load_paper_figures(path: str | os.PathLike | None = None) -> list[PaperFigur
     except OSError as exc:
         raise InputError(f"{p}: cannot read it ({exc.strerror or exc})") from None
     reader = csv.DictReader(lines)
-    missing = [c for c in ("table", "scenario", "method", "mean", "std", "effort")
-               if c not in (reader.fieldnames or ())]
+    missing = [
+        c
+        for c in ("table", "scenario", "method", "mean", "std", "effort")
+        if c not in (reader.fieldnames or ())
+    ]
     if missing:
         raise InputError(f"{p}: missing column(s) {', '.join(missing)}")
-    return [PaperFigure(int(_number(p, i, "table", row["table"])), row["scenario"].strip(),
-                        row["method"].strip(), *(_number(p, i, k, row[k])
-                                                  for k in ("mean", "std", "effort")))
-            for i, row in enumerate(reader, start=1)]
+    return [
+        PaperFigure(
+            int(_number(p, i, "table", row["table"])),
+            row["scenario"].strip(),
+            row["method"].strip(),
+            *(_number(p, i, k, row[k]) for k in ("mean", "std", "effort")),
+        )
+        for i, row in enumerate(reader, start=1)
+    ]

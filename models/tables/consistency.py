@@ -86,8 +86,9 @@ def check_consistency(
             if not math.isfinite(t):
                 raise cell_error(file, "NaN/infinite firing time", column=col, value=t, **loc)
             if t < 0:
-                raise cell_error(file, "wrong sign: firing time must be >= 0", column=col,
-                                 value=t, **loc)
+                raise cell_error(
+                    file, "wrong sign: firing time must be >= 0", column=col, value=t, **loc
+                )
             if max_firing_time_s is not None and t > max_firing_time_s:
                 raise cell_error(
                     file,
@@ -95,7 +96,9 @@ def check_consistency(
                     "table firing is one feedback pulse (the paper's longest is 0.52 s), this "
                     f"one holds the jet on, open loop, for {t / (cycle_s or CONTROL_CYCLE_S):.4g} "
                     "control cycles (a time in ms under an s header?)",
-                    column=col, value=t, **loc,
+                    column=col,
+                    value=t,
+                    **loc,
                 )
             if cycle_s is not None:
                 cycles = t / cycle_s
@@ -104,13 +107,20 @@ def check_consistency(
                         file,
                         f"firing time is not a whole number of {cycle_s * 1e3:g} ms control "
                         f"cycles ({cycles:.4g} cycles)",
-                        column=col, value=t, **loc,
+                        column=col,
+                        value=t,
+                        **loc,
                     )
             axes = np.flatnonzero(jmap[j])
             if len(axes) == 0:
                 if t > 0:
-                    raise cell_error(file, f"jet {j + 1} is unused in the jet map (no torque) "
-                                     "but fires", column=col, value=t, **loc)
+                    raise cell_error(
+                        file,
+                        f"jet {j + 1} is unused in the jet map (no torque) but fires",
+                        column=col,
+                        value=t,
+                        **loc,
+                    )
                 continue
             for a in axes:
                 s = int(jmap[j, a])
@@ -118,11 +128,13 @@ def check_consistency(
                 jet = f"jet {j + 1} ({AXES[a]} {s:+d})"
                 cmd = f"the {AXES[a]} rate command is {rate_deg[k, a]:+.4g} deg/s"
                 if should_fire and t == 0:
-                    raise cell_error(file, f"{jet} does not fire although {cmd}", column=col,
-                                     value=t, **loc)
+                    raise cell_error(
+                        file, f"{jet} does not fire although {cmd}", column=col, value=t, **loc
+                    )
                 if not should_fire and t > 0:
-                    raise cell_error(file, f"{jet} fires although {cmd}", column=col, value=t,
-                                     **loc)
+                    raise cell_error(
+                        file, f"{jet} fires although {cmd}", column=col, value=t, **loc
+                    )
         # Rule 5: jets with the same jet-map row (same axis and sign) are a pair.
         groups: dict[tuple, list[int]] = {}
         for j in range(jmap.shape[0]):
@@ -136,5 +148,7 @@ def check_consistency(
                         file,
                         f"paired jets fire unequal times: jet {j + 1} vs jet {first + 1} "
                         f"({times[k, first]:g} s); a pair must fire equally long",
-                        column=f"jet_{j + 1:02d}", value=float(times[k, j]), **loc,
+                        column=f"jet_{j + 1:02d}",
+                        value=float(times[k, j]),
+                        **loc,
                     )

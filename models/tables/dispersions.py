@@ -61,16 +61,27 @@ def load_dispersions(path: PathLike | None = None) -> pd.DataFrame:
     for i in range(len(raw.rows)):
         name = raw.cell(i, "name")
         if not name.isidentifier():
-            raise cell_error(raw.file, "name must be an identifier", row=i + 1, column="name",
-                             value=name)
+            raise cell_error(
+                raw.file, "name must be an identifier", row=i + 1, column="name", value=name
+            )
         if name in first_row:
-            raise cell_error(raw.file, f"duplicate name (first on row {first_row[name]})",
-                             row=i + 1, column="name", value=name)
+            raise cell_error(
+                raw.file,
+                f"duplicate name (first on row {first_row[name]})",
+                row=i + 1,
+                column="name",
+                value=name,
+            )
         first_row[name] = i + 1
         dist = raw.cell(i, "distribution")
         if dist not in _DISTRIBUTIONS:
-            raise cell_error(raw.file, f"unknown distribution; expected one of {_DISTRIBUTIONS}",
-                             row=i + 1, column="distribution", value=dist)
+            raise cell_error(
+                raw.file,
+                f"unknown distribution; expected one of {_DISTRIBUTIONS}",
+                row=i + 1,
+                column="distribution",
+                value=dist,
+            )
         factor = unit_factor(raw, i, "unit", _DISPERSION_DIMENSIONS.get(name))
         sigma = number(raw, i, "three_sigma", minimum=0.0)
         unit = raw.cell(i, "unit")

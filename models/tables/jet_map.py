@@ -46,17 +46,33 @@ def load_jet_map(path: PathLike | None = None) -> np.ndarray:
         for a, col in enumerate(SIGN_COLUMNS):
             v = number(raw, i, col, jet=jet)
             if v not in (-1.0, 0.0, 1.0):
-                raise cell_error(raw.file, "sign must be -1, 0 or 1", row=i + 1, jet=jet,
-                                 column=col, value=raw.cell(i, col))
+                raise cell_error(
+                    raw.file,
+                    "sign must be -1, 0 or 1",
+                    row=i + 1,
+                    jet=jet,
+                    column=col,
+                    value=raw.cell(i, col),
+                )
             jmap[jet - 1, a] = int(v)
         if np.count_nonzero(jmap[jet - 1]) > 1:
             col = SIGN_COLUMNS[int(np.flatnonzero(jmap[jet - 1])[1])]
-            raise cell_error(raw.file, "jet gives torque on more than one axis", row=i + 1,
-                             jet=jet, column=col, value=raw.cell(i, col))
+            raise cell_error(
+                raw.file,
+                "jet gives torque on more than one axis",
+                row=i + 1,
+                jet=jet,
+                column=col,
+                value=raw.cell(i, col),
+            )
     for a, col in enumerate(SIGN_COLUMNS):
         for s in (-1, 1):
             if not np.any(jmap[:, a] == s):
                 # No single cell is wrong: name the column and the value that never appears.
-                raise cell_error(raw.file, f"no jet gives {s:+d} {AXES[a]} torque (every "
-                                 f"axis needs a jet of each sign)", column=col, value=s)
+                raise cell_error(
+                    raw.file,
+                    f"no jet gives {s:+d} {AXES[a]} torque (every axis needs a jet of each sign)",
+                    column=col,
+                    value=s,
+                )
     return jmap

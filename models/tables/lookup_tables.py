@@ -238,7 +238,8 @@ def load_lookup_table(
         jet_cols = list(JET_COLUMNS)
     else:
         check_columns(
-            raw, ("case", *used),
+            raw,
+            ("case", *used),
             " (paper layout: only jets the jet map uses; add roll_deg_s, pitch_deg_s, "
             "yaw_deg_s and all 16 jets for the rcsim layout)",
         )
@@ -252,17 +253,34 @@ def load_lookup_table(
     case, times, rows = case[order], times[order], order + 1
     if rcsim:
         rate_deg = np.array(
-            [[number(raw, i, col, case=case_i) for col in RATE_COLUMNS]
-             for i, case_i in zip(order, case)]
+            [
+                [number(raw, i, col, case=case_i) for col in RATE_COLUMNS]
+                for i, case_i in zip(order, case)
+            ]
         )
-        check_rate_rows(raw.file, rows, case, rate_deg, total_rate_deg_s=total_rate_deg_s,
-                        roll_major=False, equal_split=False)
+        check_rate_rows(
+            raw.file,
+            rows,
+            case,
+            rate_deg,
+            total_rate_deg_s=total_rate_deg_s,
+            roll_major=False,
+            equal_split=False,
+        )
         rate = np.deg2rad(rate_deg)
     else:
         if rate_cases is None:
             rate_cases = load_rate_cases()
         lookup = {int(c): k for k, c in enumerate(rate_cases.case)}
         rate = np.array([rate_cases.rate_cmd[lookup[int(c)]] for c in case])
-    check_consistency(case, rate, times, jmap, file=raw.file, rows=rows, cycle_s=cycle_s,
-                      max_firing_time_s=max_firing_time_s)
+    check_consistency(
+        case,
+        rate,
+        times,
+        jmap,
+        file=raw.file,
+        rows=rows,
+        cycle_s=cycle_s,
+        max_firing_time_s=max_firing_time_s,
+    )
     return LookupTable(case=case, rate_cmd=rate, firing_time_s=times, source=raw.file)

@@ -77,7 +77,9 @@ def load_mass_properties(path: PathLike | None = None) -> MassProperties:
             raise cell_error(
                 raw.file,
                 f"{name} exceeds the sum of the other two principal moments (not a rigid body)",
-                row=row, column="value", value=raw.cell(row - 1, "value"),
+                row=row,
+                column="value",
+                value=raw.cell(row - 1, "value"),
             )
     return MassProperties(
         mass_kg=v["mass"], cg_x_m=v["cg_x"], inertia_kgm2=inertia, thrust_n=v["thrust"]

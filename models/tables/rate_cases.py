@@ -97,8 +97,12 @@ def check_rate_rows(
         c, r, p = int(case[k]), int(rows[k]), signs[k]
         if not p.any():
             raise cell_error(
-                file, "rate command is zero on every axis", row=r, case=c,
-                column=RATE_COLUMNS[0], value=float(rate_deg_s[k, 0]),
+                file,
+                "rate command is zero on every axis",
+                row=r,
+                case=c,
+                column=RATE_COLUMNS[0],
+                value=float(rate_deg_s[k, 0]),
             )
         others = [o for o in owner[tuple(p)] if o != c]
         dup = f"; it duplicates case {others[0]}" if others else ""
@@ -110,7 +114,10 @@ def check_rate_rows(
                 file,
                 f"sign pattern {_fmt_pattern(p)} breaks the roll-major case order, which "
                 f"gives case {c} the pattern {_fmt_pattern(expected[c - 1])}{dup}",
-                row=r, case=c, column=RATE_COLUMNS[axis], value=float(rate_deg_s[k, axis]),
+                row=r,
+                case=c,
+                column=RATE_COLUMNS[axis],
+                value=float(rate_deg_s[k, axis]),
             )
         if earlier:
             axis = int(np.flatnonzero(p)[0])
@@ -118,7 +125,10 @@ def check_rate_rows(
                 file,
                 f"sign pattern {_fmt_pattern(p)} used twice (cases {owner[tuple(p)]}); each "
                 f"pattern of {{-,0,+}}^3 except all-zero must appear once",
-                row=r, case=c, column=RATE_COLUMNS[axis], value=float(rate_deg_s[k, axis]),
+                row=r,
+                case=c,
+                column=RATE_COLUMNS[axis],
+                value=float(rate_deg_s[k, axis]),
             )
     norms = np.linalg.norm(rate_deg_s, axis=1)
     for k in range(len(case)):
@@ -128,17 +138,21 @@ def check_rate_rows(
         if not RATE_TOTAL_MIN_DEG_S <= norms[k] <= RATE_TOTAL_MAX_DEG_S:
             axis = int(np.flatnonzero(rate_deg_s[k])[0])
             ratio = PAPER_TOTAL_RATE_DEG_S / norms[k]
-            hint = (f"{ratio:.3g}x smaller than the paper's {PAPER_TOTAL_RATE_DEG_S:g} deg/s; "
-                    "rad/s written as deg/s is 57.3x smaller" if ratio > 1 else
-                    f"{1 / ratio:.3g}x larger than the paper's {PAPER_TOTAL_RATE_DEG_S:g} "
-                    "deg/s")
+            hint = (
+                f"{ratio:.3g}x smaller than the paper's {PAPER_TOTAL_RATE_DEG_S:g} deg/s; "
+                "rad/s written as deg/s is 57.3x smaller"
+                if ratio > 1
+                else f"{1 / ratio:.3g}x larger than the paper's {PAPER_TOTAL_RATE_DEG_S:g} deg/s"
+            )
             raise cell_error(
                 file,
                 f"total rate {norms[k]:.6g} deg/s is outside the physical range "
                 f"{RATE_TOTAL_MIN_DEG_S:g}..{RATE_TOTAL_MAX_DEG_S:g} deg/s (a factor of ten "
                 f"around the paper's Table 3 total rate command): {hint}; rates must be in "
                 f"deg/s",
-                row=int(rows[k]), case=int(case[k]), column=RATE_COLUMNS[axis],
+                row=int(rows[k]),
+                case=int(case[k]),
+                column=RATE_COLUMNS[axis],
                 value=float(rate_deg_s[k, axis]),
             )
     reference = float(np.median(norms)) if total_rate_deg_s is None else float(total_rate_deg_s)
@@ -161,7 +175,10 @@ def check_rate_rows(
                     file,
                     f"unequal magnitudes on the commanded axes (others {mid:g} deg/s, "
                     f"tolerance {RATE_RTOL:g} relative)",
-                    row=r, case=c, column=RATE_COLUMNS[axis], value=float(rate_deg_s[k, axis]),
+                    row=r,
+                    case=c,
+                    column=RATE_COLUMNS[axis],
+                    value=float(rate_deg_s[k, axis]),
                 )
         if abs(norms[k] - reference) > RATE_RTOL * reference:
             axis = int(nz[0])
@@ -169,7 +186,10 @@ def check_rate_rows(
                 file,
                 f"total rate {norms[k]:.6g} deg/s differs from {what} by more than "
                 f"{RATE_RTOL:g} relative",
-                row=r, case=c, column=RATE_COLUMNS[axis], value=float(rate_deg_s[k, axis]),
+                row=r,
+                case=c,
+                column=RATE_COLUMNS[axis],
+                value=float(rate_deg_s[k, axis]),
             )
 
 
@@ -211,6 +231,13 @@ def load_rate_cases(
     )
     order = np.argsort(case)
     case, rate, rows = case[order], rate[order], order + 1
-    check_rate_rows(raw.file, rows, case, rate, total_rate_deg_s=total_rate_deg_s,
-                    roll_major=True, equal_split=True)
+    check_rate_rows(
+        raw.file,
+        rows,
+        case,
+        rate,
+        total_rate_deg_s=total_rate_deg_s,
+        roll_major=True,
+        equal_split=True,
+    )
     return RateCases(case=case, rate_cmd=np.deg2rad(rate))

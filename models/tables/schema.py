@@ -17,7 +17,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from importlib.resources import files
 from pathlib import Path
-from typing import TYPE_CHECKING, Union
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,7 +26,7 @@ from models.errors import InputError
 if TYPE_CHECKING:  # importlib.resources.abc is 3.11+; only the annotation needs it
     from importlib.resources.abc import Traversable
 
-PathLike = Union[str, os.PathLike]
+PathLike = str | os.PathLike
 
 # Unit string -> (physical dimension, factor to SI).  Long tables carry their unit per row, so
 # a user file in other units (lbf, ms, rad) converts instead of silently being misread.
@@ -181,8 +181,9 @@ def check_columns(raw: RawTable, required: Sequence[str], hint: str = "") -> Non
             raise cell_error(raw.file, f"unknown column; {expected}", row="header", column=name)
 
 
-def number(raw: RawTable, i: int, column: str, *, case=None, jet=None, minimum=None,
-           strict=False) -> float:
+def number(
+    raw: RawTable, i: int, column: str, *, case=None, jet=None, minimum=None, strict=False
+) -> float:
     """Parse cell (row ``i`` 0-based, ``column``) as a finite float, optionally bounded below
     (``> minimum`` if ``strict`` else ``>= minimum``)."""
     text = raw.cell(i, column)
@@ -205,8 +206,9 @@ def integer(raw: RawTable, i: int, column: str, *, case=None) -> int:
     """Parse a cell as an integer (``3`` or ``3.0``; not ``3.5``)."""
     value = number(raw, i, column, case=case)
     if value != int(value):
-        raise cell_error(raw.file, "not an integer", row=i + 1, column=column,
-                         value=raw.cell(i, column))
+        raise cell_error(
+            raw.file, "not an integer", row=i + 1, column=column, value=raw.cell(i, column)
+        )
     return int(value)
 
 
@@ -219,13 +221,19 @@ def index_column(raw: RawTable, column: str, count: int, what: str) -> np.ndarra
         n = integer(raw, i, column)
         if not 1 <= n <= count:
             raise cell_error(
-                raw.file, f"{what} number outside 1..{count} (the table has exactly {count} "
-                f"{what}s)", row=i + 1, column=column, value=raw.cell(i, column),
+                raw.file,
+                f"{what} number outside 1..{count} (the table has exactly {count} {what}s)",
+                row=i + 1,
+                column=column,
+                value=raw.cell(i, column),
             )
         if n in first_row:
             raise cell_error(
-                raw.file, f"duplicate {what} {n} (first on row {first_row[n]})",
-                row=i + 1, column=column, value=raw.cell(i, column),
+                raw.file,
+                f"duplicate {what} {n} (first on row {first_row[n]})",
+                row=i + 1,
+                column=column,
+                value=raw.cell(i, column),
             )
         first_row[n] = i + 1
         numbers.append(n)
@@ -246,20 +254,28 @@ def unit_factor(raw: RawTable, i: int, column: str, dimension: str | None) -> fl
     another dimension than ``dimension`` (None: any known unit)."""
     unit = raw.cell(i, column)
     if unit not in UNITS:
-        raise cell_error(raw.file, f"unknown unit; known: {', '.join(UNITS)}", row=i + 1,
-                         column=column, value=unit)
+        raise cell_error(
+            raw.file,
+            f"unknown unit; known: {', '.join(UNITS)}",
+            row=i + 1,
+            column=column,
+            value=unit,
+        )
     unit_dim, factor = UNITS[unit]
     if dimension is not None and unit_dim != dimension:
         raise cell_error(
             raw.file,
             f"unit of {unit_dim} where a {dimension} unit (e.g. {SI_UNIT[dimension]}) is needed",
-            row=i + 1, column=column, value=unit,
+            row=i + 1,
+            column=column,
+            value=unit,
         )
     return factor
 
 
-def long_table(path, default_name: str, value_column: str,
-               spec: Mapping[str, tuple[str, bool]]) -> tuple[RawTable, dict[str, float]]:
+def long_table(
+    path, default_name: str, value_column: str, spec: Mapping[str, tuple[str, bool]]
+) -> tuple[RawTable, dict[str, float]]:
     """Read a ``parameter, unit, <value_column>`` table; return SI values keyed by parameter.
 
     ``spec`` maps each parameter to ``(dimension, must be strictly positive)``; every
@@ -272,11 +288,21 @@ def long_table(path, default_name: str, value_column: str,
     for i in range(len(raw.rows)):
         name = raw.cell(i, "parameter")
         if name not in spec:
-            raise cell_error(raw.file, f"unknown parameter; expected {', '.join(spec)}",
-                             row=i + 1, column="parameter", value=name)
+            raise cell_error(
+                raw.file,
+                f"unknown parameter; expected {', '.join(spec)}",
+                row=i + 1,
+                column="parameter",
+                value=name,
+            )
         if name in first_row:
-            raise cell_error(raw.file, f"duplicate parameter (first on row {first_row[name]})",
-                             row=i + 1, column="parameter", value=name)
+            raise cell_error(
+                raw.file,
+                f"duplicate parameter (first on row {first_row[name]})",
+                row=i + 1,
+                column="parameter",
+                value=name,
+            )
         first_row[name] = i + 1
         dimension, positive = spec[name]
         factor = unit_factor(raw, i, "unit", dimension)

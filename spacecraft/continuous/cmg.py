@@ -29,6 +29,7 @@ cost of a torque error along the singular direction, which the delivered torque 
 honestly (the plant flies ``tau``, not ``u``).  An exactly singular ``A`` never produces a
 non-finite rate.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -114,11 +115,13 @@ class CmgArray:
 
     def momentum_B(self, state: CmgState) -> np.ndarray:
         """Total rotor momentum of each run's array, body axes [N m s], (n_runs, 3)."""
-        return self.setup.wheel_momentum_nms * unit_momenta(state.theta,
-                                                            self.setup.skew_rad).sum(-1)
+        return self.setup.wheel_momentum_nms * unit_momenta(state.theta, self.setup.skew_rad).sum(
+            -1
+        )
 
-    def steer(self, u_B: np.ndarray, omega_B: np.ndarray, state: CmgState,
-              dt_s: float) -> tuple[CmgOutput, CmgState]:
+    def steer(
+        self, u_B: np.ndarray, omega_B: np.ndarray, state: CmgState, dt_s: float
+    ) -> tuple[CmgOutput, CmgState]:
         """Gimbal rates for the commanded torque ``u_B`` held over ``dt_s``; the torque they give.
 
         Parameters

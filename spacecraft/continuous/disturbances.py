@@ -24,6 +24,7 @@ Torques, body axes:
 * drag ``F_B = -1/2 rho V^2 Cd A_p v_B`` with the projected area ``A_p = sum_i A_i |v_B,i|``
   of the box (App. C's ``Area``), applied at the centre of pressure: ``T_d = d_cp x F_B``.
 """
+
 from __future__ import annotations
 
 import math
@@ -41,17 +42,23 @@ _SUPPORTED_ALTITUDE_M = 150e3
 def thermosphere_temperature_k(env: Environment, altitude_m: float) -> float:
     """001 App. C temperature [K] at ``altitude_m`` (>= Z_10)."""
     lam = env.lapse_k10_k_m / (env.t_inf_k - env.t_10_k)
-    xi = (altitude_m - env.z_10_m) * (env.earth_radius_m + env.z_10_m) / (
-        env.earth_radius_m + altitude_m)
+    xi = (
+        (altitude_m - env.z_10_m)
+        * (env.earth_radius_m + env.z_10_m)
+        / (env.earth_radius_m + altitude_m)
+    )
     return env.t_inf_k - (env.t_inf_k - env.t_10_k) * math.exp(-lam * xi)
 
 
 def density_kg_m3(env: Environment) -> float:
     """Air density at the orbit altitude [kg/m^3] (module docstring)."""
     if abs(env.altitude_m - _SUPPORTED_ALTITUDE_M) > 1e-6:
-        raise InputError(f"must be 150 km (the pressure and molar mass in parameters.csv are "
-                         f"the 150 km values), got {env.altitude_m / 1e3} km",
-                         parameter="altitude", value=env.altitude_m)
+        raise InputError(
+            f"must be 150 km (the pressure and molar mass in parameters.csv are "
+            f"the 150 km values), got {env.altitude_m / 1e3} km",
+            parameter="altitude",
+            value=env.altitude_m,
+        )
     temp = thermosphere_temperature_k(env, env.altitude_m)
     return env.pressure_pa * env.molar_mass_kg_mol / (env.gas_constant * temp)
 
@@ -59,8 +66,7 @@ def density_kg_m3(env: Environment) -> float:
 def orbit_directions_N(env: Environment, t_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Position and velocity unit vectors in N at ``t_s`` (module docstring), (3,) each."""
     a = env.mean_motion_rad_s * t_s
-    return (np.array([math.sin(a), 0.0, -math.cos(a)]),
-            np.array([math.cos(a), 0.0, math.sin(a)]))
+    return (np.array([math.sin(a), 0.0, -math.cos(a)]), np.array([math.cos(a), 0.0, math.sin(a)]))
 
 
 @dataclass(frozen=True)
@@ -101,11 +107,14 @@ class Disturbances:
         r_BN = np.swapaxes(dcm_NB(q_BN), -1, -2)
         if self.gravity_gradient:
             r_B = r_BN @ r_N
-            out += 3.0 * self.env.mean_motion_rad_s ** 2 * np.cross(
-                r_B, np.einsum("nij,nj->ni", inertia_B, r_B))
+            out += (
+                3.0
+                * self.env.mean_motion_rad_s**2
+                * np.cross(r_B, np.einsum("nij,nj->ni", inertia_B, r_B))
+            )
         if self.aero_drag:
             v_B = r_BN @ v_N
-            q_dyn = 0.5 * density_kg_m3(self.env) * self.env.speed_m_s ** 2
+            q_dyn = 0.5 * density_kg_m3(self.env) * self.env.speed_m_s**2
             area = np.abs(v_B) @ self.env.area_B_m2
             force = -(q_dyn * self.env.cd * area)[:, None] * v_B
             out += np.cross(self.env.cp_cg_B, force)

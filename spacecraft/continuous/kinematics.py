@@ -5,6 +5,7 @@ inertial frame N: ``v_N = R(q) v_B``.  Euler angles ``(phi, theta, psi)`` are th
 (yaw-pitch-roll) sequence, ``R_NB = Rz(psi) Ry(theta) Rx(phi)``, as 002 Sec. 3 resolves them
 ("a 3-2-1 rotation sequence with the atan2 trigonometry function").
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -25,14 +26,20 @@ def quat_from_euler321(euler: np.ndarray) -> np.ndarray:
     c, s = np.cos(half), np.sin(half)
     c1, c2, c3 = np.moveaxis(c, -1, 0)
     s1, s2, s3 = np.moveaxis(s, -1, 0)
-    return np.stack([c1 * c2 * c3 + s1 * s2 * s3,
-                     s1 * c2 * c3 - c1 * s2 * s3,
-                     c1 * s2 * c3 + s1 * c2 * s3,
-                     c1 * c2 * s3 - s1 * s2 * c3], axis=-1)
+    return np.stack(
+        [
+            c1 * c2 * c3 + s1 * s2 * s3,
+            s1 * c2 * c3 - c1 * s2 * s3,
+            c1 * s2 * c3 + s1 * c2 * s3,
+            c1 * c2 * s3 - s1 * s2 * c3,
+        ],
+        axis=-1,
+    )
 
 
-def body_rate_from_euler(euler: np.ndarray, euler_rate: np.ndarray,
-                         euler_acc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def body_rate_from_euler(
+    euler: np.ndarray, euler_rate: np.ndarray, euler_acc: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Body rate and its derivative from 3-2-1 Euler angles and their derivatives.
 
     Parameters
@@ -50,16 +57,25 @@ def body_rate_from_euler(euler: np.ndarray, euler_rate: np.ndarray,
     dph, dth, dps = np.moveaxis(np.asarray(euler_rate, float), -1, 0)
     aph, ath, aps = np.moveaxis(np.asarray(euler_acc, float), -1, 0)
     sph, cph, sth, cth = np.sin(ph), np.cos(ph), np.sin(th), np.cos(th)
-    omega = np.stack([dph - dps * sth,
-                      dth * cph + dps * cth * sph,
-                      dps * cth * cph - dth * sph], axis=-1)
-    omega_dot = np.stack([
-        aph - aps * sth - dps * dth * cth,
-        ath * cph - dth * dph * sph + aps * cth * sph - dps * dth * sth * sph
-        + dps * dph * cth * cph,
-        aps * cth * cph - dps * dth * sth * cph - dps * dph * cth * sph - ath * sph
-        - dth * dph * cph,
-    ], axis=-1)
+    omega = np.stack(
+        [dph - dps * sth, dth * cph + dps * cth * sph, dps * cth * cph - dth * sph], axis=-1
+    )
+    omega_dot = np.stack(
+        [
+            aph - aps * sth - dps * dth * cth,
+            ath * cph
+            - dth * dph * sph
+            + aps * cth * sph
+            - dps * dth * sth * sph
+            + dps * dph * cth * cph,
+            aps * cth * cph
+            - dps * dth * sth * cph
+            - dps * dph * cth * sph
+            - ath * sph
+            - dth * dph * cph,
+        ],
+        axis=-1,
+    )
     return omega, omega_dot
 
 
@@ -68,11 +84,14 @@ def dcm_NB(q: np.ndarray) -> np.ndarray:
     q = np.asarray(q, float)
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
     w, x, y, z = np.moveaxis(q, -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], axis=-2)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=-2,
+    )
 
 
 def angle_between(q_a: np.ndarray, q_b: np.ndarray) -> np.ndarray:

@@ -12,6 +12,7 @@ given sensor noise), one vectorized controller step gives the commanded torque, 
 disturbances are added, and MuJoCo advances all runs by one step with the torque held (zero-
 order hold, as the papers' fixed-step Simulink models).  No Python loop over runs.
 """
+
 from __future__ import annotations
 
 import math
@@ -39,8 +40,7 @@ _CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
 def load_dai_model(timestep_s: float) -> mujoco.MjModel:
     """The packaged DAI spacecraft with physics step ``timestep_s`` [s] (RK4)."""
     if not (math.isfinite(timestep_s) and timestep_s > 0):
-        raise InputError(f"must be > 0, got {timestep_s}", parameter="timestep_s",
-                         value=timestep_s)
+        raise InputError(f"must be > 0, got {timestep_s}", parameter="timestep_s", value=timestep_s)
     route_mujoco_warnings()  # a diverging run's warning goes to the log, not MUJOCO_LOG.TXT
     model = mujoco.MjModel.from_xml_path(str(dai_xml()))
     model.opt.timestep = timestep_s
@@ -73,8 +73,9 @@ class ContinuousPlant:
     def __init__(self, inertia_B: np.ndarray, *, timestep_s: float, nthread: int = 0):
         inertia_B = np.asarray(inertia_B, float)
         if inertia_B.ndim != 3 or inertia_B.shape[1:] != (3, 3):
-            raise InputError(f"must have shape (n_runs, 3, 3), got {inertia_B.shape}",
-                             parameter="inertia_B")
+            raise InputError(
+                f"must have shape (n_runs, 3, 3), got {inertia_B.shape}", parameter="inertia_B"
+            )
         self.model = load_dai_model(timestep_s)
         quiet_stage_timers()
         self.dt_s = timestep_s
@@ -162,11 +163,18 @@ class ContinuousHistory:
     wall_s: float = 0.0
 
 
-def fly(plant: ContinuousPlant, controller: Controller, duration_s: float, *,
-        cmg: CmgArray | None = None, disturbances: Disturbances | None = None,
-        damage: Damage | None = None, angle_noise: np.ndarray | None = None,
-        q0_BN: np.ndarray | None = None, omega0_B: np.ndarray | None = None
-        ) -> ContinuousHistory:
+def fly(
+    plant: ContinuousPlant,
+    controller: Controller,
+    duration_s: float,
+    *,
+    cmg: CmgArray | None = None,
+    disturbances: Disturbances | None = None,
+    damage: Damage | None = None,
+    angle_noise: np.ndarray | None = None,
+    q0_BN: np.ndarray | None = None,
+    omega0_B: np.ndarray | None = None,
+) -> ContinuousHistory:
     """Fly every run of ``plant`` for ``duration_s`` (rounded to whole steps).
 
     Parameters
@@ -187,13 +195,13 @@ def fly(plant: ContinuousPlant, controller: Controller, duration_s: float, *,
         Initial state; default identity and rest (001 App. C, 002 Sec. 3).
     """
     if not (math.isfinite(duration_s) and duration_s > 0):
-        raise InputError(f"must be > 0, got {duration_s}", parameter="duration_s",
-                         value=duration_s)
+        raise InputError(f"must be > 0, got {duration_s}", parameter="duration_s", value=duration_s)
     n, dt = plant.n_runs, plant.dt_s
     k_max = int(round(duration_s / dt))
     if angle_noise is not None and angle_noise.shape != (n, k_max, 3):
-        raise InputError(f"must have shape {(n, k_max, 3)}, got {angle_noise.shape}",
-                         parameter="angle_noise")
+        raise InputError(
+            f"must have shape {(n, k_max, 3)}, got {angle_noise.shape}", parameter="angle_noise"
+        )
     plant.reset(q0_BN, omega0_B)
     state = controller.initial_state(n)
     cmg_state = cmg.initial_state(n) if cmg is not None else None
@@ -223,8 +231,11 @@ def fly(plant: ContinuousPlant, controller: Controller, duration_s: float, *,
             det[k], sing[k] = out.det, out.singular
         else:
             u_act = u_cmd
-        dist = (disturbances.torque_B(t, q, plant.inertia_B) if disturbances is not None
-                else np.zeros((n, 3)))
+        dist = (
+            disturbances.torque_B(t, q, plant.inertia_B)
+            if disturbances is not None
+            else np.zeros((n, 3))
+        )
         rec_q[k], rec["omega"][k], rec["u_cmd"][k] = q, omega, u_cmd
         rec["u_act"][k], rec["dist"][k] = u_act, dist
         if hasattr(controller, "telemetry"):
@@ -234,7 +245,14 @@ def fly(plant: ContinuousPlant, controller: Controller, duration_s: float, *,
     wall = time.perf_counter() - wall0
     sw = lambda a: a.swapaxes(0, 1)  # noqa: E731  (steps, runs, ...) -> (runs, steps, ...)
     return ContinuousHistory(
-        t_s=np.arange(k_max) * dt, q_BN=sw(rec_q), omega_B=sw(rec["omega"]),
-        u_cmd_B=sw(rec["u_cmd"]), u_act_B=sw(rec["u_act"]), dist_B=sw(rec["dist"]),
-        cmg_det=None if det is None else det.T, cmg_singular=None if sing is None else sing.T,
-        telemetry={k: sw(np.asarray(v)) for k, v in telemetry.items()}, wall_s=wall)
+        t_s=np.arange(k_max) * dt,
+        q_BN=sw(rec_q),
+        omega_B=sw(rec["omega"]),
+        u_cmd_B=sw(rec["u_cmd"]),
+        u_act_B=sw(rec["u_act"]),
+        dist_B=sw(rec["dist"]),
+        cmg_det=None if det is None else det.T,
+        cmg_singular=None if sing is None else sing.T,
+        telemetry={k: sw(np.asarray(v)) for k, v in telemetry.items()},
+        wall_s=wall,
+    )

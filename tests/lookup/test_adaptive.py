@@ -14,6 +14,7 @@ Oracles
 * Noise alone (nominal thrust, white rate noise declared to the controller) must not move the
   table: with the confidence rule (significance and two agreeing misses) no entry changes.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -57,8 +58,12 @@ def damping(model, ctl, factor):
     n = rate.shape[0]
     f = np.ones((n, 16))
     f[:, YAW_JETS] = factor
-    sim = BatchSimulation(VehicleParams.nominal(n, model), model=model, nthread=1,
-                          faults=JetFaults.of(n, thrust_factor=f))
+    sim = BatchSimulation(
+        VehicleParams.nominal(n, model),
+        model=model,
+        nthread=1,
+        faults=JetFaults.of(n, thrust_factor=f),
+    )
     return sim.run(ctl, Guidance.rate(np.zeros((n, 3))), 3.0, omega0_B=rate)
 
 
@@ -88,8 +93,9 @@ def fake_plant_episodes(ctl, table, f, episodes, w0_deg_s=0.1):
     firing (pure-yaw case: rate_abs / time), reset to ``w0`` every 60 cycles."""
     rate_abs = np.abs(np.asarray(table.rate_cmd))
     times = np.asarray(table.firing_time_s)
-    pure = np.flatnonzero((rate_abs[:, 0] == 0) & (rate_abs[:, 1] == 0)
-                          & (np.asarray(table.rate_cmd)[:, 2] < 0))[0]
+    pure = np.flatnonzero(
+        (rate_abs[:, 0] == 0) & (rate_abs[:, 1] == 0) & (np.asarray(table.rate_cmd)[:, 2] < 0)
+    )[0]
     accel = rate_abs[pure, 2] / times[pure].max()  # rad/s per second of firing
     jets = times[pure] > 0
     state = ctl.initial_state(1)
@@ -114,7 +120,7 @@ def test_entry_learns_from_two_agreeing_misses(table):
     assert one.updates.sum() == 0 and one.evidence[0, pure, 2] == 1  # one miss: evidence only
     two, _ = fake_plant_episodes(ctl, table, f, 2)
     assert two.updates[0, pure, 2] == 1
-    assert two.scale[0, pure, 2] == pytest.approx(f ** -adapt.gain, rel=1e-9)
+    assert two.scale[0, pure, 2] == pytest.approx(f**-adapt.gain, rel=1e-9)
     np.testing.assert_array_equal(np.delete(two.scale.reshape(-1), pure * 3 + 2), 1.0)
     # A third episode uses the corrected entry: it misses by f * f**-gain = f**(1-gain).
     three, _ = fake_plant_episodes(ctl, table, f, 3)
@@ -125,9 +131,13 @@ def test_noise_alone_does_not_move_the_table(model, table):
     n, sigma = 6, np.radians(0.002)
     sensors = SensorParams.of(n, rate_noise_rad_s=sigma, att_noise_rad=np.radians(0.003))
     keep = Keep(AdaptiveLookupController(table, adapt=AdaptParams(rate_noise_rad_s=sigma)))
-    BatchSimulation(VehicleParams.nominal(n, model), model=model, nthread=1, sensors=sensors,
-                    sensor_streams=[effect_stream(2, i, SENSOR_NOISE) for i in range(n)]).run(
-        keep, Guidance.attitude(np.tile(np.radians([5.0, 5.0, 5.0]), (n, 1))), 60.0)
+    BatchSimulation(
+        VehicleParams.nominal(n, model),
+        model=model,
+        nthread=1,
+        sensors=sensors,
+        sensor_streams=[effect_stream(2, i, SENSOR_NOISE) for i in range(n)],
+    ).run(keep, Guidance.attitude(np.tile(np.radians([5.0, 5.0, 5.0]), (n, 1))), 60.0)
     assert keep.last.updates.sum() == 0
     np.testing.assert_array_equal(keep.last.scale, 1.0)
 

@@ -3,6 +3,7 @@
 Oracles per test: 001 App. A.3's expanded feedforward torques; the midpoint rule's O(dt^2)
 error; the observer's designed error poles; exact least squares on noise-free statements.
 """
+
 import math
 
 import numpy as np
@@ -34,14 +35,37 @@ def _app_a3(j, w, wd):
     (jxx, jxy, jxz), (_, jyy, jyz), (_, _, jzz) = j
     wx, wy, wz = w
     ax, ay, az = wd
-    return np.array([
-        jxx * ax + jxy * ay + jxz * az - jxy * wx * wz - jyy * wy * wz - jyz * wz ** 2
-        + jxz * wx * wy + jzz * wz * wy + jyz * wy ** 2,
-        jxy * ax + jyy * ay + jyz * az - jyz * wx * wy - jzz * wx * wz - jxz * wx ** 2
-        + jxx * wx * wz + jxy * wz * wy + jxz * wz ** 2,
-        jxz * ax + jyz * ay + jzz * az - jxx * wx * wy - jxz * wy * wz - jxy * wy ** 2
-        + jyy * wx * wy + jyz * wz * wx + jxy * wx ** 2,
-    ])
+    return np.array(
+        [
+            jxx * ax
+            + jxy * ay
+            + jxz * az
+            - jxy * wx * wz
+            - jyy * wy * wz
+            - jyz * wz**2
+            + jxz * wx * wy
+            + jzz * wz * wy
+            + jyz * wy**2,
+            jxy * ax
+            + jyy * ay
+            + jyz * az
+            - jyz * wx * wy
+            - jzz * wx * wz
+            - jxz * wx**2
+            + jxx * wx * wz
+            + jxy * wz * wy
+            + jxz * wz**2,
+            jxz * ax
+            + jyz * ay
+            + jzz * az
+            - jxx * wx * wy
+            - jxz * wy * wz
+            - jxy * wy**2
+            + jyy * wx * wy
+            + jyz * wz * wx
+            + jxy * wx**2,
+        ]
+    )
 
 
 def test_regressor_equals_appendix_a3():
@@ -51,8 +75,9 @@ def test_regressor_equals_appendix_a3():
         j = a @ a.T + 3 * np.eye(3)
         w, wd = rng.normal(size=3), rng.normal(size=3)
         expected = _app_a3(j, w, wd)
-        np.testing.assert_allclose(regressor(w, wd) @ theta_from_inertia(j), expected,
-                                   rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(
+            regressor(w, wd) @ theta_from_inertia(j), expected, rtol=1e-12, atol=1e-12
+        )
         np.testing.assert_allclose(feedforward(j, w, wd), expected, rtol=1e-12, atol=1e-12)
     np.testing.assert_array_equal(inertia_from_theta(theta_from_inertia(j)), j)
 
@@ -74,7 +99,7 @@ def test_feedforward_alone_tracks_exact_model_to_integration_accuracy():
     # Oracle 2: halving dt divides the error by ~4 (accept 3-5).
     t_m, amp = 2.0, 0.25
     e1, e2 = _ffd_max_error(0.01), _ffd_max_error(0.005)
-    bound = 3.0 * t_m * 0.01 ** 2 / 24 * amp * (math.pi / t_m) ** 4
+    bound = 3.0 * t_m * 0.01**2 / 24 * amp * (math.pi / t_m) ** 4
     assert e1 < bound
     assert 3.0 < e1 / e2 < 5.0
 
@@ -98,7 +123,7 @@ def test_observer_error_poles_and_convergence():
     x_hat[0, :, 0] = [0.01, -0.01, 0.01]
     for k in range(800):
         x_hat = observer_step(x_hat, u[k][None], theta[None], ad, bd, ld)
-        theta = theta + omega * dt + u[k] / j * dt ** 2 / 2  # exact ZOH of theta'' = u / J
+        theta = theta + omega * dt + u[k] / j * dt**2 / 2  # exact ZOH of theta'' = u / J
         omega = omega + u[k] / j * dt
     np.testing.assert_allclose(x_hat[0, :, 0], theta, atol=1e-11)
     np.testing.assert_allclose(x_hat[0, :, 1], omega, atol=1e-9)
@@ -115,8 +140,7 @@ def test_dai_recovers_known_inertia_from_noise_free_excitation():
     for t in np.arange(0.005, 3.0, 0.01):
         _, w_d, wdot_d = traj.body(t)
         phi = regressor(w_d, wdot_d)
-        info, rhs, d_theta = dai_update(info, rhs, phi, (phi @ theta_true)[None], theta_model,
-                                        1.0)
+        info, rhs, d_theta = dai_update(info, rhs, phi, (phi @ theta_true)[None], theta_model, 1.0)
     np.testing.assert_allclose(theta_model + d_theta[0], theta_true, atol=1e-8)
 
 
@@ -129,8 +153,14 @@ def test_dai_keeps_model_in_unexcited_directions():
     for t in np.arange(0.005, 2.0, 0.01):
         _, w_d, wdot_d = traj.body(t)
         phi = regressor(w_d, wdot_d)
-        info, rhs, d = dai_update(info, rhs, phi, (phi @ theta_from_inertia(j_true))[None],
-                                  theta_from_inertia(j_model), 1.0)
+        info, rhs, d = dai_update(
+            info,
+            rhs,
+            phi,
+            (phi @ theta_from_inertia(j_true))[None],
+            theta_from_inertia(j_model),
+            1.0,
+        )
     assert d[0, [0, 1, 3]].tolist() == [0.0, 0.0, 0.0]
     assert d[0, 5] == pytest.approx(58.5 - 90.0, abs=1e-8)
 
@@ -139,8 +169,12 @@ def test_controller_is_batched_elementwise():
     # Batched equals one-by-one: the same step on a batch of 3 and on each row alone.
     setup = load_setup("wilt2022")
     traj = SinusoidalTrajectory((0, 0, 0), (0, 0, math.radians(30)), 0.1, 1.0)
-    ctrl = ContinuousController(ControllerConfig("ffd+fb+dai", setup.inertia_B, setup.pdi_gains,
-                                                 setup.observer_gains, 0.01), traj)
+    ctrl = ContinuousController(
+        ControllerConfig(
+            "ffd+fb+dai", setup.inertia_B, setup.pdi_gains, setup.observer_gains, 0.01
+        ),
+        traj,
+    )
     rng = np.random.default_rng(5)
     y = rng.normal(0, 1e-3, (40, 3, 3))
     batch = ctrl.initial_state(3)
@@ -148,7 +182,7 @@ def test_controller_is_batched_elementwise():
     for k in range(40):
         u, batch = ctrl.step(k * 0.01 + 0.1, y[k], batch)
         for i in range(3):
-            ui, singles[i] = ctrl.step(k * 0.01 + 0.1, y[k, i:i + 1], singles[i])
+            ui, singles[i] = ctrl.step(k * 0.01 + 0.1, y[k, i : i + 1], singles[i])
             np.testing.assert_allclose(u[i], ui[0], rtol=1e-13, atol=1e-15)
 
 
@@ -171,8 +205,7 @@ def test_one_statement_of_the_papers_reading_is_a_projection_that_doubles_yaw_fe
     projection = phi @ np.linalg.pinv(phi)
     assert projection[2, 2] == pytest.approx(1.0, abs=1e-12)
     u_fb = np.array([[0.0, 0.0, 0.37]])
-    _, _, d_theta = dai_update(np.zeros((1, 6, 6)), np.zeros((1, 6)), phi, u_fb,
-                               np.zeros(6), 1.0)
+    _, _, d_theta = dai_update(np.zeros((1, 6, 6)), np.zeros((1, 6)), phi, u_fb, np.zeros(6), 1.0)
     assert (phi @ d_theta[0])[2] == pytest.approx(0.37, abs=1e-12)
 
 
@@ -206,10 +239,20 @@ def test_both_readings_track_a_damaged_vehicle(method):
     traj = SinusoidalTrajectory((0, 0, 0), (0, 0, math.radians(100)), 1.0, 20.0)
     true_j = setup.inertia_B.copy()
     true_j[2, 2] *= 0.65
-    cfg = ControllerConfig(method, setup.inertia_B, setup.pdi_gains, setup.observer_gains,
-                           setup.timestep_s, setup.dai_memory_s)
-    hist = fly(ContinuousPlant(true_j[None], timestep_s=setup.timestep_s),
-               ContinuousController(cfg, traj), 24.0, cmg=CmgArray(load_cmg()))
+    cfg = ControllerConfig(
+        method,
+        setup.inertia_B,
+        setup.pdi_gains,
+        setup.observer_gains,
+        setup.timestep_s,
+        setup.dai_memory_s,
+    )
+    hist = fly(
+        ContinuousPlant(true_j[None], timestep_s=setup.timestep_s),
+        ContinuousController(cfg, traj),
+        24.0,
+        cmg=CmgArray(load_cmg()),
+    )
     ref = traj.sample(hist.t_s)
     from spacecraft.continuous.kinematics import angle_between
 

@@ -12,6 +12,7 @@ Oracles
 * With both yaw- jets off no jet serves yaw-: those cases (9 of the 26 have a negative yaw
   command) fire nothing on yaw and are recorded unreachable.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -55,8 +56,9 @@ def test_single_jet_fires_twice_as_long_and_the_rest_is_unchanged(full, without_
 def test_translation_side_effect_is_recorded(without_13, table1):
     yaw_only = (np.sign(np.asarray(without_13.table.rate_cmd)) == [0, 0, -1]).all(axis=1)
     t15 = without_13.table.firing_time_s[yaw_only, J15]
-    np.testing.assert_allclose(without_13.dv_B_m_s[yaw_only, 1],
-                               table1.thrust_n * t15 / table1.mass_kg, rtol=1e-12)
+    np.testing.assert_allclose(
+        without_13.dv_B_m_s[yaw_only, 1], table1.thrust_n * t15 / table1.mass_kg, rtol=1e-12
+    )
     frame = without_13.settling_frame()
     assert set(frame.jets_off) == {"13"}
     assert {"dv_x_m_s", "dv_y_m_s", "dv_z_m_s", "unreachable_yaw"} <= set(frame.columns)
@@ -79,9 +81,14 @@ def test_regenerated_table_loads_by_its_companion_and_flies(without_13, tmp_path
     assert ctl.jets_off == (13,)
     off = np.full((1, 16), np.inf)
     off[0, J13] = 0.0
-    hist = simulate_batch(VehicleParams.nominal(1, model), ctl,
-                          Guidance.attitude(np.radians([[0.0, 0.0, -5.0]])), 40.0, model=model,
-                          faults=JetFaults.of(1, off_from_s=off))
+    hist = simulate_batch(
+        VehicleParams.nominal(1, model),
+        ctl,
+        Guidance.attitude(np.radians([[0.0, 0.0, -5.0]])),
+        40.0,
+        model=model,
+        faults=JetFaults.of(1, off_from_s=off),
+    )
     assert hist.propulsion.impulse_ns[0, J13] == 0.0
     assert hist.propulsion.impulse_ns[0, J15] > 0.0
     # Without its companion the same file is checked against Table 2, and refused.

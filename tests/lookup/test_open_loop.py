@@ -3,6 +3,7 @@
 Oracle: its definition -- jet j on for total_s[j] from t = 0, so cycle k delivers
 clip(total - k cycle, 0, cycle) and the on-times sum to total_s.
 """
+
 import numpy as np
 import pytest
 

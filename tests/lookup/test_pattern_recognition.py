@@ -4,6 +4,7 @@ Oracles: the paper's Table 2 (restated below) for what the controller must *lear
 (0.6 deg, 0.2 deg/s, 0.06 deg/s, 0.03 s, 0.16 s); the text of sec. II for the gates; sec. III
 ("two equal and opposite thruster firings", Figs 5-6) and Figs 17-18 for closed-loop behaviour.
 """
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -32,12 +33,25 @@ from spacecraft.vehicle import VehicleParams
 DEG = np.pi / 180.0
 CYCLE_S = 0.04
 PAPER_JETS = {
-    1: (0, -1), 3: (0, -1), 2: (0, +1), 4: (0, +1),
-    9: (1, -1), 11: (1, -1), 10: (1, +1), 12: (1, +1),
-    13: (2, -1), 15: (2, -1), 14: (2, +1), 16: (2, +1),
+    1: (0, -1),
+    3: (0, -1),
+    2: (0, +1),
+    4: (0, +1),
+    9: (1, -1),
+    11: (1, -1),
+    10: (1, +1),
+    12: (1, +1),
+    13: (2, -1),
+    15: (2, -1),
+    14: (2, +1),
+    16: (2, +1),
 }
-OPPOSING = [(j, k) for j, (a, s) in PAPER_JETS.items() for k, (b, t) in PAPER_JETS.items()
-            if a == b and s == -t]
+OPPOSING = [
+    (j, k)
+    for j, (a, s) in PAPER_JETS.items()
+    for k, (b, t) in PAPER_JETS.items()
+    if a == b and s == -t
+]
 
 
 def nav(att_err_deg=(0, 0, 0), rate_err_deg_s=(0, 0, 0), omega_cmd_deg_s=(0, 0, 0)):
@@ -76,10 +90,18 @@ def test_jet_on_two_axes_is_rejected():
 def test_params_default_to_table4():
     p = LookupParams.from_table4()
     np.testing.assert_allclose(
-        [p.maneuver_limit_rad / DEG, p.maneuver_rate_rad_s / DEG,
-         p.rate_error_limit_rad_s / DEG, p.on_time_limit_s, p.hold_time_s,
-         p.no_fire_band_rad / DEG, p.cycle_s],
-        [0.6, 0.2, 0.06, 0.03, 0.16, 0.1, 0.04], rtol=1e-12)
+        [
+            p.maneuver_limit_rad / DEG,
+            p.maneuver_rate_rad_s / DEG,
+            p.rate_error_limit_rad_s / DEG,
+            p.on_time_limit_s,
+            p.hold_time_s,
+            p.no_fire_band_rad / DEG,
+            p.cycle_s,
+        ],
+        [0.6, 0.2, 0.06, 0.03, 0.16, 0.1, 0.04],
+        rtol=1e-12,
+    )
     with pytest.raises(InputError, match="rate_error_limit_rad_s"):
         replace(p, rate_error_limit_rad_s=-1.0)
 
@@ -183,8 +205,9 @@ def test_sign_symmetry(ctl, seq, signs):
             minus = sorted(j - 1 for j, (b, u) in PAPER_JETS.items() if b == a and u < 0)
             perm[plus], perm[minus] = minus, plus
     pattern = np.sign(ctl.table.rate_cmd) * np.asarray(signs)
-    mirror_case = [int(np.flatnonzero((np.sign(ctl.table.rate_cmd) == row).all(1))[0])
-                   for row in pattern]
+    mirror_case = [
+        int(np.flatnonzero((np.sign(ctl.table.rate_cmd) == row).all(1))[0]) for row in pattern
+    ]
     np.testing.assert_allclose(t[mirror_case][:, perm], t, atol=1e-12)  # symmetric table
     for (_, _, on, _), (_, _, on_m, _) in zip(_run(ctl, seq), _run(ctl, seq, np.array(signs))):
         np.testing.assert_allclose(on_m[0, perm], on[0], atol=1e-12)
@@ -234,8 +257,11 @@ def test_controller_needs_no_vehicle_knowledge(monkeypatch):
     def forbidden(*a, **k):
         raise AssertionError("controller read vehicle knowledge")
 
-    for mod, name in ((model_tables, "load_jet_map"), (model_tables, "load_mass_properties"),
-                      (vehicle_mod, "torque_per_jet_B")):
+    for mod, name in (
+        (model_tables, "load_jet_map"),
+        (model_tables, "load_mass_properties"),
+        (vehicle_mod, "torque_per_jet_B"),
+    ):
         monkeypatch.setattr(mod, name, forbidden)
     ctl = LookupController(table, LookupParams.from_table4())
     monkeypatch.undo()  # the simulator itself may use the model
@@ -243,8 +269,11 @@ def test_controller_needs_no_vehicle_knowledge(monkeypatch):
     base = replace(get_scenario("three-axis-5deg").runs[0], duration_s=90.0)
     scn = PaperScenario("offnominal", "", "", (base,) * 4)
     p = VehicleParams.nominal(4)
-    p = replace(p, inertia_B=p.inertia_B * np.array([[0.75], [1.3], [1.0], [1.3]]),
-                thrust_n=p.thrust_n * np.array([[1.0], [1.0], [0.7], [1.2]]))
+    p = replace(
+        p,
+        inertia_B=p.inertia_B * np.array([[0.75], [1.3], [1.0], [1.3]]),
+        thrust_n=p.thrust_n * np.array([[1.0], [1.0], [0.7], [1.2]]),
+    )
     h = fly_scenario(scn, controller_obj=ctl, params=p)
     # Converged = held in the hold region for the last 15 s: total error below 0.75 deg (the
     # 0.7 deg edge of the no-firing region + 0.05 deg while a correction builds, as in the

@@ -3,6 +3,7 @@
 Oracle: batched equals scalar (dm_control's vectorization test): a batch in which run i flies
 table i gives, run by run, exactly what flying each table alone gives.
 """
+
 import numpy as np
 import pytest
 
@@ -25,8 +26,12 @@ def test_batch_of_candidates_equals_each_table_alone():
     params = VehicleParams.nominal(2, model)
     batch = fly_batch([scn, scn], params, LookupController.for_runs(table, times), model=model)
     for i, t in enumerate(times):
-        alone = fly_batch([scn], VehicleParams.nominal(1, model),
-                          LookupController(with_times(table, t, "candidate")), model=model)
+        alone = fly_batch(
+            [scn],
+            VehicleParams.nominal(1, model),
+            LookupController(with_times(table, t, "candidate")),
+            model=model,
+        )
         np.testing.assert_array_equal(batch.on_time_s[i], alone.on_time_s[0])
         np.testing.assert_array_equal(batch.omega_B[i], alone.omega_B[0])
     # The edit shows in the first firing (the first 0.4 s, before any correction): the yaw

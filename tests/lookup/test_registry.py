@@ -1,4 +1,5 @@
 """Controllers by name (lookup.registry): the one list, and bad input named in library terms."""
+
 from __future__ import annotations
 
 import pytest

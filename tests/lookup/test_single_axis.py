@@ -2,6 +2,7 @@
 
 Everything is nondimensional (unit rotation in unit time), as in the paper.
 """
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -41,8 +42,8 @@ def test_optimal_trajectory_meets_boundary_conditions_and_cost():
 def test_optimal_rate_and_angle_integrate_the_control():
     # Oracle: Eqs. 5-6 with I = 1: omega* = int u*, theta* = int omega* (exact quadrature).
     for t1 in (0.25, 0.5, 0.9):
-        rate = _gauss_integral(lambda t: t1 * sa.optimal_control(t1 * t))
-        angle = _gauss_integral(lambda t: t1 * sa.optimal_rate(t1 * t))
+        rate = _gauss_integral(lambda t, t1=t1: t1 * sa.optimal_control(t1 * t))
+        angle = _gauss_integral(lambda t, t1=t1: t1 * sa.optimal_rate(t1 * t))
         assert rate == pytest.approx(float(sa.optimal_rate(t1)), rel=1e-13)
         assert angle == pytest.approx(float(sa.optimal_angle(t1)), rel=1e-13)
 
@@ -166,8 +167,11 @@ def test_control_inversion_is_optimal_control_plus_tracking_error():
     theta = sa.optimal_angle(t) + np.array([0.0, 0.01, -0.02, 0.0])
     omega = sa.optimal_rate(t) + np.array([0.0, 0.0, 0.03, -0.01])
     u, _ = sa.control_inversion_law(t, theta, omega, state, sa.PVParams())
-    expected = (sa.optimal_control(t) + 37.0 * (sa.optimal_angle(t) - theta)
-                + 8.5 * (sa.optimal_rate(t) - omega))
+    expected = (
+        sa.optimal_control(t)
+        + 37.0 * (sa.optimal_angle(t) - theta)
+        + 8.5 * (sa.optimal_rate(t) - omega)
+    )
     np.testing.assert_allclose(u, expected, rtol=1e-12)
     assert u[0] == pytest.approx(float(sa.optimal_control(t)), abs=1e-12)
 
@@ -179,8 +183,9 @@ def test_control_inversion_reference_is_eq16_filter_output():
     t = 0.61
     theta_ref = sa.optimal_control(t) / kp + kv / kp * sa.optimal_rate(t) + sa.optimal_angle(t)
     # Recover theta_ref from the law: u = K_P (theta_ref - theta) - K_V omega at theta = omega = 0.
-    u, _ = sa.control_inversion_law(t, np.zeros(1), np.zeros(1), _optimal_filter_state(t, 1),
-                                    sa.PVParams())
+    u, _ = sa.control_inversion_law(
+        t, np.zeros(1), np.zeros(1), _optimal_filter_state(t, 1), sa.PVParams()
+    )
     assert u[0] / kp == pytest.approx(float(theta_ref), rel=1e-13)
 
 
@@ -198,9 +203,9 @@ def test_laws_are_batched_and_runs_independent(arch):
     u, state_dot = arch(0.42, theta, omega, state)
     assert u.shape == (n,) and state_dot.shape == state.shape
     for i in range(n):
-        ui, di = arch(0.42, theta[i:i + 1], omega[i:i + 1], state[i:i + 1])
-        np.testing.assert_allclose(ui, u[i:i + 1], rtol=1e-12)
-        np.testing.assert_allclose(di, state_dot[i:i + 1], rtol=1e-12)
+        ui, di = arch(0.42, theta[i : i + 1], omega[i : i + 1], state[i : i + 1])
+        np.testing.assert_allclose(ui, u[i : i + 1], rtol=1e-12)
+        np.testing.assert_allclose(di, state_dot[i : i + 1], rtol=1e-12)
     for a, b in zip(before, (theta, omega, state)):
         np.testing.assert_array_equal(a, b)
 
@@ -208,8 +213,18 @@ def test_laws_are_batched_and_runs_independent(arch):
 def test_six_architectures_in_paper_order():
     # Oracle: the rows of the paper's Table 1 and its footnote gains.
     labels = [a.label for a in sa.ARCHITECTURES]
-    assert labels == ["P+V", "Open-loop optimal", "RTOC", "Double integrator",
-                      "Double int., tuned", "Control inversion"]
+    assert labels == [
+        "P+V",
+        "Open-loop optimal",
+        "RTOC",
+        "Double integrator",
+        "Double int., tuned",
+        "Control inversion",
+    ]
     gains = {a.key: (a.params.kp, a.params.kv) for a in sa.ARCHITECTURES if hasattr(a.params, "kp")}
-    assert gains == {"pv": (37.0, 8.5), "double_integrator": (37.0, 8.5),
-                     "double_integrator_tuned": (78.0, 0.65), "control_inversion": (37.0, 8.5)}
+    assert gains == {
+        "pv": (37.0, 8.5),
+        "double_integrator": (37.0, 8.5),
+        "double_integrator_tuned": (78.0, 0.65),
+        "control_inversion": (37.0, 8.5),
+    }

@@ -3,6 +3,7 @@
 Oracles: the paper's Table 6 (jet pairs of an axis share one firing time, all times are whole
 40 ms cycles, Gambone sec. II) and the arithmetic of a shift.
 """
+
 import numpy as np
 import pytest
 

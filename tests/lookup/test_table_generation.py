@@ -6,6 +6,7 @@ times to 0.3 deg/s (models/vehicle/vehicle.xml: 0.5194 s roll, 0.4794 s pitch, 0
 arithmetic in models/vehicle/README.md) -- a rigid body under constant torque gains rate
 linearly, so reaching |w| on an axis takes ``T_axis * |w| / 0.3 deg/s``.
 """
+
 from __future__ import annotations
 
 from importlib.resources import files
@@ -22,9 +23,18 @@ from models.tables import load_lookup_table
 CYCLE_S = 0.04  # paper sec. II: 40 ms control rate
 # Paper Table 2: jet -> (axis, sign); jets 5-8 unused.
 PAPER_JETS = {
-    1: (0, -1), 3: (0, -1), 2: (0, +1), 4: (0, +1),
-    9: (1, -1), 11: (1, -1), 10: (1, +1), 12: (1, +1),
-    13: (2, -1), 15: (2, -1), 14: (2, +1), 16: (2, +1),
+    1: (0, -1),
+    3: (0, -1),
+    2: (0, +1),
+    4: (0, +1),
+    9: (1, -1),
+    11: (1, -1),
+    10: (1, +1),
+    12: (1, +1),
+    13: (2, -1),
+    15: (2, -1),
+    14: (2, +1),
+    16: (2, +1),
 }
 # Designed pure-axis time to 0.3 deg/s of one firing pair (vehicle.xml jet arms).
 T_AXIS_S = np.array([0.5194, 0.4794, 0.3995])

@@ -3,6 +3,7 @@
 Oracles: the papers' text -- 001 (Wilt & Sands 2022) Table 5, App. A.2, App. B, App. C; 002
 (Smeresky & Rizzo 2020) Sec. 3 and Table 1 -- and the readings recorded in models/dai/SOURCES.md.
 """
+
 import math
 
 import mujoco
@@ -62,8 +63,11 @@ def test_bad_cell_names_file_row_and_value(tmp_path):
     text = (dai_xml().parent / "parameters.csv").read_text()
     bad = tmp_path / "p.csv"
     bad.write_text(text.replace("wilt2022,pdi_kp,1000,", "wilt2022,pdi_kp,1e3x,"))
-    with pytest.raises(InputError, match=r"p\.csv: row \d+, value of wilt2022\.pdi_kp: "
-                                         r"not a number: '1e3x'"):
+    with pytest.raises(
+        InputError,
+        match=r"p\.csv: row \d+, value of wilt2022\.pdi_kp: "
+        r"not a number: '1e3x'",
+    ):
         load_setup("wilt2022", bad)
     neg = tmp_path / "n.csv"
     neg.write_text(text.replace("wilt2022,jzz,90,", "wilt2022,jzz,-90,"))

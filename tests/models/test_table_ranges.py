@@ -64,8 +64,9 @@ def _rcsim_table(tmp_path: Path, rate_factor: float = 1.0, name: str = "lookup.c
     return _write(path, rows)
 
 
-def _paper_table_with_pair_time(tmp_path: Path, case: int, jets: tuple[str, str],
-                                value: str) -> Path:
+def _paper_table_with_pair_time(
+    tmp_path: Path, case: int, jets: tuple[str, str], value: str
+) -> Path:
     """Table 6 (paper layout) with both jets of a pair set to ``value`` in ``case``: the pair
     stays equal and the jets stay the designed ones, so only the range can object."""
     rows = _rows(DATA / "table6_lookup_original.csv")
@@ -153,16 +154,20 @@ def test_check_consistency_refuses_meaningless_limits():
     lt = tables.load_lookup_table()
     jmap = tables.load_jet_map()
     for kwargs in ({"cycle_s": 0.0}, {"max_firing_time_s": -1.0}, {"cycle_s": math.nan}):
-        msg = _raises(tables.check_consistency, lt.case, lt.rate_cmd, lt.firing_time_s, jmap,
-                      **kwargs)
+        msg = _raises(
+            tables.check_consistency, lt.case, lt.rate_cmd, lt.firing_time_s, jmap, **kwargs
+        )
         assert next(iter(kwargs)) in msg, msg
 
 
 def test_shipped_tables_are_inside_the_ranges():
     # The packaged paper tables and lookup/data/generated_table.csv must keep loading.
     generated = ROOT / "lookup" / "data" / "generated_table.csv"
-    for lt in (tables.load_lookup_table("table6"), tables.load_lookup_table("table7"),
-               tables.load_lookup_table(generated)):
+    for lt in (
+        tables.load_lookup_table("table6"),
+        tables.load_lookup_table("table7"),
+        tables.load_lookup_table(generated),
+    ):
         assert 0 < lt.firing_time_s.max() <= MAX_FIRING_S
         total = np.linalg.norm(np.rad2deg(lt.rate_cmd), axis=1)
         assert np.all((RATE_RANGE_DEG_S[0] <= total) & (total <= RATE_RANGE_DEG_S[1]))
@@ -197,11 +202,14 @@ def test_unknown_name_is_a_missing_file(tmp_path, monkeypatch):
 
 
 # ----------------------------------------------------------------------------------- the BOM
-@pytest.mark.parametrize("loader, name", [
-    (tables.load_rate_cases, "table3_rate_cases.csv"),
-    (tables.load_lookup_table, "table6_lookup_original.csv"),
-    (tables.load_mass_properties, "table1_mass_properties.csv"),
-])
+@pytest.mark.parametrize(
+    "loader, name",
+    [
+        (tables.load_rate_cases, "table3_rate_cases.csv"),
+        (tables.load_lookup_table, "table6_lookup_original.csv"),
+        (tables.load_mass_properties, "table1_mass_properties.csv"),
+    ],
+)
 def test_utf8_bom_is_accepted(tmp_path, loader, name):
     """Spreadsheet programs export CSV with a UTF-8 byte-order mark; without utf-8-sig the
     first header would read '\\ufeffcase' and the file would be refused."""
@@ -239,8 +247,9 @@ def test_vehicle_xml_from_a_zip_install_stays_valid(tmp_path, monkeypatch):
 
 # ------------------------------------------------------------------------- the package shape
 def test_table_modules_are_small():
-    sizes = {p.name: len(p.read_text().splitlines())
-             for p in (ROOT / "models" / "tables").glob("*.py")}
+    sizes = {
+        p.name: len(p.read_text().splitlines()) for p in (ROOT / "models" / "tables").glob("*.py")
+    }
     assert {"constants.py", "schema.py", "consistency.py", "lookup_tables.py"} <= set(sizes)
     assert not (ROOT / "models" / "tables.py").exists(), "the old monolith is gone"
     big = {name: n for name, n in sizes.items() if n >= 400}
@@ -253,8 +262,13 @@ def test_control_cycle_is_defined_once():
     for layer in ("models", "spacecraft", "lookup", "analysis"):
         for path in (ROOT / layer).rglob("*.py"):
             for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
-                targets = (node.targets if isinstance(node, ast.Assign) else
-                           [node.target] if isinstance(node, ast.AnnAssign) else [])
+                targets = (
+                    node.targets
+                    if isinstance(node, ast.Assign)
+                    else [node.target]
+                    if isinstance(node, ast.AnnAssign)
+                    else []
+                )
                 if any(isinstance(t, ast.Name) and t.id == "CONTROL_CYCLE_S" for t in targets):
                     defs.append(str(path.relative_to(ROOT)))
     assert defs == ["models/tables/constants.py"]
@@ -263,12 +277,29 @@ def test_control_cycle_is_defined_once():
 
 def test_public_names_are_re_exported():
     # Everything other packages and tests import from models.tables (grep of the repo).
-    for name in ("AXES", "CONTROL_CYCLE_S", "N_CASES", "N_JETS", "PAPER_TOTAL_RATE_DEG_S",
-                 "RATE_RTOL", "RATE_COLUMNS", "Correction", "LookupInputs", "LookupTable",
-                 "MassProperties", "RateCases", "check_consistency", "load_dispersions",
-                 "load_jet_map", "load_lookup_inputs", "load_lookup_table",
-                 "load_mass_properties", "load_rate_cases", "paper_corrections",
-                 "sign_patterns"):
+    for name in (
+        "AXES",
+        "CONTROL_CYCLE_S",
+        "N_CASES",
+        "N_JETS",
+        "PAPER_TOTAL_RATE_DEG_S",
+        "RATE_RTOL",
+        "RATE_COLUMNS",
+        "Correction",
+        "LookupInputs",
+        "LookupTable",
+        "MassProperties",
+        "RateCases",
+        "check_consistency",
+        "load_dispersions",
+        "load_jet_map",
+        "load_lookup_inputs",
+        "load_lookup_table",
+        "load_mass_properties",
+        "load_rate_cases",
+        "paper_corrections",
+        "sign_patterns",
+    ):
         assert name in tables.__all__ and hasattr(tables, name), name
     doc = tables.__doc__
     assert "Must not import" in doc and "spacecraft" in doc and "analysis" in doc

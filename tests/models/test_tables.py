@@ -27,9 +27,18 @@ LOOKUP_FILE = {"table6": "table6_lookup_original.csv", "table7": "table7_lookup_
 
 # Paper Table 2 as the text states it, the oracle for the jet map (jet -> (axis, sign)).
 PAPER_JETS = {
-    1: (0, -1), 3: (0, -1), 2: (0, +1), 4: (0, +1),
-    9: (1, -1), 11: (1, -1), 10: (1, +1), 12: (1, +1),
-    13: (2, -1), 15: (2, -1), 14: (2, +1), 16: (2, +1),
+    1: (0, -1),
+    3: (0, -1),
+    2: (0, +1),
+    4: (0, +1),
+    9: (1, -1),
+    11: (1, -1),
+    10: (1, +1),
+    12: (1, +1),
+    13: (2, -1),
+    15: (2, -1),
+    14: (2, +1),
+    16: (2, +1),
 }  # jets 5-8: "not used"
 CYCLE_S = 0.040  # paper section II: "control rate ... set to 40 milliseconds"
 TIME_ATOL_S = 1e-9  # firing times are decimals like 0.28; float error is ~1e-17 s
@@ -148,8 +157,11 @@ def test_rate_cases_are_full_sign_set_in_roll_major_order():
         assert got == pattern, f"case {k + 1}"
         n_axes = sum(1 for s in pattern if s)
         np.testing.assert_allclose(
-            rate_deg[k], np.array(pattern) * 0.3 / math.sqrt(n_axes), rtol=0,
-            atol=RATE_ATOL_DEG_S, err_msg=f"case {k + 1}",
+            rate_deg[k],
+            np.array(pattern) * 0.3 / math.sqrt(n_axes),
+            rtol=0,
+            atol=RATE_ATOL_DEG_S,
+            err_msg=f"case {k + 1}",
         )
     # The code's own enumeration agrees with the definition.
     np.testing.assert_array_equal(tables.sign_patterns(), np.array(expected))
@@ -166,8 +178,11 @@ def test_lookup_tables_fire_in_designed_direction(which):
     for k in range(26):
         for axis in range(3):
             s = _sign(rate_deg[k, axis])
-            firing = {j for j, (a, _) in PAPER_JETS.items()
-                      if a == axis and lt.firing_time_s[k, j - 1] > 0}
+            firing = {
+                j
+                for j, (a, _) in PAPER_JETS.items()
+                if a == axis and lt.firing_time_s[k, j - 1] > 0
+            }
             designed = {j for j, (a, js) in PAPER_JETS.items() if a == axis and js == s}
             assert firing == designed, f"{which} case {k + 1} axis {axis}"
             times = {lt.firing_time_s[k, j - 1] for j in designed}
@@ -175,8 +190,9 @@ def test_lookup_tables_fire_in_designed_direction(which):
         for jet in (5, 6, 7, 8):
             assert lt.firing_time_s[k, jet - 1] == 0
     cycles = lt.firing_time_s / CYCLE_S
-    np.testing.assert_allclose(cycles * CYCLE_S, np.round(cycles) * CYCLE_S, rtol=0,
-                               atol=TIME_ATOL_S)
+    np.testing.assert_allclose(
+        cycles * CYCLE_S, np.round(cycles) * CYCLE_S, rtol=0, atol=TIME_ATOL_S
+    )
 
 
 def test_table7_updates_only_yaw_times_of_twelve_cases():
@@ -200,8 +216,9 @@ def test_paper_design_rules_and_cross_table_ratios_hold():
     # to 0.01, so each ratio is exact to 0.005/221 = 2.3e-5 relative per operand: rtol 1e-4.
     mp = tables.load_mass_properties()
     d = tables.load_dispersions().set_index("name")["three_sigma"]
-    np.testing.assert_allclose(d[["ixx", "iyy", "izz"]].to_numpy() / mp.inertia_kgm2, 0.09,
-                               rtol=1e-4)
+    np.testing.assert_allclose(
+        d[["ixx", "iyy", "izz"]].to_numpy() / mp.inertia_kgm2, 0.09, rtol=1e-4
+    )
     np.testing.assert_allclose(d["thrust"] / mp.thrust_n, 0.09, rtol=1e-3)  # 2.00/22.24
 
 
@@ -218,9 +235,14 @@ def test_corrections_are_documented_and_applied():
         (cell,) = [r[col] for r in rows[1:] if r[0] == str(c.case)]
         assert float(cell) == c.corrected_value, (c, cell)
         assert c.paper_value != c.corrected_value
-    for name in set(LOOKUP_FILE.values()) | {"table1_mass_properties.csv", "table2_jet_map.csv",
-                                        "table3_rate_cases.csv", "table4_lookup_inputs.csv",
-                                        "table5_dispersions.csv", "corrections.csv"}:
+    for name in set(LOOKUP_FILE.values()) | {
+        "table1_mass_properties.csv",
+        "table2_jet_map.csv",
+        "table3_rate_cases.csv",
+        "table4_lookup_inputs.csv",
+        "table5_dispersions.csv",
+        "corrections.csv",
+    }:
         assert f"`{name}`" in note, f"SOURCES.md does not describe {name}"
 
 
@@ -283,7 +305,11 @@ def test_to_csv_round_trip(tmp_path, which):
     lt = tables.load_lookup_table(which=which)
     path = lt.to_csv(tmp_path / "lookup.csv")
     assert path.read_text().splitlines()[0].split(",") == [
-        "case", "roll_deg_s", "pitch_deg_s", "yaw_deg_s", *[f"jet_{j:02d}" for j in range(1, 17)]
+        "case",
+        "roll_deg_s",
+        "pitch_deg_s",
+        "yaw_deg_s",
+        *[f"jet_{j:02d}" for j in range(1, 17)],
     ]
     back = tables.load_lookup_table(path)
     np.testing.assert_array_equal(back.case, lt.case)
@@ -346,16 +372,32 @@ def test_nan_empty_or_non_numeric_cell(tmp_path, bad):
 @pytest.mark.parametrize(
     "name, key, column, value, loader, row",
     [
-        ("table1_mass_properties.csv", "mass", "value", "-3505", tables.load_mass_properties,
-         "row 1"),
-        ("table1_mass_properties.csv", "izz", "value", "0", tables.load_mass_properties,
-         "row 5"),
-        ("table4_lookup_inputs.csv", "hold_time", "value", "-0.16", tables.load_lookup_inputs,
-         "row 5"),
-        ("table5_dispersions.csv", "thrust", "three_sigma", "-2", tables.load_dispersions,
-         "row 6"),
-        ("table7_lookup_updated.csv", "11", "jet_09", "-0.48", tables.load_lookup_table,
-         "row 11 (case 11)"),
+        (
+            "table1_mass_properties.csv",
+            "mass",
+            "value",
+            "-3505",
+            tables.load_mass_properties,
+            "row 1",
+        ),
+        ("table1_mass_properties.csv", "izz", "value", "0", tables.load_mass_properties, "row 5"),
+        (
+            "table4_lookup_inputs.csv",
+            "hold_time",
+            "value",
+            "-0.16",
+            tables.load_lookup_inputs,
+            "row 5",
+        ),
+        ("table5_dispersions.csv", "thrust", "three_sigma", "-2", tables.load_dispersions, "row 6"),
+        (
+            "table7_lookup_updated.csv",
+            "11",
+            "jet_09",
+            "-0.48",
+            tables.load_lookup_table,
+            "row 11 (case 11)",
+        ),
     ],
 )
 def test_wrong_sign(tmp_path, name, key, column, value, loader, row):
@@ -471,8 +513,9 @@ def test_long_table_parameters_and_units(tmp_path):
     path = _edited(tmp_path, "table1_mass_properties.csv", "thrust", "unit", "lbf")
     path.write_text(path.read_text().replace("thrust,lbf,22.24", "thrust,lbf,5"))
     # Oracle: 1 lbf = 4.4482216152605 N exactly (international pound-force definition).
-    assert tables.load_mass_properties(path).thrust_n == pytest.approx(5 * 4.4482216152605,
-                                                                       rel=1e-15)
+    assert tables.load_mass_properties(path).thrust_n == pytest.approx(
+        5 * 4.4482216152605, rel=1e-15
+    )
     path = _edited(tmp_path, "table1_mass_properties.csv", "thrust", "unit", "kg")
     _assert_names(_raises(tables.load_mass_properties, path), path, "row 6", "unit")
     path = _edited(tmp_path, "table4_lookup_inputs.csv", "hold_time", "parameter", "hold")

@@ -6,6 +6,7 @@ against the paper's text) and the model conventions of
 ``models/vehicle/README.md`` (jets are site-transmission actuators named jet_01..jet_16 on sites
 j01..j16, force along the site's z axis, ctrl = on-fraction of the physics step).
 """
+
 from __future__ import annotations
 
 import mujoco
@@ -74,10 +75,12 @@ def test_mass_equals_table1(model, table1):
 def test_cg_equals_table1(model, table1):
     body = model.body(BODY).id
     # Table 1 gives CG_x only; y = z = 0 (symmetric vehicle) is the model's stated assumption.
-    np.testing.assert_allclose(model.body_ipos[body], [table1.cg_x_m, 0.0, 0.0],
-                               rtol=TABLE_RTOL, atol=0.0)
-    np.testing.assert_allclose(model.site_pos[model.site("cg").id], model.body_ipos[body],
-                               rtol=0, atol=0)
+    np.testing.assert_allclose(
+        model.body_ipos[body], [table1.cg_x_m, 0.0, 0.0], rtol=TABLE_RTOL, atol=0.0
+    )
+    np.testing.assert_allclose(
+        model.site_pos[model.site("cg").id], model.body_ipos[body], rtol=0, atol=0
+    )
 
 
 def test_inertia_equals_table1_principal_along_body_axes(model, table1):
@@ -133,9 +136,11 @@ def test_disturbance_through_the_joint_is_the_body_frame_couple():
     agree to rounding.  Tolerance 1e-12: the two transmissions sum the same numbers in a
     different order (measured 7e-17 after 8 s of tumbling); a frame mistake is O(1)."""
     xml = vehicle_xml().read_text()
-    site_xml = xml.replace('joint="root" gear="0 0 0 1', 'site="cg" gear="0 0 0 1') \
-        .replace('joint="root" gear="0 0 0 0 1', 'site="cg" gear="0 0 0 0 1') \
+    site_xml = (
+        xml.replace('joint="root" gear="0 0 0 1', 'site="cg" gear="0 0 0 1')
+        .replace('joint="root" gear="0 0 0 0 1', 'site="cg" gear="0 0 0 0 1')
         .replace('joint="root" gear="0 0 0 0 0 1', 'site="cg" gear="0 0 0 0 0 1')
+    )
     assert site_xml.count('site="cg" gear="0 0 0') == 3
     states = []
     for m in (mujoco.MjModel.from_xml_string(xml), mujoco.MjModel.from_xml_string(site_xml)):

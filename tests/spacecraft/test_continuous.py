@@ -3,6 +3,7 @@
 Oracles are stated per test: Euler's equations integrated by SciPy DOP853, angular-momentum
 conservation, the CMG Jacobian's definition and 002 Eq. (7), the 1976 standard atmosphere.
 """
+
 import math
 
 import numpy as np
@@ -37,8 +38,9 @@ def test_rigid_body_matches_euler_equations(dt):
     plant = ContinuousPlant(J002[None], timestep_s=dt)
     plant.reset(omega0_B=omega0[None])
     plant.step(torque[None], int(round(5.0 / dt)))
-    np.testing.assert_allclose(plant.omega_B[0], _euler_reference(J002, omega0, torque, 5.0),
-                               atol=1e-10)
+    np.testing.assert_allclose(
+        plant.omega_B[0], _euler_reference(J002, omega0, torque, 5.0), atol=1e-10
+    )
 
 
 def test_angular_momentum_conserved_batched():
@@ -72,9 +74,11 @@ def test_cmg_determinant_closed_form_and_singular_example():
     beta = np.full(3, math.pi / 2)
     rng = np.random.default_rng(2)
     theta = rng.uniform(-3, 3, (50, 3))
-    np.testing.assert_allclose(determinant(theta, beta),
-                               -np.sin(theta[:, 1]) * np.sin(theta[:, 0] + theta[:, 2]),
-                               atol=1e-14)
+    np.testing.assert_allclose(
+        determinant(theta, beta),
+        -np.sin(theta[:, 1]) * np.sin(theta[:, 0] + theta[:, 2]),
+        atol=1e-14,
+    )
     assert determinant(np.zeros(3), beta) == pytest.approx(0.0, abs=1e-15)
 
 
@@ -94,13 +98,16 @@ def test_cmg_torque_equals_command_away_from_singularities():
 
 def test_cmg_singular_set_flagged_with_finite_rates():
     cmg = CmgArray(load_cmg())
-    singular = np.array([[0.0, 0.0, 0.0],            # 002's example
-                         [0.3, 0.0, -1.0],           # sin(theta2) = 0
-                         [0.4, 1.0, -0.4]])          # sin(theta1 + theta3) = 0
-    regular = np.full((1, 3), -math.pi / 6)          # 001 App. C initial gimbals: det = -0.433
+    singular = np.array(
+        [
+            [0.0, 0.0, 0.0],  # 002's example
+            [0.3, 0.0, -1.0],  # sin(theta2) = 0
+            [0.4, 1.0, -0.4],
+        ]
+    )  # sin(theta1 + theta3) = 0
+    regular = np.full((1, 3), -math.pi / 6)  # 001 App. C initial gimbals: det = -0.433
     theta = np.vstack([singular, regular])
-    out, nxt = cmg.steer(np.tile([0.5, -0.3, 1.0], (4, 1)), np.zeros((4, 3)),
-                         CmgState(theta), 0.01)
+    out, nxt = cmg.steer(np.tile([0.5, -0.3, 1.0], (4, 1)), np.zeros((4, 3)), CmgState(theta), 0.01)
     np.testing.assert_array_equal(out.singular, [True, True, True, False])
     assert out.det[3] == pytest.approx(-math.sin(-math.pi / 6) * math.sin(-math.pi / 3))
     assert np.isfinite(out.gimbal_rate).all() and np.isfinite(nxt.theta).all()
@@ -124,14 +131,16 @@ def test_disturbance_torques_against_hand_formulas():
     gg = Disturbances(env, gravity_gradient=True, aero_drag=False)
     assert np.abs(gg.torque_B(0.0, np.array([[1.0, 0, 0, 0]]), inertia)).max() < 1e-18
     q45 = np.array([[math.cos(math.pi / 8), math.sin(math.pi / 8), 0, 0]])
-    assert abs(gg.torque_B(0.0, q45, inertia)[0, 0]) == pytest.approx(3 * w0 ** 2 * 30 / 2,
-                                                                       rel=1e-12)
+    assert abs(gg.torque_B(0.0, q45, inertia)[0, 0]) == pytest.approx(3 * w0**2 * 30 / 2, rel=1e-12)
     # Drag at t = 0, identity attitude: v_B = +x, A_p = A_x = 1 m^2,
     # F = -1/2 rho V^2 Cd A_x x, T = d_cp x F.
     dr = Disturbances(env, gravity_gradient=False, aero_drag=True)
-    force = -0.5 * density_kg_m3(env) * env.speed_m_s ** 2 * env.cd * 1.0 * np.array([1, 0, 0])
-    np.testing.assert_allclose(dr.torque_B(0.0, np.array([[1.0, 0, 0, 0]]), inertia)[0],
-                               np.cross(env.cp_cg_B, force), rtol=1e-12)
+    force = -0.5 * density_kg_m3(env) * env.speed_m_s**2 * env.cd * 1.0 * np.array([1, 0, 0])
+    np.testing.assert_allclose(
+        dr.torque_B(0.0, np.array([[1.0, 0, 0, 0]]), inertia)[0],
+        np.cross(env.cp_cg_B, force),
+        rtol=1e-12,
+    )
 
 
 class _Hold:

@@ -1,4 +1,5 @@
 """Dispersions: Table 5 statistics, jet-pointing geometry, per-run reproducibility."""
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -47,8 +48,13 @@ def _check_normal(samples, mean, sigma):
 
 def _scalar(params: VehicleParams, name: str) -> np.ndarray:
     """The per-run value Table 5 row ``name`` disperses."""
-    return {"mass": params.mass_kg, "cg_x": params.cg_B[:, 0], "ixx": params.inertia_B[:, 0],
-            "iyy": params.inertia_B[:, 1], "izz": params.inertia_B[:, 2]}[name]
+    return {
+        "mass": params.mass_kg,
+        "cg_x": params.cg_B[:, 0],
+        "ixx": params.inertia_B[:, 0],
+        "iyy": params.inertia_B[:, 1],
+        "izz": params.inertia_B[:, 2],
+    }[name]
 
 
 @pytest.mark.parametrize("name", ["mass", "cg_x", "ixx", "iyy", "izz"])
@@ -92,8 +98,9 @@ def test_thruster_angle_matches_table5_and_geometry(runs, nominal, table5):
 def test_pointing_is_the_draws_rule(runs, nominal):
     """The draws point their jets with :func:`pointing` (the rule every read-back uses), bit for
     bit; a zero tilt is the nominal direction."""
-    np.testing.assert_array_equal(pointing(nominal.jet_dir_S, runs.tilt_rad, runs.azimuth_rad),
-                                  runs.params.jet_dir_S)
+    np.testing.assert_array_equal(
+        pointing(nominal.jet_dir_S, runs.tilt_rad, runs.azimuth_rad), runs.params.jet_dir_S
+    )
     straight = pointing(nominal.jet_dir_S, np.zeros((1, 16)), np.ones((1, 16)))
     np.testing.assert_allclose(straight, nominal.jet_dir_S, rtol=0, atol=1e-15)
 
@@ -103,8 +110,9 @@ def test_draws_depend_only_on_seed_and_run_id(nominal, table5):
     all_runs = draw_runs(nominal, sig, 7, np.arange(10))
     some = draw_runs(nominal, sig, 7, [8, 3, 5])
     for field in ("mass_kg", "cg_B", "inertia_B", "thrust_n", "jet_dir_S"):
-        np.testing.assert_array_equal(getattr(some.params, field),
-                                      getattr(all_runs.params, field)[[8, 3, 5]])
+        np.testing.assert_array_equal(
+            getattr(some.params, field), getattr(all_runs.params, field)[[8, 3, 5]]
+        )
     np.testing.assert_array_equal(some.tilt_rad, all_runs.tilt_rad[[8, 3, 5]])
     np.testing.assert_array_equal(some.azimuth_rad, all_runs.azimuth_rad[[8, 3, 5]])
     other_seed = draw_runs(nominal, sig, 8, [3])
@@ -139,8 +147,14 @@ def test_zero_sigma_is_nominal_and_one_sigma_does_not_move_the_others(nominal, t
     assert np.allclose(none.params.jet_dir_S, nominal.jet_dir_S, atol=1e-15)
     full = DispersionSigmas.from_table(table5)
     a = draw_runs(nominal, full, 4, np.arange(5))
-    no_thrust = draw_runs(nominal, DispersionSigmas(
-        full.mass_kg, full.cg_x_m, full.inertia_kg_m2, 0.0, full.thruster_angle_rad), 4, np.arange(5))
+    no_thrust = draw_runs(
+        nominal,
+        DispersionSigmas(
+            full.mass_kg, full.cg_x_m, full.inertia_kg_m2, 0.0, full.thruster_angle_rad
+        ),
+        4,
+        np.arange(5),
+    )
     assert np.array_equal(a.params.inertia_B, no_thrust.params.inertia_B)
     assert np.array_equal(a.tilt_rad, no_thrust.tilt_rad)
     assert np.array_equal(no_thrust.params.thrust_n, np.repeat(nominal.thrust_n, 5, 0))

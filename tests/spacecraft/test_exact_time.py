@@ -14,6 +14,7 @@ Oracles
   the quaternion kinematics, integrated between the exact switch instants.
 * A cycle with no switch inside must be the plain fixed-step rollout, bit for bit.
 """
+
 from __future__ import annotations
 
 import mujoco
@@ -61,14 +62,16 @@ def test_single_axis_pulses_are_exact_in_attitude_and_rate(model):
     on = np.zeros((n, 16))
     on[:, roll_plus_jets()] = PULSES_S[:, None]
     hist = BatchSimulation(VehicleParams.nominal(n, model), model=model, nthread=1).run(
-        OpenLoopController(on), Guidance.attitude(np.zeros((n, 3))), 0.72)
+        OpenLoopController(on), Guidance.attitude(np.zeros((n, 3))), 0.72
+    )
     alpha = roll_alpha(model)
     t = np.arange(hist.t_s.size + 1) * CYCLE_S
     u = PULSES_S[:, None]
     tc = np.minimum(t[None], u)
     theta = 0.5 * alpha * tc**2 + alpha * u * np.maximum(t[None] - u, 0.0)
-    np.testing.assert_allclose(roll_angle(boundaries_q(hist)), theta, rtol=REL,
-                               atol=REL * np.abs(theta).max())
+    np.testing.assert_allclose(
+        roll_angle(boundaries_q(hist)), theta, rtol=REL, atol=REL * np.abs(theta).max()
+    )
     w = np.concatenate([hist.omega_B[:, :, 0], hist.final.omega_B[:, None, 0]], axis=1)
     np.testing.assert_allclose(w, alpha * tc, rtol=REL, atol=REL * alpha * u.max())
 
@@ -104,7 +107,8 @@ def test_three_axis_pulses_with_distinct_switch_times_match_dop853(model):
     for a, t in enumerate((0.011, 0.0634, 0.029)):
         on[jm[:, a] == (1 if a != 1 else -1)] = t
     hist = BatchSimulation(VehicleParams.nominal(1, model), model=model, nthread=1).run(
-        OpenLoopController(on[None]), Guidance.attitude(np.zeros((1, 3))), 0.2)
+        OpenLoopController(on[None]), Guidance.attitude(np.zeros((1, 3))), 0.2
+    )
     ref = _reference(model, on, 0.2)
     dev = np.linalg.norm(rotvec_from_quat(quat_mul(quat_conj(ref), boundaries_q(hist)[0])), axis=1)
     # 1e-10 rad: DOP853 at rtol 1e-12 and RK4 on 11-40 ms pieces at these rates (<0.01 rad/s)
@@ -120,7 +124,8 @@ def test_whole_cycle_firings_are_the_fixed_step_rollout_bit_for_bit(model):
     on[0, roll_plus_jets()] = 3 * CYCLE_S
     params = VehicleParams.nominal(1, model)
     hist = BatchSimulation(params, model=model, nthread=1).run(
-        OpenLoopController(on), Guidance.attitude(np.zeros((1, 3))), 5 * CYCLE_S)
+        OpenLoopController(on), Guidance.attitude(np.zeros((1, 3))), 5 * CYCLE_S
+    )
     batch = Batch(flight_model(model), 1, 1)
     batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
     batch.forward()

@@ -8,6 +8,7 @@ order, so the states must agree to rounding.  Tolerance 1e-12 (absolute, on quat
 components and velocities of order 1e-2): measured differences are ~1e-16 per step and reach
 ~1e-14 after a 20 s campaign run; a wrong arm, sign or frame gives errors of order 1e-4 or more.
 """
+
 from __future__ import annotations
 
 import mujoco
@@ -98,7 +99,8 @@ def test_flight_model_keeps_the_vehicle_and_its_options():
 def test_a_vehicle_of_several_bodies_is_refused():
     two = mujoco.MjModel.from_xml_string(
         "<mujoco><worldbody><body name='vehicle'><freejoint/><geom size='1'/></body>"
-        "<body name='b'><freejoint/><geom size='1'/></body></worldbody></mujoco>")
+        "<body name='b'><freejoint/><geom size='1'/></body></worldbody></mujoco>"
+    )
     with pytest.raises(ValueError, match="one free body"):
         flight_model(two)
 

@@ -18,6 +18,7 @@ Oracles
   232 bytes per run per cycle plus 8 bytes of ``t_s`` per cycle; a flight needing more than
   the budget is refused before anything is allocated, one needing exactly the budget flies.
 """
+
 from __future__ import annotations
 
 import mujoco
@@ -59,8 +60,9 @@ def default_warning_handler():
 
 
 @pytest.mark.parametrize("case", ["disturbance_1e8_n_m", "initial_rate_1e5_deg_s"])
-def test_diverged_run_is_failed_with_mujocos_reason(case, model, phase_plane, tmp_path,
-                                                    monkeypatch, default_warning_handler):
+def test_diverged_run_is_failed_with_mujocos_reason(
+    case, model, phase_plane, tmp_path, monkeypatch, default_warning_handler
+):
     """The two cases of issue 8, flown in a batch beside a healthy run, in an empty cwd."""
     monkeypatch.chdir(tmp_path)
     params = VehicleParams.nominal(2, model)
@@ -82,10 +84,18 @@ def test_diverged_run_is_failed_with_mujocos_reason(case, model, phase_plane, tm
     t_fail = float(why.split(" at t = ")[1].split(" .. ")[0])
     assert 0.0 < t_fail < HOLD_S
     k_fail = int(round(t_fail / CONTROL_CYCLE_S))
-    assert not hist.on_time_s[1, k_fail + 1:].any()
+    assert not hist.on_time_s[1, k_fail + 1 :].any()
     # The healthy run is untouched by its neighbour: equal to it flown alone, bit for bit.
-    alone = simulate_batch(params.take([0]), phase_plane, hold(1), HOLD_S,
-                           omega0_B=omega0[:1], disturbance_B=torque[:1], model=model, nthread=1)
+    alone = simulate_batch(
+        params.take([0]),
+        phase_plane,
+        hold(1),
+        HOLD_S,
+        omega0_B=omega0[:1],
+        disturbance_B=torque[:1],
+        model=model,
+        nthread=1,
+    )
     np.testing.assert_array_equal(hist.q_BN[0], alone.q_BN[0])
     np.testing.assert_array_equal(hist.on_time_s[0], alone.on_time_s[0])
     # MuJoCo's message went to the run's record, not to a stray file in the cwd.
@@ -100,8 +110,14 @@ def test_caller_warning_handler_is_kept(model, phase_plane, tmp_path, monkeypatc
     previous = mujoco.get_mju_user_warning()
     mujoco.set_mju_user_warning(seen.append)
     try:
-        hist = simulate_batch(VehicleParams.nominal(1, model), phase_plane, hold(1), HOLD_S,
-                              disturbance_B=np.array([[1e8, 0.0, 0.0]]), model=model)
+        hist = simulate_batch(
+            VehicleParams.nominal(1, model),
+            phase_plane,
+            hold(1),
+            HOLD_S,
+            disturbance_B=np.array([[1e8, 0.0, 0.0]]),
+            model=model,
+        )
     finally:
         mujoco.set_mju_user_warning(previous)
     assert hist.failed[0]
@@ -113,8 +129,14 @@ def test_caller_warning_handler_is_kept(model, phase_plane, tmp_path, monkeypatc
 def test_nan_disturbance_is_mujocos_bad_ctrl(model, phase_plane):
     """A NaN torque command: MuJoCo zeroes the controls with mjWARN_BADCTRL (and flies on
     without the disturbance); the run is failed, not flown undisturbed."""
-    hist = simulate_batch(VehicleParams.nominal(1, model), phase_plane, hold(1), 0.2,
-                          disturbance_B=np.array([[np.nan, 0.0, 0.0]]), model=model)
+    hist = simulate_batch(
+        VehicleParams.nominal(1, model),
+        phase_plane,
+        hold(1),
+        0.2,
+        disturbance_B=np.array([[np.nan, 0.0, 0.0]]),
+        model=model,
+    )
     assert hist.failed[0]
     assert hist.reason[0].startswith("MuJoCo mjWARN_BADCTRL at t = 0 .. 0.04 s: ")
 
@@ -140,8 +162,9 @@ def test_default_cycles_are_the_one_constant(phase_plane):
 def test_controller_on_another_cycle_is_refused(which, model, phase_plane):
     """Issue 8: PropulsionParams(cycle_s=0.08) with a 40 ms controller raised nothing."""
     ctl = LookupController(load_default_table()) if which == "lookup" else phase_plane
-    sim = BatchSimulation(VehicleParams.nominal(1, model), model=model,
-                          propulsion=PropulsionParams(cycle_s=0.08))
+    sim = BatchSimulation(
+        VehicleParams.nominal(1, model), model=model, propulsion=PropulsionParams(cycle_s=0.08)
+    )
     with pytest.raises(InputError) as err:
         sim.run(ctl, Guidance.attitude(np.radians([[0.0, 0.0, 5.0]])), 1.0)
     message = str(err.value)
@@ -151,9 +174,14 @@ def test_controller_on_another_cycle_is_refused(which, model, phase_plane):
 def test_controller_on_the_same_cycle_flies(model):
     """The refusal is about disagreement: both at 80 ms is a valid (if coarser) loop."""
     ctl = LookupController(load_default_table(), LookupParams.from_table4(cycle_s=0.08))
-    hist = simulate_batch(VehicleParams.nominal(1, model), ctl,
-                          Guidance.attitude(np.radians([[0.0, 0.0, 5.0]])), 0.8, model=model,
-                          propulsion=PropulsionParams(cycle_s=0.08))
+    hist = simulate_batch(
+        VehicleParams.nominal(1, model),
+        ctl,
+        Guidance.attitude(np.radians([[0.0, 0.0, 5.0]])),
+        0.8,
+        model=model,
+        propulsion=PropulsionParams(cycle_s=0.08),
+    )
     assert hist.t_s.size == 10 and not hist.failed[0]
     assert hist.propulsion.firings[0].sum() > 0
 
@@ -182,8 +210,10 @@ def test_memory_budget_boundary(model, phase_plane, monkeypatch):
     monkeypatch.setattr(guards, "memory_budget_bytes", lambda: need)
     hist = simulate_batch(params, phase_plane, hold(2), 1.0, model=model)
     assert hist.t_s.size == 25
-    recorded = sum(getattr(hist, k).nbytes for k in
-                   ("t_s", "q_BN", "omega_B", "att_err_B", "rate_err_B", "on_time_s"))
+    recorded = sum(
+        getattr(hist, k).nbytes
+        for k in ("t_s", "q_BN", "omega_B", "att_err_B", "rate_err_B", "on_time_s")
+    )
     assert recorded == need
     monkeypatch.setattr(guards, "memory_budget_bytes", lambda: need - 1)
     with pytest.raises(InputError, match="needs 11.5 KiB"):

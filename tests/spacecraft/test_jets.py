@@ -15,6 +15,7 @@ Measurements come from MuJoCo itself (``mj_step`` on the packaged model at its d
 step, or the production closed loop :class:`spacecraft.simulation.BatchSimulation`), not from
 the geometry helpers alone.
 """
+
 from __future__ import annotations
 
 import math
@@ -110,8 +111,9 @@ def test_rotation_jet_torque_is_thrust_times_design_arm(model, table1, jet_map):
 def test_translation_jets_have_zero_nominal_torque(model, table1):
     tau = torque_per_jet_B(VehicleParams.nominal(1, model), model)[0]
     # Relative to the smallest rotation jet's torque F * 0.724 N m.
-    np.testing.assert_allclose(tau[TRANSLATION_JETS], 0.0,
-                               atol=ZERO_RTOL * table1.thrust_n * ARM_M.min())
+    np.testing.assert_allclose(
+        tau[TRANSLATION_JETS], 0.0, atol=ZERO_RTOL * table1.thrust_n * ARM_M.min()
+    )
 
 
 def test_pairs_are_pure_couples_in_geometry(model, jet_map, table1):
@@ -158,8 +160,7 @@ def test_single_jet_pulse_rate_change_matches_table2(model, table1, jet_map, jet
     sign = np.where(np.abs(dw) > ZERO_RTOL * scale, np.sign(dw), 0).astype(int)
     np.testing.assert_array_equal(sign, jet_map[jet])
     # Every jet also pushes the CG: |dv| = F t / m (Newton; Table 1 F and m).
-    assert np.linalg.norm(dv) == pytest.approx(
-        table1.thrust_n * CYCLE_S / table1.mass_kg, rel=1e-6)
+    assert np.linalg.norm(dv) == pytest.approx(table1.thrust_n * CYCLE_S / table1.mass_kg, rel=1e-6)
 
 
 @pytest.mark.parametrize("jet", TRANSLATION_JETS)
@@ -199,10 +200,10 @@ def pair_sim(model):
 
 @settings(max_examples=25, deadline=None, derandomize=True)
 @given(t=st.floats(min_value=1e-4, max_value=0.6, allow_nan=False))
-@example(t=0.017)   # sub-cycle, not a multiple of any candidate step
+@example(t=0.017)  # sub-cycle, not a multiple of any candidate step
 @example(t=0.0433)  # just over one cycle
-@example(t=0.52)    # Table 6 roll time, 13 cycles
-@example(t=0.04)    # exactly one cycle
+@example(t=0.52)  # Table 6 roll time, 13 cycles
+@example(t=0.04)  # exactly one cycle
 def test_pair_pulse_of_any_length_gives_exact_rate_change(pair_sim, table1, jet_map, t):
     """dw = 2 F r t / I within 1e-6 relative, at the default physics step, for any t."""
     pr = pairs(jet_map)

@@ -3,6 +3,7 @@
 The claims: the physics does not change (the timers feed only ``MjData.timer``), the timers
 stay at zero duration, and a callback the user installed is never replaced.
 """
+
 from __future__ import annotations
 
 import mujoco
@@ -12,9 +13,10 @@ import pytest
 from spacecraft import mujoco_timers
 from spacecraft.vehicle import load_model
 
-pytestmark = pytest.mark.skipif(not mujoco_timers.zero_clock_available(),
-                                reason="the optional zero-clock extension was not built "
-                                       "(no C compiler at install)")
+pytestmark = pytest.mark.skipif(
+    not mujoco_timers.zero_clock_available(),
+    reason="the optional zero-clock extension was not built (no C compiler at install)",
+)
 
 
 @pytest.fixture

@@ -7,6 +7,7 @@ the module docstring (scalar-first, ``q_BN`` maps body vectors into N, error pos
 body is rotated past the command) and MuJoCo's own free-body integration (its quaternion and
 body-frame rate are what navigation reads).
 """
+
 from __future__ import annotations
 
 import mujoco
@@ -29,11 +30,13 @@ rotvecs = arrays(np.float64, (3,), elements=st.floats(-1.7, 1.7, allow_nan=False
 def rotate(q, v):
     """Rotate vector v by unit quaternion q: q * [0, v] * q^-1 (independent of the module)."""
     w, x, y, z = q
-    r = np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
+    r = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
     return r @ v
 
 
@@ -73,11 +76,13 @@ def test_quat_mul_is_composition(a, b, c):
     qa, qb, qc = (nav.quat_from_rotvec(x) for x in (a, b, c))
     # Composition of rotations: rotate(a*b, v) == rotate(a, rotate(b, v)).
     v = np.array([0.3, -1.2, 0.7])
-    np.testing.assert_allclose(rotate(nav.quat_mul(qa, qb), v), rotate(qa, rotate(qb, v)),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        rotate(nav.quat_mul(qa, qb), v), rotate(qa, rotate(qb, v)), atol=1e-12
+    )
     # Associativity, and conj is the inverse.
-    np.testing.assert_allclose(nav.quat_mul(nav.quat_mul(qa, qb), qc),
-                               nav.quat_mul(qa, nav.quat_mul(qb, qc)), atol=1e-14)
+    np.testing.assert_allclose(
+        nav.quat_mul(nav.quat_mul(qa, qb), qc), nav.quat_mul(qa, nav.quat_mul(qb, qc)), atol=1e-14
+    )
     np.testing.assert_allclose(nav.quat_mul(qa, nav.quat_conj(qa)), [1, 0, 0, 0], atol=1e-15)
 
 
@@ -109,9 +114,10 @@ def test_euler321_single_axis(axis):
 
 def test_euler321_sequence_is_yaw_then_pitch_then_roll():
     yaw, pitch, roll = np.radians([40.0, -20.0, 10.0])
-    q = nav.quat_mul(nav.quat_mul(nav.quat_from_rotvec([0, 0, yaw]),
-                                  nav.quat_from_rotvec([0, pitch, 0])),
-                     nav.quat_from_rotvec([roll, 0, 0]))
+    q = nav.quat_mul(
+        nav.quat_mul(nav.quat_from_rotvec([0, 0, yaw]), nav.quat_from_rotvec([0, pitch, 0])),
+        nav.quat_from_rotvec([roll, 0, 0]),
+    )
     np.testing.assert_allclose(nav.euler321_deg(q), [10.0, -20.0, 40.0], atol=1e-12)
 
 
@@ -149,8 +155,7 @@ def test_rate_error_is_rate_minus_command():
 
 
 @settings(max_examples=50, deadline=None, derandomize=True)
-@given(w=arrays(np.float64, (3,), elements=st.floats(-0.05, 0.05)),
-       t=st.floats(0.0, 100.0))
+@given(w=arrays(np.float64, (3,), elements=st.floats(-0.05, 0.05)), t=st.floats(0.0, 100.0))
 def test_rate_guidance_attitude_follows_rate(w, t):
     """q_cmd(t) = exp(w t / 2) from identity; a body flying exactly that sees no error."""
     g = nav.Guidance.rate(w[None])

@@ -6,6 +6,7 @@ of a firing that starts at the cycle's start), Tsiolkovsky's propellant accounti
 :class:`PropulsionParams` (a new firing shorter than the minimum pulse is dropped; a firing
 continuing from a full previous cycle is never cut).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -31,8 +32,9 @@ SUM_ATOL_S = 1e-16
 @settings(max_examples=200, deadline=None, derandomize=True)
 @given(
     dt_ms=st.sampled_from(STEPS_MS),
-    on=st.lists(st.floats(min_value=0.0, max_value=CYCLE_S, allow_nan=False), min_size=1,
-                max_size=16),
+    on=st.lists(
+        st.floats(min_value=0.0, max_value=CYCLE_S, allow_nan=False), min_size=1, max_size=16
+    ),
 )
 def test_duty_sums_to_on_time(dt_ms, on):
     dt = dt_ms * 1e-3
@@ -55,7 +57,7 @@ def test_duty_is_on_from_cycle_start_then_off(dt_ms):
     np.testing.assert_array_equal(duty[:k_full], 1.0)
     if k_full < n_sub:
         assert duty[k_full] == pytest.approx(t_on / dt - k_full, rel=1e-12)
-        np.testing.assert_array_equal(duty[k_full + 1:], 0.0)
+        np.testing.assert_array_equal(duty[k_full + 1 :], 0.0)
 
 
 def test_duty_full_and_zero_cycles():
@@ -139,8 +141,9 @@ def test_partial_cycle_then_new_command_is_a_new_firing():
 
 @settings(max_examples=50, deadline=None, derandomize=True)
 @given(
-    cmds=st.lists(st.lists(st.floats(0.0, CYCLE_S), min_size=16, max_size=16), min_size=1,
-                  max_size=20),
+    cmds=st.lists(
+        st.lists(st.floats(0.0, CYCLE_S), min_size=16, max_size=16), min_size=1, max_size=20
+    ),
     thrust=st.floats(1.0, 50.0),
     isp=st.floats(100.0, 450.0),
 )
@@ -168,8 +171,10 @@ def test_runs_are_independent():
     np.testing.assert_array_equal(st_.firings[:, 0], [0, 1])
 
 
-@pytest.mark.parametrize("kwargs", [dict(cycle_s=0.0), dict(cycle_s=-1.0),
-                                    dict(min_pulse_s=-0.001), dict(min_pulse_s=0.04)])
+@pytest.mark.parametrize(
+    "kwargs",
+    [dict(cycle_s=0.0), dict(cycle_s=-1.0), dict(min_pulse_s=-0.001), dict(min_pulse_s=0.04)],
+)
 def test_invalid_params_rejected(kwargs):
     with pytest.raises(ValueError):
         PropulsionParams(**kwargs)

@@ -12,6 +12,7 @@ Oracles
 * Seeding (developers' guide): run i draws from ``SeedSequence(seed, spawn_key=(i,))``, spawned
   (dispersion, noise).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -38,8 +39,9 @@ def test_flown_params_equal_the_draw_exactly(model, dispersed):
     sim = BatchSimulation(dispersed.params, model=model, nthread=1)
     flown = sim.flown_params()
     for name in FIELDS:
-        np.testing.assert_array_equal(getattr(flown, name), getattr(dispersed.params, name),
-                                      err_msg=name)
+        np.testing.assert_array_equal(
+            getattr(flown, name), getattr(dispersed.params, name), err_msg=name
+        )
     assert flown.isp_s == dispersed.params.isp_s
     # The read-back is a copy, not a view of the simulator's memory.
     flown.mass_kg[:] = 0.0
@@ -55,10 +57,16 @@ def test_history_carries_the_flown_params(model, dispersed):
     params = dispersed.params.take(slice(0, 3))
     mass = params.mass_kg.copy()
     mass[1] = np.nan
-    params = VehicleParams(mass_kg=mass, cg_B=params.cg_B, inertia_B=params.inertia_B,
-                           thrust_n=params.thrust_n, jet_dir_S=params.jet_dir_S)
+    params = VehicleParams(
+        mass_kg=mass,
+        cg_B=params.cg_B,
+        inertia_B=params.inertia_B,
+        thrust_n=params.thrust_n,
+        jet_dir_S=params.jet_dir_S,
+    )
     hist = BatchSimulation(params, model=model, nthread=1).run(
-        OpenLoopController(np.zeros(16)), Guidance.attitude(np.zeros((3, 3))), 0.2)
+        OpenLoopController(np.zeros(16)), Guidance.attitude(np.zeros((3, 3))), 0.2
+    )
     assert hist.failed.tolist() == [False, True, False]
     nominal = VehicleParams.nominal(1, model)
     for name in FIELDS:

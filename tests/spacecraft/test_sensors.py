@@ -15,6 +15,7 @@ Oracles
 * Adding sensors/timing/faults draws never changes a run's Table 5 vehicle (the dispersion
   stream is untouched) and a run's draws do not depend on which other runs are drawn with it.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -54,20 +55,27 @@ class Recorder:
 
 
 def fly_idle(model, n, duration_s, sensors, streams, w0=None):
-    sim = BatchSimulation(VehicleParams.nominal(n, model), model=model, nthread=1,
-                          sensors=sensors, sensor_streams=streams)
+    sim = BatchSimulation(
+        VehicleParams.nominal(n, model),
+        model=model,
+        nthread=1,
+        sensors=sensors,
+        sensor_streams=streams,
+    )
     rec = Recorder()
     seen = []
-    hist = sim.run(rec, Guidance.attitude(np.zeros((n, 3))), duration_s, omega0_B=w0,
-                   ctrl_state=seen)
+    hist = sim.run(
+        rec, Guidance.attitude(np.zeros((n, 3))), duration_s, omega0_B=w0, ctrl_state=seen
+    )
     return hist, np.stack(seen, axis=1)
 
 
 def test_measured_rate_is_truth_plus_bias_walk_and_the_streams_normals(model):
     n, cycles = 2, 300  # more than one block of drawn noise (256 cycles)
     sigma, bias, walk = 1e-4, np.array([2e-5, -1e-5, 0.0]), 3e-5
-    sensors = SensorParams.of(n, rate_noise_rad_s=sigma, rate_bias_rad_s=bias,
-                              rate_walk_rad_s_per_sqrt_s=walk)
+    sensors = SensorParams.of(
+        n, rate_noise_rad_s=sigma, rate_bias_rad_s=bias, rate_walk_rad_s_per_sqrt_s=walk
+    )
     streams = [effect_stream(7, i, SENSOR_NOISE) for i in range(n)]
     w0 = np.array([[0.01, 0.0, -0.02], [0.0, 0.003, 0.0]])
     hist, seen = fly_idle(model, n, cycles * CYCLE_S, sensors, streams, w0)
@@ -84,8 +92,9 @@ def test_measured_rate_is_truth_plus_bias_walk_and_the_streams_normals(model):
 def test_white_attitude_noise_has_its_sigma(model):
     sigma = np.radians(0.01)
     sensors = SensorParams.of(4, att_noise_rad=sigma)
-    hist, _ = fly_idle(model, 4, 250 * CYCLE_S, sensors,
-                       [effect_stream(3, i, SENSOR_NOISE) for i in range(4)])
+    hist, _ = fly_idle(
+        model, 4, 250 * CYCLE_S, sensors, [effect_stream(3, i, SENSOR_NOISE) for i in range(4)]
+    )
     err = (hist.meas_att_err_B - hist.att_err_B).reshape(-1, 3)  # 1000 samples per axis
     assert np.abs(err.std(axis=0) / sigma - 1).max() < 0.10
     np.testing.assert_array_equal(hist.att_err_B, 0.0)  # the truth stays at rest
@@ -94,28 +103,38 @@ def test_white_attitude_noise_has_its_sigma(model):
 def test_rate_walk_grows_as_sqrt_time(model):
     n, cycles, walk = 400, 50, 1e-4
     sensors = SensorParams.of(n, rate_walk_rad_s_per_sqrt_s=walk)
-    hist, _ = fly_idle(model, n, cycles * CYCLE_S, sensors,
-                       [effect_stream(5, i, SENSOR_NOISE) for i in range(n)])
+    hist, _ = fly_idle(
+        model, n, cycles * CYCLE_S, sensors, [effect_stream(5, i, SENSOR_NOISE) for i in range(n)]
+    )
     drift = (hist.meas_rate_err_B - hist.rate_err_B)[:, -1]  # walk after cycles-1 steps
     assert drift.std(axis=0) / (walk * np.sqrt((cycles - 1) * CYCLE_S)) == pytest.approx(
-        np.ones(3), rel=0.2)
+        np.ones(3), rel=0.2
+    )
 
 
 def test_noisy_sensors_need_streams_and_valid_sigmas(model):
     with pytest.raises(InputError, match="sensor_streams"):
-        BatchSimulation(VehicleParams.nominal(1, model), model=model,
-                        sensors=SensorParams.of(1, att_noise_rad=1e-4))
+        BatchSimulation(
+            VehicleParams.nominal(1, model),
+            model=model,
+            sensors=SensorParams.of(1, att_noise_rad=1e-4),
+        )
     with pytest.raises(InputError, match="rate_noise_rad_s"):
-        BatchSimulation(VehicleParams.nominal(1, model), model=model,
-                        sensors=SensorParams.of(1, rate_noise_rad_s=-1.0))
+        BatchSimulation(
+            VehicleParams.nominal(1, model),
+            model=model,
+            sensors=SensorParams.of(1, rate_noise_rad_s=-1.0),
+        )
 
 
 def test_effect_draws_leave_vehicles_alone_and_do_not_depend_on_the_batch(model):
     nominal = VehicleParams.nominal(1, model)
     sig = DispersionSigmas(mass_kg=10.0, thrust_n=0.5)
     before = draw_runs(nominal, sig, 11, [0, 1, 2]).params
-    spec = SensorSpec(att_bias_sigma_rad=np.full(3, np.radians(0.01)),
-                      rate_noise_rad_s=np.full(3, np.radians(0.001)))
+    spec = SensorSpec(
+        att_bias_sigma_rad=np.full(3, np.radians(0.01)),
+        rate_noise_rad_s=np.full(3, np.radians(0.001)),
+    )
     together, _ = draw_sensors(spec, 11, [0, 1, 2])
     alone, _ = draw_sensors(spec, 11, [2])
     np.testing.assert_array_equal(together.att_bias_rad[2], alone.att_bias_rad[0])
@@ -135,5 +154,4 @@ def test_fault_draw_fails_one_listed_jet_per_run_in_the_window():
     assert set(np.flatnonzero(failed.any(axis=0)) + 1) == {13, 15}
     t = faults.off_from_s[failed]
     assert ((t >= 1.0) & (t <= 2.0)).all()
-    np.testing.assert_array_equal(drawn.fault_jet.to_numpy(),
-                                  np.argmax(failed, axis=1) + 1)
+    np.testing.assert_array_equal(drawn.fault_jet.to_numpy(), np.argmax(failed, axis=1) + 1)

@@ -14,6 +14,7 @@ Oracles
   a coast at the maneuver rate, one firing to stop, ending inside the controller's deadbands
   (``PhasePlaneParams.att_deadband_rad``, ``rate_deadband_rad_s``).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -57,9 +58,16 @@ def test_torque_free_tumble_conserves_angular_momentum(model):
     # A 1 s "control cycle" (the controller is idle anyway) samples H 600 times and keeps the
     # Python loop short; the physics still steps at the model's default step.
     idle = OpenLoopController(np.zeros(16), cycle_s=1.0)
-    hist = simulate_batch(params, idle, Guidance.attitude(np.zeros((1, 3))), 600.0,
-                          omega0_B=w0, model=model, nthread=1,
-                          propulsion=PropulsionParams(cycle_s=1.0))
+    hist = simulate_batch(
+        params,
+        idle,
+        Guidance.attitude(np.zeros((1, 3))),
+        600.0,
+        omega0_B=w0,
+        model=model,
+        nthread=1,
+        propulsion=PropulsionParams(cycle_s=1.0),
+    )
     inertia = params.inertia_B[0]
     h = inertial_h(hist.q_BN[0], hist.omega_B[0], inertia)
     h_end = inertial_h(hist.final.q_BN[0], hist.final.omega_B[0], inertia)
@@ -90,8 +98,16 @@ def four_runs(model):
 
 
 def fly(model, controller, params, att, w0, dist, nthread=2, duration=30.0):
-    return simulate_batch(params, controller, Guidance.attitude(att), duration, omega0_B=w0,
-                          disturbance_B=dist, model=model, nthread=nthread)
+    return simulate_batch(
+        params,
+        controller,
+        Guidance.attitude(att),
+        duration,
+        omega0_B=w0,
+        disturbance_B=dist,
+        model=model,
+        nthread=nthread,
+    )
 
 
 ARRAYS = ("q_BN", "omega_B", "att_err_B", "rate_err_B", "on_time_s")
@@ -107,7 +123,9 @@ def test_batched_equals_each_run_alone(model, controller):
             np.testing.assert_array_equal(getattr(batch, name)[i], getattr(alone, name)[0], name)
         np.testing.assert_array_equal(batch.final.q_BN[i], alone.final.q_BN[0])
         np.testing.assert_array_equal(batch.final.omega_B[i], alone.final.omega_B[0])
-        np.testing.assert_array_equal(batch.propulsion.impulse_ns[i], alone.propulsion.impulse_ns[0])
+        np.testing.assert_array_equal(
+            batch.propulsion.impulse_ns[i], alone.propulsion.impulse_ns[0]
+        )
 
 
 def test_same_inputs_same_outputs(model, controller):
@@ -155,8 +173,13 @@ MANEUVERS = {"roll": [5, 0, 0], "pitch": [0, 5, 0], "yaw": [0, 0, 5], "all": [5,
 @pytest.fixture(scope="module")
 def maneuvers(model, controller):
     att = np.radians(list(MANEUVERS.values()))
-    hist = simulate_batch(VehicleParams.nominal(len(att), model), controller,
-                          Guidance.attitude(att), MANEUVER_S, model=model)
+    hist = simulate_batch(
+        VehicleParams.nominal(len(att), model),
+        controller,
+        Guidance.attitude(att),
+        MANEUVER_S,
+        model=model,
+    )
     return att, hist
 
 
@@ -208,17 +231,16 @@ def test_five_degree_maneuver_fires_coasts_arrests(maneuvers, controller, name):
         assert s0 == 0
         sign = np.sign(att[i, a])
         jets = np.array(AXIS_JETS[a])
-        first = jets[on[s0:e0 + 1].sum(axis=0) > 0]
-        second = jets[on[s1:e1 + 1].sum(axis=0) > 0]
+        first = jets[on[s0 : e0 + 1].sum(axis=0) > 0]
+        second = jets[on[s1 : e1 + 1].sum(axis=0) > 0]
         np.testing.assert_array_equal(jm[first, a], [sign, sign])
         np.testing.assert_array_equal(jm[second, a], [-sign, -sign])
         # Each jet of a pair fires once per event: 4 jet firings per maneuvering axis.
         assert hist.propulsion.firings[i, AXIS_JETS[a]].sum() == 4
         # Coast: between the firings the rate is the maneuver rate, within the rate deadband.
-        coast = hist.omega_B[i, e0 + 2:s1, a]
+        coast = hist.omega_B[i, e0 + 2 : s1, a]
         assert len(coast) > 100  # tens of seconds of coasting
-        np.testing.assert_allclose(coast, sign * p.maneuver_rate_rad_s,
-                                   atol=p.rate_deadband_rad_s)
+        np.testing.assert_allclose(coast, sign * p.maneuver_rate_rad_s, atol=p.rate_deadband_rad_s)
         # Arrest once the attitude has converged: the error is inside the deadband when it starts.
         assert abs(hist.att_err_B[i, s1, a]) < p.att_deadband_rad
     # Non-maneuvering jets (translation 5-8) never fire.

@@ -16,6 +16,7 @@ Oracles
   change is the jet's own torque (MJCF geometry, :func:`torque_per_jet_B`) times that time over
   the inertia.  Impulses are sums of on-times times thrust: 1e-12 relative.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -62,13 +63,17 @@ def test_a_delay_shifts_the_rate_response_by_exactly_the_delay(model, kind):
     on = np.zeros((3, 16))
     on[:, ROLL_PLUS] = U_S
     d = DELAYS_S
-    timing = (ValveTiming.of(3, open_delay_s=d[:, None], close_delay_s=d[:, None])
-              if kind == "valve" else ValveTiming.of(3, command_delay_s=d))
+    timing = (
+        ValveTiming.of(3, open_delay_s=d[:, None], close_delay_s=d[:, None])
+        if kind == "valve"
+        else ValveTiming.of(3, command_delay_s=d)
+    )
     hist = fly(model, on, 0.24, timing=timing)
     t = np.arange(hist.t_s.size + 1) * CYCLE_S
     expected = roll_alpha(model) * np.clip(t[None] - d[:, None], 0.0, U_S)
-    np.testing.assert_allclose(rates(hist)[:, :, 0], expected, rtol=REL,
-                               atol=REL * np.abs(expected).max())
+    np.testing.assert_allclose(
+        rates(hist)[:, :, 0], expected, rtol=REL, atol=REL * np.abs(expected).max()
+    )
     np.testing.assert_allclose(hist.propulsion.on_time_s[:, ROLL_PLUS], U_S, rtol=1e-12)
     # The history keeps the commands (firing counts) and, apart, what the jets delivered.
     plain = fly(model, on, 0.24)
@@ -95,11 +100,17 @@ def test_open_and_close_latency_change_the_on_time(model):
 
 def test_delays_that_reach_a_cycle_are_refused(model):
     with pytest.raises(InputError, match="open_delay_s"):
-        BatchSimulation(VehicleParams.nominal(1, model), model=model,
-                        timing=ValveTiming.of(1, command_delay_s=0.03, open_delay_s=0.01))
+        BatchSimulation(
+            VehicleParams.nominal(1, model),
+            model=model,
+            timing=ValveTiming.of(1, command_delay_s=0.03, open_delay_s=0.01),
+        )
     with pytest.raises(InputError, match="close_delay_s"):
-        BatchSimulation(VehicleParams.nominal(1, model), model=model,
-                        timing=ValveTiming.of(1, close_delay_s=-0.001))
+        BatchSimulation(
+            VehicleParams.nominal(1, model),
+            model=model,
+            timing=ValveTiming.of(1, close_delay_s=-0.001),
+        )
 
 
 def test_failed_off_jet_delivers_no_impulse(model, table1):
@@ -116,42 +127,53 @@ def test_failed_off_jet_delivers_no_impulse(model, table1):
     assert imp[1, j0] == pytest.approx(table1.thrust_n * 0.05, rel=1e-12)
     np.testing.assert_allclose(imp[:, j1], table1.thrust_n * 0.1, rtol=1e-12)
     w = hist.final.omega_B[:, 0]
-    expected = np.array([roll_alpha(model, [j1]) * 0.1,
-                         roll_alpha(model, [j1]) * 0.1 + roll_alpha(model, [j0]) * 0.05])
+    expected = np.array(
+        [
+            roll_alpha(model, [j1]) * 0.1,
+            roll_alpha(model, [j1]) * 0.1 + roll_alpha(model, [j0]) * 0.05,
+        ]
+    )
     np.testing.assert_allclose(w, expected, rtol=REL)
 
 
 def test_stuck_on_jet_delivers_thrust_times_duration(model, table1):
     """No command at all; jet stuck on from 0.0213 s for 0.0777 s (mid-cycle both ends)."""
     j = ROLL_PLUS[0]
-    faults = JetFaults.of(1, stuck_from_s=np.where(np.arange(16) == j, 0.0213, np.inf),
-                          stuck_for_s=0.0777)
+    faults = JetFaults.of(
+        1, stuck_from_s=np.where(np.arange(16) == j, 0.0213, np.inf), stuck_for_s=0.0777
+    )
     hist = fly(model, np.zeros((1, 16)), 0.2, faults=faults)
     assert hist.propulsion.impulse_ns[0, j] == pytest.approx(table1.thrust_n * 0.0777, rel=1e-12)
-    assert hist.propulsion.impulse_ns[0].sum() == pytest.approx(table1.thrust_n * 0.0777,
-                                                                rel=1e-12)
+    assert hist.propulsion.impulse_ns[0].sum() == pytest.approx(table1.thrust_n * 0.0777, rel=1e-12)
     t = np.arange(hist.t_s.size + 1) * CYCLE_S
     expected = roll_alpha(model, [j]) * np.clip(t - 0.0213, 0.0, 0.0777)
-    np.testing.assert_allclose(rates(hist)[0, :, 0], expected, rtol=REL,
-                               atol=REL * np.abs(expected).max())
+    np.testing.assert_allclose(
+        rates(hist)[0, :, 0], expected, rtol=REL, atol=REL * np.abs(expected).max()
+    )
 
 
 def test_degraded_jet_delivers_its_factor(model, table1):
     j0, j1 = ROLL_PLUS
     on = np.zeros((1, 16))
     on[0, ROLL_PLUS] = 0.0433
-    hist = fly(model, on, 0.12,
-               faults=JetFaults.of(1, thrust_factor=np.where(np.arange(16) == j0, 0.8, 1.0)))
-    assert hist.propulsion.impulse_ns[0, j0] == pytest.approx(0.8 * table1.thrust_n * 0.0433,
-                                                              rel=1e-12)
+    hist = fly(
+        model,
+        on,
+        0.12,
+        faults=JetFaults.of(1, thrust_factor=np.where(np.arange(16) == j0, 0.8, 1.0)),
+    )
+    assert hist.propulsion.impulse_ns[0, j0] == pytest.approx(
+        0.8 * table1.thrust_n * 0.0433, rel=1e-12
+    )
     expected = (0.8 * roll_alpha(model, [j0]) + roll_alpha(model, [j1])) * 0.0433
     assert hist.final.omega_B[0, 0] == pytest.approx(expected, rel=REL)
 
 
 def test_bad_faults_are_refused(model):
     with pytest.raises(InputError, match="thrust_factor"):
-        BatchSimulation(VehicleParams.nominal(1, model), model=model,
-                        faults=JetFaults.of(1, thrust_factor=1.2))
+        BatchSimulation(
+            VehicleParams.nominal(1, model), model=model, faults=JetFaults.of(1, thrust_factor=1.2)
+        )
 
 
 def test_zero_delays_and_no_faults_reproduce_the_plain_flight_bit_for_bit(model):
@@ -177,6 +199,8 @@ def test_thrust_transients_keep_the_impulse_exact(model, table1):
     peak = np.minimum(u / rise, 1.0)
     full_s = np.where(u >= rise, u - rise / 2, u**2 / (2 * rise)) + peak**2 * fall / 2
     np.testing.assert_allclose(hist.final.omega_B[:, 0], roll_alpha(model) * full_s, rtol=REL)
-    np.testing.assert_allclose(hist.propulsion.impulse_ns[:, ROLL_PLUS],
-                               np.repeat(table1.thrust_n * full_s[:, None], 2, axis=1),
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        hist.propulsion.impulse_ns[:, ROLL_PLUS],
+        np.repeat(table1.thrust_n * full_s[:, None], 2, axis=1),
+        rtol=1e-12,
+    )

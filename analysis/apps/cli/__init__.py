@@ -19,6 +19,7 @@ Owns nothing a library needs: no module outside the CLI imports it.
 
 Only imported by: rcsim.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -91,7 +92,7 @@ def argument_name(parser: argparse.ArgumentParser | None, parameter: str) -> str
     The flag whose destination is ``parameter`` (``runs`` -> ``--runs``), a positional
     argument's metavar (``run_id`` -> ``RUN_ID``), else the parameter's own name.
     """
-    for action in (parser._actions if parser is not None else ()):
+    for action in parser._actions if parser is not None else ():
         if action.dest != parameter:
             continue
         if action.option_strings:
@@ -109,8 +110,9 @@ def error_line(exc: BaseException, parser: argparse.ArgumentParser | None = None
         flag = argument_name(parser, exc.parameter)
         if argument_name(parser, "overwrite") == "overwrite":  # this command never replaces
             return f"{flag} {exc.path}: {exc.what}; choose another path"
-        return (f"{flag} {exc.path}: {exc.what}; use --overwrite to replace it, or choose "
-                "another path")
+        return (
+            f"{flag} {exc.path}: {exc.what}; use --overwrite to replace it, or choose another path"
+        )
     if isinstance(exc, InputError):
         if exc.parameter is None:
             return str(exc)

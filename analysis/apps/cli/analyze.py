@@ -2,6 +2,7 @@
 
 Argument parsing and error reporting only; the work is :mod:`analysis.results.drivers`.
 """
+
 from __future__ import annotations
 
 import sys
@@ -25,26 +26,54 @@ def register(subparsers) -> None:
             "Writes drivers.csv, pairs.csv, cases.csv, figures/ and report.html."
         ),
     )
-    parser.add_argument("path", metavar="PATH",
-                        help="campaign directory (from rcsim campaign run) or a .parquet/.csv "
-                             "table with one row per run")
-    parser.add_argument("--inputs", metavar="A,B,...",
-                        help="comma-separated input columns (default: the campaign's recorded "
-                             "inputs plus physics-aware factors)")
-    parser.add_argument("--outcome", default="failed", metavar="COLUMN",
-                        help="binary outcome column, true/1 = failed (default: failed)")
+    parser.add_argument(
+        "path",
+        metavar="PATH",
+        help="campaign directory (from rcsim campaign run) or a .parquet/.csv "
+        "table with one row per run",
+    )
+    parser.add_argument(
+        "--inputs",
+        metavar="A,B,...",
+        help="comma-separated input columns (default: the campaign's recorded "
+        "inputs plus physics-aware factors)",
+    )
+    parser.add_argument(
+        "--outcome",
+        default="failed",
+        metavar="COLUMN",
+        help="binary outcome column, true/1 = failed (default: failed)",
+    )
     parser.add_argument("--case", metavar="CASE", help="analyse only this case (e.g. rate-13)")
     # dest = the library's parameter names, so that its errors are shown under these flags.
-    parser.add_argument("--permutations", dest="n_permutations", type=int, default=200,
-                        metavar="B",
-                        help="label permutations for the p-values, >= 19 (default 200)")
-    parser.add_argument("--seed", dest="random_state", type=int, default=0, metavar="S",
-                        help="seed of the permutations and resamples, >= 0 (default 0)")
-    parser.add_argument("--out", required=True, metavar="DIR",
-                        help="output directory (created; an earlier `rcsim analyze` output is "
-                             "replaced only with --overwrite)")
-    parser.add_argument("--overwrite", action="store_true",
-                        help="replace DIR if an earlier `rcsim analyze` wrote it")
+    parser.add_argument(
+        "--permutations",
+        dest="n_permutations",
+        type=int,
+        default=200,
+        metavar="B",
+        help="label permutations for the p-values, >= 19 (default 200)",
+    )
+    parser.add_argument(
+        "--seed",
+        dest="random_state",
+        type=int,
+        default=0,
+        metavar="S",
+        help="seed of the permutations and resamples, >= 0 (default 0)",
+    )
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="output directory (created; an earlier `rcsim analyze` output is "
+        "replaced only with --overwrite)",
+    )
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace DIR if an earlier `rcsim analyze` wrote it",
+    )
     parser.set_defaults(func=_run)
 
 

@@ -1,4 +1,5 @@
 """``rcsim loop``: the analyst's loop -- campaign, failure drivers, refined table, report."""
+
 from __future__ import annotations
 
 import argparse
@@ -16,23 +17,46 @@ def register(sub) -> None:
         "that was stopped.  Defaults take about 90 s on 2 cores; --runs-per-case 1000 is "
         "the paper-size study.",
     )
-    p.add_argument("--table", default="table6",
-                   help="table to refine: table6, table7 or a CSV path (default table6)")
-    p.add_argument("--runs-per-case", type=int, default=100, metavar="N",
-                   help="dispersed runs per rate case (default 100)")
-    p.add_argument("--seed", type=int, default=1, metavar="S",
-                   help="campaign and search seed (default 1)")
-    p.add_argument("--fresh-seed", type=int, metavar="S2",
-                   help="held-out seed for the refined table (default S + 1)")
-    p.add_argument("--search-runs-per-case", type=int, default=200, metavar="M",
-                   help="runs per case the refinement search flies: the first M of each "
-                        "case's N (the same draws); the refined table is then checked on all N "
-                        "runs of the held-out seed (default 200)")
+    p.add_argument(
+        "--table",
+        default="table6",
+        help="table to refine: table6, table7 or a CSV path (default table6)",
+    )
+    p.add_argument(
+        "--runs-per-case",
+        type=int,
+        default=100,
+        metavar="N",
+        help="dispersed runs per rate case (default 100)",
+    )
+    p.add_argument(
+        "--seed", type=int, default=1, metavar="S", help="campaign and search seed (default 1)"
+    )
+    p.add_argument(
+        "--fresh-seed",
+        type=int,
+        metavar="S2",
+        help="held-out seed for the refined table (default S + 1)",
+    )
+    p.add_argument(
+        "--search-runs-per-case",
+        type=int,
+        default=200,
+        metavar="M",
+        help="runs per case the refinement search flies: the first M of each "
+        "case's N (the same draws); the refined table is then checked on all N "
+        "runs of the held-out seed (default 200)",
+    )
     p.add_argument("--out", required=True, metavar="DIR", help="loop directory (new, or --resume)")
-    p.add_argument("--resume", action="store_true",
-                   help="finish the loop in DIR from its last finished stage")
-    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                   help="progress bars on stderr (default: only on a terminal)")
+    p.add_argument(
+        "--resume", action="store_true", help="finish the loop in DIR from its last finished stage"
+    )
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bars on stderr (default: only on a terminal)",
+    )
     p.set_defaults(func=run)
 
 
@@ -42,9 +66,13 @@ def run(args: argparse.Namespace) -> int:
 
     # A CSV path is kept absolute: a resumed loop re-reads the same file from any directory.
     table = args.table if args.table in PAPER_LOOKUP_TABLES else os.path.abspath(args.table)
-    settings = LoopSettings(table=table, runs_per_case=args.runs_per_case,
-                            seed=args.seed, fresh_seed=args.fresh_seed,
-                            search_runs_per_case=args.search_runs_per_case)
+    settings = LoopSettings(
+        table=table,
+        runs_per_case=args.runs_per_case,
+        seed=args.seed,
+        fresh_seed=args.fresh_seed,
+        search_runs_per_case=args.search_runs_per_case,
+    )
     result = run_loop(settings, args.out, resume=args.resume, progress=args.progress)
     total = sum(result.stage_s.values())
     print(f"loop finished in {total:.0f} s; report: {result.report}")

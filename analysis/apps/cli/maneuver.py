@@ -1,4 +1,5 @@
 """``rcsim maneuver``: fly one attitude maneuver and write its history and plots."""
+
 from __future__ import annotations
 
 import argparse
@@ -20,20 +21,38 @@ def register(sub) -> None:
         "DIR/history.parquet (one row per 40 ms control cycle), DIR/attitude_error.png, "
         "DIR/rates_jets.png and DIR/summary.json.",
     )
-    p.add_argument("--controller", choices=ALL_CONTROLLERS, default="phase-plane",
-                   help="phase-plane, lookup (the paper's pattern recognition) or adaptive "
-                        "(lookup whose table entries learn their firing times in flight); "
-                        "default phase-plane")
-    p.add_argument("--attitude-deg", nargs=3, type=float, required=True, metavar=("R", "P", "Y"),
-                   help="commanded attitude as roll, pitch, yaw rotation-vector components [deg]")
+    p.add_argument(
+        "--controller",
+        choices=ALL_CONTROLLERS,
+        default="phase-plane",
+        help="phase-plane, lookup (the paper's pattern recognition) or adaptive "
+        "(lookup whose table entries learn their firing times in flight); "
+        "default phase-plane",
+    )
+    p.add_argument(
+        "--attitude-deg",
+        nargs=3,
+        type=float,
+        required=True,
+        metavar=("R", "P", "Y"),
+        help="commanded attitude as roll, pitch, yaw rotation-vector components [deg]",
+    )
     p.add_argument("--duration-s", type=float, default=60.0, help="simulated time [s] (default 60)")
-    p.add_argument("--table", help="lookup table CSV for --controller lookup or adaptive "
-                                   "(default: packaged)")
-    p.add_argument("--out", required=True, metavar="DIR",
-                   help="output directory (created; an existing one is refused unless it holds "
-                        "an earlier `rcsim maneuver`'s outputs and --overwrite is given)")
-    p.add_argument("--overwrite", action="store_true",
-                   help="replace DIR if it holds an earlier `rcsim maneuver`'s outputs")
+    p.add_argument(
+        "--table", help="lookup table CSV for --controller lookup or adaptive (default: packaged)"
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="output directory (created; an existing one is refused unless it holds "
+        "an earlier `rcsim maneuver`'s outputs and --overwrite is given)",
+    )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace DIR if it holds an earlier `rcsim maneuver`'s outputs",
+    )
     p.set_defaults(func=run)
 
 
@@ -49,14 +68,17 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--attitude-deg: rotation must be under 180 deg, got {args.attitude_deg}")
     out = check_out_dir(args.out, COMMAND, overwrite=args.overwrite)  # before the work
     r, p, y = args.attitude_deg
-    scenario = Scenario(name="maneuver", duration_s=args.duration_s,
-                        att_cmd_rad=np.radians(args.attitude_deg))
+    scenario = Scenario(
+        name="maneuver", duration_s=args.duration_s, att_cmd_rad=np.radians(args.attitude_deg)
+    )
     history = fly(scenario, args.controller, table=args.table)
     title = f"{args.controller} maneuver ({r:g}, {p:g}, {y:g}) deg"
     paths = write_flight(history, out, title=title, command=COMMAND, overwrite=args.overwrite)
     s = flight_summary(history)
     err = ", ".join(f"{v:.4f}" for v in s["final_att_err_deg"])
     print(f"{title}: final attitude error [{err}] deg, {s['firings']} firings")
-    print(f"outputs in {paths['history.parquet'].parent}/: "
-          + ", ".join(p.name for p in paths.values()))
+    print(
+        f"outputs in {paths['history.parquet'].parent}/: "
+        + ", ".join(p.name for p in paths.values())
+    )
     return 0

@@ -5,6 +5,7 @@ Sands (Sensors 2023) over six control architectures; see :mod:`analysis.apps.stu
 Flags are named after the library's parameters (``--noise-var`` fills ``noise_var``), so a
 library error about a parameter is reported under its flag.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -44,22 +45,47 @@ def _add_noisy_sensor(studies) -> None:
             "--noise-var 0 --inertia-spread 0 gives the deterministic results."
         ),
     )
-    parser.add_argument("--runs", type=int, default=1000, metavar="N",
-                        help="Monte Carlo runs per architecture, >= 2 (default 1000)")
-    parser.add_argument("--seed", type=int, default=0, metavar="S",
-                        help="root seed >= 0; run i uses SeedSequence(S, spawn_key=(i,)) (default 0)")
-    parser.add_argument("--noise-var", type=float, default=1e-4, metavar="V",
-                        help="variance of the noise on measured angle and on measured rate, "
-                             "nondimensional (default 1e-4)")
-    parser.add_argument("--inertia-spread", type=float, default=0.1, metavar="F",
-                        help="inertia factor drawn uniformly in [1-F, 1+F], F in [0, 1) "
-                             "(default 0.1)")
-    parser.add_argument("--out", required=True, metavar="DIR",
-                        help="output directory (created; an existing one is refused unless it "
-                             "holds an earlier study's outputs and --overwrite is given)")
-    parser.add_argument("--overwrite", action="store_true",
-                        help="replace DIR if it holds an earlier `rcsim study noisy-sensor`'s "
-                             "outputs")
+    parser.add_argument(
+        "--runs",
+        type=int,
+        default=1000,
+        metavar="N",
+        help="Monte Carlo runs per architecture, >= 2 (default 1000)",
+    )
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        metavar="S",
+        help="root seed >= 0; run i uses SeedSequence(S, spawn_key=(i,)) (default 0)",
+    )
+    parser.add_argument(
+        "--noise-var",
+        type=float,
+        default=1e-4,
+        metavar="V",
+        help="variance of the noise on measured angle and on measured rate, "
+        "nondimensional (default 1e-4)",
+    )
+    parser.add_argument(
+        "--inertia-spread",
+        type=float,
+        default=0.1,
+        metavar="F",
+        help="inertia factor drawn uniformly in [1-F, 1+F], F in [0, 1) (default 0.1)",
+    )
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="output directory (created; an existing one is refused unless it "
+        "holds an earlier study's outputs and --overwrite is given)",
+    )
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace DIR if it holds an earlier `rcsim study noisy-sensor`'s outputs",
+    )
     parser.set_defaults(func=_run_noisy_sensor)
 
 
@@ -68,8 +94,9 @@ def _run_noisy_sensor(args: argparse.Namespace) -> int:
     from analysis.apps.studies import noisy_sensor as ns
     from analysis.engine.output import check_out_dir
 
-    cfg = ns.StudyConfig(runs=args.runs, seed=args.seed, noise_var=args.noise_var,
-                         inertia_spread=args.inertia_spread)
+    cfg = ns.StudyConfig(
+        runs=args.runs, seed=args.seed, noise_var=args.noise_var, inertia_spread=args.inertia_spread
+    )
     check_out_dir(args.out, ns.OUTPUT_COMMAND, overwrite=args.overwrite)  # before the work
     result = ns.run_study(cfg)
     out = ns.write_outputs(result, args.out, overwrite=args.overwrite)

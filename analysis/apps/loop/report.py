@@ -5,6 +5,7 @@ time from ``DIR``: the campaigns' ``cases.csv`` and plots, the driver analysis's
 figures, the refinement's changelog and plots, and ``loop.json`` (settings, seeds, times, code
 version).
 """
+
 from __future__ import annotations
 
 import html
@@ -35,8 +36,11 @@ def _img(path: Path, caption: str) -> str:
 
 
 def _side_by_side(*blocks: str) -> str:
-    return ("<div style='display:grid;grid-template-columns:1fr 1fr;gap:1em'>"
-            + "".join(f"<div>{b}</div>" for b in blocks) + "</div>")
+    return (
+        "<div style='display:grid;grid-template-columns:1fr 1fr;gap:1em'>"
+        + "".join(f"<div>{b}</div>" for b in blocks)
+        + "</div>"
+    )
 
 
 def _counts(campaign: Path) -> pd.DataFrame:
@@ -44,8 +48,9 @@ def _counts(campaign: Path) -> pd.DataFrame:
     return cases[["case", "runs", "failed", "one_firing_pct", "firings_per_run_mean"]]
 
 
-def _summary(out: Path, settings, state: dict, log: pd.DataFrame, before: pd.DataFrame,
-             after: pd.DataFrame) -> Section:
+def _summary(
+    out: Path, settings, state: dict, log: pd.DataFrame, before: pd.DataFrame, after: pd.DataFrame
+) -> Section:
     s = state["settings"]
     fresh = settings.held_out_seed
     threshold = np.degrees(load_spec(out / "spec_before.toml").rate_threshold_rad_s)
@@ -56,14 +61,23 @@ def _summary(out: Path, settings, state: dict, log: pd.DataFrame, before: pd.Dat
         ("runs per case", f"{s['runs_per_case']} (26 rate cases of Table 3, Table 5 dispersions)"),
         ("search seed", f"{s['seed']} (the 'before' campaign and the refinement search)"),
         ("fresh seed", f"{fresh} (held out: the refined table's campaign and check)"),
-        ("failure criterion", f"any axis ends with |rate error| >= {threshold:g} deg/s, or the "
-                              "simulation fails (Gambone sec. III)"),
+        (
+            "failure criterion",
+            f"any axis ends with |rate error| >= {threshold:g} deg/s, or the "
+            "simulation fails (Gambone sec. III)",
+        ),
         ("failed runs, before (search seed)", f"{fb} of {int(before['runs'].sum())}"),
         ("failed runs, after (fresh seed)", f"{fa} of {int(after['runs'].sum())}"),
-        ("repeated-firing runs (search seed)",
-         f"{int(log['repeated_search_before'].sum())} -> {int(log['repeated_search_after'].sum())}"),
-        ("repeated-firing runs (fresh seed)",
-         f"{int(log['repeated_fresh_before'].sum())} -> {int(log['repeated_fresh_after'].sum())}"),
+        (
+            "repeated-firing runs (search seed)",
+            f"{int(log['repeated_search_before'].sum())} -> "
+            f"{int(log['repeated_search_after'].sum())}",
+        ),
+        (
+            "repeated-firing runs (fresh seed)",
+            f"{int(log['repeated_fresh_before'].sum())} -> "
+            f"{int(log['repeated_fresh_after'].sum())}",
+        ),
         ("cases changed", f"{n_changed} of {len(log)}"),
         ("stage times [s]", ", ".join(f"{k} {v['seconds']:.1f}" for k, v in state["done"].items())),
         ("code version", ", ".join(f"{k} {v}" for k, v in state.get("code_version", {}).items())),
@@ -73,33 +87,50 @@ def _summary(out: Path, settings, state: dict, log: pd.DataFrame, before: pd.Dat
             f"The lookup table {s['table']} was flown over {s['runs_per_case']} dispersed runs "
             f"of each of the 26 rate cases; {fb} runs failed. The refinement changed "
             f"{n_changed} cases; flown again on a seed the search never saw, the refined table "
-            f"failed {fa} runs."),
+            f"failed {fa} runs."
+        ),
         table_block(pd.DataFrame(rows, columns=["", "value"]), "The loop"),
         text_block(
             "Fly the refined table with `--table refined_table.csv` (`rcsim maneuver`, "
             "`rcsim scenario run`) or as a campaign spec's `controller.table`, or gate a "
             "change in CI with `rcsim campaign run spec_after.toml --out DIR "
             "--max-failed-pct P`. Replay any run with `rcsim campaign replay "
-            "campaign_before RUN_ID`."),
+            "campaign_before RUN_ID`."
+        ),
     ]
     return Section("Summary", blocks, "summary")
 
 
-def _before_after(out: Path, log: pd.DataFrame, before: pd.DataFrame,
-                  after: pd.DataFrame) -> Section:
+def _before_after(
+    out: Path, log: pd.DataFrame, before: pd.DataFrame, after: pd.DataFrame
+) -> Section:
     plots = out / "refined_table_plots"
     merged = before.merge(after, on="case", suffixes=("_before", "_after"))
-    merged = merged[["case", "runs_before", "failed_before", "failed_after",
-                     "one_firing_pct_before", "one_firing_pct_after"]]
+    merged = merged[
+        [
+            "case",
+            "runs_before",
+            "failed_before",
+            "failed_after",
+            "one_firing_pct_before",
+            "one_firing_pct_after",
+        ]
+    ]
     blocks = [
-        _img(plots / "failures_by_case.png",
-             "Failed runs (top) and runs that needed more than one firing to reach the "
-             "commanded rate (bottom), per rate case, before (red) and after (blue) refinement, "
-             "on the search seed (left) and on the held-out fresh seed (right). * marks the "
-             "cases whose firing times changed."),
-        table_block(merged, "Campaigns before (search seed) and after (fresh seed): failed runs "
-                    "and the share of runs reaching the rate in one firing, per case",
-                    max_rows=30, float_format="{:.1f}"),
+        _img(
+            plots / "failures_by_case.png",
+            "Failed runs (top) and runs that needed more than one firing to reach the "
+            "commanded rate (bottom), per rate case, before (red) and after (blue) refinement, "
+            "on the search seed (left) and on the held-out fresh seed (right). * marks the "
+            "cases whose firing times changed.",
+        ),
+        table_block(
+            merged,
+            "Campaigns before (search seed) and after (fresh seed): failed runs "
+            "and the share of runs reaching the rate in one firing, per case",
+            max_rows=30,
+            float_format="{:.1f}",
+        ),
     ]
     return Section("Failures per case, before and after", blocks, "before-after")
 
@@ -107,68 +138,134 @@ def _before_after(out: Path, log: pd.DataFrame, before: pd.DataFrame,
 def _figs_9_10(out: Path, log: pd.DataFrame) -> Section:
     best = most_improved_case(log)
     if best is None:
-        return Section("Figs 9-10: one case before and after",
-                       [text_block("No case changed: the table was already robust.")], "figs-9-10")
+        return Section(
+            "Figs 9-10: one case before and after",
+            [text_block("No case changed: the table was already robust.")],
+            "figs-9-10",
+        )
     case = int(best["case"])
     name = f"case-rate-{case:02d}.png"
     blocks = [
-        text_block(f"Rate case {case}, the case the refinement helped most: every dispersed run, "
-                   "as Gambone Figs 9 (before) and 10 (after)."),
+        text_block(
+            f"Rate case {case}, the case the refinement helped most: every dispersed run, "
+            "as Gambone Figs 9 (before) and 10 (after)."
+        ),
         _side_by_side(
-            _img(out / "campaign_before" / "plots" / name, f"Before: case {case} with the "
-                 "original table (search seed)"),
-            _img(out / "campaign_after" / "plots" / name, f"After: case {case} with the refined "
-                 "table (fresh seed)")),
-        _img(out / "refined_table_plots" / f"case_{case:02d}_before_after.png",
-             f"Case {case}: the changed axis's rate of every run, failed runs red."),
+            _img(
+                out / "campaign_before" / "plots" / name,
+                f"Before: case {case} with the original table (search seed)",
+            ),
+            _img(
+                out / "campaign_after" / "plots" / name,
+                f"After: case {case} with the refined table (fresh seed)",
+            ),
+        ),
+        _img(
+            out / "refined_table_plots" / f"case_{case:02d}_before_after.png",
+            f"Case {case}: the changed axis's rate of every run, failed runs red.",
+        ),
     ]
     return Section("Figs 9-10: one case before and after", blocks, "figs-9-10")
 
 
 def _drivers(out: Path) -> Section:
     d = out / "drivers"
-    blocks = [text_block("Which dispersions make the original table's runs fail (the full "
-                         "analysis, with methods and pair maps, is drivers/report.html).")]
+    blocks = [
+        text_block(
+            "Which dispersions make the original table's runs fail (the full "
+            "analysis, with methods and pair maps, is drivers/report.html)."
+        )
+    ]
     drivers_csv = d / "drivers.csv"
     if drivers_csv.is_file() and len(pd.read_csv(drivers_csv)):
         table = pd.read_csv(drivers_csv)
-        cols = [c for c in ("rank", "factor", "score", "p_value", "failure_region",
-                            "region_fail_share", "stability", "second_opinion") if c in table]
-        blocks.append(_img(d / "figures" / "ranking.png",
-                           "Single-factor drivers: score, corrected p-value and stability; red "
-                           "bars are significant."))
-        blocks.append(table_block(table[cols], "Driver ranking (drivers/drivers.csv)",
-                                  max_rows=12))
+        cols = [
+            c
+            for c in (
+                "rank",
+                "factor",
+                "score",
+                "p_value",
+                "failure_region",
+                "region_fail_share",
+                "stability",
+                "second_opinion",
+            )
+            if c in table
+        ]
+        blocks.append(
+            _img(
+                d / "figures" / "ranking.png",
+                "Single-factor drivers: score, corrected p-value and stability; red "
+                "bars are significant.",
+            )
+        )
+        blocks.append(table_block(table[cols], "Driver ranking (drivers/drivers.csv)", max_rows=12))
         maps = sorted((d / "figures").glob("map_*.png"))[:2]
         if maps:
-            blocks.append(_side_by_side(*[_img(m, "kNN failure map, " + m.stem.split("_", 2)[2]
-                                               .replace("__", " vs ").replace("_rate", " rate"))
-                                          for m in maps]))
+            blocks.append(
+                _side_by_side(
+                    *[
+                        _img(
+                            m,
+                            "kNN failure map, "
+                            + m.stem.split("_", 2)[2]
+                            .replace("__", " vs ")
+                            .replace("_rate", " rate"),
+                        )
+                        for m in maps
+                    ]
+                )
+            )
     else:
         blocks.append(text_block("No failures to analyse."))
     return Section("Failure drivers", blocks, "drivers")
 
 
 def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
-    cols = ["case"] + [f"{a}_{w}" for a in AXES for w in ("old_s", "new_s")] + [
-        "failed_search_before", "failed_search_after", "failed_fresh_before",
-        "failed_fresh_after", "repeated_fresh_before", "repeated_fresh_after"]
-    blocks = [table_block(log[log["changed"]][cols], "Changed entries (refined_table_changelog.csv)",
-                          max_rows=30, float_format="{:.2f}")]
+    cols = (
+        ["case"]
+        + [f"{a}_{w}" for a in AXES for w in ("old_s", "new_s")]
+        + [
+            "failed_search_before",
+            "failed_search_after",
+            "failed_fresh_before",
+            "failed_fresh_after",
+            "repeated_fresh_before",
+            "repeated_fresh_after",
+        ]
+    )
+    blocks = [
+        table_block(
+            log[log["changed"]][cols],
+            "Changed entries (refined_table_changelog.csv)",
+            max_rows=30,
+            float_format="{:.2f}",
+        )
+    ]
     t6, t7 = load_lookup_table("table6"), load_lookup_table("table7")
     # The paper's refinement is comparable when the table refined is Table 6 (by name or copy).
     if np.array_equal(load_lookup_table(table).firing_time_s, t6.firing_time_s):
         ours = changed_cells(t6, load_lookup_table(refined))
         paper = changed_cells(t6, t7)
-        both = ours.merge(paper, on=["case", "axis", "old_cycles"], how="outer",
-                          suffixes=("_rcsim", "_table7"))
+        both = ours.merge(
+            paper, on=["case", "axis", "old_cycles"], how="outer", suffixes=("_rcsim", "_table7")
+        )
         same = int((both["new_cycles_rcsim"] == both["new_cycles_table7"]).sum())
-        blocks.append(text_block(
-            f"Against the paper's Table 7 (the authors' hand refinement of Table 6): "
-            f"{same} of {len(both)} changed cells agree."))
-        blocks.append(table_block(both, "Changed cells, rcsim vs Table 7 "
-                                  "(firing time in 40 ms cycles; blank: not changed)",
-                                  max_rows=40, float_format="{:.0f}"))
+        blocks.append(
+            text_block(
+                f"Against the paper's Table 7 (the authors' hand refinement of Table 6): "
+                f"{same} of {len(both)} changed cells agree."
+            )
+        )
+        blocks.append(
+            table_block(
+                both,
+                "Changed cells, rcsim vs Table 7 (firing time in 40 ms cycles; blank: not changed)",
+                max_rows=40,
+                float_format="{:.0f}",
+            )
+        )
     return Section("Changelog", blocks, "changelog")
 
 
@@ -176,14 +273,28 @@ def write_loop_report(out: Path, settings, state: dict) -> Path:
     """Write ``DIR/report.html`` from the stages' files; returns its path."""
     log = pd.read_csv(out / "refined_table_changelog.csv")
     before, after = _counts(out / "campaign_before"), _counts(out / "campaign_after")
-    sections = [_summary(out, settings, state, log, before, after), _before_after(out, log, before, after),
-                _figs_9_10(out, log), _drivers(out), _changelog(log, settings.table, out / "refined_table.csv"),
-                Section("Traceability", [text_block(
+    sections = [
+        _summary(out, settings, state, log, before, after),
+        _before_after(out, log, before, after),
+        _figs_9_10(out, log),
+        _drivers(out),
+        _changelog(log, settings.table, out / "refined_table.csv"),
+        Section(
+            "Traceability",
+            [
+                text_block(
                     "Settings, seeds, stage times and code version: loop.json. Campaign specs: "
                     "spec_before.toml, spec_after.toml; each campaign's manifest.json records "
-                    "its spec, seed, table checksum and code version."),
-                    "<pre>" + html.escape(json.dumps(state, indent=2)) + "</pre>"],
-                    "traceability")]
-    return write_report(out / "report.html", f"Lookup-table robustness: {settings.table}",
-                        sections,
-                        "rcsim loop: campaign, failure drivers, refined table, fresh campaign")
+                    "its spec, seed, table checksum and code version."
+                ),
+                "<pre>" + html.escape(json.dumps(state, indent=2)) + "</pre>",
+            ],
+            "traceability",
+        ),
+    ]
+    return write_report(
+        out / "report.html",
+        f"Lookup-table robustness: {settings.table}",
+        sections,
+        "rcsim loop: campaign, failure drivers, refined table, fresh campaign",
+    )

@@ -8,6 +8,7 @@ Every stage writes its own sub-directory of ``DIR`` completely or not at all, an
 records each finished stage in ``DIR/loop.json``: a loop killed in its tenth minute resumes
 (``resume=True``) from the last finished stage, and the campaigns resume chunk by chunk.
 """
+
 from __future__ import annotations
 
 import json
@@ -77,10 +78,14 @@ class LoopSettings:
         # The refinement's and the driver analysis's own checks: one rule for each.
         from analysis.results.drivers.pipeline import Settings
 
-        check_parameters(runs_per_case=self.runs_per_case, seed=self.seed,
-                         fresh_seed=self.held_out_seed, duration_s=self.duration_s,
-                         max_iterations=self.max_iterations,
-                         search_runs_per_case=self.search_runs_per_case)
+        check_parameters(
+            runs_per_case=self.runs_per_case,
+            seed=self.seed,
+            fresh_seed=self.held_out_seed,
+            duration_s=self.duration_s,
+            max_iterations=self.max_iterations,
+            search_runs_per_case=self.search_runs_per_case,
+        )
         Settings(n_permutations=self.permutations, random_state=self.seed)
 
     @property
@@ -101,8 +106,14 @@ class LoopResult:
 def spec_text(*, table: str, runs_per_case: int, seed: int, duration_s: float) -> str:
     """The refinement's rate-case campaign (:func:`rate_cases_campaign`) as a TOML spec, with
     failure histories and plots kept (a user reads these campaigns)."""
-    data = rate_cases_campaign(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s,
-                               table=table, histories="failures", plots=True)
+    data = rate_cases_campaign(
+        runs_per_case=runs_per_case,
+        seed=seed,
+        duration_s=duration_s,
+        table=table,
+        histories="failures",
+        plots=True,
+    )
     lines = ["# Written by `rcsim loop`: the 26 Table 3 rate cases, Table 5 dispersions."]
     scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
     lines += [f"{k} = {_toml(v)}" for k, v in scalars.items()]
@@ -131,13 +142,20 @@ class _State:
         if resume and self.path.is_file():
             self.data = read_state(out)
             if _comparable(self.data.get("settings")) != _comparable(wanted):
-                raise InputError(f"{out}: was started with other settings "
-                                 f"({self.data.get('settings')}); choose another directory",
-                                 parameter="out", value=str(out))
+                raise InputError(
+                    f"{out}: was started with other settings "
+                    f"({self.data.get('settings')}); choose another directory",
+                    parameter="out",
+                    value=str(out),
+                )
         else:
-            self.data = {"format": "rcsim-loop/1", "settings": wanted, "done": {},
-                         "code_version": campaign_results.code_version(),
-                         "started_utc": campaign_results.now_utc()}
+            self.data = {
+                "format": "rcsim-loop/1",
+                "settings": wanted,
+                "done": {},
+                "code_version": campaign_results.code_version(),
+                "started_utc": campaign_results.now_utc(),
+            }
         self.save()
 
     def done(self, stage: str) -> bool:
@@ -148,8 +166,9 @@ class _State:
         self.save()
 
     def save(self) -> None:
-        atomic_write(self.path, lambda tmp: Path(tmp).write_text(json.dumps(self.data, indent=2)
-                                                                  + "\n"))
+        atomic_write(
+            self.path, lambda tmp: Path(tmp).write_text(json.dumps(self.data, indent=2) + "\n")
+        )
 
 
 def _comparable(settings) -> dict | None:
@@ -168,12 +187,19 @@ def read_state(out: Path) -> dict:
     try:
         data = json.loads(path.read_text())
     except (OSError, ValueError) as exc:
-        raise InputError(f"{path}: not a readable loop state file ({exc})", parameter="out",
-                         value=str(out)) from None
-    if not (isinstance(data, dict) and isinstance(data.get("settings"), dict)
-            and isinstance(data.get("done"), dict)):
-        raise InputError(f"{path}: not a loop state file (no settings and stages)",
-                         parameter="out", value=str(out))
+        raise InputError(
+            f"{path}: not a readable loop state file ({exc})", parameter="out", value=str(out)
+        ) from None
+    if not (
+        isinstance(data, dict)
+        and isinstance(data.get("settings"), dict)
+        and isinstance(data.get("done"), dict)
+    ):
+        raise InputError(
+            f"{path}: not a loop state file (no settings and stages)",
+            parameter="out",
+            value=str(out),
+        )
     return data
 
 
@@ -182,23 +208,33 @@ def check_loop_dir(out, *, resume: bool, overwrite: bool) -> Path:
     out = Path(out)
     if resume:
         if not (out / STATE).is_file():
-            raise InputError(f"{out}: no {STATE} here to resume; start the loop without resume",
-                             parameter="out", value=str(out))
+            raise InputError(
+                f"{out}: no {STATE} here to resume; start the loop without resume",
+                parameter="out",
+                value=str(out),
+            )
         owner = directory_owner(out)
         if owner != COMMAND:
-            raise InputError(f"{out}: was not written by `rcsim loop`"
-                             + (f" (it holds `rcsim {owner}` outputs)" if owner else ""),
-                             parameter="out", value=str(out))
+            raise InputError(
+                f"{out}: was not written by `rcsim loop`"
+                + (f" (it holds `rcsim {owner}` outputs)" if owner else ""),
+                parameter="out",
+                value=str(out),
+            )
         read_state(out)
         return out.absolute()
     if overwrite:
-        raise InputError("a loop directory is resumed, never replaced: choose another directory",
-                         parameter="overwrite", value=True)
+        raise InputError(
+            "a loop directory is resumed, never replaced: choose another directory",
+            parameter="overwrite",
+            value=True,
+        )
     return check_out_dir(out, COMMAND)
 
 
-def run_loop(settings: LoopSettings, out, *, resume: bool = False,
-             progress: bool | None = None, echo=print) -> LoopResult:
+def run_loop(
+    settings: LoopSettings, out, *, resume: bool = False, progress: bool | None = None, echo=print
+) -> LoopResult:
     """Run every stage of the loop into ``out`` (see the module docstring).
 
     Parameters
@@ -228,10 +264,14 @@ def run_loop(settings: LoopSettings, out, *, resume: bool = False,
     out.mkdir(parents=True, exist_ok=True)
     write_marker(out, COMMAND)
     state = _State(out, settings, resume)
-    paths = {"campaign_before": out / "campaign_before", "drivers": out / "drivers",
-             "refined": out / "refined_table.csv", "search": out / "refine_search.json",
-             "campaign_after": out / "campaign_after",
-             "report": out / "report.html"}
+    paths = {
+        "campaign_before": out / "campaign_before",
+        "drivers": out / "drivers",
+        "refined": out / "refined_table.csv",
+        "search": out / "refine_search.json",
+        "campaign_after": out / "campaign_after",
+        "report": out / "report.html",
+    }
     result = LoopResult(out=out, report=paths["report"])
 
     def stage(name: str, work) -> None:
@@ -247,21 +287,38 @@ def run_loop(settings: LoopSettings, out, *, resume: bool = False,
     def campaign(name: str, table_path: str, seed: int):
         spec_file = out / f"spec_{name.split('_')[1]}.toml"
         if not spec_file.exists():
-            atomic_write(spec_file, lambda tmp: Path(tmp).write_text(spec_text(
-                table=table_path, runs_per_case=settings.runs_per_case, seed=seed,
-                duration_s=settings.duration_s)))
+            atomic_write(
+                spec_file,
+                lambda tmp: Path(tmp).write_text(
+                    spec_text(
+                        table=table_path,
+                        runs_per_case=settings.runs_per_case,
+                        seed=seed,
+                        duration_s=settings.duration_s,
+                    )
+                ),
+            )
         spec = load_spec(spec_file)
-        report = run_campaign(spec, paths[name], resume=paths[name].exists(),
-                              progress=progress, spec_file=str(spec_file))
+        report = run_campaign(
+            spec,
+            paths[name],
+            resume=paths[name].exists(),
+            progress=progress,
+            spec_file=str(spec_file),
+        )
         return {"runs": report.counts.get("runs"), "failed": report.counts.get("failed")}
 
     def drivers():
         runset = load_runs(paths["campaign_before"])
-        res = analyze(runset, Settings(n_permutations=settings.permutations,
-                                       random_state=settings.seed))
+        res = analyze(
+            runset, Settings(n_permutations=settings.permutations, random_state=settings.seed)
+        )
         write_analysis(res, paths["drivers"], overwrite=True)
-        top = res.drivers[res.drivers["significant"]]["factor"].head(3).tolist() \
-            if res.has_failures else []
+        top = (
+            res.drivers[res.drivers["significant"]]["factor"].head(3).tolist()
+            if res.has_failures
+            else []
+        )
         return {"significant": ", ".join(top) or "none"}
 
     cases = np.arange(len(table.case))
@@ -272,36 +329,57 @@ def run_loop(settings: LoopSettings, out, *, resume: bool = False,
 
     def search():
         # The search's baseline is the "before" campaign itself: same seed, same runs.
-        spec = refinement_spec(runs_per_case=settings.runs_per_case, seed=settings.seed,
-                               duration_s=settings.duration_s)
-        result = refine(spec, table, max_iterations=settings.max_iterations, progress=progress,
-                        search_runs_per_case=settings.search_runs_per_case,
-                        baseline_runs=campaign_runs("campaign_before"))
+        spec = refinement_spec(
+            runs_per_case=settings.runs_per_case, seed=settings.seed, duration_s=settings.duration_s
+        )
+        result = refine(
+            spec,
+            table,
+            max_iterations=settings.max_iterations,
+            progress=progress,
+            search_runs_per_case=settings.search_runs_per_case,
+            baseline_runs=campaign_runs("campaign_before"),
+        )
         save_search(result, paths["search"])
         result.table.to_csv(paths["refined"])
-        return {"cases_changed": int((result.table.firing_time_s != table.firing_time_s)
-                                     .any(axis=1).sum()),
-                "runs_flown": result.runs_flown}
+        return {
+            "cases_changed": int(
+                (result.table.firing_time_s != table.firing_time_s).any(axis=1).sum()
+            ),
+            "runs_flown": result.runs_flown,
+        }
 
     def check():
         # The refined table's runs on the fresh seed are the "after" campaign's; only the old
         # table is flown again, on that seed.
         refined = load_lookup_table(paths["refined"])
-        ref = held_out_check(table, load_search(paths["search"], refined), seed=settings.seed,
-                             fresh_seed=settings.held_out_seed,
-                             runs_per_case=settings.runs_per_case, duration_s=settings.duration_s,
-                             fresh_after_runs=campaign_runs("campaign_after"), progress=progress)
+        ref = held_out_check(
+            table,
+            load_search(paths["search"], refined),
+            seed=settings.seed,
+            fresh_seed=settings.held_out_seed,
+            runs_per_case=settings.runs_per_case,
+            duration_s=settings.duration_s,
+            fresh_after_runs=campaign_runs("campaign_after"),
+            progress=progress,
+        )
         write_refinement(ref, paths["refined"], overwrite=True)
         log = ref.changelog
-        return {"failed_fresh": f"{int(log['failed_fresh_before'].sum())} -> "
-                                f"{int(log['failed_fresh_after'].sum())}"}
+        return {
+            "failed_fresh": f"{int(log['failed_fresh_before'].sum())} -> "
+            f"{int(log['failed_fresh_after'].sum())}"
+        }
 
-    stage("campaign_before", lambda: campaign("campaign_before", _table_path(settings.table),
-                                              settings.seed))
+    stage(
+        "campaign_before",
+        lambda: campaign("campaign_before", _table_path(settings.table), settings.seed),
+    )
     stage("drivers", drivers)
     stage("refine", search)
-    stage("campaign_after", lambda: campaign("campaign_after", str(paths["refined"]),
-                                             settings.held_out_seed))
+    stage(
+        "campaign_after",
+        lambda: campaign("campaign_after", str(paths["refined"]), settings.held_out_seed),
+    )
     stage("check", check)
     stage("report", lambda: {"path": str(write_loop_report(out, settings, state.data))})
     state.data["finished_utc"] = campaign_results.now_utc()

@@ -12,6 +12,7 @@ chunk's numpy work never waits on another's), each chunk one batched simulation 
 run carries its own table (:meth:`lookup.pattern_recognition.LookupController.for_runs`).
 Results are the same for any worker count: each chunk is a pure function of its runs.
 """
+
 from __future__ import annotations
 
 import os
@@ -56,21 +57,35 @@ class Trials:
         return int(self.case.size)
 
 
-def _fly_chunk(spec: CampaignSpec, table: LookupTable, params: VehicleParams,
-               run_times: np.ndarray, cases: np.ndarray, lookup_params: LookupParams,
-               nthread: int = 1) -> pd.DataFrame:
+def _fly_chunk(
+    spec: CampaignSpec,
+    table: LookupTable,
+    params: VehicleParams,
+    run_times: np.ndarray,
+    cases: np.ndarray,
+    lookup_params: LookupParams,
+    nthread: int = 1,
+) -> pd.DataFrame:
     """Fly one chunk: run ``i`` flies case ``cases[i]`` with vehicle ``params.take(i)`` and
     table ``run_times[i]``; return its outcome columns.  Runs in a worker process."""
     controller = LookupController.for_runs(table, run_times, lookup_params)
-    history = fly_batch([spec.cases[c] for c in cases], params, controller, model=load_model(),
-                        nthread=nthread)
+    history = fly_batch(
+        [spec.cases[c] for c in cases], params, controller, model=load_model(), nthread=nthread
+    )
     return outcomes(history, spec)
 
 
-def evaluate(spec: CampaignSpec, table: LookupTable, trials: Trials, *,
-             lookup_params: LookupParams | None = None, threads: int | None = None,
-             progress: bool | None = None, desc: str = "refine",
-             runs_per_case: int | None = None) -> pd.DataFrame:
+def evaluate(
+    spec: CampaignSpec,
+    table: LookupTable,
+    trials: Trials,
+    *,
+    lookup_params: LookupParams | None = None,
+    threads: int | None = None,
+    progress: bool | None = None,
+    desc: str = "refine",
+    runs_per_case: int | None = None,
+) -> pd.DataFrame:
     """Fly every trial over the first ``runs_per_case`` dispersed runs of its case.
 
     Parameters
@@ -126,13 +141,25 @@ def evaluate(spec: CampaignSpec, table: LookupTable, trials: Trials, *,
     chunks = [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
 
     def work(sl: slice) -> tuple:
-        return (spec, table, params_all.take(row_of_run[sl]), trials.times_s[trial_of_run[sl]],
-                case_of_run[sl], lookup_params)
+        return (
+            spec,
+            table,
+            params_all.take(row_of_run[sl]),
+            trials.times_s[trial_of_run[sl]],
+            case_of_run[sl],
+            lookup_params,
+        )
 
     show = sys.stderr.isatty() if progress is None else progress
     frames = []
-    with tqdm(total=trial_of_run.size, unit="run", desc=desc, disable=not show,
-              file=sys.stderr, dynamic_ncols=True) as bar:
+    with tqdm(
+        total=trial_of_run.size,
+        unit="run",
+        desc=desc,
+        disable=not show,
+        file=sys.stderr,
+        dynamic_ncols=True,
+    ) as bar:
         workers = min(threads, len(chunks))
         if workers == 1:
             for sl in chunks:
@@ -152,8 +179,9 @@ def evaluate(spec: CampaignSpec, table: LookupTable, trials: Trials, *,
     return trial_frame(trial_of_run, case_of_run, k_of_run, pd.concat(frames, ignore_index=True))
 
 
-def runs_from_campaign(campaign_runs: pd.DataFrame, cases: np.ndarray,
-                       runs_per_case: int) -> pd.DataFrame:
+def runs_from_campaign(
+    campaign_runs: pd.DataFrame, cases: np.ndarray, runs_per_case: int
+) -> pd.DataFrame:
     """A campaign's ``runs.parquet`` rows as :func:`evaluate` would return them for trials
     that fly the campaign's own table on ``cases`` (one trial per case, in that order).
 
@@ -164,11 +192,15 @@ def runs_from_campaign(campaign_runs: pd.DataFrame, cases: np.ndarray,
     want = np.asarray(cases, int)
     rows = campaign_runs[campaign_runs["case_index"].isin(want)].sort_values("run_id")
     if len(rows) != want.size * runs_per_case:
-        raise ValueError(f"the campaign has {len(rows)} runs of these cases, expected "
-                         f"{want.size * runs_per_case}")
+        raise ValueError(
+            f"the campaign has {len(rows)} runs of these cases, expected "
+            f"{want.size * runs_per_case}"
+        )
     trial_of_case = {int(c): t for t, c in enumerate(want)}
-    out = trial_frame(rows["case_index"].map(trial_of_case).to_numpy(),
-                       rows["case_index"].to_numpy(),
-                       (rows["run_id"] - rows["case_index"] * runs_per_case).to_numpy(),
-                       rows.reset_index(drop=True))
+    out = trial_frame(
+        rows["case_index"].map(trial_of_case).to_numpy(),
+        rows["case_index"].to_numpy(),
+        (rows["run_id"] - rows["case_index"] * runs_per_case).to_numpy(),
+        rows.reset_index(drop=True),
+    )
     return out.sort_values(["trial", "k"], kind="stable").reset_index(drop=True)

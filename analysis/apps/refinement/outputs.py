@@ -6,6 +6,7 @@ after (control cycles and seconds), and failures and repeated-firing runs before
 the search seed and on a fresh seed the search never saw.  ``OUT_plots/`` holds the
 before/after plots (Figs 9-10 style).
 """
+
 from __future__ import annotations
 
 import json
@@ -41,9 +42,15 @@ DPI = 90
 PLOT_RUNS = 200
 
 
-def rate_cases_campaign(*, runs_per_case: int, seed: int, duration_s: float = 20.0,
-                        table: str = "default", histories: str = "none",
-                        plots: bool = False) -> dict:
+def rate_cases_campaign(
+    *,
+    runs_per_case: int,
+    seed: int,
+    duration_s: float = 20.0,
+    table: str = "default",
+    histories: str = "none",
+    plots: bool = False,
+) -> dict:
     """The campaign a refinement flies, as a spec dict: all 26 Table 3 cases from rest, Table 5
     dispersions, the campaign's default failure threshold.
 
@@ -51,19 +58,30 @@ def rate_cases_campaign(*, runs_per_case: int, seed: int, duration_s: float = 20
     "before" campaign's runs as the search's baseline -- the same runs only if both come
     from here.
     """
-    return {"seed": seed, "runs_per_case": runs_per_case,
-            "scenario": {"kind": "rate-cases", "cases": "all", "mode": "command",
-                         "duration_s": float(duration_s)},
-            "controller": {"name": "lookup", "table": table},
-            "dispersions": {"table": "default", "scale": 1.0},
-            "output": {"histories": histories, "plots": plots}}
+    return {
+        "seed": seed,
+        "runs_per_case": runs_per_case,
+        "scenario": {
+            "kind": "rate-cases",
+            "cases": "all",
+            "mode": "command",
+            "duration_s": float(duration_s),
+        },
+        "controller": {"name": "lookup", "table": table},
+        "dispersions": {"table": "default", "scale": 1.0},
+        "output": {"histories": histories, "plots": plots},
+    }
 
 
-def refinement_spec(*, runs_per_case: int, seed: int, duration_s: float = 20.0,
-                    source: str = "lookup refine"):
+def refinement_spec(
+    *, runs_per_case: int, seed: int, duration_s: float = 20.0, source: str = "lookup refine"
+):
     """:func:`rate_cases_campaign` validated (a :class:`CampaignSpec`)."""
-    return parse_dict(rate_cases_campaign(runs_per_case=runs_per_case, seed=seed,
-                                          duration_s=duration_s), source=source, base_dir=None)
+    return parse_dict(
+        rate_cases_campaign(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s),
+        source=source,
+        base_dir=None,
+    )
 
 
 @dataclass
@@ -98,11 +116,19 @@ class Refinement:
         return self.result.table
 
 
-def run_refinement(table: LookupTable, *, runs_per_case: int, seed: int,
-                   fresh_seed: int | None = None,
-                   cases=None, duration_s: float = 20.0, max_iterations: int = 8,
-                   search_runs_per_case: int = SEARCH_RUNS_PER_CASE,
-                   threads: int | None = None, progress: bool | None = None) -> Refinement:
+def run_refinement(
+    table: LookupTable,
+    *,
+    runs_per_case: int,
+    seed: int,
+    fresh_seed: int | None = None,
+    cases=None,
+    duration_s: float = 20.0,
+    max_iterations: int = 8,
+    search_runs_per_case: int = SEARCH_RUNS_PER_CASE,
+    threads: int | None = None,
+    progress: bool | None = None,
+) -> Refinement:
     """Refine ``table`` on ``seed`` and fly the old and new tables on ``fresh_seed``.
 
     Parameters
@@ -129,21 +155,48 @@ def run_refinement(table: LookupTable, *, runs_per_case: int, seed: int,
         A parameter out of range (named by ``parameter``).
     """
     fresh_seed = held_out_seed(seed) if fresh_seed is None else fresh_seed
-    check_parameters(runs_per_case=runs_per_case, seed=seed, fresh_seed=fresh_seed,
-                     duration_s=duration_s, max_iterations=max_iterations,
-                     search_runs_per_case=search_runs_per_case)
+    check_parameters(
+        runs_per_case=runs_per_case,
+        seed=seed,
+        fresh_seed=fresh_seed,
+        duration_s=duration_s,
+        max_iterations=max_iterations,
+        search_runs_per_case=search_runs_per_case,
+    )
     spec = refinement_spec(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s)
-    result = refine(spec, table, cases, max_iterations=max_iterations, threads=threads,
-                    progress=progress, search_runs_per_case=search_runs_per_case)
-    return held_out_check(table, result, seed=seed, fresh_seed=fresh_seed,
-                          runs_per_case=runs_per_case, duration_s=duration_s, threads=threads,
-                          progress=progress)
+    result = refine(
+        spec,
+        table,
+        cases,
+        max_iterations=max_iterations,
+        threads=threads,
+        progress=progress,
+        search_runs_per_case=search_runs_per_case,
+    )
+    return held_out_check(
+        table,
+        result,
+        seed=seed,
+        fresh_seed=fresh_seed,
+        runs_per_case=runs_per_case,
+        duration_s=duration_s,
+        threads=threads,
+        progress=progress,
+    )
 
 
-def held_out_check(table: LookupTable, result: RefineResult, *, seed: int, fresh_seed: int,
-                   runs_per_case: int, duration_s: float = 20.0,
-                   fresh_after_runs: pd.DataFrame | None = None, threads: int | None = None,
-                   progress: bool | None = None) -> Refinement:
+def held_out_check(
+    table: LookupTable,
+    result: RefineResult,
+    *,
+    seed: int,
+    fresh_seed: int,
+    runs_per_case: int,
+    duration_s: float = 20.0,
+    fresh_after_runs: pd.DataFrame | None = None,
+    threads: int | None = None,
+    progress: bool | None = None,
+) -> Refinement:
     """Fly the old and the refined table on ``fresh_seed`` (the seed the search never saw).
 
     ``fresh_after_runs``: the refined table's runs on the fresh seed if a campaign already
@@ -155,37 +208,47 @@ def held_out_check(table: LookupTable, result: RefineResult, *, seed: int, fresh
     tables = [np.asarray(table.firing_time_s)]
     if fresh_after_runs is None:
         tables.append(np.asarray(result.table.firing_time_s))
-    trials = Trials(np.concatenate([np.repeat(t[None], searched.size, 0) for t in tables]),
-                    np.tile(searched, len(tables)),
-                    tuple(["before"] * searched.size + ["after"] * (len(tables) - 1)
-                          * searched.size))
-    runs = evaluate(fresh, table, trials, threads=threads, progress=progress,
-                    desc="refine: fresh seed")
+    trials = Trials(
+        np.concatenate([np.repeat(t[None], searched.size, 0) for t in tables]),
+        np.tile(searched, len(tables)),
+        tuple(["before"] * searched.size + ["after"] * (len(tables) - 1) * searched.size),
+    )
+    runs = evaluate(
+        fresh, table, trials, threads=threads, progress=progress, desc="refine: fresh seed"
+    )
     scores = trial_scores(runs, trials.n_trials)
-    fresh_before = scores.iloc[:searched.size].reset_index(drop=True)
+    fresh_before = scores.iloc[: searched.size].reset_index(drop=True)
     if fresh_after_runs is None:
-        fresh_after = scores.iloc[searched.size:].reset_index(drop=True)
+        fresh_after = scores.iloc[searched.size :].reset_index(drop=True)
     else:
         fresh_after = trial_scores(fresh_after_runs, searched.size)
     log = changelog(table, result, fresh_before, fresh_after)
-    return Refinement(table, result, fresh_before, fresh_after, log, seed, fresh_seed,
-                      runs_per_case, duration_s)
+    return Refinement(
+        table, result, fresh_before, fresh_after, log, seed, fresh_seed, runs_per_case, duration_s
+    )
 
 
 def save_search(result: RefineResult, path: str | Path) -> None:
     """The search's per-case scores and rounds as JSON (the refined table is its own CSV)."""
-    data = {"before": result.before.to_dict(orient="list"),
-            "after": result.after.to_dict(orient="list"),
-            "iterations": result.iterations, "runs_flown": result.runs_flown}
+    data = {
+        "before": result.before.to_dict(orient="list"),
+        "after": result.after.to_dict(orient="list"),
+        "iterations": result.iterations,
+        "runs_flown": result.runs_flown,
+    }
     atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(data, indent=1, default=int)))
 
 
 def load_search(path: str | Path, table: LookupTable) -> RefineResult:
     """:func:`save_search` read back, with ``table`` the refined table."""
     data = json.loads(Path(path).read_text())
-    return RefineResult(table=table, before=pd.DataFrame(data["before"]),
-                        after=pd.DataFrame(data["after"]), iterations=data["iterations"],
-                        runs_flown=data["runs_flown"])
+    return RefineResult(
+        table=table,
+        before=pd.DataFrame(data["before"]),
+        after=pd.DataFrame(data["after"]),
+        iterations=data["iterations"],
+        runs_flown=data["runs_flown"],
+    )
 
 
 #: Most runs per case a refinement accepts: 26 cases x 100,000 runs is 65 days of a 2-core
@@ -206,10 +269,13 @@ def load_refinable_table(table) -> LookupTable:
     if str(table) not in PAPER_LOOKUP_TABLES and Path(table).is_file():
         off = jets_off_of(table)
         if off:
-            raise InputError(f"{table}: a table for jets {','.join(map(str, off))} off; "
-                             "refinement flies the full 16-jet vehicle (fly this table with "
-                             "`rcsim campaign run` and its spec's controller.table)",
-                             parameter="table", value=str(table))
+            raise InputError(
+                f"{table}: a table for jets {','.join(map(str, off))} off; "
+                "refinement flies the full 16-jet vehicle (fly this table with "
+                "`rcsim campaign run` and its spec's controller.table)",
+                parameter="table",
+                value=str(table),
+            )
     return load_lookup_table(table)
 
 
@@ -222,35 +288,58 @@ def held_out_seed(seed: int) -> int:
     return seed + 1
 
 
-def check_parameters(*, runs_per_case, seed, fresh_seed, duration_s, max_iterations,
-                     search_runs_per_case=SEARCH_RUNS_PER_CASE) -> None:
+def check_parameters(
+    *,
+    runs_per_case,
+    seed,
+    fresh_seed,
+    duration_s,
+    max_iterations,
+    search_runs_per_case=SEARCH_RUNS_PER_CASE,
+) -> None:
     """Raise :class:`InputError` naming the first out-of-range refinement parameter."""
+
     def bad(name, value, problem):
         return InputError(f"{problem}, got {value!r}", parameter=name, value=value)
 
-    for name, value, lo, hi in (("runs_per_case", runs_per_case, 1, MAX_RUNS_PER_CASE),
-                                ("seed", seed, 0, None), ("fresh_seed", fresh_seed, 0, None),
-                                ("max_iterations", max_iterations, 1, 1000),
-                                ("search_runs_per_case", search_runs_per_case, 1,
-                                 MAX_RUNS_PER_CASE)):
-        if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < lo or (
-                hi is not None and value > hi):
+    for name, value, lo, hi in (
+        ("runs_per_case", runs_per_case, 1, MAX_RUNS_PER_CASE),
+        ("seed", seed, 0, None),
+        ("fresh_seed", fresh_seed, 0, None),
+        ("max_iterations", max_iterations, 1, 1000),
+        ("search_runs_per_case", search_runs_per_case, 1, MAX_RUNS_PER_CASE),
+    ):
+        if (
+            not isinstance(value, (int, np.integer))
+            or isinstance(value, bool)
+            or value < lo
+            or (hi is not None and value > hi)
+        ):
             raise bad(name, value, f"must be an integer in {lo}..{hi if hi else 'inf'}")
     if fresh_seed == seed:
-        raise bad("fresh_seed", fresh_seed, "must differ from the search seed (it is the "
-                                            "held-out check)")
+        raise bad(
+            "fresh_seed", fresh_seed, "must differ from the search seed (it is the held-out check)"
+        )
     from analysis.engine.campaign.limits import max_duration_s
 
     longest = max_duration_s()
     # At least a second: the longest table firing (0.52 s), the 0.16 s hold and a correction.
-    if not (isinstance(duration_s, (int, float)) and np.isfinite(duration_s)
-            and 1.0 <= duration_s <= longest):
-        raise bad("duration_s", duration_s, f"must be a time in 1..{longest:.0f} s (a firing, "
-                  "its hold and a correction; at most what one campaign chunk holds)")
+    if not (
+        isinstance(duration_s, (int, float))
+        and np.isfinite(duration_s)
+        and 1.0 <= duration_s <= longest
+    ):
+        raise bad(
+            "duration_s",
+            duration_s,
+            f"must be a time in 1..{longest:.0f} s (a firing, "
+            "its hold and a correction; at most what one campaign chunk holds)",
+        )
 
 
-def changelog(old: LookupTable, result: RefineResult, fresh_before: pd.DataFrame,
-              fresh_after: pd.DataFrame) -> pd.DataFrame:
+def changelog(
+    old: LookupTable, result: RefineResult, fresh_before: pd.DataFrame, fresh_after: pd.DataFrame
+) -> pd.DataFrame:
     """One row per searched case: times per axis before/after, outcomes on both seeds."""
     jet_axis = jet_axes(old)
     searched = result.before["case_index"].to_numpy()
@@ -264,8 +353,12 @@ def changelog(old: LookupTable, result: RefineResult, fresh_before: pd.DataFrame
     frame = pd.DataFrame(cols)
     frame["changed"] = (c_new != c_old).any(axis=1)
     frame["runs"] = result.before["runs"].to_numpy()
-    for name, scores in (("search_before", result.before), ("search_after", result.after),
-                         ("fresh_before", fresh_before), ("fresh_after", fresh_after)):
+    for name, scores in (
+        ("search_before", result.before),
+        ("search_after", result.after),
+        ("fresh_before", fresh_before),
+        ("fresh_after", fresh_after),
+    ):
         frame[f"failed_{name}"] = scores["failed"].to_numpy()
         frame[f"repeated_{name}"] = scores["repeated"].to_numpy()
     return frame
@@ -278,9 +371,11 @@ COMMAND = "lookup refine"
 def output_paths(out_csv: str | Path) -> dict[str, Path]:
     """Where a refinement writes: the table, its changelog and the plots folder."""
     out_csv = Path(out_csv)
-    return {"table": out_csv,
-            "changelog": out_csv.with_name(f"{out_csv.stem}_changelog.csv"),
-            "plots": out_csv.with_name(f"{out_csv.stem}_plots")}
+    return {
+        "table": out_csv,
+        "changelog": out_csv.with_name(f"{out_csv.stem}_changelog.csv"),
+        "plots": out_csv.with_name(f"{out_csv.stem}_plots"),
+    }
 
 
 def check_outputs(out_csv: str | Path, *, overwrite: bool = False) -> dict[str, Path]:
@@ -292,8 +387,9 @@ def check_outputs(out_csv: str | Path, *, overwrite: bool = False) -> dict[str, 
     return paths
 
 
-def write_refinement(ref: Refinement, out_csv: str | Path, *, overwrite: bool = False
-                     ) -> dict[str, Path]:
+def write_refinement(
+    ref: Refinement, out_csv: str | Path, *, overwrite: bool = False
+) -> dict[str, Path]:
     """Write ``OUT.csv``, ``OUT_changelog.csv`` and ``OUT_plots/*.png``; returns the paths.
 
     Each output is complete or absent: the plots folder is built aside and renamed into place,
@@ -304,15 +400,19 @@ def write_refinement(ref: Refinement, out_csv: str | Path, *, overwrite: bool = 
     written = dict(paths)
     worst = most_improved_case(ref.changelog)
     with atomic_dir(paths["plots"], COMMAND, overwrite=overwrite) as tmp:
-        plot_failures_by_case(ref.changelog, tmp / "failures_by_case.png",
-                              title=f"{ref.runs_per_case} dispersed runs per case")
+        plot_failures_by_case(
+            ref.changelog,
+            tmp / "failures_by_case.png",
+            title=f"{ref.runs_per_case} dispersed runs per case",
+        )
         written["summary_plot"] = paths["plots"] / "failures_by_case.png"
         if worst is not None:
             name = f"case_{int(worst['case']):02d}_before_after.png"
             plot_case_before_after(ref, int(worst["case"]), tmp / name)
             written["case_plot"] = paths["plots"] / name
-    atomic_write(paths["changelog"],
-                 lambda tmp: ref.changelog.to_csv(tmp, index=False, float_format="%.6g"))
+    atomic_write(
+        paths["changelog"], lambda tmp: ref.changelog.to_csv(tmp, index=False, float_format="%.6g")
+    )
     ref.table.to_csv(paths["table"])  # last: the table appears only when the rest is written
     del written["plots"]
     return written
@@ -325,7 +425,8 @@ def most_improved_case(log: pd.DataFrame):
     if changed.empty:
         return None
     gain = (changed["failed_search_before"] - changed["failed_search_after"]) * 10_000 + (
-        changed["repeated_search_before"] - changed["repeated_search_after"])
+        changed["repeated_search_before"] - changed["repeated_search_after"]
+    )
     return changed.loc[gain.idxmax()]
 
 
@@ -340,15 +441,23 @@ def plot_failures_by_case(log: pd.DataFrame, path: Path, *, title: str) -> None:
             ax.bar(x + 0.2, log[f"{what}_{seed}_after"], 0.4, color="tab:blue", label="after")
             ax.set_ylabel(f"{what} runs" if col == 0 else "")
             ax.grid(alpha=0.3, axis="y")
-            ax.set_title(f"{what} runs per case, {seed} seed "
-                         f"({int(log[f'{what}_{seed}_before'].sum())} -> "
-                         f"{int(log[f'{what}_{seed}_after'].sum())})", fontsize=10)
+            ax.set_title(
+                f"{what} runs per case, {seed} seed "
+                f"({int(log[f'{what}_{seed}_before'].sum())} -> "
+                f"{int(log[f'{what}_{seed}_after'].sum())})",
+                fontsize=10,
+            )
             ax.legend(fontsize=8)
-        axes[1, col].set_xticks(x, [str(int(c)) + ("*" if ch else "")
-                                    for c, ch in zip(log["case"], log["changed"])], fontsize=7)
+        axes[1, col].set_xticks(
+            x,
+            [str(int(c)) + ("*" if ch else "") for c, ch in zip(log["case"], log["changed"])],
+            fontsize=7,
+        )
         axes[1, col].set_xlabel("rate case (* = firing time changed)")
-    fig.suptitle(f"Lookup-table refinement: {title}; repeated = needed more than one firing "
-                 "to reach the commanded rate")
+    fig.suptitle(
+        f"Lookup-table refinement: {title}; repeated = needed more than one firing "
+        "to reach the commanded rate"
+    )
     fig.savefig(path, dpi=DPI)
 
 
@@ -358,8 +467,9 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
     log = ref.changelog.set_index("case").loc[case]
     axis = max(AXES, key=lambda a: abs(int(log[f"{a}_change_cycles"])))
     a = AXES.index(axis)
-    spec = refinement_spec(runs_per_case=ref.runs_per_case, seed=ref.seed,
-                           duration_s=ref.duration_s)
+    spec = refinement_spec(
+        runs_per_case=ref.runs_per_case, seed=ref.seed, duration_s=ref.duration_s
+    )
     row = case - 1
     model = load_model()
     # At most PLOT_RUNS runs: enough to see the spread, and a fixed cost however many runs
@@ -370,10 +480,10 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
     thr = np.degrees(spec.rate_threshold_rad_s)
     fig, axes = new_figure(1, 2, figsize=(12, 4.5), sharey=True)
     cmd = np.degrees(spec.cases[row].rate_cmd_rad_s[a])
-    for ax, (label, table, old_new) in zip(axes, (("old table", ref.original, "old"),
-                                                   ("refined table", ref.table, "new"))):
-        history = fly_batch([spec.cases[row]] * shown, params,
-                            LookupController(table), model=model)
+    for ax, (label, table, old_new) in zip(
+        axes, (("old table", ref.original, "old"), ("refined table", ref.table, "new"))
+    ):
+        history = fly_batch([spec.cases[row]] * shown, params, LookupController(table), model=model)
         rate = np.degrees(history.omega_B[:, :, a])
         failed = outcomes(history, spec)["failed"].to_numpy(bool)
         for fail, color in ((False, AXIS_COLORS["roll"]), (True, "tab:red")):
@@ -381,16 +491,28 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
             if sel.any():
                 ax.plot(history.t_s, rate[sel].T, color=color, lw=0.6, alpha=0.5)
         ax.axhspan(cmd - thr, cmd + thr, color="0.8", alpha=0.6, label=f"command +-{thr:g} deg/s")
-        ax.set_title(f"{label}: {axis} {log[f'{axis}_{old_new}_s']:.2f} s; "
-                     f"{int(failed.sum())} of {shown} runs fail (red)", fontsize=10)
+        ax.set_title(
+            f"{label}: {axis} {log[f'{axis}_{old_new}_s']:.2f} s; "
+            f"{int(failed.sum())} of {shown} runs fail (red)",
+            fontsize=10,
+        )
         ax.set_xlabel("time [s]")
         ax.grid(alpha=0.3)
         ax.legend(loc="lower right", fontsize=8)
     axes[0].set_ylabel(f"{axis} rate [deg/s]")
-    fig.suptitle(f"Rate case {case}: {axis} rate of every dispersed run, before and after "
-                 "refinement (search seed)")
+    fig.suptitle(
+        f"Rate case {case}: {axis} rate of every dispersed run, before and after "
+        "refinement (search seed)"
+    )
     fig.savefig(path, dpi=DPI)
 
 
-__all__ = ["Refinement", "changed_cells", "held_out_check", "rate_cases_campaign",
-           "refinement_spec", "run_refinement", "write_refinement"]
+__all__ = [
+    "Refinement",
+    "changed_cells",
+    "held_out_check",
+    "rate_cases_campaign",
+    "refinement_spec",
+    "run_refinement",
+    "write_refinement",
+]

@@ -26,6 +26,7 @@ with the campaign (a 26 x 1,000 campaign is searched on 26 x 200 runs).
 Guarding against fitting the seed is the caller's job (:func:`refine` reports the search seed
 only; :func:`analysis.apps.refinement.outputs.held_out_check` flies a fresh seed).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -72,10 +73,18 @@ class RefineResult:
 SEARCH_RUNS_PER_CASE = 200
 
 
-def refine(spec: CampaignSpec, table: LookupTable, cases=None, *, max_iterations: int = 8,
-           threads: int | None = None, progress: bool | None = None,
-           lookup_params=None, baseline_runs: pd.DataFrame | None = None,
-           search_runs_per_case: int | None = SEARCH_RUNS_PER_CASE) -> RefineResult:
+def refine(
+    spec: CampaignSpec,
+    table: LookupTable,
+    cases=None,
+    *,
+    max_iterations: int = 8,
+    threads: int | None = None,
+    progress: bool | None = None,
+    lookup_params=None,
+    baseline_runs: pd.DataFrame | None = None,
+    search_runs_per_case: int | None = SEARCH_RUNS_PER_CASE,
+) -> RefineResult:
     """Refine ``table`` against the dispersed runs of ``spec``.
 
     Parameters
@@ -103,9 +112,13 @@ def refine(spec: CampaignSpec, table: LookupTable, cases=None, *, max_iterations
     if search_runs_per_case is not None and search_runs_per_case < 1:
         raise ValueError(f"search_runs_per_case must be >= 1, got {search_runs_per_case}")
     cases = np.arange(len(table.case)) if cases is None else np.asarray(sorted(set(cases)), int)
-    search = _Search(spec, table, cases, dict(threads=threads, progress=progress,
-                                              lookup_params=lookup_params),
-                     min(spec.runs_per_case, search_runs_per_case or spec.runs_per_case))
+    search = _Search(
+        spec,
+        table,
+        cases,
+        dict(threads=threads, progress=progress, lookup_params=lookup_params),
+        min(spec.runs_per_case, search_runs_per_case or spec.runs_per_case),
+    )
     search.start(baseline_runs)
     for it in range(max_iterations):
         trials, edits = search.candidates()
@@ -113,8 +126,13 @@ def refine(spec: CampaignSpec, table: LookupTable, cases=None, *, max_iterations
             break
         search.round(it + 1, trials, edits)
     refined = with_times(table, search.best[0], source=f"refined from {table.source or 'a table'}")
-    return RefineResult(table=refined, before=search.before, after=search.best[1],
-                        iterations=search.iterations, runs_flown=search.flown)
+    return RefineResult(
+        table=refined,
+        before=search.before,
+        after=search.best[1],
+        iterations=search.iterations,
+        runs_flown=search.flown,
+    )
 
 
 class _Search:
@@ -122,8 +140,14 @@ class _Search:
     searched case, the entries already flown, the best table so far (steps 2-4 of the module
     docstring, one method each)."""
 
-    def __init__(self, spec: CampaignSpec, table: LookupTable, cases: np.ndarray, kw: dict,
-                 runs_per_case: int):
+    def __init__(
+        self,
+        spec: CampaignSpec,
+        table: LookupTable,
+        cases: np.ndarray,
+        kw: dict,
+        runs_per_case: int,
+    ):
         self.spec, self.table, self.cases, self.kw = spec, table, cases, kw
         self.runs_per_case = runs_per_case
         self.jet_axis = jet_axes(table)
@@ -135,14 +159,17 @@ class _Search:
         # returns to one of them (the step back after a step that helped) or repeats a
         # rejected one is not flown again.  Other entries may have changed since, which could
         # shift the verdict slightly; the re-fly after each round measures what is kept.
-        self.visited = {(int(c), tuple(axis_cycles(self.current, self.jet_axis)[c]))
-                        for c in cases}
+        self.visited = {(int(c), tuple(axis_cycles(self.current, self.jet_axis)[c])) for c in cases}
 
     def _fly(self, times: np.ndarray, trial_cases: np.ndarray, desc: str) -> pd.DataFrame:
-        trials = Trials(np.repeat(times[None], trial_cases.size, axis=0), trial_cases,
-                        tuple(f"case {c + 1}: current" for c in trial_cases))
-        runs = evaluate(self.spec, self.table, trials, desc=desc,
-                        runs_per_case=self.runs_per_case, **self.kw)
+        trials = Trials(
+            np.repeat(times[None], trial_cases.size, axis=0),
+            trial_cases,
+            tuple(f"case {c + 1}: current" for c in trial_cases),
+        )
+        runs = evaluate(
+            self.spec, self.table, trials, desc=desc, runs_per_case=self.runs_per_case, **self.kw
+        )
         self.flown += len(runs)
         return runs
 
@@ -200,9 +227,14 @@ class _Search:
     def round(self, number: int, trials: Trials, edits: list) -> None:
         """Steps 3-4: fly the candidates, keep each case's best if strictly better, fly the
         changed cases again with every accepted change."""
-        cand_runs = evaluate(self.spec, self.table, trials,
-                             desc=f"refine: round {number} candidates",
-                             runs_per_case=self.runs_per_case, **self.kw)
+        cand_runs = evaluate(
+            self.spec,
+            self.table,
+            trials,
+            desc=f"refine: round {number} candidates",
+            runs_per_case=self.runs_per_case,
+            **self.kw,
+        )
         self.flown += len(cand_runs)
         cand = trial_scores(cand_runs, trials.n_trials)
         accepted = np.zeros((len(self.table.case), len(AXES)), int)
@@ -218,16 +250,23 @@ class _Search:
         if not changed:
             # Nothing helped: the table and its runs stand; the next round tries the entries
             # not flown yet (other axes), and the search ends when there are none.
-            self.iterations.append({"round": number, "candidates": trials.n_trials,
-                                    "changed": []})
+            self.iterations.append({"round": number, "candidates": trials.n_trials, "changed": []})
             return
         self.current = shift_axes(self.current, self.jet_axis, accepted)
-        self._refly(np.flatnonzero(np.isin(self.cases, np.flatnonzero(accepted.any(axis=1)))),
-                    f"refine: round {number} re-fly")
+        self._refly(
+            np.flatnonzero(np.isin(self.cases, np.flatnonzero(accepted.any(axis=1)))),
+            f"refine: round {number} re-fly",
+        )
         totals = self.scores[["failed", "repeated"]].sum()
-        self.iterations.append({"round": number, "candidates": trials.n_trials,
-                                "changed": changed, "failed": int(totals["failed"]),
-                                "repeated": int(totals["repeated"])})
+        self.iterations.append(
+            {
+                "round": number,
+                "candidates": trials.n_trials,
+                "changed": changed,
+                "failed": int(totals["failed"]),
+                "repeated": int(totals["repeated"]),
+            }
+        )
         if total(self.scores) < total(self.best[1]):
             self.best = (self.current, self.scores.assign(case_index=self.cases))
 
@@ -239,8 +278,11 @@ class _Search:
         fresh = self._fly(self.current, self.cases[positions], desc)
         fresh["trial"] = positions[fresh["trial"].to_numpy()]
         kept = self.runs[~self.runs["trial"].isin(positions)]
-        self.runs = (pd.concat([kept, fresh], ignore_index=True)
-                     .sort_values(["trial", "k"], kind="stable").reset_index(drop=True))
+        self.runs = (
+            pd.concat([kept, fresh], ignore_index=True)
+            .sort_values(["trial", "k"], kind="stable")
+            .reset_index(drop=True)
+        )
         self.scores = trial_scores(self.runs, self.cases.size)
 
 
@@ -249,7 +291,13 @@ def changed_cells(old: LookupTable, new: LookupTable) -> pd.DataFrame:
     jet_axis = jet_axes(old)
     a_old = axis_cycles(old.firing_time_s, jet_axis)
     a_new = axis_cycles(new.firing_time_s, jet_axis)
-    rows = [{"case": int(old.case[c]), "axis": AXES[a], "old_cycles": int(a_old[c, a]),
-             "new_cycles": int(a_new[c, a])}
-            for c, a in np.argwhere(a_old != a_new)]
+    rows = [
+        {
+            "case": int(old.case[c]),
+            "axis": AXES[a],
+            "old_cycles": int(a_old[c, a]),
+            "new_cycles": int(a_new[c, a]),
+        }
+        for c, a in np.argwhere(a_old != a_new)
+    ]
     return pd.DataFrame(rows, columns=["case", "axis", "old_cycles", "new_cycles"])

@@ -24,6 +24,7 @@ time of the batch [s]; plus the final and largest principal-angle error [deg].  
 effort" column equals its run times (SOURCES.md); ours is a torque integral, and the wall
 time is its own column.
 """
+
 from __future__ import annotations
 
 import time
@@ -52,10 +53,21 @@ from spacecraft.continuous.kinematics import angle_between, euler321_from_quat
 from spacecraft.continuous.plant import ContinuousHistory, ContinuousPlant, fly
 
 OUTPUT_COMMAND = "study dai"
-SUMMARY_COLUMNS = ("scenario", "method", "mean_tracking_error_deg", "tracking_error_std_deg",
-                   "control_effort_n_m_s", "wall_time_s", "final_error_deg", "max_error_deg",
-                   "mc_runs", "mc_mean_abs_tracking_error_deg", "mc_tracking_error_std_deg",
-                   "mc_max_error_p95_deg", "cmg_singular_steps")
+SUMMARY_COLUMNS = (
+    "scenario",
+    "method",
+    "mean_tracking_error_deg",
+    "tracking_error_std_deg",
+    "control_effort_n_m_s",
+    "wall_time_s",
+    "final_error_deg",
+    "max_error_deg",
+    "mc_runs",
+    "mc_mean_abs_tracking_error_deg",
+    "mc_tracking_error_std_deg",
+    "mc_max_error_p95_deg",
+    "cmg_singular_steps",
+)
 
 
 @dataclass(frozen=True)
@@ -72,10 +84,10 @@ class Scenario:
 
 SCENARIOS = {
     "wilt_yaw30": Scenario("wilt2022", 30.0, ("ffd+fb", *DAI_LAWS)),
-    "wilt_yaw30_disturbed": Scenario("wilt2022", 30.0, ("ffd+fb", *DAI_LAWS),
-                                     disturbances=True),
-    "wilt_yaw100_damage": Scenario("wilt2022", 100.0, ("ffd+fb", *DAI_LAWS),
-                                   disturbances=True, damage=True),
+    "wilt_yaw30_disturbed": Scenario("wilt2022", 30.0, ("ffd+fb", *DAI_LAWS), disturbances=True),
+    "wilt_yaw100_damage": Scenario(
+        "wilt2022", 100.0, ("ffd+fb", *DAI_LAWS), disturbances=True, damage=True
+    ),
     "smeresky_yaw30": Scenario("smeresky2020", 30.0, ("ffd", "fb", "ffd+fb")),
     "smeresky_yaw30_coarse": Scenario("smeresky2020", 30.0, ("ffd+fb",), timestep_s=0.01),
 }
@@ -95,14 +107,18 @@ class MethodResult:
 
 def _setup(scn: Scenario, period_scale: float) -> PaperSetup:
     setup = load_setup(scn.paper)
-    return replace(setup, quiescent_s=setup.quiescent_s * period_scale,
-                   maneuver_s=setup.maneuver_s * period_scale,
-                   observation_s=setup.observation_s * period_scale,
-                   timestep_s=scn.timestep_s or setup.timestep_s)
+    return replace(
+        setup,
+        quiescent_s=setup.quiescent_s * period_scale,
+        maneuver_s=setup.maneuver_s * period_scale,
+        observation_s=setup.observation_s * period_scale,
+        timestep_s=scn.timestep_s or setup.timestep_s,
+    )
 
 
-def _draws(inertia: np.ndarray, n_steps: int, runs: int, seed: int
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _draws(
+    inertia: np.ndarray, n_steps: int, runs: int, seed: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """True inertia (1 + runs, 3, 3), angle noise (1 + runs, n_steps, 3), scales (1 + runs, 3).
 
     Row 0 is the nominal vehicle without noise; row ``1 + i`` is Monte Carlo run ``i``.
@@ -114,9 +130,11 @@ def _draws(inertia: np.ndarray, n_steps: int, runs: int, seed: int
     for i in range(runs):  # draws once per run at set-up, never in the flight loop
         inertia_ss, noise_ss = np.random.SeedSequence(seed, spawn_key=(i,)).spawn(2)
         scales[1 + i] = np.random.default_rng(inertia_ss).uniform(
-            scale_d.nominal - scale_d.bound, scale_d.nominal + scale_d.bound, 3)
+            scale_d.nominal - scale_d.bound, scale_d.nominal + scale_d.bound, 3
+        )
         noise[1 + i] = np.random.default_rng(noise_ss).normal(
-            noise_d.nominal, noise_d.bound, (n_steps, 3))
+            noise_d.nominal, noise_d.bound, (n_steps, 3)
+        )
     root = np.sqrt(scales)
     true = inertia[None] * root[:, :, None] * root[:, None, :]  # S^1/2 J S^1/2
     return true, noise, scales
@@ -127,36 +145,54 @@ def _metrics(hist: ContinuousHistory, ref: dict) -> pd.DataFrame:
     err = np.degrees(err_rad)
     ang = np.degrees(angle_between(hist.q_BN, ref["q"][None]))
     dt = hist.t_s[1] - hist.t_s[0]
-    return pd.DataFrame({
-        "mean_tracking_error_deg": err.mean(axis=1),
-        "tracking_error_std_deg": err.std(axis=1),
-        "control_effort_n_m_s": np.linalg.norm(hist.u_act_B, axis=-1).sum(axis=1) * dt,
-        "final_error_deg": ang[:, -1], "max_error_deg": ang.max(axis=1),
-        "cmg_singular_steps": (hist.cmg_singular.sum(axis=1) if hist.cmg_singular is not None
-                               else 0),
-    })
+    return pd.DataFrame(
+        {
+            "mean_tracking_error_deg": err.mean(axis=1),
+            "tracking_error_std_deg": err.std(axis=1),
+            "control_effort_n_m_s": np.linalg.norm(hist.u_act_B, axis=-1).sum(axis=1) * dt,
+            "final_error_deg": ang[:, -1],
+            "max_error_deg": ang.max(axis=1),
+            "cmg_singular_steps": (
+                hist.cmg_singular.sum(axis=1) if hist.cmg_singular is not None else 0
+            ),
+        }
+    )
 
 
-def run_method(name: str, method: str, *, runs: int = 0, seed: int = 0,
-               period_scale: float = 1.0) -> MethodResult:
+def run_method(
+    name: str, method: str, *, runs: int = 0, seed: int = 0, period_scale: float = 1.0
+) -> MethodResult:
     """Fly one method of scenario ``name``: the nominal vehicle plus ``runs`` Monte Carlo runs."""
     scn = SCENARIOS[name]
     setup = _setup(scn, period_scale)
-    traj = SinusoidalTrajectory((0.0, 0.0, 0.0), (0.0, 0.0, np.radians(scn.yaw_deg)),
-                                setup.quiescent_s, setup.maneuver_s)
+    traj = SinusoidalTrajectory(
+        (0.0, 0.0, 0.0), (0.0, 0.0, np.radians(scn.yaw_deg)), setup.quiescent_s, setup.maneuver_s
+    )
     n_steps = int(round(setup.duration_s / setup.timestep_s))
     true_j, noise, scales = _draws(setup.inertia_B, n_steps, runs, seed)
-    cfg = ControllerConfig(method, setup.inertia_B, setup.pdi_gains, setup.observer_gains,
-                           setup.timestep_s, setup.dai_memory_s)
+    cfg = ControllerConfig(
+        method,
+        setup.inertia_B,
+        setup.pdi_gains,
+        setup.observer_gains,
+        setup.timestep_s,
+        setup.dai_memory_s,
+    )
     plant = ContinuousPlant(true_j, timestep_s=setup.timestep_s)
     dist = Disturbances(load_environment()) if scn.disturbances else None
     damage = load_damage() if scn.damage else None
     if damage is not None and period_scale != 1.0:
         damage = replace(damage, time_s=damage.time_s * period_scale)
     wall0 = time.perf_counter()
-    hist = fly(plant, ContinuousController(cfg, traj), setup.duration_s,
-               cmg=CmgArray(load_cmg()), disturbances=dist, damage=damage,
-               angle_noise=noise if runs else None)
+    hist = fly(
+        plant,
+        ContinuousController(cfg, traj),
+        setup.duration_s,
+        cmg=CmgArray(load_cmg()),
+        disturbances=dist,
+        damage=damage,
+        angle_noise=noise if runs else None,
+    )
     wall = time.perf_counter() - wall0
     ref = traj.sample(hist.t_s)
     table = _metrics(hist, ref)
@@ -172,14 +208,18 @@ def _summary_row(res: MethodResult) -> dict:
     nominal = res.runs.iloc[0]
     mc = res.runs.iloc[1:]
     return {
-        "scenario": res.scenario, "method": res.method,
+        "scenario": res.scenario,
+        "method": res.method,
         "mean_tracking_error_deg": nominal["mean_tracking_error_deg"],
         "tracking_error_std_deg": nominal["tracking_error_std_deg"],
-        "control_effort_n_m_s": nominal["control_effort_n_m_s"], "wall_time_s": res.wall_s,
-        "final_error_deg": nominal["final_error_deg"], "max_error_deg": nominal["max_error_deg"],
+        "control_effort_n_m_s": nominal["control_effort_n_m_s"],
+        "wall_time_s": res.wall_s,
+        "final_error_deg": nominal["final_error_deg"],
+        "max_error_deg": nominal["max_error_deg"],
         "mc_runs": len(mc),
-        "mc_mean_abs_tracking_error_deg": (mc["mean_tracking_error_deg"].abs().mean()
-                                           if len(mc) else np.nan),
+        "mc_mean_abs_tracking_error_deg": (
+            mc["mean_tracking_error_deg"].abs().mean() if len(mc) else np.nan
+        ),
         "mc_tracking_error_std_deg": mc["tracking_error_std_deg"].mean() if len(mc) else np.nan,
         "mc_max_error_p95_deg": mc["max_error_deg"].quantile(0.95) if len(mc) else np.nan,
         "cmg_singular_steps": int(nominal["cmg_singular_steps"]),
@@ -193,9 +233,20 @@ FLOOR_SCENARIO = "wilt_yaw30"
 #: A baseline within this factor of the floor is "at the noise floor".
 FLOOR_FACTOR = 10.0
 IMPROVEMENT_COLUMNS = (
-    "scenario", "method", "learning_law", "mean_tracking_error_pct", "tracking_error_std_pct",
-    "control_effort_pct", "paper_table", "paper_mean_pct", "paper_std_pct",
-    "paper_effort_pct", "noise_floor_deg", "baseline_at_noise_floor", "note")
+    "scenario",
+    "method",
+    "learning_law",
+    "mean_tracking_error_pct",
+    "tracking_error_std_pct",
+    "control_effort_pct",
+    "paper_table",
+    "paper_mean_pct",
+    "paper_std_pct",
+    "paper_effort_pct",
+    "noise_floor_deg",
+    "baseline_at_noise_floor",
+    "note",
+)
 
 
 def _pct(base: float, other: float) -> float:
@@ -220,8 +271,12 @@ def improvement_table(summary: pd.DataFrame, paper=None) -> pd.DataFrame:
     floor = np.nan
     nominal = summary[(summary["scenario"] == FLOOR_SCENARIO) & (summary["method"] == "ffd+fb")]
     if len(nominal):
-        floor = float(max(abs(nominal["mean_tracking_error_deg"].iloc[0]),
-                          nominal["tracking_error_std_deg"].iloc[0]))
+        floor = float(
+            max(
+                abs(nominal["mean_tracking_error_deg"].iloc[0]),
+                nominal["tracking_error_std_deg"].iloc[0],
+            )
+        )
     rows = []
     for scn, group in summary.groupby("scenario", sort=False):
         by = group.set_index("method")
@@ -231,22 +286,33 @@ def improvement_table(summary: pd.DataFrame, paper=None) -> pd.DataFrame:
         for method in (m for m in DAI_LAWS if m in by.index):
             dai = by.loc[method]
             row = {"scenario": scn, "method": method, "learning_law": DAI_LAWS[method]}
-            for col, key in (("mean_tracking_error_pct", "mean_tracking_error_deg"),
-                             ("tracking_error_std_pct", "tracking_error_std_deg"),
-                             ("control_effort_pct", "control_effort_n_m_s")):
+            for col, key in (
+                ("mean_tracking_error_pct", "mean_tracking_error_deg"),
+                ("tracking_error_std_pct", "tracking_error_std_deg"),
+                ("control_effort_pct", "control_effort_n_m_s"),
+            ):
                 row[col] = _pct(base[key], dai[key])
             p_base, p_dai = ref.get((scn, "ffd+fb")), ref.get((scn, "ffd+fb+dai"))
             if p_base is not None and p_dai is not None:
-                row.update(paper_table=int(p_base.table),
-                           paper_mean_pct=_pct(p_base.mean, p_dai.mean),
-                           paper_std_pct=_pct(p_base.std, p_dai.std),
-                           paper_effort_pct=_pct(p_base.effort, p_dai.effort))
+                row.update(
+                    paper_table=int(p_base.table),
+                    paper_mean_pct=_pct(p_base.mean, p_dai.mean),
+                    paper_std_pct=_pct(p_base.std, p_dai.std),
+                    paper_effort_pct=_pct(p_base.effort, p_dai.effort),
+                )
             low = min(abs(base["mean_tracking_error_deg"]), base["tracking_error_std_deg"])
             at_floor = bool(np.isfinite(floor) and low <= FLOOR_FACTOR * floor)
-            row.update(noise_floor_deg=floor, baseline_at_noise_floor=at_floor,
-                       note=(f"FFD+FB baseline {low:.2g} deg is within {FLOOR_FACTOR:g}x the "
-                             f"integration floor {floor:.2g} deg: the percentages compare "
-                             "rounding, not methods" if at_floor else ""))
+            row.update(
+                noise_floor_deg=floor,
+                baseline_at_noise_floor=at_floor,
+                note=(
+                    f"FFD+FB baseline {low:.2g} deg is within {FLOOR_FACTOR:g}x the "
+                    f"integration floor {floor:.2g} deg: the percentages compare "
+                    "rounding, not methods"
+                    if at_floor
+                    else ""
+                ),
+            )
             rows.append(row)
     return pd.DataFrame(rows, columns=list(IMPROVEMENT_COLUMNS))
 
@@ -274,15 +340,25 @@ def _check_memory(names: tuple[str, ...], runs: int, period_scale: float) -> Non
     need = steps * (runs + 1) * BYTES_PER_RUN_STEP
     if need > budget:
         most = max(0, budget // (steps * BYTES_PER_RUN_STEP) - 1)
-        raise InputError(f"must be at most {most} on this machine for these scenarios (their "
-                         f"histories would need {need / 2**30:.1f} GiB, over half the "
-                         f"memory, {budget / 2**30:.1f} GiB), got {runs}",
-                         parameter="runs", value=runs)
+        raise InputError(
+            f"must be at most {most} on this machine for these scenarios (their "
+            f"histories would need {need / 2**30:.1f} GiB, over half the "
+            f"memory, {budget / 2**30:.1f} GiB), got {runs}",
+            parameter="runs",
+            value=runs,
+        )
 
 
-def run_dai_study(out_dir: str | Path, *, scenarios: tuple[str, ...] | None = None,
-                  runs: int = 0, seed: int = 0, period_scale: float = 1.0,
-                  overwrite: bool = False, progress=None) -> pd.DataFrame:
+def run_dai_study(
+    out_dir: str | Path,
+    *,
+    scenarios: tuple[str, ...] | None = None,
+    runs: int = 0,
+    seed: int = 0,
+    period_scale: float = 1.0,
+    overwrite: bool = False,
+    progress=None,
+) -> pd.DataFrame:
     """Fly the DAI scenarios and write ``out_dir``.
 
     Writes ``summary.csv`` (one row per scenario and method: :data:`SUMMARY_COLUMNS`),
@@ -316,17 +392,25 @@ def run_dai_study(out_dir: str | Path, *, scenarios: tuple[str, ...] | None = No
     unknown = [n for n in names if n not in SCENARIOS]
     if unknown or not names:
         got = ", ".join(unknown) or "none"
-        raise InputError(f"must be among {', '.join(SCENARIOS)}, got {got}",
-                         parameter="scenarios", value=unknown)
+        raise InputError(
+            f"must be among {', '.join(SCENARIOS)}, got {got}", parameter="scenarios", value=unknown
+        )
     if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 0:
         raise InputError(f"must be an integer >= 0, got {runs!r}", parameter="runs", value=runs)
-    if (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
-            or not 0 <= seed <= MAX_SEED):
-        raise InputError(f"must be an integer in 0..{MAX_SEED} (2^63 - 1), got {seed!r}",
-                         parameter="seed", value=seed)
+    if (
+        isinstance(seed, bool)
+        or not isinstance(seed, (int, np.integer))
+        or not 0 <= seed <= MAX_SEED
+    ):
+        raise InputError(
+            f"must be an integer in 0..{MAX_SEED} (2^63 - 1), got {seed!r}",
+            parameter="seed",
+            value=seed,
+        )
     if not (0 < period_scale <= 1):
-        raise InputError(f"must be in (0, 1], got {period_scale}", parameter="period_scale",
-                         value=period_scale)
+        raise InputError(
+            f"must be in (0, 1], got {period_scale}", parameter="period_scale", value=period_scale
+        )
     _check_memory(names, runs, period_scale)
     check_out_dir(out_dir, OUTPUT_COMMAND, overwrite=overwrite)  # before minutes of flying
     results: dict[str, list[MethodResult]] = {}
@@ -335,15 +419,17 @@ def run_dai_study(out_dir: str | Path, *, scenarios: tuple[str, ...] | None = No
             if progress is not None:
                 progress(f"{name}/{method}")
             results.setdefault(name, []).append(
-                run_method(name, method, runs=runs, seed=seed, period_scale=period_scale))
-    summary = pd.DataFrame([_summary_row(r) for rs in results.values() for r in rs],
-                           columns=SUMMARY_COLUMNS)
+                run_method(name, method, runs=runs, seed=seed, period_scale=period_scale)
+            )
+    summary = pd.DataFrame(
+        [_summary_row(r) for rs in results.values() for r in rs], columns=SUMMARY_COLUMNS
+    )
     with atomic_dir(out_dir, OUTPUT_COMMAND, overwrite=overwrite) as tmp:
         summary.to_csv(tmp / "summary.csv", index=False, float_format="%.6g")
-        improvement_table(summary).to_csv(tmp / "improvement.csv", index=False,
-                                          float_format="%.4g")
+        improvement_table(summary).to_csv(tmp / "improvement.csv", index=False, float_format="%.4g")
         pd.concat([r.runs for rs in results.values() for r in rs]).to_csv(
-            tmp / "montecarlo.csv", index=False, float_format="%.6g")
+            tmp / "montecarlo.csv", index=False, float_format="%.6g"
+        )
         for name, rs in results.items():
             plot_scenario(name, rs, tmp / f"{name}.png")
             if any(r.method in DAI_LAWS for r in rs):

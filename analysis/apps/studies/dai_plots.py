@@ -3,6 +3,7 @@
 Each figure shows the nominal run (row 0 of the batch) of every method of a scenario.  Built
 with :func:`analysis.engine.plots.new_figure` (matplotlib's object API, never pyplot).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -10,9 +11,13 @@ import numpy as np
 from analysis.engine.plots import new_figure
 from spacecraft.continuous.kinematics import angle_between, euler321_from_quat
 
-METHOD_LABELS = {"ffd": "FFD", "fb": "FB (PDI)", "ffd+fb": "FFD + FB",
-                 "ffd+fb+dai": "FFD + FB + DAI (learns the feedback correction)",
-                 "ffd+fb+dai-total": "FFD + FB + DAI (learns the total torque)"}
+METHOD_LABELS = {
+    "ffd": "FFD",
+    "fb": "FB (PDI)",
+    "ffd+fb": "FFD + FB",
+    "ffd+fb+dai": "FFD + FB + DAI (learns the feedback correction)",
+    "ffd+fb+dai-total": "FFD + FB + DAI (learns the total torque)",
+}
 # Floor of the log error axis [deg]: below it the errors are round-off of the attitude.
 ERROR_FLOOR_DEG = 1e-12
 
@@ -26,15 +31,14 @@ def plot_scenario(name: str, results: list, path) -> None:
     """Yaw angle, |yaw tracking error| (log), principal-angle error and yaw torque vs time."""
     fig, axes = new_figure(4, 1, figsize=(8.0, 9.0), sharex=True)
     t = results[0].history.t_s
-    axes[0].plot(t, np.degrees(results[0].reference["euler"][:, 2]), "k--", lw=1.0,
-                 label="desired")
+    axes[0].plot(t, np.degrees(results[0].reference["euler"][:, 2]), "k--", lw=1.0, label="desired")
     for res in results:
         label = METHOD_LABELS[res.method]
         h = res.history
-        axes[0].plot(h.t_s, np.degrees(euler321_from_quat(h.q_BN[0])[:, 2]), lw=1.0,
-                     label=label)
-        axes[1].semilogy(h.t_s, np.maximum(np.abs(_yaw_error_deg(res)), ERROR_FLOOR_DEG),
-                         lw=0.8, label=label)
+        axes[0].plot(h.t_s, np.degrees(euler321_from_quat(h.q_BN[0])[:, 2]), lw=1.0, label=label)
+        axes[1].semilogy(
+            h.t_s, np.maximum(np.abs(_yaw_error_deg(res)), ERROR_FLOOR_DEG), lw=0.8, label=label
+        )
         ang = np.degrees(angle_between(h.q_BN[0], res.reference["q"]))
         axes[2].semilogy(h.t_s, np.maximum(ang, ERROR_FLOOR_DEG), lw=0.8, label=label)
         axes[3].plot(h.t_s, h.u_act_B[0, :, 2], lw=0.8, label=label)
@@ -74,8 +78,12 @@ def plot_timestep(coarse, fine, path) -> None:
     """002 Fig. 8: yaw tracking error of FFD+FB at 0.01 s and at 0.001 s."""
     fig, ax = new_figure(1, 1, figsize=(8.0, 4.0))
     for res, label in ((coarse, "0.01 s step"), (fine, "0.001 s step")):
-        ax.semilogy(res.history.t_s, np.maximum(np.abs(_yaw_error_deg(res)), ERROR_FLOOR_DEG),
-                    lw=0.8, label=label)
+        ax.semilogy(
+            res.history.t_s,
+            np.maximum(np.abs(_yaw_error_deg(res)), ERROR_FLOOR_DEG),
+            lw=0.8,
+            label=label,
+        )
     ax.set_xlabel("time [s]")
     ax.set_ylabel("|psi - psi_d| [deg]")
     ax.set_title("FFD + FB, 30 deg yaw (002): time-step comparison")

@@ -30,6 +30,7 @@ A. Pittella and T. Sands, "Proposals for Surmounting Sensor Noises", Sensors 23 
 3169: Section 3 (Monte Carlo set-up), Table 1 (summary), Table 2 (percent differences),
 Figure 4 (scatter), Appendix B (MATLAB wrapper: ``std``, sigma ellipses).
 """
+
 from __future__ import annotations
 
 import importlib.metadata
@@ -52,10 +53,25 @@ from spacecraft.guards import human_bytes, memory_budget_bytes
 T_FINAL = 1.0
 DT = 0.01
 
-SUMMARY_COLUMNS = ("architecture", "theta_f", "sigma_theta", "omega_f", "sigma_omega", "J",
-                   "sigma_J", "wall_s")
-PERCENT_COLUMNS = ("architecture", "theta_f", "sigma_theta", "omega_f", "sigma_omega", "J",
-                   "sigma_J")
+SUMMARY_COLUMNS = (
+    "architecture",
+    "theta_f",
+    "sigma_theta",
+    "omega_f",
+    "sigma_omega",
+    "J",
+    "sigma_J",
+    "wall_s",
+)
+PERCENT_COLUMNS = (
+    "architecture",
+    "theta_f",
+    "sigma_theta",
+    "omega_f",
+    "sigma_omega",
+    "J",
+    "sigma_J",
+)
 OUTPUT_FILES = ("summary.csv", "percent.csv", "runs.parquet", "scatter.png")
 #: The writer recorded in the output directory's marker (:mod:`analysis.engine.output`).
 OUTPUT_COMMAND = "study noisy-sensor"
@@ -65,7 +81,6 @@ OUTPUT_COMMAND = "study noisy-sensor"
 PERCENT_REFERENCE_FLOOR = 1e-9
 
 INERTIA_MODELS = ("per-run", "per-step")
-
 
 
 @dataclass(frozen=True)
@@ -109,25 +124,40 @@ class StudyConfig:
 def _check_config(cfg: StudyConfig) -> None:
     """Raise :class:`InputError` naming the parameter and value of the first bad setting."""
     if not _is_int(cfg.runs) or cfg.runs < 2:
-        raise InputError(f"must be an integer >= 2 (a spread needs two runs), got {cfg.runs!r}",
-                         parameter="runs", value=cfg.runs)
+        raise InputError(
+            f"must be an integer >= 2 (a spread needs two runs), got {cfg.runs!r}",
+            parameter="runs",
+            value=cfg.runs,
+        )
     if not _is_int(cfg.seed) or cfg.seed < 0:
-        raise InputError(f"must be a non-negative integer, got {cfg.seed!r}",
-                         parameter="seed", value=cfg.seed)
+        raise InputError(
+            f"must be a non-negative integer, got {cfg.seed!r}", parameter="seed", value=cfg.seed
+        )
     if not (np.isfinite(cfg.noise_var) and cfg.noise_var >= 0.0):
-        raise InputError(f"must be a finite variance >= 0, got {cfg.noise_var!r}",
-                         parameter="noise_var", value=cfg.noise_var)
+        raise InputError(
+            f"must be a finite variance >= 0, got {cfg.noise_var!r}",
+            parameter="noise_var",
+            value=cfg.noise_var,
+        )
     if not (np.isfinite(cfg.inertia_spread) and 0.0 <= cfg.inertia_spread < 1.0):
-        raise InputError(f"must be in [0, 1) (a fraction of the inertia), "
-                         f"got {cfg.inertia_spread!r}",
-                         parameter="inertia_spread", value=cfg.inertia_spread)
+        raise InputError(
+            f"must be in [0, 1) (a fraction of the inertia), got {cfg.inertia_spread!r}",
+            parameter="inertia_spread",
+            value=cfg.inertia_spread,
+        )
     if cfg.inertia_model not in INERTIA_MODELS:
-        raise InputError(f"must be one of {INERTIA_MODELS}, got {cfg.inertia_model!r}",
-                         parameter="inertia_model", value=cfg.inertia_model)
+        raise InputError(
+            f"must be one of {INERTIA_MODELS}, got {cfg.inertia_model!r}",
+            parameter="inertia_model",
+            value=cfg.inertia_model,
+        )
     steps = T_FINAL / cfg.dt if cfg.dt > 0 else float("nan")
     if not (np.isfinite(steps) and abs(steps - round(steps)) < 1e-9 and round(steps) >= 1):
-        raise InputError(f"must divide the manoeuvre time {T_FINAL} into whole steps, "
-                         f"got {cfg.dt!r}", parameter="dt", value=cfg.dt)
+        raise InputError(
+            f"must divide the manoeuvre time {T_FINAL} into whole steps, got {cfg.dt!r}",
+            parameter="dt",
+            value=cfg.dt,
+        )
     _check_memory(cfg)
 
 
@@ -151,7 +181,10 @@ def _check_memory(cfg: StudyConfig) -> None:
         raise InputError(
             f"= {cfg.runs} needs about {human_bytes(need)} of memory, more than the "
             f"{human_bytes(budget)} allowed (half of this machine's memory): use fewer runs "
-            f"(at most about {budget // (need // cfg.runs)})", parameter="runs", value=cfg.runs)
+            f"(at most about {budget // (need // cfg.runs)})",
+            parameter="runs",
+            value=cfg.runs,
+        )
 
 
 def _is_int(value) -> bool:
@@ -187,8 +220,9 @@ class Draws:
         return self.noise.shape[1] - 1
 
 
-def draw_run(inertia_rng: np.random.Generator, noise_rng: np.random.Generator,
-             cfg: StudyConfig) -> tuple[np.ndarray, np.ndarray]:
+def draw_run(
+    inertia_rng: np.random.Generator, noise_rng: np.random.Generator, cfg: StudyConfig
+) -> tuple[np.ndarray, np.ndarray]:
     """Draw one run's inertia factors and sensor noise, each sequence in one call.
 
     Returns
@@ -228,8 +262,9 @@ def draw_runs(cfg: StudyConfig) -> Draws:
 # --------------------------------------------------------------------------------------
 # Integration.
 # --------------------------------------------------------------------------------------
-def _derivative(arch: Architecture, t: float, y: np.ndarray, inv_inertia: np.ndarray,
-                noise: np.ndarray) -> np.ndarray:
+def _derivative(
+    arch: Architecture, t: float, y: np.ndarray, inv_inertia: np.ndarray, noise: np.ndarray
+) -> np.ndarray:
     """Time derivative of the augmented state ``(theta, omega, J, controller states...)``.
 
     Parameters
@@ -249,8 +284,9 @@ def _derivative(arch: Architecture, t: float, y: np.ndarray, inv_inertia: np.nda
     return dy
 
 
-def simulate(arch: Architecture, draws: Draws, *, dt: float = DT,
-             record: bool = False) -> dict[str, np.ndarray]:
+def simulate(
+    arch: Architecture, draws: Draws, *, dt: float = DT, record: bool = False
+) -> dict[str, np.ndarray]:
     """Fly one architecture over every run with classical RK4.
 
     Parameters
@@ -272,8 +308,9 @@ def simulate(arch: Architecture, draws: Draws, *, dt: float = DT,
     """
     n_steps = draws.n_steps
     if n_steps != int(round(T_FINAL / dt)) or draws.inertia.shape[1] not in (1, n_steps):
-        raise ValueError(f"draws for {n_steps} steps (inertia {draws.inertia.shape}) do not "
-                         f"match dt = {dt}")
+        raise ValueError(
+            f"draws for {n_steps} steps (inertia {draws.inertia.shape}) do not match dt = {dt}"
+        )
     inv_inertia = 1.0 / draws.inertia
     y = np.zeros((draws.n_runs, 3 + arch.n_states))
     y[:, 3:] = arch.initial_state(draws.n_runs)
@@ -328,8 +365,9 @@ class StudyResult:
     draw_s: float
 
 
-def run_study(cfg: StudyConfig, architectures=ARCHITECTURES, *,
-              measured: bool = False) -> StudyResult:
+def run_study(
+    cfg: StudyConfig, architectures=ARCHITECTURES, *, measured: bool = False
+) -> StudyResult:
     """Run the Monte Carlo for every architecture and build the tables.
 
     Parameters
@@ -368,8 +406,10 @@ def _runs_frame(label: str, cfg: StudyConfig, draws: Draws, result: dict) -> pd.
             "run": np.arange(draws.n_runs),
             "seed": cfg.seed,
             "inertia": draws.inertia.mean(axis=1),  # per-step model: the run's mean inertia
-            **{key: result[key] for key in ("theta_f", "omega_f", "J", "theta_f_measured",
-                                            "omega_f_measured")},
+            **{
+                key: result[key]
+                for key in ("theta_f", "omega_f", "J", "theta_f_measured", "omega_f_measured")
+            },
             "noise_var": cfg.noise_var,
             "inertia_spread": cfg.inertia_spread,
             "inertia_model": cfg.inertia_model,
@@ -386,8 +426,9 @@ def _code_version() -> str:
         return "unknown"
 
 
-def summarize(runs: pd.DataFrame, walls: dict[str, float] | None = None, *,
-              measured: bool = False) -> pd.DataFrame:
+def summarize(
+    runs: pd.DataFrame, walls: dict[str, float] | None = None, *, measured: bool = False
+) -> pd.DataFrame:
     """Mean and standard deviation (``ddof=1``, MATLAB's ``std``) per architecture.
 
     Parameters
@@ -408,14 +449,18 @@ def summarize(runs: pd.DataFrame, walls: dict[str, float] | None = None, *,
     walls = walls or {}
     rows = []
     for label, group in runs.groupby("architecture", sort=False):
-        theta, omega, cost = (group[c].to_numpy() for c in
-                              (f"theta_f{suffix}", f"omega_f{suffix}", "J"))
+        theta, omega, cost = (
+            group[c].to_numpy() for c in (f"theta_f{suffix}", f"omega_f{suffix}", "J")
+        )
         rows.append(
             {
                 "architecture": label,
-                "theta_f": theta.mean(), "sigma_theta": theta.std(ddof=1),
-                "omega_f": omega.mean(), "sigma_omega": omega.std(ddof=1),
-                "J": cost.mean(), "sigma_J": cost.std(ddof=1),
+                "theta_f": theta.mean(),
+                "sigma_theta": theta.std(ddof=1),
+                "omega_f": omega.mean(),
+                "sigma_omega": omega.std(ddof=1),
+                "J": cost.mean(),
+                "sigma_J": cost.std(ddof=1),
                 "wall_s": walls.get(label, float("nan")),
             }
         )

@@ -3,6 +3,7 @@
 Plots :attr:`analysis.apps.studies.noisy_sensor.StudyResult.runs`; imports nothing from the
 study module (it re-exports these names).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -64,14 +65,16 @@ def plot_scatter(runs: pd.DataFrame, path: Path, *, measured: bool = False) -> N
             ax.plot(ex, ey, "k-", lw=0.9)
         ax.plot(x.mean(), y.mean(), "k+", ms=12, mew=2)
         cost = group["J"].to_numpy()
-        ax.set_title(f"({chr(ord('a') + panel)}) {label}\nJ = {cost.mean():.4f} ± "
-                     f"{cost.std(ddof=1):.4f}", fontsize=10)
+        ax.set_title(
+            f"({chr(ord('a') + panel)}) {label}\nJ = {cost.mean():.4f} ± {cost.std(ddof=1):.4f}",
+            fontsize=10,
+        )
         ax.set_xlabel(r"$\theta_f$")
         ax.set_ylabel(r"$\omega_f$")
         ax.grid(True, alpha=0.3)
         ax.ticklabel_format(useOffset=False)
         _floor_span(ax, x.mean(), y.mean())
-    for ax in list(axes.flat)[len(groups):]:
+    for ax in list(axes.flat)[len(groups) :]:
         ax.set_visible(False)
     n = runs["run"].nunique()
     fig.suptitle(f"Final state, N = {n} runs per architecture; rings 1, 2, 3 sigma, + mean")

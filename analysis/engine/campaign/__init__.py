@@ -17,6 +17,7 @@ Imports ``models``, ``spacecraft``, ``lookup`` and the rest of the engine.
 
 Must not import: analysis.engine.scenarios.
 """
+
 from analysis.engine.campaign.spec import EXAMPLE_SPEC, CampaignSpec, load_spec, parse_dict
 
 __all__ = ["EXAMPLE_SPEC", "CampaignSpec", "load_spec", "parse_dict"]

@@ -5,6 +5,7 @@ spec and the run ids only (per-run random streams, per-run independent simulatio
 chunk's table is the same whichever process, worker or chunk size produced it.  This module
 is what a Dask worker imports; it writes nothing.
 """
+
 from __future__ import annotations
 
 import threading
@@ -162,8 +163,14 @@ class _Cancellable:
         return self._inner.step(nav, state)
 
 
-def fly_runs(spec: CampaignSpec, run_ids: np.ndarray, *, nthread: int = 1, model=None,
-             cancel: threading.Event | None = None) -> tuple[History, DispersedRuns]:
+def fly_runs(
+    spec: CampaignSpec,
+    run_ids: np.ndarray,
+    *,
+    nthread: int = 1,
+    model=None,
+    cancel: threading.Event | None = None,
+) -> tuple[History, DispersedRuns]:
     """Draw and fly campaign runs ``run_ids`` (cases of equal duration) as one batch.
 
     The vehicles come from the runs' dispersion streams; sensors, timing and faults (those
@@ -179,13 +186,15 @@ def fly_runs(spec: CampaignSpec, run_ids: np.ndarray, *, nthread: int = 1, model
     dispersed = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids)
     scenarios = [spec.cases[c] for c in run_ids // spec.runs_per_case]
     effects = draw_effects(spec.effects, spec.seed, run_ids)[0]
-    options = {"adapt_options": adapt_options(spec.effects)} if spec.controller == "adaptive" \
-        else {}
+    options = (
+        {"adapt_options": adapt_options(spec.effects)} if spec.controller == "adaptive" else {}
+    )
     controller = make_controller(spec.controller, table=spec.table, model=model, **options)
     if cancel is not None:
         controller = _Cancellable(controller, cancel)
-    history = fly_batch(scenarios, dispersed.params, controller, model=model, nthread=nthread,
-                        **effects)
+    history = fly_batch(
+        scenarios, dispersed.params, controller, model=model, nthread=nthread, **effects
+    )
     return history, dispersed
 
 
@@ -197,16 +206,21 @@ def envelope(history: History, cases: np.ndarray, alive: np.ndarray) -> pd.DataF
     ``rate_<axis>_deg_s_{min,max,sum}``, ``on_time_<axis>_s_sum`` (on-time of the axis's jets
     summed over jets and runs) and ``firing_<axis>_runs`` (runs with any of them on).
     """
-    frames = [_case_envelope(history, int(c), alive & (cases == c))
-              for c in np.unique(cases[alive])]
+    frames = [
+        _case_envelope(history, int(c), alive & (cases == c)) for c in np.unique(cases[alive])
+    ]
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
 
 def _case_envelope(history: History, case: int, alive: np.ndarray) -> pd.DataFrame:
     K = history.t_s.size
     cycle = history.cycle_s
-    att = np.degrees(np.concatenate([history.att_err_B[alive], history.final.att_err_B[alive, None]], 1))
-    rate = np.degrees(np.concatenate([history.omega_B[alive], history.final.omega_B[alive, None]], 1))
+    att = np.degrees(
+        np.concatenate([history.att_err_B[alive], history.final.att_err_B[alive, None]], 1)
+    )
+    rate = np.degrees(
+        np.concatenate([history.omega_B[alive], history.final.omega_B[alive, None]], 1)
+    )
     on = np.concatenate([history.on_time_s[alive], np.zeros((int(alive.sum()), 1, N_JETS))], 1)
     jets = axis_jets()
     cols = {
@@ -253,11 +267,14 @@ def flown_inputs(dispersed: DispersedRuns, flown: VehicleParams | None) -> Dispe
     def pick(read, draw):
         return np.where(ok.reshape((-1,) + (1,) * (draw.ndim - 1)), read, draw)
 
-    params = replace(drawn, mass_kg=pick(flown.mass_kg, drawn.mass_kg),
-                     cg_B=pick(flown.cg_B, drawn.cg_B),
-                     inertia_B=pick(flown.inertia_B, drawn.inertia_B),
-                     thrust_n=pick(flown.thrust_n, drawn.thrust_n),
-                     jet_dir_S=pick(flown.jet_dir_S, drawn.jet_dir_S))
+    params = replace(
+        drawn,
+        mass_kg=pick(flown.mass_kg, drawn.mass_kg),
+        cg_B=pick(flown.cg_B, drawn.cg_B),
+        inertia_B=pick(flown.inertia_B, drawn.inertia_B),
+        thrust_n=pick(flown.thrust_n, drawn.thrust_n),
+        jet_dir_S=pick(flown.jet_dir_S, drawn.jet_dir_S),
+    )
     return replace(dispersed, params=params)
 
 
@@ -269,15 +286,26 @@ def run_rows(spec: CampaignSpec, dispersed: DispersedRuns, outcome: pd.DataFrame
     # The effects' draws are a function of (seed, run id): the ones fly_runs flew (a few
     # variates per run, negligible next to a flight).
     effects = draw_effects(spec.effects, spec.seed, dispersed.run_ids)[1]
-    head = pd.DataFrame({
-        "run_id": dispersed.run_ids,
-        "case": [spec.cases[c].name for c in cases],
-        "case_index": cases.astype(np.int64),
-        "seed": np.full(dispersed.run_ids.size, spec.seed, dtype=np.int64),
-    })
+    head = pd.DataFrame(
+        {
+            "run_id": dispersed.run_ids,
+            "case": [spec.cases[c].name for c in cases],
+            "case_index": cases.astype(np.int64),
+            "seed": np.full(dispersed.run_ids.size, spec.seed, dtype=np.int64),
+        }
+    )
     return check_run_frame(
-        pd.concat([head, input_frame(dispersed), effects.reset_index(drop=True),
-                   outcome.reset_index(drop=True)], axis=1), spec.effects.groups)
+        pd.concat(
+            [
+                head,
+                input_frame(dispersed),
+                effects.reset_index(drop=True),
+                outcome.reset_index(drop=True),
+            ],
+            axis=1,
+        ),
+        spec.effects.groups,
+    )
 
 
 def tabulate(spec: CampaignSpec, history: History, dispersed: DispersedRuns) -> pd.DataFrame:
@@ -294,8 +322,9 @@ def _raised(spec: CampaignSpec, run_ids: np.ndarray, exc: BaseException, model) 
     return run_rows(spec, dispersed, missing_outcomes(run_ids.size, reason))
 
 
-def simulate_chunk(spec: CampaignSpec, chunk: Chunk, nthread: int = 1,
-                   cancel: threading.Event | None = None) -> ChunkResult:
+def simulate_chunk(
+    spec: CampaignSpec, chunk: Chunk, nthread: int = 1, cancel: threading.Event | None = None
+) -> ChunkResult:
     """Fly one chunk; never raises for a run's sake.
 
     If the batch raises (a controller or model error), each run is flown alone so that only
@@ -305,14 +334,16 @@ def simulate_chunk(spec: CampaignSpec, chunk: Chunk, nthread: int = 1,
     """
     model = load_model()
     try:
-        history, dispersed = fly_runs(spec, chunk.run_ids, nthread=nthread, model=model,
-                                      cancel=cancel)
+        history, dispersed = fly_runs(
+            spec, chunk.run_ids, nthread=nthread, model=model, cancel=cancel
+        )
     except Exception as exc:  # noqa: BLE001 - recorded as the failure reason of its runs
         if chunk.stop - chunk.first == 1:
-            return ChunkResult(chunk, _raised(spec, chunk.run_ids, exc, model),
-                               pd.DataFrame(), {})
-        parts = [simulate_chunk(spec, Chunk(i, i + 1), nthread, cancel)
-                 for i in range(chunk.first, chunk.stop)]
+            return ChunkResult(chunk, _raised(spec, chunk.run_ids, exc, model), pd.DataFrame(), {})
+        parts = [
+            simulate_chunk(spec, Chunk(i, i + 1), nthread, cancel)
+            for i in range(chunk.first, chunk.stop)
+        ]
         env = [p.envelope for p in parts if not p.envelope.empty]
         return ChunkResult(
             chunk=chunk,
@@ -324,7 +355,9 @@ def simulate_chunk(spec: CampaignSpec, chunk: Chunk, nthread: int = 1,
 
     runs = tabulate(spec, history, dispersed)
     keep = _keep(spec, chunk.run_ids, runs["failed"].to_numpy())
-    histories = {int(chunk.run_ids[i]): history_frame(history, int(i)) for i in np.flatnonzero(keep)}
+    histories = {
+        int(chunk.run_ids[i]): history_frame(history, int(i)) for i in np.flatnonzero(keep)
+    }
     env = envelope(history, chunk.run_ids // spec.runs_per_case, ~np.asarray(history.failed, bool))
     return ChunkResult(chunk, runs, env, histories)
 

@@ -6,6 +6,7 @@ group, and it is the campaign's process that stops them (cancelling their tasks 
 the cluster with distributed's loggers silenced), so an interrupt prints one line, not a
 traceback per worker.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -86,9 +87,12 @@ def _children_ignore_sigint():
 def connect(workers: int | None, scheduler: str | None):
     """A Dask client (and the cluster we started, to close), or (None, None) for local mode."""
     if workers is not None and scheduler is not None:
-        raise InputError("cannot be combined with a scheduler: workers starts a local cluster, "
-                         "scheduler uses an existing one (they are exclusive)",
-                         parameter="workers", value=workers)
+        raise InputError(
+            "cannot be combined with a scheduler: workers starts a local cluster, "
+            "scheduler uses an existing one (they are exclusive)",
+            parameter="workers",
+            value=workers,
+        )
     if workers is None and scheduler is None:
         return None, None
     from distributed import Client, LocalCluster
@@ -99,16 +103,18 @@ def connect(workers: int | None, scheduler: str | None):
         if workers < 1:
             raise InputError(f"must be >= 1, got {workers}", parameter="workers", value=workers)
         with _children_ignore_sigint():
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None)
+            cluster = LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+            )
         client = Client(cluster)
     else:
         cluster = None
         try:
             client = Client(scheduler, timeout="10s")
         except (OSError, TimeoutError, ValueError) as exc:
-            raise InputError(f"{scheduler}: cannot connect ({exc})", parameter="scheduler",
-                             value=scheduler) from None
+            raise InputError(
+                f"{scheduler}: cannot connect ({exc})", parameter="scheduler", value=scheduler
+            ) from None
     client.run(warm_up)
     return client, cluster
 

@@ -15,6 +15,7 @@ existing campaigns resume and replay as before.  Every draw comes from children 
 noise stream, never the Table 5 dispersion stream: adding an effect leaves every run's vehicle
 bit for bit the same.
 """
+
 from __future__ import annotations
 
 import math
@@ -50,8 +51,14 @@ SENSOR_KEYS = {
     "rate_walk_deg_s_per_sqrt_s": ("rate_walk_rad_s_per_sqrt_s", 0.1),
 }
 #: ``[dispersions.timing]`` keys: the TimingSpec fields, in seconds.
-TIMING_KEYS = ("command_delay_s", "command_delay_sigma_s", "open_delay_s", "open_delay_sigma_s",
-               "close_delay_s", "close_delay_sigma_s")
+TIMING_KEYS = (
+    "command_delay_s",
+    "command_delay_sigma_s",
+    "open_delay_s",
+    "open_delay_sigma_s",
+    "close_delay_s",
+    "close_delay_sigma_s",
+)
 #: ``[dispersions.fault]`` windows -> (the modes they belong to, default, lowest, highest or
 #: None for the run's duration).
 FAULT_WINDOWS = {
@@ -83,15 +90,18 @@ class Effects:
         """The optional per-cycle records the flights keep
         (:func:`spacecraft.guards.history_bytes` keywords): the measured errors of
         imperfect sensors, the delivered on-times under valve timing or faults."""
-        return {"measured": not self.sensor.is_none(),
-                "delivered": not (self.timing.is_none() and self.fault.is_none())}
+        return {
+            "measured": not self.sensor.is_none(),
+            "delivered": not (self.timing.is_none() and self.fault.is_none()),
+        }
 
 
 def _unknown(table: dict, known, where: str) -> None:
     extra = sorted(set(table) - set(known))
     if extra:
-        raise InputError(f"{where}: unknown key(s) {', '.join(map(str, extra))}; known: "
-                         f"{', '.join(known)}")
+        raise InputError(
+            f"{where}: unknown key(s) {', '.join(map(str, extra))}; known: {', '.join(known)}"
+        )
 
 
 def _is_number(x) -> bool:
@@ -104,8 +114,9 @@ def _axes_deg(table: dict, key: str, where: str, maximum: float) -> np.ndarray:
     raw = table.get(key, 0.0)
     values = raw if isinstance(raw, list) else [raw]
     if len(values) not in (1, 3) or not all(_is_number(v) for v in values):
-        raise InputError(f"{where}: {key} must be a number or 3 numbers (roll, pitch, yaw), "
-                         f"got {raw!r}")
+        raise InputError(
+            f"{where}: {key} must be a number or 3 numbers (roll, pitch, yaw), got {raw!r}"
+        )
     v = np.broadcast_to(np.asarray(values, float), (3,)).copy()
     if (v < 0).any():
         raise InputError(f"{where}: {key} must be finite and >= 0, got {raw!r}")
@@ -117,8 +128,12 @@ def _axes_deg(table: dict, key: str, where: str, maximum: float) -> np.ndarray:
 def sensor_spec(table: dict, where: str) -> SensorSpec:
     """``[dispersions.sensor]`` (:data:`SENSOR_KEYS`) as the physics' SI spec."""
     _unknown(table, tuple(SENSOR_KEYS), where)
-    return SensorSpec(**{field_: _axes_deg(table, key, where, maximum)
-                         for key, (field_, maximum) in SENSOR_KEYS.items()})
+    return SensorSpec(
+        **{
+            field_: _axes_deg(table, key, where, maximum)
+            for key, (field_, maximum) in SENSOR_KEYS.items()
+        }
+    )
 
 
 def timing_spec(table: dict, where: str) -> TimingSpec:
@@ -140,15 +155,19 @@ def fault_spec(table: dict, where: str, longest_s: float) -> FaultSpec:
     _unknown(table, FAULT_KEYS, where)
     mode = table.get("mode", "none")
     if not isinstance(mode, str) or mode not in FAULT_MODES:
-        raise InputError(f"{where}: mode must be one of {', '.join(FAULT_MODES)}, "
-                         f"got {mode!r}")
+        raise InputError(f"{where}: mode must be one of {', '.join(FAULT_MODES)}, got {mode!r}")
     jets = table.get("jets", list(range(1, N_JETS + 1)))
-    if (not isinstance(jets, list) or not jets
-            or not all(isinstance(j, int) and not isinstance(j, bool) and 1 <= j <= N_JETS
-                       for j in jets)
-            or len(set(jets)) != len(jets)):
-        raise InputError(f"{where}: jets must be a list of distinct jet numbers "
-                         f"1..{N_JETS}, got {jets!r}")
+    if (
+        not isinstance(jets, list)
+        or not jets
+        or not all(
+            isinstance(j, int) and not isinstance(j, bool) and 1 <= j <= N_JETS for j in jets
+        )
+        or len(set(jets)) != len(jets)
+    ):
+        raise InputError(
+            f"{where}: jets must be a list of distinct jet numbers 1..{N_JETS}, got {jets!r}"
+        )
     p = table.get("probability", 1.0)
     if not _is_number(p) or not 0 <= p <= 1:
         raise InputError(f"{where}: probability must be in [0, 1], got {p!r}")
@@ -157,16 +176,22 @@ def fault_spec(table: dict, where: str, longest_s: float) -> FaultSpec:
         # Each window belongs to its modes: a key the mode ignores is a mistake, not a default.
         if key in table and mode not in owner:
             why = " (a degraded jet is degraded for the whole flight)" if key == "time_s" else ""
-            raise InputError(f"{where}: {key} applies to mode {' or '.join(owner)}, not "
-                             f"{mode!r}{why}")
+            raise InputError(
+                f"{where}: {key} applies to mode {' or '.join(owner)}, not {mode!r}{why}"
+            )
         hi = longest_s if hi_ok is None else hi_ok
         raw = table.get(key, default)
         values = raw if isinstance(raw, list) else [raw]
-        if (len(values) not in (1, 2) or not all(_is_number(v) for v in values)
-                or not lo_ok <= values[0] <= values[-1] <= hi):
+        if (
+            len(values) not in (1, 2)
+            or not all(_is_number(v) for v in values)
+            or not lo_ok <= values[0] <= values[-1] <= hi
+        ):
             unit = " s, the longest run" if hi_ok is None else ""
-            raise InputError(f"{where}: {key} must be [lo, hi] with {lo_ok:g} <= lo <= hi "
-                             f"<= {hi:g}{unit}, got {raw!r}")
+            raise InputError(
+                f"{where}: {key} must be [lo, hi] with {lo_ok:g} <= lo <= hi "
+                f"<= {hi:g}{unit}, got {raw!r}"
+            )
         windows[key] = (float(values[0]), float(values[-1]))
     return FaultSpec(mode=mode, jets=tuple(jets), probability=float(p), **windows)
 
@@ -175,8 +200,9 @@ def fault_spec(table: dict, where: str, longest_s: float) -> FaultSpec:
 TABLES = {"sensor": sensor_spec, "timing": timing_spec, "fault": fault_spec}
 
 
-def parse_effects(dispersions: dict, *, source: str, cycle_s: float,
-                  longest_s: float) -> tuple[Effects, dict]:
+def parse_effects(
+    dispersions: dict, *, source: str, cycle_s: float, longest_s: float
+) -> tuple[Effects, dict]:
     """Read the ``sensor``, ``timing`` and ``fault`` sub-tables (popped from ``dispersions``).
 
     ``cycle_s``: the campaign's control cycle [s] (delays must act within it); ``longest_s``:
@@ -221,7 +247,8 @@ def _check_timing(t: TimingSpec, where: str, cycle: float) -> None:
             raise InputError(
                 f"{where}: command_delay_s + {valve}_delay_s + {DELAY_SIGMAS:g} x their sigmas "
                 f"is {mean + DELAY_SIGMAS * sigma:.4g} s; it must stay under the "
-                f"{cycle:g} s control cycle (a valve command must act within its cycle)")
+                f"{cycle:g} s control cycle (a valve command must act within its cycle)"
+            )
 
 
 def adapt_options(effects: Effects) -> dict:
@@ -259,7 +286,8 @@ def draw_effects(effects: Effects, seed: int, run_ids) -> tuple[dict, pd.DataFra
         # Thrust factor 1 (not NaN) where the thrust is whole: a number the driver analysis
         # can take as an input, and physically what the jet delivers.
         values["fault_thrust_factor"] = np.where(
-            np.isnan(values["fault_thrust_factor"]), 1.0, values["fault_thrust_factor"])
+            np.isnan(values["fault_thrust_factor"]), 1.0, values["fault_thrust_factor"]
+        )
     frame = effect_frame_of(values, effects.groups)
     frame.index = pd.RangeIndex(run_ids.size)
     return kwargs, frame
@@ -270,14 +298,19 @@ def describe(effects: Effects) -> str:
     parts = []
     s = effects.sensor
     if not s.is_none():
-        parts.append(f"sensor noise (rate {math.degrees(float(np.max(s.rate_noise_rad_s))):g} "
-                     f"deg/s, attitude {math.degrees(float(np.max(s.att_noise_rad))):g} deg 1-sigma)")
+        parts.append(
+            f"sensor noise (rate {math.degrees(float(np.max(s.rate_noise_rad_s))):g} "
+            f"deg/s, attitude {math.degrees(float(np.max(s.att_noise_rad))):g} deg 1-sigma)"
+        )
     t = effects.timing
     if not t.is_none():
-        parts.append(f"delays (command {t.command_delay_s * 1e3:g} ms, valve open "
-                     f"{t.open_delay_s * 1e3:g} / close {t.close_delay_s * 1e3:g} ms)")
+        parts.append(
+            f"delays (command {t.command_delay_s * 1e3:g} ms, valve open "
+            f"{t.open_delay_s * 1e3:g} / close {t.close_delay_s * 1e3:g} ms)"
+        )
     f = effects.fault
     if not f.is_none():
-        parts.append(f"jet fault {f.mode} (p = {f.probability:g}, jets "
-                     f"{','.join(str(j) for j in f.jets)})")
+        parts.append(
+            f"jet fault {f.mode} (p = {f.probability:g}, jets {','.join(str(j) for j in f.jets)})"
+        )
     return "; ".join(parts)

@@ -9,6 +9,7 @@ is not part of the spec's digest (a campaign may be resumed under another limit)
 A campaign *exceeds* the limit when ``100 * failed / runs > max_failed_pct``: a limit of 0
 tolerates no failure, 100 tolerates every run failing.
 """
+
 from __future__ import annotations
 
 import math
@@ -74,16 +75,26 @@ class GateResult:
     def text(self) -> str:
         """One line: the failure percentage against the limit and the verdict."""
         relation = "<=" if self.passed else ">"
-        return (f"gate {'passed' if self.passed else 'failed'}: {self.failed_pct:.6g} % of "
-                f"runs failed ({self.failed} of {self.runs}) {relation} max_failed_pct "
-                f"{self.max_failed_pct:g} %")
+        return (
+            f"gate {'passed' if self.passed else 'failed'}: {self.failed_pct:.6g} % of "
+            f"runs failed ({self.failed} of {self.runs}) {relation} max_failed_pct "
+            f"{self.max_failed_pct:g} %"
+        )
 
     def to_json(self) -> dict:
-        return {"max_failed_pct": self.max_failed_pct, "runs": self.runs, "failed": self.failed,
-                "failed_pct": self.failed_pct, "passed": self.passed}
+        return {
+            "max_failed_pct": self.max_failed_pct,
+            "runs": self.runs,
+            "failed": self.failed,
+            "failed_pct": self.failed_pct,
+            "passed": self.passed,
+        }
 
 
 def judge(counts: dict, max_failed_pct: float) -> GateResult:
     """The gate on a campaign's ``counts`` (``manifest.json``'s ``runs`` and ``failed``)."""
-    return GateResult(runs=int(counts.get("runs", 0)), failed=int(counts.get("failed", 0)),
-                      max_failed_pct=check_max_failed_pct(max_failed_pct))
+    return GateResult(
+        runs=int(counts.get("runs", 0)),
+        failed=int(counts.get("failed", 0)),
+        max_failed_pct=check_max_failed_pct(max_failed_pct),
+    )

@@ -1,9 +1,11 @@
 """Physical ranges of campaign spec values: what the physics or the paper allows, and why.
 
 A value of the right type can still be absurd (a dispersion scale of 1e300, a hold disturbance
-of 1e300 N m, an initial rate of 1e6 deg/s); :mod:`~analysis.engine.campaign.spec` refuses those with
+of 1e300 N m, an initial rate of 1e6 deg/s); :mod:`~analysis.engine.campaign.spec` refuses those
+with
 the range computed here and its reason, before anything is flown.
 """
+
 from __future__ import annotations
 
 import math
@@ -33,8 +35,7 @@ def max_duration_s(measured: bool = False, delivered: bool = False) -> float:
 
     # history_bytes(1, 1): one run's record of one cycle, with its share of the time column;
     # campaigns fly the paper's cycle (CampaignSpec.cycle_s).
-    return ((HISTORY_BUDGET_BYTES // history_bytes(1, 1, measured, delivered))
-            * CONTROL_CYCLE_S)
+    return (HISTORY_BUDGET_BYTES // history_bytes(1, 1, measured, delivered)) * CONTROL_CYCLE_S
 
 
 _LIMITS: dict = {}
@@ -59,20 +60,27 @@ def physical_limits() -> dict:
         model = load_model()
         nom = VehicleParams.nominal(1, model)
         torque = torque_per_jet_B(nom, model)[0]  # (16, 3)
-        authority = np.minimum(np.where(torque > 0, torque, 0).sum(axis=0),
-                               -np.where(torque < 0, torque, 0).sum(axis=0))
+        authority = np.minimum(
+            np.where(torque > 0, torque, 0).sum(axis=0),
+            -np.where(torque < 0, torque, 0).sum(axis=0),
+        )
         pos_B, _ = jet_geometry_B(model)
         extent = float(np.max(np.abs(pos_B[:, 0] - nom.cg_B[0, 0])))
-        _LIMITS.update(torque_n_m=authority, three_sigma={
-            "mass": (float(nom.mass_kg[0]), "the nominal mass"),
-            "ixx": (float(nom.inertia_B[0, 0]), "the nominal Ixx"),
-            "iyy": (float(nom.inertia_B[0, 1]), "the nominal Iyy"),
-            "izz": (float(nom.inertia_B[0, 2]), "the nominal Izz"),
-            "thrust": (float(nom.thrust_n.min()), "the nominal thrust"),
-            "thruster_angle": (math.pi / 2, "a 90 deg tilt (the jet would no longer push "
-                                            "forwards)"),
-            "cg_x": (extent, "the distance from the nominal CG to the farthest jet along x"),
-        })
+        _LIMITS.update(
+            torque_n_m=authority,
+            three_sigma={
+                "mass": (float(nom.mass_kg[0]), "the nominal mass"),
+                "ixx": (float(nom.inertia_B[0, 0]), "the nominal Ixx"),
+                "iyy": (float(nom.inertia_B[0, 1]), "the nominal Iyy"),
+                "izz": (float(nom.inertia_B[0, 2]), "the nominal Izz"),
+                "thrust": (float(nom.thrust_n.min()), "the nominal thrust"),
+                "thruster_angle": (
+                    math.pi / 2,
+                    "a 90 deg tilt (the jet would no longer push forwards)",
+                ),
+                "cg_x": (extent, "the distance from the nominal CG to the farthest jet along x"),
+            },
+        )
     return _LIMITS
 
 
@@ -96,20 +104,24 @@ def check_three_sigma(frame, scale: float, overrides: dict, source: str, sigma_k
     """
     limits = physical_limits()["three_sigma"]
     keys = {row: key for key, (row, _) in sigma_keys.items()}
-    entries = [(keys[n], float(v), *limits[n]) for n, v in zip(frame["name"], frame["three_sigma"])
-               if n in limits]
+    entries = [
+        (keys[n], float(v), *limits[n])
+        for n, v in zip(frame["name"], frame["three_sigma"])
+        if n in limits
+    ]
     bad = [(key, v, bound, why) for key, v, bound, why in entries if not v * scale < bound]
     if not bad:
         return
     units = {"kg": "kg", "m": "m", "m2": "kg m^2", "n": "N", "deg": "deg"}
     unit = lambda key: units[key.rsplit("_", 1)[-1]]  # noqa: E731
-    for key, v, bound, why in bad:
+    for key, _v, bound, why in bad:
         if key in overrides:
             factor = sigma_keys[key][1]
             raise InputError(
                 f"{source}: dispersions.three_sigma.{key}: times scale {scale:g} it must be "
                 f"below {bound / factor:.4g} {unit(key)}, {why}: a 3-sigma draw must stay "
-                f"physical (got {overrides[key]!r})")
+                f"physical (got {overrides[key]!r})"
+            )
     largest = min(bound / v for _, v, bound, _ in entries if v > 0)
     key, v, bound, why = min(bad, key=lambda e: e[2] / e[1])
     factor = sigma_keys[key][1]
@@ -117,4 +129,5 @@ def check_three_sigma(frame, scale: float, overrides: dict, source: str, sigma_k
         f"{source}: dispersions.scale: must be < {largest:.4g} with these 3-sigma values: "
         f"every 3-sigma times scale must stay below its physical bound, and the 3-sigma of "
         f"{key} would be {v * scale / factor:.4g} {unit(key)}, at least {why} "
-        f"({bound / factor:.4g}) (got {scale!r})")
+        f"({bound / factor:.4g}) (got {scale!r})"
+    )

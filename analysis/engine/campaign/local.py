@@ -14,6 +14,7 @@ reaches the whole process group; it is this process that stops them) and are kil
 waited for, when the campaign is interrupted: a chunk abandoned mid-flight is redone on
 ``--resume`` (chunks commit in this process only).
 """
+
 from __future__ import annotations
 
 import multiprocessing
@@ -47,8 +48,7 @@ def worker_pool(workers: int) -> ProcessPoolExecutor:
     """A pool of ``workers`` chunk processes (see the module docstring)."""
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(_PRELOAD)
-    return ProcessPoolExecutor(max_workers=workers, mp_context=context,
-                               initializer=_worker_init)
+    return ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_worker_init)
 
 
 @contextmanager
@@ -94,8 +94,13 @@ def kill_pool(pool: ProcessPoolExecutor) -> None:
         manager.join(timeout=10.0)
 
 
-def local_results(spec: CampaignSpec, chunks: Iterator[Chunk], workers: int, n_chunks: int,
-                  cancel: threading.Event) -> Iterator[ChunkResult]:
+def local_results(
+    spec: CampaignSpec,
+    chunks: Iterator[Chunk],
+    workers: int,
+    n_chunks: int,
+    cancel: threading.Event,
+) -> Iterator[ChunkResult]:
     """Yield the results of ``chunks`` as they finish, at most ``workers`` in flight.
 
     One worker (or one chunk): in this process, with MuJoCo's own threads on every CPU (an

@@ -3,6 +3,7 @@
 One row per run, columns :data:`analysis.engine.runs_table.OUTCOME_COLUMNS`; a function of the
 batch's :class:`~spacecraft.simulation.History` and the spec's thresholds only (no I/O).
 """
+
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
@@ -105,8 +106,9 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     for a, axis in enumerate(AXES):
         cols[f"firings_to_rate_{axis}"] = to_rate[:, a].astype(float)
     for a, axis in enumerate(AXES):
-        cols[f"time_to_rate_{axis}_s"] = np.where(reached[:, a], times[np.minimum(first[:, a], K)],
-                                                  np.nan)
+        cols[f"time_to_rate_{axis}_s"] = np.where(
+            reached[:, a], times[np.minimum(first[:, a], K)], np.nan
+        )
     for a, axis in enumerate(AXES):
         cols[f"firings_{axis}"] = events[:, :, a].sum(axis=1).astype(float)
     cols["firings_total"] = prop.firings.sum(axis=1).astype(float)
@@ -121,15 +123,21 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
         if sim_failed[i]:
             reasons.append(history.reason[i] or "simulation failed")
             continue
-        bad = [f"{AXES[a]} {abs(final_rate_deg[i, a]):.4g}" for a in range(3)
-               if not abs(rate[i, -1, a]) < thr]
+        bad = [
+            f"{AXES[a]} {abs(final_rate_deg[i, a]):.4g}"
+            for a in range(3)
+            if not abs(rate[i, -1, a]) < thr
+        ]
         why = []
         if bad:
             why.append(f"final |rate error| >= {np.degrees(thr):.4g} deg/s: " + ", ".join(bad))
         if spec.attitude_threshold_rad is not None and not (
-                att_total[i] <= np.degrees(spec.attitude_threshold_rad)):
-            why.append(f"final attitude error {att_total[i]:.4g} deg > "
-                       f"{np.degrees(spec.attitude_threshold_rad):.4g} deg")
+            att_total[i] <= np.degrees(spec.attitude_threshold_rad)
+        ):
+            why.append(
+                f"final attitude error {att_total[i]:.4g} deg > "
+                f"{np.degrees(spec.attitude_threshold_rad):.4g} deg"
+            )
         reasons.append("; ".join(why))
     # Outcomes of a non-flight are not numbers.
     cols = {k: np.where(sim_failed, np.nan, np.asarray(v, float)) for k, v in cols.items()}

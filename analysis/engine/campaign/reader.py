@@ -4,6 +4,7 @@ keys refused) and the keys that name files (:func:`file_key`, :func:`file_digest
 Every mistake is an :class:`~models.errors.InputError` naming the spec file, the key
 path and the value.  Used by :mod:`~analysis.engine.campaign.spec`, which knows what the keys mean.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -43,7 +44,11 @@ class Reader:
 
     def number(self, name: str, default, *, minimum: float | None = None, strict=False) -> float:
         value = self.table.pop(name, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
             raise self.error(name, "must be a finite number", value)
         if minimum is not None and (value <= minimum if strict else value < minimum):
             raise self.error(name, f"must be {'>' if strict else '>='} {minimum}", value)
@@ -61,9 +66,14 @@ class Reader:
         value = self.table.pop(name, default)
         if value is None:
             raise self.error(name, "is required: a list of 3 numbers [roll, pitch, yaw]")
-        if (not isinstance(value, list) or len(value) != 3
-                or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                           and math.isfinite(v) for v in value)):
+        if (
+            not isinstance(value, list)
+            or len(value) != 3
+            or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                for v in value
+            )
+        ):
             raise self.error(name, "must be a list of 3 finite numbers", value)
         return [float(v) for v in value]
 
@@ -89,8 +99,12 @@ def file_key(r: Reader, name: str, base_dir: Path | None, names=()) -> str | Non
         # Relative paths are relative to the spec; never silently prefer the name or a file.
         local = Path(value) if base_dir is None else base_dir / value
         if local.exists():
-            raise r.error(name, f"ambiguous: both the packaged paper table {value!r} and the "
-                          f'file {local}; write "./{value}" for the file', value)
+            raise r.error(
+                name,
+                f"ambiguous: both the packaged paper table {value!r} and the "
+                f'file {local}; write "./{value}" for the file',
+                value,
+            )
         return value
     path = Path(value).expanduser()
     if not path.is_absolute() and base_dir is not None:

@@ -3,6 +3,7 @@
 A run is a function of the spec and its run id only, so the replay is the campaign's run; the
 replayed outcomes are compared with its row of ``runs.parquet`` (when present).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -22,12 +23,15 @@ COMMAND = "campaign replay"  # recorded in a replay directory's marker (analysis
 def load_campaign_spec(campaign: Path):
     manifest = R.read_manifest(campaign)
     if manifest is None:
-        raise InputError(f"{campaign}: not a campaign directory (no readable {runs_table.MANIFEST})")
+        raise InputError(
+            f"{campaign}: not a campaign directory (no readable {runs_table.MANIFEST})"
+        )
     return parse_dict(manifest["spec"], source=str(campaign / runs_table.MANIFEST), base_dir=None)
 
 
-def replay(campaign: str | Path, run_id: int, out: str | Path | None = None, *,
-           overwrite: bool = False) -> dict:
+def replay(
+    campaign: str | Path, run_id: int, out: str | Path | None = None, *, overwrite: bool = False
+) -> dict:
     """Re-fly run ``run_id`` of ``campaign`` and write its history
     (see :func:`analysis.engine.flight.write_flight`).
 
@@ -53,8 +57,11 @@ def replay(campaign: str | Path, run_id: int, out: str | Path | None = None, *,
     campaign = Path(campaign)
     spec = load_campaign_spec(campaign)
     if not 0 <= run_id < spec.n_runs:
-        raise InputError(f"{run_id}: the campaign has runs 0..{spec.n_runs - 1}",
-                         parameter="run_id", value=run_id)
+        raise InputError(
+            f"{run_id}: the campaign has runs 0..{spec.n_runs - 1}",
+            parameter="run_id",
+            value=run_id,
+        )
     out = Path(out) if out is not None else campaign / "replays" / f"run-{run_id:07d}"
     if not out.parent.exists():
         out.parent.mkdir(parents=True)
@@ -63,14 +70,26 @@ def replay(campaign: str | Path, run_id: int, out: str | Path | None = None, *,
     history, dispersed = fly_runs(spec, ids)
     row = tabulate(spec, history, dispersed)
     title = f"{spec.controller} {spec.cases[case].name} run {run_id}"
-    write_flight(history, out, title=title, isp_s=dispersed.params.isp_s, command=COMMAND,
-                 overwrite=overwrite)
+    write_flight(
+        history,
+        out,
+        title=title,
+        isp_s=dispersed.params.isp_s,
+        command=COMMAND,
+        overwrite=overwrite,
+    )
     matches = None
     runs_path = campaign / runs_table.RUNS
     if runs_path.exists():
         stored = pd.read_parquet(runs_path, filters=[("run_id", "==", run_id)])
         stored = stored.rename(columns=R.RENAMED_COLUMNS)  # a campaign older than a rename
         if len(stored) == 1:
-            matches = (list(stored.columns) == list(row.columns)
-                       and bool(stored.reset_index(drop=True).equals(row)))
-    return {"out": out, "row": row.iloc[0].to_dict(), "matches": matches, "case": spec.cases[case].name}
+            matches = list(stored.columns) == list(row.columns) and bool(
+                stored.reset_index(drop=True).equals(row)
+            )
+    return {
+        "out": out,
+        "row": row.iloc[0].to_dict(),
+        "matches": matches,
+        "case": spec.cases[case].name,
+    }

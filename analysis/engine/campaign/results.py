@@ -15,6 +15,7 @@ A chunk is committed by the atomic rename of its ``runs-`` file, written last; e
 chunk wrote before that (histories, envelope) is simply rewritten if the chunk is redone.
 Everything is Parquet, CSV or JSON: readable with plain pandas or duckdb, no pickles.
 """
+
 from __future__ import annotations
 
 import datetime as _dt
@@ -87,7 +88,7 @@ def done_chunks(out: Path) -> set[str]:
     folder = out / CHUNKS
     if not folder.is_dir():
         return set()
-    return {p.name[len("runs-"):-len(".parquet")] for p in folder.glob("runs-*.parquet")}
+    return {p.name[len("runs-") : -len(".parquet")] for p in folder.glob("runs-*.parquet")}
 
 
 def code_version() -> dict:
@@ -96,18 +97,27 @@ def code_version() -> dict:
 
     import mujoco
 
-    info = {"python": platform.python_version(), "numpy": np.__version__,
-            "mujoco": mujoco.__version__, "pandas": pd.__version__}
+    info = {
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "mujoco": mujoco.__version__,
+        "pandas": pd.__version__,
+    }
     try:
         info["rcsim"] = md.version("rcsim")
     except md.PackageNotFoundError:
         info["rcsim"] = "unknown"
     root = Path(__file__).resolve().parents[2]
     try:
-        commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
-                                text=True, timeout=5)
-        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
-                               capture_output=True, text=True, timeout=5)
+        commit = subprocess.run(
+            ["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5
+        )
+        dirty = subprocess.run(
+            ["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+        )
         info["git_commit"] = commit.stdout.strip() if commit.returncode == 0 else "none"
         info["git_dirty"] = bool(dirty.stdout.strip()) if dirty.returncode == 0 else None
     except (OSError, subprocess.SubprocessError):
@@ -130,8 +140,15 @@ def default_lookup_table() -> dict:
 
 
 # The runs.parquet columns the per-case statistics read (names from the schema).
-_STAT_INPUTS = ("case", "case_index", "failed", "sim_failed", "firings_total",
-                *(f"firings_to_rate_{a}" for a in AXES), *(f"final_rate_err_{a}_deg_s" for a in AXES))
+_STAT_INPUTS = (
+    "case",
+    "case_index",
+    "failed",
+    "sim_failed",
+    "firings_total",
+    *(f"firings_to_rate_{a}" for a in AXES),
+    *(f"final_rate_err_{a}_deg_s" for a in AXES),
+)
 assert set(_STAT_INPUTS) <= set(RUN_NAMES), "per-case statistics read columns the schema lacks"
 # Partial statistics are merged every this many chunks (and envelopes likewise): memory stays
 # bounded by the number of cases, whatever the number of chunks.
@@ -141,8 +158,9 @@ MERGE_EVERY = 32
 RENAMED_COLUMNS = {"settling_time_s": "rate_settled_time_s"}
 
 
-def assemble(out: Path, plan: Iterable, *, n_chunks: int | None = None,
-             progress: bool = False) -> dict:
+def assemble(
+    out: Path, plan: Iterable, *, n_chunks: int | None = None, progress: bool = False
+) -> dict:
     """Stream the committed chunks into ``runs.parquet`` / ``envelopes.parquet`` / ``cases.csv``.
 
     Chunks are contiguous run-id ranges, so writing them in plan order sorts by run_id.  Only one
@@ -176,8 +194,16 @@ def assemble(out: Path, plan: Iterable, *, n_chunks: int | None = None,
     rows = 0
     tmp = out / f".{RUNS}.tmp"
     try:
-        for chunk in tqdm(plan, total=n_chunks, unit="chunk", desc="assembling",
-                          disable=not progress, file=sys.stderr, dynamic_ncols=True, leave=False):
+        for chunk in tqdm(
+            plan,
+            total=n_chunks,
+            unit="chunk",
+            desc="assembling",
+            disable=not progress,
+            file=sys.stderr,
+            dynamic_ncols=True,
+            leave=False,
+        ):
             table = pq.read_table(out / CHUNKS / f"runs-{chunk.name}.parquet")
             table = _renamed(table)
             if writer is None:
@@ -203,8 +229,9 @@ def assemble(out: Path, plan: Iterable, *, n_chunks: int | None = None,
             tmp.unlink()
     cases = finish_case_stats(merge_case_stats(stats)) if stats else pd.DataFrame()
     if int(cases["runs"].sum() if len(cases) else 0) != rows:  # the bug this layout once had
-        raise AssertionError(f"cases.csv counts {int(cases['runs'].sum())} runs, "
-                             f"runs.parquet has {rows}")
+        raise AssertionError(
+            f"cases.csv counts {int(cases['runs'].sum())} runs, runs.parquet has {rows}"
+        )
     atomic_write(out / CASES, lambda t: cases.to_csv(t, index=False, float_format="%.6g"))
     if envelopes:
         env = combine_envelopes(envelopes)
@@ -215,8 +242,9 @@ def assemble(out: Path, plan: Iterable, *, n_chunks: int | None = None,
     counts: dict = {"runs": rows}
     counts["failed"] = int(cases["failed"].sum()) if len(cases) else 0
     counts["sim_failed"] = int(cases["sim_failed"].sum()) if len(cases) else 0
-    counts["by_case"] = {row.case: {"runs": int(row.runs), "failed": int(row.failed)}
-                         for row in cases.itertuples()}
+    counts["by_case"] = {
+        row.case: {"runs": int(row.runs), "failed": int(row.failed)} for row in cases.itertuples()
+    }
     return counts
 
 
@@ -231,8 +259,14 @@ def _renamed(table: pa.Table) -> pa.Table:
     return table.replace_schema_metadata(meta)
 
 
-_ADDITIVE = ("runs", "failed", "sim_failed", "firings_sum", "firings_to_rate_sum",
-             "one_firing_runs")
+_ADDITIVE = (
+    "runs",
+    "failed",
+    "sim_failed",
+    "firings_sum",
+    "firings_to_rate_sum",
+    "one_firing_runs",
+)
 
 
 def case_stats(runs: pd.DataFrame) -> pd.DataFrame:
@@ -240,16 +274,21 @@ def case_stats(runs: pd.DataFrame) -> pd.DataFrame:
     case; partial statistics of disjoint runs merge with :func:`merge_case_stats`."""
     to_rate = runs[[f"firings_to_rate_{a}" for a in AXES]]
     rate = runs[[f"final_rate_err_{a}_deg_s" for a in AXES]].abs().max(axis=1)
-    work = pd.DataFrame({
-        "case_index": runs["case_index"], "case": runs["case"], "runs": 1,
-        "failed": runs["failed"].astype(int), "sim_failed": runs["sim_failed"].astype(int),
-        "firings_sum": runs["firings_total"].fillna(0),
-        "firings_max": runs["firings_total"],
-        "firings_to_rate_sum": to_rate.max(axis=1).fillna(0),
-        # "one firing reaches the rate" (Fig 10): no axis needed more than one firing event.
-        "one_firing_runs": (to_rate.max(axis=1) <= 1).astype(int),
-        "max_abs_final_rate_err_deg_s": rate,
-    })
+    work = pd.DataFrame(
+        {
+            "case_index": runs["case_index"],
+            "case": runs["case"],
+            "runs": 1,
+            "failed": runs["failed"].astype(int),
+            "sim_failed": runs["sim_failed"].astype(int),
+            "firings_sum": runs["firings_total"].fillna(0),
+            "firings_max": runs["firings_total"],
+            "firings_to_rate_sum": to_rate.max(axis=1).fillna(0),
+            # "one firing reaches the rate" (Fig 10): no axis needed more than one firing event.
+            "one_firing_runs": (to_rate.max(axis=1) <= 1).astype(int),
+            "max_abs_final_rate_err_deg_s": rate,
+        }
+    )
     return merge_case_stats([work])
 
 
@@ -261,7 +300,8 @@ def merge_case_stats(parts: list[pd.DataFrame]) -> pd.DataFrame:
     merged = g[list(_ADDITIVE)].sum()
     merged["firings_max"] = g["firings_max"].max()["firings_max"]
     merged["max_abs_final_rate_err_deg_s"] = g["max_abs_final_rate_err_deg_s"].max()[
-        "max_abs_final_rate_err_deg_s"]
+        "max_abs_final_rate_err_deg_s"
+    ]
     return merged
 
 

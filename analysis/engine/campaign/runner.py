@@ -24,6 +24,7 @@ caller to report in one line.  Chunks commit atomically, so the directory is lef
 Local Dask workers are started with SIGINT ignored: a terminal's Ctrl-C reaches the whole
 process group, and it is this process that stops them.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -107,7 +108,8 @@ def _sigterm_interrupts():
 # Bytes a run's row takes in runs.parquet, at most: 8 per column (numbers are float64 or int64
 # and do not compress; the reason strings are mostly empty).
 _ROW_BYTES = 8 * len(ALL_COLUMNS)  # with every optional effect column: an upper bound
-# Per kept history, per control cycle: the history frame's columns (analysis.engine.flight), float64.
+# Per kept history, per control cycle: the history frame's columns (analysis.engine.flight),
+# float64.
 _HISTORY_ROW_BYTES = 8 * 40
 
 
@@ -125,10 +127,13 @@ def check_fits(spec: CampaignSpec, out: Path) -> None:
     need = spec.n_runs * _ROW_BYTES
     if spec.histories in ("all", "first"):
         cycle_s = spec.cycle_s
-        per_case = spec.runs_per_case if spec.histories == "all" else min(spec.first_k,
-                                                                           spec.runs_per_case)
-        need += sum(per_case * int(case.duration_s / cycle_s + 1) * _HISTORY_ROW_BYTES
-                    for case in spec.cases)
+        per_case = (
+            spec.runs_per_case if spec.histories == "all" else min(spec.first_k, spec.runs_per_case)
+        )
+        need += sum(
+            per_case * int(case.duration_s / cycle_s + 1) * _HISTORY_ROW_BYTES
+            for case in spec.cases
+        )
     ancestor = out
     while not ancestor.exists() and ancestor != ancestor.parent:
         ancestor = ancestor.parent
@@ -137,11 +142,13 @@ def check_fits(spec: CampaignSpec, out: Path) -> None:
     except OSError:
         return  # unknown: the write itself will report a full disk
     if need > free:
+        kept = ", plus kept histories" if spec.histories in ("all", "first") else ""
         raise InputError(
             f"{spec.source}: runs_per_case = {spec.runs_per_case}: the campaign's "
             f"{spec.n_runs:,} runs need about {human_bytes(need)} of results "
-            f"({_ROW_BYTES} bytes per run{', plus kept histories' if spec.histories in ('all', 'first') else ''}), "
-            f"but only {human_bytes(free)} is free where {out} would be written")
+            f"({_ROW_BYTES} bytes per run{kept}), "
+            f"but only {human_bytes(free)} is free where {out} would be written"
+        )
 
 
 def _prepare_dir(spec: CampaignSpec, out: Path, resume: bool) -> tuple[dict | None, bool]:
@@ -154,17 +161,26 @@ def _prepare_dir(spec: CampaignSpec, out: Path, resume: bool) -> tuple[dict | No
         return None, False
     manifest = R.read_manifest(out)
     if manifest is None:
-        raise InputError(f"{out}: exists and is not a campaign directory (no readable "
-                         f"{runs_table.MANIFEST}); choose a new directory", parameter="out",
-                         value=str(out))
+        raise InputError(
+            f"{out}: exists and is not a campaign directory (no readable "
+            f"{runs_table.MANIFEST}); choose a new directory",
+            parameter="out",
+            value=str(out),
+        )
     if not resume:
-        raise InputError(f"{out}: holds a campaign ({manifest.get('status', 'unknown')}); "
-                         "resume it to finish it, or choose a new directory", parameter="out",
-                         value=str(out))
+        raise InputError(
+            f"{out}: holds a campaign ({manifest.get('status', 'unknown')}); "
+            "resume it to finish it, or choose a new directory",
+            parameter="out",
+            value=str(out),
+        )
     if manifest.get("spec_sha256") != spec.digest():
-        raise InputError(f"{out}: the spec differs from the one this directory was started "
-                         "with (compare its manifest.json 'spec')", parameter="out",
-                         value=str(out))
+        raise InputError(
+            f"{out}: the spec differs from the one this directory was started "
+            "with (compare its manifest.json 'spec')",
+            parameter="out",
+            value=str(out),
+        )
     return manifest, manifest.get("status") == "complete"
 
 
@@ -175,10 +191,12 @@ def _new_manifest(spec: CampaignSpec, spec_file: str | None) -> dict:
         "spec": spec.resolved,
         "spec_sha256": spec.digest(),
         "run_id_scheme": "run_id = case_index * runs_per_case + k, k = 0..runs_per_case-1; "
-                         "run i draws from SeedSequence(seed, spawn_key=(i,)).spawn(2)"
-                         "[0] (dispersions)",
-        "thresholds": {"rate_error_deg_s": spec.resolved["failure"]["rate_error_deg_s"],
-                       "attitude_error_deg": spec.resolved["failure"].get("attitude_error_deg")},
+        "run i draws from SeedSequence(seed, spawn_key=(i,)).spawn(2)"
+        "[0] (dispersions)",
+        "thresholds": {
+            "rate_error_deg_s": spec.resolved["failure"]["rate_error_deg_s"],
+            "attitude_error_deg": spec.resolved["failure"].get("attitude_error_deg"),
+        },
         "cases": [c.name for c in spec.cases],
         "started_utc": R.now_utc(),
         "status": "running",
@@ -234,20 +252,46 @@ def run_campaign(
     if complete:
         R.remove_temporaries_in(out)
         counts = manifest.get("counts", {})
-        return CampaignReport(out, counts, 0.0, 0, 0.0,
-                              notes=["campaign already complete; nothing to do"],
-                              gate=_gate(spec, counts))
+        return CampaignReport(
+            out,
+            counts,
+            0.0,
+            0,
+            0.0,
+            notes=["campaign already complete; nothing to do"],
+            gate=_gate(spec, counts),
+        )
     with _sigterm_interrupts():
         client, cluster = connect(workers, scheduler)  # before creating DIR: no debris
         try:
-            return _run(spec, out, manifest, resume, client, cluster, workers, local_workers,
-                        progress, spec_file)
+            return _run(
+                spec,
+                out,
+                manifest,
+                resume,
+                client,
+                cluster,
+                workers,
+                local_workers,
+                progress,
+                spec_file,
+            )
         finally:
             close(client, cluster)
 
 
-def _run(spec: CampaignSpec, out, manifest, resume, client, cluster, workers, local_workers,
-         progress, spec_file) -> CampaignReport:
+def _run(
+    spec: CampaignSpec,
+    out,
+    manifest,
+    resume,
+    client,
+    cluster,
+    workers,
+    local_workers,
+    progress,
+    spec_file,
+) -> CampaignReport:
     t0 = time.perf_counter()
     for sub in (runs_table.CHUNKS, runs_table.HISTORIES):
         (out / sub).mkdir(parents=True, exist_ok=True)
@@ -275,8 +319,9 @@ def _run(spec: CampaignSpec, out, manifest, resume, client, cluster, workers, lo
     mode = "local" if client is None else ("dask-local" if cluster is not None else "dask")
     cancel = threading.Event()
     if client is None:
-        results = local_results(spec, todo, local_workers or os.cpu_count() or 1,
-                                n_chunks - n_done_chunks, cancel)
+        results = local_results(
+            spec, todo, local_workers or os.cpu_count() or 1, n_chunks - n_done_chunks, cancel
+        )
     else:
         n_workers = max(1, len(client.scheduler_info().get("workers", {})) or (workers or 1))
         results = dask_results(spec, todo, client, in_flight=2 * n_workers)
@@ -293,10 +338,18 @@ def _run(spec: CampaignSpec, out, manifest, resume, client, cluster, workers, lo
             print("campaign: plotting ...", file=sys.stderr, flush=True)
         plot_campaign(out, spec)
     wall = time.perf_counter() - t0
-    manifest.update(status="complete", finished_utc=R.now_utc(), counts=counts,
-                    histories_kept=sum(1 for _ in (out / runs_table.HISTORIES).glob("run-*.parquet")))
-    manifest["last_session"] = {"mode": mode, "runs_flown": flown, "fly_s": round(fly_s, 3),
-                                "wall_s": round(wall, 3)}
+    manifest.update(
+        status="complete",
+        finished_utc=R.now_utc(),
+        counts=counts,
+        histories_kept=sum(1 for _ in (out / runs_table.HISTORIES).glob("run-*.parquet")),
+    )
+    manifest["last_session"] = {
+        "mode": mode,
+        "runs_flown": flown,
+        "fly_s": round(fly_s, 3),
+        "wall_s": round(wall, 3),
+    }
     gate = _gate(spec, counts)
     if gate is not None:
         manifest["gate"] = gate.to_json()
@@ -305,15 +358,18 @@ def _run(spec: CampaignSpec, out, manifest, resume, client, cluster, workers, lo
     R.write_json(manifest, out / runs_table.MANIFEST)
     shutil.rmtree(out / runs_table.CHUNKS, ignore_errors=True)
     R.remove_temporaries_in(out)
-    return CampaignReport(out, counts, wall, flown, simulated, n_done_chunks, mode, fly_s=fly_s,
-                          gate=gate)
+    return CampaignReport(
+        out, counts, wall, flown, simulated, n_done_chunks, mode, fly_s=fly_s, gate=gate
+    )
 
 
 def _gate(spec: CampaignSpec, counts: dict) -> GateResult | None:
     return None if spec.max_failed_pct is None else judge(counts, spec.max_failed_pct)
 
 
-def _drain(results, out: Path, spec: CampaignSpec, n_done: int, progress: bool) -> tuple[int, float, float]:
+def _drain(
+    results, out: Path, spec: CampaignSpec, n_done: int, progress: bool
+) -> tuple[int, float, float]:
     """Commit each finished chunk; progress bar with runs done, runs/s and ETA.
 
     Returns
@@ -324,8 +380,16 @@ def _drain(results, out: Path, spec: CampaignSpec, n_done: int, progress: bool) 
 
     t0 = time.perf_counter()
     flown, simulated = 0, 0.0
-    with tqdm(total=spec.n_runs, initial=n_done, unit="run", disable=not progress,
-              file=sys.stderr, dynamic_ncols=True, smoothing=0.1, desc="flying") as bar:
+    with tqdm(
+        total=spec.n_runs,
+        initial=n_done,
+        unit="run",
+        disable=not progress,
+        file=sys.stderr,
+        dynamic_ncols=True,
+        smoothing=0.1,
+        desc="flying",
+    ) as bar:
         for result in results:
             R.commit_chunk(out, result)
             n = result.chunk.stop - result.chunk.first
@@ -346,14 +410,22 @@ def summary_text(report: CampaignReport, spec: CampaignSpec) -> str:
     if report.runs_flown:
         fly = report.fly_s if report.fly_s > 0 else report.wall_s
         rate = report.runs_flown / fly if fly > 0 else float("nan")
-        lines.append(f"flew {report.runs_flown} runs in {fly:.1f} s ({rate:.1f} runs/s, "
-                     f"{report.simulated_s / max(fly, 1e-9):.0f} simulated s per s, "
-                     f"{report.mode})" + (f"; {report.resumed_chunks} chunks were already done"
-                                          if report.resumed_chunks else "")
-                     + f"; {report.wall_s:.1f} s in all with start-up, assembly and plots")
-    lines.append(f"{c.get('runs', 0)} runs, {c.get('failed', 0)} failed "
-                 f"({c.get('sim_failed', 0)} simulation failures); controller {spec.controller}, "
-                 f"failure: final |rate error| >= {spec.resolved['failure']['rate_error_deg_s']} deg/s")
+        lines.append(
+            f"flew {report.runs_flown} runs in {fly:.1f} s ({rate:.1f} runs/s, "
+            f"{report.simulated_s / max(fly, 1e-9):.0f} simulated s per s, "
+            f"{report.mode})"
+            + (
+                f"; {report.resumed_chunks} chunks were already done"
+                if report.resumed_chunks
+                else ""
+            )
+            + f"; {report.wall_s:.1f} s in all with start-up, assembly and plots"
+        )
+    lines.append(
+        f"{c.get('runs', 0)} runs, {c.get('failed', 0)} failed "
+        f"({c.get('sim_failed', 0)} simulation failures); controller {spec.controller}, "
+        f"failure: final |rate error| >= {spec.resolved['failure']['rate_error_deg_s']} deg/s"
+    )
     effects = describe(spec.effects)
     if effects:
         lines.append(f"with {effects}")
@@ -362,7 +434,9 @@ def summary_text(report: CampaignReport, spec: CampaignSpec) -> str:
         cases = pd.read_csv(cases_csv)
         lines.append("case        runs  failed  firings/run  one-firing %")
         for row in cases.itertuples():
-            lines.append(f"{row.case:<10} {row.runs:5d}  {row.failed:6d}  "
-                         f"{row.firings_per_run_mean:11.2f}  {row.one_firing_pct:12.1f}")
+            lines.append(
+                f"{row.case:<10} {row.runs:5d}  {row.failed:6d}  "
+                f"{row.firings_per_run_mean:11.2f}  {row.one_firing_pct:12.1f}"
+            )
     lines.append(f"results in {report.out}/")
     return "\n".join(lines)

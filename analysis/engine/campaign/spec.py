@@ -4,7 +4,8 @@ Every mistake is an :class:`~models.errors.InputError` naming the file, the key 
 ``dispersions.three_sigma.thrust_n``) and the value, raised before anything is written.
 Values of the right type but outside the range the physics (or the paper) gives are refused
 too, with the range and its reason (:mod:`~analysis.engine.campaign.limits`): a 3-sigma
-dispersion at least as large as its nominal value, a hold disturbance beyond the jets' torque, an initial rate beyond
+dispersion at least as large as its nominal value, a hold disturbance beyond the jets' torque, an
+initial rate beyond
 the rates the physics step was validated for, a run too long for one chunk's memory.
 Units are in the key names (``_deg``, ``_deg_s``, ``_n``, ...); inside, everything is SI.
 
@@ -14,6 +15,7 @@ The commented example (``example_spec.toml`` beside this module, :data:`EXAMPLE_
 :mod:`~analysis.engine.campaign.effects`, the physical ranges in
 :mod:`~analysis.engine.campaign.limits`, the failure gate in :mod:`~analysis.engine.campaign.gate`.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -153,8 +155,7 @@ class CampaignSpec:
     def with_runs_per_case(self, n: int) -> CampaignSpec:
         """The same campaign with ``n`` runs per case (what the CLI's ``--runs-per-case`` sets)."""
         resolved = dict(self.resolved, runs_per_case=n)
-        spec = parse_dict(resolved, source=f"{self.source} with runs_per_case={n}",
-                          base_dir=None)
+        spec = parse_dict(resolved, source=f"{self.source} with runs_per_case={n}", base_dir=None)
         return dataclasses.replace(spec, max_failed_pct=self.max_failed_pct)
 
     def with_max_failed_pct(self, pct) -> CampaignSpec:
@@ -183,31 +184,45 @@ def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
         kind = r.choice("kind", "rate-cases", SCENARIO_KINDS)
         duration = r.number("duration_s", 20.0, minimum=0.0, strict=True)
         if duration > max_duration_s():
-            raise r.error("duration_s", f"must be <= {max_duration_s():.0f} s: one run's "
-                          "per-cycle record must fit a chunk's memory budget (analysis."
-                          "engine.campaign.limits.HISTORY_BUDGET_BYTES)", duration)
+            raise r.error(
+                "duration_s",
+                f"must be <= {max_duration_s():.0f} s: one run's "
+                "per-cycle record must fit a chunk's memory budget (analysis."
+                "engine.campaign.limits.HISTORY_BUDGET_BYTES)",
+                duration,
+            )
         out = {"kind": kind, "duration_s": duration}
         if kind == "rate-cases":
             table = load_rate_cases()
             numbers = r.raw("cases", "all")
             if numbers == "all":
                 numbers = [int(c) for c in table.case]
-            elif (not isinstance(numbers, list) or not numbers
-                  or not all(isinstance(c, int) and not isinstance(c, bool) for c in numbers)):
+            elif (
+                not isinstance(numbers, list)
+                or not numbers
+                or not all(isinstance(c, int) and not isinstance(c, bool) for c in numbers)
+            ):
                 raise r.error("cases", 'must be "all" or a non-empty list of case numbers', numbers)
             bad = [c for c in numbers if c not in set(int(c) for c in table.case)]
             if bad:
-                raise r.error("cases", f"no such rate case {bad[0]}; cases are 1..{len(table.case)}",
-                              numbers)
+                raise r.error(
+                    "cases", f"no such rate case {bad[0]}; cases are 1..{len(table.case)}", numbers
+                )
             mode = r.choice("mode", "command", ("command", "damp"))
             for c in numbers:
                 rate = table.rate_cmd[list(table.case).index(c)]
                 if mode == "command":
-                    cases.append(Scenario(name=f"rate-{c:02d}", duration_s=duration,
-                                          rate_cmd_rad_s=np.array(rate)))
+                    cases.append(
+                        Scenario(
+                            name=f"rate-{c:02d}", duration_s=duration, rate_cmd_rad_s=np.array(rate)
+                        )
+                    )
                 else:
-                    cases.append(Scenario(name=f"damp-{c:02d}", duration_s=duration,
-                                          omega0_rad_s=np.array(rate)))
+                    cases.append(
+                        Scenario(
+                            name=f"damp-{c:02d}", duration_s=duration, omega0_rad_s=np.array(rate)
+                        )
+                    )
             out.update(cases=list(numbers), mode=mode)
         else:
             name = r.raw("name", kind)
@@ -217,27 +232,40 @@ def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
                 att = r.vector3("attitude_deg", None)
                 if np.linalg.norm(att) >= 180.0:
                     raise r.error("attitude_deg", "rotation must be under 180 deg", att)
-                cases.append(Scenario(name=name, duration_s=duration,
-                                      att_cmd_rad=np.radians(att)))
+                cases.append(Scenario(name=name, duration_s=duration, att_cmd_rad=np.radians(att)))
                 out.update(name=name, attitude_deg=att)
             else:
                 dist = r.vector3("disturbance_n_m", [0.0, 0.0, 0.0])
                 torque = physical_limits()["torque_n_m"]
                 over = [a for a in range(3) if abs(dist[a]) > torque[a]]
                 if over:
-                    raise r.error("disturbance_n_m", "each component must be within the jets' "
-                                  "largest torque about that axis, +-[" + ", ".join(
-                                      f"{t:.4g}" for t in torque) + "] N m (nominal vehicle, "
-                                  "all jets of one sign firing): beyond it no controller can "
-                                  "hold attitude", dist)
+                    raise r.error(
+                        "disturbance_n_m",
+                        "each component must be within the jets' "
+                        "largest torque about that axis, +-["
+                        + ", ".join(f"{t:.4g}" for t in torque)
+                        + "] N m (nominal vehicle, "
+                        "all jets of one sign firing): beyond it no controller can "
+                        "hold attitude",
+                        dist,
+                    )
                 w0 = r.vector3("initial_rate_deg_s", [0.0, 0.0, 0.0])
                 if np.linalg.norm(w0) > MAX_INITIAL_RATE_DEG_S:
-                    raise r.error("initial_rate_deg_s", f"magnitude must be <= "
-                                  f"{MAX_INITIAL_RATE_DEG_S:g} deg/s, the largest rate the 40 ms "
-                                  "physics step is validated for (docs/convergence.md)", w0)
-                cases.append(Scenario(name=name, duration_s=duration,
-                                      omega0_rad_s=np.radians(w0),
-                                      disturbance_n_m=np.array(dist)))
+                    raise r.error(
+                        "initial_rate_deg_s",
+                        f"magnitude must be <= "
+                        f"{MAX_INITIAL_RATE_DEG_S:g} deg/s, the largest rate the 40 ms "
+                        "physics step is validated for (docs/convergence.md)",
+                        w0,
+                    )
+                cases.append(
+                    Scenario(
+                        name=name,
+                        duration_s=duration,
+                        omega0_rad_s=np.radians(w0),
+                        disturbance_n_m=np.array(dist),
+                    )
+                )
                 out.update(name=name, disturbance_n_m=dist, initial_rate_deg_s=w0)
         r.done()
         resolved.append(out)
@@ -248,8 +276,9 @@ def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
     return cases
 
 
-def parse_dict(data: dict, *, source: str = "<dict>",
-               base_dir: str | os.PathLike | None = None) -> CampaignSpec:
+def parse_dict(
+    data: dict, *, source: str = "<dict>", base_dir: str | os.PathLike | None = None
+) -> CampaignSpec:
     """Validate a spec already read into a dict (from TOML, a manifest's ``resolved``, or code).
 
     Parameters
@@ -280,18 +309,29 @@ def parse_dict(data: dict, *, source: str = "<dict>",
     cases = _scenarios(raw_scen, source, scen_resolved)
     resolved["scenario"] = scen_resolved if isinstance(raw_scen, list) else scen_resolved[0]
     name, table, resolved["controller"] = _controller(top.table_("controller"), base_dir)
-    sigmas, effects, resolved["dispersions"] = _dispersions(top.table_("dispersions"), base_dir,
-                                                            cases, source)
+    sigmas, effects, resolved["dispersions"] = _dispersions(
+        top.table_("dispersions"), base_dir, cases, source
+    )
     rate_thr, att_thr, max_failed, resolved["failure"] = _failure(top.table_("failure"))
     histories, first_k, plots, resolved["output"] = _output(top.table_("output"))
     top.done()
     return CampaignSpec(
-        source=source, seed=seed, runs_per_case=runs, chunk_size=chunk, cases=tuple(cases),
-        controller=name, table=table, sigmas=sigmas,
+        source=source,
+        seed=seed,
+        runs_per_case=runs,
+        chunk_size=chunk,
+        cases=tuple(cases),
+        controller=name,
+        table=table,
+        sigmas=sigmas,
         rate_threshold_rad_s=math.radians(rate_thr),
         attitude_threshold_rad=None if att_thr is None else math.radians(att_thr),
-        histories=histories, first_k=first_k, plots=plots, resolved=resolved,
-        max_failed_pct=max_failed, effects=effects,
+        histories=histories,
+        first_k=first_k,
+        plots=plots,
+        resolved=resolved,
+        max_failed_pct=max_failed,
+        effects=effects,
     )
 
 
@@ -313,14 +353,17 @@ def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
     if c.has("jets_off"):  # a manifest's: the companion must still name the same jets
         expect = c.raw("jets_off")
         if expect != list(jets_off):
-            raise c.error("table", f"companion file now names jets off {list(jets_off)}, "
-                          f"the campaign flew it for {expect}", table)
+            raise c.error(
+                "table",
+                f"companion file now names jets off {list(jets_off)}, "
+                f"the campaign flew it for {expect}",
+                table,
+            )
     if c.has("table_sha256"):  # present in a manifest's resolved spec (replay, resume)
         expect = c.raw("table_sha256")
         if expect != file_digest(table):
             what = "packaged paper table" if table in PAPER_LOOKUP_TABLES else "file"
-            raise c.error("table", f"{what} changed since the campaign ran (sha256 differs)",
-                          table)
+            raise c.error("table", f"{what} changed since the campaign ran (sha256 differs)", table)
     c.done()
     resolved = {"name": name, "table": table or "default", "table_sha256": file_digest(table)}
     if jets_off:  # recorded only when there are some: other specs resolve as before
@@ -328,8 +371,9 @@ def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
     return name, table, resolved
 
 
-def _dispersions(d: Reader, base_dir: Path, cases: list[Scenario],
-                 source: str) -> tuple[DispersionSigmas, Effects, dict]:
+def _dispersions(
+    d: Reader, base_dir: Path, cases: list[Scenario], source: str
+) -> tuple[DispersionSigmas, Effects, dict]:
     """``[dispersions]``: Table 5 (file, scale, 3-sigma overrides, converted to SI one-sigmas
     here) and the sensor / timing / fault tables."""
     from models.tables import load_dispersions
@@ -338,8 +382,9 @@ def _dispersions(d: Reader, base_dir: Path, cases: list[Scenario],
     frame = load_dispersions(disp_table)
     if d.has("table_sha256"):
         if d.raw("table_sha256") != file_digest(disp_table):
-            raise d.error("table", "file changed since the campaign ran (sha256 differs)",
-                          disp_table)
+            raise d.error(
+                "table", "file changed since the campaign ran (sha256 differs)", disp_table
+            )
     scale = d.number("scale", 1.0, minimum=0.0)
     over = d.table_("three_sigma")
     overrides = {}
@@ -353,28 +398,41 @@ def _dispersions(d: Reader, base_dir: Path, cases: list[Scenario],
     over.done()
     check_three_sigma(frame, scale, overrides, source, _SIGMA_KEYS)
     effects, effects_resolved = parse_effects(
-        d.table, source=source, cycle_s=CONTROL_CYCLE_S,
-        longest_s=max(case.duration_s for case in cases))
+        d.table,
+        source=source,
+        cycle_s=CONTROL_CYCLE_S,
+        longest_s=max(case.duration_s for case in cases),
+    )
     d.done()
     longest = max_duration_s(**effects.records())
     if effects.groups and any(case.duration_s > longest for case in cases):
-        raise InputError(f"{source}: scenario.duration_s: must be <= {longest:.0f} s with "
-                         f"[dispersions.{'/'.join(effects.groups)}] (their per-cycle records "
-                         "must fit a chunk's memory budget too)")
+        raise InputError(
+            f"{source}: scenario.duration_s: must be <= {longest:.0f} s with "
+            f"[dispersions.{'/'.join(effects.groups)}] (their per-cycle records "
+            "must fit a chunk's memory budget too)"
+        )
     try:
         sigmas = DispersionSigmas.from_table(frame, scale)
     except InputError as exc:
         raise InputError(f"{source}: dispersions.table: {exc}") from None
-    resolved = {"table": disp_table or "default", "table_sha256": file_digest(disp_table),
-                "scale": scale, "three_sigma": overrides, **effects_resolved}
+    resolved = {
+        "table": disp_table or "default",
+        "table_sha256": file_digest(disp_table),
+        "scale": scale,
+        "three_sigma": overrides,
+        **effects_resolved,
+    }
     return sigmas, effects, resolved
 
 
 def _failure(f: Reader) -> tuple[float, float | None, float | None, dict]:
     """``[failure]``: rate and attitude thresholds [deg/s, deg], the gate [%], resolved."""
     rate_thr = f.number("rate_error_deg_s", _DEFAULT_RATE_ERROR_DEG_S, minimum=0.0, strict=True)
-    att_thr = f.number("attitude_error_deg", None, minimum=0.0, strict=True) \
-        if f.has("attitude_error_deg") else None
+    att_thr = (
+        f.number("attitude_error_deg", None, minimum=0.0, strict=True)
+        if f.has("attitude_error_deg")
+        else None
+    )
     max_failed = f.raw("max_failed_pct") if f.has("max_failed_pct") else None
     if max_failed is not None:
         problem = max_failed_pct_problem(max_failed)
@@ -396,8 +454,7 @@ def _output(o: Reader) -> tuple[str, int, bool, dict]:
     if not isinstance(plots, bool):
         raise o.error("plots", "must be true or false", plots)
     o.done()
-    return histories, first_k, plots, {"histories": histories, "first_k": first_k,
-                                       "plots": plots}
+    return histories, first_k, plots, {"histories": histories, "first_k": first_k, "plots": plots}
 
 
 def load_spec(path: str | os.PathLike) -> CampaignSpec:
@@ -415,8 +472,9 @@ def load_spec(path: str | os.PathLike) -> CampaignSpec:
     except OSError as exc:
         raise InputError(f"{path}: cannot read campaign spec: {exc.strerror}") from None
     except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not a UTF-8 text file (byte {exc.start}); a campaign spec "
-                         "is TOML") from None
+        raise InputError(
+            f"{path}: not a UTF-8 text file (byte {exc.start}); a campaign spec is TOML"
+        ) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

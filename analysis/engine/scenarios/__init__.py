@@ -13,6 +13,7 @@ outputs).  Imports ``analysis.engine.flight``/``plots``/``output`` and the layer
 
 Must not import: analysis.engine.campaign.
 """
+
 from analysis.engine.scenarios.catalog import (
     PaperScenario,
     all_scenarios,
@@ -30,7 +31,15 @@ from analysis.engine.scenarios.flying import (
 from analysis.engine.scenarios.outputs import write_scenario
 
 __all__ = [
-    "PaperScenario", "all_scenarios", "get_scenario", "scenario_names", "compare_controllers",
-    "comparison_markdown", "fly_scenario", "scenario_metrics", "settled_time", "summarize",
+    "PaperScenario",
+    "all_scenarios",
+    "get_scenario",
+    "scenario_names",
+    "compare_controllers",
+    "comparison_markdown",
+    "fly_scenario",
+    "scenario_metrics",
+    "settled_time",
+    "summarize",
     "write_scenario",
 ]

@@ -5,6 +5,7 @@ one batch) plus the controller options the paper used for it (e.g. the 0.1 deg/s
 of App. C, the no-firing region on or off for Figs 17-18).  Degrees appear only in the
 definitions below (converted at once).
 """
+
 from __future__ import annotations
 
 import functools
@@ -85,15 +86,25 @@ def _build() -> dict[str, PaperScenario]:
     out = [
         *(
             PaperScenario(
-                f"single-axis-{axis}", f"5 deg {axis} rest-to-rest maneuver", "Figs 5-6",
+                f"single-axis-{axis}",
+                f"5 deg {axis} rest-to-rest maneuver",
+                "Figs 5-6",
                 (_maneuver(f"single-axis-{axis}", tuple(5.0 * (np.arange(3) == a)), 40.0),),
             )
             for a, axis in enumerate(("roll", "pitch", "yaw"))
         ),
-        PaperScenario("three-axis-5deg", "5 deg in each axis at once", "Figs 7-8",
-                      (_maneuver("three-axis-5deg", (5.0, 5.0, 5.0), 60.0),)),
-        PaperScenario("large-90deg", "90 deg about the (1,1,1) diagonal at 0.2 deg/s",
-                      "Figs 21-24", (_maneuver("large-90deg", large, 500.0),)),
+        PaperScenario(
+            "three-axis-5deg",
+            "5 deg in each axis at once",
+            "Figs 7-8",
+            (_maneuver("three-axis-5deg", (5.0, 5.0, 5.0), 60.0),),
+        ),
+        PaperScenario(
+            "large-90deg",
+            "90 deg about the (1,1,1) diagonal at 0.2 deg/s",
+            "Figs 21-24",
+            (_maneuver("large-90deg", large, 500.0),),
+        ),
         PaperScenario(
             "slow-0.1deg-s",
             "5 deg in each axis at a 0.1 deg/s maneuver rate (rate error limit 0.03 deg/s)",
@@ -102,30 +113,53 @@ def _build() -> dict[str, PaperScenario]:
             # Table 4's 0.06 deg/s limit would dead-band the 0.1/sqrt(3) = 0.058 deg/s per-axis
             # share; the paper's rule "maneuver rate at least three times the rate error limit"
             # gives <= 0.033 deg/s.  See docs/lookup.md.
-            lookup_options={"maneuver_rate_rad_s": np.radians(0.1),
-                            "rate_error_limit_rad_s": np.radians(0.03)},
+            lookup_options={
+                "maneuver_rate_rad_s": np.radians(0.1),
+                "rate_error_limit_rad_s": np.radians(0.03),
+            },
             phase_plane_options={"maneuver_rate_rad_s": np.radians(0.1)},
         ),
-        PaperScenario("rate-damping", "null each of the 26 Table 3 rates (zero rate command)",
-                      "Figs 3-4", _rate_damping_runs()),
+        PaperScenario(
+            "rate-damping",
+            "null each of the 26 Table 3 rates (zero rate command)",
+            "Figs 3-4",
+            _rate_damping_runs(),
+        ),
         PaperScenario(
             "attitude-hold-disturbed",
-            "hold under a 2 N m yaw disturbance, no-firing region on (+-0.1 deg)", "Fig 18",
-            (Scenario("attitude-hold-disturbed", 60.0,
-                      disturbance_n_m=np.array(HOLD_DISTURBANCE_N_M)),),
+            "hold under a 2 N m yaw disturbance, no-firing region on (+-0.1 deg)",
+            "Fig 18",
+            (
+                Scenario(
+                    "attitude-hold-disturbed", 60.0, disturbance_n_m=np.array(HOLD_DISTURBANCE_N_M)
+                ),
+            ),
         ),
         PaperScenario(
             "attitude-hold-disturbed-no-band",
-            "hold under a 2 N m yaw disturbance, no-firing region off", "Fig 17",
-            (Scenario("attitude-hold-disturbed-no-band", 60.0,
-                      disturbance_n_m=np.array(HOLD_DISTURBANCE_N_M)),),
+            "hold under a 2 N m yaw disturbance, no-firing region off",
+            "Fig 17",
+            (
+                Scenario(
+                    "attitude-hold-disturbed-no-band",
+                    60.0,
+                    disturbance_n_m=np.array(HOLD_DISTURBANCE_N_M),
+                ),
+            ),
             lookup_options={"no_fire_band_rad": 0.0},
         ),
         PaperScenario(
-            "disturbed-three-axis", "5 deg in each axis under a (1, -1, 2) N m disturbance",
+            "disturbed-three-axis",
+            "5 deg in each axis under a (1, -1, 2) N m disturbance",
             "Figs 19-20",
-            (_maneuver("disturbed-three-axis", (5.0, 5.0, 5.0), 60.0,
-                       disturbance_n_m=np.array(MANEUVER_DISTURBANCE_N_M)),),
+            (
+                _maneuver(
+                    "disturbed-three-axis",
+                    (5.0, 5.0, 5.0),
+                    60.0,
+                    disturbance_n_m=np.array(MANEUVER_DISTURBANCE_N_M),
+                ),
+            ),
         ),
     ]
     return {s.name: s for s in out}

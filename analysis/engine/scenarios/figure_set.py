@@ -3,6 +3,7 @@
 Figs 3-4 come from a fresh table generation on the nominal vehicle; the others from flying the
 named scenarios with the lookup controller.
 """
+
 from __future__ import annotations
 
 import sys
@@ -63,17 +64,23 @@ def write_figure_set(out_dir, *, table=None, progress: bool | None = None) -> li
 
     out_dir = Path(out_dir)
     flights = list(dict.fromkeys(scn for scn, _ in FIGURES.values()))
-    bar = tqdm(total=2 + len(flights), unit="step", desc="scenario figures", file=sys.stderr,
-               disable=not (sys.stderr.isatty() if progress is None else progress),
-               dynamic_ncols=True)
+    bar = tqdm(
+        total=2 + len(flights),
+        unit="step",
+        desc="scenario figures",
+        file=sys.stderr,
+        disable=not (sys.stderr.isatty() if progress is None else progress),
+        dynamic_ncols=True,
+    )
     with bar:
         bar.set_postfix_str("table generation")
         names = _write_table_figures(out_dir, table, bar)
         flown = {}
         for scn_name in flights:
             bar.set_postfix_str(scn_name)
-            flown[scn_name] = history_frame(fly_scenario(get_scenario(scn_name), "lookup",
-                                                         table=table), 0)
+            flown[scn_name] = history_frame(
+                fly_scenario(get_scenario(scn_name), "lookup", table=table), 0
+            )
             bar.update(1)
     for name, (scn_name, kind) in FIGURES.items():
         frame = flown[scn_name]
@@ -82,8 +89,9 @@ def write_figure_set(out_dir, *, table=None, progress: bool | None = None) -> li
             plot_attitude_error(frame, out_dir / name, title=title)
         elif kind == "jets":
             axes = ("yaw",) if scn_name == "single-axis-yaw" else ("roll", "pitch", "yaw")
-            plot_axes_jets(frame, out_dir / name, title=title, axes=axes,
-                           windows=firing_windows(frame))
+            plot_axes_jets(
+                frame, out_dir / name, title=title, axes=axes, windows=firing_windows(frame)
+            )
         else:
             band = get_scenario(scn_name).lookup_options.get("no_fire_band_rad", np.radians(0.1))
             plot_hold(frame, out_dir / name, title=title, band_deg=float(np.degrees(band)))
@@ -96,18 +104,38 @@ def _write_table_figures(out_dir: Path, table, bar) -> list[str]:
     gen = generate_table()
     bar.update(1)
     rate = np.asarray(gen.table.rate_cmd)
-    names = ["lookup_fig03_rate_command.png", "lookup_fig04_rate_damping.png",
-             "lookup_fig03_04_case26.png", "lookup_rate_damping_runs.png"]
-    plot_table_heatmap(gen.table.firing_time_s, out_dir / names[0], rate_cmd_rad_s=rate,
-                       title="Fig 3: firing time from rest to each rate command (generated)")
-    plot_table_heatmap(gen.damping_firing_time_s, out_dir / names[1], rate_cmd_rad_s=rate,
-                       title="Fig 4: firing time to damp each rate to zero; equal times on "
-                       f"opposing jets in {int(gen.damping_equal.sum())}/26 cases")
-    plot_sweep_case(gen.command.history, gen.damping.history, 25, out_dir / names[2],
-                    title="Case 26 (+,+,+) 0.3 deg/s: rate command vs rate damping")
+    names = [
+        "lookup_fig03_rate_command.png",
+        "lookup_fig04_rate_damping.png",
+        "lookup_fig03_04_case26.png",
+        "lookup_rate_damping_runs.png",
+    ]
+    plot_table_heatmap(
+        gen.table.firing_time_s,
+        out_dir / names[0],
+        rate_cmd_rad_s=rate,
+        title="Fig 3: firing time from rest to each rate command (generated)",
+    )
+    plot_table_heatmap(
+        gen.damping_firing_time_s,
+        out_dir / names[1],
+        rate_cmd_rad_s=rate,
+        title="Fig 4: firing time to damp each rate to zero; equal times on "
+        f"opposing jets in {int(gen.damping_equal.sum())}/26 cases",
+    )
+    plot_sweep_case(
+        gen.command.history,
+        gen.damping.history,
+        25,
+        out_dir / names[2],
+        title="Case 26 (+,+,+) 0.3 deg/s: rate command vs rate damping",
+    )
     bar.set_postfix_str("rate-damping")
     damp = get_scenario("rate-damping")
-    plot_runs_rates(fly_scenario(damp, "lookup", table=table), out_dir / names[3],
-                    title="lookup controller: rate damping of the 26 Table 3 rates")
+    plot_runs_rates(
+        fly_scenario(damp, "lookup", table=table),
+        out_dir / names[3],
+        title="lookup controller: rate damping of the 26 Table 3 rates",
+    )
     bar.update(1)
     return names

@@ -1,5 +1,6 @@
 """Scenario outputs: one flight's directory (``history.parquet``, ``metrics.csv``,
 ``summary.json``, plots), the two controllers' comparison, the paper's figure set."""
+
 from __future__ import annotations
 
 import json
@@ -22,9 +23,15 @@ from analysis.engine.scenarios.plots import plot_scenario
 from spacecraft.simulation import History
 
 
-def write_scenario(history: History, scenario: PaperScenario, out_dir: str | os.PathLike, *,
-                   controller: str, command: str | None = None,
-                   overwrite: bool = False) -> dict[str, Path]:
+def write_scenario(
+    history: History,
+    scenario: PaperScenario,
+    out_dir: str | os.PathLike,
+    *,
+    controller: str,
+    command: str | None = None,
+    overwrite: bool = False,
+) -> dict[str, Path]:
     """Write ``history.parquet`` (all runs, column ``run``), ``metrics.csv``,
     ``summary.json`` and the paper-style plots into ``out_dir``, atomically.
 
@@ -38,9 +45,13 @@ def write_scenario(history: History, scenario: PaperScenario, out_dir: str | os.
         frames.append(f)
     frame = pd.concat(frames, ignore_index=True)
     metrics = scenario_metrics(history, scenario)
-    summary = {"scenario": scenario.name, "controller": controller,
-               "description": scenario.description, "figures": scenario.figures,
-               **summarize(metrics)}
+    summary = {
+        "scenario": scenario.name,
+        "controller": controller,
+        "description": scenario.description,
+        "figures": scenario.figures,
+        **summarize(metrics),
+    }
     title = f"{controller}: {scenario.name}"
     with atomic_dir(out_dir, command, overwrite=overwrite) as tmp:
         frame.to_parquet(tmp / "history.parquet", index=False)
@@ -48,12 +59,15 @@ def write_scenario(history: History, scenario: PaperScenario, out_dir: str | os.
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2, allow_nan=True) + "\n")
         plots = plot_scenario(history, scenario, tmp, title=title)
     out = Path(out_dir)
-    return {name: out / name for name in
-            ("history.parquet", "metrics.csv", "summary.json", *[p.name for p in plots])}
+    return {
+        name: out / name
+        for name in ("history.parquet", "metrics.csv", "summary.json", *[p.name for p in plots])
+    }
 
 
-def write_comparison(out_dir: str | os.PathLike, names=None, *, table=None,
-                     overwrite: bool = False) -> tuple[pd.DataFrame, str]:
+def write_comparison(
+    out_dir: str | os.PathLike, names=None, *, table=None, overwrite: bool = False
+) -> tuple[pd.DataFrame, str]:
     """Fly every scenario (or ``names``) with both controllers and write
     ``comparison.csv`` and ``comparison.md`` into ``out_dir`` (checked before any flight).
 
@@ -70,8 +84,7 @@ def write_comparison(out_dir: str | os.PathLike, names=None, *, table=None,
     return frame, md
 
 
-def write_figures(out_dir: str | os.PathLike, *, table=None,
-                  overwrite: bool = False) -> list[str]:
+def write_figures(out_dir: str | os.PathLike, *, table=None, overwrite: bool = False) -> list[str]:
     """The paper's figure set (:func:`~analysis.engine.scenarios.figure_set.write_figure_set`)
     as an output directory of ``rcsim scenario figures``; returns the file names."""
     check_out_dir(out_dir, "scenario figures", overwrite=overwrite)

@@ -7,6 +7,7 @@ table's firing times (Figs 3-4: command vs damping).  Figures are built with mat
 object API (:func:`analysis.engine.plots.new_figure`): importing this never touches pyplot's
 global state or the user's backend.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -59,8 +60,9 @@ def plot_runs_rates(history, path, *, title: str, labels=None) -> None:
     fig.savefig(path, dpi=DPI)
 
 
-def plot_hold(frame, path, *, title: str, maneuver_limit_deg: float = 0.6,
-              band_deg: float = 0.1) -> None:
+def plot_hold(
+    frame, path, *, title: str, maneuver_limit_deg: float = 0.6, band_deg: float = 0.1
+) -> None:
     """Total attitude error with the maneuver limit and no-firing region (shaded when on),
     yaw rate, and signed yaw jet commands (Figs 17-18)."""
     fig, (ax0, ax1, ax2) = new_figure(3, 1, figsize=(8, 7), sharex=True)
@@ -69,8 +71,13 @@ def plot_hold(frame, path, *, title: str, maneuver_limit_deg: float = 0.6,
     ax0.plot(t, att, color="k", lw=1.0, label="total attitude error")
     ax0.axhline(maneuver_limit_deg, color="tab:red", lw=1.0, label="maneuver limit")
     if band_deg > 0:
-        ax0.axhspan(maneuver_limit_deg - band_deg, maneuver_limit_deg + band_deg,
-                    color="tab:red", alpha=0.12, label=f"no-firing region +-{band_deg:g} deg")
+        ax0.axhspan(
+            maneuver_limit_deg - band_deg,
+            maneuver_limit_deg + band_deg,
+            color="tab:red",
+            alpha=0.12,
+            label=f"no-firing region +-{band_deg:g} deg",
+        )
     ax0.set_ylabel("attitude error [deg]")
     ax0.set_ylim(0, max(1.0, float(att.max()) * 1.1))
     ax0.grid(alpha=0.3)
@@ -90,8 +97,9 @@ def plot_hold(frame, path, *, title: str, maneuver_limit_deg: float = 0.6,
     fig.savefig(path, dpi=DPI)
 
 
-def plot_table_heatmap(firing_time_s, path, *, title: str, cycle_s: float = CONTROL_CYCLE_S,
-                       rate_cmd_rad_s=None) -> None:
+def plot_table_heatmap(
+    firing_time_s, path, *, title: str, cycle_s: float = CONTROL_CYCLE_S, rate_cmd_rad_s=None
+) -> None:
     """Firing time per case and jet as a heat map annotated in control cycles.
 
     Parameters
@@ -107,14 +115,23 @@ def plot_table_heatmap(firing_time_s, path, *, title: str, cycle_s: float = CONT
     for i in range(ft.shape[0]):
         for k, j in enumerate(used):
             if ft[i, j] > 0:
-                ax.text(k, i, f"{ft[i, j] / cycle_s:.0f}", ha="center", va="center",
-                        fontsize=7, color="w" if ft[i, j] < 0.7 * ft.max() else "k")
+                ax.text(
+                    k,
+                    i,
+                    f"{ft[i, j] / cycle_s:.0f}",
+                    ha="center",
+                    va="center",
+                    fontsize=7,
+                    color="w" if ft[i, j] < 0.7 * ft.max() else "k",
+                )
     ax.set_xticks(range(len(used)), [str(j + 1) for j in used])
     labels = [str(c + 1) for c in range(ft.shape[0])]
     if rate_cmd_rad_s is not None:
         sym = {-1: "-", 0: "0", 1: "+"}
-        labels = [f"{c + 1} ({''.join(sym[int(s)] for s in np.sign(r))})"
-                  for c, r in enumerate(np.asarray(rate_cmd_rad_s))]
+        labels = [
+            f"{c + 1} ({''.join(sym[int(s)] for s in np.sign(r))})"
+            for c, r in enumerate(np.asarray(rate_cmd_rad_s))
+        ]
     ax.set_yticks(range(ft.shape[0]), labels, fontsize=7)
     ax.set_xlabel("jet")
     ax.set_ylabel("case (roll, pitch, yaw sign)")
@@ -128,22 +145,30 @@ def plot_sweep_case(command_hist, damping_hist, case_index: int, path, *, title:
     command rate to rest (right) -- paper Figs 3-4 side by side."""
     fig, axes = new_figure(3, 2, figsize=(10, 7), sharex=True)
     jets_of = {"roll": (1, 2, 3, 4), "pitch": (9, 10, 11, 12), "yaw": (13, 14, 15, 16)}
-    for col, (hist, label) in enumerate(((command_hist, "rate command"),
-                                         (damping_hist, "rate damping"))):
+    for col, (hist, label) in enumerate(
+        ((command_hist, "rate command"), (damping_hist, "rate damping"))
+    ):
         t = hist.t_s
         n_show = min(len(t), int(np.ceil(0.8 / (t[1] - t[0]))))
         for a, (axis, color) in enumerate(AXIS_COLORS.items()):
             ax = axes[a, col]
-            ax.plot(t[:n_show], np.degrees(hist.omega_B[case_index, :n_show, a]), color=color,
-                    marker=".", ms=3, label=f"{axis} rate")
+            ax.plot(
+                t[:n_show],
+                np.degrees(hist.omega_B[case_index, :n_show, a]),
+                color=color,
+                marker=".",
+                ms=3,
+                label=f"{axis} rate",
+            )
             ax.set_ylabel(f"{axis} [deg/s]")
             ax.grid(alpha=0.3)
             twin = ax.twinx()
             for k, jet in enumerate(jets_of[axis]):
                 on = hist.on_time_s[case_index, :n_show, jet - 1]
                 if on.any():
-                    twin.step(t[:n_show], on * 1e3 + 0.8 * k, where="post", lw=0.8,
-                              label=f"jet {jet}")
+                    twin.step(
+                        t[:n_show], on * 1e3 + 0.8 * k, where="post", lw=0.8, label=f"jet {jet}"
+                    )
             twin.set_ylim(-2, 60)
             if col == 1:
                 twin.set_ylabel("ms/cycle")

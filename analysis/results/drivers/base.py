@@ -1,4 +1,5 @@
 """Checks and helpers shared by the driver estimators (inputs, labels, random state)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -23,8 +24,11 @@ def check_xy(X, y, strata=None):
     -------
     X : ndarray float (n, p), y : ndarray bool (n,), strata : ndarray (n,), names : list of str
     """
-    names = ([str(c) for c in X.columns] if isinstance(X, pd.DataFrame)
-             else [f"x{j}" for j in range(np.shape(X)[1])])
+    names = (
+        [str(c) for c in X.columns]
+        if isinstance(X, pd.DataFrame)
+        else [f"x{j}" for j in range(np.shape(X)[1])]
+    )
     X = np.asarray(X, dtype=float)
     if X.ndim != 2 or X.shape[1] == 0:
         raise InputError(f"X must be a 2-D array with at least one column, got shape {X.shape}")

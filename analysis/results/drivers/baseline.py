@@ -3,8 +3,10 @@
 A t-test compares the *means* of an input among failed and successful runs.  It misses a
 two-sided driver (hot and cold jets both fail: the failed runs' mean equals the successful
 runs') and a pure pair interaction (no single mean moves); ``docs/drivers.md`` shows the
-recovery rates beside the KDE's on the planted campaigns of :mod:`analysis.results.drivers.synthetic`.
+recovery rates beside the KDE's on the planted campaigns of
+:mod:`analysis.results.drivers.synthetic`.
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -27,6 +27,7 @@ hold it at rest).  Vehicles come back from the recorded inputs through the runs 
 owner (:func:`analysis.engine.runs_table.vehicles_from_runs`, with the simulator's own pointing
 rule) and torques from :func:`spacecraft.vehicle.torque_per_jet_B`.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -38,8 +39,9 @@ from spacecraft.vehicle import AXES, VehicleParams, load_model, torque_per_jet_B
 _DIRS = ((1, "pos"), (-1, "neg"))
 
 
-def physics_factors(runs: pd.DataFrame, fire_sign: np.ndarray | None = None,
-                    jet_map: np.ndarray | None = None) -> pd.DataFrame:
+def physics_factors(
+    runs: pd.DataFrame, fire_sign: np.ndarray | None = None, jet_map: np.ndarray | None = None
+) -> pd.DataFrame:
     """Derived factors of every run (see the module docstring).
 
     Parameters
@@ -58,14 +60,16 @@ def physics_factors(runs: pd.DataFrame, fire_sign: np.ndarray | None = None,
     """
     missing = [c for c in INPUT_NAMES if c not in runs.columns]
     if missing:
-        raise ValueError(f"runs lack the recorded inputs {missing[:3]}"
-                         f"{' ...' if len(missing) > 3 else ''}")
+        raise ValueError(
+            f"runs lack the recorded inputs {missing[:3]}{' ...' if len(missing) > 3 else ''}"
+        )
     if jet_map is None:
         from models.tables import load_jet_map
+
         jet_map = load_jet_map()
     model = load_model()
     dispersed, straight = vehicles_from_runs(runs, VehicleParams.nominal(1, model))
-    torque = torque_per_jet_B(dispersed, model)        # (n, 16, 3) [N m]
+    torque = torque_per_jet_B(dispersed, model)  # (n, 16, 3) [N m]
     torque_nom = torque_per_jet_B(straight, model)
     inertia = dispersed.inertia_B
     thrust = dispersed.thrust_n
@@ -94,10 +98,16 @@ def physics_factors(runs: pd.DataFrame, fire_sign: np.ndarray | None = None,
                 continue
             pos, neg = per_group[(a, 1)], per_group[(a, -1)]
             s = fire_sign[:, a]
-            for k, name in enumerate((f"authority_{axis}_fire_rad_s2", f"thrust_{axis}_fire_n",
-                                      f"pointing_loss_{axis}_fire")):
-                cols[name] = np.where(s > 0, pos[k], np.where(s < 0, neg[k],
-                                                               0.5 * (pos[k] + neg[k])))
+            for k, name in enumerate(
+                (
+                    f"authority_{axis}_fire_rad_s2",
+                    f"thrust_{axis}_fire_n",
+                    f"pointing_loss_{axis}_fire",
+                )
+            ):
+                cols[name] = np.where(
+                    s > 0, pos[k], np.where(s < 0, neg[k], 0.5 * (pos[k] + neg[k]))
+                )
     return pd.DataFrame(cols, index=runs.index)
 
 

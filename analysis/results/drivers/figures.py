@@ -4,6 +4,7 @@ Colours follow Gambone Fig. 15: failed runs red, successful runs blue.  Figures 
 matplotlib's object API (:func:`analysis.engine.plots.new_figure`, constrained layout), never
 pyplot, so a user's backend is never touched.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -35,9 +36,12 @@ def ranking(drivers: pd.DataFrame, top: int = 20) -> Figure:
     fig, ax = new_figure(figsize=(8.0, 0.28 * len(d) + 1.2))
     colors = [FAIL if s else "#999999" for s in d["significant"]]
     ax.barh(range(len(d)), d["score"], color=colors)
-    labels = [f"{f}  (p={p:.3g}" + (f", kept {s:.0%}" if "stability" in d and pd.notna(s) else "")
-              + ")" for f, p, s in zip(d["factor"], d["p_value"],
-                                       d["stability"] if "stability" in d else [np.nan] * len(d))]
+    labels = [
+        f"{f}  (p={p:.3g}" + (f", kept {s:.0%}" if "stability" in d and pd.notna(s) else "") + ")"
+        for f, p, s in zip(
+            d["factor"], d["p_value"], d["stability"] if "stability" in d else [np.nan] * len(d)
+        )
+    ]
     ax.set_yticks(range(len(d)), labels, fontsize=8)
     ax.set_xlabel("score: TV distance failed vs successful, minus its no-effect mean")
     ax.set_title("Single-factor drivers (red: significant after correction for all inputs)")
@@ -63,14 +67,22 @@ def failure_regions(singles, X: pd.DataFrame, factors) -> Figure:
         ax.axhline(100.0 * singles.base_rate_, color="k", ls="--", lw=1, label="base rate")
         mask = singles.region_mask_[j]
         if mask.any():
-            ax.fill_between(x_mid, 0, cond, where=mask, color=FAIL, alpha=0.15,
-                            step="mid", label="failure region")
+            ax.fill_between(
+                x_mid,
+                0,
+                cond,
+                where=mask,
+                color=FAIL,
+                alpha=0.15,
+                step="mid",
+                label="failure region",
+            )
         ax.set_xlabel(f)
         ax.set_ylabel("failure probability [%]")
         ax.set_ylim(bottom=0)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="best")
-    for ax in axes.ravel()[len(factors):]:
+    for ax in axes.ravel()[len(factors) :]:
         ax.set_visible(False)
     return fig
 
@@ -80,19 +92,32 @@ def knn_map(fmap, X: pd.DataFrame, y: np.ndarray, title: str) -> Figure:
     a, b = fmap.feature_names_in_
     fig, (ax1, ax2) = new_figure(1, 2, figsize=(11.5, 4.4))
     extent = [fmap.edges_a_[0], fmap.edges_a_[-1], fmap.edges_b_[0], fmap.edges_b_[-1]]
-    im = ax1.imshow(100 * fmap.prob_.T, origin="lower", extent=extent, aspect="auto",
-                    cmap="Reds", vmin=0, vmax=100, alpha=0.85)
+    im = ax1.imshow(
+        100 * fmap.prob_.T,
+        origin="lower",
+        extent=extent,
+        aspect="auto",
+        cmap="Reds",
+        vmin=0,
+        vmax=100,
+        alpha=0.85,
+    )
     ok = ~y
     ax1.scatter(X[a][ok], X[b][ok], s=4, c=OK, alpha=0.5, label="successful run")
-    ax1.scatter(X[a][y], X[b][y], s=10, c=FAIL, edgecolors="k", linewidths=0.3,
-                label="failed run")
+    ax1.scatter(X[a][y], X[b][y], s=10, c=FAIL, edgecolors="k", linewidths=0.3, label="failed run")
     ax1.set_xlabel(a)
     ax1.set_ylabel(b)
     ax1.set_title(f"{title}: P(fail), k = {fmap.k_} neighbours")
     ax1.legend(fontsize=7, loc="upper right")
     fig.colorbar(im, ax=ax1, label="failure probability [%] (blank: no runs)")
-    im2 = ax2.imshow(100 * fmap.uncertainty_.T, origin="lower", extent=extent, aspect="auto",
-                     cmap="Greys", vmin=0)
+    im2 = ax2.imshow(
+        100 * fmap.uncertainty_.T,
+        origin="lower",
+        extent=extent,
+        aspect="auto",
+        cmap="Greys",
+        vmin=0,
+    )
     ax2.set_xlabel(a)
     ax2.set_ylabel(b)
     ax2.set_title("uncertainty of the map")
@@ -100,16 +125,18 @@ def knn_map(fmap, X: pd.DataFrame, y: np.ndarray, title: str) -> Figure:
     return fig
 
 
-def rate_error_histogram(runs: pd.DataFrame, y: np.ndarray, threshold_deg_s: float | None,
-                         title: str) -> Figure:
+def rate_error_histogram(
+    runs: pd.DataFrame, y: np.ndarray, threshold_deg_s: float | None, title: str
+) -> Figure:
     """Gambone Fig. 16 style: final rate error of every axis, binned, failed vs successful."""
     fig, axes = new_figure(1, 3, figsize=(12, 3.2), sharey=True)
     for ax, axis in zip(axes, AXES):
         col = f"final_rate_err_{axis}_deg_s"
         v = runs[col].to_numpy(float)
         bins = np.histogram_bin_edges(v[np.isfinite(v)], bins=30)
-        ax.hist([v[~y], v[y]], bins=bins, stacked=True, color=[OK, FAIL],
-                label=["successful", "failed"])
+        ax.hist(
+            [v[~y], v[y]], bins=bins, stacked=True, color=[OK, FAIL], label=["successful", "failed"]
+        )
         if threshold_deg_s is not None:
             for s in (-1, 1):
                 ax.axvline(s * threshold_deg_s, color="k", ls="--", lw=1)

@@ -5,9 +5,11 @@ columns of :data:`analysis.engine.runs_table.INPUT_COLUMNS`), the ``failed`` out
 the rate case of every run; any other table is taken as it is, with the inputs named by the
 caller or, by default, the recorded-input columns when present, else every numeric column other
 than the outcome and identifiers.  Physics-aware factors
-(:mod:`analysis.results.drivers.factors`) are added when the recorded inputs are present.  Every problem a user can fix raises
+(:mod:`analysis.results.drivers.factors`) are added when the recorded inputs are present.  Every
+problem a user can fix raises
 :class:`models.errors.InputError` naming the file, the column and the value.
 """
+
 from __future__ import annotations
 
 import json
@@ -64,8 +66,9 @@ class RunSet:
     notes: list = field(default_factory=list)
 
 
-def load_runs(path, inputs=None, outcome: str = "failed", case: str | None = None,
-              derived: bool = True) -> RunSet:
+def load_runs(
+    path, inputs=None, outcome: str = "failed", case: str | None = None, derived: bool = True
+) -> RunSet:
     """Read and validate runs for :func:`analysis.results.drivers.pipeline.analyze`.
 
     Parameters
@@ -92,12 +95,16 @@ def load_runs(path, inputs=None, outcome: str = "failed", case: str | None = Non
 
     if case is not None:
         if "case" not in runs.columns:
-            raise InputError(f"{case!r}: {where} has no 'case' column", parameter="case",
-                             value=case)
+            raise InputError(
+                f"{case!r}: {where} has no 'case' column", parameter="case", value=case
+            )
         names = [str(c) for c in pd.unique(runs["case"])]
         if str(case) not in names:
-            raise InputError(f"{case!r} is not a case of {where}; cases: "
-                             f"{', '.join(names[:30])}", parameter="case", value=case)
+            raise InputError(
+                f"{case!r} is not a case of {where}; cases: {', '.join(names[:30])}",
+                parameter="case",
+                value=case,
+            )
         runs = runs[runs["case"].astype(str) == str(case)].reset_index(drop=True)
     if len(runs) < MIN_RUNS:
         raise InputError(f"{where}: {len(runs)} run(s); the analysis needs at least {MIN_RUNS}")
@@ -122,21 +129,32 @@ def load_runs(path, inputs=None, outcome: str = "failed", case: str | None = Non
             raise InputError("is empty", parameter="inputs", value=inputs)
         unknown = [c for c in inputs if c not in runs.columns and c not in factors.columns]
         if unknown:
-            raise InputError(f"{unknown[0]!r} is not a column of {where}"
-                             + (" (derived factors need the recorded inputs)" if not has_raw
-                                else ""), parameter="inputs", value=unknown[0])
+            raise InputError(
+                f"{unknown[0]!r} is not a column of {where}"
+                + (" (derived factors need the recorded inputs)" if not has_raw else ""),
+                parameter="inputs",
+                value=unknown[0],
+            )
         if outcome in inputs:
-            raise InputError(f"{outcome!r} is the outcome column; it cannot be an input",
-                             parameter="inputs", value=outcome)
+            raise InputError(
+                f"{outcome!r} is the outcome column; it cannot be an input",
+                parameter="inputs",
+                value=outcome,
+            )
         raw = [c for c in inputs if c in runs.columns]
         der = [c for c in inputs if c not in runs.columns]
     else:
         if has_raw:
             raw = list(raw_cols)
         else:
-            raw = [c for c in runs.columns if c not in ID_COLUMNS and c != outcome
-                   and pd.api.types.is_numeric_dtype(runs[c])
-                   and not pd.api.types.is_bool_dtype(runs[c])]
+            raw = [
+                c
+                for c in runs.columns
+                if c not in ID_COLUMNS
+                and c != outcome
+                and pd.api.types.is_numeric_dtype(runs[c])
+                and not pd.api.types.is_bool_dtype(runs[c])
+            ]
             if not raw:
                 raise InputError(f"{where}: no numeric input columns besides the outcome")
             notes.append("inputs: every numeric column except the outcome and identifiers")
@@ -152,9 +170,19 @@ def load_runs(path, inputs=None, outcome: str = "failed", case: str | None = Non
     if X.shape[1] == 0:
         raise InputError(f"{where}: every input is constant; nothing can drive the outcome")
     strata = runs["case"].astype(str).to_numpy() if "case" in runs.columns else None
-    return RunSet(source=source, kind=kind, runs=runs, X=X, raw_inputs=raw,
-                  derived_inputs=der, outcome=outcome, y=y, strata=strata,
-                  manifest=manifest, notes=notes)
+    return RunSet(
+        source=source,
+        kind=kind,
+        runs=runs,
+        X=X,
+        raw_inputs=raw,
+        derived_inputs=der,
+        outcome=outcome,
+        y=y,
+        strata=strata,
+        manifest=manifest,
+        notes=notes,
+    )
 
 
 def _read_source(path) -> tuple[Path, pd.DataFrame, object, str, dict | None]:
@@ -166,9 +194,12 @@ def _read_source(path) -> tuple[Path, pd.DataFrame, object, str, dict | None]:
     if source.is_dir():
         manifest_path, runs_path = source / runs_table.MANIFEST, source / runs_table.RUNS
         if not manifest_path.is_file() or not runs_path.is_file():
-            raise InputError(f"{source}: not a campaign directory (needs manifest.json and "
-                             "runs.parquet) and not a table file", parameter="path",
-                             value=str(source))
+            raise InputError(
+                f"{source}: not a campaign directory (needs manifest.json and "
+                "runs.parquet) and not a table file",
+                parameter="path",
+                value=str(source),
+            )
         try:
             manifest = json.loads(manifest_path.read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -176,8 +207,9 @@ def _read_source(path) -> tuple[Path, pd.DataFrame, object, str, dict | None]:
         return source, _read_table(runs_path), runs_path, "campaign", manifest
     if source.is_file():
         return source, _read_table(source), source, "table", None
-    raise InputError(f"{source}: no such campaign directory or table file",
-                     parameter="path", value=str(source))
+    raise InputError(
+        f"{source}: no such campaign directory or table file", parameter="path", value=str(source)
+    )
 
 
 def _read_table(path: Path) -> pd.DataFrame:
@@ -190,19 +222,23 @@ def _read_table(path: Path) -> pd.DataFrame:
     except (OSError, ValueError, ImportError) as exc:
         raise InputError(f"{path}: cannot read the table ({str(exc).splitlines()[0]})") from None
     except Exception as exc:  # pyarrow raises its own types for corrupt files
-        raise InputError(f"{path}: cannot read the table ({type(exc).__name__}: "
-                         f"{str(exc).splitlines()[0] if str(exc) else ''})") from None
+        raise InputError(
+            f"{path}: cannot read the table ({type(exc).__name__}: "
+            f"{str(exc).splitlines()[0] if str(exc) else ''})"
+        ) from None
     raise InputError(f"{path}: unknown table format {suffix!r}; use .parquet or .csv")
 
 
 def _outcome(runs: pd.DataFrame, outcome: str, where) -> np.ndarray:
     if outcome not in runs.columns:
-        raise InputError(f"{outcome!r} is not a column of {where}", parameter="outcome",
-                         value=outcome)
+        raise InputError(
+            f"{outcome!r} is not a column of {where}", parameter="outcome", value=outcome
+        )
     col = runs[outcome]
     if col.isna().any():
-        raise InputError(f"{where}: outcome column {outcome!r} has "
-                         f"{int(col.isna().sum())} missing values")
+        raise InputError(
+            f"{where}: outcome column {outcome!r} has {int(col.isna().sum())} missing values"
+        )
     if pd.api.types.is_bool_dtype(col):
         return col.to_numpy(bool)
     if pd.api.types.is_numeric_dtype(col):
@@ -210,20 +246,25 @@ def _outcome(runs: pd.DataFrame, outcome: str, where) -> np.ndarray:
         if values <= {0, 1}:
             return col.to_numpy() == 1
     shown = ", ".join(repr(v) for v in list(pd.unique(col))[:5])
-    raise InputError(f"{where}: outcome column {outcome!r} is not binary "
-                     f"(bool or 0/1); values include {shown}")
+    raise InputError(
+        f"{where}: outcome column {outcome!r} is not binary (bool or 0/1); values include {shown}"
+    )
 
 
 def _check_numeric(runs: pd.DataFrame, cols, where) -> None:
     for c in cols:
         col = runs[c]
         if not pd.api.types.is_numeric_dtype(col) or pd.api.types.is_bool_dtype(col):
-            raise InputError(f"{where}: input column {c!r} is not numeric "
-                             f"(dtype {col.dtype})")
+            raise InputError(f"{where}: input column {c!r} is not numeric (dtype {col.dtype})")
         bad = ~np.isfinite(col.to_numpy(float))
         if bad.any():
             first = int(np.flatnonzero(bad)[0])
-            label = (f"run_id {runs['run_id'].iloc[first]}" if "run_id" in runs.columns
-                     else f"row {first}")
-            raise InputError(f"{where}: input column {c!r} has {int(bad.sum())} NaN or "
-                             f"infinite value(s), first at {label}")
+            label = (
+                f"run_id {runs['run_id'].iloc[first]}"
+                if "run_id" in runs.columns
+                else f"row {first}"
+            )
+            raise InputError(
+                f"{where}: input column {c!r} has {int(bad.sum())} NaN or "
+                f"infinite value(s), first at {label}"
+            )

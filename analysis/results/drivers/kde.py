@@ -35,6 +35,7 @@ standardised score ``z = (TV - mean_null) / sd_null``: the adjusted p-value of t
 ``(1 + #{b : max_k z_kb >= z_j}) / (B + 1)``, which accounts for the number of tests (and their
 correlation) without Holm's need for ``B >> n_tests``.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -66,7 +67,8 @@ def bandwidth(n_small: int, dim: int) -> float:
 
 
 def smoothing_matrix(n_bins: int, h: float) -> np.ndarray:
-    """Kernel matrix ``K[i, j]``: share of bin ``j``'s mass a Gaussian of sd ``h`` puts in bin ``i``.
+    """Kernel matrix ``K[i, j]``: share of bin ``j``'s mass a Gaussian of sd ``h`` puts in bin
+    ``i``.
 
     Reflection at 0 and 1 (images at ``-c`` and ``2 - c``) keeps the mass in (0, 1); columns are
     renormalised to sum to one (the images beyond the first miss < 1e-6 of the mass for
@@ -155,7 +157,7 @@ class BinnedTV:
         rows = np.sort(rows)  # sorted rows gather from codes_T with fewer cache misses
         total = None
         for s in range(0, max(rows.size, 1), self.chunk_rows):
-            part = np.bincount(self._flat(rows[s:s + self.chunk_rows]).ravel(), minlength=size)
+            part = np.bincount(self._flat(rows[s : s + self.chunk_rows]).ravel(), minlength=size)
             total = part if total is None else total + part
         shape = (self.n_tests, self.m) if self.pairs is None else (self.n_tests, self.m, self.m)
         return total.reshape(shape)
@@ -193,8 +195,13 @@ class PermutationResult:
         return self.tv - self.null_mean
 
 
-def permutation_test(engine: BinnedTV, minority: np.ndarray, strata: Strata,
-                     n_permutations: int, rng: np.random.Generator) -> PermutationResult:
+def permutation_test(
+    engine: BinnedTV,
+    minority: np.ndarray,
+    strata: Strata,
+    n_permutations: int,
+    rng: np.random.Generator,
+) -> PermutationResult:
     """Observed TV of the smaller class against the rest, with a stratified permutation null."""
     rows = np.flatnonzero(minority)
     tv = engine.tv(rows)
@@ -209,5 +216,6 @@ def permutation_test(engine: BinnedTV, minority: np.ndarray, strata: Strata,
     # Small tolerance: equal statistics (e.g. duplicated columns) count as ">=".
     p_raw = (1.0 + (null >= tv - 1e-12).sum(axis=0)) / (n_permutations + 1.0)
     p_maxt = (1.0 + (max_null[:, None] >= z_obs[None] - 1e-12).sum(axis=0)) / (n_permutations + 1.0)
-    return PermutationResult(tv=tv, null_mean=mean, null_sd=sd, p_raw=p_raw, p_maxt=p_maxt,
-                             null_tv=null)
+    return PermutationResult(
+        tv=tv, null_mean=mean, null_sd=sd, p_raw=p_raw, p_maxt=p_maxt, null_tv=null
+    )

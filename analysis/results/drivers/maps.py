@@ -7,10 +7,12 @@ and cheap for kNN: one neighbour query with ``max(k) + 1`` neighbours, each run'
 dropped, gives every candidate's held-out prediction).
 The map is evaluated at the centres of an ``n_grid x n_grid`` grid in the inputs' own units;
 cells with no run in them or in any of their 8 neighbours are masked (NaN: no data, no
-claim; the neighbours keep a sparse edge from turning into confetti).  Each cell carries an uncertainty:
+claim; the neighbours keep a sparse edge from turning into confetti).  Each cell carries an
+uncertainty:
 the half-width of the 90 % Jeffreys interval of a binomial proportion with ``k`` trials and the
 cell's estimate -- it is large where ``k`` is small or ``P`` near 1/2.
 """
+
 from __future__ import annotations
 
 import numpy as np

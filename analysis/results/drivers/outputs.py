@@ -3,6 +3,7 @@
 Everything is written into a temporary directory that replaces the output directory only when
 complete (:func:`analysis.engine.output.atomic_dir`): a failure never leaves half-written files.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -14,10 +15,28 @@ from analysis.results.drivers import report_sections as sections
 from analysis.results.drivers.pipeline import DriverResults
 from analysis.results.report.html import build_report
 
-DRIVER_COLUMNS = ["factor", "score", "p_value", "rank", "failure_region", "region_fail_share",
-                  "region_run_share", "significant", "stability", "second_opinion"]
-PAIR_COLUMNS = ["factor_a", "factor_b", "score", "p_value", "gain", "rank", "significant",
-                "stability"]
+DRIVER_COLUMNS = [
+    "factor",
+    "score",
+    "p_value",
+    "rank",
+    "failure_region",
+    "region_fail_share",
+    "region_run_share",
+    "significant",
+    "stability",
+    "second_opinion",
+]
+PAIR_COLUMNS = [
+    "factor_a",
+    "factor_b",
+    "score",
+    "p_value",
+    "gain",
+    "rank",
+    "significant",
+    "stability",
+]
 
 
 def case_table(res: DriverResults) -> pd.DataFrame:
@@ -25,20 +44,33 @@ def case_table(res: DriverResults) -> pd.DataFrame:
     rows = []
     nf = max(int(res.runset.y.sum()), 1)
     for c in res.cases:
-        base = {"case": c.case, "runs": c.runs, "failed": c.failed,
-                "share_of_all_failures": c.failed / nf}
+        base = {
+            "case": c.case,
+            "runs": c.runs,
+            "failed": c.failed,
+            "share_of_all_failures": c.failed / nf,
+        }
         if c.singles is None:
-            rows.append({**base, "factor": "", "score": float("nan"),
-                         "p_value": float("nan"), "rank": 0})
+            rows.append(
+                {**base, "factor": "", "score": float("nan"), "p_value": float("nan"), "rank": 0}
+            )
             continue
         t = c.singles.table()
         t = t[t["p_value"] < res.settings.alpha]
         if not len(t):
-            rows.append({**base, "factor": "", "score": float("nan"),
-                         "p_value": float("nan"), "rank": 0})
+            rows.append(
+                {**base, "factor": "", "score": float("nan"), "p_value": float("nan"), "rank": 0}
+            )
         for _, r in t.iterrows():
-            rows.append({**base, "factor": r["factor"], "score": r["score"],
-                         "p_value": r["p_value"], "rank": int(r["rank"])})
+            rows.append(
+                {
+                    **base,
+                    "factor": r["factor"],
+                    "score": r["score"],
+                    "p_value": r["p_value"],
+                    "rank": int(r["rank"]),
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -58,14 +90,16 @@ def write_analysis(res: DriverResults, out, *, overwrite: bool = False) -> Path:
         tmp = Path(tmp)
         if res.has_failures:
             d = res.drivers
-            d[[c for c in DRIVER_COLUMNS if c in d] +
-              [c for c in d.columns if c not in DRIVER_COLUMNS]].to_csv(
-                tmp / "drivers.csv", index=False)
+            d[
+                [c for c in DRIVER_COLUMNS if c in d]
+                + [c for c in d.columns if c not in DRIVER_COLUMNS]
+            ].to_csv(tmp / "drivers.csv", index=False)
             if res.pair_table is not None:
                 p = res.pair_table
-                p[[c for c in PAIR_COLUMNS if c in p] +
-                  [c for c in p.columns if c not in PAIR_COLUMNS]].to_csv(
-                    tmp / "pairs.csv", index=False)
+                p[
+                    [c for c in PAIR_COLUMNS if c in p]
+                    + [c for c in p.columns if c not in PAIR_COLUMNS]
+                ].to_csv(tmp / "pairs.csv", index=False)
             else:
                 pd.DataFrame(columns=PAIR_COLUMNS[:6]).to_csv(tmp / "pairs.csv", index=False)
         else:

@@ -1,13 +1,15 @@
 """Pair drivers: every pair of inputs on a 2-D rank-scale density, and its gain over singles.
 
 A pair's score is its 2-D TV distance minus the permutation-null mean (as for singles, see
-:mod:`analysis.results.drivers.kde`); p-values are max-T adjusted over *all pairs tested* (a separate
+:mod:`analysis.results.drivers.kde`); p-values are max-T adjusted over *all pairs tested* (a
+separate
 family from the singles).  ``gain = score(a, b) - max(score(a), score(b))``: the separation the
 pair shows beyond its better single input.  Since TV can only shrink when a density is
 marginalised, a pair never separates less than its better input in the population; a large
 gain marks an interaction (failures need both inputs), a gain near zero a pair that only
 carries one driver.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -79,8 +81,11 @@ class PairKDE:
             raise ValueError(f"n_permutations must be >= 1, got {self.n_permutations}")
         rng = as_rng(self.random_state)
         if single_score is None:
-            single_score = SingleFactorKDE(n_permutations=self.n_permutations,
-                                           random_state=rng).fit(X, y, strata).score_
+            single_score = (
+                SingleFactorKDE(n_permutations=self.n_permutations, random_state=rng)
+                .fit(X, y, strata)
+                .score_
+            )
         single_score = np.asarray(single_score, dtype=float)
         if single_score.shape != (p,):
             raise ValueError(f"single_score must have shape ({p},), got {single_score.shape}")
@@ -90,8 +95,9 @@ class PairKDE:
         self.bandwidth_ = bandwidth(int(minority.sum()), 2)
         codes = bin_codes(rank_scale(X), self.n_bins)
         self.engine_ = BinnedTV(codes, self.n_bins, self.pairs_, h=self.bandwidth_)
-        res = permutation_test(self.engine_, minority, Strata.build(strata, minority),
-                               int(self.n_permutations), rng)
+        res = permutation_test(
+            self.engine_, minority, Strata.build(strata, minority), int(self.n_permutations), rng
+        )
         self.feature_names_in_ = names
         self.n_features_in_ = p
         self.tv_, self.null_mean_, self.score_ = res.tv, res.null_mean, res.score
@@ -104,15 +110,17 @@ class PairKDE:
     def table(self) -> pd.DataFrame:
         """One row per pair, best first: the columns of ``pairs.csv``."""
         names = np.asarray(self.feature_names_in_, dtype=object)
-        df = pd.DataFrame({
-            "factor_a": names[self.pairs_[:, 0]],
-            "factor_b": names[self.pairs_[:, 1]],
-            "score": self.score_,
-            "p_value": self.p_value_,
-            "gain": self.gain_,
-            "rank": self.rank_,
-            "tv": self.tv_,
-            "tv_null_mean": self.null_mean_,
-            "p_raw": self.p_raw_,
-        })
+        df = pd.DataFrame(
+            {
+                "factor_a": names[self.pairs_[:, 0]],
+                "factor_b": names[self.pairs_[:, 1]],
+                "score": self.score_,
+                "p_value": self.p_value_,
+                "gain": self.gain_,
+                "rank": self.rank_,
+                "tv": self.tv_,
+                "tv_null_mean": self.null_mean_,
+                "p_raw": self.p_raw_,
+            }
+        )
         return df.sort_values("rank", kind="stable").reset_index(drop=True)

@@ -5,6 +5,7 @@ Order: single factors (KDE, permutation p-values) -> every pair -> stability (ha
 most failures -> kNN maps of the top pairs.  Everything is seeded from ``random_state``
 through one ``SeedSequence``, spawned per step in a fixed order.
 """
+
 from __future__ import annotations
 
 import time
@@ -82,11 +83,18 @@ class Settings:
             if value is None and name == "pair_permutations":
                 continue
             if not _is_int(value) or value < MIN_PERMUTATIONS:
-                raise InputError(f"must be an integer >= {MIN_PERMUTATIONS} (fewer cannot reach "
-                                 f"p < 0.05), got {value!r}", parameter=name, value=value)
+                raise InputError(
+                    f"must be an integer >= {MIN_PERMUTATIONS} (fewer cannot reach "
+                    f"p < 0.05), got {value!r}",
+                    parameter=name,
+                    value=value,
+                )
         if not _is_int(self.random_state) or self.random_state < 0:
-            raise InputError(f"must be an integer >= 0, got {self.random_state!r}",
-                             parameter="random_state", value=self.random_state)
+            raise InputError(
+                f"must be an integer >= 0, got {self.random_state!r}",
+                parameter="random_state",
+                value=self.random_state,
+            )
 
     @property
     def pair_b(self) -> int:
@@ -116,7 +124,7 @@ class DriverResults:
     drivers: pd.DataFrame | None = None
     pair_table: pd.DataFrame | None = None
     cases: list = field(default_factory=list)
-    maps: list = field(default_factory=list)   # (case or None, KNNFailureMap)
+    maps: list = field(default_factory=list)  # (case or None, KNNFailureMap)
     timings_s: dict = field(default_factory=dict)
     # PNG bytes of the figures shown both in the report and in figures/, rendered once
     # (filled by analysis.results.drivers.figures.report_pngs).
@@ -159,12 +167,14 @@ def analyze(runset, settings: Settings = Settings()) -> DriverResults:
 
     B = settings.n_permutations
     B2 = settings.pair_b
-    res.singles = SingleFactorKDE(n_permutations=B, random_state=np.random.default_rng(seeds[0])
-                                  ).fit(X, y, strata)
+    res.singles = SingleFactorKDE(
+        n_permutations=B, random_state=np.random.default_rng(seeds[0])
+    ).fit(X, y, strata)
     lap("singles")
     if X.shape[1] >= 2:
-        res.pairs = PairKDE(n_permutations=B2, random_state=np.random.default_rng(seeds[1])
-                            ).fit(X, y, strata, single_score=res.singles.score_)
+        res.pairs = PairKDE(n_permutations=B2, random_state=np.random.default_rng(seeds[1])).fit(
+            X, y, strata, single_score=res.singles.score_
+        )
         lap("pairs")
     minority = min(int(y.sum()), int((~y).sum()))
     if minority >= 4:
@@ -177,8 +187,9 @@ def analyze(runset, settings: Settings = Settings()) -> DriverResults:
         stab = pd.Series(res.stability.single_stability_, index=res.singles.feature_names_in_)
         drivers["stability"] = drivers["factor"].map(stab)
     if settings.forest and minority >= 4:
-        res.forest = ForestImportance(random_state=int(seeds[3].generate_state(1)[0] >> 1),
-                                      n_jobs=2).fit(X, y)
+        res.forest = ForestImportance(
+            random_state=int(seeds[3].generate_state(1)[0] >> 1), n_jobs=2
+        ).fit(X, y)
         drivers = compare(drivers, res.forest, alpha=settings.alpha)
         lap("forest")
     drivers.insert(3, "significant", drivers["p_value"] < settings.alpha)
@@ -188,8 +199,10 @@ def analyze(runset, settings: Settings = Settings()) -> DriverResults:
         if res.stability is not None:
             key = list(zip(pt["factor_a"], pt["factor_b"]))
             names = res.pairs.feature_names_in_
-            stab = {(names[a], names[b]): s for (a, b), s in
-                    zip(res.pairs.pairs_, res.stability.pair_stability_)}
+            stab = {
+                (names[a], names[b]): s
+                for (a, b), s in zip(res.pairs.pairs_, res.stability.pair_stability_)
+            }
             pt["stability"] = [stab[k] for k in key]
         pt.insert(4, "significant", pt["p_value"] < settings.alpha)
         res.pair_table = pt
@@ -213,7 +226,7 @@ def _per_case(res: DriverResults, rng: np.random.Generator) -> None:
     if rs.strata is None or len(res.cases) < 2:
         return
     by_fail = sorted(res.cases, key=lambda c: -c.failed)
-    pair_cases = {c.case for c in by_fail[:st.case_pairs]}
+    pair_cases = {c.case for c in by_fail[: st.case_pairs]}
     for c in res.cases:
         if c.failed < st.min_case_failures or c.runs - c.failed < st.min_case_failures:
             continue
@@ -221,11 +234,11 @@ def _per_case(res: DriverResults, rng: np.random.Generator) -> None:
         X, y = rs.X[rows], rs.y[rows]
         # Within one case the firing-direction factors duplicate a pos/neg factor: keep one.
         X = X.loc[:, (X.nunique() > 1) & ~X.T.duplicated().to_numpy()]
-        c.singles = SingleFactorKDE(n_permutations=st.n_permutations,
-                                    random_state=rng).fit(X, y)
+        c.singles = SingleFactorKDE(n_permutations=st.n_permutations, random_state=rng).fit(X, y)
         if c.case in pair_cases and X.shape[1] >= 2:
-            c.pairs = PairKDE(n_permutations=st.pair_b,
-                              random_state=rng).fit(X, y, single_score=c.singles.score_)
+            c.pairs = PairKDE(n_permutations=st.pair_b, random_state=rng).fit(
+                X, y, single_score=c.singles.score_
+            )
 
 
 #: Pairs whose rank correlation exceeds this are not mapped (two views of one quantity).

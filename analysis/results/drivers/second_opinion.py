@@ -3,10 +3,12 @@
 The KDE ranking looks at one input (or pair) at a time; a random forest looks at all inputs at
 once and can pick up what a marginal view misses (or show that a KDE driver is only a proxy
 for a correlated one).  Importance is the drop in held-out ROC AUC when one input is shuffled
-(as scikit-learn's ``permutation_importance``, with all shuffled copies predicted at once), mean and sd over ``n_repeats`` shuffles; an input
+(as scikit-learn's ``permutation_importance``, with all shuffled copies predicted at once), mean
+and sd over ``n_repeats`` shuffles; an input
 is "important" to the forest when ``mean - 2 sd > 0``.  Rows beyond ``max_rows`` are
 subsampled (stratified by outcome) to bound the cost.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -47,8 +49,16 @@ class ForestImportance:
     test_auc_ : float
     """
 
-    def __init__(self, n_estimators=60, n_repeats=3, max_rows=4000, test_size=0.3,
-                 max_depth=12, random_state=0, n_jobs=1):
+    def __init__(
+        self,
+        n_estimators=60,
+        n_repeats=3,
+        max_rows=4000,
+        test_size=0.3,
+        max_depth=12,
+        random_state=0,
+        n_jobs=1,
+    ):
         self.n_estimators = n_estimators
         self.n_repeats = n_repeats
         self.max_rows = max_rows
@@ -61,15 +71,20 @@ class ForestImportance:
         X, y, _, names = check_xy(X, y)
         idx = np.arange(y.size)
         if y.size > self.max_rows:
-            idx, _ = train_test_split(idx, train_size=int(self.max_rows), stratify=y,
-                                      random_state=self.random_state)
+            idx, _ = train_test_split(
+                idx, train_size=int(self.max_rows), stratify=y, random_state=self.random_state
+            )
         n_minor = min(int(y[idx].sum()), int((~y[idx]).sum()))
         strat = y[idx] if n_minor >= 2 else None
-        tr, te = train_test_split(idx, test_size=self.test_size, stratify=strat,
-                                  random_state=self.random_state)
+        tr, te = train_test_split(
+            idx, test_size=self.test_size, stratify=strat, random_state=self.random_state
+        )
         forest = RandomForestClassifier(
-            n_estimators=self.n_estimators, min_samples_leaf=3, max_depth=self.max_depth,
-            class_weight="balanced_subsample", random_state=self.random_state,
+            n_estimators=self.n_estimators,
+            min_samples_leaf=3,
+            max_depth=self.max_depth,
+            class_weight="balanced_subsample",
+            random_state=self.random_state,
             n_jobs=self.n_jobs,
         ).fit(X[tr], y[tr])
         self.feature_names_in_ = names
@@ -95,7 +110,7 @@ class ForestImportance:
         rng = np.random.default_rng(self.random_state)
         n, p = X.shape
         R = int(self.n_repeats)
-        big = np.repeat(X[None], p * R, axis=0)          # (p*R, n, p)
+        big = np.repeat(X[None], p * R, axis=0)  # (p*R, n, p)
         for j in range(p):
             for r in range(R):
                 big[j * R + r, :, j] = X[rng.permutation(n), j]
@@ -104,8 +119,9 @@ class ForestImportance:
         return self.test_auc_ - auc
 
 
-def compare(kde_table: pd.DataFrame, forest: ForestImportance, alpha: float = 0.05,
-            top: int = 10) -> pd.DataFrame:
+def compare(
+    kde_table: pd.DataFrame, forest: ForestImportance, alpha: float = 0.05, top: int = 10
+) -> pd.DataFrame:
     """Forest columns beside a KDE ``drivers`` table, with disagreements flagged.
 
     A disagreement is a KDE-significant input (``p_value < alpha``) the forest finds no
@@ -118,18 +134,22 @@ def compare(kde_table: pd.DataFrame, forest: ForestImportance, alpha: float = 0.
         ``kde_table`` plus ``forest_importance, forest_importance_sd, forest_rank,
         second_opinion`` (``agrees``, ``KDE only``, ``forest only`` or ``neither``).
     """
-    f = pd.DataFrame({
-        "factor": forest.feature_names_in_,
-        "forest_importance": forest.importance_mean_,
-        "forest_importance_sd": forest.importance_sd_,
-        "forest_rank": forest.rank_,
-        "_important": forest.important_,
-    })
+    f = pd.DataFrame(
+        {
+            "factor": forest.feature_names_in_,
+            "forest_importance": forest.importance_mean_,
+            "forest_importance_sd": forest.importance_sd_,
+            "forest_rank": forest.rank_,
+            "_important": forest.important_,
+        }
+    )
     out = kde_table.merge(f, on="factor", how="left")
     kde_sig = out["p_value"] < alpha
     forest_sig = out["_important"].fillna(False).astype(bool)
     forest_top = forest_sig & (out["forest_rank"] <= top)
     out["second_opinion"] = np.select(
         [kde_sig & forest_sig, kde_sig & ~forest_sig, ~kde_sig & forest_top],
-        ["agrees", "KDE only", "forest only"], default="neither")
+        ["agrees", "KDE only", "forest only"],
+        default="neither",
+    )
     return out.drop(columns="_important")

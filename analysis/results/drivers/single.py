@@ -1,11 +1,13 @@
 """Single-factor drivers: which inputs are distributed differently among failed runs.
 
-See :mod:`analysis.results.drivers.kde` for the rank scale, the bandwidth rule, the total-variation score
+See :mod:`analysis.results.drivers.kde` for the rank scale, the bandwidth rule, the total-variation
+score
 and the max-T permutation p-values.  This module adds the failure region of each input: the
 bins of the input where the smoothed ``P(fail | x)`` is well above the base rate ``pi`` --
 at least ``region_factor * pi``, capped at ``(1 + pi) / 2`` so a high base rate still leaves a
 reachable threshold -- reported in the input's own units with the share of failures it holds.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -93,8 +95,9 @@ class SingleFactorKDE:
         codes = bin_codes(U, self.n_bins)
         self.bandwidth_ = bandwidth(int(minority.sum()), 1)
         self.engine_ = BinnedTV(codes, self.n_bins, h=self.bandwidth_)
-        res = permutation_test(self.engine_, minority, Strata.build(strata, minority),
-                               int(self.n_permutations), rng)
+        res = permutation_test(
+            self.engine_, minority, Strata.build(strata, minority), int(self.n_permutations), rng
+        )
         self.feature_names_in_ = names
         self.n_features_in_ = len(names)
         self.tv_, self.null_mean_, self.score_ = res.tv, res.null_mean, res.score
@@ -123,18 +126,20 @@ class SingleFactorKDE:
 
     def table(self) -> pd.DataFrame:
         """One row per input, best first: the columns of ``drivers.csv``."""
-        df = pd.DataFrame({
-            "factor": self.feature_names_in_,
-            "score": self.score_,
-            "p_value": self.p_value_,
-            "rank": self.rank_,
-            "failure_region": self.regions_,
-            "region_fail_share": self.region_fail_share_,
-            "region_run_share": self.region_run_share_,
-            "tv": self.tv_,
-            "tv_null_mean": self.null_mean_,
-            "p_raw": self.p_raw_,
-        })
+        df = pd.DataFrame(
+            {
+                "factor": self.feature_names_in_,
+                "score": self.score_,
+                "p_value": self.p_value_,
+                "rank": self.rank_,
+                "failure_region": self.regions_,
+                "region_fail_share": self.region_fail_share_,
+                "region_run_share": self.region_run_share_,
+                "tv": self.tv_,
+                "tv_null_mean": self.null_mean_,
+                "p_raw": self.p_raw_,
+            }
+        )
         return df.sort_values("rank", kind="stable").reset_index(drop=True)
 
 

@@ -11,6 +11,7 @@ runs), and its ranking is compared with the full campaign's.
 Complementary halves reuse the full campaign's counts (half B = all minus half A), so a split
 costs one pass over half of the runs.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -67,8 +68,9 @@ class HalfSampleStability:
             engines.append((pairs.engine_, pairs))
         for engine, est in engines:
             if engine.n != y.size:
-                raise ValueError(f"{type(est).__name__} was fitted on {engine.n} runs, "
-                                 f"not these {y.size}")
+                raise ValueError(
+                    f"{type(est).__name__} was fitted on {engine.n} runs, not these {y.size}"
+                )
         halves = [self._split(strata, rng) for _ in range(int(self.n_splits))]
         out = []
         for engine, est in engines:

@@ -22,6 +22,7 @@ on the mechanism's inputs:
 ``e`` is an independent standard normal (scatter of the mechanism).  Draws use one Generator
 from ``SeedSequence(seed)``.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -81,8 +82,14 @@ def planted_campaign(scenario: str, seed: int, n_runs: int = 2000, n_noise: int 
     return X, failed
 
 
-def recovery(scenario: str, seeds, n_permutations: int = 100, n_runs: int = 2000,
-             n_noise: int = 20, alpha: float = 0.05) -> dict:
+def recovery(
+    scenario: str,
+    seeds,
+    n_permutations: int = 100,
+    n_runs: int = 2000,
+    n_noise: int = 20,
+    alpha: float = 0.05,
+) -> dict:
     """How often the analysis (and the t-test baseline) recovers the planted truth.
 
     Per campaign: ``drivers_top`` -- every true driver ranks above every irrelevant input;
@@ -125,7 +132,8 @@ def recovery(scenario: str, seeds, n_permutations: int = 100, n_runs: int = 2000
             add("ttest_drivers_significant", (t.p_value_[true] < alpha).all())
         if pair is not None:
             p = PairKDE(n_permutations=n_permutations, random_state=rs).fit(
-                X, y, single_score=s.score_)
+                X, y, single_score=s.score_
+            )
             first = p.pairs_[np.argmin(p.rank_)]
             add("pair_first", {names[first[0]], names[first[1]]} == set(pair))
             add("pair_significant", p.p_value_[np.argmin(p.rank_)] < alpha)

@@ -9,14 +9,14 @@ analysis.
 Must not import: analysis.results.drivers, analysis.results.scoring, analysis.engine,
 analysis.apps, spacecraft, lookup.
 """
+
 from analysis.results.report.html import (
-           Section,
-           build_report,
-           figure_block,
-           table_block,
-           text_block,
-           write_report,
+    Section,
+    build_report,
+    figure_block,
+    table_block,
+    text_block,
+    write_report,
 )
 
-__all__ = ["Section", "build_report", "figure_block", "table_block", "text_block",
-           "write_report"]
+__all__ = ["Section", "build_report", "figure_block", "table_block", "text_block", "write_report"]

@@ -5,6 +5,7 @@ script or font.  A tiny inline script records any JavaScript error into the page
 (``#js-errors``) and marks the page loaded (``<body data-loaded="yes">``), so a headless
 browser's DOM dump shows both -- that is how the Chromium test asserts "no console errors".
 """
+
 from __future__ import annotations
 
 import base64
@@ -45,8 +46,9 @@ def text_block(*paragraphs: str, escape: bool = True) -> str:
     return "".join(f"<p>{html.escape(p) if escape else p}</p>" for p in paragraphs)
 
 
-def table_block(df: pd.DataFrame, caption: str = "", max_rows: int = 50,
-                float_format: str = "{:.4g}") -> str:
+def table_block(
+    df: pd.DataFrame, caption: str = "", max_rows: int = 50, float_format: str = "{:.4g}"
+) -> str:
     """An HTML table of ``df`` (first ``max_rows`` rows; a note says how many were left out)."""
     shown = df.head(max_rows)
     head = "".join(f"<th>{html.escape(str(c))}</th>" for c in shown.columns)
@@ -62,11 +64,16 @@ def table_block(df: pd.DataFrame, caption: str = "", max_rows: int = 50,
                 text = str(v)
             cells.append(f"<td>{html.escape(text)}</td>")
         rows.append("<tr>" + "".join(cells) + "</tr>")
-    more = (f"<p class='note'>{len(df) - max_rows} more rows in the CSV files.</p>"
-            if len(df) > max_rows else "")
+    more = (
+        f"<p class='note'>{len(df) - max_rows} more rows in the CSV files.</p>"
+        if len(df) > max_rows
+        else ""
+    )
     cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
-    return (f"<div class='tablewrap'><table>{cap}<thead><tr>{head}</tr></thead>"
-            f"<tbody>{''.join(rows)}</tbody></table></div>{more}")
+    return (
+        f"<div class='tablewrap'><table>{cap}<thead><tr>{head}</tr></thead>"
+        f"<tbody>{''.join(rows)}</tbody></table></div>{more}"
+    )
 
 
 def png_bytes(fig, dpi: int = 110) -> bytes:
@@ -79,8 +86,10 @@ def png_bytes(fig, dpi: int = 110) -> bytes:
 def figure_block(png: bytes, caption: str, alt: str = "") -> str:
     """A figure inlined as base64 PNG, with a caption that says how to read it."""
     data = base64.b64encode(png).decode("ascii")
-    return (f"<figure><img src='data:image/png;base64,{data}' alt='{html.escape(alt or caption)}'>"
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+    return (
+        f"<figure><img src='data:image/png;base64,{data}' alt='{html.escape(alt or caption)}'>"
+        f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+    )
 
 
 _STYLE = """
@@ -126,7 +135,8 @@ def build_report(title: str, sections: list, subtitle: str = "") -> str:
     nav = "".join(f"<a href='#{s.anchor}'>{html.escape(s.title)}</a>" for s in sections)
     body = "".join(
         f"<section id='{s.anchor}'><h2>{html.escape(s.title)}</h2>{''.join(s.blocks)}</section>"
-        for s in sections)
+        for s in sections
+    )
     return (
         "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
         "<meta name='viewport' content='width=device-width, initial-scale=1'>"

@@ -7,6 +7,7 @@ count; the held-out "after" numbers *are* the "after" campaign's), a stopped loo
 the report renders in a real browser with every section.  Small settings (6 runs of 6 s per
 case, 19 permutations) keep it near 20 s.
 """
+
 import json
 
 import pandas as pd
@@ -48,8 +49,13 @@ def test_resume_skips_finished_stages_and_refuses_other_settings(loop_dir):
     run_loop(SMALL, loop_dir, resume=True, progress=False, echo=lines.append)
     assert lines == [f"{stage}: already done" for stage in STAGES]
     with pytest.raises(InputError, match="other settings"):
-        run_loop(LoopSettings(runs_per_case=9, duration_s=6.0), loop_dir, resume=True,
-                 progress=False, echo=lambda line: None)
+        run_loop(
+            LoopSettings(runs_per_case=9, duration_s=6.0),
+            loop_dir,
+            resume=True,
+            progress=False,
+            echo=lambda line: None,
+        )
 
 
 def test_report_renders_with_every_section(loop_dir, render_page, tmp_path):

@@ -11,6 +11,7 @@ Oracles:
 Small settings (10 runs of 8 s per case, two cases) keep each refinement to a few seconds;
 the 8 s cover the firing (<= 0.52 s), the 0.16 s hold and any repeated firing.
 """
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -31,12 +32,14 @@ def refined():
 
 def test_table6_moves_the_way_table7_did(refined):
     cells = changed_cells(load_lookup_table(which="table6"), refined.table)
-    expected = pd.DataFrame({"case": [3, 24], "axis": ["yaw", "yaw"], "old_cycles": [7, 7],
-                             "new_cycles": [6, 6]})
+    expected = pd.DataFrame(
+        {"case": [3, 24], "axis": ["yaw", "yaw"], "old_cycles": [7, 7], "new_cycles": [6, 6]}
+    )
     pd.testing.assert_frame_equal(cells.reset_index(drop=True), expected)
     t7 = load_lookup_table(which="table7")
-    np.testing.assert_allclose(refined.table.firing_time_s[CASES], t7.firing_time_s[CASES],
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        refined.table.firing_time_s[CASES], t7.firing_time_s[CASES], atol=1e-12
+    )
 
 
 def test_held_out_seed_does_not_get_worse(refined):
@@ -57,8 +60,23 @@ def test_a_robust_table_comes_back_unchanged(refined):
 
 def test_cli_writes_a_loadable_table_and_its_changelog(tmp_path, capsys):
     out = tmp_path / "refined" / "T.csv"
-    rc = main(["lookup", "refine", "--table", "table6", "--runs", "10", "--cases", "3",
-               "--duration-s", "8", "--out", str(out), "--no-progress"])
+    rc = main(
+        [
+            "lookup",
+            "refine",
+            "--table",
+            "table6",
+            "--runs",
+            "10",
+            "--cases",
+            "3",
+            "--duration-s",
+            "8",
+            "--out",
+            str(out),
+            "--no-progress",
+        ]
+    )
     assert rc == 0, capsys.readouterr().err
     table = load_lookup_table(out)  # loadable by --table
     assert table.firing_time_s[2, 13] == pytest.approx(0.24)  # case 3 (-,-,+), jet 14: 6 cycles
@@ -84,7 +102,12 @@ def test_the_search_flies_the_first_runs_and_does_not_depend_on_the_split():
     # Against the campaign numbering: a 16-run campaign's first 8 runs of each case.
     from analysis.apps.refinement.evaluate import Trials, evaluate
 
-    base = evaluate(spec, table, Trials(np.repeat(table.firing_time_s[None], 2, 0),
-                                        np.array(CASES), ("a", "b")), progress=False, threads=1)
+    base = evaluate(
+        spec,
+        table,
+        Trials(np.repeat(table.firing_time_s[None], 2, 0), np.array(CASES), ("a", "b")),
+        progress=False,
+        threads=1,
+    )
     first = base[base["k"] < 8].groupby("trial")["failed"].sum().to_numpy()
     np.testing.assert_array_equal(first, one.before["failed"].to_numpy())

@@ -5,6 +5,7 @@ backend of the user's notebook".  rcsim draws with matplotlib's object API
 (:func:`analysis.engine.plots.new_figure`), so ``matplotlib.pyplot`` is never imported and a
 backend chosen by the user before importing rcsim is still the backend after plotting.
 """
+
 import subprocess
 import sys
 import textwrap
@@ -24,7 +25,7 @@ def test_import_and_plot_leave_the_backend_alone(tmp_path):
         from analysis.engine.plots import plot_attitude_error
         frame = pd.DataFrame({{"t_s": np.arange(3.0), **{{f"att_err_{{a}}_deg": np.zeros(3)
                               for a in ("roll", "pitch", "yaw")}}}})
-        plot_attitude_error(frame, r"{tmp_path / 'a.png'}", title="probe")
+        plot_attitude_error(frame, r"{tmp_path / "a.png"}", title="probe")
         print(matplotlib.get_backend(), "matplotlib.pyplot" in sys.modules)
     """)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

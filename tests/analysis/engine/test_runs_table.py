@@ -6,6 +6,7 @@ rebuilding the vehicles from the *recorded* columns must give the drawn directio
 (the degree conversion of tilt and azimuth is the only round-off) and the same torques to
 rtol 1e-9.
 """
+
 import numpy as np
 import pytest
 
@@ -37,8 +38,12 @@ def test_rebuilt_vehicles_give_the_simulators_torques(drawn, model):
     runs, frame = drawn
     rebuilt, straight = vehicles_from_runs(frame, VehicleParams.nominal(1, model))
     np.testing.assert_allclose(rebuilt.jet_dir_S, runs.params.jet_dir_S, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(torque_per_jet_B(rebuilt, model),
-                               torque_per_jet_B(runs.params, model), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(
+        torque_per_jet_B(rebuilt, model),
+        torque_per_jet_B(runs.params, model),
+        rtol=1e-9,
+        atol=1e-12,
+    )
     # Nominal pointing: every jet along its site z axis (0, 0, 1).
     np.testing.assert_array_equal(straight.jet_dir_S[..., 2], 1.0)
 

@@ -3,6 +3,7 @@
 Oracles: Gambone Figs 3-4 (damping a Table 3 rate fires the table's firing times on the
 opposing jets), Table 4 (dead bands), and the definitions of the metrics.
 """
+
 from __future__ import annotations
 
 import json
@@ -26,9 +27,16 @@ from models.errors import InputError
 
 DEG = np.pi / 180.0
 PAPER_SCENARIOS = {
-    "single-axis-roll", "single-axis-pitch", "single-axis-yaw", "three-axis-5deg",
-    "large-90deg", "slow-0.1deg-s", "rate-damping", "attitude-hold-disturbed",
-    "attitude-hold-disturbed-no-band", "disturbed-three-axis",
+    "single-axis-roll",
+    "single-axis-pitch",
+    "single-axis-yaw",
+    "three-axis-5deg",
+    "large-90deg",
+    "slow-0.1deg-s",
+    "rate-damping",
+    "attitude-hold-disturbed",
+    "attitude-hold-disturbed-no-band",
+    "disturbed-three-axis",
 }
 
 
@@ -60,8 +68,10 @@ def test_settled_time_definition():
     h = fly_scenario(get_scenario("single-axis-yaw"), "lookup")
     t = settled_time(h)[0]
     k = int(np.flatnonzero(np.isclose(h.t_s, t))[0])
-    assert np.linalg.norm(h.att_err_B[0, k - 1]) > 0.7 * DEG or \
-        np.abs(h.rate_err_B[0, k - 1]).max() > 0.06 * DEG
+    assert (
+        np.linalg.norm(h.att_err_B[0, k - 1]) > 0.7 * DEG
+        or np.abs(h.rate_err_B[0, k - 1]).max() > 0.06 * DEG
+    )
     assert np.all(np.linalg.norm(h.att_err_B[0, k:], axis=1) <= 0.7 * DEG)
 
 
@@ -88,15 +98,40 @@ def test_cli_scenario_run(tmp_path, capsys):
     assert "single-axis-yaw" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("argv, needle", [
-    (["scenario", "run", "nope"], "nope"),
-    (["scenario", "run", "single-axis-yaw", "--table", "{tmp}/missing.csv"], "missing.csv"),
-    (["scenario", "run", "single-axis-yaw", "--controller", "phase-plane",
-      "--table", "{tmp}/t.csv"], "--table"),
-    (["scenario", "run", "single-axis-yaw", "--no-fire-band-deg", "-1"], "-1"),
-    (["maneuver", "--controller", "lookup", "--attitude-deg", "0", "0", "5",
-      "--table", "{tmp}/missing.csv"], "missing.csv"),
-])
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["scenario", "run", "nope"], "nope"),
+        (["scenario", "run", "single-axis-yaw", "--table", "{tmp}/missing.csv"], "missing.csv"),
+        (
+            [
+                "scenario",
+                "run",
+                "single-axis-yaw",
+                "--controller",
+                "phase-plane",
+                "--table",
+                "{tmp}/t.csv",
+            ],
+            "--table",
+        ),
+        (["scenario", "run", "single-axis-yaw", "--no-fire-band-deg", "-1"], "-1"),
+        (
+            [
+                "maneuver",
+                "--controller",
+                "lookup",
+                "--attitude-deg",
+                "0",
+                "0",
+                "5",
+                "--table",
+                "{tmp}/missing.csv",
+            ],
+            "missing.csv",
+        ),
+    ],
+)
 def test_cli_errors_leave_nothing(tmp_path, capsys, argv, needle):
     out = tmp_path / "out"
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv] + ["--out", str(out)]
@@ -110,6 +145,24 @@ def test_maneuver_cli_with_generated_table(tmp_path):
     table = tmp_path / "t.csv"
     load_default_table().to_csv(table)
     out = tmp_path / "m"
-    assert main(["maneuver", "--controller", "lookup", "--table", str(table),
-                 "--attitude-deg", "0", "0", "5", "--duration-s", "40", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "maneuver",
+                "--controller",
+                "lookup",
+                "--table",
+                str(table),
+                "--attitude-deg",
+                "0",
+                "0",
+                "5",
+                "--duration-s",
+                "40",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     assert json.loads((out / "summary.json").read_text())["firings"] == 4

@@ -6,6 +6,7 @@ Oracles: for zero failures the exact bounds have closed forms (Clopper-Pearson:
 bound at ``k = 0`` is ``z^2 / (n + z^2)``; McNemar's exact p-value at ``b = 0`` is ``2 / 2^c``.
 Coverage is computed exactly (sum of binomial probabilities), not sampled.
 """
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -64,8 +65,9 @@ def test_runs_to_bound_is_the_smallest_that_works():
 
 
 def test_mcnemar_exact_closed_forms():
-    assert mcnemar_exact(0, 6) == pytest.approx(2 / 2 ** 6)
-    assert mcnemar_exact(6, 0) == pytest.approx(2 / 2 ** 6)
+    assert mcnemar_exact(0, 6) == pytest.approx(2 / 2**6)
+    assert mcnemar_exact(6, 0) == pytest.approx(2 / 2**6)
     assert mcnemar_exact(1, 1) == 1.0 and mcnemar_exact(0, 0) == 1.0
-    np.testing.assert_allclose(mcnemar_exact([0, 2], [5, 9]),
-                               [2 / 32, 2 * stats.binom.cdf(2, 11, 0.5)])
+    np.testing.assert_allclose(
+        mcnemar_exact([0, 2], [5, 9]), [2 / 32, 2 * stats.binom.cdf(2, 11, 0.5)]
+    )

@@ -6,11 +6,13 @@ names the file or flag, the field and the value; shows no traceback; leaves no o
 even a hidden temporary) and touches nothing that existed before.  A few ``ok`` cases pin
 inputs that must keep working (a table or spec saved with a UTF-8 BOM).
 
-The cases are data, one TOML file per command group in ``tests/analysis/apps/cli/corpus/`` (format in
+The cases are data, one TOML file per command group in ``tests/analysis/apps/cli/corpus/`` (format
+in
 its README.md), so later issues extend the corpus without touching this module.  Most run
 in-process through :func:`analysis.apps.cli.main` (fast); cases marked ``run =
 "subprocess"`` run the installed ``rcsim`` executable, proving the entry point behaves the same.
 """
+
 from __future__ import annotations
 
 import os
@@ -27,8 +29,20 @@ from analysis.apps.cli import main
 
 CORPUS = Path(__file__).with_name("corpus")
 FILES = CORPUS / "files"
-KEYS = {"id", "argv", "expect", "files", "copy", "dirs", "readonly", "setup", "run", "ok",
-        "creates", "why"}
+KEYS = {
+    "id",
+    "argv",
+    "expect",
+    "files",
+    "copy",
+    "dirs",
+    "readonly",
+    "setup",
+    "run",
+    "ok",
+    "creates",
+    "why",
+}
 # The issue asks for at least 60 malformed inputs across every command.
 MIN_REFUSALS = 60
 COMMANDS = {"maneuver", "lookup", "scenario", "campaign", "study"}
@@ -120,8 +134,9 @@ def test_bad_input(case, tmp_path, capsys, monkeypatch, request):
     before = _snapshot(base)
     try:
         if case.get("run") == "subprocess":
-            proc = subprocess.run([_rcsim_executable(), *argv], cwd=base, capture_output=True,
-                                  text=True, timeout=300)
+            proc = subprocess.run(
+                [_rcsim_executable(), *argv], cwd=base, capture_output=True, text=True, timeout=300
+            )
             rc, err = proc.returncode, proc.stderr
         else:
             monkeypatch.chdir(base)  # relative paths resolve here; stray files are caught
@@ -146,8 +161,10 @@ def test_bad_input(case, tmp_path, capsys, monkeypatch, request):
     assert rc == 2, err
     for text in case["expect"]:
         assert text.format(**subs).lower() in lines[0].lower(), (
-            f"{text!r} not in the error line: {lines[0]}")
+            f"{text!r} not in the error line: {lines[0]}"
+        )
     assert after == before, (
         "left output or touched inputs: "
         f"new {sorted(set(after) - set(before))}, "
-        f"changed {sorted(k for k in before if after.get(k) != before[k])}")
+        f"changed {sorted(k for k in before if after.get(k) != before[k])}"
+    )

@@ -7,6 +7,7 @@ one line on stderr, exits 2, shows no traceback and creates no output directory.
 Most calls go through ``analysis.apps.cli.main`` in-process (fast); one subprocess call runs the
 installed ``rcsim`` executable to prove the entry point.
 """
+
 from __future__ import annotations
 
 import os
@@ -21,11 +22,15 @@ import pytest
 
 from analysis.apps.cli import main
 
-REQUIRED = (
-    ["t_s", "att_err_roll_deg", "att_err_pitch_deg", "att_err_yaw_deg",
-     "rate_roll_deg_s", "rate_pitch_deg_s", "rate_yaw_deg_s"]
-    + [f"jet_{j:02d}_on_s" for j in range(1, 17)]
-)
+REQUIRED = [
+    "t_s",
+    "att_err_roll_deg",
+    "att_err_pitch_deg",
+    "att_err_yaw_deg",
+    "rate_roll_deg_s",
+    "rate_pitch_deg_s",
+    "rate_yaw_deg_s",
+] + [f"jet_{j:02d}_on_s" for j in range(1, 17)]
 PNGS = ("attitude_error.png", "rates_jets.png")
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 CYCLE_S = 0.04
@@ -49,8 +54,21 @@ def assert_user_error(rc, err, out_dir: Path):
 
 def test_maneuver_writes_history_and_plots(tmp_path, capsys):
     out = tmp_path / "m"
-    rc = main(["maneuver", "--controller", "phase-plane", "--attitude-deg", "5", "5", "5",
-               "--duration-s", "2", "--out", str(out)])
+    rc = main(
+        [
+            "maneuver",
+            "--controller",
+            "phase-plane",
+            "--attitude-deg",
+            "5",
+            "5",
+            "5",
+            "--duration-s",
+            "2",
+            "--out",
+            str(out),
+        ]
+    )
     captured = capsys.readouterr()
     assert rc == 0, captured.err
     frame = pd.read_parquet(out / "history.parquet")
@@ -60,9 +78,11 @@ def test_maneuver_writes_history_and_plots(tmp_path, capsys):
     assert len(frame) == 50
     np.testing.assert_allclose(frame["t_s"], np.arange(50) * CYCLE_S, atol=1e-12)
     # Degrees at this boundary: the initial error of a +5 deg command is -5 deg on each axis.
-    np.testing.assert_allclose(frame.loc[0, ["att_err_roll_deg", "att_err_pitch_deg",
-                                             "att_err_yaw_deg"]].to_numpy(float), -5.0,
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        frame.loc[0, ["att_err_roll_deg", "att_err_pitch_deg", "att_err_yaw_deg"]].to_numpy(float),
+        -5.0,
+        atol=1e-9,
+    )
     # The start firing is in the first cycle, in seconds of on-time per cycle (<= 40 ms).
     jets = frame[[f"jet_{j:02d}_on_s" for j in range(1, 17)]].to_numpy()
     assert jets[0].max() == pytest.approx(CYCLE_S)
@@ -76,9 +96,21 @@ def test_maneuver_writes_history_and_plots(tmp_path, capsys):
 def test_rcsim_executable_entry_point(tmp_path):
     out = tmp_path / "exe"
     proc = subprocess.run(
-        [rcsim_executable(), "maneuver", "--attitude-deg", "0", "0", "5", "--duration-s", "0.4",
-         "--out", str(out)],
-        capture_output=True, text=True, timeout=120,
+        [
+            rcsim_executable(),
+            "maneuver",
+            "--attitude-deg",
+            "0",
+            "0",
+            "5",
+            "--duration-s",
+            "0.4",
+            "--out",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert proc.returncode == 0, proc.stderr
     assert (out / "history.parquet").is_file()
@@ -96,8 +128,15 @@ def test_rcsim_executable_entry_point(tmp_path):
         ["--controller", "bang-bang"],
         ["--table", "x.csv"],  # --table is only for the lookup controller
     ],
-    ids=["unknown-option", "negative-duration", "zero-duration", "nan-duration",
-         "non-numeric-duration", "unknown-controller", "table-with-phase-plane"],
+    ids=[
+        "unknown-option",
+        "negative-duration",
+        "zero-duration",
+        "nan-duration",
+        "non-numeric-duration",
+        "unknown-controller",
+        "table-with-phase-plane",
+    ],
 )
 def test_bad_input_is_one_line_exit_2_no_output(tmp_path, capsys, argv):
     out = tmp_path / "never"
@@ -111,22 +150,37 @@ def test_missing_attitude_is_user_error(tmp_path, capsys):
     assert_user_error(rc, capsys.readouterr().err, out)
 
 
-@pytest.mark.parametrize("content", ["", "case,jet_01\n1,abc\n", None],
-                         ids=["empty", "garbage", "missing-file"])
+@pytest.mark.parametrize(
+    "content", ["", "case,jet_01\n1,abc\n", None], ids=["empty", "garbage", "missing-file"]
+)
 def test_bad_table_file_is_user_error(tmp_path, capsys, content):
     table = tmp_path / "bad.csv"
     if content is not None:
         table.write_text(content)
     out = tmp_path / "never"
-    rc = main(["maneuver", "--controller", "lookup", "--table", str(table),
-               "--attitude-deg", "5", "5", "5", "--duration-s", "1", "--out", str(out)])
+    rc = main(
+        [
+            "maneuver",
+            "--controller",
+            "lookup",
+            "--table",
+            str(table),
+            "--attitude-deg",
+            "5",
+            "5",
+            "5",
+            "--duration-s",
+            "1",
+            "--out",
+            str(out),
+        ]
+    )
     assert_user_error(rc, capsys.readouterr().err, out)
 
 
 def test_out_missing_parents_are_created(tmp_path, capsys):
     out = tmp_path / "no" / "such" / "dir"
-    rc = main(["maneuver", "--attitude-deg", "1", "0", "0", "--duration-s", "1",
-               "--out", str(out)])
+    rc = main(["maneuver", "--attitude-deg", "1", "0", "0", "--duration-s", "1", "--out", str(out)])
     assert rc == 0
     assert (out / "history.parquet").is_file()
 
@@ -136,8 +190,7 @@ def test_out_dir_with_foreign_files_is_never_replaced(tmp_path, capsys):
     out = tmp_path / "mine"
     out.mkdir()
     (out / "thesis.tex").write_text("precious")
-    rc = main(["maneuver", "--attitude-deg", "1", "0", "0", "--duration-s", "1",
-               "--out", str(out)])
+    rc = main(["maneuver", "--attitude-deg", "1", "0", "0", "--duration-s", "1", "--out", str(out)])
     err = capsys.readouterr().err
     assert rc == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert os.listdir(out) == ["thesis.tex"]
@@ -151,13 +204,29 @@ def test_out_dir_of_an_earlier_maneuver_is_replaced_only_with_overwrite(tmp_path
     assert main([*MANEUVER, "--out", str(out)]) == 0
     before = (out / "summary.json").read_text()
     # Issue 8: replacing even our own output is explicit; the refusal says how.
-    rc = main(["maneuver", "--attitude-deg", "2", "0", "0", "--duration-s", "0.4",
-               "--out", str(out)])
+    rc = main(
+        ["maneuver", "--attitude-deg", "2", "0", "0", "--duration-s", "0.4", "--out", str(out)]
+    )
     err = capsys.readouterr().err
     assert rc == 2 and len(err.strip().splitlines()) == 1 and "--overwrite" in err
     assert (out / "summary.json").read_text() == before
-    assert main(["maneuver", "--attitude-deg", "2", "0", "0", "--duration-s", "0.4",
-                 "--out", str(out), "--overwrite"]) == 0
+    assert (
+        main(
+            [
+                "maneuver",
+                "--attitude-deg",
+                "2",
+                "0",
+                "0",
+                "--duration-s",
+                "0.4",
+                "--out",
+                str(out),
+                "--overwrite",
+            ]
+        )
+        == 0
+    )
     assert (out / "summary.json").read_text() != before
     assert sorted(os.listdir(tmp_path)) == ["again"]  # no temporary or old copies left
     assert (out / ".rcsim-output").read_text() == "written by rcsim maneuver\n"
@@ -230,7 +299,8 @@ def test_marker_of_an_older_rcsim_is_replaced_only_with_overwrite(tmp_path, caps
     out = tmp_path / "old"
     out.mkdir()
     (out / ".rcsim-output").write_text(
-        "written by rcsim; this directory is replaced by the next run\n")
+        "written by rcsim; this directory is replaced by the next run\n"
+    )
     (out / "summary.json").write_text("{}\n")
     assert main([*MANEUVER, "--out", str(out)]) == 2
     assert "--overwrite" in capsys.readouterr().err
@@ -258,9 +328,16 @@ def test_lookup_generate_creates_parents_and_replaces_only_with_overwrite(tmp_pa
 def test_cli_draws_with_the_file_backend(tmp_path):
     # Issue 8: the backend is chosen by the CLI (it only writes files), not by importing a
     # plotting module; a user's MPLBACKEND does not reach the CLI's figures.
-    code = ("import matplotlib; from analysis.apps.cli import main; "
-            "assert main(['scenario', 'list']) == 0; print(matplotlib.get_backend())")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          timeout=120, env={**os.environ, "MPLBACKEND": "svg"})
+    code = (
+        "import matplotlib; from analysis.apps.cli import main; "
+        "assert main(['scenario', 'list']) == 0; print(matplotlib.get_backend())"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "MPLBACKEND": "svg"},
+    )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split()[-1].lower() == "agg"

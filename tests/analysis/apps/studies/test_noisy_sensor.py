@@ -2,6 +2,7 @@
 
 Everything is nondimensional (unit rotation in unit time), as in the paper.
 """
+
 import os
 
 import numpy as np
@@ -24,8 +25,10 @@ def _quiet_run(key, dt=ns.DT, record=True):
 
 def _trajectory_error(result):
     """Largest deviation of angle and rate from the optimal trajectory (Eq. 12 integrated)."""
-    return max(np.abs(result["theta"][0] - sa.optimal_angle(result["t"])).max(),
-               np.abs(result["omega"][0] - sa.optimal_rate(result["t"])).max())
+    return max(
+        np.abs(result["theta"][0] - sa.optimal_angle(result["t"])).max(),
+        np.abs(result["omega"][0] - sa.optimal_rate(result["t"])).max(),
+    )
 
 
 # --------------------------------------------------------------- deterministic oracles --
@@ -88,8 +91,9 @@ def test_pv_without_noise_matches_analytic_step_response():
     def omega(t):
         return np.exp(-zeta * wn * t) * (wn**2 / wd) * np.sin(wd * t)
 
-    cost = quad(lambda t: 0.5 * (kp * (1.0 - theta(t)) - kv * omega(t)) ** 2, 0.0, 1.0,
-                epsabs=1e-12)[0]
+    cost = quad(
+        lambda t: 0.5 * (kp * (1.0 - theta(t)) - kv * omega(t)) ** 2, 0.0, 1.0, epsabs=1e-12
+    )[0]
     r = _quiet_run("pv")
     assert r["theta_f"][0] == pytest.approx(theta(1.0), abs=1e-5)
     assert r["omega_f"][0] == pytest.approx(omega(1.0), abs=1e-5)
@@ -134,8 +138,9 @@ def test_first_runs_do_not_depend_on_run_count():
     np.testing.assert_array_equal(d10.noise, d50.noise[:10])
     cols = ["theta_f", "omega_f", "J", "theta_f_measured", "omega_f_measured"]
     first = large.runs[large.runs["run"] < 10].reset_index(drop=True)
-    np.testing.assert_allclose(small.runs[cols].to_numpy(), first[cols].to_numpy(),
-                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        small.runs[cols].to_numpy(), first[cols].to_numpy(), rtol=0, atol=1e-12
+    )
     assert list(small.runs["architecture"]) == list(first["architecture"])
 
 
@@ -191,11 +196,17 @@ def test_percent_table_reproduces_paper_table2_from_its_table1():
     # sigma_J column divides by sigma_J = 0 and is undefined here (NaN).
     pct = ns.percent_table(PAPER_TABLE1.assign(wall_s=0.0)).set_index("architecture")
     expected = {
-        ("P+V", "sigma_theta"): -39, ("P+V", "J"): 570, ("P+V", "sigma_omega"): -36,
-        ("RTOC", "sigma_theta"): 38, ("RTOC", "sigma_omega"): -29,
-        ("Double integrator", "theta_f"): -16, ("Double integrator", "J"): -63,
-        ("Double int., tuned", "sigma_omega"): 132, ("Double int., tuned", "J"): 122,
-        ("Control inversion", "sigma_theta"): -36, ("Control inversion", "J"): 1,
+        ("P+V", "sigma_theta"): -39,
+        ("P+V", "J"): 570,
+        ("P+V", "sigma_omega"): -36,
+        ("RTOC", "sigma_theta"): 38,
+        ("RTOC", "sigma_omega"): -29,
+        ("Double integrator", "theta_f"): -16,
+        ("Double integrator", "J"): -63,
+        ("Double int., tuned", "sigma_omega"): 132,
+        ("Double int., tuned", "J"): 122,
+        ("Control inversion", "sigma_theta"): -36,
+        ("Control inversion", "J"): 1,
     }
     for (row, col), value in expected.items():
         assert pct.loc[row, col] == pytest.approx(value, abs=0.6), (row, col)
@@ -224,8 +235,15 @@ def test_paper_reconstruction_matches_table1_except_rtoc():
 
 
 def test_summary_uses_sample_standard_deviation():
-    runs = pd.DataFrame({"architecture": "A", "run": [0, 1, 2], "theta_f": [1.0, 2.0, 3.0],
-                         "omega_f": [0.0, 0.0, 3.0], "J": [5.0, 5.0, 5.0]})
+    runs = pd.DataFrame(
+        {
+            "architecture": "A",
+            "run": [0, 1, 2],
+            "theta_f": [1.0, 2.0, 3.0],
+            "omega_f": [0.0, 0.0, 3.0],
+            "J": [5.0, 5.0, 5.0],
+        }
+    )
     row = ns.summarize(runs).iloc[0]
     assert row["theta_f"] == 2.0 and row["sigma_theta"] == pytest.approx(1.0)  # ddof = 1
     assert row["sigma_omega"] == pytest.approx(np.sqrt(3.0)) and row["sigma_J"] == 0.0
@@ -236,10 +254,15 @@ def test_summary_uses_sample_standard_deviation():
 @pytest.mark.parametrize(
     "kwargs, parameter",
     [
-        ({"runs": -5}, "runs"), ({"runs": 1}, "runs"), ({"runs": 2.5}, "runs"),
-        ({"seed": -1}, "seed"), ({"noise_var": -1e-4}, "noise_var"),
-        ({"noise_var": float("inf")}, "noise_var"), ({"inertia_spread": 1.0}, "inertia_spread"),
-        ({"inertia_spread": -0.1}, "inertia_spread"), ({"inertia_model": "x"}, "inertia_model"),
+        ({"runs": -5}, "runs"),
+        ({"runs": 1}, "runs"),
+        ({"runs": 2.5}, "runs"),
+        ({"seed": -1}, "seed"),
+        ({"noise_var": -1e-4}, "noise_var"),
+        ({"noise_var": float("inf")}, "noise_var"),
+        ({"inertia_spread": 1.0}, "inertia_spread"),
+        ({"inertia_spread": -0.1}, "inertia_spread"),
+        ({"inertia_model": "x"}, "inertia_model"),
         ({"dt": 0.03}, "dt"),
     ],
 )
@@ -313,8 +336,10 @@ def test_library_writer_records_the_study_in_the_marker(tmp_path):
 @pytest.mark.parametrize(
     "argv, option",
     [
-        (["--runs", "-3"], "--runs"), (["--noise-var", "-1"], "--noise-var"),
-        (["--inertia-spread", "1.5"], "--inertia-spread"), (["--seed", "-2"], "--seed"),
+        (["--runs", "-3"], "--runs"),
+        (["--noise-var", "-1"], "--noise-var"),
+        (["--inertia-spread", "1.5"], "--inertia-spread"),
+        (["--seed", "-2"], "--seed"),
         (["--runs", "many"], "--runs"),
     ],
 )

@@ -7,6 +7,7 @@ Oracle: the campaign's own ``runs.parquet`` -- the failure percentage is
 issue's "exceeds"; a campaign exactly at P passes).  Exit statuses are the CLI contract
 (``rcsim campaign run --help``): 0 passed, 2 bad input, 3 gate failed.
 """
+
 import json
 from pathlib import Path
 
@@ -67,20 +68,27 @@ def test_gate_fails_after_writing_everything(flown, tmp_path, capsys):
     spec, _, pct = flown
     out = tmp_path / "out"
     capsys.readouterr()
-    code = main(["campaign", "run", str(spec), "--out", str(out), "--no-progress",
-                 "--max-failed-pct", "0"])
+    code = main(
+        ["campaign", "run", str(spec), "--out", str(out), "--no-progress", "--max-failed-pct", "0"]
+    )
     captured = capsys.readouterr()
     assert code == GATE_FAILED == 3
     # Everything was written: the tables, a complete manifest recording the verdict.
     assert {"runs.parquet", "cases.csv", "envelopes.parquet", "manifest.json"} <= {
-        p.name for p in out.iterdir()}
+        p.name for p in out.iterdir()
+    }
     assert not (out / "chunks").exists()
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["status"] == "complete"
     got_pct, failed, total = _failed_pct(out)
     assert got_pct == pct
-    assert manifest["gate"] == {"max_failed_pct": 0.0, "runs": total, "failed": failed,
-                                "failed_pct": pct, "passed": False}
+    assert manifest["gate"] == {
+        "max_failed_pct": 0.0,
+        "runs": total,
+        "failed": failed,
+        "failed_pct": pct,
+        "passed": False,
+    }
     # The summary on stdout, one line on stderr naming the percentage, the counts and P.
     assert f"{total} runs, {failed} failed" in captured.out
     lines = captured.err.strip().splitlines()
@@ -120,8 +128,21 @@ def test_spec_key_gates_and_the_flag_overrides_it(flown, tmp_path, capsys):
     assert main(["campaign", "run", str(gated), "--out", str(out), "--resume"]) == GATE_FAILED
     err = capsys.readouterr().err
     assert f"max_failed_pct {pct / 2:g} %" in err and str(gated) in err
-    assert main(["campaign", "run", str(gated), "--out", str(out), "--resume",
-                 "--max-failed-pct", "100"]) == 0
+    assert (
+        main(
+            [
+                "campaign",
+                "run",
+                str(gated),
+                "--out",
+                str(out),
+                "--resume",
+                "--max-failed-pct",
+                "100",
+            ]
+        )
+        == 0
+    )
 
 
 def test_resumed_campaign_applies_the_gate(flown, tmp_path, capsys):
@@ -134,8 +155,22 @@ def test_resumed_campaign_applies_the_gate(flown, tmp_path, capsys):
     (out / "manifest.json").write_text(json.dumps(manifest))
     (out / "runs.parquet").unlink()
     (out / "chunks").mkdir()
-    assert main(["campaign", "run", str(spec), "--out", str(out), "--resume", "--no-progress",
-                 "--max-failed-pct", "1"]) == GATE_FAILED
+    assert (
+        main(
+            [
+                "campaign",
+                "run",
+                str(spec),
+                "--out",
+                str(out),
+                "--resume",
+                "--no-progress",
+                "--max-failed-pct",
+                "1",
+            ]
+        )
+        == GATE_FAILED
+    )
     assert _failed_pct(out)[0] == pct
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["status"] == "complete" and manifest["gate"]["passed"] is False

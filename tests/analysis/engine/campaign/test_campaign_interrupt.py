@@ -2,6 +2,7 @@
 resumable (exit status 130 after Ctrl-C, 143 = 128 + SIGTERM after SIGTERM, the shell's
 convention for a process a signal stopped); temporaries a killed process left are cleaned;
 outputs honour the umask.  How promptly it stops is measured in benchmarks/campaign.py."""
+
 import os
 import signal
 import stat
@@ -53,14 +54,29 @@ def _interrupt(spec_path: Path, out: Path, extra: list[str], sig: int, *, group:
     """Start ``rcsim campaign run`` in its own session, send ``sig`` once its first chunk has
     committed (to the whole process group, as a terminal's Ctrl-C does, if ``group``), and
     return (exit code, stderr)."""
-    cli = [sys.executable, "-m", "rcsim", "campaign", "run", str(spec_path),
-           "--out", str(out), "--no-progress", *extra]
+    cli = [
+        sys.executable,
+        "-m",
+        "rcsim",
+        "campaign",
+        "run",
+        str(spec_path),
+        "--out",
+        str(out),
+        "--no-progress",
+        *extra,
+    ]
     # A terminal's rcsim starts with Ctrl-C at its default; a test runner started in the
     # background of a non-interactive shell passes SIGINT on *ignored*, and an ignored SIGINT
     # stays ignored in Python.  Restore the default so the test sees what a user sees.
-    proc = subprocess.Popen(cli, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen(
+        cli,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and proc.poll() is None:
@@ -77,13 +93,16 @@ def _interrupt(spec_path: Path, out: Path, extra: list[str], sig: int, *, group:
             proc.wait()
 
 
-@pytest.mark.parametrize("extra,sig,group", [
-    ([], signal.SIGINT, True),
-    (["--workers", "2"], signal.SIGINT, True),
-    ([], signal.SIGTERM, False),
-], ids=["ctrl-c-local", "ctrl-c-dask-2-workers", "sigterm-local"])
-def test_interrupt_stops_with_one_line_and_is_resumable(tmp_path, uninterrupted, extra, sig,
-                                                        group):
+@pytest.mark.parametrize(
+    "extra,sig,group",
+    [
+        ([], signal.SIGINT, True),
+        (["--workers", "2"], signal.SIGINT, True),
+        ([], signal.SIGTERM, False),
+    ],
+    ids=["ctrl-c-local", "ctrl-c-dask-2-workers", "sigterm-local"],
+)
+def test_interrupt_stops_with_one_line_and_is_resumable(tmp_path, uninterrupted, extra, sig, group):
     """The chunks in flight are abandoned, not finished: some chunks committed, not all (8);
     one line and the signal's exit status; --resume gives the uninterrupted campaign."""
     spec_path = _write_spec(tmp_path)
@@ -100,8 +119,9 @@ def test_interrupt_stops_with_one_line_and_is_resumable(tmp_path, uninterrupted,
     assert 1 <= committed < 8
     report = run_campaign(load_spec(spec_path), out, resume=True, local_workers=2, progress=False)
     assert report.resumed_chunks == committed
-    pd.testing.assert_frame_equal(pd.read_parquet(out / "runs.parquet"), uninterrupted,
-                                  check_exact=True)
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(out / "runs.parquet"), uninterrupted, check_exact=True
+    )
 
 
 def test_resume_and_completion_remove_leftover_temporaries(tmp_path, uninterrupted):
@@ -120,9 +140,12 @@ def test_resume_and_completion_remove_leftover_temporaries(tmp_path, uninterrupt
     (out / "manifest.json").write_text(json.dumps(manifest))
     (out / "runs.parquet").unlink()
     (out / "chunks").mkdir()
-    planted = [out / "histories" / ".run-0000003.parquet.k2j4x9.tmp",
-               out / "chunks" / ".runs-0000000-0000001.parquet.a8b1c2.tmp",
-               out / ".manifest.json.zz91qq.tmp", out / ".runs.parquet.tmp"]
+    planted = [
+        out / "histories" / ".run-0000003.parquet.k2j4x9.tmp",
+        out / "chunks" / ".runs-0000000-0000001.parquet.a8b1c2.tmp",
+        out / ".manifest.json.zz91qq.tmp",
+        out / ".runs.parquet.tmp",
+    ]
     for path in planted:
         path.write_bytes(b"partial")
         assert path.match(TEMP_GLOB)
@@ -130,8 +153,9 @@ def test_resume_and_completion_remove_leftover_temporaries(tmp_path, uninterrupt
     run_campaign(spec, out, resume=True, local_workers=2, progress=False)
     assert not [p for p in planted if p.exists()]
     assert (out / "histories" / "notes.txt").exists()
-    pd.testing.assert_frame_equal(pd.read_parquet(out / "runs.parquet"), uninterrupted,
-                                  check_exact=True)
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(out / "runs.parquet"), uninterrupted, check_exact=True
+    )
     late = out / "histories" / ".run-0000004.parquet.q1w2e3.tmp"
     late.write_bytes(b"partial")
     assert run_campaign(spec, out, resume=True, progress=False).runs_flown == 0
@@ -153,18 +177,38 @@ def test_campaign_outputs_honour_the_umask(tmp_path, umask):
     0o666 & ~umask and every directory 0o777 & ~umask, as ``open`` / ``mkdir`` give."""
     spec_path = _write_spec(tmp_path, histories="first", plots="true")
     out = tmp_path / "out"
-    code = ("import os, sys; os.umask(int(sys.argv[1], 8)); "
-            "from analysis.apps.cli import main; sys.exit(main(sys.argv[2:]))")
-    subprocess.run([sys.executable, "-c", code, oct(umask), "campaign", "run", str(spec_path),
-                    "--out", str(out), "--no-progress", "--runs-per-case", "2"],
-                   check=True, capture_output=True)
+    code = (
+        "import os, sys; os.umask(int(sys.argv[1], 8)); "
+        "from analysis.apps.cli import main; sys.exit(main(sys.argv[2:]))"
+    )
+    subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            code,
+            oct(umask),
+            "campaign",
+            "run",
+            str(spec_path),
+            "--out",
+            str(out),
+            "--no-progress",
+            "--runs-per-case",
+            "2",
+        ],
+        check=True,
+        capture_output=True,
+    )
     modes = {p.relative_to(out): stat.S_IMODE(p.stat().st_mode) for p in out.rglob("*")}
     modes[Path(".")] = stat.S_IMODE(out.stat().st_mode)
     files = {p for p in modes if (out / p).is_file()}
     assert {"runs.parquet", "cases.csv", "envelopes.parquet", "manifest.json"} <= {
-        p.name for p in files}
-    assert any(p.parts[0] == "plots" for p in files) and any(p.parts[0] == "histories"
-                                                            for p in files)
-    wrong = {str(p): oct(m) for p, m in modes.items()
-             if m != (0o666 if p in files else 0o777) & ~umask}
+        p.name for p in files
+    }
+    assert any(p.parts[0] == "plots" for p in files) and any(
+        p.parts[0] == "histories" for p in files
+    )
+    wrong = {
+        str(p): oct(m) for p, m in modes.items() if m != (0o666 if p in files else 0o777) & ~umask
+    }
     assert not wrong, wrong

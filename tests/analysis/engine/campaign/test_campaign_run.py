@@ -1,5 +1,6 @@
 """Running campaigns: identical results whatever the execution, resume after a kill, failures
 recorded without stopping the campaign, replay of one run."""
+
 import json
 import signal
 import subprocess
@@ -35,11 +36,13 @@ plots = {plots}
 """
 
 
-def _spec(tmp_path, *, runs=5, chunk=4, duration=2.0, histories="none", plots="false",
-          name="spec.toml"):
+def _spec(
+    tmp_path, *, runs=5, chunk=4, duration=2.0, histories="none", plots="false", name="spec.toml"
+):
     path = tmp_path / name
-    path.write_text(SPEC.format(runs=runs, chunk=chunk, duration=duration, histories=histories,
-                                plots=plots))
+    path.write_text(
+        SPEC.format(runs=runs, chunk=chunk, duration=duration, histories=histories, plots=plots)
+    )
     return path
 
 
@@ -59,9 +62,22 @@ def reference(tmp_path_factory):
 def test_outputs_and_columns(reference):
     assert list(reference["run_id"]) == list(range(10))
     assert list(reference["case"]) == ["rate-13"] * 5 + ["rate-22"] * 5
-    for col in ("seed", "mass_kg", "cg_x_m", "ixx_kg_m2", "jet_16_thrust_n", "jet_01_tilt_deg",
-                "final_rate_err_yaw_deg_s", "final_att_err_deg", "firings_to_rate_yaw",
-                "jet_13_on_time_s", "propellant_kg", "rate_settled_time_s", "failed", "reason"):
+    for col in (
+        "seed",
+        "mass_kg",
+        "cg_x_m",
+        "ixx_kg_m2",
+        "jet_16_thrust_n",
+        "jet_01_tilt_deg",
+        "final_rate_err_yaw_deg_s",
+        "final_att_err_deg",
+        "firings_to_rate_yaw",
+        "jet_13_on_time_s",
+        "propellant_kg",
+        "rate_settled_time_s",
+        "failed",
+        "reason",
+    ):
         assert col in reference.columns
     # Yaw-only case: the rate is reached by one yaw firing event, roll and pitch need none.
     yaw = reference[reference["case"] == "rate-13"]
@@ -139,8 +155,9 @@ def test_nan_run_is_recorded_failed_and_the_rest_complete(tmp_path, reference, m
     assert "invalid parameter inertia_B" in runs.loc[bad, "reason"].iloc[0]
     assert runs.loc[bad, "final_rate_err_yaw_deg_s"].isna().all()
     # Every other run is exactly the reference run.
-    pd.testing.assert_frame_equal(runs[~bad].reset_index(drop=True),
-                                  reference[~bad].reset_index(drop=True), check_exact=True)
+    pd.testing.assert_frame_equal(
+        runs[~bad].reset_index(drop=True), reference[~bad].reset_index(drop=True), check_exact=True
+    )
     kept = sorted(p.name for p in (tmp_path / "out" / "histories").iterdir())
     assert kept == [f"run-{i:07d}.parquet" for i in runs.loc[runs["failed"], "run_id"]]
 
@@ -157,10 +174,13 @@ def test_a_run_that_raises_is_isolated(tmp_path, reference, monkeypatch):
     run_campaign(load_spec(_spec(tmp_path)), tmp_path / "out", local_workers=1, progress=False)
     runs = _runs(tmp_path / "out")
     bad = runs["run_id"] == 7
-    assert runs.loc[bad, "reason"].iloc[0] == "exception: FloatingPointError: planted controller error"
+    assert (
+        runs.loc[bad, "reason"].iloc[0] == "exception: FloatingPointError: planted controller error"
+    )
     assert runs.loc[bad, "failed"].all()
-    pd.testing.assert_frame_equal(runs[~bad].reset_index(drop=True),
-                                  reference[~bad].reset_index(drop=True), check_exact=True)
+    pd.testing.assert_frame_equal(
+        runs[~bad].reset_index(drop=True), reference[~bad].reset_index(drop=True), check_exact=True
+    )
 
 
 def test_replay_reproduces_a_run_alone(tmp_path, capsys):
@@ -171,17 +191,24 @@ def test_replay_reproduces_a_run_alone(tmp_path, capsys):
     assert main(["campaign", "run", str(spec), "--out", str(out), "--no-progress"]) == 0
     assert "10 runs" in capsys.readouterr().out
     assert sorted(p.name for p in (out / "plots").iterdir()) == [
-        "case-rate-13.png", "case-rate-22.png", "summary.png"]
+        "case-rate-13.png",
+        "case-rate-22.png",
+        "summary.png",
+    ]
     assert sorted(p.name for p in (out / "histories").iterdir()) == [
-        "run-0000000.parquet", "run-0000005.parquet"]
+        "run-0000000.parquet",
+        "run-0000005.parquet",
+    ]
     assert main(["campaign", "replay", str(out), "6"]) == 0
     assert "matches the campaign's runs.parquet row exactly" in capsys.readouterr().out
     replayed = out / "replays" / "run-0000006"
     assert (replayed / "history.parquet").exists() and (replayed / "rates_jets.png").exists()
     # The kept history of run 5 is the same flight a replay writes.
     assert main(["campaign", "replay", str(out), "5", "--out", str(tmp_path / "r5")]) == 0
-    pd.testing.assert_frame_equal(pd.read_parquet(out / "histories" / "run-0000005.parquet"),
-                                  pd.read_parquet(tmp_path / "r5" / "history.parquet"))
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(out / "histories" / "run-0000005.parquet"),
+        pd.read_parquet(tmp_path / "r5" / "history.parquet"),
+    )
     assert main(["campaign", "replay", str(out), "10"]) == 2
     capsys.readouterr()
     # The replay's directory names its command: replayed again only with --overwrite, and
@@ -193,8 +220,25 @@ def test_replay_reproduces_a_run_alone(tmp_path, capsys):
     assert "use --overwrite" in capsys.readouterr().err
     assert main(["campaign", "replay", str(out), "6", "--overwrite"]) == 0
     assert directory_owner(replayed) == "campaign replay"
-    assert main(["maneuver", "--controller", "phase-plane", "--attitude-deg", "0", "0", "1",
-                 "--duration-s", "1", "--out", str(replayed), "--overwrite"]) == 2
+    assert (
+        main(
+            [
+                "maneuver",
+                "--controller",
+                "phase-plane",
+                "--attitude-deg",
+                "0",
+                "0",
+                "1",
+                "--duration-s",
+                "1",
+                "--out",
+                str(replayed),
+                "--overwrite",
+            ]
+        )
+        == 2
+    )
     assert "holds the outputs of `rcsim campaign replay`" in capsys.readouterr().err
 
 
@@ -238,11 +282,23 @@ def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
     on[0, 0:4, [12, 14]] = cycle  # jets 13 and 15 (-yaw per Table 2), four full cycles
     on[0, 5, [13, 15]] = 0.01  # jets 14 and 16 (+yaw), one short pulse
     q = np.tile([1.0, 0, 0, 0], (1, K, 1))
-    final = NavState(K * cycle, q[:, -1], rate[:, -1], np.zeros((1, 3)), rate[:, -1], np.zeros((1, 3)))
-    hist = History(cycle_s=cycle, t_s=np.arange(K) * cycle, q_BN=q, omega_B=rate, att_err_B=np.zeros((1, K, 3)),
-                   rate_err_B=rate, on_time_s=on, final=final,
-                   propulsion=PropulsionState.zeros(1), failed=np.zeros(1, bool), reason=[""],
-                   flown_params=VehicleParams.nominal(1))
+    final = NavState(
+        K * cycle, q[:, -1], rate[:, -1], np.zeros((1, 3)), rate[:, -1], np.zeros((1, 3))
+    )
+    hist = History(
+        cycle_s=cycle,
+        t_s=np.arange(K) * cycle,
+        q_BN=q,
+        omega_B=rate,
+        att_err_B=np.zeros((1, K, 3)),
+        rate_err_B=rate,
+        on_time_s=on,
+        final=final,
+        propulsion=PropulsionState.zeros(1),
+        failed=np.zeros(1, bool),
+        reason=[""],
+        flown_params=VehicleParams.nominal(1),
+    )
     spec = SimpleNamespace(rate_threshold_rad_s=np.radians(0.04), attitude_threshold_rad=None)
     row = outcomes(hist, spec).iloc[0]
     assert row["firings_to_rate_yaw"] == 2
@@ -289,8 +345,18 @@ def test_progress_phases_and_the_flying_rate(tmp_path, capsys):
     text = summary_text(report, spec)
     assert f"flew 10 runs in {report.fly_s:.1f} s ({10 / report.fly_s:.1f} runs/s" in text
     # Not a terminal (CI, a pipe) and no --progress: nothing on stderr.
-    assert main(["campaign", "run", str(_spec(tmp_path, name="q.toml")), "--out",
-                 str(tmp_path / "quiet")]) == 0
+    assert (
+        main(
+            [
+                "campaign",
+                "run",
+                str(_spec(tmp_path, name="q.toml")),
+                "--out",
+                str(tmp_path / "quiet"),
+            ]
+        )
+        == 0
+    )
     assert capsys.readouterr().err == ""
 
 

@@ -1,4 +1,5 @@
 """Campaign spec validation: every mistake is one line naming the key, and leaves no directory."""
+
 import math
 
 import numpy as np
@@ -45,7 +46,11 @@ def test_example_spec_is_printed_and_valid(tmp_path, capsys):
 
 
 def test_overrides_scale_and_scenario_list(tmp_path):
-    spec = load_spec(_write(tmp_path, MINIMAL.replace("[scenario]", "[[scenario]]") + """
+    spec = load_spec(
+        _write(
+            tmp_path,
+            MINIMAL.replace("[scenario]", "[[scenario]]")
+            + """
 [[scenario]]
 kind = "maneuver"
 attitude_deg = [0, 0, 5]
@@ -59,7 +64,9 @@ scale = 3.0
 [dispersions.three_sigma]
 thrust_n = 1.0
 cg_x_m = 0
-""".replace("[controller]", "[controller]", 1)))
+""".replace("[controller]", "[controller]", 1),
+        )
+    )
     assert [c.name for c in spec.cases] == ["rate-13", "yaw5", "hold"]
     assert np.allclose(spec.cases[1].att_cmd_rad, [0, 0, math.radians(5)])
     assert spec.cases[1].duration_s == 30.0
@@ -73,7 +80,9 @@ def test_lookup_table_path_is_relative_to_spec(tmp_path):
     from models.tables import load_lookup_table
 
     load_lookup_table(which="table7").to_csv(tmp_path / "mytable.csv")
-    spec = load_spec(_write(tmp_path, MINIMAL.replace('"phase-plane"', '"lookup"\ntable = "mytable.csv"')))
+    spec = load_spec(
+        _write(tmp_path, MINIMAL.replace('"phase-plane"', '"lookup"\ntable = "mytable.csv"'))
+    )
     assert spec.table == str((tmp_path / "mytable.csv").resolve())
     assert spec.resolved["controller"]["table_sha256"]
 
@@ -89,17 +98,23 @@ def test_paper_tables_by_name(tmp_path):
 
     assert set(PAPER_LOOKUP_TABLES) == {"table6", "table7"}
     for name, filename in PAPER_LOOKUP_TABLES.items():
-        spec = load_spec(_write(tmp_path, MINIMAL.replace('"phase-plane"',
-                                                          f'"lookup"\ntable = "{name}"')))
+        spec = load_spec(
+            _write(tmp_path, MINIMAL.replace('"phase-plane"', f'"lookup"\ntable = "{name}"'))
+        )
         assert spec.table == name
         packaged = (files("models") / "data" / filename).read_bytes()
         assert spec.resolved["controller"] == {
-            "name": "lookup", "table": name,
-            "table_sha256": hashlib.sha256(packaged).hexdigest()}
+            "name": "lookup",
+            "table": name,
+            "table_sha256": hashlib.sha256(packaged).hexdigest(),
+        }
     # A name is for the lookup controller only, like a path.
-    with pytest.raises(InputError, match="controller.table: is only for the lookup and adaptive controllers"):
-        load_spec(_write(tmp_path, MINIMAL.replace('"phase-plane"',
-                                                   '"phase-plane"\ntable = "table6"')))
+    with pytest.raises(
+        InputError, match="controller.table: is only for the lookup and adaptive controllers"
+    ):
+        load_spec(
+            _write(tmp_path, MINIMAL.replace('"phase-plane"', '"phase-plane"\ntable = "table6"'))
+        )
 
 
 def test_a_file_named_like_a_paper_table_needs_dot_slash(tmp_path):
@@ -107,8 +122,9 @@ def test_a_file_named_like_a_paper_table_needs_dot_slash(tmp_path):
 
     load_lookup_table(which="table7").to_csv(tmp_path / "table6")
     text = MINIMAL.replace('"phase-plane"', '"lookup"\ntable = "table6"')
-    with pytest.raises(InputError,
-                       match='ambiguous: both the packaged paper table .* write "./table6"'):
+    with pytest.raises(
+        InputError, match='ambiguous: both the packaged paper table .* write "./table6"'
+    ):
         load_spec(_write(tmp_path, text))
     spec = load_spec(_write(tmp_path, text.replace('"table6"', '"./table6"')))
     assert spec.table == str((tmp_path / "table6").resolve())
@@ -129,70 +145,148 @@ def test_controller_names_are_the_registry_list(tmp_path):
 
 
 BAD = [
-    ("unknown key", MINIMAL + "[dispersions.thrust]\nthree_sigma = 2\n",
-     "unknown key 'dispersions.thrust'"),
-    ("unknown nested key", MINIMAL + "[dispersions.three_sigma]\nthrust = 2\n",
-     "unknown key 'dispersions.three_sigma.thrust'"),
-    ("negative sigma", MINIMAL + "[dispersions.three_sigma]\nthrust_n = -2\n",
-     "dispersions.three_sigma.thrust_n: must be >= 0"),
+    (
+        "unknown key",
+        MINIMAL + "[dispersions.thrust]\nthree_sigma = 2\n",
+        "unknown key 'dispersions.thrust'",
+    ),
+    (
+        "unknown nested key",
+        MINIMAL + "[dispersions.three_sigma]\nthrust = 2\n",
+        "unknown key 'dispersions.three_sigma.thrust'",
+    ),
+    (
+        "negative sigma",
+        MINIMAL + "[dispersions.three_sigma]\nthrust_n = -2\n",
+        "dispersions.three_sigma.thrust_n: must be >= 0",
+    ),
     ("negative scale", MINIMAL + "[dispersions]\nscale = -1\n", "dispersions.scale: must be >= 0"),
-    ("zero runs", MINIMAL.replace("runs_per_case = 3", "runs_per_case = 0"),
-     "runs_per_case: must be an integer >= 1"),
-    ("missing table file", MINIMAL.replace('"phase-plane"', '"lookup"\ntable = "nope.csv"'),
-     "controller.table: file not found"),
+    (
+        "zero runs",
+        MINIMAL.replace("runs_per_case = 3", "runs_per_case = 0"),
+        "runs_per_case: must be an integer >= 1",
+    ),
+    (
+        "missing table file",
+        MINIMAL.replace('"phase-plane"', '"lookup"\ntable = "nope.csv"'),
+        "controller.table: file not found",
+    ),
     # Sensors, timing and faults (issue 11): the file, the table and the key in every message.
-    ("sensor key typo", MINIMAL + "[dispersions.sensor]\nnoise_deg = 0.01\n",
-     "spec.toml: [dispersions.sensor]: unknown key(s) noise_deg"),
-    ("negative sensor noise", MINIMAL + "[dispersions.sensor]\nrate_noise_deg_s = -0.01\n",
-     "[dispersions.sensor]: rate_noise_deg_s must be finite and >= 0, got -0.01"),
-    ("sensor noise of two axes", MINIMAL + "[dispersions.sensor]\natt_noise_deg = [1, 2]\n",
-     "[dispersions.sensor]: att_noise_deg must be a number or 3 numbers"),
-    ("sensor not a table", MINIMAL + "[dispersions]\nsensor = 0.01\n",
-     "[dispersions.sensor]: expected a table, got 0.01"),
-    ("negative delay", MINIMAL + "[dispersions.timing]\nopen_delay_s = -0.001\n",
-     "[dispersions.timing]: open_delay_s must be a number >= 0 [s], got -0.001"),
+    (
+        "sensor key typo",
+        MINIMAL + "[dispersions.sensor]\nnoise_deg = 0.01\n",
+        "spec.toml: [dispersions.sensor]: unknown key(s) noise_deg",
+    ),
+    (
+        "negative sensor noise",
+        MINIMAL + "[dispersions.sensor]\nrate_noise_deg_s = -0.01\n",
+        "[dispersions.sensor]: rate_noise_deg_s must be finite and >= 0, got -0.01",
+    ),
+    (
+        "sensor noise of two axes",
+        MINIMAL + "[dispersions.sensor]\natt_noise_deg = [1, 2]\n",
+        "[dispersions.sensor]: att_noise_deg must be a number or 3 numbers",
+    ),
+    (
+        "sensor not a table",
+        MINIMAL + "[dispersions]\nsensor = 0.01\n",
+        "[dispersions.sensor]: expected a table, got 0.01",
+    ),
+    (
+        "negative delay",
+        MINIMAL + "[dispersions.timing]\nopen_delay_s = -0.001\n",
+        "[dispersions.timing]: open_delay_s must be a number >= 0 [s], got -0.001",
+    ),
     # 0.030 + 0.008 + 5 x 0.001 = 0.043 s: beyond the 40 ms cycle (a command must act in it).
-    ("delays beyond the cycle", MINIMAL + "[dispersions.timing]\ncommand_delay_s = 0.030\n"
-     "open_delay_s = 0.008\nopen_delay_sigma_s = 0.001\n",
-     "[dispersions.timing]: command_delay_s + open_delay_s + 5 x their sigmas is 0.043 s"),
-    ("fault mode typo", MINIMAL + "[dispersions.fault]\nmode = 'failed'\n",
-     "[dispersions.fault]: mode must be one of none, off, stuck, degraded, got 'failed'"),
-    ("fault jet 17", MINIMAL + "[dispersions.fault]\nmode = 'off'\njets = [13, 17]\n",
-     "[dispersions.fault]: jets must be a list of distinct jet numbers 1..16, got [13, 17]"),
-    ("thrust factor above 1", MINIMAL + "[dispersions.fault]\nmode = 'degraded'\n"
-     "thrust_factor = 1.2\n", "[dispersions.fault]: thrust_factor must be [lo, hi]"),
-    ("table for phase-plane", MINIMAL.replace('"phase-plane"', '"phase-plane"\ntable = "table6"'),
-     "controller.table: is only for the lookup and adaptive controllers"),
-    ("unknown controller", MINIMAL.replace('"phase-plane"', '"pid"'), "controller.name: must be one of"),
+    (
+        "delays beyond the cycle",
+        MINIMAL + "[dispersions.timing]\ncommand_delay_s = 0.030\n"
+        "open_delay_s = 0.008\nopen_delay_sigma_s = 0.001\n",
+        "[dispersions.timing]: command_delay_s + open_delay_s + 5 x their sigmas is 0.043 s",
+    ),
+    (
+        "fault mode typo",
+        MINIMAL + "[dispersions.fault]\nmode = 'failed'\n",
+        "[dispersions.fault]: mode must be one of none, off, stuck, degraded, got 'failed'",
+    ),
+    (
+        "fault jet 17",
+        MINIMAL + "[dispersions.fault]\nmode = 'off'\njets = [13, 17]\n",
+        "[dispersions.fault]: jets must be a list of distinct jet numbers 1..16, got [13, 17]",
+    ),
+    (
+        "thrust factor above 1",
+        MINIMAL + "[dispersions.fault]\nmode = 'degraded'\nthrust_factor = 1.2\n",
+        "[dispersions.fault]: thrust_factor must be [lo, hi]",
+    ),
+    (
+        "table for phase-plane",
+        MINIMAL.replace('"phase-plane"', '"phase-plane"\ntable = "table6"'),
+        "controller.table: is only for the lookup and adaptive controllers",
+    ),
+    (
+        "unknown controller",
+        MINIMAL.replace('"phase-plane"', '"pid"'),
+        "controller.name: must be one of",
+    ),
     ("bad case", MINIMAL.replace("[13]", "[27]"), "scenario.cases: no such rate case 27"),
     ("typo top level", "sead = 3\n" + MINIMAL, "unknown key 'sead'"),
     ("no scenario", "seed = 1\n[controller]\nname = 'lookup'\n", "scenario: missing"),
     ("bad toml", "seed = \n", "not valid TOML"),
-    ("zero threshold", MINIMAL + "[failure]\nrate_error_deg_s = 0\n", "failure.rate_error_deg_s: must be > 0"),
-    ("bad histories", MINIMAL + "[output]\nhistories = 'some'\n", "output.histories: must be one of"),
+    (
+        "zero threshold",
+        MINIMAL + "[failure]\nrate_error_deg_s = 0\n",
+        "failure.rate_error_deg_s: must be > 0",
+    ),
+    (
+        "bad histories",
+        MINIMAL + "[output]\nhistories = 'some'\n",
+        "output.histories: must be one of",
+    ),
     # Valid types, physically absurd values (issue 8): refused with the range and its reason.
     # Table 5's Ixx 3-sigma is 322.48 kg m^2 and the nominal Ixx 3583.09: scale < 11.11.
-    ("absurd scale", MINIMAL + "[dispersions]\nscale = 1e300\n",
-     "dispersions.scale: must be < 11.11 with these 3-sigma values"),
-    ("scale just too large", MINIMAL + "[dispersions]\nscale = 11.2\n",
-     "dispersions.scale: must be < 11.11"),
-    ("override beyond nominal thrust", MINIMAL + "[dispersions.three_sigma]\nthrust_n = 22.24\n",
-     "dispersions.three_sigma.thrust_n: times scale 1 it must be below 22.24 N"),
-    ("tilt beyond 90 deg", MINIMAL + "[dispersions.three_sigma]\nthruster_angle_deg = 90\n",
-     "dispersions.three_sigma.thruster_angle_deg: times scale 1 it must be below 90 deg"),
+    (
+        "absurd scale",
+        MINIMAL + "[dispersions]\nscale = 1e300\n",
+        "dispersions.scale: must be < 11.11 with these 3-sigma values",
+    ),
+    (
+        "scale just too large",
+        MINIMAL + "[dispersions]\nscale = 11.2\n",
+        "dispersions.scale: must be < 11.11",
+    ),
+    (
+        "override beyond nominal thrust",
+        MINIMAL + "[dispersions.three_sigma]\nthrust_n = 22.24\n",
+        "dispersions.three_sigma.thrust_n: times scale 1 it must be below 22.24 N",
+    ),
+    (
+        "tilt beyond 90 deg",
+        MINIMAL + "[dispersions.three_sigma]\nthruster_angle_deg = 90\n",
+        "dispersions.three_sigma.thruster_angle_deg: times scale 1 it must be below 90 deg",
+    ),
     # A roll pair: 2 x 22.24 N x 0.812 m = 36.12 N m (models/vehicle/README.md geometry).
-    ("absurd disturbance", MINIMAL.replace("cases = [13]", "kind = 'hold'\n"
-                                           "disturbance_n_m = [0, 0, 1e300]"),
-     "scenario.disturbance_n_m: each component must be within the jets' largest torque about "
-     "that axis, +-[36.12, 34.52, 32.2] N m"),
-    ("absurd initial rate", MINIMAL.replace("cases = [13]", "kind = 'hold'\n"
-                                            "initial_rate_deg_s = [1e6, 0, 0]"),
-     "scenario.initial_rate_deg_s: magnitude must be <= 3 deg/s"),
-    ("absurd duration", MINIMAL.replace("duration_s = 1.0", "duration_s = 1e9"),
-     f"scenario.duration_s: must be <= {MAX_DURATION_S:.0f} s"),
-    ("campaign too large for the disk", MINIMAL.replace("runs_per_case = 3",
-                                                        "runs_per_case = 1_000_000_000_000"),
-     "runs_per_case = 1000000000000: the campaign's 1,000,000,000,000 runs need about"),
+    (
+        "absurd disturbance",
+        MINIMAL.replace("cases = [13]", "kind = 'hold'\ndisturbance_n_m = [0, 0, 1e300]"),
+        "scenario.disturbance_n_m: each component must be within the jets' largest torque about "
+        "that axis, +-[36.12, 34.52, 32.2] N m",
+    ),
+    (
+        "absurd initial rate",
+        MINIMAL.replace("cases = [13]", "kind = 'hold'\ninitial_rate_deg_s = [1e6, 0, 0]"),
+        "scenario.initial_rate_deg_s: magnitude must be <= 3 deg/s",
+    ),
+    (
+        "absurd duration",
+        MINIMAL.replace("duration_s = 1.0", "duration_s = 1e9"),
+        f"scenario.duration_s: must be <= {MAX_DURATION_S:.0f} s",
+    ),
+    (
+        "campaign too large for the disk",
+        MINIMAL.replace("runs_per_case = 3", "runs_per_case = 1_000_000_000_000"),
+        "runs_per_case = 1000000000000: the campaign's 1,000,000,000,000 runs need about",
+    ),
 ]
 
 
@@ -211,9 +305,11 @@ def test_bad_spec_is_one_line_error_and_no_output(tmp_path, capsys, what, text, 
 def test_cli_option_errors_leave_no_output(tmp_path, capsys):
     spec = _write(tmp_path, MINIMAL)
     out = tmp_path / "campaign"
-    for extra, message in ((["--runs-per-case", "0"], "--runs-per-case must be >= 1"),
-                           (["--workers", "0"], "--workers must be >= 1"),
-                           (["--workers", "2", "--scheduler", "tcp://x:1"], "not allowed with")):
+    for extra, message in (
+        (["--runs-per-case", "0"], "--runs-per-case must be >= 1"),
+        (["--workers", "0"], "--workers must be >= 1"),
+        (["--workers", "2", "--scheduler", "tcp://x:1"], "not allowed with"),
+    ):
         assert main(["campaign", "run", str(spec), "--out", str(out), *extra]) == 2
         assert message in capsys.readouterr().err
         assert not out.exists()
@@ -250,10 +346,16 @@ def test_parse_errors_raise_input_error(tmp_path):
 def test_ranges_accept_their_edges(tmp_path):
     """The ranges refuse only beyond them: Table 5 at 3x (the paper's Figs 13-14 stress runs),
     a hold disturbance of 36 N m about roll and an initial rate of 3 deg/s load."""
-    spec = load_spec(_write(tmp_path, MINIMAL.replace("cases = [13]", "kind = 'hold'\n"
-                                                      "disturbance_n_m = [36.0, 0, 0]\n"
-                                                      "initial_rate_deg_s = [0, 0, 3.0]")
-                            + "[dispersions]\nscale = 11.0\n"))
+    spec = load_spec(
+        _write(
+            tmp_path,
+            MINIMAL.replace(
+                "cases = [13]",
+                "kind = 'hold'\ndisturbance_n_m = [36.0, 0, 0]\ninitial_rate_deg_s = [0, 0, 3.0]",
+            )
+            + "[dispersions]\nscale = 11.0\n",
+        )
+    )
     assert spec.cases[0].disturbance_n_m[0] == 36.0
     assert spec.sigmas.thrust_n == pytest.approx(2.0 / 3 * 11.0)
 

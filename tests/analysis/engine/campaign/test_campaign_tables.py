@@ -1,6 +1,7 @@
 """The campaign's derived tables against its own runs: cases.csv, envelopes.parquet and the
 manifest counts recomputed from runs.parquet and the kept histories, for campaigns of many
 chunks; the one runs.parquet schema; inputs recorded as the physics flew them."""
+
 import json
 from pathlib import Path
 
@@ -66,18 +67,23 @@ def test_cases_csv_and_manifest_counts_equal_runs_parquet(many_chunks):
     assert 0 < runs["failed"].sum() < 70  # the campaign exercises both outcomes
     g = runs.groupby("case_index", sort=True)
     to_rate = runs[[f"firings_to_rate_{a}" for a in AXES]].max(axis=1)
-    expect = pd.DataFrame({
-        "runs": g.size(),
-        "failed": g["failed"].sum(),
-        "sim_failed": g["sim_failed"].sum(),
-        "failed_pct": 100.0 * g["failed"].mean(),
-        "firings_per_run_mean": g["firings_total"].mean(),
-        "firings_per_run_max": g["firings_total"].max(),
-        "firings_to_rate_mean": to_rate.groupby(runs["case_index"]).mean(),
-        "one_firing_pct": 100.0 * (to_rate <= 1).groupby(runs["case_index"]).mean(),
-        "max_abs_final_rate_err_deg_s": runs[[f"final_rate_err_{a}_deg_s" for a in AXES]]
-        .abs().max(axis=1).groupby(runs["case_index"]).max(),
-    }).reset_index()
+    expect = pd.DataFrame(
+        {
+            "runs": g.size(),
+            "failed": g["failed"].sum(),
+            "sim_failed": g["sim_failed"].sum(),
+            "failed_pct": 100.0 * g["failed"].mean(),
+            "firings_per_run_mean": g["firings_total"].mean(),
+            "firings_per_run_max": g["firings_total"].max(),
+            "firings_to_rate_mean": to_rate.groupby(runs["case_index"]).mean(),
+            "one_firing_pct": 100.0 * (to_rate <= 1).groupby(runs["case_index"]).mean(),
+            "max_abs_final_rate_err_deg_s": runs[[f"final_rate_err_{a}_deg_s" for a in AXES]]
+            .abs()
+            .max(axis=1)
+            .groupby(runs["case_index"])
+            .max(),
+        }
+    ).reset_index()
     assert list(cases["case"]) == ["rate-13", "rate-20"]
     for col in ("case_index", "runs", "failed", "sim_failed"):
         assert cases[col].tolist() == expect[col].astype(int).tolist(), col
@@ -90,7 +96,8 @@ def test_cases_csv_and_manifest_counts_equal_runs_parquet(many_chunks):
     assert counts["sim_failed"] == int(runs["sim_failed"].sum())
     assert counts["by_case"] == {
         name: {"runs": int(len(rows)), "failed": int(rows["failed"].sum())}
-        for name, rows in runs.groupby("case")}
+        for name, rows in runs.groupby("case")
+    }
 
 
 def test_envelopes_equal_the_kept_histories(many_chunks):
@@ -100,8 +107,12 @@ def test_envelopes_equal_the_kept_histories(many_chunks):
     spec, out = many_chunks
     env = pd.read_parquet(out / "envelopes.parquet")
     hist = pd.concat(
-        [pd.read_parquet(p).assign(run_id=int(p.stem[4:]), cycle=lambda f: np.arange(len(f)))
-         for p in sorted((out / "histories").glob("run-*.parquet"))], ignore_index=True)
+        [
+            pd.read_parquet(p).assign(run_id=int(p.stem[4:]), cycle=lambda f: np.arange(len(f)))
+            for p in sorted((out / "histories").glob("run-*.parquet"))
+        ],
+        ignore_index=True,
+    )
     assert hist["run_id"].nunique() == 70
     hist["case_index"] = hist["run_id"] // spec.runs_per_case
     g = hist.groupby(["case_index", "cycle"], sort=True)
@@ -112,8 +123,7 @@ def test_envelopes_equal_the_kept_histories(many_chunks):
         for name in (f"att_err_{axis}_deg", f"rate_{axis}_deg_s"):
             np.testing.assert_array_equal(env[f"{name}_min"], g[name].min())
             np.testing.assert_array_equal(env[f"{name}_max"], g[name].max())
-            np.testing.assert_allclose(env[f"{name}_mean"], g[name].mean(), rtol=1e-12,
-                                       atol=1e-15)
+            np.testing.assert_allclose(env[f"{name}_mean"], g[name].mean(), rtol=1e-12, atol=1e-15)
 
 
 def test_merging_is_independent_of_chunking(many_chunks, tmp_path):
@@ -124,10 +134,16 @@ def test_merging_is_independent_of_chunking(many_chunks, tmp_path):
     coarse = _spec(tmp_path, chunk=512, threshold=0.01)
     assert len(chunk_mod.plan_chunks(coarse)) == 4
     run_campaign(coarse, tmp_path / "out", local_workers=2, progress=False)
-    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "out" / "cases.csv"),
-                                  pd.read_csv(out / "cases.csv"), check_exact=True)
-    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "out" / "envelopes.parquet"),
-                                  pd.read_parquet(out / "envelopes.parquet"), rtol=1e-12)
+    pd.testing.assert_frame_equal(
+        pd.read_csv(tmp_path / "out" / "cases.csv"),
+        pd.read_csv(out / "cases.csv"),
+        check_exact=True,
+    )
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(tmp_path / "out" / "envelopes.parquet"),
+        pd.read_parquet(out / "envelopes.parquet"),
+        rtol=1e-12,
+    )
 
 
 def test_runs_parquet_follows_the_schema(many_chunks):
@@ -196,8 +212,9 @@ def test_recorded_inputs_are_the_flown_values(tmp_path, monkeypatch):
     np.testing.assert_array_equal(runs["mass_kg"], drawn.mass_kg)
     np.testing.assert_array_equal(runs[["ixx_kg_m2", "iyy_kg_m2", "izz_kg_m2"]], drawn.inertia_B)
     np.testing.assert_array_equal(runs[[f"cg_{a}_m" for a in "xyz"]], drawn.cg_B)
-    np.testing.assert_array_equal(runs[[f"jet_{j:02d}_thrust_n" for j in range(1, 17)]],
-                                  drawn.thrust_n)
+    np.testing.assert_array_equal(
+        runs[[f"jet_{j:02d}_thrust_n" for j in range(1, 17)]], drawn.thrust_n
+    )
     # 3: the flown jet direction is tilted from the nominal one by |recorded tilt|.
     flown_dir = np.stack([seen[i] for i in runs["run_id"]])  # (n, 16, 3)
     tilt = np.radians(runs[[f"jet_{j:02d}_tilt_deg" for j in range(1, 17)]].to_numpy())
@@ -211,8 +228,9 @@ def test_recorded_inputs_are_the_flown_values(tmp_path, monkeypatch):
         f = history.flown_params
         thrust = f.thrust_n.copy()
         thrust[:, 2] *= 1.5
-        history.flown_params = type(f)(f.mass_kg + 1.0, f.cg_B, f.inertia_B, thrust, f.jet_dir_S,
-                                       f.isp_s)
+        history.flown_params = type(f)(
+            f.mass_kg + 1.0, f.cg_B, f.inertia_B, thrust, f.jet_dir_S, f.isp_s
+        )
         return history, dispersed
 
     monkeypatch.setattr(chunk_mod, "fly_runs", planted)

@@ -5,6 +5,7 @@ Oracle: the keys and ranges of ``analysis.engine.campaign.effects`` (``docs/faul
 malformed values are those of issue 17's harness (strings, nested lists, inline tables,
 windows beyond any run).
 """
+
 import numpy as np
 import pytest
 
@@ -16,8 +17,10 @@ WHERE = "spec.toml: [dispersions.fault]"
 
 def test_sensor_keys_in_degrees_become_radians():
     # Oracle: the unit in the key's name (deg, deg/s) and pi/180.
-    spec = sensor_spec({"att_noise_deg": [0.1, 0.2, 0.3], "rate_walk_deg_s_per_sqrt_s": 0.01},
-                       "spec.toml: [dispersions.sensor]")
+    spec = sensor_spec(
+        {"att_noise_deg": [0.1, 0.2, 0.3], "rate_walk_deg_s_per_sqrt_s": 0.01},
+        "spec.toml: [dispersions.sensor]",
+    )
     np.testing.assert_allclose(spec.att_noise_rad, np.radians([0.1, 0.2, 0.3]), rtol=0, atol=0)
     np.testing.assert_array_equal(spec.rate_walk_rad_s_per_sqrt_s, np.radians([0.01] * 3))
     assert not spec.rate_noise_rad_s.any()
@@ -26,45 +29,54 @@ def test_sensor_keys_in_degrees_become_radians():
 def test_timing_and_fault_keys_are_seconds_and_windows():
     t = timing_spec({"open_delay_s": 0.008, "open_delay_sigma_s": 0.001}, "s: [t]")
     assert (t.open_delay_s, t.open_delay_sigma_s, t.close_delay_s) == (0.008, 0.001, 0.0)
-    f = fault_spec({"mode": "stuck", "jets": [13, 15], "time_s": 2.0, "stuck_for_s": [0.1, 0.5]},
-                   WHERE, longest_s=20.0)
+    f = fault_spec(
+        {"mode": "stuck", "jets": [13, 15], "time_s": 2.0, "stuck_for_s": [0.1, 0.5]},
+        WHERE,
+        longest_s=20.0,
+    )
     assert (f.time_s, f.stuck_for_s, f.jets) == ((2.0, 2.0), (0.1, 0.5), (13, 15))
 
 
-@pytest.mark.parametrize("table, key", [
-    ({"mode": "melted"}, "mode"),
-    ({"mode": ["off"]}, "mode"),
-    ({"mode": "off", "jets": [0]}, "jets"),
-    ({"mode": "off", "jets": [[13]]}, "jets"),
-    ({"mode": "off", "jets": 13}, "jets"),
-    ({"mode": "off", "time_s": "soon"}, "time_s"),
-    ({"mode": "off", "time_s": ["a", "b"]}, "time_s"),
-    ({"mode": "off", "time_s": [[0.0, 1.0]]}, "time_s"),
-    ({"mode": "off", "time_s": {"a": 1}}, "time_s"),
-    ({"mode": "off", "time_s": [1e300, 1e300]}, "time_s"),
-    ({"mode": "off", "time_s": [0.0, 1.0, 2.0]}, "time_s"),
-    ({"mode": "off", "time_s": [True, False]}, "time_s"),
-    ({"mode": "stuck", "stuck_for_s": "long"}, "stuck_for_s"),
-    ({"mode": "stuck", "stuck_for_s": [[0.1]]}, "stuck_for_s"),
-    ({"mode": "degraded", "thrust_factor": [0.5, 1.5]}, "thrust_factor"),
-    ({"mode": "degraded", "thrust_factor": {"lo": 0.5}}, "thrust_factor"),
-    ({"mode": "off", "probability": "often"}, "probability"),
-    ({"mode": "off", "when": 3}, "when"),
-])
+@pytest.mark.parametrize(
+    "table, key",
+    [
+        ({"mode": "melted"}, "mode"),
+        ({"mode": ["off"]}, "mode"),
+        ({"mode": "off", "jets": [0]}, "jets"),
+        ({"mode": "off", "jets": [[13]]}, "jets"),
+        ({"mode": "off", "jets": 13}, "jets"),
+        ({"mode": "off", "time_s": "soon"}, "time_s"),
+        ({"mode": "off", "time_s": ["a", "b"]}, "time_s"),
+        ({"mode": "off", "time_s": [[0.0, 1.0]]}, "time_s"),
+        ({"mode": "off", "time_s": {"a": 1}}, "time_s"),
+        ({"mode": "off", "time_s": [1e300, 1e300]}, "time_s"),
+        ({"mode": "off", "time_s": [0.0, 1.0, 2.0]}, "time_s"),
+        ({"mode": "off", "time_s": [True, False]}, "time_s"),
+        ({"mode": "stuck", "stuck_for_s": "long"}, "stuck_for_s"),
+        ({"mode": "stuck", "stuck_for_s": [[0.1]]}, "stuck_for_s"),
+        ({"mode": "degraded", "thrust_factor": [0.5, 1.5]}, "thrust_factor"),
+        ({"mode": "degraded", "thrust_factor": {"lo": 0.5}}, "thrust_factor"),
+        ({"mode": "off", "probability": "often"}, "probability"),
+        ({"mode": "off", "when": 3}, "when"),
+    ],
+)
 def test_bad_fault_tables_name_the_key_and_value(table, key):
     with pytest.raises(InputError, match=key) as err:
         fault_spec(table, WHERE, longest_s=20.0)
     assert "[dispersions.fault]" in str(err.value) and "\n" not in str(err.value)
 
 
-@pytest.mark.parametrize("name, table, key", [
-    ("sensor", {"att_noise_deg": "high"}, "att_noise_deg"),
-    ("sensor", {"att_noise_deg": [[0.1]]}, "att_noise_deg"),
-    ("sensor", {"att_noise_deg": [0.1, 0.2]}, "att_noise_deg"),
-    ("sensor", {"rate_noise_deg_s": {"x": 1}}, "rate_noise_deg_s"),
-    ("timing", {"open_delay_s": [0.01]}, "open_delay_s"),
-    ("timing", {"open_delay_s": "fast"}, "open_delay_s"),
-])
+@pytest.mark.parametrize(
+    "name, table, key",
+    [
+        ("sensor", {"att_noise_deg": "high"}, "att_noise_deg"),
+        ("sensor", {"att_noise_deg": [[0.1]]}, "att_noise_deg"),
+        ("sensor", {"att_noise_deg": [0.1, 0.2]}, "att_noise_deg"),
+        ("sensor", {"rate_noise_deg_s": {"x": 1}}, "rate_noise_deg_s"),
+        ("timing", {"open_delay_s": [0.01]}, "open_delay_s"),
+        ("timing", {"open_delay_s": "fast"}, "open_delay_s"),
+    ],
+)
 def test_bad_sensor_and_timing_tables_name_the_key(name, table, key):
     with pytest.raises(InputError, match=key):
         parse_effects({name: table}, source="spec.toml", cycle_s=0.04, longest_s=20.0)

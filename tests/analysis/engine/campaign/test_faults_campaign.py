@@ -1,6 +1,7 @@
 """Sensors, delays and jet faults in campaigns (issue 11): the spec's [dispersions.sensor],
 [dispersions.timing] and [dispersions.fault] tables, their draws in runs.parquet, replay, and
 tables for failed jets."""
+
 import math
 import tomllib
 from pathlib import Path
@@ -89,10 +90,13 @@ rate_error_deg_s = 0.05
     spec = parse_dict(tomllib.loads(text), source="x.toml", base_dir=None)
     assert spec.digest() == before_issue_11
     assert set(spec.resolved["dispersions"]) == {"table", "table_sha256", "scale", "three_sigma"}
-    zeros = text + ("[dispersions.sensor]\nrate_noise_deg_s = 0.0\n[dispersions.timing]\n"
-                    "open_delay_s = 0.0\n[dispersions.fault]\nmode = \"off\"\nprobability = 0.0\n")
-    assert parse_dict(tomllib.loads(zeros), source="x.toml", base_dir=None).digest() \
-        == before_issue_11
+    zeros = text + (
+        "[dispersions.sensor]\nrate_noise_deg_s = 0.0\n[dispersions.timing]\n"
+        'open_delay_s = 0.0\n[dispersions.fault]\nmode = "off"\nprobability = 0.0\n'
+    )
+    assert (
+        parse_dict(tomllib.loads(zeros), source="x.toml", base_dir=None).digest() == before_issue_11
+    )
     # With an effect, the manifest records it as written, and reading that back gives the
     # same specs (what --resume and replay rebuild from).
     noisy = load_spec(_spec(tmp_path, SENSOR + TIMING + FAULT_OFF))
@@ -116,8 +120,9 @@ def test_effects_leave_the_vehicle_draws_unchanged(tmp_path):
     b = chunk_mod.simulate_chunk(noisy, ids).runs
     pd.testing.assert_frame_equal(a[list(INPUT_NAMES)], b[list(INPUT_NAMES)], check_exact=True)
     added = [c.name for g in ("sensor", "timing", "fault") for c in EFFECT_COLUMNS[g]]
-    assert list(b.columns) == list(a.columns[:len(a.columns) - len(OUTCOME_NAMES)]) + added \
-        + list(OUTCOME_NAMES)
+    assert list(b.columns) == list(a.columns[: len(a.columns) - len(OUTCOME_NAMES)]) + added + list(
+        OUTCOME_NAMES
+    )
     assert not a["propellant_kg"].equals(b["propellant_kg"])
     # The draws are those of spacecraft.effect_draws: delays about their means (8 ms
     # +- 1 ms 1-sigma, the largest of 16 jets), the fault among the candidates.
@@ -135,8 +140,13 @@ def test_replay_of_a_noisy_faulty_run_matches_its_row(tmp_path, capsys):
     and fault and must match its runs.parquet row exactly; so must a campaign flown in chunks of
     one run (a run's draws do not depend on its chunk).  Kept histories record what the
     controller measured and what the jets delivered."""
-    extra = SENSOR + TIMING + FAULT_OFF.replace('"off"', '"degraded"').replace(
-        "time_s = 0.0", "thrust_factor = [0.7, 0.9]")
+    extra = (
+        SENSOR
+        + TIMING
+        + FAULT_OFF.replace('"off"', '"degraded"').replace(
+            "time_s = 0.0", "thrust_factor = [0.7, 0.9]"
+        )
+    )
     spec_file = _spec(tmp_path, extra, controller="adaptive")
     out = tmp_path / "mc"
     assert main(["campaign", "run", str(spec_file), "--out", str(out)]) == 0
@@ -147,12 +157,17 @@ def test_replay_of_a_noisy_faulty_run_matches_its_row(tmp_path, capsys):
         result = replay(out, run_id, tmp_path / f"replay-{run_id}")
         assert result["matches"] is True
     one = tmp_path / "mc1"
-    run_campaign(load_spec(_spec(tmp_path, extra, chunk=1, controller="adaptive",
-                                 name="one.toml")), one, local_workers=1, progress=False)
+    run_campaign(
+        load_spec(_spec(tmp_path, extra, chunk=1, controller="adaptive", name="one.toml")),
+        one,
+        local_workers=1,
+        progress=False,
+    )
     pd.testing.assert_frame_equal(pd.read_parquet(one / "runs.parquet"), runs, check_exact=True)
     hist = pd.read_parquet(out / "histories" / "run-0000000.parquet")
-    assert {"meas_rate_err_yaw_deg_s", "meas_att_err_roll_deg", "jet_13_delivered_s"} \
-        <= set(hist.columns)
+    assert {"meas_rate_err_yaw_deg_s", "meas_att_err_roll_deg", "jet_13_delivered_s"} <= set(
+        hist.columns
+    )
     # The measurement is not the truth (noise of 0.001 deg/s 1-sigma per sample).
     assert not np.array_equal(hist["meas_rate_err_yaw_deg_s"], hist["rate_err_yaw_deg_s"])
 
@@ -171,9 +186,13 @@ def test_adaptive_controller_is_told_the_rate_noise(tmp_path, monkeypatch):
         return real(name, **kw)
 
     monkeypatch.setattr(registry, "make_controller", spy)
-    spec = load_spec(_spec(tmp_path, SENSOR.replace("rate_noise_deg_s = 0.001",
-                                                    "rate_noise_deg_s = [0.001, 0.002, 0.0005]"),
-                           controller="adaptive"))
+    spec = load_spec(
+        _spec(
+            tmp_path,
+            SENSOR.replace("rate_noise_deg_s = 0.001", "rate_noise_deg_s = [0.001, 0.002, 0.0005]"),
+            controller="adaptive",
+        )
+    )
     chunk_mod.fly_runs(spec, np.array([0]))
     assert seen["name"] == "adaptive"
     assert seen["adapt_options"] == {"rate_noise_rad_s": math.radians(0.002)}
@@ -205,8 +224,9 @@ def test_table_for_failed_jets_flies_in_a_campaign(tmp_path, capsys):
     assert "for jets 13 off" in capsys.readouterr().out
     extra = FAULT_OFF.replace("[13, 14, 15, 16]", "[13]")
     path = _spec(tmp_path, extra)
-    path.write_text(path.read_text().replace('name = "lookup"',
-                                             f'name = "lookup"\ntable = "{table.name}"'))
+    path.write_text(
+        path.read_text().replace('name = "lookup"', f'name = "lookup"\ntable = "{table.name}"')
+    )
     spec = load_spec(path)
     assert spec.resolved["controller"]["jets_off"] == [13]
     runs = chunk_mod.simulate_chunk(spec, chunk_mod.Chunk(0, spec.n_runs)).runs

@@ -5,6 +5,7 @@ without the ``if __name__ == "__main__":`` guard would then fly its campaign aga
 worker (or, as Python refuses it, crash with a bootstrapping error).  The claim: such a
 script runs its campaign once, with two workers, and gets the campaign a guarded run gets.
 """
+
 import subprocess
 import sys
 import textwrap
@@ -26,8 +27,9 @@ SCRIPT = textwrap.dedent("""
 def test_an_unguarded_script_runs_its_campaign_once(tmp_path):
     script = tmp_path / "user_script.py"
     script.write_text(SCRIPT.format(out=tmp_path / "out"))
-    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
-                          cwd=tmp_path, timeout=300)
+    done = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, cwd=tmp_path, timeout=300
+    )
     assert done.returncode == 0, done.stderr
     assert done.stdout.count("SCRIPT RAN") == 1, done.stdout
     runs = pd.read_parquet(tmp_path / "out" / "runs.parquet")

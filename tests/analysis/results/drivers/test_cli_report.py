@@ -12,8 +12,17 @@ import pytest
 from analysis.apps.cli import main
 from analysis.results.drivers.synthetic import planted_campaign
 
-SECTIONS = ("summary", "method", "drivers", "pairs", "cases", "rate-errors", "second-opinion",
-            "failed-runs", "notes")
+SECTIONS = (
+    "summary",
+    "method",
+    "drivers",
+    "pairs",
+    "cases",
+    "rate-errors",
+    "second-opinion",
+    "failed-runs",
+    "notes",
+)
 
 
 @pytest.fixture(scope="module")
@@ -35,8 +44,7 @@ def campaign(tmp_path_factory, model):
     root.mkdir()
     n = 150
     sigmas = DispersionSigmas.from_table(load_dispersions(), scale=3.0)
-    frame = input_frame(draw_runs(VehicleParams.nominal(1, model), sigmas, 3,
-                                       np.arange(2 * n)))
+    frame = input_frame(draw_runs(VehicleParams.nominal(1, model), sigmas, 3, np.arange(2 * n)))
     case = np.repeat(["rate-13", "rate-14"], n)
     auth = physics_factors(frame, fire_signs(case))["authority_yaw_fire_rad_s2"].to_numpy()
     failed = np.zeros(2 * n, bool)
@@ -45,23 +53,48 @@ def campaign(tmp_path_factory, model):
         failed[rows] = auth[rows] > np.quantile(auth[rows], 0.85)
     rng = np.random.default_rng(0)
     err = np.where(failed, 0.06, 0.01) * rng.choice([-1, 1], 2 * n)
-    runs = pd.concat([pd.DataFrame({"run_id": np.arange(2 * n), "case": case,
-                                    "case_index": np.repeat([0, 1], n), "seed": 3}),
-                      frame,
-                      pd.DataFrame({"final_rate_err_roll_deg_s": 0.001,
-                                    "final_rate_err_pitch_deg_s": 0.002,
-                                    "final_rate_err_yaw_deg_s": err,
-                                    "sim_failed": False, "failed": failed,
-                                    "reason": np.where(failed, "rate error", "")})], axis=1)
+    runs = pd.concat(
+        [
+            pd.DataFrame(
+                {
+                    "run_id": np.arange(2 * n),
+                    "case": case,
+                    "case_index": np.repeat([0, 1], n),
+                    "seed": 3,
+                }
+            ),
+            frame,
+            pd.DataFrame(
+                {
+                    "final_rate_err_roll_deg_s": 0.001,
+                    "final_rate_err_pitch_deg_s": 0.002,
+                    "final_rate_err_yaw_deg_s": err,
+                    "sim_failed": False,
+                    "failed": failed,
+                    "reason": np.where(failed, "rate error", ""),
+                }
+            ),
+        ],
+        axis=1,
+    )
     runs.to_parquet(root / "runs.parquet")
-    manifest = {"format": "rcsim-campaign/1",
-                "spec": {"seed": 3, "runs_per_case": n,
-                         "scenario": {"kind": "rate-cases", "cases": [13, 14],
-                                      "mode": "command", "duration_s": 20.0},
-                         "controller": {"name": "lookup", "table": "table6"},
-                         "dispersions": {"table": "default", "scale": 3.0}},
-                "thresholds": {"rate_error_deg_s": 0.04, "attitude_error_deg": None},
-                "counts": {"runs": 2 * n, "failed": int(failed.sum())}}
+    manifest = {
+        "format": "rcsim-campaign/1",
+        "spec": {
+            "seed": 3,
+            "runs_per_case": n,
+            "scenario": {
+                "kind": "rate-cases",
+                "cases": [13, 14],
+                "mode": "command",
+                "duration_s": 20.0,
+            },
+            "controller": {"name": "lookup", "table": "table6"},
+            "dispersions": {"table": "default", "scale": 3.0},
+        },
+        "thresholds": {"rate_error_deg_s": 0.04, "attitude_error_deg": None},
+        "counts": {"runs": 2 * n, "failed": int(failed.sum())},
+    }
     (root / "manifest.json").write_text(json.dumps(manifest))
     return root
 
@@ -115,12 +148,12 @@ def test_shared_figures_are_rendered_once(monkeypatch):
         def __init__(self, case, runs, failed):
             self.case, self.runs, self.failed = case, runs, failed
 
-    res = DriverResults(runset=None, settings=Settings(),
-                        cases=[_Case("rate-01", 10, 1), _Case("rate-02", 10, 0)])
+    res = DriverResults(
+        runset=None, settings=Settings(), cases=[_Case("rate-01", 10, 1), _Case("rate-02", 10, 0)]
+    )
     calls = []
     real = figures.failures_per_case
-    monkeypatch.setattr(figures, "failures_per_case",
-                        lambda cases: calls.append(1) or real(cases))
+    monkeypatch.setattr(figures, "failures_per_case", lambda cases: calls.append(1) or real(cases))
     first = figures.report_pngs(res)
     assert figures.report_pngs(res) is first and len(calls) == 1
     assert list(first) == ["failures_per_case.png"]  # no failures analysed: no ranking, maps
@@ -133,21 +166,35 @@ def _write(tmp_path, df, name="runs.csv"):
     return path
 
 
-@pytest.mark.parametrize("case", ["missing-path", "missing-input", "missing-outcome",
-                                  "non-binary", "single-run", "nan-input", "unknown-case",
-                                  "few-permutations", "not-a-table"])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "missing-path",
+        "missing-input",
+        "missing-outcome",
+        "non-binary",
+        "single-run",
+        "nan-input",
+        "unknown-case",
+        "few-permutations",
+        "not-a-table",
+    ],
+)
 def test_bad_input_is_one_line_and_leaves_nothing(case, tmp_path, capsys):
     X, y = planted_campaign("one-sided", seed=0, n_runs=200, n_noise=2)
     df = X.assign(failed=y)
     tables = {
-        "missing-input": df, "missing-outcome": df, "few-permutations": df,
+        "missing-input": df,
+        "missing-outcome": df,
+        "few-permutations": df,
         "non-binary": df.assign(n=np.arange(200)),
         "single-run": df.head(1),
         "nan-input": df.assign(thrust=df["thrust"].where(np.arange(200) != 7)),
         "unknown-case": df.assign(case="rate-01"),
     }
-    table = str(_write(tmp_path, tables.get(case, df),
-                       "runs.txt" if case == "not-a-table" else "runs.csv"))
+    table = str(
+        _write(tmp_path, tables.get(case, df), "runs.txt" if case == "not-a-table" else "runs.csv")
+    )
     args = {
         "missing-path": [str(tmp_path / "nope")],
         "missing-input": [table, "--inputs", "thrust,mass"],
@@ -163,10 +210,17 @@ def test_bad_input_is_one_line_and_leaves_nothing(case, tmp_path, capsys):
     assert main(["analyze", *args, "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("rcsim: error:") and "\n" not in err and "Traceback" not in err
-    expected = {"missing-input": "--inputs 'mass'", "missing-outcome": "--outcome 'broken'",
-                "non-binary": "not binary", "single-run": "1 run(s)", "nan-input": "'thrust'",
-                "unknown-case": "--case 'rate-99'", "few-permutations": "--permutations",
-                "missing-path": "no such", "not-a-table": ".txt"}[case]
+    expected = {
+        "missing-input": "--inputs 'mass'",
+        "missing-outcome": "--outcome 'broken'",
+        "non-binary": "not binary",
+        "single-run": "1 run(s)",
+        "nan-input": "'thrust'",
+        "unknown-case": "--case 'rate-99'",
+        "few-permutations": "--permutations",
+        "missing-path": "no such",
+        "not-a-table": ".txt",
+    }[case]
     assert expected in err
     assert not out.exists()
 

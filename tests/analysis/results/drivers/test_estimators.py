@@ -4,6 +4,7 @@ Oracles: scikit-learn's estimator conventions (``__init__`` only stores, ``fit``
 learned attributes end in ``_``); exact counting identities of the binned engine; the
 permutation p-value's definition.
 """
+
 import inspect
 
 import numpy as np
@@ -62,8 +63,15 @@ def test_bad_fit_input_is_a_clear_error():
         SingleFactorKDE().fit(Xn, y)
 
 
-@pytest.mark.parametrize("field, value", [("n_permutations", 18), ("pair_permutations", 5),
-                                          ("n_permutations", 19.5), ("random_state", -1)])
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("n_permutations", 18),
+        ("pair_permutations", 5),
+        ("n_permutations", 19.5),
+        ("random_state", -1),
+    ],
+)
 def test_settings_refuse_values_that_cannot_give_a_verdict(field, value):
     """Oracle: with B permutations the smallest p-value is 1/(B+1), so B < 19 can never reach
     p < 0.05; the error names the library's field (the CLI maps it to its flag)."""
@@ -145,8 +153,7 @@ def test_failure_region_format_and_share():
     inside = X["thrust"].to_numpy() <= bound
     # Share of failures in the region, recomputed from the data (bin edges are quantiles,
     # so a run at the edge may fall either side: 1 run's share of tolerance).
-    assert s.region_fail_share_[j] == pytest.approx((inside & y).sum() / y.sum(),
-                                                    abs=1.5 / y.sum())
+    assert s.region_fail_share_[j] == pytest.approx((inside & y).sum() / y.sum(), abs=1.5 / y.sum())
 
 
 def test_holm_matches_the_step_down_definition():

@@ -6,6 +6,7 @@ their jet torques; the factors are computed from the vehicles the runs table reb
 the *recorded* columns (:func:`analysis.engine.runs_table.input_frame`; the round trip itself is
 ``tests/analysis/engine/test_runs_table.py``).
 """
+
 import numpy as np
 import pytest
 
@@ -33,8 +34,9 @@ def test_authority_is_group_torque_over_inertia(drawn, model):
         expected = -torque[:, jets, a].sum(axis=1) / runs.params.inertia_B[:, a]
         np.testing.assert_allclose(f[f"authority_{axis}_neg_rad_s2"], expected, rtol=1e-9)
         assert np.all(f[f"authority_{axis}_neg_rad_s2"] > 0)  # signed toward the group's way
-        np.testing.assert_allclose(f[f"thrust_{axis}_neg_n"],
-                                   runs.params.thrust_n[:, jets].sum(axis=1), rtol=1e-12)
+        np.testing.assert_allclose(
+            f[f"thrust_{axis}_neg_n"], runs.params.thrust_n[:, jets].sum(axis=1), rtol=1e-12
+        )
 
 
 def test_pointing_loss_is_zero_without_tilt(drawn):
@@ -58,5 +60,6 @@ def test_fire_factors_pick_the_firing_group(drawn):
     f = physics_factors(frame, signs)
     np.testing.assert_array_equal(f["authority_yaw_fire_rad_s2"], f["authority_yaw_neg_rad_s2"])
     # Roll not commanded in case 13: the mean of both groups.
-    np.testing.assert_allclose(f["thrust_roll_fire_n"],
-                               0.5 * (f["thrust_roll_pos_n"] + f["thrust_roll_neg_n"]))
+    np.testing.assert_allclose(
+        f["thrust_roll_fire_n"], 0.5 * (f["thrust_roll_pos_n"] + f["thrust_roll_neg_n"])
+    )

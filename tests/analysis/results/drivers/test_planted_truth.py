@@ -10,6 +10,7 @@ positives at a true rate of 0.10 (the bar), <= 4 of 12 fails with probability 0.
 The seeds are fixed, so the test is deterministic; the probabilities say how brittle the
 thresholds are, not how often it flakes.
 """
+
 import pytest
 
 from analysis.results.drivers.synthetic import recovery
