@@ -13,7 +13,7 @@ MIN_PINS := .ci/min-versions.txt
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet -e '.[test,lint]'
 	touch $(STAMP)
 
 # The analyst's loop on defaults (campaign -> drivers -> refined table -> report).  A second
@@ -21,7 +21,11 @@ $(STAMP): pyproject.toml
 run: $(STAMP)
 	$(BIN)/rcsim loop --out $(OUT) $$(test -f $(OUT)/loop.json && echo --resume)
 
+# Lint, format and types first (seconds), then the suite.
 test: $(STAMP) chromium
+	$(BIN)/ruff check --quiet .
+	$(BIN)/ruff format --check --quiet .
+	$(BIN)/mypy
 	$(BIN)/python -m pytest -q
 
 # The HTML report is tested in headless Chromium (Debian package `chromium`).  Install it when

@@ -149,7 +149,9 @@ class AdaptiveLookupController(LookupController):
         super().__init__(table, params, jets_off=jets_off)
         self.adapt = AdaptParams() if adapt is None else adapt
 
-    def initial_state(self, n_runs: int) -> AdaptiveState:
+    # The adaptive state extends the lookup state (learned scales, the firing watched); the
+    # parent's step logic is reused through step_detail, never with the parent's state type.
+    def initial_state(self, n_runs: int) -> AdaptiveState:  # type: ignore[override]
         n_cases = self._rate_abs.shape[0]
         axes = (n_runs, N_AXES)
         return AdaptiveState(
@@ -174,7 +176,9 @@ class AdaptiveLookupController(LookupController):
         noise = a.k_sigma * np.sqrt(2.0) * a.rate_noise_rad_s
         return np.abs(achieved - promised) > np.maximum(noise, a.min_rel * np.abs(promised))
 
-    def step(self, nav: NavState, state: AdaptiveState) -> tuple[np.ndarray, AdaptiveState]:
+    def step(  # type: ignore[override]
+        self, nav: NavState, state: AdaptiveState
+    ) -> tuple[np.ndarray, AdaptiveState]:
         """One control cycle: learn from the firings that just settled, then fly the
         lookup logic with the learned scales."""
         a = self.adapt

@@ -83,6 +83,6 @@ def make_controller(
         from lookup.adaptive import AdaptiveLookupController, AdaptParams
 
         ctl = AdaptiveLookupController.from_files(table, **(lookup_options or {}))
-        ctl.adapt = AdaptParams(**(adapt_options or {}))
+        ctl.adapt = AdaptParams(**(adapt_options or {}))  # type: ignore[attr-defined]
         return ctl
     raise InputError(f"unknown controller {name!r}; choose one of {', '.join(ALL_CONTROLLERS)}")

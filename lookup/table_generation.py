@@ -38,6 +38,7 @@ table checks and loads against the jet map without those jets
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -184,7 +185,7 @@ class GeneratedTable:
 
     def settling_frame(self) -> pd.DataFrame:
         """The companion table ``generated_table_settling.csv`` (deg/s at this boundary)."""
-        cols = {"case": self.table.case}
+        cols: dict[str, Any] = {"case": self.table.case}
         for a, axis in enumerate(AXES):
             cols[f"{axis}_cycles"] = self.command.cycles[:, a]
         for a, axis in enumerate(AXES):
@@ -195,6 +196,7 @@ class GeneratedTable:
             cols[f"damping_{axis}_cycles"] = self.damping.cycles[:, a]
         cols["damping_equal_opposing"] = self.damping_equal
         if self.jets_off:  # only tables for a reduced jet set carry these columns
+            assert self.unreachable is not None and self.dv_B_m_s is not None
             cols["jets_off"] = " ".join(str(j) for j in self.jets_off)
             for a, axis in enumerate(AXES):
                 cols[f"unreachable_{axis}"] = self.unreachable[:, a]

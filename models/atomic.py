@@ -55,7 +55,7 @@ def mode_under_umask(mode: int = 0o666) -> int:
     return mode & ~UMASK
 
 
-def atomic_write(path: str | os.PathLike, write: Callable[[str], None]) -> Path:
+def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Path:
     """Call ``write(tmp_path)``, then rename ``tmp_path`` over ``path``.
 
     On any exception the temporary file is removed and ``path`` is left as it was.  The final
@@ -94,7 +94,7 @@ def remove_temporaries(directory: str | os.PathLike) -> list[Path]:
         The files removed.
     """
     folder = Path(directory)
-    removed = []
+    removed: list[Path] = []
     if not folder.is_dir():
         return removed
     for tmp in folder.glob(TEMP_GLOB):

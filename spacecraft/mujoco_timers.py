@@ -20,13 +20,13 @@ import mujoco
 
 _ZeroClock = ctypes.CFUNCTYPE(ctypes.c_double)
 #: The installed callback object, kept alive for as long as MuJoCo may call it.
-_callback: ctypes._CFuncPtr | None = None
+_callback: object | None = None
 
 
 def zero_clock_available() -> bool:
     """Whether the optional native zero clock was built with this install."""
     try:
-        from spacecraft import _zero_clock  # noqa: F401
+        from spacecraft import _zero_clock  # type: ignore[attr-defined]  # noqa: F401
     except ImportError:
         return False
     return True
@@ -47,7 +47,7 @@ def quiet_stage_timers() -> bool:
         return True
     if current is not None or not zero_clock_available():
         return False
-    from spacecraft import _zero_clock
+    from spacecraft import _zero_clock  # type: ignore[attr-defined]
 
     _callback = _ZeroClock(_zero_clock.address())
     mujoco.set_mjcb_time(_callback)

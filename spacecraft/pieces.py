@@ -109,7 +109,7 @@ def cycle_pieces(
         switching = np.ones(n, bool)
     rows = np.flatnonzero(switching)
     if rows.size == 0:  # every interval empty or the whole cycle: the grid steps themselves
-        on = np.broadcast_to(live.any(axis=-1)[:, None, :], (n, n_grid, live.shape[1]))
+        on = np.broadcast_to(np.asarray(live.any(axis=-1))[:, None, :], (n, n_grid, live.shape[1]))
         return Pieces(np.full((n, n_grid), step), on, np.full(n, n_grid), uniform=True)
     cut = _cut(
         start_s[rows],
@@ -129,7 +129,7 @@ def cycle_pieces(
     on = np.zeros((n, width, live.shape[1]), bool)
     count = np.full(n, n_grid)
     length[:, :n_grid] = step
-    on[:, :n_grid] = live.any(axis=-1)[:, None, :]
+    on[:, :n_grid] = np.asarray(live.any(axis=-1))[:, None, :]
     length[rows] = 0.0
     on[rows] = False
     length[rows, : cut.n_pieces] = cut.length_s
@@ -161,7 +161,7 @@ def _cut(
     inner = np.concatenate(parts, axis=1)
     bounds = np.sort(inner, axis=1)
     length = np.diff(bounds, axis=1)
-    if n_grid > 1:
+    if n_grid > 1 and dt_s is not None:
         # Grid steps cut by no switch: exactly dt (k dt - (k-1) dt can be an ulp off).
         length = np.where(np.abs(length - dt_s) <= 1e-12 * dt_s, dt_s, length)
     nonzero = length > 0.0

@@ -234,9 +234,10 @@ class BatchSimulation:
         body = self._flight.body(BODY).id
         ok = np.array([not r for r in self.invalid])
         nominal = VehicleParams.nominal(1, m)
-        pick = lambda value, nom: np.where(  # noqa: E731
-            ok.reshape((-1,) + (1,) * (value.ndim - 1)), value, nom
-        )
+
+        def pick(value: np.ndarray, nom: np.ndarray) -> np.ndarray:
+            return np.where(ok.reshape((-1,) + (1,) * (value.ndim - 1)), value, nom)
+
         b.expand("body_mass")[:, body] = pick(p.mass_kg, nominal.mass_kg)
         b.expand("body_ipos")[:, body] = pick(p.cg_B, nominal.cg_B)
         b.expand("body_inertia")[:, body] = pick(p.inertia_B, nominal.inertia_B)
@@ -360,14 +361,14 @@ class BatchSimulation:
             "rate_err_B": np.empty((n_cycles, n, 3)),
             "on_time_s": np.empty((n_cycles, n, N_JETS)),
         }
-        sensed = self.sensors is not None
+        sensors = self.sensors
         effects = not (self.timing.is_zero() and self.faults is None and self.profile is None)
         if effects:
             rec["delivered_s"] = np.empty((n_cycles, n, N_JETS))
-        if sensed:
+        if sensors is not None:
             rec["meas_att_err_B"] = np.empty((n_cycles, n, 3))
             rec["meas_rate_err_B"] = np.empty((n_cycles, n, 3))
-            noise = SensorNoise(self.sensor_streams) if self.sensors.is_random() else None
+            noise = SensorNoise(self.sensor_streams) if sensors.is_random() else None
             sensor_state = SensorState(np.zeros((n, 3)))
         valves = ValveState.closed(n)
         thrust = self.params.thrust_n * self._level
@@ -376,12 +377,12 @@ class BatchSimulation:
             t0 = k * cycle  # integer tick count -> time: no accumulated float error
             q, w = self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy()
             nav = truth = navigate(t0, q, w, guidance)
-            if sensed:
+            if sensors is not None:
                 q_m, w_m = measure(
                     q,
                     w,
                     None if noise is None else noise.draw(k),
-                    self.sensors,
+                    sensors,
                     sensor_state,
                     cycle,
                 )

@@ -152,7 +152,7 @@ def history_frame(history: History, run: int = 0) -> pd.DataFrame:
         cols[f"{name}_on_s"] = history.on_time_s[run, :, j]
     # What the controller saw (imperfect sensors) and what the jets delivered (valve timing,
     # faults, thrust profile): recorded only when they differ from the columns above.
-    if history.meas_att_err_B is not None:
+    if history.meas_att_err_B is not None and history.meas_rate_err_B is not None:
         for a, axis in enumerate(AXES):
             cols[f"meas_att_err_{axis}_deg"] = np.degrees(history.meas_att_err_B[run, :, a])
         for a, axis in enumerate(AXES):

@@ -129,7 +129,7 @@ def read_raw(path: PathLike | Traversable | None, default_name: str) -> RawTable
     label = str(src)
     try:
         # utf-8-sig: tolerate the byte-order mark spreadsheet programs put on exported CSV.
-        with src.open("r", encoding="utf-8-sig", newline="") as fh:
+        with src.open("r", encoding="utf-8-sig", newline="") as fh:  # type: ignore[call-overload]
             text = fh.read()
     except FileNotFoundError:
         raise InputError(f"{label}: file not found") from None

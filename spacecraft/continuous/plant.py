@@ -215,7 +215,7 @@ def fly(
     wall0 = time.perf_counter()
     for k in range(k_max):
         t = k * dt
-        if k == k_damage:
+        if damage is not None and k == k_damage:
             damaged = plant.inertia_B.copy()
             idx = np.arange(3)
             damaged[:, idx, idx] *= damage.factors
@@ -225,7 +225,7 @@ def fly(
         if angle_noise is not None:
             euler = euler + angle_noise[:, k]
         u_cmd, state = controller.step(t, euler, state)
-        if cmg is not None:
+        if cmg is not None and cmg_state is not None and det is not None and sing is not None:
             out, cmg_state = cmg.steer(u_cmd, omega, cmg_state, dt)
             u_act = out.torque_B
             det[k], sing[k] = out.det, out.singular

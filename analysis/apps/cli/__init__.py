@@ -107,7 +107,7 @@ def error_line(exc: BaseException, parser: argparse.ArgumentParser | None = None
     from analysis.engine.output import OutputExists
 
     if isinstance(exc, OutputExists):
-        flag = argument_name(parser, exc.parameter)
+        flag = argument_name(parser, exc.parameter or "out")
         if argument_name(parser, "overwrite") == "overwrite":  # this command never replaces
             return f"{flag} {exc.path}: {exc.what}; choose another path"
         return (

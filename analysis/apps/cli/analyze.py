@@ -100,7 +100,7 @@ def _run(args) -> int:
     print(f"{n} runs, {nf} failed; {len(runset.X.columns)} inputs analysed")
     for note in runset.notes:
         print(f"note: {note}")
-    if res.has_failures:
+    if res.has_failures and res.drivers is not None:
         top = res.drivers[res.drivers["significant"]].head(5)
         print("significant drivers: " + (", ".join(top["factor"]) if len(top) else "none"))
     else:

@@ -14,8 +14,8 @@ def register(sub) -> None:
         "the paper's Table 6), find the dispersions that drive its failures, refine the table, "
         "fly the refined table on a fresh seed, and write DIR/report.html with the before and "
         "after.  Each stage is kept as it finishes (DIR/loop.json): --resume finishes a loop "
-        "that was stopped.  Defaults take about 90 s on 2 cores; --runs-per-case 1000 is "
-        "the paper-size study.",
+        "that was stopped.  Defaults take about 50 s on 2 cores; --runs-per-case 1000 is "
+        "the paper-size study (about 3 minutes).",
     )
     p.add_argument(
         "--table",

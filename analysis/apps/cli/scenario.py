@@ -123,7 +123,7 @@ def run_run(args: argparse.Namespace) -> int:
         raise InputError(
             "--table and --no-fire-band-deg are only for --controller lookup or adaptive"
         )
-    overrides = {}
+    overrides: dict = {}
     if args.no_fire_band_deg is not None:
         if not math.isfinite(args.no_fire_band_deg) or args.no_fire_band_deg < 0:
             raise InputError(f"--no-fire-band-deg must be >= 0, got {args.no_fire_band_deg}")

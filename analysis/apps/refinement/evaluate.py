@@ -140,7 +140,9 @@ def evaluate(
     bounds = np.linspace(0, trial_of_run.size, count + 1).round().astype(int)
     chunks = [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
 
-    def work(sl: slice) -> tuple:
+    def work(
+        sl: slice,
+    ) -> tuple[CampaignSpec, LookupTable, VehicleParams, np.ndarray, np.ndarray, LookupParams]:
         return (
             spec,
             table,

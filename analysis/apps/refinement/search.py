@@ -195,7 +195,7 @@ class _Search:
             # yaw), before axes with a stray run or two; the next round moves on if it does
             # not help (its entries are then visited).
             for a in sorted(np.flatnonzero(offending[t]), key=lambda a: -offending[t, a]):
-                found = self._axis_candidates(t, c, a)
+                found = self._axis_candidates(t, int(c), int(a))
                 for candidate, label, shift in found:
                     times.append(candidate)
                     labels.append(label)

@@ -324,7 +324,7 @@ def simulate(
         k3 = _derivative(arch, t + 0.5 * dt, y + (0.5 * dt) * k2, w, n)
         k4 = _derivative(arch, (k + 1) * dt, y + dt * k3, w, n)
         y = y + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        if record:
+        if history is not None:
             history.append(y[:, :2].copy())
     out = {
         "theta_f": y[:, 0].copy(),
@@ -333,7 +333,7 @@ def simulate(
         "theta_f_measured": y[:, 0] + draws.noise[:, -1, 0],
         "omega_f_measured": y[:, 1] + draws.noise[:, -1, 1],
     }
-    if record:
+    if history is not None:
         hist = np.stack(history, axis=1)
         out.update(t=np.arange(n_steps + 1) * dt, theta=hist[..., 0], omega=hist[..., 1])
     return out

@@ -13,6 +13,7 @@ import contextlib
 import logging
 import signal
 import threading
+from collections.abc import Generator
 from itertools import islice
 from typing import TYPE_CHECKING
 
@@ -20,10 +21,13 @@ from analysis.engine.campaign.chunk import simulate_chunk
 from models.errors import InputError
 
 if TYPE_CHECKING:
+    from analysis.engine.campaign.chunk import ChunkResult
     from analysis.engine.campaign.spec import CampaignSpec
 
 
-def dask_results(spec: CampaignSpec, chunks, client, in_flight: int):
+def dask_results(
+    spec: CampaignSpec, chunks, client, in_flight: int
+) -> Generator[ChunkResult, None, None]:
     """Yield ChunkResults from a Dask client, at most ``in_flight`` tasks submitted; tasks
     still queued or running when the consumer stops are cancelled."""
     from distributed import as_completed

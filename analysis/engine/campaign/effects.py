@@ -19,7 +19,9 @@ bit for bit the same.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -197,7 +199,11 @@ def fault_spec(table: dict, where: str, longest_s: float) -> FaultSpec:
 
 
 #: Spec table name -> its reader.
-TABLES = {"sensor": sensor_spec, "timing": timing_spec, "fault": fault_spec}
+TABLES: dict[str, Callable[..., Any]] = {
+    "sensor": sensor_spec,
+    "timing": timing_spec,
+    "fault": fault_spec,
+}
 
 
 def parse_effects(

@@ -22,7 +22,7 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from itertools import islice
@@ -100,7 +100,7 @@ def local_results(
     workers: int,
     n_chunks: int,
     cancel: threading.Event,
-) -> Iterator[ChunkResult]:
+) -> Generator[ChunkResult, None, None]:
     """Yield the results of ``chunks`` as they finish, at most ``workers`` in flight.
 
     One worker (or one chunk): in this process, with MuJoCo's own threads on every CPU (an

@@ -6,7 +6,7 @@ batch's :class:`~spacecraft.simulation.History` and the spec's thresholds only (
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -114,6 +114,7 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     cols["firings_total"] = prop.firings.sum(axis=1).astype(float)
     for j in range(N_JETS):
         cols[f"jet_{j + 1:02d}_on_time_s"] = prop.on_time_s[:, j]
+    assert history.flown_params is not None, "outcomes() needs a simulation's history"
     cols["propellant_kg"] = prop.propellant_kg(history.flown_params.isp_s)
     cols["rate_settled_time_s"] = settle
 
@@ -140,8 +141,10 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
             )
         reasons.append("; ".join(why))
     # Outcomes of a non-flight are not numbers.
-    cols = {k: np.where(sim_failed, np.nan, np.asarray(v, float)) for k, v in cols.items()}
-    cols["sim_failed"] = sim_failed
-    cols["failed"] = np.array([bool(r) for r in reasons], dtype=bool)
-    cols["reason"] = reasons
-    return outcome_frame(cols)
+    out: dict[str, Any] = {
+        k: np.where(sim_failed, np.nan, np.asarray(v, float)) for k, v in cols.items()
+    }
+    out["sim_failed"] = sim_failed
+    out["failed"] = np.array([bool(r) for r in reasons], dtype=bool)
+    out["reason"] = reasons
+    return outcome_frame(out)

@@ -249,7 +249,7 @@ def run_campaign(
     if progress is None:
         progress = sys.stderr.isatty()
     manifest, complete = _prepare_dir(spec, out, resume)
-    if complete:
+    if complete and manifest is not None:
         R.remove_temporaries_in(out)
         counts = manifest.get("counts", {})
         return CampaignReport(

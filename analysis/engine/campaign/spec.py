@@ -365,7 +365,11 @@ def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
             what = "packaged paper table" if table in PAPER_LOOKUP_TABLES else "file"
             raise c.error("table", f"{what} changed since the campaign ran (sha256 differs)", table)
     c.done()
-    resolved = {"name": name, "table": table or "default", "table_sha256": file_digest(table)}
+    resolved: dict = {
+        "name": name,
+        "table": table or "default",
+        "table_sha256": file_digest(table),
+    }
     if jets_off:  # recorded only when there are some: other specs resolve as before
         resolved["jets_off"] = list(jets_off)
     return name, table, resolved

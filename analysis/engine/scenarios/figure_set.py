@@ -6,6 +6,7 @@ named scenarios with the lookup controller.
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -93,8 +94,10 @@ def write_figure_set(out_dir, *, table=None, progress: bool | None = None) -> li
                 frame, out_dir / name, title=title, axes=axes, windows=firing_windows(frame)
             )
         else:
-            band = get_scenario(scn_name).lookup_options.get("no_fire_band_rad", np.radians(0.1))
-            plot_hold(frame, out_dir / name, title=title, band_deg=float(np.degrees(band)))
+            options = get_scenario(scn_name).lookup_options or {}
+            raw = options.get("no_fire_band_rad")
+            band = math.radians(0.1) if raw is None else float(raw)
+            plot_hold(frame, out_dir / name, title=title, band_deg=math.degrees(band))
         names.append(name)
     return names
 

@@ -160,6 +160,7 @@ class BinnedTV:
             part = np.bincount(self._flat(rows[s : s + self.chunk_rows]).ravel(), minlength=size)
             total = part if total is None else total + part
         shape = (self.n_tests, self.m) if self.pairs is None else (self.n_tests, self.m, self.m)
+        assert total is not None  # at least one chunk of rows
         return total.reshape(shape)
 
     def smooth(self, C: np.ndarray) -> np.ndarray:

@@ -88,7 +88,7 @@ def write_analysis(res: DriverResults, out, *, overwrite: bool = False) -> Path:
     html = build_report(title, sections.driver_sections(res), subtitle)
     with atomic_dir(out, COMMAND, overwrite=overwrite) as tmp:
         tmp = Path(tmp)
-        if res.has_failures:
+        if res.has_failures and res.drivers is not None:
             d = res.drivers
             d[
                 [c for c in DRIVER_COLUMNS if c in d]
