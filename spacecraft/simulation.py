@@ -19,12 +19,6 @@ The pieces' lengths are per-simulation physics steps (``opt.timestep`` expanded 
 run switches a jet is one rollout of the model's fixed steps, as before.  Cost and accuracy:
 ``docs/convergence.md``.
 
-Module size: about 480 lines, over the ~400 guideline: the cycle loop, its piecewise
-integration and the divergence handling share the loop's per-run state and read best together;
-what stands alone is already split out (:mod:`~spacecraft.guards`,
-:mod:`~spacecraft.history`, :mod:`~spacecraft.pieces`,
-:mod:`~spacecraft.valves`, :mod:`~spacecraft.sensors`).
-
 Failures
 --------
 A run whose physics diverges is marked failed (``History.failed``) with MuJoCo's own reason and
@@ -46,11 +40,11 @@ cycle disagrees with the propulsion's, and a history that would not fit in memor
 (:func:`spacecraft.guards.memory_budget_bytes`).  The constructor refuses invalid sensor,
 timing and fault parameters (:class:`models.errors.InputError`).
 
-Module size: about 475 lines, over the ~400 guideline: the cycle loop (sensors, controller,
+Module size: about 550 lines, over the ~400 guideline: the cycle loop (sensors, controller,
 valves, the cut) and the piecewise stepping share the batch's bound arrays, per-run timesteps
 and failure bookkeeping; splitting them would pass those around for no gain in clarity.  The
 pure parts live in :mod:`spacecraft.pieces`, :mod:`spacecraft.valves`,
-:mod:`spacecraft.sensors` and :mod:`spacecraft.history`.
+:mod:`spacecraft.sensors`, :mod:`spacecraft.history` and :mod:`spacecraft.flight_model`.
 """
 
 from __future__ import annotations
@@ -353,21 +347,10 @@ class BatchSimulation:
         self._check_warnings(failed, reason, 0.0, 0.0)  # the initial state itself
 
         t_s = np.arange(n_cycles) * cycle
-        # Cycle-major buffers: each cycle writes one contiguous block; transposed once at the end.
-        rec = {
-            "q_BN": np.empty((n_cycles, n, 4)),
-            "omega_B": np.empty((n_cycles, n, 3)),
-            "att_err_B": np.empty((n_cycles, n, 3)),
-            "rate_err_B": np.empty((n_cycles, n, 3)),
-            "on_time_s": np.empty((n_cycles, n, N_JETS)),
-        }
         sensors = self.sensors
         effects = not (self.timing.is_zero() and self.faults is None and self.profile is None)
-        if effects:
-            rec["delivered_s"] = np.empty((n_cycles, n, N_JETS))
+        rec = self._history_buffers(n_cycles, measured=sensors is not None, delivered=effects)
         if sensors is not None:
-            rec["meas_att_err_B"] = np.empty((n_cycles, n, 3))
-            rec["meas_rate_err_B"] = np.empty((n_cycles, n, 3))
             noise = SensorNoise(self.sensor_streams) if sensors.is_random() else None
             sensor_state = SensorState(np.zeros((n, 3)))
         valves = ValveState.closed(n)
@@ -395,18 +378,7 @@ class BatchSimulation:
                 command, prop, self.propulsion, self.params.thrust_n, account=False
             )
             command_valves(valves, on, self.timing, cycle)
-            grid = self.dt_s if self.n_sub > 1 else None
-            if self.profile is None:
-                pieces = cycle_pieces(*cycle_intervals(valves, self.faults, t0), cycle, grid)
-            else:
-                pieces = profile_pieces(
-                    *cycle_intervals(valves, self.faults, t0),
-                    cycle,
-                    grid,
-                    self.profile.rise_s,
-                    self.profile.fall_s,
-                    self.profile.segments,
-                )
+            pieces = self._pieces(valves, t0)
             delivered = pieces.on_time_s()
             prop.on_time_s += delivered
             prop.impulse_ns += pieces.thrust_time_s() * thrust
@@ -440,6 +412,36 @@ class BatchSimulation:
             reason=reason,
             flown_params=self.flown_params(),
             **rec,
+        )
+
+    def _history_buffers(self, n_cycles: int, *, measured: bool, delivered: bool) -> dict:
+        """Cycle-major record buffers, (n_cycles, n_runs, k) each: every cycle writes one
+        contiguous block, and :meth:`run` returns them as (n_runs, n_cycles, k) views."""
+        n = self.n_runs
+        rec = {
+            "q_BN": np.empty((n_cycles, n, 4)),
+            "omega_B": np.empty((n_cycles, n, 3)),
+            "att_err_B": np.empty((n_cycles, n, 3)),
+            "rate_err_B": np.empty((n_cycles, n, 3)),
+            "on_time_s": np.empty((n_cycles, n, N_JETS)),
+        }
+        if delivered:
+            rec["delivered_s"] = np.empty((n_cycles, n, N_JETS))
+        if measured:
+            rec["meas_att_err_B"] = np.empty((n_cycles, n, 3))
+            rec["meas_rate_err_B"] = np.empty((n_cycles, n, 3))
+        return rec
+
+    def _pieces(self, valves: ValveState, t0_s: float) -> Pieces:
+        """The cycle starting at ``t0_s`` cut at every run's switch instants (and on the
+        physics grid), with the thrust profile's rise and fall when there is one."""
+        cycle = self.propulsion.cycle_s
+        grid = self.dt_s if self.n_sub > 1 else None
+        intervals = cycle_intervals(valves, self.faults, t0_s)
+        if self.profile is None:
+            return cycle_pieces(*intervals, cycle, grid)
+        return profile_pieces(
+            *intervals, cycle, grid, self.profile.rise_s, self.profile.fall_s, self.profile.segments
         )
 
     def _reset(self, q0_BN, omega0_B) -> None:

@@ -245,144 +245,147 @@ def run_loop(
     echo : callable
         Receives one line per finished stage (the CLI prints them).
     """
-    from analysis.apps.loop.report import write_loop_report
-    from analysis.apps.refinement.evaluate import runs_from_campaign
-    from analysis.apps.refinement.outputs import (
-        held_out_check,
-        load_search,
-        refinement_spec,
-        save_search,
-        write_refinement,
-    )
-    from analysis.apps.refinement.search import refine
-    from analysis.results.drivers.inputs import load_runs
-    from analysis.results.drivers.outputs import write_analysis
-    from analysis.results.drivers.pipeline import Settings, analyze
-
     table = load_refinable_table(settings.table)  # a table that does not load: before any work
     out = check_loop_dir(out, resume=resume, overwrite=False)
     out.mkdir(parents=True, exist_ok=True)
     write_marker(out, COMMAND)
     state = _State(out, settings, resume)
-    paths = {
-        "campaign_before": out / "campaign_before",
-        "drivers": out / "drivers",
-        "refined": out / "refined_table.csv",
-        "search": out / "refine_search.json",
-        "campaign_after": out / "campaign_after",
-        "report": out / "report.html",
-    }
-    result = LoopResult(out=out, report=paths["report"])
-
-    def stage(name: str, work) -> None:
+    stages = _Stages(out, settings, table, state, progress)
+    for name in STAGES:
         if state.done(name):
             echo(f"{name}: already done")
-            return
+            continue
         t0 = time.perf_counter()
-        info = work() or {}
+        info = getattr(stages, name)() or {}
         seconds = time.perf_counter() - t0
         state.finish(name, seconds, **info)
         echo(f"{name}: done in {seconds:.1f} s" + "".join(f"; {k} {v}" for k, v in info.items()))
+    state.data["finished_utc"] = campaign_results.now_utc()
+    state.save()
+    return LoopResult(
+        out=out,
+        report=stages.paths["report"],
+        stage_s={k: v["seconds"] for k, v in state.data["done"].items()},
+    )
 
-    def campaign(name: str, table_path: str, seed: int):
-        spec_file = out / f"spec_{name.split('_')[1]}.toml"
+
+class _Stages:
+    """The loop's stages, one method each, named as in :data:`STAGES`; each returns the
+    facts its line in ``loop.json`` and on the terminal reports."""
+
+    def __init__(
+        self, out: Path, settings: LoopSettings, table, state: _State, progress: bool | None
+    ):
+        self.out, self.settings, self.table = out, settings, table
+        self.state, self.progress = state, progress
+        self.cases = np.arange(len(table.case))
+        self.paths = {
+            "campaign_before": out / "campaign_before",
+            "drivers": out / "drivers",
+            "refined": out / "refined_table.csv",
+            "search": out / "refine_search.json",
+            "campaign_after": out / "campaign_after",
+            "report": out / "report.html",
+        }
+
+    def _campaign(self, name: str, table_path: str, seed: int) -> dict:
+        s = self.settings
+        spec_file = self.out / f"spec_{name.split('_')[1]}.toml"
         if not spec_file.exists():
-            atomic_write(
-                spec_file,
-                lambda tmp: Path(tmp).write_text(
-                    spec_text(
-                        table=table_path,
-                        runs_per_case=settings.runs_per_case,
-                        seed=seed,
-                        duration_s=settings.duration_s,
-                    )
-                ),
+            text = spec_text(
+                table=table_path, runs_per_case=s.runs_per_case, seed=seed, duration_s=s.duration_s
             )
-        spec = load_spec(spec_file)
+            atomic_write(spec_file, lambda tmp: Path(tmp).write_text(text))
         report = run_campaign(
-            spec,
-            paths[name],
-            resume=paths[name].exists(),
-            progress=progress,
+            load_spec(spec_file),
+            self.paths[name],
+            resume=self.paths[name].exists(),
+            progress=self.progress,
             spec_file=str(spec_file),
         )
         return {"runs": report.counts.get("runs"), "failed": report.counts.get("failed")}
 
-    def drivers():
-        runset = load_runs(paths["campaign_before"])
+    def _campaign_runs(self, name: str) -> pd.DataFrame:
+        from analysis.apps.refinement.evaluate import runs_from_campaign
+
+        runs = pd.read_parquet(self.paths[name] / campaign_results.RUNS)
+        return runs_from_campaign(runs, self.cases, self.settings.runs_per_case)
+
+    def campaign_before(self) -> dict:
+        return self._campaign(
+            "campaign_before", _table_path(self.settings.table), self.settings.seed
+        )
+
+    def drivers(self) -> dict:
+        from analysis.results.drivers.inputs import load_runs
+        from analysis.results.drivers.outputs import write_analysis
+        from analysis.results.drivers.pipeline import Settings, analyze
+
+        s = self.settings
         res = analyze(
-            runset, Settings(n_permutations=settings.permutations, random_state=settings.seed)
+            load_runs(self.paths["campaign_before"]),
+            Settings(n_permutations=s.permutations, random_state=s.seed),
         )
-        write_analysis(res, paths["drivers"], overwrite=True)
-        top = (
-            res.drivers[res.drivers["significant"]]["factor"].head(3).tolist()
-            if res.has_failures
-            else []
-        )
+        write_analysis(res, self.paths["drivers"], overwrite=True)
+        top = []
+        if res.has_failures and res.drivers is not None:
+            top = res.drivers[res.drivers["significant"]]["factor"].head(3).tolist()
         return {"significant": ", ".join(top) or "none"}
 
-    cases = np.arange(len(table.case))
+    def refine(self) -> dict:
+        from analysis.apps.refinement.outputs import refinement_spec, save_search
+        from analysis.apps.refinement.search import refine
 
-    def campaign_runs(name: str):
-        runs = pd.read_parquet(paths[name] / campaign_results.RUNS)
-        return runs_from_campaign(runs, cases, settings.runs_per_case)
-
-    def search():
+        s = self.settings
         # The search's baseline is the "before" campaign itself: same seed, same runs.
-        spec = refinement_spec(
-            runs_per_case=settings.runs_per_case, seed=settings.seed, duration_s=settings.duration_s
-        )
+        spec = refinement_spec(runs_per_case=s.runs_per_case, seed=s.seed, duration_s=s.duration_s)
         result = refine(
             spec,
-            table,
-            max_iterations=settings.max_iterations,
-            progress=progress,
-            search_runs_per_case=settings.search_runs_per_case,
-            baseline_runs=campaign_runs("campaign_before"),
+            self.table,
+            max_iterations=s.max_iterations,
+            progress=self.progress,
+            search_runs_per_case=s.search_runs_per_case,
+            baseline_runs=self._campaign_runs("campaign_before"),
         )
-        save_search(result, paths["search"])
-        result.table.to_csv(paths["refined"])
-        return {
-            "cases_changed": int(
-                (result.table.firing_time_s != table.firing_time_s).any(axis=1).sum()
-            ),
-            "runs_flown": result.runs_flown,
-        }
+        save_search(result, self.paths["search"])
+        result.table.to_csv(self.paths["refined"])
+        changed = (result.table.firing_time_s != self.table.firing_time_s).any(axis=1)
+        return {"cases_changed": int(changed.sum()), "runs_flown": result.runs_flown}
 
-    def check():
+    def campaign_after(self) -> dict:
+        return self._campaign(
+            "campaign_after", str(self.paths["refined"]), self.settings.held_out_seed
+        )
+
+    def check(self) -> dict:
+        from analysis.apps.refinement.outputs import (
+            held_out_check,
+            load_search,
+            write_refinement,
+        )
+
+        s = self.settings
         # The refined table's runs on the fresh seed are the "after" campaign's; only the old
         # table is flown again, on that seed.
-        refined = load_lookup_table(paths["refined"])
+        refined = load_lookup_table(self.paths["refined"])
         ref = held_out_check(
-            table,
-            load_search(paths["search"], refined),
-            seed=settings.seed,
-            fresh_seed=settings.held_out_seed,
-            runs_per_case=settings.runs_per_case,
-            duration_s=settings.duration_s,
-            fresh_after_runs=campaign_runs("campaign_after"),
-            progress=progress,
+            self.table,
+            load_search(self.paths["search"], refined),
+            seed=s.seed,
+            fresh_seed=s.held_out_seed,
+            runs_per_case=s.runs_per_case,
+            duration_s=s.duration_s,
+            fresh_after_runs=self._campaign_runs("campaign_after"),
+            progress=self.progress,
         )
-        write_refinement(ref, paths["refined"], overwrite=True)
+        write_refinement(ref, self.paths["refined"], overwrite=True)
         log = ref.changelog
         return {
             "failed_fresh": f"{int(log['failed_fresh_before'].sum())} -> "
             f"{int(log['failed_fresh_after'].sum())}"
         }
 
-    stage(
-        "campaign_before",
-        lambda: campaign("campaign_before", _table_path(settings.table), settings.seed),
-    )
-    stage("drivers", drivers)
-    stage("refine", search)
-    stage(
-        "campaign_after",
-        lambda: campaign("campaign_after", str(paths["refined"]), settings.held_out_seed),
-    )
-    stage("check", check)
-    stage("report", lambda: {"path": str(write_loop_report(out, settings, state.data))})
-    state.data["finished_utc"] = campaign_results.now_utc()
-    state.save()
-    result.stage_s = {k: v["seconds"] for k, v in state.data["done"].items()}
-    return result
+    def report(self) -> dict:
+        from analysis.apps.loop.report import write_loop_report
+
+        return {"path": str(write_loop_report(self.out, self.settings, self.state.data))}
