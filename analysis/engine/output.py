@@ -16,6 +16,15 @@ versions (``written by rcsim; ...``) name no command: only ``overwrite=True`` re
 
 Files (:func:`check_out_file`).  An existing file is replaced only with ``overwrite=True``.
 
+Campaign and loop directories (:data:`RESUMABLE`) are never replaced, by any command and
+whatever state their marker is in: they are recognised by their marker *or* by their own state
+file (``manifest.json``, ``loop.json``), and no file inside one is replaced by another
+command.  Their markers are written atomically.
+
+Locks (:func:`output_lock`).  A command that writes a directory holds an advisory lock on it
+(``fcntl.flock`` on a hidden lock file beside it) for as long as it writes; a second writer is
+refused with the process that holds it.
+
 Both checks run *before* any work: they also try to create (and remove) a hidden directory in
 the nearest existing ancestor of the target, so a read-only filesystem, a permission refusal
 or a pseudo-filesystem (``/proc``) is reported before minutes of simulation, whoever runs it.
@@ -27,6 +36,8 @@ shows them as ``--out`` (:class:`models.errors.InputError`).
 from __future__ import annotations
 
 import contextlib
+import errno
+import fcntl
 import os
 import secrets
 import shutil
@@ -37,6 +48,9 @@ from models.errors import InputError
 
 MARKER = ".rcsim-output"
 _MARKER_PREFIX = "written by rcsim"
+#: Commands whose directories are written in place and resumed: never replaced, and
+#: recognised by their state file when the marker is missing, empty or unreadable.
+RESUMABLE = {"campaign run": "manifest.json", "loop": "loop.json"}
 
 
 class OutputExists(InputError):
@@ -72,9 +86,32 @@ def write_marker(directory: str | os.PathLike, command: str) -> None:
     """Write the marker of ``rcsim <command>`` into ``directory`` (for in-place writers).
 
     ``rcsim campaign run`` writes its directory in place (it is resumable), not through
-    :func:`atomic_dir`; it calls this so that other commands recognise the directory.
+    :func:`atomic_dir`; it calls this so that other commands recognise the directory.  Written
+    beside and renamed over the old one: a kill mid-write never leaves an empty marker.
     """
-    (Path(directory) / MARKER).write_text(marker_text(command))
+    marker = Path(directory) / MARKER
+    tmp = marker.with_name(f"{MARKER}.tmp-{secrets.token_hex(4)}")
+    try:
+        tmp.write_text(marker_text(command))
+        os.replace(tmp, marker)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def resumable_owner(path: str | os.PathLike) -> str | None:
+    """The resumable command (:data:`RESUMABLE`) whose directory ``path`` is, or None.
+
+    By the marker first; then, whatever the marker says (missing, empty, damaged), by the
+    command's own state file in the directory.
+    """
+    path = Path(path)
+    owner = directory_owner(path)
+    if owner in RESUMABLE:
+        return owner
+    for command, state_file in RESUMABLE.items():
+        if (path / state_file).is_file():
+            return command
+    return None
 
 
 def directory_owner(path: str | os.PathLike) -> str | None:
@@ -169,6 +206,16 @@ def check_out_dir(
         raise InputError(f"{path}: exists and is not a directory", parameter="out", value=str(path))
     if path.is_dir() and any(path.iterdir()):
         owner = directory_owner(path)
+        resumable = resumable_owner(path)
+        if resumable is not None and resumable != command:
+            raise InputError(
+                f"{path}: is a {_describe(resumable)}, "
+                "which no other command replaces; choose another directory",
+                parameter="out",
+                value=str(path),
+            )
+        if resumable is not None:
+            owner = resumable
         if owner is None:
             raise InputError(
                 f"{path}: exists and holds files rcsim did not write; choose another directory",
@@ -200,8 +247,17 @@ def check_out_dir(
     return path
 
 
+def _describe(command: str) -> str:
+    what = "campaign directory" if command == "campaign run" else "loop directory"
+    return f"{what} (written by `rcsim {command}`)"
+
+
 def check_out_file(
-    out: str | os.PathLike, *, overwrite: bool = False, parameter: str = "out"
+    out: str | os.PathLike,
+    *,
+    overwrite: bool = False,
+    parameter: str = "out",
+    writer: str | None = None,
 ) -> Path:
     """Validate an output file before any work: not a directory, replaced only on request.
 
@@ -213,6 +269,9 @@ def check_out_file(
         Replace an existing file.
     parameter : str
         The caller's name for ``out``, used in errors.
+    writer : str, optional
+        The resumable command writing inside its own directory (the loop's refined table);
+        any other writer is refused a file that exists inside a campaign or loop directory.
 
     Returns
     -------
@@ -222,6 +281,14 @@ def check_out_file(
     path = _as_path(out, parameter)
     if path.is_dir():
         raise InputError(f"{path}: is a directory", parameter=parameter, value=str(path))
+    inside = resumable_owner(path.parent) if path.parent.is_dir() else None
+    if path.exists() and inside is not None and inside != writer:
+        raise InputError(
+            f"{path}: is inside a {_describe(inside)}, whose files no other command "
+            "replaces; choose a path outside it",
+            parameter=parameter,
+            value=str(path),
+        )
     if path.exists() and not overwrite:
         raise OutputExists(path, "", "exists", parameter)
     _check_creatable(path, parameter)
@@ -276,6 +343,11 @@ def atomic_dir(out: str | os.PathLike, command: str | None = None, *, overwrite:
     directory is removed and ``out`` is left as it was.
     """
     out = check_out_dir(out, command, overwrite=overwrite)
+    with output_lock(out, command or "output"):
+        yield from _write_atomically(out, command)
+
+
+def _write_atomically(out: Path, command: str | None):
     created = make_parents(out)
     try:
         tmp = _make_temp_dir(out.parent, out.name)
@@ -300,3 +372,71 @@ def atomic_dir(out: str | os.PathLike, command: str | None = None, *, overwrite:
     os.replace(tmp, out)
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
+
+
+class OutputLocked(InputError):
+    """Another process is writing the same output; ``holder`` says which."""
+
+
+def _lock_path(path: Path) -> Path:
+    return path.with_name(f".{path.name}.rcsim-lock")
+
+
+@contextlib.contextmanager
+def output_lock(out: str | os.PathLike, command: str, *, parameter: str = "out"):
+    """Hold an advisory lock on output ``out`` while the block writes it.
+
+    The lock is ``fcntl.flock`` on a hidden file beside ``out`` (``.NAME.rcsim-lock``, so a
+    directory that does not exist yet can be locked), holding the writer's pid and command.  A
+    second writer raises :class:`OutputLocked` naming them, before any work.  The file is
+    removed when the block ends; a writer that finds the file replaced between opening and
+    locking it (the holder just finished) locks the new one.
+    """
+    path = _as_path(out, parameter)
+    lock = _lock_path(path)
+    created = make_parents(lock)
+    while True:
+        try:
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
+        except OSError as exc:
+            remove_parents(created)
+            raise InputError(
+                f"{path}: cannot lock it ({exc.strerror or exc})",
+                parameter=parameter,
+                value=str(path),
+            ) from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            holder = ""
+            with contextlib.suppress(OSError):
+                holder = os.pread(fd, 200, 0).decode(errors="replace").strip()
+            os.close(fd)
+            remove_parents(created)
+            if exc.errno not in (errno.EAGAIN, errno.EACCES, errno.EWOULDBLOCK):
+                raise
+            raise OutputLocked(
+                f"{path}: is being written by another rcsim process ({holder or 'unknown'}); "
+                "wait for it to finish or stop it",
+                parameter=parameter,
+                value=str(path),
+            ) from None
+        try:
+            same = os.fstat(fd).st_ino == os.stat(lock).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)  # the previous holder removed the file after we opened it: start again
+    ok = False
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pid {os.getpid()}, rcsim {command}\n".encode(), 0)
+        yield path
+        ok = True
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(lock)
+        os.close(fd)
+        if not ok:
+            remove_parents(created)

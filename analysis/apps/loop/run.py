@@ -29,7 +29,7 @@ from analysis.apps.refinement.search import SEARCH_RUNS_PER_CASE
 from analysis.engine.campaign import results as campaign_results
 from analysis.engine.campaign.runner import run_campaign
 from analysis.engine.campaign.spec import load_spec
-from analysis.engine.output import check_out_dir, directory_owner, write_marker
+from analysis.engine.output import check_out_dir, directory_owner, output_lock, write_marker
 from models.atomic import atomic_write
 from models.errors import InputError
 from models.tables import PAPER_LOOKUP_TABLES, load_lookup_table
@@ -247,6 +247,11 @@ def run_loop(
     """
     table = load_refinable_table(settings.table)  # a table that does not load: before any work
     out = check_loop_dir(out, resume=resume, overwrite=False)
+    with output_lock(out, COMMAND):
+        return _run_stages(table, settings, out, resume, progress, echo)
+
+
+def _run_stages(table, settings: LoopSettings, out: Path, resume: bool, progress, echo):
     out.mkdir(parents=True, exist_ok=True)
     write_marker(out, COMMAND)
     state = _State(out, settings, resume)
@@ -378,7 +383,7 @@ class _Stages:
             fresh_after_runs=self._campaign_runs("campaign_after"),
             progress=self.progress,
         )
-        write_refinement(ref, self.paths["refined"], overwrite=True)
+        write_refinement(ref, self.paths["refined"], overwrite=True, writer=COMMAND)
         log = ref.changelog
         return {
             "failed_fresh": f"{int(log['failed_fresh_before'].sum())} -> "

@@ -378,17 +378,20 @@ def output_paths(out_csv: str | Path) -> dict[str, Path]:
     }
 
 
-def check_outputs(out_csv: str | Path, *, overwrite: bool = False) -> dict[str, Path]:
-    """Check all three outputs before any flight (existing ones need ``overwrite``)."""
+def check_outputs(
+    out_csv: str | Path, *, overwrite: bool = False, writer: str | None = None
+) -> dict[str, Path]:
+    """Check all three outputs before any flight (existing ones need ``overwrite``;
+    ``writer``: the loop writing into its own directory, see :func:`check_out_file`)."""
     paths = output_paths(out_csv)
-    check_out_file(paths["table"], overwrite=overwrite, parameter="out")
-    check_out_file(paths["changelog"], overwrite=overwrite, parameter="out")
+    check_out_file(paths["table"], overwrite=overwrite, parameter="out", writer=writer)
+    check_out_file(paths["changelog"], overwrite=overwrite, parameter="out", writer=writer)
     check_out_dir(paths["plots"], COMMAND, overwrite=overwrite)
     return paths
 
 
 def write_refinement(
-    ref: Refinement, out_csv: str | Path, *, overwrite: bool = False
+    ref: Refinement, out_csv: str | Path, *, overwrite: bool = False, writer: str | None = None
 ) -> dict[str, Path]:
     """Write ``OUT.csv``, ``OUT_changelog.csv`` and ``OUT_plots/*.png``; returns the paths.
 
@@ -396,7 +399,7 @@ def write_refinement(
     the two CSV files are renamed into place, the table last, so a table on disk always has
     its changelog beside it.
     """
-    paths = check_outputs(out_csv, overwrite=overwrite)
+    paths = check_outputs(out_csv, overwrite=overwrite, writer=writer)
     written = dict(paths)
     worst = most_improved_case(ref.changelog)
     with atomic_dir(paths["plots"], COMMAND, overwrite=overwrite) as tmp:

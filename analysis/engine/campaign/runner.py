@@ -45,7 +45,7 @@ from analysis.engine.campaign.effects import describe
 from analysis.engine.campaign.gate import GateResult, judge
 from analysis.engine.campaign.local import local_results
 from analysis.engine.campaign.spec import CampaignSpec
-from analysis.engine.output import check_out_dir, write_marker
+from analysis.engine.output import check_out_dir, output_lock, write_marker
 from analysis.engine.runs_table import ALL_COLUMNS
 from models.errors import InputError
 
@@ -248,36 +248,40 @@ def run_campaign(
     out = Path(out)
     if progress is None:
         progress = sys.stderr.isatty()
-    manifest, complete = _prepare_dir(spec, out, resume)
-    if complete and manifest is not None:
-        R.remove_temporaries_in(out)
-        counts = manifest.get("counts", {})
-        return CampaignReport(
-            out,
-            counts,
-            0.0,
-            0,
-            0.0,
-            notes=["campaign already complete; nothing to do"],
-            gate=_gate(spec, counts),
-        )
-    with _sigterm_interrupts():
-        client, cluster = connect(workers, scheduler)  # before creating DIR: no debris
-        try:
-            return _run(
-                spec,
+    # One writer at a time: a second `campaign run` (or --resume) on the same directory
+    # is refused before it reads the manifest, not after both have flown.
+    check_out_dir(out, COMMAND, overwrite=True)  # an impossible path: its own error, first
+    with output_lock(out, COMMAND):
+        manifest, complete = _prepare_dir(spec, out, resume)
+        if complete and manifest is not None:
+            R.remove_temporaries_in(out)
+            counts = manifest.get("counts", {})
+            return CampaignReport(
                 out,
-                manifest,
-                resume,
-                client,
-                cluster,
-                workers,
-                local_workers,
-                progress,
-                spec_file,
+                counts,
+                0.0,
+                0,
+                0.0,
+                notes=["campaign already complete; nothing to do"],
+                gate=_gate(spec, counts),
             )
-        finally:
-            close(client, cluster)
+        with _sigterm_interrupts():
+            client, cluster = connect(workers, scheduler)  # before creating DIR: no debris
+            try:
+                return _run(
+                    spec,
+                    out,
+                    manifest,
+                    resume,
+                    client,
+                    cluster,
+                    workers,
+                    local_workers,
+                    progress,
+                    spec_file,
+                )
+            finally:
+                close(client, cluster)
 
 
 def _run(

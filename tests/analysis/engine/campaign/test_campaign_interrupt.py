@@ -18,15 +18,15 @@ from analysis.engine.campaign.runner import run_campaign
 from analysis.engine.campaign.spec import load_spec
 from models.atomic import TEMP_GLOB, UMASK, atomic_write, mode_under_umask
 
-# 16 runs in 8 chunks of 20 s flights (~0.3 s of computing each): the first chunk commits
-# while most are still to fly.
+# 16 runs in 8 chunks of 60 s flights (~0.3 s of computing each with the flight model): the
+# first chunk commits while most are still to fly.
 SPEC = """
 seed = 11
 runs_per_case = 8
 chunk_size = 2
 [scenario]
 cases = [13, 22]
-duration_s = 20.0
+duration_s = 60.0
 [controller]
 name = "phase-plane"
 [output]

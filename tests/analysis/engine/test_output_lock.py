@@ -1,0 +1,95 @@
+"""One writer per output (analysis/engine/output.py ``output_lock``), with real processes.
+
+Issue 17, defect 3: `rcsim campaign run spec --out D` and, seconds later, the same with
+`--resume` both ran and both exited 0, the second re-flying runs.  The claim: the second
+writer is refused with one line naming the first (its pid and command), exit 2, and the
+first finishes its campaign undisturbed.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pandas as pd
+import pytest
+
+from analysis.engine.output import OutputLocked, output_lock
+
+SPEC = """
+seed = 5
+runs_per_case = 6
+chunk_size = 2
+[scenario]
+cases = [13, 22]
+duration_s = 120.0
+[controller]
+name = "phase-plane"
+[output]
+histories = "none"
+plots = false
+"""
+
+
+def _rcsim(*args) -> list[str]:
+    return [sys.executable, "-m", "rcsim", *args]
+
+
+def test_a_second_campaign_writer_is_refused_and_the_first_finishes(tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "D"
+    first = subprocess.Popen(
+        _rcsim("campaign", "run", str(spec), "--out", str(out), "--no-progress"),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        lock = tmp_path / ".D.rcsim-lock"
+        deadline = time.monotonic() + 120
+        while not (lock.exists() and lock.read_text()) and time.monotonic() < deadline:
+            assert first.poll() is None, first.stderr.read()
+            time.sleep(0.01)
+        second = subprocess.run(
+            _rcsim("campaign", "run", str(spec), "--out", str(out), "--resume", "--no-progress"),
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert second.returncode == 2, second.stderr
+        lines = second.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("rcsim: error: --out"), second.stderr
+        assert f"pid {first.pid}, rcsim campaign run" in lines[0]
+        assert first.wait(timeout=300) == 0, first.stderr.read()
+    finally:
+        if first.poll() is None:
+            first.send_signal(signal.SIGKILL)
+            first.wait()
+    runs = pd.read_parquet(out / "runs.parquet")
+    assert sorted(runs["run_id"]) == list(range(12))  # every run once: nothing re-flown
+    assert not lock.exists()  # released and removed
+
+
+def test_the_lock_names_its_holder_and_is_free_after_the_block(tmp_path):
+    target = tmp_path / "out"
+    probe = (
+        "import sys\n"
+        "from analysis.engine.output import OutputLocked, output_lock\n"
+        "try:\n"
+        f"    with output_lock({str(target)!r}, 'other'):\n"
+        "        print('GOT IT')\n"
+        "except OutputLocked as exc:\n"
+        "    print('REFUSED', exc)\n"
+    )
+    with output_lock(target, "maneuver"):
+        held = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+        assert held.stdout.startswith("REFUSED"), held.stdout + held.stderr
+        assert f"pid {os.getpid()}, rcsim maneuver" in held.stdout
+        with pytest.raises(OutputLocked):  # also within one process: a second descriptor
+            with output_lock(target, "again"):
+                pass
+    free = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert free.stdout.startswith("GOT IT"), free.stdout + free.stderr
+    assert list(tmp_path.iterdir()) == []  # no lock file, no directory left behind
