@@ -131,6 +131,11 @@ class DispersedRuns:
     azimuth_rad: np.ndarray
 
 
+#: Largest campaign seed.  Seeds are recorded as int64 (runs.parquet, manifests, loop.json),
+#: so a larger one would fly and then fail to be written; every command refuses it up front.
+MAX_SEED = 2**63 - 1
+
+
 def run_streams(seed: int, run_id: int) -> tuple[np.random.SeedSequence, np.random.SeedSequence]:
     """The ``(dispersion, noise)`` seed sequences of run ``run_id`` of a campaign.
 

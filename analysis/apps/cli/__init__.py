@@ -132,20 +132,36 @@ def _use_file_backend() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from analysis.engine.interrupts import (
+        INTERRUPTED,
+        TERMINATED,
+        Terminated,
+        sigterm_interrupts,
+    )
+
     parser = build_parser()
     args = None
     try:
-        args = parser.parse_args(argv)
-        _use_file_backend()
-        return int(args.func(args) or 0)
+        # SIGTERM stops every command as Ctrl-C does (cleanly, resumably), told apart by the
+        # exit status: 143 against 130.
+        with sigterm_interrupts():
+            args = parser.parse_args(argv)
+            _use_file_backend()
+            return int(args.func(args) or 0)
     except (InputError, OSError) as exc:
         # One line even if a message carries a newline (a path, a parser's text).
         line = " ".join(error_line(exc, getattr(args, "_parser", None)).split("\n"))
         print(f"rcsim: error: {line}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("rcsim: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        what, code = (
+            ("terminated", TERMINATED)
+            if isinstance(exc, Terminated)
+            else ("interrupted", INTERRUPTED)
+        )
+        hint = getattr(args, "resume_hint", None)
+        print(f"rcsim: {what}" + (f"; resume with: {hint(args)}" if hint else ""), file=sys.stderr)
+        return code
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ killed).  The campaign directory is resumable after 130 and 143.
 from __future__ import annotations
 
 import argparse
+import shlex
 import signal
 import sys
 
@@ -92,7 +93,7 @@ def register(sub) -> None:
         "failed; overrides the spec's failure.max_failed_pct.  Applies to "
         "a resumed or already complete campaign too",
     )
-    run.set_defaults(func=_run)
+    run.set_defaults(func=_run, resume_hint=_resume_hint)
 
     rp = csub.add_parser(
         "replay", help="re-fly one run of a campaign with its full history and plots"
@@ -125,8 +126,14 @@ def _example(args) -> int:
     return 0
 
 
+def _resume_hint(args) -> str:
+    workers = f" --workers {args.workers}" if args.workers else ""
+    spec, out = shlex.quote(args.spec), shlex.quote(args.out)
+    return f"rcsim campaign run {spec} --out {out}{workers} --resume"
+
+
 def _run(args) -> int:
-    from analysis.engine.campaign.runner import Terminated, run_campaign, summary_text
+    from analysis.engine.campaign.runner import run_campaign, summary_text
     from analysis.engine.campaign.spec import load_spec
 
     spec = load_spec(args.spec)
@@ -138,19 +145,15 @@ def _run(args) -> int:
         raise InputError(f"--workers must be >= 1, got {args.workers}")
     if args.max_failed_pct is not None:
         spec = spec.with_max_failed_pct(args.max_failed_pct)  # InputError under the flag's name
-    try:
-        report = run_campaign(
-            spec,
-            args.out,
-            workers=args.workers,
-            scheduler=args.scheduler,
-            resume=args.resume,
-            progress=args.progress,
-            spec_file=args.spec,
-        )
-    except Terminated:
-        print("rcsim: terminated", file=sys.stderr)
-        return TERMINATED
+    report = run_campaign(
+        spec,
+        args.out,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        resume=args.resume,
+        progress=args.progress,
+        spec_file=args.spec,
+    )
     print(summary_text(report, spec))
     gate = report.gate
     if gate is None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shlex
 
 
 def register(sub) -> None:
@@ -19,19 +20,15 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--table",
-        default="table6",
         help="table to refine: table6, table7 or a CSV path (default table6)",
     )
     p.add_argument(
         "--runs-per-case",
         type=int,
-        default=100,
         metavar="N",
         help="dispersed runs per rate case (default 100)",
     )
-    p.add_argument(
-        "--seed", type=int, default=1, metavar="S", help="campaign and search seed (default 1)"
-    )
+    p.add_argument("--seed", type=int, metavar="S", help="campaign and search seed (default 1)")
     p.add_argument(
         "--fresh-seed",
         type=int,
@@ -41,7 +38,6 @@ def register(sub) -> None:
     p.add_argument(
         "--search-runs-per-case",
         type=int,
-        default=200,
         metavar="M",
         help="runs per case the refinement search flies: the first M of each "
         "case's N (the same draws); the refined table is then checked on all N "
@@ -49,7 +45,10 @@ def register(sub) -> None:
     )
     p.add_argument("--out", required=True, metavar="DIR", help="loop directory (new, or --resume)")
     p.add_argument(
-        "--resume", action="store_true", help="finish the loop in DIR from its last finished stage"
+        "--resume",
+        action="store_true",
+        help="finish the loop in DIR from its last finished stage, with the settings it was "
+        "started with (DIR/loop.json); a setting given again must equal them",
     )
     p.add_argument(
         "--progress",
@@ -57,22 +56,34 @@ def register(sub) -> None:
         default=None,
         help="progress bars on stderr (default: only on a terminal)",
     )
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, resume_hint=_resume_hint)
+
+
+def _resume_hint(args: argparse.Namespace) -> str:
+    return f"rcsim loop --out {shlex.quote(args.out)} --resume"
 
 
 def run(args: argparse.Namespace) -> int:
-    from analysis.apps.loop.run import LoopSettings, run_loop
+    from pathlib import Path
+
+    from analysis.apps.loop.run import STATE, LoopSettings, resumed_settings, run_loop
     from models.tables import PAPER_LOOKUP_TABLES
 
-    # A CSV path is kept absolute: a resumed loop re-reads the same file from any directory.
-    table = args.table if args.table in PAPER_LOOKUP_TABLES else os.path.abspath(args.table)
-    settings = LoopSettings(
-        table=table,
-        runs_per_case=args.runs_per_case,
-        seed=args.seed,
-        fresh_seed=args.fresh_seed,
-        search_runs_per_case=args.search_runs_per_case,
-    )
+    given = {
+        "table": args.table,
+        "runs_per_case": args.runs_per_case,
+        "seed": args.seed,
+        "fresh_seed": args.fresh_seed,
+        "search_runs_per_case": args.search_runs_per_case,
+    }
+    given = {k: v for k, v in given.items() if v is not None}
+    if "table" in given and given["table"] not in PAPER_LOOKUP_TABLES:
+        # A CSV path is kept absolute: a resumed loop re-reads the same file from anywhere.
+        given["table"] = os.path.abspath(given["table"])
+    if args.resume and (Path(args.out) / STATE).is_file():
+        settings = resumed_settings(args.out, given)
+    else:
+        settings = LoopSettings(**given)
     result = run_loop(settings, args.out, resume=args.resume, progress=args.progress)
     total = sum(result.stage_s.values())
     print(f"loop finished in {total:.0f} s; report: {result.report}")

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -141,10 +141,14 @@ class _State:
         wanted = asdict(settings)
         if resume and self.path.is_file():
             self.data = read_state(out)
-            if _comparable(self.data.get("settings")) != _comparable(wanted):
+            stored = _comparable(self.data.get("settings")) or {}
+            ours = _comparable(wanted) or {}
+            differ = [k for k in ours if stored.get(k) != ours[k]]
+            if differ:
+                what = "; ".join(f"{k} {stored.get(k)!r} there, {ours[k]!r} here" for k in differ)
                 raise InputError(
-                    f"{out}: was started with other settings "
-                    f"({self.data.get('settings')}); choose another directory",
+                    f"{out}: was started with other settings ({what}); resume it with its own "
+                    "settings, or choose another directory",
                     parameter="out",
                     value=str(out),
                 )
@@ -171,14 +175,40 @@ class _State:
         )
 
 
+def _defaults() -> dict:
+    return {f.name: f.default for f in fields(LoopSettings)}
+
+
 def _comparable(settings) -> dict | None:
-    """Settings as they decide what is flown: the held-out seed, not how it was given."""
+    """Settings as they decide what is flown: the held-out seed, not how it was given; a
+    setting an older loop.json lacks at its default (what that loop flew)."""
     if not isinstance(settings, dict):
         return None
-    out = dict(settings)
+    out = {**_defaults(), **settings}
     if out.get("fresh_seed") is None and isinstance(out.get("seed"), int):
         out["fresh_seed"] = held_out_seed(out["seed"])
     return out
+
+
+def resumed_settings(out, given: dict) -> LoopSettings:
+    """The settings of the loop in ``out`` (its ``loop.json``), for a resume.
+
+    ``given`` holds the settings the user named explicitly; each must equal the loop's own
+    (the error names the first that does not, with both values).
+    """
+    out = check_loop_dir(out, resume=True, overwrite=False)  # a loop's, not another's
+    stored = _comparable(read_state(out)["settings"]) or {}
+    for key, value in given.items():
+        mine = _comparable({**stored, key: value}) or {}
+        if mine.get(key) != stored.get(key):
+            raise InputError(
+                f"{value!r} differs from the loop's own {stored.get(key)!r} ({out / STATE}); "
+                "omit it to resume with the loop's settings",
+                parameter=key,
+                value=value,
+            )
+    known = {f.name for f in fields(LoopSettings)}
+    return LoopSettings(**{k: v for k, v in stored.items() if k in known})
 
 
 def read_state(out: Path) -> dict:

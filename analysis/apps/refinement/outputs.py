@@ -34,7 +34,7 @@ from lookup.table_edits import axis_cycles, jet_axes
 from models.atomic import atomic_write
 from models.errors import InputError
 from models.tables import AXES, CONTROL_CYCLE_S, LookupTable
-from spacecraft.dispersions import draw_runs
+from spacecraft.dispersions import MAX_SEED, draw_runs
 from spacecraft.vehicle import VehicleParams, load_model
 
 DPI = 90
@@ -304,8 +304,8 @@ def check_parameters(
 
     for name, value, lo, hi in (
         ("runs_per_case", runs_per_case, 1, MAX_RUNS_PER_CASE),
-        ("seed", seed, 0, None),
-        ("fresh_seed", fresh_seed, 0, None),
+        ("seed", seed, 0, MAX_SEED),
+        ("fresh_seed", fresh_seed, 0, MAX_SEED),
         ("max_iterations", max_iterations, 1, 1000),
         ("search_runs_per_case", search_runs_per_case, 1, MAX_RUNS_PER_CASE),
     ):

@@ -51,6 +51,7 @@ from spacecraft.continuous.cmg import CmgArray
 from spacecraft.continuous.disturbances import Disturbances
 from spacecraft.continuous.kinematics import angle_between, euler321_from_quat
 from spacecraft.continuous.plant import ContinuousHistory, ContinuousPlant, fly
+from spacecraft.dispersions import MAX_SEED
 
 OUTPUT_COMMAND = "study dai"
 SUMMARY_COLUMNS = (
@@ -317,8 +318,6 @@ def improvement_table(summary: pd.DataFrame, paper=None) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=list(IMPROVEMENT_COLUMNS))
 
 
-#: Largest seed: the campaigns' rule (seeds are stored as int64 wherever they are recorded).
-MAX_SEED = 2**63 - 1
 #: Bytes a flight records per run and step (spacecraft/continuous/plant.py ``fly``: attitude,
 #: rate, commanded, delivered and disturbance torques, CMG determinant and flag, the DAI
 #: telemetry and its stacking copy, the angle noise), rounded up.

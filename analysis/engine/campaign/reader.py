@@ -36,10 +36,12 @@ class Reader:
     def raw(self, name: str, default=None):
         return self.table.pop(name, default)
 
-    def integer(self, name: str, default, *, minimum: int) -> int:
+    def integer(self, name: str, default, *, minimum: int, maximum: int | None = None) -> int:
         value = self.table.pop(name, default)
         if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
             raise self.error(name, f"must be an integer >= {minimum}", value)
+        if maximum is not None and value > maximum:
+            raise self.error(name, f"must be an integer in {minimum}..{maximum}", value)
         return int(value)
 
     def number(self, name: str, default, *, minimum: float | None = None, strict=False) -> float:

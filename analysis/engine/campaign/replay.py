@@ -15,6 +15,7 @@ from analysis.engine import runs_table
 from analysis.engine.campaign import results as R
 from analysis.engine.campaign.chunk import fly_runs, tabulate
 from analysis.engine.campaign.spec import parse_dict
+from analysis.engine.output import check_out_dir
 from models.errors import InputError
 
 COMMAND = "campaign replay"  # recorded in a replay directory's marker (analysis.engine.output)
@@ -63,8 +64,10 @@ def replay(
             value=run_id,
         )
     out = Path(out) if out is not None else campaign / "replays" / f"run-{run_id:07d}"
-    if not out.parent.exists():
-        out.parent.mkdir(parents=True)
+    # Everything that can be refused is refused before the flight: the output, and the stored
+    # row the replay is compared with (a damaged runs.parquet is named, not met after flying).
+    check_out_dir(out, COMMAND, overwrite=overwrite)
+    stored = _stored_row(campaign, run_id)
     case = spec.case_of(run_id)
     ids = np.array([run_id])
     history, dispersed = fly_runs(spec, ids)
@@ -79,17 +82,31 @@ def replay(
         overwrite=overwrite,
     )
     matches = None
-    runs_path = campaign / runs_table.RUNS
-    if runs_path.exists():
-        stored = pd.read_parquet(runs_path, filters=[("run_id", "==", run_id)])
-        stored = stored.rename(columns=R.RENAMED_COLUMNS)  # a campaign older than a rename
-        if len(stored) == 1:
-            matches = list(stored.columns) == list(row.columns) and bool(
-                stored.reset_index(drop=True).equals(row)
-            )
+    if stored is not None and len(stored) == 1:
+        matches = list(stored.columns) == list(row.columns) and bool(
+            stored.reset_index(drop=True).equals(row)
+        )
     return {
         "out": out,
         "row": row.iloc[0].to_dict(),
         "matches": matches,
         "case": spec.cases[case].name,
     }
+
+
+def _stored_row(campaign: Path, run_id: int) -> pd.DataFrame | None:
+    """Run ``run_id``'s row of the campaign's runs.parquet (None while the campaign has not
+    assembled it); a file that cannot be read is an :class:`InputError` naming it."""
+    runs_path = campaign / runs_table.RUNS
+    if not runs_path.exists():
+        return None
+    try:
+        stored = pd.read_parquet(runs_path, filters=[("run_id", "==", run_id)])
+    except (OSError, ValueError) as exc:  # pyarrow's ArrowInvalid is a ValueError
+        raise InputError(
+            f"{runs_path}: cannot be read ({str(exc).splitlines()[0]}); the replay is "
+            "compared with its row",
+            parameter="campaign",
+            value=str(campaign),
+        ) from None
+    return stored.rename(columns=R.RENAMED_COLUMNS)  # a campaign older than a rename

@@ -16,8 +16,8 @@ chunks is in flight, and the plan is generated lazily, so memory does not grow w
 campaign.
 
 Interrupts.  KeyboardInterrupt (Ctrl-C) -- and SIGTERM, which is turned into one (its
-subclass :class:`Terminated`, so that a caller can tell them apart) while a campaign runs in
-the main thread -- stops the campaign promptly: chunks in flight are
+subclass :class:`~analysis.engine.interrupts.Terminated`, so that a caller can tell them
+apart) while a campaign runs in the main thread -- stops the campaign promptly: chunks in flight are
 abandoned (local: at their next control cycle; Dask: cancelled), nothing is waited for, the
 Dask cluster is closed with its loggers silenced, and the KeyboardInterrupt propagates for the
 caller to report in one line.  Chunks commit atomically, so the directory is left resumable.
@@ -27,10 +27,8 @@ process group, and it is this process that stops them.
 
 from __future__ import annotations
 
-import contextlib
 import os
 import shutil
-import signal
 import sys
 import threading
 import time
@@ -45,18 +43,12 @@ from analysis.engine.campaign.effects import describe
 from analysis.engine.campaign.gate import GateResult, judge
 from analysis.engine.campaign.local import local_results
 from analysis.engine.campaign.spec import CampaignSpec
+from analysis.engine.interrupts import sigterm_interrupts
 from analysis.engine.output import check_out_dir, output_lock, write_marker
 from analysis.engine.runs_table import ALL_COLUMNS
 from models.errors import InputError
 
 COMMAND = "campaign run"  # recorded in the directory's marker (analysis.engine.output)
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM stopped the campaign: the same clean, resumable stop as Ctrl-C (a
-    KeyboardInterrupt), told apart so that a command can exit with 128 + SIGTERM."""
-
-    signum = signal.SIGTERM
 
 
 @dataclass
@@ -78,31 +70,6 @@ class CampaignReport:
     notes: list = field(default_factory=list)
     fly_s: float = 0.0
     gate: GateResult | None = None
-
-
-@contextlib.contextmanager
-def _sigterm_interrupts():
-    """While a campaign runs in the main thread, SIGTERM raises :class:`Terminated` (a
-    KeyboardInterrupt): the same prompt, clean, resumable stop as Ctrl-C."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    received = []
-
-    def interrupt(signum, frame):
-        received.append(signum)
-        raise Terminated
-
-    old = signal.signal(signal.SIGTERM, interrupt)
-    try:
-        yield
-    except KeyboardInterrupt as exc:
-        # Library code on the way out may replace the exception with a plain one.
-        if received and not isinstance(exc, Terminated):
-            raise Terminated from exc
-        raise
-    finally:
-        signal.signal(signal.SIGTERM, old)
 
 
 # Bytes a run's row takes in runs.parquet, at most: 8 per column (numbers are float64 or int64
@@ -175,13 +142,29 @@ def _prepare_dir(spec: CampaignSpec, out: Path, resume: bool) -> tuple[dict | No
             value=str(out),
         )
     if manifest.get("spec_sha256") != spec.digest():
+        diff = _first_difference(manifest.get("spec"), spec.resolved)
         raise InputError(
-            f"{out}: the spec differs from the one this directory was started "
-            "with (compare its manifest.json 'spec')",
+            f"{out}: the spec differs from the one this directory was started with"
+            + (f" ({diff})" if diff else " (compare its manifest.json 'spec')")
+            + "; resume with that spec, or choose a new directory",
             parameter="out",
             value=str(out),
         )
     return manifest, manifest.get("status") == "complete"
+
+
+def _first_difference(stored, current, path: str = "") -> str:
+    """The first setting that differs between two resolved specs, as ``key: A there, B
+    here`` (``""`` when none is found, e.g. only the code version changed the digest)."""
+    if isinstance(stored, dict) and isinstance(current, dict):
+        for key in list(current) + [k for k in stored if k not in current]:
+            found = _first_difference(stored.get(key), current.get(key), f"{path}{key}.")
+            if found:
+                return found
+        return ""
+    if stored != current:
+        return f"{path.rstrip('.')}: {stored!r} there, {current!r} here"
+    return ""
 
 
 def _new_manifest(spec: CampaignSpec, spec_file: str | None) -> dict:
@@ -242,8 +225,8 @@ def run_campaign(
     Raises
     ------
     KeyboardInterrupt
-        Ctrl-C or SIGTERM (:class:`Terminated`): the campaign stopped promptly; ``out`` is
-        resumable.
+        Ctrl-C or SIGTERM (:class:`analysis.engine.interrupts.Terminated`): the campaign
+        stopped promptly; ``out`` is resumable.
     """
     out = Path(out)
     if progress is None:
@@ -265,7 +248,7 @@ def run_campaign(
                 notes=["campaign already complete; nothing to do"],
                 gate=_gate(spec, counts),
             )
-        with _sigterm_interrupts():
+        with sigterm_interrupts():
             client, cluster = connect(workers, scheduler)  # before creating DIR: no debris
             try:
                 return _run(

@@ -43,7 +43,7 @@ from analysis.engine.flight import Scenario
 from lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
 from models.errors import InputError
 from models.tables import CONTROL_CYCLE_S, PAPER_LOOKUP_TABLES
-from spacecraft.dispersions import DispersionSigmas
+from spacecraft.dispersions import MAX_SEED, DispersionSigmas
 
 #: The commented example spec ``rcsim campaign example`` prints: every key, its default and
 #: what it means (a data file beside this module, ``example_spec.toml``; a test loads it).
@@ -297,7 +297,7 @@ def parse_dict(
     """
     base_dir = Path.cwd() if base_dir is None else Path(base_dir)
     top = Reader(data, "", source)
-    seed = top.integer("seed", 1, minimum=0)
+    seed = top.integer("seed", 1, minimum=0, maximum=MAX_SEED)  # stored as int64
     runs = top.integer("runs_per_case", 100, minimum=1)
     chunk = top.integer("chunk_size", 512, minimum=1)
     # A run is a function of (seed, run id); run ids are case * runs_per_case + k.

@@ -91,6 +91,15 @@ def load_runs(
         Missing path or column, unreadable file, non-binary outcome, too few runs, NaN or
         non-numeric inputs, unknown case.
     """
+    if inputs is not None:  # a question about the arguments: before reading anything
+        names = [str(c) for c in inputs]
+        twice = sorted({c for c in names if names.count(c) > 1})
+        if twice:
+            raise InputError(
+                f"names {twice[0]!r} twice; name each input once",
+                parameter="inputs",
+                value=twice[0],
+            )
     source, runs, where, kind, manifest = _read_source(path)
 
     if case is not None:
@@ -127,6 +136,13 @@ def load_runs(
         inputs = [str(c) for c in inputs]
         if not inputs:
             raise InputError("is empty", parameter="inputs", value=inputs)
+        twice = sorted({c for c in inputs if inputs.count(c) > 1})
+        if twice:
+            raise InputError(
+                f"names {twice[0]!r} twice; name each input once",
+                parameter="inputs",
+                value=twice[0],
+            )
         unknown = [c for c in inputs if c not in runs.columns and c not in factors.columns]
         if unknown:
             raise InputError(

@@ -21,9 +21,13 @@ from analysis.results.drivers.second_opinion import ForestImportance, compare
 from analysis.results.drivers.single import SingleFactorKDE
 from analysis.results.drivers.stability import HalfSampleStability
 from models.errors import InputError
+from spacecraft.dispersions import MAX_SEED
 
 #: Fewest label permutations accepted: with B permutations the smallest p-value is 1/(B+1).
 MIN_PERMUTATIONS = 19
+#: Most label permutations: p-values resolved to 1e-5; beyond that only memory and time grow
+#: (one permutation of a 10^6-run table is 8 MB per input).
+MAX_PERMUTATIONS = 100_000
 
 
 def _is_int(value) -> bool:
@@ -89,9 +93,18 @@ class Settings:
                     parameter=name,
                     value=value,
                 )
-        if not _is_int(self.random_state) or self.random_state < 0:
+        for name in ("n_permutations", "pair_permutations"):
+            value = getattr(self, name)
+            if value is not None and value > MAX_PERMUTATIONS:
+                raise InputError(
+                    f"must be at most {MAX_PERMUTATIONS:,} (p-values to 1e-5, far finer than "
+                    f"any corrected threshold; more only costs memory and time), got {value!r}",
+                    parameter=name,
+                    value=value,
+                )
+        if not _is_int(self.random_state) or not 0 <= self.random_state <= MAX_SEED:
             raise InputError(
-                f"must be an integer >= 0, got {self.random_state!r}",
+                f"must be an integer in 0..{MAX_SEED} (2^63 - 1), got {self.random_state!r}",
                 parameter="random_state",
                 value=self.random_state,
             )

@@ -72,3 +72,39 @@ def test_cli_refuses_an_existing_loop_without_resume(loop_dir, capsys):
     assert main(["loop", "--out", str(loop_dir)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and str(loop_dir) in err
+
+
+def test_sigterm_after_the_campaign_stops_with_143_one_line_and_resumes(tmp_path):
+    """Issue 17, defect 5: SIGTERM to `rcsim loop` outside a campaign stage killed it with no
+    message, and inside one exited 130.  Sent once the first campaign is done (the drivers or
+    refine stage is running): one line naming the signal and the command that resumes, exit
+    143 = 128 + SIGTERM, and that command finishes the loop."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "L"
+    cmd = [sys.executable, "-m", "rcsim", "loop", "--runs-per-case", "30", "--out", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and proc.poll() is None:
+            state = out / "loop.json"
+            if state.is_file() and "campaign_before" in json.loads(state.read_text())["done"]:
+                break
+            time.sleep(0.02)
+        assert proc.poll() is None, "the loop ended before it could be stopped"
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 143, err
+    assert err == f"rcsim: terminated; resume with: rcsim loop --out {out} --resume\n", err
+    done = json.loads((out / "loop.json").read_text())["done"]
+    assert "report" not in done
+    rc = main(["loop", "--out", str(out), "--resume"])
+    assert rc == 0
+    assert set(json.loads((out / "loop.json").read_text())["done"]) == set(STAGES)

@@ -108,11 +108,14 @@ def test_interrupt_stops_with_one_line_and_is_resumable(tmp_path, uninterrupted,
     spec_path = _write_spec(tmp_path)
     out = tmp_path / "out"
     code, err = _interrupt(spec_path, out, extra, sig, group=group)
+    # One line: what stopped it, and the command that finishes it (issue 17).
+    hint = f"; resume with: rcsim campaign run {spec_path} --out {out}"
+    hint += " --workers 2 --resume\n" if extra else " --resume\n"
     if sig == signal.SIGTERM:
-        assert err == "rcsim: terminated\n", err
+        assert err == "rcsim: terminated" + hint, err
         assert code == 128 + signal.SIGTERM == 143
     else:
-        assert err == "rcsim: interrupted\n", err
+        assert err == "rcsim: interrupted" + hint, err
         assert code == 130
     assert not (out / "runs.parquet").exists()
     committed = len(list((out / "chunks").glob("runs-*.parquet")))
