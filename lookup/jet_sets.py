@@ -71,8 +71,40 @@ def load_table_for_jets(table: str | os.PathLike, jets_off=None) -> tuple[Lookup
     """
     jets_off = jets_off_of(table) if jets_off is None else check_jets_off(jets_off)
     if not jets_off:
-        return load_lookup_table(table), ()
+        try:
+            return load_lookup_table(table), ()
+        except InputError as exc:
+            raise _with_companion_hint(exc, table) from None
     return load_lookup_table(table, jet_map=jet_map_without(load_jet_map(), jets_off)), jets_off
+
+
+def _with_companion_hint(exc: InputError, table) -> InputError:
+    """``exc`` plus, when some jets fire in no case of the file, the likely cause: a table
+    generated for failed jets (``lookup generate --jets-off``) without its companion file."""
+
+    try:
+        frame = pd.read_csv(table, comment="#")
+    except Exception:  # the loader's own error already says what is wrong with the file
+        return exc
+    jets = [c for c in frame.columns if str(c).startswith("jet_")]
+    rotating = np.flatnonzero(np.any(load_jet_map() != 0, axis=1)) + 1  # jets 5-8 never do
+    silent = [
+        c
+        for c in jets
+        if str(c)[4:].isdigit()
+        and int(str(c)[4:]) in rotating
+        and pd.to_numeric(frame[c], errors="coerce").fillna(0).eq(0).all()
+    ]
+    if not silent:
+        return exc
+    stem = Path(table).stem
+    return InputError(
+        f"{exc}; {', '.join(silent)} {'fires' if len(silent) == 1 else 'fire'} in no case: "
+        f"a table generated with --jets-off loads only with its companion "
+        f"{stem}_settling.csv beside it",
+        parameter=getattr(exc, "parameter", None),
+        value=getattr(exc, "value", None),
+    )
 
 
 def check_jets_off(jets_off) -> tuple:

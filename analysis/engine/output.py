@@ -152,6 +152,17 @@ def _as_path(out, parameter: str) -> Path:
     return Path(os.path.abspath(text))
 
 
+def _refuse_dangling(path: Path, parameter: str) -> None:
+    """A symlink to nothing: writing through it would fail after the work, or replace it."""
+    if path.is_symlink() and not path.exists():
+        raise InputError(
+            f"{path}: is a symbolic link to {os.readlink(path)}, which does not exist; "
+            "name the target itself, or remove the link",
+            parameter=parameter,
+            value=str(path),
+        )
+
+
 def _check_creatable(path: Path, parameter: str) -> None:
     """Refuse ``path`` unless entries can be created in its nearest existing ancestor."""
     ancestor = path.parent
@@ -202,6 +213,7 @@ def check_out_dir(
         Naming ``out``; :class:`OutputExists` when only ``overwrite`` is missing.
     """
     path = _as_path(out, "out")
+    _refuse_dangling(path, "out")
     if path.exists() and not path.is_dir():
         raise InputError(f"{path}: exists and is not a directory", parameter="out", value=str(path))
     if path.is_dir() and any(path.iterdir()):
@@ -279,6 +291,7 @@ def check_out_file(
         ``out``, absolute.
     """
     path = _as_path(out, parameter)
+    _refuse_dangling(path, parameter)
     if path.is_dir():
         raise InputError(f"{path}: is a directory", parameter=parameter, value=str(path))
     inside = resumable_owner(path.parent) if path.parent.is_dir() else None

@@ -243,6 +243,17 @@ EFFECT_COLUMNS: dict[str, tuple[Column, ...]] = {
     ),
 }
 EFFECT_GROUPS: tuple[str, ...] = tuple(EFFECT_COLUMNS)
+#: Effect columns that are NaN where the effect does not apply, and what that NaN means as an
+#: input of the driver analysis: (the run's place on the column's scale, why).  Rank-based
+#: analyses need a number; these put "no such event" beyond every run that had one.
+EFFECT_NOT_APPLICABLE: dict[str, tuple[str, str]] = {
+    "fault_time_s": (
+        "after",
+        "a run without a fault (or with a jet degraded all along) counts "
+        "as failing after the latest fault time",
+    ),
+    "fault_stuck_for_s": ("zero", "a run without a stuck window counts as stuck for 0 s"),
+}
 
 RUN_COLUMNS: tuple[Column, ...] = ID_COLUMNS + INPUT_COLUMNS + OUTCOME_COLUMNS
 #: Every column a runs.parquet may have (all effect groups), in order.

@@ -103,6 +103,11 @@ def _run(args) -> int:
     if res.has_failures and res.drivers is not None:
         top = res.drivers[res.drivers["significant"]].head(5)
         print("significant drivers: " + (", ".join(top["factor"]) if len(top) else "none"))
+    elif nf == n:
+        print(
+            "every run failed: no successful run to compare with, so no input can be a "
+            "driver; the report says so"
+        )
     else:
         print("no failures to analyse: the report says so")
     print(f"report: {report}", file=sys.stdout)

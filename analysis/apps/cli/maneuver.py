@@ -59,9 +59,13 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from analysis.engine.flight import Scenario, flight_summary, fly, write_flight
     from analysis.engine.output import check_out_dir
+    from models.tables import CONTROL_CYCLE_S
 
-    if not math.isfinite(args.duration_s) or args.duration_s <= 0:
-        raise InputError(f"--duration-s must be > 0, got {args.duration_s}")
+    if not math.isfinite(args.duration_s) or args.duration_s < CONTROL_CYCLE_S:
+        raise InputError(
+            f"--duration-s must be at least one control cycle ({CONTROL_CYCLE_S:g} s), "
+            f"got {args.duration_s:g}"
+        )
     if not all(math.isfinite(a) for a in args.attitude_deg):
         raise InputError(f"--attitude-deg must be finite, got {args.attitude_deg}")
     if np.linalg.norm(args.attitude_deg) >= 180.0:

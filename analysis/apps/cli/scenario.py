@@ -91,8 +91,12 @@ def _add_out(parser, command: str) -> None:
 
 
 def _check_table(table):
-    if table is not None and not Path(table).is_file():
-        raise InputError(f"--table {table}: file not found")
+    from models.tables import PAPER_LOOKUP_TABLES
+
+    if table is not None and table not in PAPER_LOOKUP_TABLES and not Path(table).is_file():
+        raise InputError(
+            f"--table {table}: file not found (a CSV path, or {' / '.join(PAPER_LOOKUP_TABLES)})"
+        )
 
 
 def run_list(args: argparse.Namespace) -> int:

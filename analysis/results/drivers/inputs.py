@@ -161,7 +161,15 @@ def load_runs(
         der = [c for c in inputs if c not in runs.columns]
     else:
         if has_raw:
-            raw = list(raw_cols)
+            # The vehicle dispersions, plus the sensor, timing and fault draws a campaign with
+            # those effects recorded (issue 17: they were left out unless named).
+            effects = [
+                c.name
+                for g in runs_table.EFFECT_GROUPS
+                for c in runs_table.EFFECT_COLUMNS[g]
+                if c.name in runs.columns
+            ]
+            raw = list(raw_cols) + effects
         else:
             raw = [
                 c
@@ -175,6 +183,7 @@ def load_runs(
                 raise InputError(f"{where}: no numeric input columns besides the outcome")
             notes.append("inputs: every numeric column except the outcome and identifiers")
         der = list(factors.columns)
+    runs = _fill_not_applicable(runs, raw, notes)
     _check_numeric(runs, raw, where)
     X = pd.concat([runs[raw].astype(float), factors[der]], axis=1)
     constant = [c for c in X.columns if X[c].nunique() <= 1]
@@ -265,6 +274,24 @@ def _outcome(runs: pd.DataFrame, outcome: str, where) -> np.ndarray:
     raise InputError(
         f"{where}: outcome column {outcome!r} is not binary (bool or 0/1); values include {shown}"
     )
+
+
+def _fill_not_applicable(runs: pd.DataFrame, cols, notes: list) -> pd.DataFrame:
+    """Effect columns' NaN ("does not apply", :data:`runs_table.EFFECT_NOT_APPLICABLE`) as
+    numbers the rank-based analysis can use, each with a note saying what was done."""
+    fill = {}
+    for c in cols:
+        rule = runs_table.EFFECT_NOT_APPLICABLE.get(c)
+        if rule is None or c not in runs.columns or not runs[c].isna().any():
+            continue
+        where_known = runs[c].dropna()
+        if where_known.empty:  # never applies: a constant, left out below with the others
+            fill[c] = 0.0
+            continue
+        place, why = rule
+        fill[c] = float(where_known.max()) + 1.0 if place == "after" else 0.0
+        notes.append(f"{c}: {int(runs[c].isna().sum())} run(s) without it; {why}")
+    return runs.fillna(fill) if fill else runs
 
 
 def _check_numeric(runs: pd.DataFrame, cols, where) -> None:

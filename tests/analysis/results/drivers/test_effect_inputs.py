@@ -1,0 +1,47 @@
+"""The sensor, timing and fault draws of a campaign are driver inputs by default (issue 17).
+
+Before, ``rcsim analyze`` left them out unless named, and refused ``fault_time_s`` because runs
+without a fault hold NaN there.  The claims: by default every recorded effect column is an
+input; a "does not apply" NaN becomes a place on the scale beyond every run that had the event
+(``runs_table.EFFECT_NOT_APPLICABLE``), with a note; a planted fault-time driver is found.
+"""
+
+import numpy as np
+import pandas as pd
+
+from analysis.engine import runs_table
+from analysis.results.drivers.inputs import load_runs
+from analysis.results.drivers.pipeline import Settings, analyze
+
+
+def _fault_runs(n: int = 400, seed: int = 3) -> pd.DataFrame:
+    rng = np.random.default_rng(seed)
+    frame = pd.DataFrame({c: rng.normal(1.0, 0.1, n) for c in runs_table.INPUT_NAMES})
+    frame.insert(0, "run_id", np.arange(n))
+    frame["case"] = "rate-13"
+    has_fault = rng.uniform(size=n) < 0.5
+    frame["fault_jet"] = np.where(has_fault, 13, 0)
+    frame["fault_time_s"] = np.where(has_fault, rng.uniform(0.0, 20.0, n), np.nan)
+    frame["fault_stuck_for_s"] = np.nan
+    frame["fault_thrust_factor"] = 1.0
+    # Planted truth: a fault in the first 4 s fails the run; nothing else does.
+    frame["failed"] = has_fault & (frame["fault_time_s"] < 4.0)
+    return frame
+
+
+def test_fault_columns_are_inputs_and_their_nan_means_never():
+    runset = load_runs(_fault_runs(), derived=False)
+    assert "fault_time_s" in runset.X.columns and "fault_jet" in runset.X.columns
+    assert np.isfinite(runset.X["fault_time_s"]).all()
+    latest = _fault_runs()["fault_time_s"].max()
+    no_fault = _fault_runs()["fault_time_s"].isna().to_numpy()
+    assert (runset.X["fault_time_s"].to_numpy()[no_fault] > latest).all()
+    assert any(n.startswith("fault_time_s:") for n in runset.notes)
+    # Never-applicable columns are constant and left out, with the usual note.
+    assert "fault_stuck_for_s" not in runset.X.columns
+
+
+def test_a_planted_fault_time_driver_ranks_first():
+    res = analyze(load_runs(_fault_runs(), derived=False), Settings(n_permutations=99))
+    top = res.drivers.sort_values("rank").iloc[0]
+    assert top["factor"] == "fault_time_s" and bool(top["significant"])
