@@ -63,6 +63,9 @@ class LoopSettings:
     search_runs_per_case : int
         Runs per case the refinement search flies (the first of the "before" campaign's, the
         same draws); the refined table is then flown on every run of the held-out seed.
+    plots : bool
+        The campaigns' per-case plots (about 4.5 s per campaign on 2 cores, whatever its
+        size); without them the report's Figs 9-10 section says the figures were not made.
     """
 
     table: str = "table6"
@@ -73,6 +76,7 @@ class LoopSettings:
     permutations: int = 200
     max_iterations: int = 8
     search_runs_per_case: int = SEARCH_RUNS_PER_CASE
+    plots: bool = True
 
     def __post_init__(self):
         # The refinement's and the driver analysis's own checks: one rule for each.
@@ -103,16 +107,18 @@ class LoopResult:
     summary: dict = field(default_factory=dict)
 
 
-def spec_text(*, table: str, runs_per_case: int, seed: int, duration_s: float) -> str:
+def spec_text(
+    *, table: str, runs_per_case: int, seed: int, duration_s: float, plots: bool = True
+) -> str:
     """The refinement's rate-case campaign (:func:`rate_cases_campaign`) as a TOML spec, with
-    failure histories and plots kept (a user reads these campaigns)."""
+    failure histories and (unless ``plots`` is false) plots kept: a user reads these."""
     data = rate_cases_campaign(
         runs_per_case=runs_per_case,
         seed=seed,
         duration_s=duration_s,
         table=table,
         histories="failures",
-        plots=True,
+        plots=plots,
     )
     lines = ["# Written by `rcsim loop`: the 26 Table 3 rate cases, Table 5 dispersions."]
     scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
@@ -328,7 +334,11 @@ class _Stages:
         spec_file = self.out / f"spec_{name.split('_')[1]}.toml"
         if not spec_file.exists():
             text = spec_text(
-                table=table_path, runs_per_case=s.runs_per_case, seed=seed, duration_s=s.duration_s
+                table=table_path,
+                runs_per_case=s.runs_per_case,
+                seed=seed,
+                duration_s=s.duration_s,
+                plots=s.plots,
             )
             atomic_write(spec_file, lambda tmp: Path(tmp).write_text(text))
         report = run_campaign(
