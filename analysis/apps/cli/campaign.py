@@ -12,6 +12,7 @@ import argparse
 import shlex
 import signal
 import sys
+from pathlib import Path
 
 from models.errors import InputError
 
@@ -93,6 +94,11 @@ def register(sub) -> None:
         "failed; overrides the spec's failure.max_failed_pct.  Applies to "
         "a resumed or already complete campaign too",
     )
+    run.add_argument(
+        "--yes",
+        action="store_true",
+        help="start even if the estimate is over 30 minutes (the estimate is printed first)",
+    )
     run.set_defaults(func=_run, resume_hint=_resume_hint)
 
     rp = csub.add_parser(
@@ -145,6 +151,24 @@ def _run(args) -> int:
         raise InputError(f"--workers must be >= 1, got {args.workers}")
     if args.max_failed_pct is not None:
         spec = spec.with_max_failed_pct(args.max_failed_pct)  # InputError under the flag's name
+    from analysis.apps.estimates import confirm, flying_seconds
+    from analysis.engine.campaign.runner import check_fits
+
+    if not args.resume:  # a new campaign: the path's and the disk's verdicts before the clock's
+        from analysis.engine.output import check_out_dir
+
+        check_fits(spec, check_out_dir(args.out, "campaign run", overwrite=True))
+    simulated = sum(case.duration_s for case in spec.cases) * spec.runs_per_case
+    confirm(
+        f"the campaign ({spec.n_runs:,} runs)",
+        flying_seconds(simulated, runs=spec.n_runs),
+        yes=args.yes,
+        parameter="runs_per_case" if args.runs_per_case is not None else None,
+        value=spec.runs_per_case,
+        source=""
+        if args.runs_per_case is not None
+        else f"{args.spec}: runs_per_case = {spec.runs_per_case}",
+    )
     report = run_campaign(
         spec,
         args.out,
@@ -174,7 +198,6 @@ def _run(args) -> int:
 
 
 def _replay(args) -> int:
-    from pathlib import Path
 
     from analysis.engine.campaign.replay import COMMAND, load_campaign_spec, replay
     from analysis.engine.output import check_out_dir

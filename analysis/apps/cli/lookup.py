@@ -174,6 +174,11 @@ def register(sub) -> None:
         default=None,
         help="progress bars on stderr (default: only on a terminal)",
     )
+    ref.add_argument(
+        "--yes",
+        action="store_true",
+        help="start even if the estimate is over 30 minutes (the estimate is printed first)",
+    )
     ref.set_defaults(func=run_refine)
 
 
@@ -281,6 +286,19 @@ def run_refine(args: argparse.Namespace) -> int:
         if bad:
             raise InputError(f"--cases {bad[0]}: no such rate case; cases are 1..{len(table.case)}")
         cases = [list(table.case).index(c) for c in args.cases]
+    from analysis.apps.estimates import confirm, flying_seconds
+
+    # The search (a few rounds) on its subset, then the old and new tables at full size.
+    n_cases = len(table.case) if cases is None else len(cases)
+    search = min(args.search_runs_per_case, args.runs_per_case)
+    simulated = args.duration_s * n_cases * (3 * search + 2 * args.runs_per_case)
+    confirm(
+        "the refinement",
+        flying_seconds(simulated, runs=n_cases * args.runs_per_case),
+        yes=args.yes,
+        parameter="runs_per_case",
+        value=args.runs_per_case,
+    )
     ref = run_refinement(
         table,
         runs_per_case=args.runs_per_case,

@@ -49,6 +49,11 @@ def register(sub) -> None:
         default=None,
         help="the campaigns' per-case plots, about 4.5 s per campaign (default: on)",
     )
+    p.add_argument(
+        "--yes",
+        action="store_true",
+        help="start even if the estimate is over 30 minutes (the estimate is printed first)",
+    )
     p.add_argument("--out", required=True, metavar="DIR", help="loop directory (new, or --resume)")
     p.add_argument(
         "--resume",
@@ -91,6 +96,25 @@ def run(args: argparse.Namespace) -> int:
         settings = resumed_settings(args.out, given)
     else:
         settings = LoopSettings(**given)
+    from analysis.apps.estimates import confirm, flying_seconds
+
+    # Two campaigns and the check at full size, the search (a few rounds) on its subset.
+    cases = 26
+    simulated = (
+        settings.duration_s
+        * cases
+        * (
+            3 * settings.runs_per_case
+            + 3 * min(settings.search_runs_per_case, settings.runs_per_case)
+        )
+    )
+    confirm(
+        "the loop",
+        flying_seconds(simulated, runs=cases * settings.runs_per_case),
+        yes=args.yes,
+        parameter="runs_per_case",
+        value=settings.runs_per_case,
+    )
     result = run_loop(settings, args.out, resume=args.resume, progress=args.progress)
     total = sum(result.stage_s.values())
     print(f"loop finished in {total:.0f} s; report: {result.report}")

@@ -53,6 +53,11 @@ def register(sub) -> None:
         action="store_true",
         help="replace DIR if it holds an earlier `rcsim maneuver`'s outputs",
     )
+    p.add_argument(
+        "--yes",
+        action="store_true",
+        help="start even if the estimate is over 30 minutes (the estimate is printed first)",
+    )
     p.set_defaults(func=run)
 
 
@@ -70,6 +75,19 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--attitude-deg must be finite, got {args.attitude_deg}")
     if np.linalg.norm(args.attitude_deg) >= 180.0:
         raise InputError(f"--attitude-deg: rotation must be under 180 deg, got {args.attitude_deg}")
+    from analysis.apps.estimates import confirm, flying_seconds
+    from models.tables import CONTROL_CYCLE_S as CYCLE
+    from spacecraft.guards import check_history_memory
+
+    # What cannot fit in memory is refused before what merely takes long.
+    check_history_memory(1, math.ceil(args.duration_s / CYCLE), args.duration_s)
+    confirm(
+        "the maneuver (one run, no batching)",
+        flying_seconds(args.duration_s, runs=1),
+        yes=args.yes,
+        parameter="duration_s",
+        value=args.duration_s,
+    )
     out = check_out_dir(args.out, COMMAND, overwrite=args.overwrite)  # before the work
     r, p, y = args.attitude_deg
     scenario = Scenario(
