@@ -11,6 +11,8 @@ compare`` prints a table against the paper's Table 6 or 7, case by case.
 from __future__ import annotations
 
 import argparse
+import shlex
+import sys
 
 from models.errors import InputError
 
@@ -179,7 +181,13 @@ def register(sub) -> None:
         action="store_true",
         help="start even if the estimate is over 30 minutes (the estimate is printed first)",
     )
-    ref.set_defaults(func=run_refine)
+    ref.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue a refinement that was stopped, from its last finished round (the same "
+        "arguments; without --resume a stopped refinement's rounds are discarded)",
+    )
+    ref.set_defaults(func=run_refine, resume_hint=_refine_resume_hint)
 
 
 def _jets_off(text: str) -> tuple:
@@ -266,6 +274,11 @@ def run_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _refine_resume_hint(args: argparse.Namespace) -> str:
+    argv = [a for a in sys.argv[1:] if a != "--resume"]
+    return shlex.join(["rcsim", *argv, "--resume"])
+
+
 def run_refine(args: argparse.Namespace) -> int:
     from analysis.apps.refinement.outputs import (
         check_outputs,
@@ -278,7 +291,10 @@ def run_refine(args: argparse.Namespace) -> int:
     table = load_refinable_table(args.table)
     # OUT.csv, OUT_changelog.csv and OUT_plots/ are checked before any flight; --overwrite
     # replaces all three.
-    out = check_outputs(args.out, overwrite=args.overwrite)["table"]
+    paths = check_outputs(args.out, overwrite=args.overwrite)
+    out, checkpoint = paths["table"], paths["checkpoint"]
+    if not args.resume:
+        checkpoint.unlink(missing_ok=True)  # a fresh search; a stopped one's rounds go
     fresh = held_out_seed(args.seed) if args.fresh_seed is None else args.fresh_seed
     cases = None
     if args.cases is not None:
@@ -309,6 +325,7 @@ def run_refine(args: argparse.Namespace) -> int:
         max_iterations=args.max_iterations,
         search_runs_per_case=args.search_runs_per_case,
         progress=args.progress,
+        checkpoint=checkpoint,
     )
     paths = write_refinement(ref, out, overwrite=args.overwrite)
     log = ref.changelog

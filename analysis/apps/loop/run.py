@@ -391,6 +391,8 @@ class _Stages:
             progress=self.progress,
             search_runs_per_case=s.search_runs_per_case,
             baseline_runs=self._campaign_runs("campaign_before"),
+            # A loop stopped in this stage resumes at its last finished round.
+            checkpoint=self.out / ".refine-state",
         )
         save_search(result, self.paths["search"])
         result.table.to_csv(self.paths["refined"])

@@ -128,6 +128,7 @@ def run_refinement(
     search_runs_per_case: int = SEARCH_RUNS_PER_CASE,
     threads: int | None = None,
     progress: bool | None = None,
+    checkpoint: str | Path | None = None,
 ) -> Refinement:
     """Refine ``table`` on ``seed`` and fly the old and new tables on ``fresh_seed``.
 
@@ -172,6 +173,7 @@ def run_refinement(
         threads=threads,
         progress=progress,
         search_runs_per_case=search_runs_per_case,
+        checkpoint=checkpoint,
     )
     return held_out_check(
         table,
@@ -369,12 +371,14 @@ COMMAND = "lookup refine"
 
 
 def output_paths(out_csv: str | Path) -> dict[str, Path]:
-    """Where a refinement writes: the table, its changelog and the plots folder."""
+    """Where a refinement writes: the table, its changelog and the plots folder (and, while
+    it runs, the search's hidden round-by-round checkpoint)."""
     out_csv = Path(out_csv)
     return {
         "table": out_csv,
         "changelog": out_csv.with_name(f"{out_csv.stem}_changelog.csv"),
         "plots": out_csv.with_name(f"{out_csv.stem}_plots"),
+        "checkpoint": out_csv.with_name(f".{out_csv.stem}.refine-state"),
     }
 
 
@@ -417,7 +421,7 @@ def write_refinement(
         paths["changelog"], lambda tmp: ref.changelog.to_csv(tmp, index=False, float_format="%.6g")
     )
     ref.table.to_csv(paths["table"])  # last: the table appears only when the rest is written
-    del written["plots"]
+    del written["plots"], written["checkpoint"]
     return written
 
 

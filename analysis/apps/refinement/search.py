@@ -29,7 +29,10 @@ only; :func:`analysis.apps.refinement.outputs.held_out_check` flies a fresh seed
 
 from __future__ import annotations
 
+import hashlib
+import pickle
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -38,6 +41,7 @@ from analysis.apps.refinement.evaluate import Trials, evaluate
 from analysis.engine.campaign.spec import CampaignSpec
 from analysis.results.scoring import offending_runs, score_key, total, trial_scores
 from lookup.table_edits import axis_cycles, jet_axes, shift_axes, with_times
+from models.atomic import atomic_write
 from models.tables import AXES, LookupTable
 
 #: Cycles a candidate moves one axis: one control cycle either way; repeated iterations walk
@@ -84,6 +88,7 @@ def refine(
     lookup_params=None,
     baseline_runs: pd.DataFrame | None = None,
     search_runs_per_case: int | None = SEARCH_RUNS_PER_CASE,
+    checkpoint: str | Path | None = None,
 ) -> RefineResult:
     """Refine ``table`` against the dispersed runs of ``spec``.
 
@@ -104,6 +109,12 @@ def refine(
         own draws, numbered as the campaign numbers them); None or more than
         ``spec.runs_per_case``: all of them.  The result depends on this number and the seed,
         never on how the flying is split (chunks, threads).
+    checkpoint : path, optional
+        A file the search keeps its state in after the baseline and after every round
+        (written atomically).  If it exists and was written by a search with the same
+        arguments, the search continues from it instead of starting again: a search killed in
+        its fifth round resumes there, and ends with the table an uninterrupted one finds.
+        Removed when the search ends.
     """
     if len(spec.cases) != len(table.case):
         raise ValueError(f"spec has {len(spec.cases)} cases, the table {len(table.case)}")
@@ -119,12 +130,21 @@ def refine(
         dict(threads=threads, progress=progress, lookup_params=lookup_params),
         min(spec.runs_per_case, search_runs_per_case or spec.runs_per_case),
     )
-    search.start(baseline_runs)
-    for it in range(max_iterations):
+    key = _checkpoint_key(spec, table, cases, max_iterations, search.runs_per_case)
+    saved = _load_checkpoint(checkpoint, key)
+    if saved is not None:
+        search.__dict__.update(saved)
+    else:
+        search.start(baseline_runs)
+        _save_checkpoint(checkpoint, key, search)
+    for it in range(len(search.iterations), max_iterations):
         trials, edits = search.candidates()
         if trials is None:
             break
         search.round(it + 1, trials, edits)
+        _save_checkpoint(checkpoint, key, search)
+    if checkpoint is not None:
+        Path(checkpoint).unlink(missing_ok=True)
     refined = with_times(table, search.best[0], source=f"refined from {table.source or 'a table'}")
     return RefineResult(
         table=refined,
@@ -133,6 +153,44 @@ def refine(
         iterations=search.iterations,
         runs_flown=search.flown,
     )
+
+
+#: What a checkpoint keeps of a :class:`_Search` (everything a round reads or changes).
+_STATE = ("current", "runs", "scores", "before", "best", "iterations", "flown", "visited")
+
+
+def _checkpoint_key(spec, table, cases, max_iterations, runs_per_case) -> str:
+    """A digest of everything the search's result depends on: a checkpoint of another search
+    (another spec, table, cases or subset) is never continued."""
+    parts = [
+        spec.digest(),
+        np.asarray(table.firing_time_s, float).tobytes().hex(),
+        np.asarray(cases).tobytes().hex(),
+        str(max_iterations),
+        str(runs_per_case),
+    ]
+    return hashlib.sha256("|".join(parts).encode()).hexdigest()
+
+
+def _save_checkpoint(path, key: str, search: _Search) -> None:
+    if path is None:
+        return
+    state = {"key": key, **{name: getattr(search, name) for name in _STATE}}
+    Path(path).parent.mkdir(parents=True, exist_ok=True)  # where the outputs will go too
+    atomic_write(path, lambda tmp: Path(tmp).write_bytes(pickle.dumps(state)))
+
+
+def _load_checkpoint(path, key: str) -> dict | None:
+    """The saved search state, or None (no file, another search's, or unreadable: start)."""
+    if path is None or not Path(path).is_file():
+        return None
+    try:
+        state = pickle.loads(Path(path).read_bytes())  # our own file, written by this module
+    except Exception:  # a damaged checkpoint only costs the work it held
+        return None
+    if not isinstance(state, dict) or state.get("key") != key:
+        return None
+    return {name: state[name] for name in _STATE}
 
 
 class _Search:

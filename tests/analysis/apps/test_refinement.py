@@ -111,3 +111,41 @@ def test_the_search_flies_the_first_runs_and_does_not_depend_on_the_split():
     )
     first = base[base["k"] < 8].groupby("trial")["failed"].sum().to_numpy()
     np.testing.assert_array_equal(first, one.before["failed"].to_numpy())
+
+
+def test_a_stopped_search_resumes_at_its_last_round_and_finds_the_same_table(tmp_path):
+    """Issue 17: a kill lost the whole refinement.  Stopped (KeyboardInterrupt, as Ctrl-C or
+    SIGTERM raise it) in its second round, the search resumes from the checkpoint of its first
+    and ends with exactly the uninterrupted search's table, scores and rounds."""
+    from analysis.apps.refinement import search as search_module
+
+    # Every case, 30 runs of 20 s on seed 2: a search of two rounds (~5 s).
+    spec = refinement_spec(runs_per_case=30, seed=2, duration_s=20.0)
+    table = load_lookup_table(which="table6")
+    whole = refine(spec, table, None, progress=False, threads=1)
+    assert len(whole.iterations) >= 2, "the case needs a search of two rounds or more"
+
+    checkpoint = tmp_path / "state"
+    real_round = search_module._Search.round
+    calls = []
+
+    def stop_in_round_two(self, number, trials, edits):
+        calls.append(number)
+        if number == 2:
+            raise KeyboardInterrupt
+        return real_round(self, number, trials, edits)
+
+    search_module._Search.round = stop_in_round_two
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            refine(spec, table, None, progress=False, threads=1, checkpoint=checkpoint)
+    finally:
+        search_module._Search.round = real_round
+    assert calls == [1, 2] and checkpoint.is_file()  # round 1 kept, round 2 lost
+
+    resumed = refine(spec, table, None, progress=False, threads=1, checkpoint=checkpoint)
+    np.testing.assert_array_equal(resumed.table.firing_time_s, whole.table.firing_time_s)
+    pd.testing.assert_frame_equal(resumed.after, whole.after)
+    assert resumed.iterations == whole.iterations
+    assert resumed.runs_flown == whole.runs_flown
+    assert not checkpoint.exists()  # removed once the search has ended
