@@ -101,8 +101,10 @@ def _run(args) -> int:
     for note in runset.notes:
         print(f"note: {note}")
     if res.has_failures and res.drivers is not None:
-        top = res.drivers[res.drivers["significant"]].head(5)
-        print("significant drivers: " + (", ".join(top["factor"]) if len(top) else "none"))
+        significant = res.drivers[res.drivers["significant"]]
+        top = significant.head(5)
+        head = f"{len(significant)} significant" + (", top 5" if len(significant) > 5 else "")
+        print(f"{head}: " + (", ".join(top["factor"]) if len(top) else "none"))
     elif nf == n:
         print(
             "every run failed: no successful run to compare with, so no input can be a "

@@ -99,13 +99,12 @@ def summary(res) -> Section:
 
 
 def _criterion(m) -> str:
+    from analysis.engine.campaign.outcomes import criterion_text
+
     t = m.get("thresholds", {})
-    parts = []
-    if t.get("rate_error_deg_s") is not None:
-        parts.append(f"|final rate error| > {t['rate_error_deg_s']} deg/s on any axis")
-    if t.get("attitude_error_deg") is not None:
-        parts.append(f"final attitude error > {t['attitude_error_deg']} deg")
-    return " or ".join(parts + ["simulation failure"]) if parts else "see the spec"
+    if t.get("rate_error_deg_s") is None:
+        return "see the spec"
+    return criterion_text(float(t["rate_error_deg_s"]), t.get("attitude_error_deg"))
 
 
 def method(res) -> Section:

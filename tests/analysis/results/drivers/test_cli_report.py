@@ -106,6 +106,16 @@ def analysed(campaign, tmp_path_factory):
     return out
 
 
+def test_cli_says_how_many_are_significant(campaign, tmp_path, capsys):
+    """Issue 16: the CLI printed 5 of 18 significant drivers without saying it was the top 5."""
+    assert (
+        main(["analyze", str(campaign), "--permutations", "39", "--out", str(tmp_path / "o")]) == 0
+    )
+    line = next(s for s in capsys.readouterr().out.splitlines() if "significant" in s)
+    n = len(pd.read_csv(tmp_path / "o" / "drivers.csv").query("significant"))
+    assert line.startswith(f"{n} significant" + (", top 5:" if n > 5 else ":")), line
+
+
 def test_outputs_and_columns(analysed):
     d = pd.read_csv(analysed / "drivers.csv")
     assert list(d.columns[:5]) == ["factor", "score", "p_value", "rank", "failure_region"]
@@ -122,6 +132,9 @@ def test_outputs_and_columns(analysed):
         assert f"id='{anchor}'" in html
     assert "rcsim campaign replay" in html
     assert "http://" not in html and "https://" not in html  # self-contained: no network
+    # Issue 16: the criterion as the campaign applies it (a run at 0.04 deg/s fails), in the
+    # wording the engine owns (analysis.engine.campaign.outcomes.criterion_text).
+    assert "|final rate error| &gt;= 0.04 deg/s on any axis" in html
 
 
 def test_figure_files_are_the_reports_figures(analysed):
