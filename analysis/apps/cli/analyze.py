@@ -98,7 +98,7 @@ def _run(args) -> int:
     report = write_analysis(res, args.out, overwrite=args.overwrite)
     n, nf = runset.y.size, int(runset.y.sum())
     print(f"{n} runs, {nf} failed; {len(runset.X.columns)} inputs analysed")
-    for note in runset.notes:
+    for note in res.runset.notes:  # the analysis may add one (a subsample)
         print(f"note: {note}")
     if res.has_failures and res.drivers is not None:
         significant = res.drivers[res.drivers["significant"]]

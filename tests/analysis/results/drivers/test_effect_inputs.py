@@ -45,3 +45,20 @@ def test_a_planted_fault_time_driver_ranks_first():
     res = analyze(load_runs(_fault_runs(), derived=False), Settings(n_permutations=99))
     top = res.drivers.sort_values("rank").iloc[0]
     assert top["factor"] == "fault_time_s" and bool(top["significant"])
+
+
+def test_a_table_beyond_the_ceiling_is_subsampled_and_says_so(monkeypatch):
+    """Issue 17: 10^6 runs needed 8 GB.  Beyond MAX_ANALYSED_RUNS the analysis reads a seeded
+    uniform subsample of that size and adds a note naming both counts; the same seed gives the
+    same subsample (the result is reproducible)."""
+    from analysis.results.drivers import pipeline
+
+    monkeypatch.setattr(pipeline, "MAX_ANALYSED_RUNS", 300)
+    runs = _fault_runs(n=400)
+    a = analyze(load_runs(runs, derived=False), Settings(n_permutations=19))
+    b = analyze(load_runs(runs, derived=False), Settings(n_permutations=19))
+    assert a.runset.y.size == 300
+    note = next(n for n in a.runset.notes if "subsample" in n)
+    assert "300 of the 400 runs" in note
+    pd.testing.assert_frame_equal(a.drivers, b.drivers)
+    assert a.runset.runs["run_id"].is_monotonic_increasing
