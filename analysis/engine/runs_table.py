@@ -423,3 +423,13 @@ def is_campaign(path: str | os.PathLike) -> bool:
     """``path`` is a campaign directory: it holds a :data:`MANIFEST` (its runs may still be
     running: :data:`RUNS` appears when the campaign completes)."""
     return (Path(path) / MANIFEST).is_file()
+
+
+def criterion_text(rate_error_deg_s: float, attitude_error_deg: float | None = None) -> str:
+    """What the ``failed`` column means, in words, as the campaign's outcomes apply it
+    (:func:`analysis.engine.campaign.outcomes.outcomes`: a run fails when ``not |rate error| <
+    threshold``, i.e. at the threshold too): the one wording every report uses."""
+    parts = [f"|final rate error| >= {rate_error_deg_s:g} deg/s on any axis"]
+    if attitude_error_deg is not None:
+        parts.append(f"final attitude error > {attitude_error_deg:g} deg")
+    return " or ".join(parts + ["simulation failure"])

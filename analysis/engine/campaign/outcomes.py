@@ -39,16 +39,6 @@ def firing_starts(on_time_s: np.ndarray, cycle_s: float) -> np.ndarray:
     return (on_time_s > 0) & ~prev_full
 
 
-def criterion_text(rate_error_deg_s: float, attitude_error_deg: float | None = None) -> str:
-    """The campaign's failure rule in words, as :func:`outcomes` applies it (a run fails when
-    ``not |rate error| < threshold``, i.e. at the threshold too): the one wording every
-    report uses."""
-    parts = [f"|final rate error| >= {rate_error_deg_s:g} deg/s on any axis"]
-    if attitude_error_deg is not None:
-        parts.append(f"final attitude error > {attitude_error_deg:g} deg")
-    return " or ".join(parts + ["simulation failure"])
-
-
 def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     """Outcome columns of each run of a flown batch (degrees and deg/s at this boundary).
 

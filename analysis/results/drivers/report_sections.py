@@ -12,6 +12,7 @@ import shlex
 import numpy as np
 import pandas as pd
 
+from analysis.engine import runs_table
 from analysis.results.drivers import figures
 from analysis.results.report.html import Section, figure_block, png_bytes, table_block, text_block
 
@@ -99,12 +100,10 @@ def summary(res) -> Section:
 
 
 def _criterion(m) -> str:
-    from analysis.engine.campaign.outcomes import criterion_text
-
     t = m.get("thresholds", {})
     if t.get("rate_error_deg_s") is None:
         return "see the spec"
-    return criterion_text(float(t["rate_error_deg_s"]), t.get("attitude_error_deg"))
+    return runs_table.criterion_text(float(t["rate_error_deg_s"]), t.get("attitude_error_deg"))
 
 
 def method(res) -> Section:

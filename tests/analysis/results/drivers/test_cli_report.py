@@ -133,7 +133,7 @@ def test_outputs_and_columns(analysed):
     assert "rcsim campaign replay" in html
     assert "http://" not in html and "https://" not in html  # self-contained: no network
     # Issue 16: the criterion as the campaign applies it (a run at 0.04 deg/s fails), in the
-    # wording the engine owns (analysis.engine.campaign.outcomes.criterion_text).
+    # wording the engine owns (analysis.engine.runs_table.criterion_text).
     assert "|final rate error| &gt;= 0.04 deg/s on any axis" in html
 
 
