@@ -326,10 +326,11 @@ class _Stages:
             "refined": out / "refined_table.csv",
             "search": out / "refine_search.json",
             "campaign_after": out / "campaign_after",
+            "campaign_check": out / "campaign_check",
             "report": out / "report.html",
         }
 
-    def _campaign(self, name: str, table_path: str, seed: int) -> dict:
+    def _campaign(self, name: str, table_path: str, seed: int, plots: bool | None = None) -> dict:
         s = self.settings
         spec_file = self.out / f"spec_{name.split('_')[1]}.toml"
         if not spec_file.exists():
@@ -338,7 +339,7 @@ class _Stages:
                 runs_per_case=s.runs_per_case,
                 seed=seed,
                 duration_s=s.duration_s,
-                plots=s.plots,
+                plots=s.plots if plots is None else plots,
             )
             atomic_write(spec_file, lambda tmp: Path(tmp).write_text(text))
         report = run_campaign(
@@ -412,8 +413,10 @@ class _Stages:
         )
 
         s = self.settings
-        # The refined table's runs on the fresh seed are the "after" campaign's; only the old
-        # table is flown again, on that seed.
+        # The refined table's runs on the fresh seed are the "after" campaign's; the old table
+        # is flown on that seed as a campaign too: resumable chunk by chunk, so a loop stopped
+        # in this stage goes on where it was (no plots: the report shows none).
+        self._campaign("campaign_check", _table_path(s.table), s.held_out_seed, plots=False)
         refined = load_lookup_table(self.paths["refined"])
         ref = held_out_check(
             self.table,
@@ -423,6 +426,7 @@ class _Stages:
             runs_per_case=s.runs_per_case,
             duration_s=s.duration_s,
             fresh_after_runs=self._campaign_runs("campaign_after"),
+            fresh_before_runs=self._campaign_runs("campaign_check"),
             progress=self.progress,
         )
         write_refinement(ref, self.paths["refined"], overwrite=True, writer=COMMAND)

@@ -198,32 +198,39 @@ def held_out_check(
     fresh_after_runs: pd.DataFrame | None = None,
     threads: int | None = None,
     progress: bool | None = None,
+    fresh_before_runs: pd.DataFrame | None = None,
 ) -> Refinement:
     """Fly the old and the refined table on ``fresh_seed`` (the seed the search never saw).
 
-    ``fresh_after_runs``: the refined table's runs on the fresh seed if a campaign already
-    flew them (:func:`~analysis.apps.refinement.evaluate.runs_from_campaign`); then only the
-    old table is flown.
+    ``fresh_after_runs`` / ``fresh_before_runs``: the refined / old table's runs on the fresh
+    seed if a campaign already flew them
+    (:func:`~analysis.apps.refinement.evaluate.runs_from_campaign`); only the others are flown.
     """
     searched = result.before["case_index"].to_numpy()
     fresh = refinement_spec(runs_per_case=runs_per_case, seed=fresh_seed, duration_s=duration_s)
-    tables = [np.asarray(table.firing_time_s)]
-    if fresh_after_runs is None:
-        tables.append(np.asarray(result.table.firing_time_s))
-    trials = Trials(
-        np.concatenate([np.repeat(t[None], searched.size, 0) for t in tables]),
-        np.tile(searched, len(tables)),
-        tuple(["before"] * searched.size + ["after"] * (len(tables) - 1) * searched.size),
-    )
-    runs = evaluate(
-        fresh, table, trials, threads=threads, progress=progress, desc="refine: fresh seed"
-    )
-    scores = trial_scores(runs, trials.n_trials)
-    fresh_before = scores.iloc[: searched.size].reset_index(drop=True)
-    if fresh_after_runs is None:
-        fresh_after = scores.iloc[searched.size :].reset_index(drop=True)
-    else:
-        fresh_after = trial_scores(fresh_after_runs, searched.size)
+    given = {"before": fresh_before_runs, "after": fresh_after_runs}
+    tables = {"before": table, "after": result.table}
+    to_fly = [k for k in ("before", "after") if given[k] is None]
+    scores_of = {k: trial_scores(v, searched.size) for k, v in given.items() if v is not None}
+    if to_fly:
+        trials = Trials(
+            np.concatenate(
+                [
+                    np.repeat(np.asarray(tables[k].firing_time_s)[None], searched.size, 0)
+                    for k in to_fly
+                ]
+            ),
+            np.tile(searched, len(to_fly)),
+            tuple(k for k in to_fly for _ in range(searched.size)),
+        )
+        runs = evaluate(
+            fresh, table, trials, threads=threads, progress=progress, desc="refine: fresh seed"
+        )
+        scores = trial_scores(runs, trials.n_trials)
+        for i, k in enumerate(to_fly):
+            part = scores.iloc[i * searched.size : (i + 1) * searched.size]
+            scores_of[k] = part.reset_index(drop=True)
+    fresh_before, fresh_after = scores_of["before"], scores_of["after"]
     log = changelog(table, result, fresh_before, fresh_after)
     return Refinement(
         table, result, fresh_before, fresh_after, log, seed, fresh_seed, runs_per_case, duration_s
