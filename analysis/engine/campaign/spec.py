@@ -44,6 +44,7 @@ from lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
 from models.errors import InputError
 from models.tables import CONTROL_CYCLE_S, PAPER_LOOKUP_TABLES
 from spacecraft.dispersions import MAX_SEED, DispersionSigmas
+from spacecraft.dispersions import THREE_SIGMA_KEYS as _SIGMA_KEYS
 
 #: The commented example spec ``rcsim campaign example`` prints: every key, its default and
 #: what it means (a data file beside this module, ``example_spec.toml``; a test loads it).
@@ -52,15 +53,6 @@ EXAMPLE_SPEC = (files("analysis.engine.campaign") / "example_spec.toml").read_te
 _DEFAULT_RATE_ERROR_DEG_S = 0.04
 HISTORY_MODES = ("none", "failures", "all", "first")
 SCENARIO_KINDS = ("rate-cases", "maneuver", "hold")
-_SIGMA_KEYS = {  # spec key -> (Table 5 name, factor to SI)
-    "mass_kg": ("mass", 1.0),
-    "cg_x_m": ("cg_x", 1.0),
-    "ixx_kg_m2": ("ixx", 1.0),
-    "iyy_kg_m2": ("iyy", 1.0),
-    "izz_kg_m2": ("izz", 1.0),
-    "thrust_n": ("thrust", 1.0),
-    "thruster_angle_deg": ("thruster_angle", math.pi / 180.0),
-}
 
 
 @dataclass(frozen=True)
