@@ -86,6 +86,9 @@ class CampaignSpec:
         The failure gate, percent of runs (:mod:`~analysis.engine.campaign.gate`); None: no gate.
         Not in ``resolved``: it judges results and changes nothing that is flown, so a
         campaign can be resumed under another limit.
+    vehicle : str or None
+        The vehicle file flown (absolute path, or a packaged vehicle's name such as
+        ``"paper"``); None: the packaged ``vehicle.xml``.
     """
 
     source: str
@@ -104,6 +107,7 @@ class CampaignSpec:
     resolved: dict
     max_failed_pct: float | None = None
     effects: Effects = Effects()
+    vehicle: str | None = None
 
     @property
     def sensor(self):
@@ -300,9 +304,12 @@ def parse_dict(
     scen_resolved: list = []
     cases = _scenarios(raw_scen, source, scen_resolved)
     resolved["scenario"] = scen_resolved if isinstance(raw_scen, list) else scen_resolved[0]
+    vehicle, vehicle_resolved = _vehicle(top, base_dir)
+    if vehicle_resolved:  # recorded only when given: other specs resolve as before
+        resolved.update(vehicle_resolved)
     name, table, resolved["controller"] = _controller(top.table_("controller"), base_dir)
     sigmas, effects, resolved["dispersions"] = _dispersions(
-        top.table_("dispersions"), base_dir, cases, source
+        top.table_("dispersions"), base_dir, cases, source, vehicle
     )
     rate_thr, att_thr, max_failed, resolved["failure"] = _failure(top.table_("failure"))
     histories, first_k, plots, resolved["output"] = _output(top.table_("output"))
@@ -324,7 +331,44 @@ def parse_dict(
         resolved=resolved,
         max_failed_pct=max_failed,
         effects=effects,
+        vehicle=vehicle,
     )
+
+
+def _vehicle(top: Reader, base_dir: Path) -> tuple[str | None, dict]:
+    """``vehicle``: a packaged vehicle's name or a vehicle file (relative to the spec), checked
+    by loading it; with its sha256 in ``resolved`` (a resume or replay refuses a changed file)."""
+    from spacecraft.vehicle_file import PACKAGED_VEHICLES, FlyingVehicle, resolve_vehicle
+
+    if not top.has("vehicle"):
+        return None, {}
+    stored = top.raw("vehicle_sha256") if top.has("vehicle_sha256") else None
+    value = top.raw("vehicle")
+    if not isinstance(value, str) or not value:
+        names = ", ".join(f'"{n}"' for n in PACKAGED_VEHICLES)
+        raise top.error("vehicle", f"must be a packaged vehicle ({names}) or a file path", value)
+    local = base_dir / value
+    if value in PACKAGED_VEHICLES and local.exists():
+        raise top.error(
+            "vehicle",
+            f"ambiguous: both the packaged vehicle {value!r} and the file {local}; "
+            f'write "./{value}"',
+            value,
+        )
+    if value in PACKAGED_VEHICLES:
+        path = str(resolve_vehicle(value))
+    else:
+        file = Path(value).expanduser()
+        file = file if file.is_absolute() else base_dir / file
+        if not file.is_file():
+            raise top.error("vehicle", "file not found", str(file))
+        path = str(file.resolve())
+    FlyingVehicle.load(path)  # InputError naming the vehicle file, the key and the value
+    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    if stored is not None and stored != digest:
+        raise top.error("vehicle", "file changed since the campaign ran (sha256 differs)", value)
+    name = value if value in PACKAGED_VEHICLES else path
+    return name, {"vehicle": name, "vehicle_sha256": digest}
 
 
 def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
@@ -368,14 +412,21 @@ def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
 
 
 def _dispersions(
-    d: Reader, base_dir: Path, cases: list[Scenario], source: str
+    d: Reader, base_dir: Path, cases: list[Scenario], source: str, vehicle: str | None = None
 ) -> tuple[DispersionSigmas, Effects, dict]:
     """``[dispersions]``: Table 5 (file, scale, 3-sigma overrides, converted to SI one-sigmas
-    here) and the sensor / timing / fault tables."""
+    here) and the sensor / timing / fault tables.  With a ``vehicle`` and ``table =
+    "default"``, the table is the vehicle file's ``[dispersions]`` (a row it leaves out is not
+    dispersed)."""
     from models.tables import load_dispersions
 
     disp_table = file_key(d, "table", base_dir)
     frame = load_dispersions(disp_table)
+    if vehicle is not None and disp_table is None:
+        from spacecraft.vehicle_file import load_vehicle
+
+        own = load_vehicle(vehicle).three_sigma
+        frame["three_sigma"] = [float(own.get(name, 0.0)) for name in frame["name"]]
     if d.has("table_sha256"):
         if d.raw("table_sha256") != file_digest(disp_table):
             raise d.error(
