@@ -307,7 +307,10 @@ def parse_dict(
     vehicle, vehicle_resolved = _vehicle(top, base_dir)
     if vehicle_resolved:  # recorded only when given: other specs resolve as before
         resolved.update(vehicle_resolved)
+        _check_reachable(vehicle, cases, source)
     name, table, resolved["controller"] = _controller(top.table_("controller"), base_dir)
+    if vehicle is not None:
+        _check_jet_map(vehicle, name, table, source)
     sigmas, effects, resolved["dispersions"] = _dispersions(
         top.table_("dispersions"), base_dir, cases, source, vehicle
     )
@@ -333,6 +336,52 @@ def parse_dict(
         effects=effects,
         vehicle=vehicle,
     )
+
+
+def _check_jet_map(vehicle: str, controller: str, table: str | None, source: str) -> None:
+    """The phase-plane controller and the packaged lookup tables assume the paper's jet map
+    (Table 2: which jet turns which axis which way); refuse them on a vehicle whose jets
+    torque otherwise, naming the first jet that differs."""
+    from models.tables import load_jet_map
+    from spacecraft.vehicle_file import load_vehicle
+
+    if controller == "allocator" or (controller != "phase-plane" and table is not None):
+        return  # the allocator reads the jets; a user's table was made for their vehicle
+    definition = load_vehicle(vehicle)
+    torque = definition.force_torque()[3:].T
+    signs = np.where(np.abs(torque) > 1e-9 * np.abs(torque).max(), np.sign(torque), 0)
+    jet_map = load_jet_map()
+    for j in range(definition.n_jets):
+        if not np.array_equal(signs[j], jet_map[j]):
+            raise InputError(
+                f"{source}: controller.name: {controller!r}"
+                f"{' with the packaged table' if controller != 'phase-plane' else ''} assumes the "
+                f"paper's jet map (Table 2), but {definition.jets[j].name} of {definition.source} "
+                f"torques roll/pitch/yaw with signs {signs[j].astype(int).tolist()} (Table 2: "
+                f"{jet_map[j].tolist()}); use the allocator controller or a table made by "
+                "`rcsim lookup generate --vehicle`"
+            )
+
+
+def _check_reachable(vehicle: str, cases: list[Scenario], source: str) -> None:
+    """Refuse a case whose rate change or attitude step the vehicle's jets cannot give,
+    naming the case and the axis direction."""
+    from spacecraft.vehicle_file import load_vehicle
+    from spacecraft.vehicle_file.authority import unreachable_command
+
+    definition = load_vehicle(vehicle)
+    for case in cases:
+        for what, need in (
+            ("rate change", case.rate_cmd_rad_s - case.omega0_rad_s),
+            ("attitude step", case.att_cmd_rad),
+        ):
+            why = unreachable_command(definition, need)
+            if why:
+                raise InputError(
+                    f"{source}: vehicle: {definition.source} cannot fly case {case.name!r}: "
+                    f"{why} (its {what} is {np.degrees(need).round(4).tolist()} deg"
+                    f"{'/s' if what == 'rate change' else ''})"
+                )
 
 
 def _vehicle(top: Reader, base_dir: Path) -> tuple[str | None, dict]:
