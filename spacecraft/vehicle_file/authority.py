@@ -276,3 +276,24 @@ def unreachable_command(vehicle: VehicleDef, change_rad_s) -> str | None:
     if lost:
         return f"no jet combination turns the vehicle about {', '.join(lost)}"
     return "no jet combination gives this combination of axes"
+
+
+def torque_signs(vehicle: VehicleDef) -> np.ndarray:
+    """Sign of each jet's torque about roll, pitch, yaw, (n_jets, 3) in {-1, 0, 1}: the
+    vehicle's own Table 2 (a component below 1e-9 of the largest is zero)."""
+    torque = vehicle.force_torque()[3:].T
+    return np.where(np.abs(torque) > 1e-9 * np.abs(torque).max(), np.sign(torque), 0).astype(int)
+
+
+def jet_map_mismatch(vehicle: VehicleDef, jet_map: np.ndarray) -> str | None:
+    """How ``vehicle``'s jets differ from ``jet_map`` (n, 3) signs (Table 2), or None."""
+    signs = torque_signs(vehicle)
+    if signs.shape != np.shape(jet_map):
+        return f"it has {vehicle.n_jets} jets, the jet map {len(jet_map)}"
+    for j in range(vehicle.n_jets):
+        if not np.array_equal(signs[j], jet_map[j]):
+            return (
+                f"{vehicle.jets[j].name} torques roll/pitch/yaw with signs {signs[j].tolist()} "
+                f"(the jet map: {np.asarray(jet_map[j]).tolist()})"
+            )
+    return None

@@ -344,23 +344,18 @@ def _check_jet_map(vehicle: str, controller: str, table: str | None, source: str
     torque otherwise, naming the first jet that differs."""
     from models.tables import load_jet_map
     from spacecraft.vehicle_file import load_vehicle
+    from spacecraft.vehicle_file.authority import jet_map_mismatch
 
     if controller == "allocator" or (controller != "phase-plane" and table is not None):
         return  # the allocator reads the jets; a user's table was made for their vehicle
     definition = load_vehicle(vehicle)
-    torque = definition.force_torque()[3:].T
-    signs = np.where(np.abs(torque) > 1e-9 * np.abs(torque).max(), np.sign(torque), 0)
-    jet_map = load_jet_map()
-    for j in range(definition.n_jets):
-        if not np.array_equal(signs[j], jet_map[j]):
-            raise InputError(
-                f"{source}: controller.name: {controller!r}"
-                f"{' with the packaged table' if controller != 'phase-plane' else ''} assumes the "
-                f"paper's jet map (Table 2), but {definition.jets[j].name} of {definition.source} "
-                f"torques roll/pitch/yaw with signs {signs[j].astype(int).tolist()} (Table 2: "
-                f"{jet_map[j].tolist()}); use the allocator controller or a table made by "
-                "`rcsim lookup generate --vehicle`"
-            )
+    differs = jet_map_mismatch(definition, load_jet_map())
+    if differs:
+        what = "" if controller == "phase-plane" else " with the packaged table"
+        raise InputError(
+            f"{source}: controller.name: {controller!r}{what} assumes the paper's jet map "
+            f"(Table 2), but in {definition.source} {differs}; use the allocator controller"
+        )
 
 
 def _check_reachable(vehicle: str, cases: list[Scenario], source: str) -> None:
