@@ -72,15 +72,15 @@ def make_controller(
     from models.errors import InputError
     from models.tables import load_jet_map
 
+    if table is not None and name in ALL_CONTROLLERS and name not in TABLE_CONTROLLERS:
+        raise InputError(
+            f"is only for the lookup controller, not {name!r} (got {str(table)!r})",
+            parameter="table",
+            value=table,
+        )
     if name == "phase-plane":
         from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
 
-        if table is not None:
-            raise InputError(
-                f"is only for the lookup controller, not {name!r} (got {str(table)!r})",
-                parameter="table",
-                value=table,
-            )
         return PhasePlaneController(
             PhasePlaneParams.for_vehicle(load_jet_map(), model=model, **(phase_plane_options or {}))
         )
@@ -98,12 +98,6 @@ def make_controller(
         from lookup.allocator_controller import allocator_controller
         from spacecraft.vehicle import load_model
 
-        if table is not None:
-            raise InputError(
-                f"is only for the lookup controller, not {name!r} (got {str(table)!r})",
-                parameter="table",
-                value=table,
-            )
         return allocator_controller(
             load_model() if model is None else model,
             isp_s=280.0 if vehicle is None else vehicle.isp_s,
