@@ -88,6 +88,7 @@ def response_database(
     )
     dw = history.final.omega_B
     flown = history.flown_params
+    assert flown is not None  # a simulation's history always has them
     force_B = jet_wrench_B(flown, vehicle.model)[:, :3, :]  # (n, 3, n_jets) [N]
     impulse = np.einsum("nwj,nj->nw", force_B, history.propulsion.on_time_s)
     dv = impulse / flown.mass_kg[:, None]
@@ -126,8 +127,8 @@ def response_summary(frame: pd.DataFrame) -> pd.DataFrame:
         per_vehicle = np.stack(
             [np.bincount(rj, weights=tj * vj[:, c]) for c in range(len(cols))], 1
         )
-        per_vehicle = per_vehicle[tt > 0] / tt[tt > 0, None]
-        sd = per_vehicle.std(axis=0, ddof=1) if per_vehicle.shape[0] > 1 else np.zeros(len(cols))
+        slopes = per_vehicle[tt > 0] / tt[tt > 0, None]
+        sd = slopes.std(axis=0, ddof=1) if slopes.shape[0] > 1 else np.zeros(len(cols))
         row = {"jet": frame.loc[mine, "jet"].iloc[0], "jet_number": int(j)}
         row.update({f"{c}_per_s": slope[i] for i, c in enumerate(cols)})
         row.update({f"{c}_per_s_sd": sd[i] for i, c in enumerate(cols)})

@@ -106,9 +106,9 @@ def mass_properties(
 
 def full_inertia(moments_B: np.ndarray, iquat: np.ndarray) -> np.ndarray:
     """Full tensors (n, 3, 3) from principal moments (n, 3) in the frame ``iquat`` (4,)."""
-    rot = np.empty(9)
-    mujoco.mju_quat2Mat(rot, np.asarray(iquat, float))
-    rot = rot.reshape(3, 3)
+    flat = np.empty(9)
+    mujoco.mju_quat2Mat(flat, np.asarray(iquat, float))
+    rot = flat.reshape(3, 3)
     return np.einsum("ij,nj,kj->nik", rot, moments_B, rot)
 
 

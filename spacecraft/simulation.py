@@ -514,10 +514,11 @@ class BatchSimulation:
 
     def _write_mass_properties(self, ids: np.ndarray) -> None:
         """Mass, CG and inertia of runs ``ids`` after the propellant they used."""
-        start = self._start_params
+        start, tank = self._start_params, self.tank
+        assert tank is not None  # only called when propellant is tracked
         inertia0 = full_inertia(start.inertia_B[ids], self._iquat0)
         m, c, inertia = mass_properties(
-            start.mass_kg[ids], start.cg_B[ids], inertia0, self.tank.position_B, self._used_kg[ids]
+            start.mass_kg[ids], start.cg_B[ids], inertia0, tank.position_B, self._used_kg[ids]
         )
         moments, quat = principal(inertia)
         body, fields = self._flight.body(BODY).id, self._mass_fields

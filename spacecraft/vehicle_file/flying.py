@@ -12,8 +12,8 @@ What the engine needs to fly a user's vehicle instead of the packaged one, in on
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import mujoco
 
@@ -32,7 +32,7 @@ class FlyingVehicle:
     model: mujoco.MjModel
 
     @classmethod
-    def load(cls, path: str | Path) -> FlyingVehicle:
+    def load(cls, path: str | os.PathLike) -> FlyingVehicle:
         """Read, validate and compile a vehicle file (or a packaged vehicle's name).
 
         Raises

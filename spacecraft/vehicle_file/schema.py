@@ -22,6 +22,7 @@ Layout of the file: ``models/vehicle/paper.toml`` (every key, commented).
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from dataclasses import dataclass, field
 from importlib.resources import files
@@ -168,7 +169,7 @@ def packaged_vehicle(name: str) -> Path:
     return Path(str(files("models") / "vehicle" / f"{name}.toml"))
 
 
-def resolve_vehicle(value: str | Path) -> Path:
+def resolve_vehicle(value: str | os.PathLike) -> Path:
     """A packaged vehicle's name or a vehicle file's path, as a path.  A name that is also a
     file in the working directory is refused as ambiguous (write ``./name``)."""
     text = str(value)
@@ -236,7 +237,9 @@ def _jets(top: Reader, cg: tuple, src: str) -> tuple[list[Jet], float]:
     raw_jets = top.raw("jet", None)
     if not isinstance(raw_jets, list) or not raw_jets:
         raise top.error("jet", "at least one [[jet]] block is required", raw_jets)
-    jets, seen, min_on = [], {}, set()
+    jets: list[Jet] = []
+    seen: dict[str, int] = {}
+    min_on: set[float] = set()
     for k, raw in enumerate(raw_jets):
         if not isinstance(raw, dict):
             raise top.error(f"jet[{k + 1}]", "must be a table", raw)
@@ -282,7 +285,7 @@ def _jets(top: Reader, cg: tuple, src: str) -> tuple[list[Jet], float]:
     return jets, shortest
 
 
-def load_vehicle(path: str | Path) -> VehicleDef:
+def load_vehicle(path: str | os.PathLike) -> VehicleDef:
     """Read and validate a vehicle file.
 
     Parameters

@@ -305,7 +305,7 @@ def parse_dict(
     cases = _scenarios(raw_scen, source, scen_resolved)
     resolved["scenario"] = scen_resolved if isinstance(raw_scen, list) else scen_resolved[0]
     vehicle, vehicle_resolved = _vehicle(top, base_dir)
-    if vehicle_resolved:  # recorded only when given: other specs resolve as before
+    if vehicle is not None:  # recorded only when given: other specs resolve as before
         resolved.update(vehicle_resolved)
         _check_reachable(vehicle, cases, source)
     name, table, resolved["controller"] = _controller(top.table_("controller"), base_dir)
