@@ -19,8 +19,10 @@ from spacecraft.simulation import Controller
 #: The paper's two controllers: what the scenario comparison flies (module docstring).
 CONTROLLERS = ("phase-plane", "lookup")
 #: Built by :func:`make_controller` too, offered by the CLI and campaign specs, not flown by the
-#: scenario comparison: the adaptive lookup controller (:mod:`lookup.adaptive`).
-MORE_CONTROLLERS = ("adaptive",)
+#: scenario comparison: the adaptive lookup controller (:mod:`lookup.adaptive`) and the
+#: allocator controller (:mod:`lookup.allocator_controller`: minimum-propellant jet selection
+#: for any jet layout).
+MORE_CONTROLLERS = ("adaptive", "allocator")
 #: Every controller :func:`make_controller` builds, by name: the CLI's and the specs' choices.
 ALL_CONTROLLERS = CONTROLLERS + MORE_CONTROLLERS
 #: Controllers that fly a lookup table (``table`` and ``lookup_options`` apply).
@@ -35,12 +37,14 @@ def make_controller(
     lookup_options: dict | None = None,
     phase_plane_options: dict | None = None,
     adapt_options: dict | None = None,
+    vehicle=None,
+    jets_off=(),
 ) -> Controller:
     """Build a controller.
 
     Parameters
     ----------
-    name : {"phase-plane", "lookup", "adaptive"}
+    name : {"phase-plane", "lookup", "adaptive", "allocator"}
     table : path, optional
         Lookup table CSV (rcsim or paper layout) for ``"lookup"`` and ``"adaptive"``, or
         whatever else
@@ -53,6 +57,11 @@ def make_controller(
         :class:`lookup.phase_plane.PhasePlaneParams` fields for that controller.
     adapt_options : dict, optional
         :class:`lookup.adaptive.AdaptParams` fields for ``"adaptive"``.
+    vehicle : spacecraft.vehicle_file.VehicleDef, optional
+        The vehicle file flown; the allocator takes its Isp and minimum on-time from it
+        (default: the packaged vehicle's 280 s and none).
+    jets_off : sequence of int
+        Jets (1-based) the allocator may not use.
 
     Raises
     ------
@@ -63,15 +72,15 @@ def make_controller(
     from models.errors import InputError
     from models.tables import load_jet_map
 
+    if table is not None and name in ALL_CONTROLLERS and name not in TABLE_CONTROLLERS:
+        raise InputError(
+            f"is only for the lookup controller, not {name!r} (got {str(table)!r})",
+            parameter="table",
+            value=table,
+        )
     if name == "phase-plane":
         from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
 
-        if table is not None:
-            raise InputError(
-                f"is only for the lookup controller, not {name!r} (got {str(table)!r})",
-                parameter="table",
-                value=table,
-            )
         return PhasePlaneController(
             PhasePlaneParams.for_vehicle(load_jet_map(), model=model, **(phase_plane_options or {}))
         )
@@ -85,4 +94,14 @@ def make_controller(
         ctl = AdaptiveLookupController.from_files(table, **(lookup_options or {}))
         ctl.adapt = AdaptParams(**(adapt_options or {}))  # type: ignore[attr-defined]
         return ctl
+    if name == "allocator":
+        from lookup.allocator_controller import allocator_controller
+        from spacecraft.vehicle import load_model
+
+        return allocator_controller(
+            load_model() if model is None else model,
+            isp_s=280.0 if vehicle is None else vehicle.isp_s,
+            min_on_s=0.0 if vehicle is None else vehicle.min_on_s,
+            jets_off=jets_off,
+        )
     raise InputError(f"unknown controller {name!r}; choose one of {', '.join(ALL_CONTROLLERS)}")

@@ -30,6 +30,7 @@ chunk it is simulated in, of the worker and of the order.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,6 +41,17 @@ from spacecraft.vehicle import N_JETS, VehicleParams
 
 #: Table 5 names this module models, in the order they are drawn.
 DISPERSION_NAMES = ("mass", "cg_x", "ixx", "iyy", "izz", "thrust", "thruster_angle")
+#: The 3-sigma keys of input files (campaign specs' ``[dispersions.three_sigma]``, vehicle
+#: files' ``[dispersions]``): key -> (Table 5 name, factor to SI).
+THREE_SIGMA_KEYS = {
+    "mass_kg": ("mass", 1.0),
+    "cg_x_m": ("cg_x", 1.0),
+    "ixx_kg_m2": ("ixx", 1.0),
+    "iyy_kg_m2": ("iyy", 1.0),
+    "izz_kg_m2": ("izz", 1.0),
+    "thrust_n": ("thrust", 1.0),
+    "thruster_angle_deg": ("thruster_angle", math.pi / 180.0),
+}
 
 # Standard-normal layout of one run's draw: mass, cg_x, ixx, iyy, izz, thrust x16, tilt x16.
 _Z_MASS, _Z_CG, _Z_INERTIA, _Z_THRUST, _Z_TILT = 0, 1, slice(2, 5), slice(5, 21), slice(21, 37)

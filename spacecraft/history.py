@@ -53,6 +53,9 @@ class History:
         Attitude and rate errors the controller saw (from the measured state,
         :mod:`spacecraft.sensors`) [rad, rad/s]; None when the sensors are perfect (then the
         controller saw ``att_err_B`` and ``rate_err_B``).  Outcomes use the true state.
+    propellant_exhausted_s : ndarray, (n_runs,), or None
+        When each run's propellant ran out [s] (inf: it did not); None when propellant is not
+        tracked (:class:`spacecraft.propellant.PropellantTank`).
     """
 
     cycle_s: float
@@ -70,6 +73,7 @@ class History:
     delivered_s: np.ndarray | None = None
     meas_att_err_B: np.ndarray | None = None
     meas_rate_err_B: np.ndarray | None = None
+    propellant_exhausted_s: np.ndarray | None = None
 
     @property
     def n_runs(self) -> int:

@@ -65,6 +65,14 @@ from spacecraft.history import History
 from spacecraft.mujoco_timers import quiet_stage_timers
 from spacecraft.navigation import Guidance, NavState, navigate
 from spacecraft.pieces import Pieces, cycle_pieces, profile_pieces
+from spacecraft.propellant import (
+    PropellantTank,
+    exhaustion_time_s,
+    full_inertia,
+    mass_flow_kg_s,
+    mass_properties,
+    principal,
+)
 from spacecraft.propulsion import PropulsionParams, PropulsionState, apply_valve_limits
 from spacecraft.sensors import SensorNoise, SensorParams, SensorState, measure
 from spacecraft.valves import (
@@ -78,6 +86,7 @@ from spacecraft.valves import (
 )
 from spacecraft.vehicle import (
     BODY,
+    G0_M_S2,
     N_JETS,
     VehicleParams,
     load_model,
@@ -149,6 +158,10 @@ class BatchSimulation:
         Jet faults per run; default none.
     profile : ThrustProfile, optional
         Thrust transients at valve opening and closing; default none (instant thrust).
+    tank : PropellantTank, optional
+        Propellant tracked per run: the mass properties follow the propellant used and the
+        jets stop when it runs out (:mod:`spacecraft.propellant`); default none (propellant is
+        accounted, the mass properties stay ``params``').
 
     Raises
     ------
@@ -168,6 +181,7 @@ class BatchSimulation:
         timing: ValveTiming | None = None,
         faults: JetFaults | None = None,
         profile: ThrustProfile | None = None,
+        tank: PropellantTank | None = None,
     ):
         route_mujoco_warnings()
         quiet_stage_timers()
@@ -217,6 +231,22 @@ class BatchSimulation:
         )
         # Live (n_runs, mjNWARNING, 2) view of each simulation's MjData.warning (lastinfo, number).
         self._warning = self._batch.warning
+        self.tank = tank
+        if tank is not None:
+            if tank.initial_kg.shape != (n,):
+                raise InputError(
+                    f"needs one value per run ({n}), got {tank.initial_kg.shape}",
+                    parameter="tank",
+                )
+            self._start_params = self.flown_params()  # the wet vehicle, read back before flying
+            self._iquat0 = self._flight.body_iquat[self._flight.body(BODY).id].copy()
+            # Live per-run fields (expand() of an expanded field returns the same memory).
+            self._mass_fields = {
+                name: self._batch.expand(name)
+                for name in ("body_mass", "body_ipos", "body_inertia", "body_iquat")
+            }
+            self._used_kg = np.zeros(n)
+            self._exhausted_s = np.full(n, np.inf)
 
     @property
     def n_runs(self) -> int:
@@ -279,6 +309,8 @@ class BatchSimulation:
                 raise AssertionError(f"{name} is not per-simulation")
             return np.array(values)
 
+        if getattr(self, "_start_params", None) is not None:
+            return self._start_params  # propellant tracked: the wet vehicle at t = 0
         return VehicleParams(
             mass_kg=field_of("body_mass")[:, body],
             cg_B=field_of("body_ipos")[:, body],
@@ -340,6 +372,10 @@ class BatchSimulation:
             delivered=not (self.timing.is_zero() and self.faults is None and self.profile is None),
         )
         self._reset(q0_BN, omega0_B)
+        if self.tank is not None:
+            self._used_kg[:] = 0.0
+            self._exhausted_s[:] = np.inf
+            self._write_mass_properties(np.arange(n))
         state = controller.initial_state(n) if ctrl_state is None else ctrl_state
         prop = PropulsionState.zeros(n)
         failed = np.array([bool(r) for r in self.invalid])
@@ -394,6 +430,8 @@ class BatchSimulation:
                     disturbance_B(t0) if callable(disturbance_B) else disturbance_B, float
                 )
             self._step(pieces, torque, failed, reason, t0, t0 + cycle)
+            if self.tank is not None:
+                self._use_propellant(pieces, thrust)
             end_cycle(valves, cycle, 0.0 if self.profile is None else self.profile.fall_s)
             if progress is not None:
                 progress(k + 1)
@@ -411,6 +449,7 @@ class BatchSimulation:
             failed=failed,
             reason=reason,
             flown_params=self.flown_params(),
+            propellant_exhausted_s=None if self.tank is None else self._exhausted_s.copy(),
             **rec,
         )
 
@@ -435,14 +474,59 @@ class BatchSimulation:
     def _pieces(self, valves: ValveState, t0_s: float) -> Pieces:
         """The cycle starting at ``t0_s`` cut at every run's switch instants (and on the
         physics grid), with the thrust profile's rise and fall when there is one."""
+        intervals = cycle_intervals(valves, self.faults, t0_s)
+        pieces = self._cut(*intervals)
+        if self.tank is None:
+            return pieces
+        # Propellant running out in this cycle ends every jet's thrust at that instant.
+        thrust = self.params.thrust_n * self._level
+        level = pieces.on if pieces.level is None else pieces.level
+        left = np.maximum(self.tank.initial_kg - self._used_kg, 0.0)
+        t_out = exhaustion_time_s(
+            pieces.length_s, level, mass_flow_kg_s(thrust, self.params.isp_s), left
+        )
+        t_out = np.where(left <= 0.0, 0.0, t_out)
+        if not np.isfinite(t_out).any():
+            return pieces
+        first = np.isfinite(t_out) & ~np.isfinite(self._exhausted_s)
+        self._exhausted_s[first] = t0_s + t_out[first]
+        start, end = intervals
+        return self._cut(start, np.minimum(end, t_out[:, None, None]))
+
+    def _cut(self, start: np.ndarray, end: np.ndarray) -> Pieces:
+        """The cycle's pieces for on-intervals ``start``, ``end`` (n_runs, 16, k) [s]."""
         cycle = self.propulsion.cycle_s
         grid = self.dt_s if self.n_sub > 1 else None
-        intervals = cycle_intervals(valves, self.faults, t0_s)
         if self.profile is None:
-            return cycle_pieces(*intervals, cycle, grid)
+            return cycle_pieces(start, end, cycle, grid)
         return profile_pieces(
-            *intervals, cycle, grid, self.profile.rise_s, self.profile.fall_s, self.profile.segments
+            start, end, cycle, grid, self.profile.rise_s, self.profile.fall_s, self.profile.segments
         )
+
+    def _use_propellant(self, pieces: Pieces, thrust_n: np.ndarray) -> None:
+        """Add the cycle's propellant to each run's total and move the mass properties of the
+        runs that fired (:mod:`spacecraft.propellant`)."""
+        used = (pieces.thrust_time_s() * thrust_n).sum(axis=1) / (self.params.isp_s * G0_M_S2)
+        self._used_kg += used
+        fired = np.flatnonzero(used > 0)
+        if fired.size:
+            self._write_mass_properties(fired)
+
+    def _write_mass_properties(self, ids: np.ndarray) -> None:
+        """Mass, CG and inertia of runs ``ids`` after the propellant they used."""
+        start, tank = self._start_params, self.tank
+        assert tank is not None  # only called when propellant is tracked
+        inertia0 = full_inertia(start.inertia_B[ids], self._iquat0)
+        m, c, inertia = mass_properties(
+            start.mass_kg[ids], start.cg_B[ids], inertia0, tank.position_B, self._used_kg[ids]
+        )
+        moments, quat = principal(inertia)
+        body, fields = self._flight.body(BODY).id, self._mass_fields
+        fields["body_mass"][ids, body] = m
+        fields["body_ipos"][ids, body] = c
+        fields["body_inertia"][ids, body] = moments
+        fields["body_iquat"][ids, body] = quat
+        self._batch.set_const(ids)
 
     def _reset(self, q0_BN, omega0_B) -> None:
         n = self.n_runs
@@ -552,7 +636,8 @@ def simulate_batch(
     **kwargs,
 ) -> History:
     """One-call form of :class:`BatchSimulation` (``propulsion``, ``model``, ``nthread``,
-    ``sensors``, ``sensor_streams``, ``timing``, ``faults``, ``profile`` go to the simulation,
+    ``sensors``, ``sensor_streams``, ``timing``, ``faults``, ``profile``, ``tank`` go to the
+    simulation,
     the rest to
     :meth:`BatchSimulation.run`)."""
     sim_keys = {
@@ -564,6 +649,7 @@ def simulate_batch(
         "timing",
         "faults",
         "profile",
+        "tank",
     }
     sim_kw = {k: kwargs.pop(k) for k in list(kwargs) if k in sim_keys}
     return BatchSimulation(params, **sim_kw).run(controller, guidance, duration_s, **kwargs)

@@ -60,6 +60,7 @@ def fly_batch(
     model=None,
     propulsion: PropulsionParams = PropulsionParams(),
     nthread: int = 0,
+    tank=None,
     **effects,
 ) -> History:
     """Fly one batch: run ``i`` flies ``scenarios[i]`` with vehicle ``params`` entry ``i``.
@@ -78,6 +79,9 @@ def fly_batch(
         ``faults`` (:class:`~spacecraft.valves.JetFaults`), ``profile``
         (:class:`~spacecraft.valves.ThrustProfile`); each entry ``(n_runs, ...)``.
         Absent or None: perfect sensors, no delays, no faults, instant thrust.
+    tank : spacecraft.propellant.PropellantTank, optional
+        Propellant tracked per run (a vehicle file with a propellant mass); None: accounted
+        only, constant mass properties.
 
     Raises
     ------
@@ -107,6 +111,7 @@ def fly_batch(
         propulsion=propulsion,
         model=model,
         nthread=nthread,
+        tank=tank,
         **{k: v for k, v in effects.items() if v is not None},
     )
 

@@ -152,7 +152,13 @@ OUTCOME_COLUMNS: tuple[Column, ...] = (
         "[dispersions.fault], the commands moved by the delays, plus stuck-on time, "
         "minus failed time)",
     ),
-    Column("propellant_kg", "float64", "kg", "propellant used, at the vehicle's Isp (280 s)"),
+    Column(
+        "propellant_kg",
+        "float64",
+        "kg",
+        "propellant used, F t / (Isp g0) at the vehicle's Isp (280 s unless its vehicle file "
+        "says); its exhaustion is a failure reason",
+    ),
     Column(
         "rate_settled_time_s",
         "float64",

@@ -34,6 +34,7 @@ def generate_table_files(
     settling_out: str | os.PathLike | None = None,
     jets_off=(),
     overwrite: bool = False,
+    vehicle: str | os.PathLike | None = None,
 ) -> TableFiles:
     """Generate the lookup table (:func:`lookup.table_generation.generate_table`) and write
     ``out`` and its companion (default ``<out stem>_settling.csv``).
@@ -44,7 +45,10 @@ def generate_table_files(
         About ``out`` or ``settling_out``: an existing file without ``overwrite``, a path the
         system refuses, the two paths equal, or ``settling_out`` with ``jets_off`` (the loader
         finds a table's jet set only in its companion beside it); about ``jets_off``: the
-        library's jet-set rule (:func:`lookup.jet_sets.check_jets_off`).
+        library's jet-set rule (:func:`lookup.jet_sets.check_jets_off`); about ``vehicle``:
+        an invalid vehicle file, or one whose jets do not each turn one axis as Table 2's do
+        (the pattern-recognition table assumes that jet map; fly such a vehicle with the
+        allocator controller).
     """
     jets_off = tuple(jets_off or ())
     if jets_off and settling_out is not None:
@@ -63,7 +67,10 @@ def generate_table_files(
         raise InputError(
             f"{settling}: is the table itself (out)", parameter="settling_out", value=str(settling)
         )
-    gen = generate_table(jets_off=jets_off)
+    flying = {}
+    if vehicle is not None:
+        flying = _vehicle_generation(vehicle)
+    gen = generate_table(jets_off=jets_off, **flying)
     frame = gen.settling_frame()
     created = make_parents(table) + make_parents(settling)
     try:
@@ -73,3 +80,28 @@ def generate_table_files(
         remove_parents(created)
         raise
     return TableFiles(gen, table, settling)
+
+
+def _vehicle_generation(vehicle: str | os.PathLike) -> dict:
+    """The :func:`generate_table` arguments that fly a vehicle file instead of the packaged
+    vehicle: its model, nominal parameters and valve limits."""
+    from models.tables import load_jet_map
+    from spacecraft.vehicle_file import FlyingVehicle
+    from spacecraft.vehicle_file.authority import jet_map_mismatch
+
+    flying = FlyingVehicle.load(vehicle)
+    differs = jet_map_mismatch(flying.definition, load_jet_map())
+    if differs:
+        raise InputError(
+            f"{flying.definition.source}: the lookup table's pattern recognition needs the "
+            f"paper's jet map (Table 2: each jet turns one axis), but {differs}; fly this "
+            "vehicle with the allocator controller (rcsim lookup database --vehicle gives its "
+            "per-jet responses)",
+            parameter="vehicle",
+            value=str(vehicle),
+        )
+    return {
+        "model": flying.model,
+        "params": flying.nominal(1),
+        "propulsion": flying.propulsion(),
+    }

@@ -37,6 +37,7 @@ _COMMANDS = (
     "analysis.apps.cli.campaign",
     "analysis.apps.cli.study",
     "analysis.apps.cli.analyze",
+    "analysis.apps.cli.vehicle",
 )
 
 

@@ -71,7 +71,37 @@ def register(sub) -> None:
         "companion TABLE_settling.csv records them (and each case's "
         "translation side effect), and the table loads only beside it",
     )
+    gen.add_argument(
+        "--vehicle",
+        metavar="FILE",
+        help='vehicle file to fly instead of the packaged vehicle (a name such as "paper" '
+        "or a TOML path; its jets must each turn one axis as Table 2's do -- a coupled layout "
+        "flies with --controller allocator)",
+    )
     gen.set_defaults(func=run_generate)
+
+    db = cmds.add_parser(
+        "database",
+        help="fire each jet alone under dispersions: the per-jet response database",
+        description="Fire every jet of a vehicle alone, for on-times from 10 ms to 0.32 s, on "
+        "N vehicles dispersed by the vehicle file's Table 5-format table, from rest.  Writes "
+        "DB (Parquet: one row per jet, on-time and vehicle: rate change and CG velocity "
+        "change), <DB stem>_summary.csv (per jet: change per second of firing and its spread "
+        "over the vehicles) and <DB stem>.png.",
+    )
+    db.add_argument("--vehicle", required=True, metavar="FILE", help="vehicle file or name")
+    db.add_argument("--out", required=True, metavar="DB.parquet", help="database to write")
+    db.add_argument(
+        "--vehicles",
+        dest="n_vehicles",
+        type=int,
+        default=64,
+        metavar="N",
+        help="dispersed vehicles per jet and on-time (default 64)",
+    )
+    db.add_argument("--seed", type=int, default=1, metavar="S", help="dispersion seed (default 1)")
+    db.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    db.set_defaults(func=run_database)
 
     cmp_ = cmds.add_parser(
         "compare",
@@ -220,7 +250,11 @@ def run_generate(args: argparse.Namespace) -> int:
             "loads only with its companion beside it, named <TABLE stem>_settling.csv"
         )
     files = generate_table_files(
-        args.out, settling_out=args.settling_out, jets_off=jets_off, overwrite=args.overwrite
+        args.out,
+        settling_out=args.settling_out,
+        jets_off=jets_off,
+        overwrite=args.overwrite,
+        vehicle=args.vehicle,
     )
     gen, out, settling = files.generated, files.table, files.settling
     print(
@@ -251,6 +285,20 @@ def run_generate(args: argparse.Namespace) -> int:
             f"cases; times within one cycle in {int(cmp_.within_one_cycle.sum())}/26; "
             f"identical in {int((cmp_.filter(like='diff_cycles') == 0).all(axis=1).sum())}/26"
         )
+    return 0
+
+
+def run_database(args: argparse.Namespace) -> int:
+    from analysis.engine.response_files import write_response_database
+    from spacecraft.dispersions import MAX_SEED
+
+    if not 0 <= args.seed <= MAX_SEED:
+        raise InputError(f"--seed must be in 0..2^63 - 1, got {args.seed}")
+    files = write_response_database(
+        args.vehicle, args.out, n_vehicles=args.n_vehicles, seed=args.seed,
+        overwrite=args.overwrite,
+    )  # fmt: skip
+    print(f"wrote {files.database} ({len(files.frame)} flights), {files.summary} and {files.plot}")
     return 0
 
 

@@ -181,21 +181,46 @@ def fly_runs(
     from analysis.engine.flight import fly_batch
     from lookup.registry import make_controller
 
-    model = load_model() if model is None else model
+    vehicle = spec_vehicle(spec)
+    if model is None:
+        model = load_model() if vehicle is None else vehicle.model
     run_ids = np.asarray(run_ids, dtype=np.int64)
-    dispersed = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids)
+    dispersed = draw_runs(nominal_of(spec, model), spec.sigmas, spec.seed, run_ids)
     scenarios = [spec.cases[c] for c in run_ids // spec.runs_per_case]
     effects = draw_effects(spec.effects, spec.seed, run_ids)[0]
     options = (
         {"adapt_options": adapt_options(spec.effects)} if spec.controller == "adaptive" else {}
     )
+    if vehicle is not None:
+        options["vehicle"] = vehicle.definition
     controller = make_controller(spec.controller, table=spec.table, model=model, **options)
     if cancel is not None:
         controller = _Cancellable(controller, cancel)
+    flying: dict = {}
+    if vehicle is not None:
+        flying = {"propulsion": vehicle.propulsion(), "tank": vehicle.tank(run_ids.size)}
     history = fly_batch(
-        scenarios, dispersed.params, controller, model=model, nthread=nthread, **effects
+        scenarios, dispersed.params, controller, model=model, nthread=nthread, **flying, **effects
     )
     return history, dispersed
+
+
+def spec_vehicle(spec: CampaignSpec):
+    """The campaign's :class:`spacecraft.vehicle_file.FlyingVehicle`, None for the packaged
+    vehicle (a campaign without the ``vehicle`` key)."""
+    if spec.vehicle is None:
+        return None
+    from spacecraft.vehicle_file import FlyingVehicle
+
+    return FlyingVehicle.load(spec.vehicle)
+
+
+def nominal_of(spec: CampaignSpec, model) -> VehicleParams:
+    """The nominal vehicle the runs are dispersed about (the vehicle file's Isp, if any)."""
+    nominal = VehicleParams.nominal(1, model)
+    if spec.vehicle is None:
+        return nominal
+    return replace(nominal, isp_s=spec_vehicle(spec).definition.isp_s)
 
 
 def envelope(history: History, cases: np.ndarray, alive: np.ndarray) -> pd.DataFrame:
@@ -317,7 +342,7 @@ def tabulate(spec: CampaignSpec, history: History, dispersed: DispersedRuns) -> 
 def _raised(spec: CampaignSpec, run_ids: np.ndarray, exc: BaseException, model) -> pd.DataFrame:
     """Rows for runs whose flight raised: inputs (the draws) recorded, outcomes NaN, failed
     with the exception as the reason."""
-    dispersed = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids)
+    dispersed = draw_runs(nominal_of(spec, model), spec.sigmas, spec.seed, run_ids)
     reason = f"exception: {type(exc).__name__}: {exc}".replace("\n", " ")
     return run_rows(spec, dispersed, missing_outcomes(run_ids.size, reason))
 
@@ -332,7 +357,8 @@ def simulate_chunk(
     ``cancel`` (local mode only; an Event does not travel to Dask workers): when set, the
     chunk is abandoned with :class:`Cancelled`.
     """
-    model = load_model()
+    vehicle = spec_vehicle(spec)
+    model = load_model() if vehicle is None else vehicle.model
     try:
         history, dispersed = fly_runs(
             spec, chunk.run_ids, nthread=nthread, model=model, cancel=cancel

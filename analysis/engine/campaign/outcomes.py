@@ -58,7 +58,8 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     * ``rate_settled_time_s``: start of the final stretch in which every axis stays under
       ``thr`` through the end of the run (NaN if the run does not end under it).
     * ``failed``: the simulation failed, or some axis ends with ``|rate error| >= thr``, or
-      (if set) the final total attitude error exceeds ``spec.attitude_threshold_rad``.
+      (if set) the final total attitude error exceeds ``spec.attitude_threshold_rad``, or the
+      propellant ran out (a vehicle file's tracked propellant, :mod:`spacecraft.propellant`).
     Runs whose simulation failed get NaN outcomes: their state is not a flight.  Columns,
     units and meanings: :data:`analysis.engine.runs_table.OUTCOME_COLUMNS`.
     """
@@ -119,6 +120,7 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     cols["rate_settled_time_s"] = settle
 
     sim_failed = np.asarray(history.failed, bool)
+    exhausted = history.propellant_exhausted_s  # None: propellant not tracked
     reasons = []
     for i in range(n):
         if sim_failed[i]:
@@ -139,6 +141,8 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
                 f"final attitude error {att_total[i]:.4g} deg > "
                 f"{np.degrees(spec.attitude_threshold_rad):.4g} deg"
             )
+        if exhausted is not None and np.isfinite(exhausted[i]):
+            why.append(f"propellant exhausted at t = {exhausted[i]:.4f} s")
         reasons.append("; ".join(why))
     # Outcomes of a non-flight are not numbers.
     out: dict[str, Any] = {

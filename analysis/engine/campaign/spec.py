@@ -44,6 +44,7 @@ from lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
 from models.errors import InputError
 from models.tables import CONTROL_CYCLE_S, PAPER_LOOKUP_TABLES
 from spacecraft.dispersions import MAX_SEED, DispersionSigmas
+from spacecraft.dispersions import THREE_SIGMA_KEYS as _SIGMA_KEYS
 
 #: The commented example spec ``rcsim campaign example`` prints: every key, its default and
 #: what it means (a data file beside this module, ``example_spec.toml``; a test loads it).
@@ -52,15 +53,6 @@ EXAMPLE_SPEC = (files("analysis.engine.campaign") / "example_spec.toml").read_te
 _DEFAULT_RATE_ERROR_DEG_S = 0.04
 HISTORY_MODES = ("none", "failures", "all", "first")
 SCENARIO_KINDS = ("rate-cases", "maneuver", "hold")
-_SIGMA_KEYS = {  # spec key -> (Table 5 name, factor to SI)
-    "mass_kg": ("mass", 1.0),
-    "cg_x_m": ("cg_x", 1.0),
-    "ixx_kg_m2": ("ixx", 1.0),
-    "iyy_kg_m2": ("iyy", 1.0),
-    "izz_kg_m2": ("izz", 1.0),
-    "thrust_n": ("thrust", 1.0),
-    "thruster_angle_deg": ("thruster_angle", math.pi / 180.0),
-}
 
 
 @dataclass(frozen=True)
@@ -94,6 +86,9 @@ class CampaignSpec:
         The failure gate, percent of runs (:mod:`~analysis.engine.campaign.gate`); None: no gate.
         Not in ``resolved``: it judges results and changes nothing that is flown, so a
         campaign can be resumed under another limit.
+    vehicle : str or None
+        The vehicle file flown (absolute path, or a packaged vehicle's name such as
+        ``"paper"``); None: the packaged ``vehicle.xml``.
     """
 
     source: str
@@ -112,6 +107,7 @@ class CampaignSpec:
     resolved: dict
     max_failed_pct: float | None = None
     effects: Effects = Effects()
+    vehicle: str | None = None
 
     @property
     def sensor(self):
@@ -308,9 +304,15 @@ def parse_dict(
     scen_resolved: list = []
     cases = _scenarios(raw_scen, source, scen_resolved)
     resolved["scenario"] = scen_resolved if isinstance(raw_scen, list) else scen_resolved[0]
+    vehicle, vehicle_resolved = _vehicle(top, base_dir)
+    if vehicle is not None:  # recorded only when given: other specs resolve as before
+        resolved.update(vehicle_resolved)
+        _check_reachable(vehicle, cases, source)
     name, table, resolved["controller"] = _controller(top.table_("controller"), base_dir)
+    if vehicle is not None:
+        _check_jet_map(vehicle, name, table, source)
     sigmas, effects, resolved["dispersions"] = _dispersions(
-        top.table_("dispersions"), base_dir, cases, source
+        top.table_("dispersions"), base_dir, cases, source, vehicle
     )
     rate_thr, att_thr, max_failed, resolved["failure"] = _failure(top.table_("failure"))
     histories, first_k, plots, resolved["output"] = _output(top.table_("output"))
@@ -332,7 +334,85 @@ def parse_dict(
         resolved=resolved,
         max_failed_pct=max_failed,
         effects=effects,
+        vehicle=vehicle,
     )
+
+
+def _check_jet_map(vehicle: str, controller: str, table: str | None, source: str) -> None:
+    """The phase-plane controller and the packaged lookup tables assume the paper's jet map
+    (Table 2: which jet turns which axis which way); refuse them on a vehicle whose jets
+    torque otherwise, naming the first jet that differs."""
+    from models.tables import load_jet_map
+    from spacecraft.vehicle_file import load_vehicle
+    from spacecraft.vehicle_file.authority import jet_map_mismatch
+
+    if controller == "allocator" or (controller != "phase-plane" and table is not None):
+        return  # the allocator reads the jets; a user's table was made for their vehicle
+    definition = load_vehicle(vehicle)
+    differs = jet_map_mismatch(definition, load_jet_map())
+    if differs:
+        what = "" if controller == "phase-plane" else " with the packaged table"
+        raise InputError(
+            f"{source}: controller.name: {controller!r}{what} assumes the paper's jet map "
+            f"(Table 2), but in {definition.source} {differs}; use the allocator controller"
+        )
+
+
+def _check_reachable(vehicle: str, cases: list[Scenario], source: str) -> None:
+    """Refuse a case whose rate change or attitude step the vehicle's jets cannot give,
+    naming the case and the axis direction."""
+    from spacecraft.vehicle_file import load_vehicle
+    from spacecraft.vehicle_file.authority import unreachable_command
+
+    definition = load_vehicle(vehicle)
+    for case in cases:
+        for what, need in (
+            ("rate change", case.rate_cmd_rad_s - case.omega0_rad_s),
+            ("attitude step", case.att_cmd_rad),
+        ):
+            why = unreachable_command(definition, need)
+            if why:
+                raise InputError(
+                    f"{source}: vehicle: {definition.source} cannot fly case {case.name!r}: "
+                    f"{why} (its {what} is {np.degrees(need).round(4).tolist()} deg"
+                    f"{'/s' if what == 'rate change' else ''})"
+                )
+
+
+def _vehicle(top: Reader, base_dir: Path) -> tuple[str | None, dict]:
+    """``vehicle``: a packaged vehicle's name or a vehicle file (relative to the spec), checked
+    by loading it; with its sha256 in ``resolved`` (a resume or replay refuses a changed file)."""
+    from spacecraft.vehicle_file import PACKAGED_VEHICLES, FlyingVehicle, resolve_vehicle
+
+    if not top.has("vehicle"):
+        return None, {}
+    stored = top.raw("vehicle_sha256") if top.has("vehicle_sha256") else None
+    value = top.raw("vehicle")
+    if not isinstance(value, str) or not value:
+        names = ", ".join(f'"{n}"' for n in PACKAGED_VEHICLES)
+        raise top.error("vehicle", f"must be a packaged vehicle ({names}) or a file path", value)
+    local = base_dir / value
+    if value in PACKAGED_VEHICLES and local.exists():
+        raise top.error(
+            "vehicle",
+            f"ambiguous: both the packaged vehicle {value!r} and the file {local}; "
+            f'write "./{value}"',
+            value,
+        )
+    if value in PACKAGED_VEHICLES:
+        path = str(resolve_vehicle(value))
+    else:
+        file = Path(value).expanduser()
+        file = file if file.is_absolute() else base_dir / file
+        if not file.is_file():
+            raise top.error("vehicle", "file not found", str(file))
+        path = str(file.resolve())
+    FlyingVehicle.load(path)  # InputError naming the vehicle file, the key and the value
+    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    if stored is not None and stored != digest:
+        raise top.error("vehicle", "file changed since the campaign ran (sha256 differs)", value)
+    name = value if value in PACKAGED_VEHICLES else path
+    return name, {"vehicle": name, "vehicle_sha256": digest}
 
 
 def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
@@ -376,14 +456,21 @@ def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
 
 
 def _dispersions(
-    d: Reader, base_dir: Path, cases: list[Scenario], source: str
+    d: Reader, base_dir: Path, cases: list[Scenario], source: str, vehicle: str | None = None
 ) -> tuple[DispersionSigmas, Effects, dict]:
     """``[dispersions]``: Table 5 (file, scale, 3-sigma overrides, converted to SI one-sigmas
-    here) and the sensor / timing / fault tables."""
+    here) and the sensor / timing / fault tables.  With a ``vehicle`` and ``table =
+    "default"``, the table is the vehicle file's ``[dispersions]`` (a row it leaves out is not
+    dispersed)."""
     from models.tables import load_dispersions
 
     disp_table = file_key(d, "table", base_dir)
     frame = load_dispersions(disp_table)
+    if vehicle is not None and disp_table is None:
+        from spacecraft.vehicle_file import load_vehicle
+
+        own = load_vehicle(vehicle).three_sigma
+        frame["three_sigma"] = [float(own.get(name, 0.0)) for name in frame["name"]]
     if d.has("table_sha256"):
         if d.raw("table_sha256") != file_digest(disp_table):
             raise d.error(

@@ -26,6 +26,12 @@ commanded rate change (for an axis with no commanded change, the mean of both gr
 hold it at rest).  Vehicles come back from the recorded inputs through the runs table's
 owner (:func:`analysis.engine.runs_table.vehicles_from_runs`, with the simulator's own pointing
 rule) and torques from :func:`spacecraft.vehicle.torque_per_jet_B`.
+
+A campaign that flew a vehicle file (its spec's ``vehicle``) is analysed with that vehicle's
+model, and its groups come from the vehicle's own jet matrix: the jets whose nominal torque
+about axis ``a`` has the group's sign (:func:`spacecraft.vehicle_file.authority.torque_signs`;
+for the paper's vehicle this is Table 2 exactly).  A canted jet belongs to a group of every
+axis it torques.
 """
 
 from __future__ import annotations
@@ -40,7 +46,10 @@ _DIRS = ((1, "pos"), (-1, "neg"))
 
 
 def physics_factors(
-    runs: pd.DataFrame, fire_sign: np.ndarray | None = None, jet_map: np.ndarray | None = None
+    runs: pd.DataFrame,
+    fire_sign: np.ndarray | None = None,
+    jet_map: np.ndarray | None = None,
+    vehicle: str | None = None,
 ) -> pd.DataFrame:
     """Derived factors of every run (see the module docstring).
 
@@ -52,7 +61,10 @@ def physics_factors(
         Per run and axis, the sign of the commanded rate change (0: none); adds the
         firing-direction factors.
     jet_map : ndarray of int (16, 3), optional
-        Table 2 signs; default the packaged table.
+        Table 2 signs; default the packaged table, or the vehicle's own torque signs.
+    vehicle : str, optional
+        The vehicle file the campaign flew (a packaged name or a path); default the packaged
+        vehicle.
 
     Returns
     -------
@@ -63,12 +75,21 @@ def physics_factors(
         raise ValueError(
             f"runs lack the recorded inputs {missing[:3]}{' ...' if len(missing) > 3 else ''}"
         )
+    if vehicle is not None:
+        from spacecraft.vehicle_file import FlyingVehicle
+        from spacecraft.vehicle_file.authority import torque_signs
+
+        flying = FlyingVehicle.load(vehicle)
+        model, nominal = flying.model, flying.nominal(1)
+        jet_map = torque_signs(flying.definition) if jet_map is None else jet_map
+    else:
+        model = load_model()
+        nominal = VehicleParams.nominal(1, model)
     if jet_map is None:
         from models.tables import load_jet_map
 
         jet_map = load_jet_map()
-    model = load_model()
-    dispersed, straight = vehicles_from_runs(runs, VehicleParams.nominal(1, model))
+    dispersed, straight = vehicles_from_runs(runs, nominal)
     torque = torque_per_jet_B(dispersed, model)  # (n, 16, 3) [N m]
     torque_nom = torque_per_jet_B(straight, model)
     inertia = dispersed.inertia_B

@@ -128,7 +128,8 @@ def load_runs(
         if signs is None:
             notes.append("cases are not rate cases: firing-direction factors not derived")
         _check_numeric(runs, raw_cols, where)
-        factors = physics_factors(runs, signs)
+        flown = ((manifest or {}).get("spec") or {}).get("vehicle")  # a vehicle file's campaign
+        factors = physics_factors(runs, signs, vehicle=flown)
     elif derived:
         notes.append("the table lacks the recorded vehicle inputs: no physics-aware factors")
 

@@ -1,0 +1,146 @@
+"""The allocator controller against the lookup table and the phase plane (issue 18).
+
+Measures, in one process run:
+
+1. ``speed``: a summary-only campaign of the 26 rate cases x N runs (Table 5 dispersions,
+   paper vehicle, local mode) with the lookup controller and with the allocator, interleaved
+   and repeated; runs per second of flying (``report.fly_s``) and the allocator's ratio to the
+   lookup controller (target: >= 0.7);
+2. ``compare``: on the paper's vehicle, the three controllers on the 26 rate cases (from rest
+   to the case rate, 20 s), the 5 deg three-axis maneuver and the disturbed attitude hold
+   (2 N m yaw): firings, propellant and final errors side by side;
+3. ``canted``: the 26 rate cases x N runs on the canted-quad vehicle with the allocator under
+   Table 5-style dispersions (the vehicle file's table): failures and propellant per case.
+
+Usage::
+
+    python benchmarks/allocator.py [--runs-per-case 40] [--repeats 3] [--canted-runs 1000]
+
+Timings are wall-clock on a shared machine: the script prints the load average before and
+after; quote the ratio of interleaved repeats, not an absolute figure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from analysis.engine.campaign.runner import run_campaign  # noqa: E402
+from analysis.engine.campaign.spec import parse_dict  # noqa: E402
+
+
+def _spec(controller: str, runs: int, seed: int, vehicle: str | None = None):
+    data = {
+        "seed": seed,
+        "runs_per_case": runs,
+        "scenario": {"kind": "rate-cases", "cases": "all", "duration_s": 20.0},
+        "controller": {"name": controller},
+        "output": {"histories": "none", "plots": False},
+    }
+    if vehicle:
+        data["vehicle"] = vehicle
+    return parse_dict(data, source=f"benchmark {controller}")
+
+
+def speed(runs: int, repeats: int) -> None:
+    print(f"load average before: {os.getloadavg()}")
+    rates: dict[str, list[float]] = {"lookup": [], "allocator": []}
+    for r in range(repeats):
+        for name in ("lookup", "allocator") if r % 2 == 0 else ("allocator", "lookup"):
+            with tempfile.TemporaryDirectory() as tmp:
+                report = run_campaign(_spec(name, runs, 7), Path(tmp) / "c", progress=False)
+            rates[name].append(26 * runs / report.fly_s)
+            print(f"  repeat {r + 1} {name:9s} {rates[name][-1]:7.1f} runs/s")
+    ratio = [a / b for a, b in zip(rates["allocator"], rates["lookup"])]
+    print(
+        f"speed: lookup {np.median(rates['lookup']):.1f} runs/s, allocator "
+        f"{np.median(rates['allocator']):.1f} runs/s; allocator / lookup per repeat "
+        f"{[round(x, 3) for x in ratio]}, median {np.median(ratio):.3f} (target >= 0.7)"
+    )
+    print(f"load average after: {os.getloadavg()}")
+
+
+def compare() -> None:
+    from analysis.engine.flight import Scenario, fly_batch
+    from analysis.engine.scenarios.catalog import get_scenario
+    from analysis.engine.scenarios.flying import build_controller
+    from lookup.registry import make_controller
+    from models.tables import load_rate_cases
+    from spacecraft.vehicle import VehicleParams, load_model
+
+    model = load_model()
+    rates = np.asarray(load_rate_cases().rate_cmd, float)
+    sets = {
+        "26 rate cases": (
+            [Scenario(f"rate-{k + 1:02d}", 20.0, rate_cmd_rad_s=r) for k, r in enumerate(rates)],
+            None,
+        ),
+        "5 deg three-axis": (list(get_scenario("three-axis-5deg").runs), "three-axis-5deg"),
+        "disturbed hold": (
+            list(get_scenario("attitude-hold-disturbed").runs),
+            "attitude-hold-disturbed",
+        ),
+    }
+    print(
+        "| scenario | controller | firings | propellant [g] | max final att. err [deg] | "
+        "max final rate err [deg/s] |\n|---|---|---|---|---|---|"
+    )
+    for label, (runs, named) in sets.items():
+        for ctl_name in ("phase-plane", "lookup", "allocator"):
+            if named is not None and ctl_name != "allocator":
+                ctl = build_controller(get_scenario(named), ctl_name, model=model)
+            else:
+                ctl = make_controller(ctl_name, model=model)
+            h = fly_batch(runs, VehicleParams.nominal(len(runs), model), ctl, model=model)
+            att = np.degrees(np.linalg.norm(h.final.att_err_B, axis=1)).max()
+            rate = np.degrees(np.abs(h.final.rate_err_B)).max()
+            print(
+                f"| {label} | {ctl_name} | {int(h.propulsion.firings.sum())} | "
+                f"{h.propulsion.propellant_kg(280.0).sum() * 1e3:.1f} | {att:.3f} | {rate:.4f} |"
+            )
+
+
+def canted(runs: int) -> None:
+    import pandas as pd
+
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        run_campaign(_spec("allocator", runs, 18, "canted16"), Path(tmp) / "c", progress=False)
+        wall = time.perf_counter() - t0
+        frame = pd.read_parquet(Path(tmp) / "c" / "runs.parquet")
+    per_case = frame.groupby("case").agg(
+        failed=("failed", "sum"),
+        propellant_mean_g=("propellant_kg", lambda p: 1e3 * p.mean()),
+        propellant_max_g=("propellant_kg", lambda p: 1e3 * p.max()),
+    )
+    print(f"canted16, allocator, 26 x {runs} runs, Table 5 dispersions: {wall:.0f} s wall")
+    print(per_case.to_string())
+    print(f"total failed {int(frame['failed'].sum())} of {len(frame)}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs-per-case", type=int, default=40)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--canted-runs", type=int, default=1000)
+    parser.add_argument("--only", choices=("speed", "compare", "canted"))
+    args = parser.parse_args()
+    if args.only in (None, "speed"):
+        speed(args.runs_per_case, args.repeats)
+    if args.only in (None, "compare"):
+        compare()
+    if args.only in (None, "canted"):
+        canted(args.canted_runs)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,38 @@
+"""A vehicle a user writes: a TOML vehicle file, validated, and the MuJoCo model built from it.
+
+* :mod:`~spacecraft.vehicle_file.schema` -- the file's keys, their checks and the validated
+  :class:`~spacecraft.vehicle_file.schema.VehicleDef` (mass, CG, full inertia, any number of
+  jets, propellant, the Table 5-format dispersion table);
+* :mod:`~spacecraft.vehicle_file.mjcf` -- the vehicle's MJCF text and compiled model, with the
+  packaged vehicle's structure (jets as site actuators named ``jet_01``...);
+* :mod:`~spacecraft.vehicle_file.flying` -- a file ready to fly (model, nominal parameters
+  with its Isp, minimum on-time, propellant tank);
+* :mod:`~spacecraft.vehicle_file.authority` -- what the jets can do: force/torque matrix,
+  authority per axis and direction, unreachable directions, jet-out cases
+  (``rcsim vehicle check``).
+
+The paper's vehicle is the packaged example ``paper`` (``models/vehicle/paper.toml``: it builds
+a model that flies bit-identically to ``models/vehicle/vehicle.xml``); ``canted16`` is a
+four-quad layout with canted jets (arithmetic in ``models/vehicle/README.md``).
+"""
+
+from spacecraft.vehicle_file.flying import FlyingVehicle
+from spacecraft.vehicle_file.mjcf import build_model, to_mjcf
+from spacecraft.vehicle_file.schema import (
+    PACKAGED_VEHICLES,
+    Jet,
+    VehicleDef,
+    load_vehicle,
+    resolve_vehicle,
+)
+
+__all__ = [
+    "PACKAGED_VEHICLES",
+    "FlyingVehicle",
+    "Jet",
+    "VehicleDef",
+    "build_model",
+    "load_vehicle",
+    "resolve_vehicle",
+    "to_mjcf",
+]

@@ -1,0 +1,60 @@
+"""A vehicle file ready to fly: its compiled model, nominal parameters, valve limit and tank.
+
+What the engine needs to fly a user's vehicle instead of the packaged one, in one place:
+
+* :attr:`FlyingVehicle.model` -- the MuJoCo model (:func:`~spacecraft.vehicle_file.build_model`);
+* :meth:`FlyingVehicle.nominal` -- :class:`~spacecraft.vehicle.VehicleParams` read back from
+  that model, with the file's Isp;
+* :meth:`FlyingVehicle.propulsion` -- the valve limits (the file's minimum on-time);
+* :meth:`FlyingVehicle.tank` -- the tracked propellant, or None when the file gives no
+  propellant mass (then the mass properties stay constant, as for the packaged vehicle).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, replace
+
+import mujoco
+
+from spacecraft.propellant import PropellantTank
+from spacecraft.propulsion import PropulsionParams
+from spacecraft.vehicle import VehicleParams
+from spacecraft.vehicle_file.mjcf import build_model
+from spacecraft.vehicle_file.schema import VehicleDef, load_vehicle
+
+
+@dataclass(frozen=True)
+class FlyingVehicle:
+    """A validated vehicle file and its compiled model."""
+
+    definition: VehicleDef
+    model: mujoco.MjModel
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> FlyingVehicle:
+        """Read, validate and compile a vehicle file (or a packaged vehicle's name).
+
+        Raises
+        ------
+        InputError
+            The file is invalid, or it has a jet count the simulation does not fly.
+        """
+        definition = load_vehicle(path)
+        definition.require_flyable()
+        return cls(definition, build_model(definition))
+
+    def nominal(self, n_runs: int = 1) -> VehicleParams:
+        """The nominal vehicle ``n_runs`` times, with the file's Isp."""
+        return replace(VehicleParams.nominal(n_runs, self.model), isp_s=self.definition.isp_s)
+
+    def propulsion(self) -> PropulsionParams:
+        """Valve limits: the file's minimum on-time (a new pulse shorter is not made)."""
+        return PropulsionParams(min_pulse_s=self.definition.min_on_s)
+
+    def tank(self, n_runs: int) -> PropellantTank | None:
+        """The propellant tracked for ``n_runs`` runs, None when the file gives no mass."""
+        d = self.definition
+        if d.propellant_kg is None:
+            return None
+        return PropellantTank.of(n_runs, d.propellant_kg, d.tank_position_m)

@@ -1,0 +1,52 @@
+"""``rcsim vehicle check``: the printout an analyst reads before flying a vehicle.
+
+Oracles: the canted example's jet matrix from its documented arithmetic (jet_01, quad A
+forward jet: force 22.24 N x (cos 10 deg, -sin 10 deg cos 45 deg, -sin 10 deg sin 45 deg) =
+(21.902, -2.731, -2.731) N; torque (r - CG) x F with r - CG = (1.0, 0.9, 0.9) m =
+(0, 22.443, -22.443) N m); on the paper vehicle, the +roll jets are 2 and 4 (Table 2), one
+couple at arm r = 0.812 m: authority 2 F r / Ixx = 2 x 22.24 x 0.812 / 3583.09 rad/s^2
+= 0.5775 deg/s^2, and losing both loses +roll.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from analysis.apps.cli import main
+
+
+def test_canted_check(capsys):
+    assert main(["vehicle", "check", "canted16", "--no-pairs"]) == 0
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith("jet_01 "))
+    assert row.split()[1:7] == ["21.902", "-2.731", "-2.731", "0.000", "22.443", "-22.443"]
+    assert "Unreachable directions: none" in out
+    assert "0 of 16 single jets out lose an axis direction" in out
+
+
+def test_paper_check_authority(capsys):
+    assert main(["vehicle", "check", "paper"]) == 0
+    out = capsys.readouterr().out
+    roll = next(line for line in out.splitlines() if line.startswith("+roll"))
+    expect = np.degrees(2 * 22.24 * 0.812 / 3583.09)
+    assert float(roll.split()[1]) == round(expect, 4)
+    # Two roll jets of the same sign out leave no +roll (jets 2 and 4 are the +roll jets)
+    assert "jet_02+jet_04" in out
+
+
+def test_unreachable_axis_is_reported(tmp_path, capsys):
+    text = (
+        "[mass]\nmass_kg = 100.0\ncg_m = [0.0, 0.0, 0.0]\ninertia_kg_m2 = [10.0, 10.0, 10.0]\n"
+        "[jet_defaults]\nthrust_n = 10.0\n"
+        "[[jet]]\nposition_m = [1.0, 0.0, 0.0]\ndirection = [0, 1, 0]\n"
+        "[[jet]]\nposition_m = [1.0, 0.0, 0.0]\ndirection = [0, -1, 0]\n"
+    )
+    (tmp_path / "v.toml").write_text(text)
+    assert main(["vehicle", "check", str(tmp_path / "v.toml")]) == 0
+    out = capsys.readouterr().out
+    status = {
+        line.split()[0]: line.split()[1] for line in out.splitlines() if line.startswith(("+", "-"))
+    }
+    assert status["+roll"] == status["-pitch"] == "UNREACHABLE"
+    assert status["+yaw"] != "UNREACHABLE"
+    assert "Unreachable directions: +roll, -roll, +pitch, -pitch" in out

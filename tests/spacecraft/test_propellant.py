@@ -1,0 +1,158 @@
+"""Propellant that runs out (:mod:`spacecraft.propellant`), flown in the closed loop.
+
+Oracles
+-------
+* Rocket mass flow: a jet of thrust F firing for t uses ``F t / (Isp g0)`` of propellant
+  (``g0`` = 9.80665 m/s^2, the definition of Isp in seconds; e.g. Sutton & Biblarz, *Rocket
+  Propulsion Elements*, eq. 2-5: ``I_s = I_t / (g0 m_p)``).  Compared to 1e-9 relative: the
+  flight adds per-cycle doubles (200 cycles, each exact to ~1e-16 relative).
+* The stated point-mass model (module docstring): the inertia after using ``u`` kg equals the
+  dry body plus the remaining propellant as a point mass at the tank, built independently
+  by the parallel-axis theorem (1e-12 relative: a few float operations on ~1e3 kg m^2).
+* Exhaustion: with propellant left ``L`` and one jet of flow ``mdot`` firing from t = 0,
+  the jets stop at ``L / mdot`` exactly (rounding only, 1e-12 s).
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from spacecraft.navigation import Guidance
+from spacecraft.propellant import (
+    PropellantTank,
+    exhaustion_time_s,
+    full_inertia,
+    mass_properties,
+    principal,
+)
+from spacecraft.simulation import BatchSimulation
+from spacecraft.vehicle import G0_M_S2, VehicleParams
+from spacecraft.vehicle_file import build_model, load_vehicle
+
+
+class _Constant:
+    """Fire the jets of ``on`` (n_runs, 16) bool for whole cycles, every cycle."""
+
+    cycle_s = 0.04
+
+    def __init__(self, on):
+        self.on = np.asarray(on, bool)
+
+    def initial_state(self, n_runs):
+        return None
+
+    def step(self, nav, state):
+        return np.where(self.on, self.cycle_s, 0.0), None
+
+
+@pytest.fixture(scope="module")
+def canted():
+    vehicle = load_vehicle("canted16")
+    return vehicle, build_model(vehicle)
+
+
+def _fly(vehicle, model, on, initial_kg, duration_s):
+    n = on.shape[0]
+    params = VehicleParams.nominal(n, model)
+    params = VehicleParams(**{**params.__dict__, "isp_s": vehicle.isp_s})
+    tank = PropellantTank.of(n, initial_kg, vehicle.tank_position_m)
+    sim = BatchSimulation(params, model=model, nthread=1, tank=tank)
+    history = sim.run(_Constant(on), Guidance.rate(np.zeros((n, 3))), duration_s)
+    return sim, history
+
+
+def test_constant_firing_uses_F_t_over_Isp_g0(canted):
+    vehicle, model = canted
+    on = np.zeros((2, 16), bool)
+    on[0, 2] = True  # jet_03 alone
+    on[1, [0, 4]] = True  # two jets
+    duration = 8.0
+    sim, history = _fly(vehicle, model, on, vehicle.propellant_kg, duration)
+    thrust = vehicle.thrusts_n()
+    expected = (on * thrust).sum(axis=1) * duration / (vehicle.isp_s * G0_M_S2)
+    used = history.propulsion.propellant_kg(vehicle.isp_s)
+    np.testing.assert_allclose(used, expected, rtol=1e-9, atol=0)
+    # The mass MuJoCo flies at the end is the wet mass minus what was used.
+    flown_mass = sim._batch.expanded("body_mass")[:, 1]
+    np.testing.assert_allclose(vehicle.mass_kg - flown_mass, expected, rtol=1e-9, atol=0)
+    assert np.isinf(history.propellant_exhausted_s).all()
+
+
+def test_inertia_follows_the_point_mass_model(canted):
+    vehicle, _ = canted
+    m0, c0, i0 = vehicle.mass_kg, np.array(vehicle.cg_m), vehicle.inertia_kg_m2
+    tank, p0, used = np.array(vehicle.tank_position_m), vehicle.propellant_kg, 12.5
+    m, c, inertia = mass_properties(np.array([m0]), c0[None], i0[None], tank, np.array([used]))
+
+    def point(v):  # inertia of a unit point mass at v about the origin
+        return v @ v * np.eye(3) - np.outer(v, v)
+
+    # Independent construction: dry body about its own CG, plus the propellant left.
+    dry_m = m0 - p0
+    dry_c = (m0 * c0 - p0 * tank) / dry_m
+    dry_i = i0 + m0 * point(c0) - p0 * point(tank) - dry_m * point(dry_c)
+    left = p0 - used
+    m_exp = dry_m + left
+    c_exp = (dry_m * dry_c + left * tank) / m_exp
+    i_exp = dry_i + dry_m * point(dry_c - c_exp) + left * point(tank - c_exp)
+    assert m[0] == pytest.approx(m_exp, rel=1e-12)
+    np.testing.assert_allclose(c[0], c_exp, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(inertia[0], i_exp, rtol=0, atol=1e-12 * np.abs(i_exp).max())
+    # What MuJoCo is given (principal moments + frame) rebuilds the same tensor.
+    moments, quat = principal(inertia)
+    rebuilt = full_inertia(moments, quat[0])
+    np.testing.assert_allclose(rebuilt[0], inertia[0], atol=1e-9 * np.abs(i_exp).max())
+
+
+def test_exhaustion_stops_the_jets_at_the_exact_instant(canted):
+    vehicle, model = canted
+    on = np.zeros((1, 16), bool)
+    on[0, 2] = True
+    mdot = vehicle.thrusts_n()[2] / (vehicle.isp_s * G0_M_S2)
+    left = 0.0123  # kg: runs out at left / mdot = 1.5186 s, inside cycle 37
+    sim, history = _fly(vehicle, model, on, left, 3.0)
+    assert history.propellant_exhausted_s[0] == pytest.approx(left / mdot, abs=1e-12)
+    assert history.propulsion.propellant_kg(vehicle.isp_s)[0] == pytest.approx(left, rel=1e-9)
+    assert history.propulsion.on_time_s[0, 2] == pytest.approx(left / mdot, abs=1e-12)
+    # The run flies on: not a simulation failure.
+    assert not history.failed[0]
+
+
+def test_exhaustion_time_with_two_jets_in_pieces():
+    """Jet 1 from 10 ms, jet 2 from 20 ms: the crossing falls in the third piece."""
+    mdot = np.array([[0.008, 0.008]])
+    length = np.array([[0.01, 0.01, 0.02]])
+    on = np.array([[[0, 0], [1, 0], [1, 1]]], float)
+    left = np.array([1e-4])
+    t = exhaustion_time_s(length, on, mdot, left)
+    exact = 0.02 + (left[0] - 0.008 * 0.01) / 0.016
+    assert t[0] == pytest.approx(exact, abs=1e-15)
+    assert np.isinf(exhaustion_time_s(length, on, mdot, np.array([1.0])))[0]
+
+
+def test_untracked_flight_unchanged_by_a_tank_of_zero_use():
+    """A tank on a vehicle that never fires leaves every record identical (no set_const)."""
+    vehicle = load_vehicle("paper")
+    model = build_model(vehicle)
+    params = VehicleParams.nominal(2, model)
+    omega0 = np.array([[0.01, -0.02, 0.005], [0.0, 0.003, 0.0]])
+    ctl = _Constant(np.zeros((2, 16), bool))
+    a = BatchSimulation(params, model=model, nthread=1).run(
+        ctl, Guidance.rate(np.zeros((2, 3))), 2.0, omega0_B=omega0
+    )
+    b = BatchSimulation(
+        params, model=model, nthread=1, tank=PropellantTank.of(2, 10.0, (1.0, 0, 0))
+    ).run(ctl, Guidance.rate(np.zeros((2, 3))), 2.0, omega0_B=omega0)
+    assert np.array_equal(a.q_BN, b.q_BN) and np.array_equal(a.omega_B, b.omega_B)
+
+
+def test_mujoco_quaternion_convention():
+    """principal() returns MuJoCo body_iquat: the frame rotates principal axes into B."""
+    inertia = np.array([[[3583.09, -25.0, 40.0], [-25.0, 3160.22, -15.0], [40.0, -15.0, 2457.06]]])
+    moments, quat = principal(inertia)
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, quat[0])
+    rot = rot.reshape(3, 3)
+    np.testing.assert_allclose(rot @ np.diag(moments[0]) @ rot.T, inertia[0], atol=1e-9)
