@@ -44,6 +44,12 @@ def register(sub) -> None:
         "runs of the held-out seed (default 200)",
     )
     p.add_argument(
+        "--vehicle",
+        metavar="FILE",
+        help="fly your own vehicle (a vehicle TOML file or a packaged name; docs/vehicles.md) "
+        "instead of the paper's; its jets must play Table 2's roles for a lookup table",
+    )
+    p.add_argument(
         "--plots",
         action=argparse.BooleanOptionalAction,
         default=None,
@@ -87,8 +93,11 @@ def run(args: argparse.Namespace) -> int:
         "fresh_seed": args.fresh_seed,
         "search_runs_per_case": args.search_runs_per_case,
         "plots": args.plots,
+        "vehicle": args.vehicle,
     }
     given = {k: v for k, v in given.items() if v is not None}
+    if "vehicle" in given and Path(given["vehicle"]).suffix:  # a file, not a packaged name
+        given["vehicle"] = os.path.abspath(given["vehicle"])
     if "table" in given and given["table"] not in PAPER_LOOKUP_TABLES:
         # A CSV path is kept absolute: a resumed loop re-reads the same file from anywhere.
         given["table"] = os.path.abspath(given["table"])

@@ -24,6 +24,7 @@ from analysis.apps.refinement.outputs import (
     held_out_seed,
     load_refinable_table,
     rate_cases_campaign,
+    refinement_spec,
 )
 from analysis.apps.refinement.search import SEARCH_RUNS_PER_CASE
 from analysis.engine.campaign import results as campaign_results
@@ -63,6 +64,9 @@ class LoopSettings:
     search_runs_per_case : int
         Runs per case the refinement search flies (the first of the "before" campaign's, the
         same draws); the refined table is then flown on every run of the held-out seed.
+    vehicle : str or None
+        A vehicle file (absolute path) or packaged vehicle name the campaigns and the search
+        fly (the lookup table needs the paper's jet roles, Table 2); None: the paper's.
     plots : bool
         The campaigns' per-case plots (about 4.5 s per campaign on 2 cores, whatever its
         size); without them the report's Figs 9-10 section says the figures were not made.
@@ -77,6 +81,7 @@ class LoopSettings:
     max_iterations: int = 8
     search_runs_per_case: int = SEARCH_RUNS_PER_CASE
     plots: bool = True
+    vehicle: str | None = None
 
     def __post_init__(self):
         # The refinement's and the driver analysis's own checks: one rule for each.
@@ -91,6 +96,19 @@ class LoopSettings:
             search_runs_per_case=self.search_runs_per_case,
         )
         Settings(n_permutations=self.permutations, random_state=self.seed)
+        if self.vehicle is not None:
+            # The campaigns' own checks on the vehicle (a file that loads, jets that play the
+            # lookup table's roles), before any directory is made.
+            try:
+                refinement_spec(
+                    runs_per_case=1,
+                    seed=0,
+                    duration_s=self.duration_s,
+                    vehicle=self.vehicle,
+                    source=str(self.vehicle),
+                )
+            except InputError as exc:
+                raise InputError(str(exc), parameter="vehicle", value=self.vehicle) from None
 
     @property
     def held_out_seed(self) -> int:
@@ -108,7 +126,13 @@ class LoopResult:
 
 
 def spec_text(
-    *, table: str, runs_per_case: int, seed: int, duration_s: float, plots: bool = True
+    *,
+    table: str,
+    runs_per_case: int,
+    seed: int,
+    duration_s: float,
+    plots: bool = True,
+    vehicle: str | None = None,
 ) -> str:
     """The refinement's rate-case campaign (:func:`rate_cases_campaign`) as a TOML spec, with
     failure histories and (unless ``plots`` is false) plots kept: a user reads these."""
@@ -119,6 +143,7 @@ def spec_text(
         table=table,
         histories="failures",
         plots=plots,
+        vehicle=vehicle,
     )
     lines = ["# Written by `rcsim loop`: the 26 Table 3 rate cases, Table 5 dispersions."]
     scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
@@ -340,6 +365,7 @@ class _Stages:
                 seed=seed,
                 duration_s=s.duration_s,
                 plots=s.plots if plots is None else plots,
+                vehicle=s.vehicle,
             )
             atomic_write(spec_file, lambda tmp: Path(tmp).write_text(text))
         report = run_campaign(
@@ -384,7 +410,9 @@ class _Stages:
 
         s = self.settings
         # The search's baseline is the "before" campaign itself: same seed, same runs.
-        spec = refinement_spec(runs_per_case=s.runs_per_case, seed=s.seed, duration_s=s.duration_s)
+        spec = refinement_spec(
+            runs_per_case=s.runs_per_case, seed=s.seed, duration_s=s.duration_s, vehicle=s.vehicle
+        )
         result = refine(
             spec,
             self.table,

@@ -67,10 +67,19 @@ def _fly_chunk(
     nthread: int = 1,
 ) -> pd.DataFrame:
     """Fly one chunk: run ``i`` flies case ``cases[i]`` with vehicle ``params.take(i)`` and
-    table ``run_times[i]``; return its outcome columns.  Runs in a worker process."""
+    table ``run_times[i]``; return its outcome columns.  Runs in a worker process.  The
+    spec's vehicle file, if it has one, is flown as a campaign flies it (its model,
+    propulsion and tank)."""
+    from analysis.engine.campaign.chunk import spec_vehicle
+
     controller = LookupController.for_runs(table, run_times, lookup_params)
+    vehicle = spec_vehicle(spec)
+    model = load_model() if vehicle is None else vehicle.model
+    flying: dict = {}
+    if vehicle is not None:
+        flying = {"propulsion": vehicle.propulsion(), "tank": vehicle.tank(len(cases))}
     history = fly_batch(
-        [spec.cases[c] for c in cases], params, controller, model=load_model(), nthread=nthread
+        [spec.cases[c] for c in cases], params, controller, model=model, nthread=nthread, **flying
     )
     return outcomes(history, spec)
 
@@ -119,11 +128,15 @@ def evaluate(
     stride = spec.runs_per_case
     n = stride if runs_per_case is None else min(int(runs_per_case), stride)
     lookup_params = LookupParams.from_table4() if lookup_params is None else lookup_params
-    model = load_model()
-    # Draw each involved case's runs once; every candidate of that case reuses them.
+    from analysis.engine.campaign.chunk import nominal_of, spec_vehicle
+
+    vehicle = spec_vehicle(spec)
+    model = load_model() if vehicle is None else vehicle.model
+    # Draw each involved case's runs once; every candidate of that case reuses them (about the
+    # nominal vehicle the campaign disperses: the same draws as its runs).
     involved = np.unique(trials.case)
     run_ids = (involved[:, None] * stride + np.arange(n)[None, :]).ravel()
-    params_all = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, run_ids).params
+    params_all = draw_runs(nominal_of(spec, model), spec.sigmas, spec.seed, run_ids).params
     first_row = {int(c): i * n for i, c in enumerate(involved)}
 
     trial_of_run = np.repeat(np.arange(trials.n_trials), n)

@@ -50,6 +50,7 @@ def rate_cases_campaign(
     table: str = "default",
     histories: str = "none",
     plots: bool = False,
+    vehicle: str | None = None,
 ) -> dict:
     """The campaign a refinement flies, as a spec dict: all 26 Table 3 cases from rest, Table 5
     dispersions, the campaign's default failure threshold.
@@ -58,7 +59,7 @@ def rate_cases_campaign(
     "before" campaign's runs as the search's baseline -- the same runs only if both come
     from here.
     """
-    return {
+    spec: dict = {
         "seed": seed,
         "runs_per_case": runs_per_case,
         "scenario": {
@@ -71,14 +72,24 @@ def rate_cases_campaign(
         "dispersions": {"table": "default", "scale": 1.0},
         "output": {"histories": histories, "plots": plots},
     }
+    if vehicle is not None:  # a vehicle file (or packaged name): the campaign flies it
+        spec["vehicle"] = vehicle
+    return spec
 
 
 def refinement_spec(
-    *, runs_per_case: int, seed: int, duration_s: float = 20.0, source: str = "lookup refine"
+    *,
+    runs_per_case: int,
+    seed: int,
+    duration_s: float = 20.0,
+    source: str = "lookup refine",
+    vehicle: str | None = None,
 ):
     """:func:`rate_cases_campaign` validated (a :class:`CampaignSpec`)."""
     return parse_dict(
-        rate_cases_campaign(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s),
+        rate_cases_campaign(
+            runs_per_case=runs_per_case, seed=seed, duration_s=duration_s, vehicle=vehicle
+        ),
         source=source,
         base_dir=None,
     )

@@ -108,3 +108,19 @@ def test_sigterm_after_the_campaign_stops_with_143_one_line_and_resumes(tmp_path
     rc = main(["loop", "--out", str(out), "--resume"])
     assert rc == 0
     assert set(json.loads((out / "loop.json").read_text())["done"]) == set(STAGES)
+
+
+def test_loop_with_the_paper_vehicle_file_flies_the_same_loop(tmp_path):
+    """Issue 18: `rcsim loop --vehicle FILE`.  The paper's vehicle as a file (the packaged
+    `paper` vehicle) gives the loop of the packaged MJCF: the same runs in every campaign and
+    the same refined table (the vehicle file is the paper's model, array for array)."""
+    base = dict(runs_per_case=6, duration_s=8.0, plots=False, search_runs_per_case=6)
+    a = run_loop(LoopSettings(**base), tmp_path / "a", echo=lambda _: None)
+    b = run_loop(LoopSettings(**base, vehicle="paper"), tmp_path / "b", echo=lambda _: None)
+    for name in ("campaign_before", "campaign_after", "campaign_check"):
+        pd.testing.assert_frame_equal(
+            pd.read_parquet(a.out / name / "runs.parquet"),
+            pd.read_parquet(b.out / name / "runs.parquet"),
+        )
+    assert (a.out / "refined_table.csv").read_text() == (b.out / "refined_table.csv").read_text()
+    assert 'vehicle = "paper"' in (b.out / "spec_before.toml").read_text()
