@@ -28,20 +28,21 @@ test: $(STAMP) chromium
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -q
 
-# The HTML report is tested in headless Chromium (Debian package `chromium`).  Install it when
-# it is missing and this user can (root with apt-get); otherwise say so and carry on: the
+# The HTML report is tested in headless Chromium (Debian package `chromium`), and its printed
+# PDF read back with poppler's `pdftotext` (Debian package `poppler-utils`).  Install them when
+# one is missing and this user can (root with apt-get); otherwise say so and carry on: the
 # browser tests then skip and name the reason, so a machine without apt never fails the build.
 chromium:
-	@if command -v chromium >/dev/null 2>&1; then :; \
+	@if command -v chromium >/dev/null 2>&1 && command -v pdftotext >/dev/null 2>&1; then :; \
 	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
-	  echo "chromium: installing the Debian package with apt-get (can take a minute)"; \
+	  echo "chromium: installing the Debian packages chromium and poppler-utils with apt-get (can take a minute)"; \
 	  log=$$(mktemp); \
-	  if { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; } \
+	  if { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium poppler-utils; } \
 	      >"$$log" 2>&1; then :; \
 	  else tail -n 3 "$$log"; echo "chromium: apt-get install failed; browser tests will skip"; fi; \
 	  rm -f "$$log"; \
 	else \
-	  echo "chromium: not installed (no apt-get, or not root); browser tests will skip"; \
+	  echo "chromium: chromium or pdftotext not installed (no apt-get, or not root); browser tests will skip"; \
 	fi
 
 # Lowest versions: a separate venv with exactly the pins of $(MIN_PINS), rcsim built as a wheel

@@ -83,3 +83,115 @@ def render_page(chromium, tmp_path):
         return dom
 
     return render
+
+
+class _PageText:
+    """What a reader sees of a report page: its visible text (no ``<nav>``, hidden in print;
+    no script, style or title) and its tables, each as (caption, rows of cell texts) with the
+    header row first."""
+
+    SKIP = frozenset({"head", "script", "style", "title", "nav"})
+
+    def __init__(self, page: str):
+        from html.parser import HTMLParser
+
+        text: list = []
+        tables: list = []
+        skip = [0]
+        cell: list | None = None
+        caption: list | None = None
+
+        class Parser(HTMLParser):
+            def handle_starttag(self, tag, attrs):
+                nonlocal cell, caption
+                if tag in _PageText.SKIP:
+                    skip[0] += 1
+                elif tag == "table":
+                    tables.append(["", []])
+                elif tag == "caption":
+                    caption = []
+                elif tag == "tr":
+                    tables[-1][1].append([])
+                elif tag in ("td", "th"):
+                    cell = []
+
+            def handle_endtag(self, tag):
+                nonlocal cell, caption
+                if tag in _PageText.SKIP:
+                    skip[0] -= 1
+                elif tag == "caption" and caption is not None:
+                    tables[-1][0] = "".join(caption)
+                    caption = None
+                elif tag in ("td", "th") and cell is not None:
+                    tables[-1][1][-1].append("".join(cell))
+                    cell = None
+
+            def handle_data(self, data):
+                if skip[0]:
+                    return
+                text.append(data)
+                for part in (cell, caption):
+                    if part is not None:
+                        part.append(data)
+
+        Parser().feed(page)
+        self.text = " ".join(text)
+        self.tables = [(cap, rows) for cap, rows in tables]
+
+
+@pytest.fixture
+def print_report(chromium, tmp_path):
+    """``print_report(page) -> (pdf, captions, problems)``: print ``page`` (an HTML file) to PDF
+    in headless Chromium, as a browser's Print does (its ``@media print`` styles, no header or
+    footer line), read the PDF's text back with poppler's ``pdftotext -raw`` (content order,
+    no de-hyphenation) and say what did not make it to paper:
+
+    * every visible character of the page (counted, whitespace aside) must be in the PDF --
+      text cut at the page edge or hidden in a scrolled box is missing from it;
+    * every row of every table, header row included, must appear whole and in order: its
+      cells' texts joined, whitespace removed (a cell may wrap), are a substring of the PDF's
+      text with whitespace removed -- a column lost off the page breaks its rows.
+
+    ``captions`` are the page's table captions (so a test knows which tables were checked).
+    Turn the PDF into PNG pages with ``pdftoppm -r 60 -png PDF PREFIX`` to look at it."""
+    import subprocess
+    from collections import Counter
+
+    if shutil.which("pdftotext") is None:
+        pytest.skip(
+            "pdftotext not found on PATH: `make test` installs the Debian package "
+            "`poppler-utils` when run as root with apt-get; otherwise install it by hand"
+        )
+    flags = [*CHROMIUM_FLAGS, f"--user-data-dir={tmp_path / 'chromium-print-profile'}"]
+
+    def squash(s: str) -> str:
+        return "".join(s.split())
+
+    def run(page):
+        pdf = tmp_path / f"{page.stem}.pdf"
+        subprocess.run(
+            [chromium, *flags, "--no-pdf-header-footer", f"--print-to-pdf={pdf}", page.as_uri()],
+            capture_output=True,
+            timeout=120,
+        )
+        assert pdf.is_file() and pdf.stat().st_size > 1_000, "Chromium printed no PDF"
+        text = subprocess.run(
+            ["pdftotext", "-raw", "-enc", "UTF-8", str(pdf), "-"],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=True,
+        ).stdout
+        seen = _PageText(page.read_text(encoding="utf-8"))
+        problems = []
+        lost = Counter(squash(seen.text)) - Counter(squash(text))
+        if lost:
+            problems.append(f"{sum(lost.values())} characters not printed: {dict(lost)}")
+        flat = squash(text)
+        for caption, rows in seen.tables:
+            for k, row in enumerate(rows):
+                if squash("".join(row)) not in flat:
+                    problems.append(f"table {caption!r}, row {k} not printed whole: {row}")
+        return pdf, [caption for caption, _ in seen.tables], problems
+
+    return run

@@ -51,7 +51,7 @@ def table_block(
 ) -> str:
     """An HTML table of ``df`` (first ``max_rows`` rows; a note says how many were left out)."""
     shown = df.head(max_rows)
-    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in shown.columns)
+    head = "".join(f"<th>{_breakable(str(c))}</th>" for c in shown.columns)
     rows = []
     # itertuples keeps each column's dtype (iterrows would turn the ints of a mixed row into
     # floats, printing case 3 as "3.00").
@@ -74,6 +74,13 @@ def table_block(
         f"<div class='tablewrap'><table>{cap}<thead><tr>{head}</tr></thead>"
         f"<tbody>{''.join(rows)}</tbody></table></div>{more}"
     )
+
+
+def _breakable(name: str) -> str:
+    """``name`` escaped, with a line-break opportunity after each underscore: a long column
+    name (``failed_search_before``) wraps at its words when the table is too wide for the
+    page, instead of pushing the last columns off it."""
+    return html.escape(name).replace("_", "_<wbr>")
 
 
 def png_bytes(fig, dpi: int = 110) -> bytes:
@@ -101,16 +108,38 @@ nav{padding:10px 32px;background:#e9eef5;font-size:14px}
 nav a{margin-right:14px;color:#1d3557}
 main{padding:8px 32px 40px;max-width:1200px}
 section{background:#fff;border:1px solid #dde3ea;border-radius:6px;padding:8px 20px 16px;
-margin:16px 0}
+margin:16px 0;min-width:0}
 h2{color:#1d3557;border-bottom:2px solid #e63946;padding-bottom:4px}
 table{border-collapse:collapse;font-size:13px;margin:8px 0}
-th,td{border:1px solid #dde3ea;padding:3px 8px;text-align:left;white-space:nowrap}
+th,td{border:1px solid #dde3ea;padding:3px 8px;text-align:left;vertical-align:top}
+td{overflow-wrap:break-word}
 th{background:#f1f4f8} caption{caption-side:top;text-align:left;font-weight:600;padding:4px 0}
-.tablewrap{overflow-x:auto} .note{color:#5b6472;font-size:13px}
-figure{margin:12px 0} figure img{max-width:100%;border:1px solid #eee}
+.tablewrap{overflow-x:auto;max-width:100%} .note{color:#5b6472;font-size:13px}
+figure{margin:12px 0} figure img{max-width:100%;height:auto;border:1px solid #eee}
 figcaption{font-size:13px;color:#3d4654;max-width:900px}
 code{background:#f1f4f8;padding:1px 4px;border-radius:3px}
+pre{overflow-x:auto;max-width:100%}
 #js-errors:empty{display:none} #js-errors{color:#b00;font-weight:bold}
+@media print{
+@page{size:A4;margin:12mm 10mm}
+body{background:#fff;font-size:10pt;line-height:1.3}
+header{background:none;color:#000;padding:0 0 6px;border-bottom:2px solid #1d3557}
+header h1{font-size:16pt} header p{opacity:1}
+nav{display:none}
+main{max-width:none;padding:0}
+section{border:none;border-radius:0;padding:0;margin:10px 0}
+h2{font-size:13pt;break-after:avoid;page-break-after:avoid}
+.tablewrap,pre{overflow:visible}
+table{width:100%;font-size:7.5pt;margin:4px 0}
+th,td{padding:1px 3px}
+td{overflow-wrap:anywhere}
+thead{display:table-header-group}
+tr,figure,img{break-inside:avoid;page-break-inside:avoid}
+caption{break-after:avoid}
+figure img{max-width:100%;max-height:240mm;border:none}
+figcaption{max-width:none;font-size:8.5pt}
+pre{white-space:pre-wrap;overflow-wrap:anywhere;font-size:7pt}
+}
 """
 
 _SCRIPT_HEAD = """

@@ -124,3 +124,14 @@ def test_loop_with_the_paper_vehicle_file_flies_the_same_loop(tmp_path):
         )
     assert (a.out / "refined_table.csv").read_text() == (b.out / "refined_table.csv").read_text()
     assert 'vehicle = "paper"' in (b.out / "spec_before.toml").read_text()
+
+
+def test_report_prints_to_pdf_with_nothing_cut(loop_dir, print_report):
+    """Issue 16: printed to PDF, the changelog and driver tables lost their columns and the
+    summary values were cut off.  Headless Chromium prints the page; every character and every
+    table row (header row included: each changelog and driver column; each summary value) is
+    in the PDF's text (the fixture's oracle)."""
+    pdf, captions, problems = print_report(loop_dir / "report.html")
+    assert problems == []
+    for table in ("The loop", "Driver ranking", "Changed entries"):
+        assert any(c.startswith(table) for c in captions), (table, captions)

@@ -269,3 +269,13 @@ def test_report_renders_in_chromium(analysed, render_page, tmp_path):
     for anchor in SECTIONS:
         assert f'id="{anchor}"' in dom
     assert shot.stat().st_size > 10_000
+
+
+def test_report_prints_to_pdf_with_nothing_cut(analysed, print_report):
+    """Issue 16: printed to PDF, the driver table lost its columns and summary values were
+    cut off.  Headless Chromium prints the page; every character and every table row (header
+    row included) is in the PDF's text (the fixture's oracle)."""
+    pdf, captions, problems = print_report(analysed / "report.html")
+    assert problems == []
+    for table in ("Campaign", "Driver ranking", "Failed runs"):
+        assert table in " ".join(captions), (table, captions)
