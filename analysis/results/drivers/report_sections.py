@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.engine import runs_table
-from analysis.results.drivers import figures
+from analysis.results.drivers import figures, mechanism
 from analysis.results.report.html import Section, figure_block, png_bytes, table_block, text_block
 
 _DRIVER_COLS = [
@@ -150,7 +150,8 @@ def drivers(res, top: int = 25) -> Section:
     blocks = [
         figure_block(
             figures.report_pngs(res)["ranking.png"],
-            "Top inputs by score. Labels give the corrected p-value and the share "
+            mechanism.strongest(res)
+            + "Top inputs by score. Labels give the corrected p-value and the share "
             "of half-campaigns keeping the rank.",
         )
     ]
@@ -170,7 +171,8 @@ def drivers(res, top: int = 25) -> Section:
         blocks.append(
             figure_block(
                 png_bytes(figures.failure_regions(res.singles, res.runset.X, show)),
-                "Failure probability against the value of the leading inputs (smoothed); the "
+                mechanism.regions_caption(res, show)
+                + "Failure probability against the value of the leading inputs (smoothed); the "
                 "shaded part is the failure region (at least twice the base rate, dashed).",
             )
         )
@@ -362,6 +364,7 @@ def driver_sections(res) -> list:
         summary(res),
         method(res),
         drivers(res),
+        mechanism.section(res),
         pairs(res),
         cases(res),
         histograms(res),

@@ -279,3 +279,9 @@ def test_report_prints_to_pdf_with_nothing_cut(analysed, print_report):
     assert problems == []
     for table in ("Campaign", "Driver ranking", "Failed runs"):
         assert table in " ".join(captions), (table, captions)
+    # The mechanism paragraph of the planted driver is on paper too (its text is checked
+    # above with every other character of the page).
+    assert (
+        "Runs fail when the yaw firing-direction jet group"
+        in (analysed / "report.html").read_text()
+    )
