@@ -119,6 +119,9 @@ def _before_after(
     blocks = [
         _img(
             plots / "failures_by_case.png",
+            f"Refined, the table fails {int(after['failed'].sum())} runs on the fresh seed "
+            f"against {int(before['failed'].sum())} before on the search seed"
+            f" ({int(log['changed'].sum())} cases changed). "
             "Failed runs (top) and runs that needed more than one firing to reach the "
             "commanded rate (bottom), per rate case, before (red) and after (blue) refinement, "
             "on the search seed (left) and on the held-out fresh seed (right). * marks the "
@@ -196,7 +199,8 @@ def _drivers(out: Path) -> Section:
         blocks.append(
             _img(
                 d / "figures" / "ranking.png",
-                "Single-factor drivers: score, corrected p-value and stability; red "
+                _strongest(table)
+                + "Single-factor drivers: score, corrected p-value and stability; red "
                 "bars are significant.",
             )
         )
@@ -220,6 +224,21 @@ def _drivers(out: Path) -> Section:
     else:
         blocks.append(text_block("No failures to analyse."))
     return Section("Failure drivers", blocks, "drivers")
+
+
+def _strongest(table: pd.DataFrame) -> str:
+    """The caption's conclusion: the best significant driver and its failure region."""
+    sig = table[table["significant"].astype(bool)] if "significant" in table else table[:0]
+    if not len(sig):
+        return "No input is a significant driver. "
+    row = sig.iloc[0]
+    region = row.get("failure_region")
+    where = (
+        f" (failure region {region}, {100 * row['region_fail_share']:.0f} % of failures)"
+        if isinstance(region, str) and region
+        else ""
+    )
+    return f"{row['factor']} is the strongest driver{where}. "
 
 
 def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
