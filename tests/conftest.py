@@ -195,3 +195,42 @@ def print_report(chromium, tmp_path):
         return pdf, [caption for caption, _ in seen.tables], problems
 
     return run
+
+
+#: Appended to a copy of a page by ``screen_tables``: each table box's caption and widths.
+_MEASURE_TABLES = (
+    "<script>var r=[];document.querySelectorAll('.tablewrap').forEach(function(w){"
+    "var c=w.querySelector('caption');r.push([c?c.textContent:'',w.scrollWidth,w.clientWidth]"
+    ".join('\\t'))});var p=document.createElement('pre');p.id='table-widths';"
+    "p.textContent=r.join('\\n');document.body.appendChild(p);</script>"
+)
+
+
+@pytest.fixture
+def screen_tables(chromium, tmp_path):
+    """``screen_tables(page, width=1400) -> [(caption, scroll_width, box_width), ...]``: lay
+    ``page`` out in headless Chromium in a window ``width`` px wide and measure every table's
+    box (a table wider than its box is cut off at the box's edge until scrolled)."""
+    import re
+    import subprocess
+
+    flags = [*CHROMIUM_FLAGS, f"--user-data-dir={tmp_path / 'chromium-screen-profile'}"]
+
+    def run(page, width: int = 1400):
+        copy = tmp_path / f"{page.stem}-measured.html"
+        copy.write_text(
+            page.read_text(encoding="utf-8").replace("</body>", _MEASURE_TABLES + "</body>"),
+            encoding="utf-8",
+        )
+        dom = subprocess.run(
+            [chromium, *flags, f"--window-size={width},1000", "--dump-dom", copy.as_uri()],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        ).stdout
+        found = re.search(r"<pre id=\"table-widths\">(.*?)</pre>", dom, re.S)
+        assert found, "the measuring script did not run"
+        rows = [line.split("\t") for line in found.group(1).splitlines() if line]
+        return [(cap, int(sw), int(cw)) for cap, sw, cw in rows]
+
+    return run

@@ -193,7 +193,7 @@ def _parse_region(region: str):
 
 
 def _pct(x: float) -> str:
-    return f"{100.0 * x:.0f} %"
+    return f"{100.0 * x:.0f}\u00a0%"  # no line break between a number and its sign
 
 
 def _num(x: float) -> str:

@@ -135,3 +135,11 @@ def test_report_prints_to_pdf_with_nothing_cut(loop_dir, print_report):
     assert problems == []
     for table in ("The loop", "Driver ranking", "Changed entries"):
         assert any(c.startswith(table) for c in captions), (table, captions)
+
+
+def test_report_tables_fit_a_1400_px_screen(loop_dir, screen_tables):
+    """Issue 16: on screen the changelog was cut at 1,400 px.  Laid out 1,400 px wide, no
+    table is wider than its box (cells and column names wrap first)."""
+    tables = screen_tables(loop_dir / "report.html")
+    assert tables
+    assert [t for t in tables if t[1] > t[2]] == []

@@ -285,3 +285,11 @@ def test_report_prints_to_pdf_with_nothing_cut(analysed, print_report):
         "Runs fail when the yaw firing-direction jet group"
         in (analysed / "report.html").read_text()
     )
+
+
+def test_report_tables_fit_a_1400_px_screen(analysed, screen_tables):
+    """Issue 16: on screen the changelog was cut at 1,400 px.  Laid out 1,400 px wide, no
+    table is wider than its box (cells and column names wrap first)."""
+    tables = screen_tables(analysed / "report.html")
+    assert tables
+    assert [t for t in tables if t[1] > t[2]] == []

@@ -66,7 +66,7 @@ def test_names_the_input_its_side_the_axis_and_the_share(high):
     assert m.axis_fail_share["yaw"] == 1.0
     assert m.axis_fail_share["roll"] < 0.15 and m.axis_fail_share["pitch"] < 0.15
     assert m.firings["late"] == pytest.approx((2.0, 0.0), abs=0.2)
-    text = m.text
+    text = m.text.replace("\u00a0", " ")
     for words in (
         "jet 14's thrust (jet_14_thrust_n) is high",
         f"{100 * m.fail_share:.0f} % of all failures",
@@ -92,7 +92,7 @@ def test_low_side_says_low():
     res = analyze(load_runs(df, inputs=INPUTS), Settings(n_permutations=39, forest=False))
     m = mechanism.mechanisms(res)[0]
     assert (m.factor, m.side, m.axis) == ("jet_14_thrust_n", "low", "yaw")
-    assert "is low (its bottom" in m.text
+    assert "is low (its bottom" in m.text.replace("\u00a0", " ")
     assert m.fail_share == pytest.approx(truth, abs=0.1)
 
 
