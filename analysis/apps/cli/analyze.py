@@ -98,6 +98,16 @@ def register(subparsers) -> None:
     parser.set_defaults(func=_run)
 
 
+def _probability(res) -> str:
+    """The overall failure probability, its exact interval and the runs that bound it."""
+    from analysis.results.drivers.probabilities import bound_words, overall_table, p_with_ci
+
+    row = overall_table(res).iloc[0]
+    p = p_with_ci(row["failure_probability"], row["cp95_low"], row["cp95_high"])
+    bound = bound_words(row["runs_to_bound"], int(row["runs"]), float(row["bound_p"]))
+    return f"{p}, Clopper-Pearson; {bound}"
+
+
 def _run(args) -> int:
     from analysis.results.drivers.pipeline import Settings, analyze
     from models.errors import InputError
@@ -124,6 +134,7 @@ def _run(args) -> int:
     report = write_analysis(res, args.out, overwrite=args.overwrite)
     n, nf = runset.y.size, int(runset.y.sum())
     print(f"{n} runs, {nf} failed; {len(runset.X.columns)} inputs analysed")
+    print(f"failure probability {_probability(res)}")
     for note in res.runset.notes:  # the analysis may add one (a subsample)
         print(f"note: {note}")
     if res.has_failures and res.drivers is not None:

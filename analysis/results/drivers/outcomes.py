@@ -2,9 +2,9 @@
 
 The pooled ``failed`` outcome mixes failures of different axes: a run that ends with too much
 roll rate and one that ends with too much yaw rate are failures of different jets, and an input
-that drives only one axis's failures is diluted by the others (in the paper's Table 6 campaign
-28 % of failures are roll-only or pitch-only; analysed alone, roll authority ranks first where
-pooled it ranks 11th).  Beside the pooled outcome this module analyses
+that drives only one axis's failures is diluted by the others (issue 16: in the Table 6
+campaign 28 % of failures are roll-only or pitch-only; analysed alone, roll authority ranks
+first where pooled it ranks 11th).  Beside the pooled outcome this module analyses
 
 * ``roll``, ``pitch``, ``yaw`` -- the run fails on that axis: ``not |final rate error| < thr``
   on it (``thr`` the campaign's ``failure.rate_error_deg_s``, from its manifest; as the
