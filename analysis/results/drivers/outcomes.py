@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.engine import runs_table
+from analysis.results.drivers.kde import N_BINS_1D, bin_codes, rank_scale
 from analysis.results.drivers.probabilities import probability_frame
 from analysis.results.drivers.single import SingleFactorKDE
 
@@ -161,11 +162,14 @@ def analyze_outcomes(res, rng: np.random.Generator) -> OutcomeResults:
     """
     rs, st = res.runset, res.settings
     out = build_outcomes(rs, getattr(st, "second_threshold", DEFAULT_SECOND_THRESHOLD))
+    codes = None  # the inputs' rank-scale bins: the same for every outcome, computed once
     for o in out.outcomes:
         if o.y.all() or not o.y.any():
             continue
+        if codes is None:
+            codes = bin_codes(rank_scale(rs.X.to_numpy(float)), N_BINS_1D)
         o.singles = SingleFactorKDE(n_permutations=st.n_permutations, random_state=rng).fit(
-            rs.X, o.y, rs.strata
+            rs.X, o.y, rs.strata, codes=codes
         )
     return out
 

@@ -170,3 +170,15 @@ def test_settings_refuse_bad_values(field, value):
     with pytest.raises(InputError) as err:
         Settings(**{field: value})
     assert err.value.parameter == field
+
+
+def test_shared_codes_give_the_same_fit():
+    """The outcomes share one ranking of the inputs (``codes=``): the fit is the one without."""
+    df, roll, _ = _axes_table(n=600)
+    X = df[["a", "b", "c"]]
+    codes = bin_codes(rank_scale(X.to_numpy()), 32)
+    a = SingleFactorKDE(n_permutations=39, random_state=4).fit(X, roll, df["case"])
+    b = SingleFactorKDE(n_permutations=39, random_state=4).fit(X, roll, df["case"], codes=codes)
+    pd.testing.assert_frame_equal(a.table(), b.table())
+    with pytest.raises(ValueError, match="codes"):
+        SingleFactorKDE().fit(X, roll, codes=codes[:, :2])
