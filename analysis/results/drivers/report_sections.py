@@ -84,7 +84,8 @@ def summary(res) -> Section:
         blocks.append(
             figure_block(
                 figures.report_pngs(res)["failures_per_case.png"],
-                "Failed runs per case, as a share of the case's runs.",
+                "Failed runs per case, as a share of the case's runs; whiskers: the exact "
+                "(Clopper-Pearson) 95 % interval of the case's failure probability.",
             )
         )
         carry = cases.sort_values("failed", ascending=False)
