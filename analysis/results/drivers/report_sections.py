@@ -149,7 +149,7 @@ def method(res) -> Section:
                 "coverage is at least 95 % for every true probability). 'runs to bound' answers "
                 f"how many runs, at the failure rate observed, make the one-sided exact 95 % "
                 f"upper bound fall below {100 * st.bound_p:g} % (--bound-p); with no failure "
-                "that is the rule of three, about 3 / p. 'not at this rate' means the observed "
+                "that is the rule of three, about 3 / P. 'not at this rate' means the observed "
                 "rate is already at or above that probability.",
             )
         ],
@@ -187,9 +187,8 @@ def drivers(res, top: int = 25) -> Section:
             )
         )
     shown = _present(d, _DRIVER_COLS).copy()
-    shown.insert(
-        shown.columns.get_loc("region_fail_share") + 1, "P(fail in region)", probs.region_column(d)
-    )
+    at = list(shown.columns).index("region_fail_share") + 1 if "region_fail_share" in shown else 0
+    shown.insert(at or len(shown.columns), "P(fail in region)", probs.region_column(d))
     blocks.append(table_block(shown, "Driver ranking (drivers.csv)", max_rows=top))
     return Section("Driver ranking", blocks, "drivers")
 
