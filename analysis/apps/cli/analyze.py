@@ -23,7 +23,10 @@ def register(subparsers) -> None:
             "failed and successful runs for every input and every pair, permutation p-values "
             "corrected for the number of tests, failure regions, half-sample stability, kNN "
             "failure maps and a random-forest second opinion, per case and across cases.  "
-            "Writes drivers.csv, pairs.csv, cases.csv, figures/ and report.html."
+            "Failure probabilities (overall, per case, per failure region) carry exact "
+            "(Clopper-Pearson) 95 % intervals; the per-axis outcomes and a second threshold "
+            "are analysed beside the pooled one.  Writes drivers.csv, pairs.csv, cases.csv, "
+            "summary.csv, outcomes.csv, figures/ and report.html."
         ),
     )
     parser.add_argument(
@@ -63,6 +66,24 @@ def register(subparsers) -> None:
         help="seed of the permutations and resamples, >= 0 (default 0)",
     )
     parser.add_argument(
+        "--bound-p",
+        dest="bound_p",
+        type=float,
+        default=0.01,
+        metavar="P",
+        help="failure probability the 'runs to bound' answers are for: how many runs bound "
+        "each failure probability below P at 95 %% confidence (default 0.01)",
+    )
+    parser.add_argument(
+        "--second-threshold",
+        dest="second_threshold",
+        type=float,
+        default=0.06,
+        metavar="DEG_S",
+        help="rate threshold [deg/s] of the threshold sensitivity, analysed beside the "
+        "campaign's own (default 0.06)",
+    )
+    parser.add_argument(
         "--out",
         required=True,
         metavar="DIR",
@@ -77,12 +98,27 @@ def register(subparsers) -> None:
     parser.set_defaults(func=_run)
 
 
+def _probability(res) -> str:
+    """The overall failure probability, its exact interval and the runs that bound it."""
+    from analysis.results.drivers.probabilities import bound_words, overall_table, p_with_ci
+
+    row = overall_table(res).iloc[0]
+    p = p_with_ci(row["failure_probability"], row["cp95_low"], row["cp95_high"])
+    bound = bound_words(row["runs_to_bound"], int(row["runs"]), float(row["bound_p"]))
+    return f"{p}, Clopper-Pearson; {bound}"
+
+
 def _run(args) -> int:
     from analysis.results.drivers.pipeline import Settings, analyze
     from models.errors import InputError
 
     # Settings checks its own values; built first so that a bad one costs nothing.
-    settings = Settings(n_permutations=args.n_permutations, random_state=args.random_state)
+    settings = Settings(
+        n_permutations=args.n_permutations,
+        random_state=args.random_state,
+        bound_p=args.bound_p,
+        second_threshold=args.second_threshold,
+    )
     inputs = None
     if args.inputs is not None:
         inputs = [s.strip() for s in args.inputs.split(",") if s.strip()]
@@ -98,6 +134,7 @@ def _run(args) -> int:
     report = write_analysis(res, args.out, overwrite=args.overwrite)
     n, nf = runset.y.size, int(runset.y.sum())
     print(f"{n} runs, {nf} failed; {len(runset.X.columns)} inputs analysed")
+    print(f"failure probability {_probability(res)}")
     for note in res.runset.notes:  # the analysis may add one (a subsample)
         print(f"note: {note}")
     if res.has_failures and res.drivers is not None:

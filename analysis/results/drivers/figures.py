@@ -18,14 +18,28 @@ AXES = ("roll", "pitch", "yaw")
 
 
 def failures_per_case(cases) -> Figure:
-    """Bar chart of failed runs per case (share of the case's runs)."""
+    """Bar chart of failed runs per case (share of the case's runs), with each case's
+    Clopper-Pearson 95 % interval as a whisker."""
+    from analysis.results.proportions import clopper_pearson
+
     names = [c.case for c in cases]
     pct = [100.0 * c.failed / max(c.runs, 1) for c in cases]
+    lo, hi = clopper_pearson([c.failed for c in cases], [c.runs for c in cases])
     fig, ax = new_figure(figsize=(max(6.0, 0.32 * len(names) + 2), 3.2))
     ax.bar(range(len(names)), pct, color=[FAIL if p > 0 else "#bbbbbb" for p in pct])
+    err = np.vstack([np.subtract(pct, 100.0 * lo), np.subtract(100.0 * hi, pct)])
+    ax.errorbar(
+        range(len(names)),
+        pct,
+        yerr=np.clip(err, 0, None),
+        fmt="none",
+        ecolor="#333333",
+        elinewidth=0.8,
+        capsize=2,
+    )
     ax.set_xticks(range(len(names)), names, rotation=90, fontsize=8)
     ax.set_ylabel("failed runs [% of case]")
-    ax.set_title("Failures per case")
+    ax.set_title("Failures per case (whiskers: exact 95 % interval)")
     ax.grid(axis="y", alpha=0.3)
     return fig
 

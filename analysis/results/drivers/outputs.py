@@ -1,4 +1,5 @@
-"""Writing an analysis: ``drivers.csv``, ``pairs.csv``, ``cases.csv``, figures, ``report.html``.
+"""Writing an analysis: ``drivers.csv``, ``pairs.csv``, ``cases.csv``, ``summary.csv``,
+``outcomes.csv``, figures, ``report.html``.
 
 Everything is written into a temporary directory that replaces the output directory only when
 complete (:func:`analysis.engine.output.atomic_dir`): a failure never leaves half-written files.
@@ -12,7 +13,9 @@ import pandas as pd
 
 from analysis.engine.output import atomic_dir
 from analysis.results.drivers import report_sections as sections
+from analysis.results.drivers.outcomes import outcome_table
 from analysis.results.drivers.pipeline import DriverResults
+from analysis.results.drivers.probabilities import overall_table, with_case_probabilities
 from analysis.results.report.html import build_report
 
 DRIVER_COLUMNS = [
@@ -105,10 +108,18 @@ def write_analysis(res: DriverResults, out, *, overwrite: bool = False) -> Path:
         else:
             pd.DataFrame(columns=DRIVER_COLUMNS[:5]).to_csv(tmp / "drivers.csv", index=False)
             pd.DataFrame(columns=PAIR_COLUMNS[:6]).to_csv(tmp / "pairs.csv", index=False)
-        case_table(res).to_csv(tmp / "cases.csv", index=False)
+        with_case_probabilities(case_table(res), res).to_csv(tmp / "cases.csv", index=False)
+        _write_probabilities(res, tmp)
         _write_figures(res, tmp / "figures")
         (tmp / "report.html").write_text(html, encoding="utf-8")
     return Path(out) / "report.html"
+
+
+def _write_probabilities(res: DriverResults, folder: Path) -> None:
+    """The overall failure probability with its interval, ``summary.csv``, and the outcomes
+    analysed, ``outcomes.csv`` (:mod:`.probabilities`, :mod:`.outcomes`)."""
+    overall_table(res).to_csv(folder / "summary.csv", index=False)
+    outcome_table(res).to_csv(folder / "outcomes.csv", index=False)
 
 
 def _write_figures(res: DriverResults, folder: Path) -> None:

@@ -16,7 +16,9 @@ import pandas as pd
 
 from analysis.results.drivers.inputs import RunSet, load_runs
 from analysis.results.drivers.maps import KNNFailureMap
+from analysis.results.drivers.outcomes import OutcomeResults, analyze_outcomes
 from analysis.results.drivers.pairs import PairKDE
+from analysis.results.drivers.probabilities import add_to_results as add_probabilities
 from analysis.results.drivers.second_opinion import ForestImportance, compare
 from analysis.results.drivers.single import SingleFactorKDE
 from analysis.results.drivers.stability import HalfSampleStability
@@ -61,6 +63,16 @@ class Settings:
         Compute the random-forest second opinion.
     random_state : int
         Seed of the permutations and resamples, >= 0.
+    bound_p : float
+        The failure probability every "runs to bound" answers for: how many runs (at the
+        observed rate) bound a failure probability below ``bound_p`` at 95 % confidence, in
+        (0, 1) (:mod:`~analysis.results.drivers.probabilities`).
+    second_threshold : float
+        Rate threshold [deg/s] of the threshold sensitivity, > 0: the campaign's criterion is
+        analysed again with it beside the per-axis outcomes
+        (:mod:`~analysis.results.drivers.outcomes`).
+    outcomes : bool
+        Analyse the per-axis outcomes and the threshold sensitivity (single factors only).
 
     Raises
     ------
@@ -78,6 +90,9 @@ class Settings:
     n_maps: int = 4
     forest: bool = True
     random_state: int = 0
+    bound_p: float = 0.01
+    second_threshold: float = 0.06
+    outcomes: bool = True
 
     def __post_init__(self) -> None:
         # Fewer than 19 permutations cannot give p < 0.05 (smallest p is 1/(B+1)), so a
@@ -108,11 +123,30 @@ class Settings:
                 parameter="random_state",
                 value=self.random_state,
             )
+        _check_extras(self)
 
     @property
     def pair_b(self) -> int:
         """Permutations actually used for pairs."""
         return self.pair_permutations or max(self.n_permutations // 2, MIN_PERMUTATIONS)
+
+
+def _check_extras(st: Settings) -> None:
+    """The probability and outcome settings (:attr:`Settings.bound_p`,
+    :attr:`Settings.second_threshold`)."""
+    if not isinstance(st.bound_p, (int, float)) or not 0.0 < st.bound_p < 1.0:
+        raise InputError(
+            f"must be a probability in (0, 1), got {st.bound_p!r}",
+            parameter="bound_p",
+            value=st.bound_p,
+        )
+    t = st.second_threshold
+    if not isinstance(t, (int, float)) or not (np.isfinite(t) and t > 0):
+        raise InputError(
+            f"must be a rate threshold > 0 deg/s, got {t!r}",
+            parameter="second_threshold",
+            value=t,
+        )
 
 
 @dataclass
@@ -142,6 +176,8 @@ class DriverResults:
     # PNG bytes of the figures shown both in the report and in figures/, rendered once
     # (filled by analysis.results.drivers.figures.report_pngs).
     pngs: dict = field(default_factory=dict, repr=False)
+    # Per-axis outcomes and the threshold sensitivity (analysis.results.drivers.outcomes).
+    outcomes: OutcomeResults | None = None
 
     @property
     def has_failures(self) -> bool:
@@ -224,7 +260,18 @@ def analyze(runset, settings: Settings = Settings()) -> DriverResults:
     lap("cases")
     _maps(res, int(seeds[5].generate_state(1)[0] >> 1))
     lap("maps")
+    _extras(res, lap)
     return res
+
+
+def _extras(res: DriverResults, lap) -> None:
+    """Failure-region probabilities (drivers.csv) and the extra outcomes, after the rest and
+    seeded on their own (the steps above draw exactly what they drew without them)."""
+    add_probabilities(res)
+    if res.settings.outcomes:
+        seed = np.random.SeedSequence([int(res.settings.random_state), 0x0C7])
+        res.outcomes = analyze_outcomes(res, np.random.default_rng(seed))
+        lap("outcomes")
 
 
 #: Most runs the analysis reads at once.  Beyond, it analyses a uniform random subsample of

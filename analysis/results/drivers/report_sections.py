@@ -14,6 +14,7 @@ import pandas as pd
 
 from analysis.engine import runs_table
 from analysis.results.drivers import figures, mechanism
+from analysis.results.drivers import report_outcomes as probs
 from analysis.results.report.html import Section, figure_block, png_bytes, table_block, text_block
 
 _DRIVER_COLS = [
@@ -42,6 +43,7 @@ def summary(res) -> Section:
         ("source", f"{rs.kind} {rs.source.name}"),
         ("runs", n),
         ("failed runs", f"{nf} ({100.0 * nf / n:.2f} %)"),
+        *probs.overall_facts(res),
         ("outcome column", rs.outcome),
         (
             "inputs analysed",
@@ -77,11 +79,13 @@ def summary(res) -> Section:
             for c in res.cases
         ]
     )
+    cases = probs.with_case_columns(cases, res)
     if len(res.cases) > 1:
         blocks.append(
             figure_block(
                 figures.report_pngs(res)["failures_per_case.png"],
-                "Failed runs per case, as a share of the case's runs.",
+                "Failed runs per case, as a share of the case's runs; whiskers: the exact "
+                "(Clopper-Pearson) 95 % interval of the case's failure probability.",
             )
         )
         carry = cases.sort_values("failed", ascending=False)
@@ -128,7 +132,8 @@ def method(res) -> Section:
                 f"The smallest reachable p is 1/{st.n_permutations + 1} (pairs: "
                 f"1/{st.pair_b + 1}).",
                 "The failure region of an input is where the failure probability is at least twice "
-                "the base rate; 'region_fail_share' is the share of all failed runs inside it. "
+                "the base rate; 'region_fail_share' is the share of all failed runs inside it, "
+                "'P(fail in region)' the share of the runs inside it that fail. "
                 "'stability' is the share of random half-campaigns in which the factor ranks at "
                 "least as high as here. 'gain' of a pair is its score beyond its better input: "
                 "large only when the two inputs matter together. 'second_opinion' compares with a "
@@ -139,6 +144,13 @@ def method(res) -> Section:
                 "thrust_* the group's total thrust; imbalance_* the thrust difference of its two "
                 "jets; pointing_loss_* the share of torque lost to jet misalignment; 'fire' is the "
                 "group firing toward each case's commanded rate.",
+                "Failure probabilities (overall, per case, per failure region, per outcome) are "
+                "shares of runs; each carries the Clopper-Pearson exact 95 % interval (its "
+                "coverage is at least 95 % for every true probability). 'runs to bound' answers "
+                f"how many runs, at the failure rate observed, make the one-sided exact 95 % "
+                f"upper bound fall below {100 * st.bound_p:g} % (--bound-p); with no failure "
+                "that is the rule of three, about 3 / P. 'not at this rate' means the observed "
+                "rate is already at or above that probability.",
             )
         ],
         "method",
@@ -176,9 +188,10 @@ def drivers(res, top: int = 25) -> Section:
                 "shaded part is the failure region (at least twice the base rate, dashed).",
             )
         )
-    blocks.append(
-        table_block(_present(d, _DRIVER_COLS), "Driver ranking (drivers.csv)", max_rows=top)
-    )
+    shown = _present(d, _DRIVER_COLS).copy()
+    at = list(shown.columns).index("region_fail_share") + 1 if "region_fail_share" in shown else 0
+    shown.insert(at or len(shown.columns), "P(fail in region)", probs.region_column(d))
+    blocks.append(table_block(shown, "Driver ranking (drivers.csv)", max_rows=top))
     return Section("Driver ranking", blocks, "drivers")
 
 
@@ -229,7 +242,8 @@ def cases(res) -> Section:
                         else ""
                     )
         rows.append(row)
-    df = pd.DataFrame(rows).sort_values("failed", ascending=False, kind="stable")
+    df = probs.with_case_columns(pd.DataFrame(rows), res)
+    df = df.sort_values("failed", ascending=False, kind="stable")
     blocks = [
         text_block(
             f"Each case with at least {res.settings.min_case_failures} failed and successful runs "
@@ -367,6 +381,7 @@ def driver_sections(res) -> list:
         mechanism.section(res),
         pairs(res),
         cases(res),
+        probs.outcomes(res),
         histograms(res),
         second_opinion(res),
         failed_runs(res),

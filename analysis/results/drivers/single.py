@@ -72,7 +72,7 @@ class SingleFactorKDE:
         self.region_factor = region_factor
         self.random_state = random_state
 
-    def fit(self, X, y, strata=None):
+    def fit(self, X, y, strata=None, *, codes=None):
         """Score every column of ``X`` against the binary outcome ``y`` (True = failed).
 
         Parameters
@@ -81,6 +81,9 @@ class SingleFactorKDE:
         y : array-like of bool, (n,)
         strata : array-like, (n,), optional
             Labels are permuted within strata (e.g. rate cases).
+        codes : ndarray of int32, (n, p), optional
+            ``bin_codes(rank_scale(X), n_bins)`` when already computed: fits of several
+            outcomes over the same inputs share it (the ranking is a third of a fit's time).
 
         Returns
         -------
@@ -91,8 +94,10 @@ class SingleFactorKDE:
             raise ValueError(f"n_permutations must be >= 1, got {self.n_permutations}")
         rng = as_rng(self.random_state)
         minority = minority_of(y)
-        U = rank_scale(X)
-        codes = bin_codes(U, self.n_bins)
+        if codes is None:
+            codes = bin_codes(rank_scale(X), self.n_bins)
+        elif np.shape(codes) != X.shape:
+            raise ValueError(f"codes must have shape {X.shape}, got {np.shape(codes)}")
         self.bandwidth_ = bandwidth(int(minority.sum()), 1)
         self.engine_ = BinnedTV(codes, self.n_bins, h=self.bandwidth_)
         res = permutation_test(

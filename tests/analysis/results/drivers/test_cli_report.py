@@ -18,6 +18,7 @@ SECTIONS = (
     "drivers",
     "pairs",
     "cases",
+    "outcomes",
     "rate-errors",
     "second-opinion",
     "failed-runs",
@@ -127,6 +128,28 @@ def test_outputs_and_columns(analysed):
     assert d["factor"][0] == "authority_yaw_fire_rad_s2" and d["p_value"][0] < 0.05
     cases = pd.read_csv(analysed / "cases.csv")
     assert set(cases["case"]) == {"rate-13", "rate-14"}
+    # Issue 16 item 2: each case's failure probability with its exact interval and the runs
+    # that bound it, added after the columns cases.csv always had.
+    assert list(cases.columns[:4]) == ["case", "runs", "failed", "share_of_all_failures"]
+    assert {"factor", "p_value", "failure_probability", "cp95_low", "cp95_high"} <= set(cases)
+    assert {"runs_to_bound", "bound_p"} <= set(cases)
+    first = cases.drop_duplicates("case").set_index("case")
+    np.testing.assert_allclose(first["failure_probability"], first["failed"] / first["runs"])
+    assert (first["cp95_low"] <= first["failure_probability"]).all()
+    assert (first["failure_probability"] <= first["cp95_high"]).all()
+    summary = pd.read_csv(analysed / "summary.csv")
+    assert summary["runs"][0] == 300 and summary["failed"][0] == first["failed"].sum()
+    assert "Clopper-Pearson" in summary["interval"][0]
+    assert {"region_failure_probability", "region_cp95_low", "region_cp95_high"} <= set(d)
+    # Issue 16 item 4: per-axis outcomes and the second threshold.  Only yaw fails (fixture):
+    # its outcome is the pooled one, its top driver the planted one; roll and pitch have no
+    # failure to analyse; at 0.06 deg/s the planted failures (0.06) still fail.
+    o = pd.read_csv(analysed / "outcomes.csv", keep_default_na=False)
+    assert list(o["outcome"].unique()) == ["failed", "roll", "pitch", "yaw", "failed at 0.06"]
+    yaw = o[o["outcome"] == "yaw"]
+    assert yaw["factor"].iloc[0] == "authority_yaw_fire_rad_s2"
+    assert yaw["failed"].iloc[0] == summary["failed"][0]
+    assert o.loc[o["outcome"] == "roll", "failed"].tolist() == [0]
     html = (analysed / "report.html").read_text()
     for anchor in SECTIONS:
         assert f"id='{anchor}'" in html
@@ -135,6 +158,7 @@ def test_outputs_and_columns(analysed):
     # Issue 16: the criterion as the campaign applies it (a run at 0.04 deg/s fails), in the
     # wording the engine owns (analysis.engine.runs_table.criterion_text).
     assert "|final rate error| &gt;= 0.04 deg/s on any axis" in html
+    assert "failure probability (Clopper-Pearson 95 % CI)" in html and "(95 % CI " in html
 
 
 def test_figure_files_are_the_reports_figures(analysed):
@@ -191,6 +215,7 @@ def _write(tmp_path, df, name="runs.csv"):
         "unknown-case",
         "few-permutations",
         "not-a-table",
+        "bad-bound-p",
     ],
 )
 def test_bad_input_is_one_line_and_leaves_nothing(case, tmp_path, capsys):
@@ -200,6 +225,7 @@ def test_bad_input_is_one_line_and_leaves_nothing(case, tmp_path, capsys):
         "missing-input": df,
         "missing-outcome": df,
         "few-permutations": df,
+        "bad-bound-p": df,
         "non-binary": df.assign(n=np.arange(200)),
         "single-run": df.head(1),
         "nan-input": df.assign(thrust=df["thrust"].where(np.arange(200) != 7)),
@@ -218,6 +244,7 @@ def test_bad_input_is_one_line_and_leaves_nothing(case, tmp_path, capsys):
         "unknown-case": [table, "--case", "rate-99"],
         "few-permutations": [table, "--permutations", "5"],
         "not-a-table": [table],
+        "bad-bound-p": [table, "--bound-p", "1.5"],
     }[case]
     out = tmp_path / "out"
     assert main(["analyze", *args, "--out", str(out)]) == 2
@@ -233,6 +260,7 @@ def test_bad_input_is_one_line_and_leaves_nothing(case, tmp_path, capsys):
         "few-permutations": "--permutations",
         "missing-path": "no such",
         "not-a-table": ".txt",
+        "bad-bound-p": "--bound-p",
     }[case]
     assert expected in err
     assert not out.exists()

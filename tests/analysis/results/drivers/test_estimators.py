@@ -127,6 +127,27 @@ def test_stratified_permutations_keep_each_stratum_count():
     np.testing.assert_array_equal(np.bincount(strata[rows], minlength=3), [2, 3, 1])
 
 
+def _lexsort_draw(st, keys):
+    """The draw by its definition: rows sorted by (stratum, key), the first take[s] of each."""
+    order = np.lexsort((keys, st.labels))
+    pos = np.arange(order.size) - np.repeat(st.start, st.size)
+    return order[pos < np.repeat(st.take, st.size)]
+
+
+@pytest.mark.parametrize("n_strata", [1, 26, 100])
+def test_per_stratum_draw_is_the_lexsort_draw(n_strata):
+    """The fast draw (one stable sort per stratum) returns exactly the rows, in the same order,
+    that sorting all rows by (stratum, key) does, ties included: p-values are unchanged."""
+    rng = np.random.default_rng(n_strata)
+    strata = rng.integers(0, n_strata, 3000).astype(str)
+    st = Strata.build(strata, rng.random(3000) < 0.1)
+    for seed in range(5):
+        keys = np.random.default_rng(seed).random(strata.size)
+        np.testing.assert_array_equal(st.draw(np.random.default_rng(seed)), _lexsort_draw(st, keys))
+        keys[::7] = 0.5  # ties: both keep the rows' order
+        np.testing.assert_array_equal(st._draw_per_stratum(keys), _lexsort_draw(st, keys))
+
+
 def test_p_values_are_valid_and_corrected():
     X, y = planted_campaign("one-sided", seed=5, n_runs=1000, n_noise=6)
     s = SingleFactorKDE(n_permutations=99, random_state=0).fit(X, y)
