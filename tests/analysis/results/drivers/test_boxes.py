@@ -42,7 +42,7 @@ def test_quantiles_are_emas_with_and_without_ties(m):
     X = np.column_stack(
         [rng.random(m), rng.integers(0, 4, m).astype(float), np.full(m, 2.0), rng.normal(size=m)]
     )
-    lo, hi = _ema_quantiles(X, 0.05)
+    lo, hi = _ema_quantiles(np.ascontiguousarray(X.T), 0.05)
     for j in range(X.shape[1]):
         assert lo[j] == _ema_get_quantile(X[:, j], 0.05)
         assert hi[j] == _ema_get_quantile(X[:, j], 0.95)
