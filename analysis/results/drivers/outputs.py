@@ -11,6 +11,7 @@ from pathlib import Path
 import pandas as pd
 
 from analysis.engine.output import atomic_dir
+from analysis.results.drivers import report_boxes
 from analysis.results.drivers import report_sections as sections
 from analysis.results.drivers.pipeline import DriverResults
 from analysis.results.report.html import build_report
@@ -107,6 +108,7 @@ def write_analysis(res: DriverResults, out, *, overwrite: bool = False) -> Path:
             pd.DataFrame(columns=PAIR_COLUMNS[:6]).to_csv(tmp / "pairs.csv", index=False)
         case_table(res).to_csv(tmp / "cases.csv", index=False)
         _write_figures(res, tmp / "figures")
+        report_boxes.write_files(res, tmp)
         (tmp / "report.html").write_text(html, encoding="utf-8")
     return Path(out) / "report.html"
 

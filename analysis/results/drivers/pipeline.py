@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
+from analysis.results.drivers.boxes import analyze_boxes
 from analysis.results.drivers.inputs import RunSet, load_runs
 from analysis.results.drivers.maps import KNNFailureMap
 from analysis.results.drivers.pairs import PairKDE
@@ -142,6 +143,8 @@ class DriverResults:
     # PNG bytes of the figures shown both in the report and in figures/, rendered once
     # (filled by analysis.results.drivers.figures.report_pngs).
     pngs: dict = field(default_factory=dict, repr=False)
+    # PRIM scenario-discovery boxes (analysis.results.drivers.boxes.BoxResults).
+    boxes: object = None
 
     @property
     def has_failures(self) -> bool:
@@ -224,6 +227,8 @@ def analyze(runset, settings: Settings = Settings()) -> DriverResults:
     lap("cases")
     _maps(res, int(seeds[5].generate_state(1)[0] >> 1))
     lap("maps")
+    res.boxes = analyze_boxes(res)  # deterministic: needs no seed
+    lap("boxes")
     return res
 
 

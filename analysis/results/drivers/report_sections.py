@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.engine import runs_table
-from analysis.results.drivers import figures
+from analysis.results.drivers import figures, report_boxes
 from analysis.results.report.html import Section, figure_block, png_bytes, table_block, text_block
 
 _DRIVER_COLS = [
@@ -363,6 +363,7 @@ def driver_sections(res) -> list:
         method(res),
         drivers(res),
         pairs(res),
+        report_boxes.section(res),
         cases(res),
         histograms(res),
         second_opinion(res),

@@ -146,3 +146,47 @@ def test_joint_inputs_explained_and_given_a_1d_range():
         assert 0.28 <= float(r.loc[f, "region_1d"].removeprefix(">= ").split()[0]) <= 0.65
         assert r.loc[f, "region_1d_coverage"] >= 0.5
         assert r.loc[f, "region_1d_lift"] == pytest.approx(0.7 / 0.49, rel=0.08)
+
+
+def test_analyze_writes_boxes_trajectory_and_the_reports_figure(tmp_path):
+    """``rcsim analyze``'s outputs: boxes.csv, box_limits.csv, trajectory.csv,
+    driver_regions.csv, and the trajectory figure in the report and in figures/ (same bytes)."""
+    import base64
+
+    from analysis.results.drivers.inputs import load_runs
+    from analysis.results.drivers.outputs import write_analysis
+    from analysis.results.drivers.pipeline import Settings, analyze
+    from analysis.results.drivers.synthetic import planted_campaign
+
+    X, y = planted_campaign("one-sided", 0, n_runs=3000, n_noise=6)
+    case = np.where(np.arange(3000) % 3 == 0, "rate-01", "rate-02")
+    # Failures only in rate-01: the case is a dimension of the box.
+    y = y & (case == "rate-01")
+    runs = pd.concat([X, pd.DataFrame({"case": case, "failed": y})], axis=1)
+    res = analyze(load_runs(runs), Settings(n_permutations=39, forest=False))
+    assert res.boxes is not None and "boxes" in res.timings_s
+    report = write_analysis(res, tmp_path / "out")
+    out = report.parent
+    boxes = pd.read_csv(out / "boxes.csv")
+    assert list(boxes.columns[:9]) == [
+        "box",
+        "coverage",
+        "density",
+        "support",
+        "runs",
+        "failed",
+        "p_fail_ci_lo",
+        "p_fail_ci_hi",
+        "lift",
+    ]
+    assert boxes["cases"][0] == "rate-01" and boxes["coverage"][0] >= 0.5
+    assert "thrust" in boxes["limits"][0] or "inertia" in boxes["limits"][0]
+    traj = pd.read_csv(out / "trajectory.csv")
+    assert traj.query("box == 1")["chosen"].sum() == 1
+    assert set(pd.read_csv(out / "box_limits.csv")["box"]) == set(boxes["box"])
+    regions = pd.read_csv(out / "driver_regions.csv")
+    assert set(regions["factor"]) == set(res.drivers.query("significant")["factor"])
+    html = report.read_text()
+    assert "id='boxes'" in html
+    png = (out / "figures" / "prim_trajectory.png").read_bytes()
+    assert f"data:image/png;base64,{base64.b64encode(png).decode()}'" in html
