@@ -326,9 +326,12 @@ class BoxResults:
     regions_1d: pd.DataFrame | None = None
 
     def limits_text(self, box: Box) -> str:
+        return self._limits(box.lo, box.hi)
+
+    def _limits(self, lo, hi) -> str:
         parts = []
         for j, name in enumerate(self.names):
-            a, b = box.lo[j], box.hi[j]
+            a, b = lo[j], hi[j]
             if np.isfinite(a) and np.isfinite(b):
                 parts.append(f"{a:.4g} <= {name} <= {b:.4g}")
             elif np.isfinite(a):
@@ -338,9 +341,12 @@ class BoxResults:
         return "; ".join(parts)
 
     def cases_text(self, box: Box) -> str:
-        if not self.case_names or box.cats.all():
+        return self._cases(box.cats)
+
+    def _cases(self, cats) -> str:
+        if not self.case_names or cats.all():
             return "all"
-        return ", ".join(c for c, k in zip(self.case_names, box.cats) if k)
+        return ", ".join(c for c, k in zip(self.case_names, cats) if k)
 
     def table(self) -> pd.DataFrame:
         """``boxes.csv``: one row per box."""
@@ -427,6 +433,8 @@ class BoxResults:
                         "restricted": t.n_restricted(),
                         "chosen": np.arange(t.runs.size) == c,
                         "reported": k < len(self.boxes),
+                        "limits": [self._limits(a, b) for a, b in zip(t.lo, t.hi)],
+                        "cases": [self._cases(m) for m in t.cats],
                     }
                 )
             )

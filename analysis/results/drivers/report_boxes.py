@@ -133,8 +133,8 @@ def section(res) -> Section:
         figure_block(
             trajectory_png(b),
             _conclusion(b) + " Every point of a curve is a box you can choose instead: more "
-            "failures explained (right) for a lower failure probability (down); their limits "
-            "are in trajectory.csv.",
+            "failures explained (right) for a lower failure probability (down); trajectory.csv "
+            "gives each one's limits and cases.",
             alt="PRIM peeling trajectory: density against coverage",
         ),
     ]
