@@ -129,6 +129,12 @@ def section(res) -> Section:
             f"{CHOICE_RULE}; limits that do not raise its failure probability significantly "
             "(quasi-p > 0.05) are dropped. Boxes 2 and 3 are searched among the runs outside "
             f"the earlier boxes, and reported while at least {MIN_LIFT:g}x the overall rate."
+            + (
+                f" Searched on a seeded uniform random subsample of {b.total_runs:,} of the "
+                f"{b.subsample_of:,} runs; the counts are the subsample's."
+                if b.subsample_of
+                else ""
+            )
         ),
         figure_block(
             trajectory_png(b),

@@ -190,3 +190,27 @@ def test_analyze_writes_boxes_trajectory_and_the_reports_figure(tmp_path):
     assert "id='boxes'" in html
     png = (out / "figures" / "prim_trajectory.png").read_bytes()
     assert f"data:image/png;base64,{base64.b64encode(png).decode()}'" in html
+
+
+def test_a_large_run_set_is_searched_on_a_seeded_subsample(monkeypatch):
+    """Beyond MAX_BOX_RUNS the search reads a seeded subsample (the same one every time) and
+    says so; the section names both counts."""
+    from analysis.results.drivers import boxes, report_boxes
+    from analysis.results.drivers.inputs import load_runs
+    from analysis.results.drivers.pipeline import DriverResults, Settings
+
+    monkeypatch.setattr(boxes, "MAX_BOX_RUNS", 1000)
+    X = _uniform(3000, 3, 10)
+    y = ((X["x1"] > 0.8) & (X["x2"] > 0.5)).to_numpy()
+    rs = load_runs(pd.concat([X, pd.DataFrame({"failed": y})], axis=1))
+    drivers = pd.DataFrame(
+        {"factor": ["x1", "x2"], "rank": [1, 2], "significant": True, "failure_region": ""}
+    )
+    res = DriverResults(runset=rs, settings=Settings(), drivers=drivers)
+    res.singles = object()  # has_failures
+    a, b = boxes.analyze_boxes(res), boxes.analyze_boxes(res)
+    assert a.total_runs == 1000 and a.subsample_of == 3000
+    assert a.table().equals(b.table()) and a.boxes[0].dims == ["x1", "x2"]
+    res.boxes = a
+    html = "".join(report_boxes.section(res).blocks)
+    assert "1,000 of the 3,000 runs" in html
