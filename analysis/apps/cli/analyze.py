@@ -22,8 +22,9 @@ def register(subparsers) -> None:
             "Failure-driver analysis (TRAM-like): rank-scale kernel density comparison of "
             "failed and successful runs for every input and every pair, permutation p-values "
             "corrected for the number of tests, failure regions, half-sample stability, kNN "
-            "failure maps and a random-forest second opinion, per case and across cases.  "
-            "Writes drivers.csv, pairs.csv, cases.csv, figures/ and report.html."
+            "failure maps and a random-forest second opinion, per case and across cases; "
+            "PRIM scenario boxes.  Writes drivers.csv, pairs.csv, cases.csv, boxes.csv, "
+            "box_limits.csv, trajectory.csv, driver_regions.csv, figures/ and report.html."
         ),
     )
     parser.add_argument(
