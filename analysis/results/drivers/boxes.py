@@ -202,6 +202,8 @@ def peel(
             n_new = np.concatenate([n_new, m - cnt[allowed]])
             f_new = np.concatenate([f_new, f - fcnt[allowed]])
             nres = np.concatenate([nres, np.full(allowed.size, base_r + int(cats.all()))])
+        if not n_new.size:  # no input and a single case left: nothing to peel
+            break
         obj = _objective(objective, m, f, n_new, f_new)
         # Best objective; ties: fewer restricted dimensions, then the first candidate.
         order = np.lexsort((np.arange(obj.size), nres, -obj))

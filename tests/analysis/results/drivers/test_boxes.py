@@ -214,3 +214,19 @@ def test_a_large_run_set_is_searched_on_a_seeded_subsample(monkeypatch):
     res.boxes = a
     html = "".join(report_boxes.section(res).blocks)
     assert "1,000 of the 3,000 runs" in html
+
+
+def test_the_case_alone_or_one_input_alone():
+    """No significant input but several cases: the box is the failing case; one input and one
+    case: an ordinary 1-D box; nothing to peel stops the search instead of failing."""
+    rng = np.random.default_rng(11)
+    n = 3000
+    X = pd.DataFrame(rng.random((n, 2)), columns=["a", "b"])
+    case = rng.choice(list("ABC"), n)
+    y = (case == "A") & (rng.random(n) < 0.5)
+    res = find_boxes(X, y, case, [])
+    assert res.names == [] and res.cases_text(res.boxes[0]) == "A"
+    assert res.boxes[0].density == pytest.approx(0.5, abs=0.05)
+    y2 = (X["a"] > 0.9).to_numpy()
+    res = find_boxes(X, y2, np.array(["A"] * n), ["a"])
+    assert res.case_names == [] and res.boxes[0].dims == ["a"]
