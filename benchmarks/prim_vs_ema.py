@@ -3,8 +3,8 @@
 Usage (EMA Workbench is not an rcsim dependency: run this from an environment that has it and
 numpy, pandas and scipy, with the repository root on ``PYTHONPATH``)::
 
-    python -m venv /tmp/emavenv && /tmp/emavenv/bin/pip install ema_workbench
-    PYTHONPATH=. /tmp/emavenv/bin/python benchmarks/prim_vs_ema.py
+    python -m venv ema-env && ema-env/bin/pip install ema_workbench
+    PYTHONPATH=. ema-env/bin/python benchmarks/prim_vs_ema.py
 
 On each data set both peel with ``peel_alpha = 0.05``, ``mass_min = 0.05`` and the ``lenient1``
 objective (EMA's default).  EMA is run twice: peeling only (its pasting phase switched off, which
