@@ -22,11 +22,12 @@ def register(subparsers) -> None:
             "Failure-driver analysis (TRAM-like): rank-scale kernel density comparison of "
             "failed and successful runs for every input and every pair, permutation p-values "
             "corrected for the number of tests, failure regions, half-sample stability, kNN "
-            "failure maps and a random-forest second opinion, per case and across cases.  "
-            "Failure probabilities (overall, per case, per failure region) carry exact "
-            "(Clopper-Pearson) 95 % intervals; the per-axis outcomes and a second threshold "
-            "are analysed beside the pooled one.  Writes drivers.csv, pairs.csv, cases.csv, "
-            "summary.csv, outcomes.csv, figures/ and report.html."
+            "failure maps and a random-forest second opinion, per case and across cases; "
+            "PRIM scenario boxes.  Failure probabilities (overall, per case, per failure "
+            "region, per box) carry exact (Clopper-Pearson) 95 % intervals; the per-axis "
+            "outcomes and a second threshold are analysed beside the pooled one.  Writes "
+            "drivers.csv, pairs.csv, cases.csv, summary.csv, outcomes.csv, boxes.csv, "
+            "box_limits.csv, trajectory.csv, driver_regions.csv, figures/ and report.html."
         ),
     )
     parser.add_argument(

@@ -12,6 +12,7 @@ from pathlib import Path
 import pandas as pd
 
 from analysis.engine.output import atomic_dir
+from analysis.results.drivers import report_boxes
 from analysis.results.drivers import report_sections as sections
 from analysis.results.drivers.outcomes import outcome_table
 from analysis.results.drivers.pipeline import DriverResults
@@ -111,6 +112,7 @@ def write_analysis(res: DriverResults, out, *, overwrite: bool = False) -> Path:
         with_case_probabilities(case_table(res), res).to_csv(tmp / "cases.csv", index=False)
         _write_probabilities(res, tmp)
         _write_figures(res, tmp / "figures")
+        report_boxes.write_files(res, tmp)
         (tmp / "report.html").write_text(html, encoding="utf-8")
     return Path(out) / "report.html"
 

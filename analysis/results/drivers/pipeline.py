@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
+from analysis.results.drivers.boxes import analyze_boxes
 from analysis.results.drivers.inputs import RunSet, load_runs
 from analysis.results.drivers.maps import KNNFailureMap
 from analysis.results.drivers.outcomes import OutcomeResults, analyze_outcomes
@@ -178,6 +179,8 @@ class DriverResults:
     pngs: dict = field(default_factory=dict, repr=False)
     # Per-axis outcomes and the threshold sensitivity (analysis.results.drivers.outcomes).
     outcomes: OutcomeResults | None = None
+    # PRIM scenario-discovery boxes (analysis.results.drivers.boxes.BoxResults).
+    boxes: object = None
 
     @property
     def has_failures(self) -> bool:
@@ -261,6 +264,8 @@ def analyze(runset, settings: Settings = Settings()) -> DriverResults:
     _maps(res, int(seeds[5].generate_state(1)[0] >> 1))
     lap("maps")
     _extras(res, lap)
+    res.boxes = analyze_boxes(res)  # deterministic: needs no seed
+    lap("boxes")
     return res
 
 

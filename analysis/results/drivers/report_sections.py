@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.engine import runs_table
-from analysis.results.drivers import figures, mechanism
+from analysis.results.drivers import figures, mechanism, report_boxes
 from analysis.results.drivers import report_outcomes as probs
 from analysis.results.report.html import Section, figure_block, png_bytes, table_block, text_block
 
@@ -380,6 +380,7 @@ def driver_sections(res) -> list:
         drivers(res),
         mechanism.section(res),
         pairs(res),
+        report_boxes.section(res),
         cases(res),
         probs.outcomes(res),
         histograms(res),

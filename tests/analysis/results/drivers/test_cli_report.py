@@ -17,6 +17,7 @@ SECTIONS = (
     "method",
     "drivers",
     "pairs",
+    "boxes",
     "cases",
     "outcomes",
     "rate-errors",
