@@ -346,6 +346,7 @@ def _refine_resume_hint(args: argparse.Namespace) -> str:
 def run_refine(args: argparse.Namespace) -> int:
     from analysis.apps.refinement.outputs import (
         check_outputs,
+        check_parameters,
         confirmation_seed,
         held_out_seed,
         load_refinable_table,
@@ -370,6 +371,16 @@ def run_refine(args: argparse.Namespace) -> int:
         if bad:
             raise InputError(f"--cases {bad[0]}: no such rate case; cases are 1..{len(table.case)}")
         cases = [list(table.case).index(c) for c in args.cases]
+    # Every parameter is checked before the estimate: a bad one is the one line on stderr.
+    check_parameters(
+        runs_per_case=args.runs_per_case,
+        seed=args.seed,
+        fresh_seed=fresh,
+        duration_s=args.duration_s,
+        max_iterations=args.max_iterations,
+        search_runs_per_case=args.search_runs_per_case,
+        confirm_seed=confirm_seed,
+    )
     from analysis.apps.estimates import confirm, flying_seconds
 
     # The search (a few rounds) on its subset, the confirmation of the changed rows, then the
