@@ -12,7 +12,10 @@ runs" very differently from "0 in 10,000").  The functions here are the one plac
   probability below ``p_max`` at the given confidence: the zero-failure case is the classic
   "rule of three" generalised, ``n >= ln(alpha) / ln(1 - p_max)``;
 * :func:`mcnemar_exact` -- the exact McNemar test of two tables flown over the *same* dispersed
-  runs (common random numbers): only discordant runs carry evidence.
+  runs (common random numbers): only discordant runs carry evidence;
+* :func:`mcnemar_one_sided` -- its one-sided form, "the second table is better", which the
+  refinement's acceptance rule uses (:mod:`analysis.apps.refinement.gate`);
+* :func:`holm` -- Holm's step-down adjustment of several such tests (family-wise error).
 
 All functions are vectorised over numpy arrays of counts.
 
@@ -126,3 +129,37 @@ def mcnemar_exact(b, c) -> np.ndarray:
     m = b + c
     p = 2.0 * stats.binom.cdf(np.minimum(b, c), m, 0.5)
     return np.where(m > 0, np.minimum(p, 1.0), 1.0)
+
+
+def mcnemar_one_sided(b, c) -> np.ndarray:
+    """Exact one-sided McNemar p-value that the second of two paired tables is better.
+
+    ``b`` runs are bad (fail, or fail or repeat) with the first table and good with the second,
+    ``c`` the other way round.  Conditional on the ``m = b + c`` discordant runs, "no better"
+    makes each a fair coin at best, so the p-value is the binomial upper tail
+    ``P(X >= b) = sum_{i=b}^{m} C(m, i) / 2^m`` with ``X ~ Binomial(m, 1/2)`` (McNemar 1947,
+    exact form), 1 when ``b = 0``.  Equals ``scipy.stats.binomtest(b, m, 0.5,
+    alternative="greater").pvalue``.
+    """
+    b, c = np.broadcast_arrays(np.asarray(b, float), np.asarray(c, float))
+    if np.any(b < 0) or np.any(c < 0):
+        raise ValueError("discordant counts must be >= 0")
+    return np.where(b > 0, stats.binom.sf(b - 1, b + c, 0.5), 1.0)
+
+
+def holm(pvalues, alpha: float) -> np.ndarray:
+    """Holm's step-down test: which of the hypotheses with ``pvalues`` are rejected with the
+    family-wise error rate held at ``alpha`` (Holm 1979, "A simple sequentially rejective
+    multiple test procedure", Scand. J. Statist. 6(2)).
+
+    Sorted ascending, ``p_(i)`` is compared with ``alpha / (m - i)`` (``i`` from 0); the first
+    that exceeds its level stops the procedure, and it and every larger p-value stand.
+    """
+    p = np.asarray(pvalues, float)
+    order = np.argsort(p, kind="stable")
+    reject = np.zeros(p.shape, bool)
+    for rank, i in enumerate(order):
+        if p[i] > alpha / (p.size - rank):
+            break
+        reject[i] = True
+    return reject

@@ -129,8 +129,17 @@ def register(sub) -> None:
         "campaign's failure threshold), and where runs fail or need repeated firings, search "
         "the firing times (whole 40 ms cycles per axis of the entry) that minimise failures "
         "first and repeated firings second, over the same dispersed runs for every candidate. "
-        "Then fly the old and refined tables on a fresh seed the search never saw.  Writes "
-        "OUT.csv (a table for --table), OUT_changelog.csv and OUT_plots/.",
+        "A row changes only on evidence: the candidate's gain must be significant on those "
+        "paired runs (exact one-sided McNemar test, alpha 0.05, on failed runs, or on failed-"
+        "or-repeated runs when failures do not rise), and must hold again on all N runs of a "
+        "confirmation seed the search never saw (the same test, Holm over the changed rows at "
+        "0.05); a row that does not goes back to the original.  On the packaged (symmetric) "
+        "vehicle a change is offered to the mirror case too (every rate command negated), "
+        "through the same confirmation; the changelog says for every case what became of its "
+        "mirror.  Then the old and refined tables (and Table 7, when refining Table 6) are "
+        "flown on a held-out seed no decision used.  Writes OUT.csv (a table for --table), "
+        "OUT_changelog.csv (per case: times, counts, discordant runs, p-values, decision, "
+        "Clopper-Pearson 95 % intervals) and OUT_plots/.",
     )
     ref.add_argument(
         "--table",
@@ -161,6 +170,13 @@ def register(sub) -> None:
         help="held-out seed for the before/after check (default S + 1)",
     )
     ref.add_argument(
+        "--confirm-seed",
+        type=int,
+        metavar="S3",
+        help="confirmation seed: every changed row is flown before and after on its N runs "
+        "and kept only if the gain holds there (default: one past the larger of S and S2)",
+    )
+    ref.add_argument(
         "--cases",
         type=int,
         nargs="+",
@@ -187,7 +203,7 @@ def register(sub) -> None:
         default=200,
         metavar="M",
         help="runs per case the search flies: the first M of the N "
-        "(the same draws); the fresh-seed check flies all N (default 200)",
+        "(the same draws); the confirmation and the held-out check fly all N (default 200)",
     )
     ref.add_argument(
         "--out",
@@ -330,6 +346,8 @@ def _refine_resume_hint(args: argparse.Namespace) -> str:
 def run_refine(args: argparse.Namespace) -> int:
     from analysis.apps.refinement.outputs import (
         check_outputs,
+        check_parameters,
+        confirmation_seed,
         held_out_seed,
         load_refinable_table,
         run_refinement,
@@ -344,18 +362,32 @@ def run_refine(args: argparse.Namespace) -> int:
     if not args.resume:
         checkpoint.unlink(missing_ok=True)  # a fresh search; a stopped one's rounds go
     fresh = held_out_seed(args.seed) if args.fresh_seed is None else args.fresh_seed
+    confirm_seed = (
+        confirmation_seed(args.seed, fresh) if args.confirm_seed is None else args.confirm_seed
+    )
     cases = None
     if args.cases is not None:
         bad = [c for c in args.cases if c not in set(int(c) for c in table.case)]
         if bad:
             raise InputError(f"--cases {bad[0]}: no such rate case; cases are 1..{len(table.case)}")
         cases = [list(table.case).index(c) for c in args.cases]
+    # Every parameter is checked before the estimate: a bad one is the one line on stderr.
+    check_parameters(
+        runs_per_case=args.runs_per_case,
+        seed=args.seed,
+        fresh_seed=fresh,
+        duration_s=args.duration_s,
+        max_iterations=args.max_iterations,
+        search_runs_per_case=args.search_runs_per_case,
+        confirm_seed=confirm_seed,
+    )
     from analysis.apps.estimates import confirm, flying_seconds
 
-    # The search (a few rounds) on its subset, then the old and new tables at full size.
+    # The search (a few rounds) on its subset, the confirmation of the changed rows, then the
+    # old and new tables (and Table 7) at full size.
     n_cases = len(table.case) if cases is None else len(cases)
     search = min(args.search_runs_per_case, args.runs_per_case)
-    simulated = args.duration_s * n_cases * (3 * search + 2 * args.runs_per_case)
+    simulated = args.duration_s * n_cases * (3 * search + 4 * args.runs_per_case)
     confirm(
         "the refinement",
         flying_seconds(simulated, runs=n_cases * args.runs_per_case),
@@ -374,12 +406,14 @@ def run_refine(args: argparse.Namespace) -> int:
         search_runs_per_case=args.search_runs_per_case,
         progress=args.progress,
         checkpoint=checkpoint,
+        confirm_seed=confirm_seed,
     )
     paths = write_refinement(ref, out, overwrite=args.overwrite)
     log = ref.changelog
     print(
         f"refined {args.table}: {int(log['changed'].sum())} of {len(log)} cases changed "
-        f"({ref.result.runs_flown} runs flown in the search, {args.runs_per_case} per case)"
+        f"({ref.result.runs_flown} runs flown in the search and confirmation, "
+        f"{args.runs_per_case} per case)"
     )
     for _, row in log[log["changed"]].iterrows():
         moves = ", ".join(
@@ -388,6 +422,32 @@ def run_refine(args: argparse.Namespace) -> int:
             if row[f"{a}_change_cycles"]
         )
         print(f"  case {int(row['case']):2d}: {moves}")
+    if "decision" in log:
+        print(
+            f"evidence (search seed {args.seed}: first {search} runs; confirmation seed "
+            f"{confirm_seed}: {args.runs_per_case} runs; one-sided exact McNemar, p):"
+        )
+        for _, row in log[log["decision"] != "unchanged"].iterrows():
+            print(
+                f"  case {int(row['case']):2d}: {row['decision']}; on {row['decided_on']}: "
+                f"search {int(row['search_b'])}:{int(row['search_c'])} p={row['search_p']:.2g}, "
+                f"confirmation {int(row['confirm_b'])}:{int(row['confirm_c'])} "
+                f"p={float(row['confirm_p']):.2g}; mirror: {row['mirror_decision']}"
+            )
+    if "refused" in log:
+        refused = log[log["refused"].fillna("").astype(str) != ""]
+        if not refused.empty:
+            print("strictly better, but refused by the search gate (not significant):")
+            for _, row in refused.iterrows():
+                print(f"  case {int(row['case']):2d}: {row['refused']}")
+    if ref.comparison is not None:
+        print(f"held-out seed {fresh}, all searched cases (failure %, Clopper-Pearson 95 %):")
+        for _, row in ref.comparison.iterrows():
+            print(
+                f"  {row['table']}: {int(row['failed'])} of {int(row['runs'])} failed "
+                f"({row['failed_pct']:.2f} %, {row['failed_ci_lo_pct']:.2f}-"
+                f"{row['failed_ci_hi_pct']:.2f}), {int(row['repeated'])} repeated"
+            )
     for seed_name, seed in (("search", args.seed), ("fresh", fresh)):
         print(
             f"seed {seed} ({seed_name}): failed runs {int(log[f'failed_{seed_name}_before'].sum())}"

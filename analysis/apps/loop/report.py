@@ -262,6 +262,55 @@ def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
             float_format="{:.2f}",
         )
     ]
+    if "decision" in log:
+        # Every row the search proposed to change, kept or reverted, with its evidence: the
+        # exact one-sided McNemar test on the search runs and on the confirmation seed.
+        ev_cols = [
+            "case",
+            "decision",
+            "decided_on",
+            "search_b",
+            "search_c",
+            "search_p",
+            "confirm_failed_before",
+            "confirm_failed_after",
+            "confirm_b",
+            "confirm_c",
+            "confirm_p",
+            "mirror_case",
+            "mirror_decision",
+        ]
+        blocks.append(
+            table_block(
+                log[log["decision"] != "unchanged"][ev_cols],
+                "Evidence of each proposed change (b / c: runs better / worse after; p: exact "
+                "one-sided McNemar; a change is kept when p <= 0.05 on the search runs and, "
+                "Holm over the rows, on the confirmation seed)",
+                max_rows=40,
+                float_format="{:.3g}",
+            )
+        )
+        if "refused" in log:
+            refused = log[log["refused"].fillna("").astype(str) != ""]
+            if not refused.empty:
+                blocks.append(
+                    table_block(
+                        refused[["case", "refused"]],
+                        "Strictly better candidates the search gate refused (not significant "
+                        "on the paired search runs)",
+                        max_rows=30,
+                    )
+                )
+    heldout = refined.with_name(f"{refined.stem}_heldout.csv")
+    if heldout.is_file():
+        blocks.append(
+            table_block(
+                pd.read_csv(heldout),
+                "Held-out seed (no decision used it), all cases: failed runs and the failure "
+                "probability's Clopper-Pearson 95 % interval [%]",
+                float_format="{:.2f}",
+            )
+        )
     t6, t7 = load_lookup_table("table6"), load_lookup_table("table7")
     # The paper's refinement is comparable when the table refined is Table 6 (by name or copy).
     if np.array_equal(load_lookup_table(table).firing_time_s, t6.firing_time_s):

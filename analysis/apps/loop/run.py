@@ -405,7 +405,11 @@ class _Stages:
         return {"significant": ", ".join(top) or "none"}
 
     def refine(self) -> dict:
-        from analysis.apps.refinement.outputs import refinement_spec, save_search
+        from analysis.apps.refinement.outputs import (
+            confirmation_seed,
+            refinement_spec,
+            save_search,
+        )
         from analysis.apps.refinement.search import refine
 
         s = self.settings
@@ -422,11 +426,18 @@ class _Stages:
             baseline_runs=self._campaign_runs("campaign_before"),
             # A loop stopped in this stage resumes at its last finished round.
             checkpoint=self.out / ".refine-state",
+            # The second gate: a changed row is kept only if it holds on this seed too (the
+            # held-out seed stays unused by any decision).
+            confirm_seed=confirmation_seed(s.seed, s.held_out_seed),
         )
         save_search(result, self.paths["search"])
         result.table.to_csv(self.paths["refined"])
         changed = (result.table.firing_time_s != self.table.firing_time_s).any(axis=1)
-        return {"cases_changed": int(changed.sum()), "runs_flown": result.runs_flown}
+        return {
+            "cases_changed": int(changed.sum()),
+            "runs_flown": result.runs_flown,
+            "confirm_seed": confirmation_seed(s.seed, s.held_out_seed),
+        }
 
     def campaign_after(self) -> dict:
         return self._campaign(

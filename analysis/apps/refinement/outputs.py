@@ -2,9 +2,17 @@
 
 ``OUT.csv`` is a lookup table in the rcsim layout (loadable by ``--table``).
 ``OUT_changelog.csv`` has one row per searched case: the firing time per axis before and
-after (control cycles and seconds), and failures and repeated-firing runs before and after on
-the search seed and on a fresh seed the search never saw.  ``OUT_plots/`` holds the
-before/after plots (Figs 9-10 style).
+after (control cycles and seconds); the evidence of the change (the paired McNemar test on the
+search seed and on the confirmation seed, :mod:`analysis.apps.refinement.gate`), its decision
+and its mirror case's; failures and repeated-firing runs before and after on the search seed
+and on the held-out seed no decision used, with Clopper-Pearson 95 % intervals.
+``OUT_heldout.csv`` compares the original, the refined and (refining Table 6) the paper's
+Table 7 on the held-out seed, failures with Clopper-Pearson 95 % intervals.  ``OUT_plots/``
+holds the before/after plots (Figs 9-10 style).
+
+Three seeds: the search seed ``S`` (decisions), the confirmation seed (the second gate;
+default :func:`confirmation_seed`) and the held-out seed (default ``S + 1``, the report's
+figures).
 """
 
 from __future__ import annotations
@@ -28,6 +36,7 @@ from analysis.engine.campaign.spec import parse_dict
 from analysis.engine.flight import fly_batch
 from analysis.engine.output import atomic_dir, check_out_dir, check_out_file
 from analysis.engine.plots import AXIS_COLORS, new_figure
+from analysis.results.proportions import clopper_pearson
 from analysis.results.scoring import trial_scores
 from lookup.pattern_recognition import LookupController
 from lookup.table_edits import axis_cycles, jet_axes
@@ -110,6 +119,11 @@ class Refinement:
     seed, fresh_seed, runs_per_case : int
     duration_s : float
         Simulated time of every run [s].
+    comparison : DataFrame, optional
+        The held-out seed per table (the original, the refined and, when the original is the
+        packaged Table 6, the paper's Table 7): :func:`comparison_frame`.
+    confirm_seed : int, optional
+        The confirmation seed (None: the search gate alone).
     """
 
     original: LookupTable
@@ -121,6 +135,8 @@ class Refinement:
     fresh_seed: int
     runs_per_case: int
     duration_s: float
+    comparison: pd.DataFrame | None = None
+    confirm_seed: int | None = None
 
     @property
     def table(self) -> LookupTable:
@@ -140,6 +156,8 @@ def run_refinement(
     threads: int | None = None,
     progress: bool | None = None,
     checkpoint: str | Path | None = None,
+    confirm_seed: int | None = None,
+    compare_table7: bool | None = None,
 ) -> Refinement:
     """Refine ``table`` on ``seed`` and fly the old and new tables on ``fresh_seed``.
 
@@ -159,7 +177,12 @@ def run_refinement(
         Most rounds of candidates, >= 1.
     search_runs_per_case : int
         Runs per case the search flies: the first ones of each case's ``runs_per_case``
-        (:func:`~analysis.apps.refinement.search.refine`); the held-out check flies them all.
+        (:func:`~analysis.apps.refinement.search.refine`); the confirmation and the held-out
+        check fly them all.
+    confirm_seed : int, optional
+        The confirmation seed (the second gate); default :func:`confirmation_seed`.
+    compare_table7 : bool, optional
+        Fly the paper's Table 7 on the held-out seed too; default: when ``table`` is Table 6.
 
     Raises
     ------
@@ -167,6 +190,7 @@ def run_refinement(
         A parameter out of range (named by ``parameter``).
     """
     fresh_seed = held_out_seed(seed) if fresh_seed is None else fresh_seed
+    confirm_seed = confirmation_seed(seed, fresh_seed) if confirm_seed is None else confirm_seed
     check_parameters(
         runs_per_case=runs_per_case,
         seed=seed,
@@ -174,6 +198,7 @@ def run_refinement(
         duration_s=duration_s,
         max_iterations=max_iterations,
         search_runs_per_case=search_runs_per_case,
+        confirm_seed=confirm_seed,
     )
     spec = refinement_spec(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s)
     result = refine(
@@ -185,6 +210,7 @@ def run_refinement(
         progress=progress,
         search_runs_per_case=search_runs_per_case,
         checkpoint=checkpoint,
+        confirm_seed=confirm_seed,
     )
     return held_out_check(
         table,
@@ -195,6 +221,8 @@ def run_refinement(
         duration_s=duration_s,
         threads=threads,
         progress=progress,
+        compare_table7=compare_table7,
+        confirm_seed=confirm_seed,
     )
 
 
@@ -210,18 +238,29 @@ def held_out_check(
     threads: int | None = None,
     progress: bool | None = None,
     fresh_before_runs: pd.DataFrame | None = None,
+    compare_table7: bool | None = None,
+    confirm_seed: int | None = None,
 ) -> Refinement:
-    """Fly the old and the refined table on ``fresh_seed`` (the seed the search never saw).
+    """Fly the old and the refined table on ``fresh_seed`` (the seed no decision used).
 
     ``fresh_after_runs`` / ``fresh_before_runs``: the refined / old table's runs on the fresh
     seed if a campaign already flew them
     (:func:`~analysis.apps.refinement.evaluate.runs_from_campaign`); only the others are flown.
+    ``compare_table7``: fly the paper's Table 7 on those runs too (default: when ``table`` is
+    the packaged Table 6, the table the paper refined by hand).
     """
+    from models.tables import load_lookup_table
+
     searched = result.before["case_index"].to_numpy()
     fresh = refinement_spec(runs_per_case=runs_per_case, seed=fresh_seed, duration_s=duration_s)
+    if compare_table7 is None:
+        compare_table7 = is_table6(table)
     given = {"before": fresh_before_runs, "after": fresh_after_runs}
     tables = {"before": table, "after": result.table}
-    to_fly = [k for k in ("before", "after") if given[k] is None]
+    if compare_table7:
+        given["table7"] = None
+        tables["table7"] = load_lookup_table(which="table7")
+    to_fly = [k for k in tables if given[k] is None]
     scores_of = {k: trial_scores(v, searched.size) for k, v in given.items() if v is not None}
     if to_fly:
         trials = Trials(
@@ -243,9 +282,55 @@ def held_out_check(
             scores_of[k] = part.reset_index(drop=True)
     fresh_before, fresh_after = scores_of["before"], scores_of["after"]
     log = changelog(table, result, fresh_before, fresh_after)
+    names = {"before": "Table 6 (paper)" if is_table6(table) else "original", "after": "refined"}
+    if compare_table7:
+        names["table7"] = "Table 7 (paper)"
+    comparison = comparison_frame({names[k]: scores_of[k] for k in names})
     return Refinement(
-        table, result, fresh_before, fresh_after, log, seed, fresh_seed, runs_per_case, duration_s
+        table,
+        result,
+        fresh_before,
+        fresh_after,
+        log,
+        seed,
+        fresh_seed,
+        runs_per_case,
+        duration_s,
+        comparison=comparison,
+        confirm_seed=confirm_seed,
     )
+
+
+def is_table6(table: LookupTable) -> bool:
+    """Whether ``table`` has the packaged Table 6's firing times (the paper's original)."""
+    from models.tables import load_lookup_table
+
+    t6 = load_lookup_table(which="table6")
+    ours = np.asarray(table.firing_time_s, float)
+    return ours.shape == t6.firing_time_s.shape and bool(
+        np.allclose(ours, t6.firing_time_s, atol=1e-9)
+    )
+
+
+def comparison_frame(scores: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """One row per table on the held-out seed: ``table, failed, repeated, runs`` summed over
+    the searched cases, the failure probability and its Clopper-Pearson 95 % interval."""
+    rows = []
+    for name, sc in scores.items():
+        failed, runs = int(sc["failed"].sum()), int(sc["runs"].sum())
+        lo, hi = clopper_pearson(failed, runs)
+        rows.append(
+            {
+                "table": name,
+                "failed": failed,
+                "repeated": int(sc["repeated"].sum()),
+                "runs": runs,
+                "failed_pct": 100.0 * failed / max(runs, 1),
+                "failed_ci_lo_pct": 100.0 * float(lo),
+                "failed_ci_hi_pct": 100.0 * float(hi),
+            }
+        )
+    return pd.DataFrame(rows)
 
 
 def save_search(result: RefineResult, path: str | Path) -> None:
@@ -256,6 +341,9 @@ def save_search(result: RefineResult, path: str | Path) -> None:
         "iterations": result.iterations,
         "runs_flown": result.runs_flown,
     }
+    if result.evidence is not None:
+        ev = result.evidence.astype(object)
+        data["evidence"] = ev.where(ev.notna(), None).to_dict(orient="list")
     atomic_write(path, lambda tmp: Path(tmp).write_text(json.dumps(data, indent=1, default=int)))
 
 
@@ -268,6 +356,7 @@ def load_search(path: str | Path, table: LookupTable) -> RefineResult:
         after=pd.DataFrame(data["after"]),
         iterations=data["iterations"],
         runs_flown=data["runs_flown"],
+        evidence=pd.DataFrame(data["evidence"]) if "evidence" in data else None,
     )
 
 
@@ -308,6 +397,12 @@ def held_out_seed(seed: int) -> int:
     return seed + 1
 
 
+def confirmation_seed(seed: int, fresh_seed: int) -> int:
+    """The default confirmation seed (the refinement's second gate): one past the larger of
+    the search and held-out seeds, so that it is neither (seeds 1 and 2: 3)."""
+    return max(seed, fresh_seed) + 1
+
+
 def check_parameters(
     *,
     runs_per_case,
@@ -316,6 +411,7 @@ def check_parameters(
     duration_s,
     max_iterations,
     search_runs_per_case=SEARCH_RUNS_PER_CASE,
+    confirm_seed=None,
 ) -> None:
     """Raise :class:`InputError` naming the first out-of-range refinement parameter."""
 
@@ -328,6 +424,7 @@ def check_parameters(
         ("fresh_seed", fresh_seed, 0, MAX_SEED),
         ("max_iterations", max_iterations, 1, 1000),
         ("search_runs_per_case", search_runs_per_case, 1, MAX_RUNS_PER_CASE),
+        *((("confirm_seed", confirm_seed, 0, MAX_SEED),) if confirm_seed is not None else ()),
     ):
         if (
             not isinstance(value, (int, np.integer))
@@ -339,6 +436,12 @@ def check_parameters(
     if fresh_seed == seed:
         raise bad(
             "fresh_seed", fresh_seed, "must differ from the search seed (it is the held-out check)"
+        )
+    if confirm_seed is not None and confirm_seed in (seed, fresh_seed):
+        raise bad(
+            "confirm_seed",
+            confirm_seed,
+            "must differ from the search and held-out seeds (it is the second gate)",
         )
     from analysis.engine.campaign.limits import max_duration_s
 
@@ -381,6 +484,31 @@ def changelog(
     ):
         frame[f"failed_{name}"] = scores["failed"].to_numpy()
         frame[f"repeated_{name}"] = scores["repeated"].to_numpy()
+    frame["fresh_runs"] = fresh_before["runs"].to_numpy()
+    for name in ("fresh_before", "fresh_after"):
+        lo, hi = clopper_pearson(frame[f"failed_{name}"], frame["fresh_runs"])
+        frame[f"failed_{name}_ci_lo"], frame[f"failed_{name}_ci_hi"] = lo, hi
+    if result.evidence is not None:
+        ev = result.evidence.drop(
+            columns=[
+                "case_index",
+                "search_failed_before",
+                "search_failed_after",
+                "search_repeated_before",
+                "search_repeated_after",
+                "search_runs",
+            ]
+        ).reset_index(drop=True)
+        for name in ("confirm_failed_before", "confirm_failed_after"):
+            k = pd.to_numeric(ev[name], errors="coerce")
+            n = pd.to_numeric(ev["confirm_runs"], errors="coerce")
+            have = k.notna() & n.notna()
+            lo = np.full(len(ev), np.nan)
+            hi = np.full(len(ev), np.nan)
+            if have.any():
+                lo[have], hi[have] = clopper_pearson(k[have], n[have])
+            ev[f"{name}_ci_lo"], ev[f"{name}_ci_hi"] = lo, hi
+        frame = pd.concat([frame, ev], axis=1)
     return frame
 
 
@@ -395,6 +523,7 @@ def output_paths(out_csv: str | Path) -> dict[str, Path]:
     return {
         "table": out_csv,
         "changelog": out_csv.with_name(f"{out_csv.stem}_changelog.csv"),
+        "heldout": out_csv.with_name(f"{out_csv.stem}_heldout.csv"),
         "plots": out_csv.with_name(f"{out_csv.stem}_plots"),
         "checkpoint": out_csv.with_name(f".{out_csv.stem}.refine-state"),
     }
@@ -403,11 +532,12 @@ def output_paths(out_csv: str | Path) -> dict[str, Path]:
 def check_outputs(
     out_csv: str | Path, *, overwrite: bool = False, writer: str | None = None
 ) -> dict[str, Path]:
-    """Check all three outputs before any flight (existing ones need ``overwrite``;
+    """Check all the outputs before any flight (existing ones need ``overwrite``;
     ``writer``: the loop writing into its own directory, see :func:`check_out_file`)."""
     paths = output_paths(out_csv)
     check_out_file(paths["table"], overwrite=overwrite, parameter="out", writer=writer)
     check_out_file(paths["changelog"], overwrite=overwrite, parameter="out", writer=writer)
+    check_out_file(paths["heldout"], overwrite=overwrite, parameter="out", writer=writer)
     check_out_dir(paths["plots"], COMMAND, overwrite=overwrite)
     return paths
 
@@ -415,7 +545,8 @@ def check_outputs(
 def write_refinement(
     ref: Refinement, out_csv: str | Path, *, overwrite: bool = False, writer: str | None = None
 ) -> dict[str, Path]:
-    """Write ``OUT.csv``, ``OUT_changelog.csv`` and ``OUT_plots/*.png``; returns the paths.
+    """Write ``OUT.csv``, ``OUT_changelog.csv``, ``OUT_heldout.csv`` (the held-out seed per
+    table, :func:`comparison_frame`) and ``OUT_plots/*.png``; returns the paths.
 
     Each output is complete or absent: the plots folder is built aside and renamed into place,
     the two CSV files are renamed into place, the table last, so a table on disk always has
@@ -438,6 +569,14 @@ def write_refinement(
     atomic_write(
         paths["changelog"], lambda tmp: ref.changelog.to_csv(tmp, index=False, float_format="%.6g")
     )
+    if ref.comparison is not None:
+        comparison = ref.comparison.assign(seed=ref.fresh_seed)
+        atomic_write(
+            paths["heldout"],
+            lambda tmp: comparison.to_csv(tmp, index=False, float_format="%.6g"),
+        )
+    else:
+        del written["heldout"]
     ref.table.to_csv(paths["table"])  # last: the table appears only when the rest is written
     del written["plots"], written["checkpoint"]
     return written

@@ -13,7 +13,9 @@ from scipy import stats
 
 from analysis.results.proportions import (
     clopper_pearson,
+    holm,
     mcnemar_exact,
+    mcnemar_one_sided,
     runs_to_bound,
     upper_bound,
     wilson,
@@ -71,3 +73,25 @@ def test_mcnemar_exact_closed_forms():
     np.testing.assert_allclose(
         mcnemar_exact([0, 2], [5, 9]), [2 / 32, 2 * stats.binom.cdf(2, 11, 0.5)]
     )
+
+
+def test_mcnemar_one_sided_is_the_binomial_upper_tail_of_the_discordant_runs():
+    """``p = P(X >= b)``, ``X ~ Binomial(b + c, 1/2)`` (McNemar 1947, exact conditional form):
+    against scipy's exact binomial test on the same counts, and its closed form at ``c = 0``
+    (``2^-b``: one failure removed in 200 runs is p = 0.5, nowhere near significant)."""
+    for b, c in [(1, 0), (0, 1), (5, 0), (8, 0), (18, 0), (7, 3), (12, 5), (3, 9), (30, 2)]:
+        expected = stats.binomtest(b, b + c, 0.5, alternative="greater").pvalue
+        assert mcnemar_one_sided(b, c) == pytest.approx(expected, rel=1e-12), (b, c)
+    assert mcnemar_one_sided(1, 0) == pytest.approx(0.5)
+    assert mcnemar_one_sided(5, 0) == pytest.approx(1 / 32)  # the fewest discordant runs < 0.05
+    assert mcnemar_one_sided(4, 0) > 0.05
+    assert mcnemar_one_sided(0, 0) == 1.0 and mcnemar_one_sided(0, 4) == 1.0
+
+
+def test_holm_steps_down_and_stops_at_the_first_failure():
+    # m = 4: levels 0.0125, 0.01667, 0.025, 0.05 for the sorted p-values.
+    assert holm([0.01, 0.04, 0.02, 0.005], 0.05).tolist() == [True, True, True, True]
+    assert holm([0.01, 0.04, 0.03, 0.005], 0.05).tolist() == [True, False, False, True]
+    assert holm([0.01, 0.04, 0.03, 0.02], 0.05).tolist() == [True, False, False, False]
+    assert holm([0.013, 0.001, 0.5], 0.05).tolist() == [True, True, False]
+    assert holm([], 0.05).tolist() == []
