@@ -143,7 +143,7 @@ def recovery(
 # --- Campaigns with rate cases: null calibration and case-aware planted truth ---------------
 
 #: Scenarios of :func:`stratified_campaign`.
-STRATIFIED = ("null", "single", "two-cases", "ratio-band", "pair")
+STRATIFIED = ("null", "single", "two-cases", "ratio-band", "ratio-offset", "pair")
 #: Planted truth of each stratified scenario: pooled single drivers, per-case drivers
 #: (case label -> inputs) and the true interaction (None: no pair may be an interaction).
 STRATIFIED_TRUTH: dict = {
@@ -155,6 +155,7 @@ STRATIFIED_TRUTH: dict = {
         "interaction": None,
     },
     "ratio-band": {"drivers": ("a", "b"), "cases": {}, "interaction": ("a", "b")},
+    "ratio-offset": {"drivers": ("a", "b"), "cases": {}, "interaction": ("a", "b")},
     "pair": {"drivers": ("a", "b"), "cases": {}, "interaction": ("a", "b")},
 }
 
@@ -183,8 +184,12 @@ def stratified_campaign(
         at most one of them matters, so the pair is *not* an interaction.
     ``ratio-band``
         A narrow band of a ratio: ``a`` and ``b`` are log-normal (``exp(0.1 z)``) and a run
-        whose ``log(a / b) / (0.1 sqrt 2)`` lies in ``[0.5, 0.75]`` (8 % of runs) fails with
-        probability 0.6, in every case.
+        whose ``d = log(a / b) / (0.1 sqrt 2)`` lies in ``[-0.1, 0.1]`` (8 % of runs, the
+        ratio near its median) fails with probability 0.6, in every case.  Neither input alone
+        shows it.
+    ``ratio-offset``
+        The same with the band off centre, ``d`` in ``[0.5, 0.75]`` (8 % of runs): both inputs
+        then also act alone (failures at high ``a``, low ``b``).
     ``pair``
         The pure interaction of :func:`planted_campaign` in every case: probability 0.2 when
         exactly one of ``a``, ``b`` is above its median.
@@ -215,9 +220,10 @@ def stratified_campaign(
     elif scenario == "two-cases":
         failed |= (case_no == 5) & (z[:, 0] > hi) & (v < 0.6)
         failed |= (case_no == 19) & (z[:, 1] > hi) & (v < 0.6)
-    elif scenario == "ratio-band":
+    elif scenario in ("ratio-band", "ratio-offset"):
         d = (z[:, 0] - z[:, 1]) / np.sqrt(2.0)
-        failed |= (d >= 0.5) & (d <= 0.75) & (v < 0.6)
+        lo, hi = (-0.1, 0.1) if scenario == "ratio-band" else (0.5, 0.75)
+        failed |= (d >= lo) & (d <= hi) & (v < 0.6)
         X["a"] = np.exp(0.1 * z[:, 0])
         X["b"] = np.exp(0.1 * z[:, 1])
     elif scenario == "pair":
