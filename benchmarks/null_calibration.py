@@ -18,6 +18,7 @@ Usage::
     python benchmarks/null_calibration.py                        # 20 tables per scenario
     python benchmarks/null_calibration.py --tables 40 --scenarios null single
     python benchmarks/null_calibration.py --csv out.csv          # also the counts as CSV
+    python benchmarks/null_calibration.py --tables 10 --first-seed 10   # seeds 10..19
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ def main() -> None:
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tables", type=int, default=20)
+    ap.add_argument("--first-seed", type=int, default=0, help="seeds first .. first + tables - 1")
     ap.add_argument("--scenarios", nargs="+", default=list(STRATIFIED), choices=STRATIFIED)
     ap.add_argument("--runs-per-case", type=int, default=1000)
     ap.add_argument("--noise", type=int, default=100)
@@ -52,7 +54,7 @@ def main() -> None:
     for sc in args.scenarios:
         t0 = time.perf_counter()
         counts: dict = {}
-        for seed in range(args.tables):
+        for seed in range(args.first_seed, args.first_seed + args.tables):
             for key, hit in flags(
                 sc, seed, settings, runs_per_case=args.runs_per_case, n_noise=args.noise
             ).items():
@@ -71,6 +73,7 @@ def main() -> None:
                     "scenario": sc,
                     "criterion": key,
                     "tables": n,
+                    "first_seed": args.first_seed,
                     "count": k,
                     "rate": k / n,
                     "ci95_lo": float(lo),

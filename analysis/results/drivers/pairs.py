@@ -9,10 +9,11 @@ Two tests per pair:
   nothing about the pair as such.
 * **interaction** (``p_value_``, ``significant_``): does the pair add anything beyond the
   separate effects of its two inputs within the same runs of the same case
-  (:mod:`analysis.results.drivers.interaction`)?  Tested for the pairs that pass the joint test
-  (at most ``max_tested`` of them, best joint score first) and max-T adjusted over the pairs
-  tested; a pair not tested has ``p_value_ = 1``.  Two inputs that act in different cases are
-  not an interaction.
+  (:mod:`analysis.results.drivers.interaction`)?  Every pair is tested and the p-values are
+  max-T adjusted over all pairs.  (Testing only the pairs that pass the joint test was tried:
+  the screen then selects pairs for chance joint patterns when a driver is weak pooled, and
+  flagged 4 of 20 tables with two drivers in two different cases.)  Two inputs that act in
+  different cases are not an interaction.
 
 ``gain = score(a, b) - max(score(a), score(b))``: the separation the pair shows beyond its
 better single input, a descriptive effect size (not a test).
@@ -48,10 +49,8 @@ class PairKDE:
         Label permutations of the joint test, and bootstrap tables of the interaction test
         (default 200).
     alpha : float
-        Family-wise level of both tests: a pair enters the interaction test when its joint
-        p-value is below it, and is an interaction when its interaction p-value is.
-    max_tested : int
-        Most pairs given the interaction test (best joint score first).
+        Family-wise level of both tests: a pair is an interaction when its interaction p-value
+        is below it, "joint" when only its joint p-value is.
     random_state : int or numpy.random.Generator
 
     Attributes
@@ -64,17 +63,16 @@ class PairKDE:
     p_joint_ : ndarray (P,)
         Joint test, max-T adjusted over all pairs.
     p_interaction_ : ndarray (P,)
-        Interaction test, max-T adjusted over the pairs tested (NaN: not tested).
+        Interaction test, max-T adjusted over all pairs.
     interaction_excess_ : ndarray (P,)
         Signed interaction z: failed runs with both inputs high beyond the no-interaction
-        expectation, in null sd, summed over cases (NaN: not tested).
+        expectation, in null sd, summed over cases.
     p_value_ : ndarray (P,)
-        ``p_interaction_``, 1 for the pairs not tested.
+        ``p_interaction_``.
     significant_ : ndarray of bool (P,)
         ``p_value_ < alpha``: a calibrated interaction.
     kind_ : ndarray of str (P,)
         "interaction", "joint" (passes the joint test only: it carries a driver) or "".
-    n_tested_ : int
     gain_ : ndarray (P,)
         ``score_`` minus the better single score of the two inputs.
     rank_ : ndarray of int (P,)
@@ -87,13 +85,10 @@ class PairKDE:
         The single scores the gains were taken against.
     """
 
-    def __init__(
-        self, n_bins=N_BINS_2D, n_permutations=200, alpha=0.05, max_tested=400, random_state=0
-    ):
+    def __init__(self, n_bins=N_BINS_2D, n_permutations=200, alpha=0.05, random_state=0):
         self.n_bins = n_bins
         self.n_permutations = n_permutations
         self.alpha = alpha
-        self.max_tested = max_tested
         self.random_state = random_state
 
     def fit(self, X, y, strata=None, single_score=None):
@@ -147,18 +142,10 @@ class PairKDE:
 
     def _interactions(self, X, minority, strata, rng):
         P = len(self.pairs_)
-        screened = np.flatnonzero(self.p_joint_ < self.alpha)
-        screened = screened[np.argsort(-self.score_[screened], kind="stable")]
-        tested = screened[: int(self.max_tested)]
-        it = interaction_test(
-            X, minority, strata, self.pairs_[tested], int(self.n_permutations), rng
-        )
-        self.n_tested_ = int(tested.size)
-        self.p_interaction_ = np.full(P, np.nan)
-        self.interaction_excess_ = np.full(P, np.nan)
-        self.p_interaction_[tested] = it.p_maxt
-        self.interaction_excess_[tested] = it.excess
-        self.p_value_ = np.where(np.isnan(self.p_interaction_), 1.0, self.p_interaction_)
+        it = interaction_test(X, minority, strata, self.pairs_, int(self.n_permutations), rng)
+        self.p_interaction_ = it.p_maxt
+        self.interaction_excess_ = it.excess
+        self.p_value_ = it.p_maxt
         self.significant_ = self.p_value_ < self.alpha
         joint = self.p_joint_ < self.alpha
         self.kind_ = np.where(self.significant_, "interaction", np.where(joint, "joint", ""))
