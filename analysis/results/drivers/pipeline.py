@@ -44,13 +44,16 @@ class Settings:
     n_permutations : int
         Label permutations for the single-factor p-values (smallest p: 1/(B+1)), >= 19.
     pair_permutations : int or None
-        For the pair p-values, >= 19 (default: half of ``n_permutations``, at least 19): a pair
+        For the pair p-values (joint test permutations and interaction test null draws),
+        >= 19 (default: half of ``n_permutations``, at least 19): a pair
         permutation costs ~40x a single one (3,655 pairs of 16x16 cells against 86 inputs of
         32 bins), and 100 permutations resolve p = 0.01.
     n_splits : int
         Half-sample splits for stability (2 halves each).
     alpha : float
-        Family-wise level at which a factor or pair is called significant.
+        Family-wise level at which a factor, a pair (interaction) or a per-case driver (over
+        every case and input) is called significant; also the per-case FDR level of the
+        listed q-values.
     min_case_failures : int
         A case is analysed on its own when it has at least this many failed and successful
         runs.
