@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from analysis.engine.output import atomic_dir
@@ -44,9 +45,25 @@ PAIR_COLUMNS = [
 
 
 def case_table(res: DriverResults) -> pd.DataFrame:
-    """Per case: runs, failures, share of all failures, and each significant driver."""
+    """Per case: runs, failures, share of all failures, and each per-case driver.
+
+    Listed are the inputs with a Benjamini-Hochberg q-value below alpha; ``p_value`` is the
+    family-wise p-value over every (case, input) test and ``significant`` is ``p_value < alpha``
+    (:func:`analysis.results.drivers.pipeline.case_family`).  A case with none has one row with
+    an empty factor.
+    """
     rows = []
     nf = max(int(res.runset.y.sum()), 1)
+    alpha = res.settings.alpha
+    empty = {
+        "factor": "",
+        "score": float("nan"),
+        "p_value": float("nan"),
+        "rank": 0,
+        "significant": False,
+        "q_value": float("nan"),
+        "p_case": float("nan"),
+    }
     for c in res.cases:
         base = {
             "case": c.case,
@@ -54,25 +71,25 @@ def case_table(res: DriverResults) -> pd.DataFrame:
             "failed": c.failed,
             "share_of_all_failures": c.failed / nf,
         }
-        if c.singles is None:
-            rows.append(
-                {**base, "factor": "", "score": float("nan"), "p_value": float("nan"), "rank": 0}
-            )
+        if c.singles is None or c.p_family is None or c.q_value is None:
+            rows.append({**base, **empty})
             continue
-        t = c.singles.table()
-        t = t[t["p_value"] < res.settings.alpha]
-        if not len(t):
-            rows.append(
-                {**base, "factor": "", "score": float("nan"), "p_value": float("nan"), "rank": 0}
-            )
-        for _, r in t.iterrows():
+        s = c.singles
+        keep = np.flatnonzero((c.q_value < alpha) | (c.p_family < alpha))
+        keep = keep[np.argsort(s.rank_[keep], kind="stable")]
+        if not keep.size:
+            rows.append({**base, **empty})
+        for j in keep:
             rows.append(
                 {
                     **base,
-                    "factor": r["factor"],
-                    "score": r["score"],
-                    "p_value": r["p_value"],
-                    "rank": int(r["rank"]),
+                    "factor": s.feature_names_in_[j],
+                    "score": s.score_[j],
+                    "p_value": c.p_family[j],
+                    "rank": int(s.rank_[j]),
+                    "significant": bool(c.p_family[j] < alpha),
+                    "q_value": c.q_value[j],
+                    "p_case": s.p_value_[j],
                 }
             )
     return pd.DataFrame(rows)

@@ -1,13 +1,22 @@
-"""Pair drivers: every pair of inputs on a 2-D rank-scale density, and its gain over singles.
+"""Pair drivers: every pair of inputs on a 2-D rank-scale density, and what it adds beyond singles.
 
-A pair's score is its 2-D TV distance minus the permutation-null mean (as for singles, see
-:mod:`analysis.results.drivers.kde`); p-values are max-T adjusted over *all pairs tested* (a
-separate
-family from the singles).  ``gain = score(a, b) - max(score(a), score(b))``: the separation the
-pair shows beyond its better single input.  Since TV can only shrink when a density is
-marginalised, a pair never separates less than its better input in the population; a large
-gain marks an interaction (failures need both inputs), a gain near zero a pair that only
-carries one driver.
+Two tests per pair:
+
+* **joint** (``p_joint_``): is the pair distributed differently among failed runs at all?  Its
+  2-D TV distance minus the permutation-null mean is the pair's ``score`` (as for singles, see
+  :mod:`analysis.results.drivers.kde`); p-values are max-T adjusted over *all pairs* (a
+  separate family from the singles).  Any pair holding one driver passes it, so it says
+  nothing about the pair as such.
+* **interaction** (``p_value_``, ``significant_``): does the pair add anything beyond the
+  separate effects of its two inputs within the same runs of the same case
+  (:mod:`analysis.results.drivers.interaction`)?  Every pair is tested and the p-values are
+  max-T adjusted over all pairs.  (Testing only the pairs that pass the joint test was tried:
+  the screen then selects pairs for chance joint patterns when a driver is weak pooled, and
+  flagged 4 of 20 tables with two drivers in two different cases.)  Two inputs that act in
+  different cases are not an interaction.
+
+``gain = score(a, b) - max(score(a), score(b))``: the separation the pair shows beyond its
+better single input, a descriptive effect size (not a test).
 """
 
 from __future__ import annotations
@@ -16,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.results.drivers.base import as_rng, check_xy, minority_of
+from analysis.results.drivers.interaction import interaction_test
 from analysis.results.drivers.kde import (
     N_BINS_2D,
     BinnedTV,
@@ -36,7 +46,11 @@ class PairKDE:
     n_bins : int
         Rank-scale bins per axis (default 16).
     n_permutations : int
-        Label permutations (default 200).
+        Label permutations of the joint test, and bootstrap tables of the interaction test
+        (default 200).
+    alpha : float
+        Family-wise level of both tests: a pair is an interaction when its interaction p-value
+        is below it, "joint" when only its joint p-value is.
     random_state : int or numpy.random.Generator
 
     Attributes
@@ -44,18 +58,37 @@ class PairKDE:
     feature_names_in_ : list of str
     pairs_ : ndarray of int (P, 2)
         Column indices ``a < b`` of every pair.
-    tv_, null_mean_, score_, p_value_, p_raw_ : ndarray (P,)
+    tv_, null_mean_, score_, p_raw_ : ndarray (P,)
+        Joint test: TV, its null mean, the score and the unadjusted p-value.
+    p_joint_ : ndarray (P,)
+        Joint test, max-T adjusted over all pairs.
+    p_interaction_ : ndarray (P,)
+        Interaction test, max-T adjusted over all pairs.
+    interaction_excess_ : ndarray (P,)
+        Signed interaction z: failed runs with both inputs high beyond the no-interaction
+        expectation, in null sd, summed over cases.
+    p_value_ : ndarray (P,)
+        ``p_interaction_``.
+    significant_ : ndarray of bool (P,)
+        ``p_value_ < alpha``: a calibrated interaction.
+    kind_ : ndarray of str (P,)
+        "interaction", "joint" (passes the joint test only: it carries a driver) or "".
     gain_ : ndarray (P,)
         ``score_`` minus the better single score of the two inputs.
     rank_ : ndarray of int (P,)
+        Interactions first, then the other jointly significant pairs, then the rest; by score
+        within each group.
+    score_rank_ : ndarray of int (P,)
+        Rank by joint score alone.
     bandwidth_ : float
     single_score_ : ndarray (p,)
         The single scores the gains were taken against.
     """
 
-    def __init__(self, n_bins=N_BINS_2D, n_permutations=200, random_state=0):
+    def __init__(self, n_bins=N_BINS_2D, n_permutations=200, alpha=0.05, random_state=0):
         self.n_bins = n_bins
         self.n_permutations = n_permutations
+        self.alpha = alpha
         self.random_state = random_state
 
     def fit(self, X, y, strata=None, single_score=None):
@@ -101,11 +134,26 @@ class PairKDE:
         self.feature_names_in_ = names
         self.n_features_in_ = p
         self.tv_, self.null_mean_, self.score_ = res.tv, res.null_mean, res.score
-        self.p_value_, self.p_raw_ = res.p_maxt, res.p_raw
+        self.p_joint_, self.p_raw_ = res.p_maxt, res.p_raw
         self.single_score_ = single_score
         self.gain_ = self.score_ - np.maximum(single_score[ia], single_score[ib])
-        self.rank_ = _ranks(self.score_)
+        self._interactions(X, minority, strata, rng)
         return self
+
+    def _interactions(self, X, minority, strata, rng):
+        P = len(self.pairs_)
+        it = interaction_test(X, minority, strata, self.pairs_, int(self.n_permutations), rng)
+        self.p_interaction_ = it.p_maxt
+        self.interaction_excess_ = it.excess
+        self.p_value_ = it.p_maxt
+        self.significant_ = self.p_value_ < self.alpha
+        joint = self.p_joint_ < self.alpha
+        self.kind_ = np.where(self.significant_, "interaction", np.where(joint, "joint", ""))
+        self.score_rank_ = _ranks(self.score_)
+        group = np.where(self.significant_, 0, np.where(joint, 1, 2))
+        order = np.lexsort((self.score_rank_, group))
+        self.rank_ = np.empty(P, dtype=int)
+        self.rank_[order] = np.arange(1, P + 1)
 
     def table(self) -> pd.DataFrame:
         """One row per pair, best first: the columns of ``pairs.csv``."""
@@ -118,6 +166,11 @@ class PairKDE:
                 "p_value": self.p_value_,
                 "gain": self.gain_,
                 "rank": self.rank_,
+                "significant": self.significant_,
+                "kind": self.kind_,
+                "p_joint": self.p_joint_,
+                "p_interaction": self.p_interaction_,
+                "interaction_excess": self.interaction_excess_,
                 "tv": self.tv_,
                 "tv_null_mean": self.null_mean_,
                 "p_raw": self.p_raw_,

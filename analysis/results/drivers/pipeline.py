@@ -16,6 +16,7 @@ import pandas as pd
 
 from analysis.results.drivers.boxes import analyze_boxes
 from analysis.results.drivers.inputs import RunSet, load_runs
+from analysis.results.drivers.kde import maxt_p
 from analysis.results.drivers.maps import KNNFailureMap
 from analysis.results.drivers.outcomes import OutcomeResults, analyze_outcomes
 from analysis.results.drivers.pairs import PairKDE
@@ -46,13 +47,16 @@ class Settings:
     n_permutations : int
         Label permutations for the single-factor p-values (smallest p: 1/(B+1)), >= 19.
     pair_permutations : int or None
-        For the pair p-values, >= 19 (default: half of ``n_permutations``, at least 19): a pair
+        For the pair p-values (joint test permutations and interaction test null draws),
+        >= 19 (default: half of ``n_permutations``, at least 19): a pair
         permutation costs ~40x a single one (3,655 pairs of 16x16 cells against 86 inputs of
         32 bins), and 100 permutations resolve p = 0.01.
     n_splits : int
         Half-sample splits for stability (2 halves each).
     alpha : float
-        Family-wise level at which a factor or pair is called significant.
+        Family-wise level at which a factor, a pair (interaction) or a per-case driver (over
+        every case and input) is called significant; also the per-case FDR level of the
+        listed q-values.
     min_case_failures : int
         A case is analysed on its own when it has at least this many failed and successful
         runs.
@@ -152,11 +156,20 @@ def _check_extras(st: Settings) -> None:
 
 @dataclass
 class CaseResult:
+    """One case's counts and, when analysed on its own, its drivers.
+
+    ``p_family`` and ``q_value`` (aligned with ``singles.feature_names_in_``) are corrected over
+    the family of every (analysed case, input) test: max-T across all of them, and
+    Benjamini-Hochberg over the same tests' raw p-values.
+    """
+
     case: str
     runs: int
     failed: int
     singles: SingleFactorKDE | None = None
     pairs: PairKDE | None = None
+    p_family: np.ndarray | None = None
+    q_value: np.ndarray | None = None
 
 
 @dataclass
@@ -225,9 +238,9 @@ def analyze(runset, settings: Settings = Settings()) -> DriverResults:
     ).fit(X, y, strata)
     lap("singles")
     if X.shape[1] >= 2:
-        res.pairs = PairKDE(n_permutations=B2, random_state=np.random.default_rng(seeds[1])).fit(
-            X, y, strata, single_score=res.singles.score_
-        )
+        res.pairs = PairKDE(
+            n_permutations=B2, alpha=settings.alpha, random_state=np.random.default_rng(seeds[1])
+        ).fit(X, y, strata, single_score=res.singles.score_)
         lap("pairs")
     minority = min(int(y.sum()), int((~y).sum()))
     if minority >= 4:
@@ -257,7 +270,6 @@ def analyze(runset, settings: Settings = Settings()) -> DriverResults:
                 for (a, b), s in zip(res.pairs.pairs_, res.stability.pair_stability_)
             }
             pt["stability"] = [stab[k] for k in key]
-        pt.insert(4, "significant", pt["p_value"] < settings.alpha)
         res.pair_table = pt
     _per_case(res, np.random.default_rng(seeds[4]))
     lap("cases")
@@ -331,9 +343,50 @@ def _per_case(res: DriverResults, rng: np.random.Generator) -> None:
         X = X.loc[:, (X.nunique() > 1) & ~X.T.duplicated().to_numpy()]
         c.singles = SingleFactorKDE(n_permutations=st.n_permutations, random_state=rng).fit(X, y)
         if c.case in pair_cases and X.shape[1] >= 2:
-            c.pairs = PairKDE(n_permutations=st.pair_b, random_state=rng).fit(
+            c.pairs = PairKDE(n_permutations=st.pair_b, alpha=st.alpha, random_state=rng).fit(
                 X, y, single_score=c.singles.score_
             )
+    case_family(res.cases)
+
+
+def case_family(cases: list) -> None:
+    """Correct the per-case single tests over every (case, input) test at once.
+
+    Each case's labels were permuted on their own, so permutation ``b`` of all cases together
+    is one draw of the labels permuted within cases: the largest standardised null score over
+    every case and input at draw ``b`` is the max-T null of the whole family, exact like the
+    single-family one.  The q-values are Benjamini-Hochberg over the same tests, on p-values
+    from the pooled standardised null (every case, input and permutation: ``B x`` the tests
+    values) -- a test's own ``B`` permutations resolve p only to ``1/(B + 1)``, too coarse for
+    BH over thousands of tests.
+    """
+    done = [c for c in cases if c.singles is not None]
+    if not done:
+        return
+    max_null = np.max([c.singles.null_max_z_ for c in done], axis=0)
+    pooled = np.sort(np.concatenate([c.singles.null_z().ravel() for c in done]))
+    z = np.concatenate([c.singles.z_ for c in done])
+    exceed = pooled.size - np.searchsorted(pooled, z - 1e-12, side="left")
+    q = bh_qvalues((1.0 + exceed) / (1.0 + pooled.size))
+    k = 0
+    for c in done:
+        c.p_family = maxt_p(c.singles.z_, max_null)
+        c.q_value = q[k : k + c.singles.p_raw_.size]
+        k += c.singles.p_raw_.size
+
+
+def bh_qvalues(p) -> np.ndarray:
+    """Benjamini-Hochberg q-values (step-up adjusted p-values, capped at 1)."""
+    p = np.asarray(p, dtype=float)
+    m = p.size
+    if m == 0:
+        return p.copy()
+    order = np.argsort(p, kind="stable")
+    adj = p[order] * m / np.arange(1, m + 1)
+    adj = np.minimum.accumulate(adj[::-1])[::-1]
+    q = np.empty(m)
+    q[order] = np.minimum(adj, 1.0)
+    return q
 
 
 #: Pairs whose rank correlation exceeds this are not mapped (two views of one quantity).
@@ -344,7 +397,7 @@ def _distinct_top(table: pd.DataFrame, X: pd.DataFrame, seen: set, only_signific
     """The best pair of ``table`` whose inputs are not two views of one quantity."""
     for _, row in table.iterrows():
         a, b = row["factor_a"], row["factor_b"]
-        if only_significant and not row["significant"]:
+        if only_significant and not row["kind"]:  # neither interaction nor joint
             return None
         if frozenset((a, b)) in seen:
             continue
@@ -366,7 +419,6 @@ def _maps(res: DriverResults, seed: int) -> None:
         for c in sorted(res.cases, key=lambda c: -c.failed):
             if c.pairs is not None and len(chosen) < max(st.n_maps // 2, 1):
                 t = c.pairs.table()
-                t["significant"] = t["p_value"] < st.alpha
                 top = _distinct_top(t, rs.X[rs.strata == c.case], seen, False)
                 if top is not None:
                     chosen.append((c.case, *top))

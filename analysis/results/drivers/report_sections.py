@@ -27,7 +27,17 @@ _DRIVER_COLS = [
     "stability",
     "second_opinion",
 ]
-_PAIR_COLS = ["rank", "factor_a", "factor_b", "score", "p_value", "gain", "stability"]
+_PAIR_COLS = [
+    "rank",
+    "factor_a",
+    "factor_b",
+    "kind",
+    "score",
+    "p_value",
+    "p_joint",
+    "gain",
+    "stability",
+]
 
 
 def _present(df, cols):
@@ -126,7 +136,7 @@ def method(res) -> Section:
                 "at all (measured by shuffling the failure labels within each case).",
                 f"p-values come from {st.n_permutations} label shuffles ({st.pair_b} for pairs) "
                 "and are corrected for the "
-                "number of inputs (and, separately, for the number of pairs) by the max-T "
+                "number of inputs by the max-T "
                 "method: a "
                 f"factor with p < {st.alpha} is a driver with family-wise error below {st.alpha}. "
                 f"The smallest reachable p is 1/{st.n_permutations + 1} (pairs: "
@@ -135,8 +145,13 @@ def method(res) -> Section:
                 "the base rate; 'region_fail_share' is the share of all failed runs inside it, "
                 "'P(fail in region)' the share of the runs inside it that fail. "
                 "'stability' is the share of random half-campaigns in which the factor ranks at "
-                "least as high as here. 'gain' of a pair is its score beyond its better input: "
-                "large only when the two inputs matter together. 'second_opinion' compares with a "
+                "least as high as here. A pair is 'significant' (kind 'interaction') only "
+                "when it adds to its two inputs' separate effects within the same runs of the "
+                "same case: no-interaction (additive log-odds) is tested per case on "
+                "median-split cells (Zelen's exact conditional test), "
+                "max-T corrected over all pairs (p_joint, the pair's own permutation test, "
+                "only says the pair differs at all). 'gain' of a pair is its score "
+                "beyond its better input. 'second_opinion' compares with a "
                 "random-forest permutation importance (another method family).",
                 "Physics-aware factors: authority_<axis>_<pos|neg|fire>_rad_s2 is the angular "
                 "acceleration the jet group gives (torque about the dispersed CG over the "
@@ -199,13 +214,19 @@ def pairs(res, top: int = 15) -> Section:
     if res.pair_table is None:
         return Section("Pairs", [text_block("Only one input: no pairs.")], "pairs")
     pt = res.pair_table
-    blocks = [table_block(_present(pt, _PAIR_COLS), "Pairs by score (pairs.csv)", top)]
+    blocks = [
+        table_block(
+            _present(pt, _PAIR_COLS),
+            "Pairs: interactions, then other pairs by score (pairs.csv)",
+            top,
+        )
+    ]
     gain = pt[pt["significant"]].sort_values("gain", ascending=False).head(5)
     if len(gain):
         blocks.append(
             table_block(
                 _present(gain, _PAIR_COLS),
-                "Significant pairs with the largest gain over their better input (interactions)",
+                "Interactions (calibrated test), largest gain over their better input first",
             )
         )
     for (case, fmap), name in zip(res.maps, figures.map_png_names(res)):
@@ -232,13 +253,14 @@ def cases(res) -> Section:
             "failed": c.failed,
             "share_of_all_failures": c.failed / nf,
         }
-        if c.singles is not None:
-            t = c.singles.table()
+        if c.singles is not None and c.p_family is not None:
+            order = np.argsort(c.singles.rank_, kind="stable")
             for k in range(3):
-                if k < len(t):
+                if k < order.size:
+                    j = order[k]
                     row[f"driver_{k + 1}"] = (
-                        f"{t['factor'][k]} (p={t['p_value'][k]:.3g})"
-                        if t["p_value"][k] < res.settings.alpha
+                        f"{c.singles.feature_names_in_[j]} (p={c.p_family[j]:.3g})"
+                        if c.p_family[j] < res.settings.alpha
                         else ""
                     )
         rows.append(row)
@@ -247,8 +269,12 @@ def cases(res) -> Section:
     blocks = [
         text_block(
             f"Each case with at least {res.settings.min_case_failures} failed and successful runs "
-            "is analysed on its own (its p-values corrected for its inputs); listed are its "
-            "significant drivers. Cases are sorted by failures."
+            "is analysed on its own; listed are its significant drivers, family-wise over "
+            "every case and input together (max-T: p < alpha means no case and no input is "
+            "flagged by chance with probability above alpha). cases.csv also lists the inputs "
+            "with a Benjamini-Hochberg q-value below alpha (false-discovery rate over the same "
+            "tests); its 'significant' column is the family-wise call. Cases are sorted by "
+            "failures."
         )
     ]
     blocks.append(table_block(df.fillna(""), "Drivers per case (cases.csv)", max_rows=60))

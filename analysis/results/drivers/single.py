@@ -61,6 +61,11 @@ class SingleFactorKDE:
     region_fail_share_, region_run_share_ : ndarray (p,)
         Share of failed runs / of all runs inside the region.
     null_tv_ : ndarray (n_permutations, p)
+    z_ : ndarray (p,)
+        Standardised TV (see :func:`~analysis.results.drivers.kde.standardise`).
+    null_max_z_ : ndarray (n_permutations,)
+        Largest standardised TV of each permutation: combined over independently permuted
+        strata (cases) it gives a max-T family across them.
     engine_ : BinnedTV
         The binned counts of the fitted runs (reused by
         :class:`~analysis.results.drivers.stability.HalfSampleStability`).
@@ -107,9 +112,17 @@ class SingleFactorKDE:
         self.n_features_in_ = len(names)
         self.tv_, self.null_mean_, self.score_ = res.tv, res.null_mean, res.score
         self.p_value_, self.p_raw_, self.null_tv_ = res.p_maxt, res.p_raw, res.null_tv
+        self.z_, self.null_max_z_ = res.z, res.null_max_z
         self.rank_ = _ranks(self.score_)
         self._regions(X, y, codes, self.engine_)
         return self
+
+    def null_z(self) -> np.ndarray:
+        """Standardised permutation-null TVs (n_permutations, p), on the scale of ``z_``."""
+        allv = np.vstack([self.tv_[None], self.null_tv_])
+        sd = allv.std(axis=0, ddof=1)
+        sd = np.where(sd > 0, sd, np.inf)
+        return (self.null_tv_ - allv.mean(axis=0)) / sd
 
     def _regions(self, X, y, codes, engine):
         base = float(y.mean())

@@ -88,7 +88,9 @@ class HalfSampleStability:
                     tv = engine.tv(rows_min, pooled=pooled_h, n=n_h)
                     ranks.append(_ranks(tv - np.sqrt(2.0) * est.null_mean_))
             ranks = np.array(ranks)
-            out.append((ranks, (ranks <= est.rank_[None]).mean(axis=0)))
+            # Halves are ranked by score: compare with the full campaign's rank by score.
+            full_rank = getattr(est, "score_rank_", est.rank_)
+            out.append((ranks, (ranks <= full_rank[None]).mean(axis=0)))
         self.single_half_rank_, self.single_stability_ = out[0]
         self.pair_half_rank_, self.pair_stability_ = out[1] if pairs is not None else (None, None)
         return self

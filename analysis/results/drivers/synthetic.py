@@ -138,3 +138,175 @@ def recovery(
             add("pair_first", {names[first[0]], names[first[1]]} == set(pair))
             add("pair_significant", p.p_value_[np.argmin(p.rank_)] < alpha)
     return out
+
+
+# --- Campaigns with rate cases: null calibration and case-aware planted truth ---------------
+
+#: Scenarios of :func:`stratified_campaign`.
+STRATIFIED = ("null", "single", "two-cases", "ratio-band", "ratio-offset", "pair")
+#: Planted truth of each stratified scenario: pooled single drivers, per-case drivers
+#: (case label -> inputs) and the true interaction (None: no pair may be an interaction).
+STRATIFIED_TRUTH: dict = {
+    "null": {"drivers": (), "cases": {}, "interaction": None},
+    "single": {"drivers": ("a",), "cases": {}, "interaction": None},
+    "two-cases": {
+        "drivers": ("a", "b"),
+        "cases": {"case-05": ("a",), "case-19": ("b",)},
+        "interaction": None,
+    },
+    "ratio-band": {"drivers": ("a", "b"), "cases": {}, "interaction": ("a", "b")},
+    "ratio-offset": {"drivers": ("a", "b"), "cases": {}, "interaction": ("a", "b")},
+    "pair": {"drivers": ("a", "b"), "cases": {}, "interaction": ("a", "b")},
+}
+
+
+def stratified_campaign(
+    scenario: str,
+    seed: int,
+    n_cases: int = 26,
+    runs_per_case: int = 1000,
+    n_noise: int = 100,
+    failure_rate: float = 0.05,
+):
+    """A campaign of ``n_cases`` rate cases with failures at random plus a planted mechanism.
+
+    Every run fails at random with probability ``failure_rate`` (in every scenario); on top:
+
+    ``null``
+        Nothing: the inputs are ``n_noise`` standard normals ``noise_001`` ...
+    ``single``
+        One strong driver in every case and no interaction: a run with ``a`` in its top 20 %
+        fails with probability 0.3 (``b`` is irrelevant).  Every pair holding ``a`` differs
+        between failed and successful runs, none adds anything to ``a``.
+    ``two-cases``
+        Two drivers acting in two different cases: in ``case-05`` a run with ``a`` in its top
+        20 % fails with probability 0.6, in ``case-19`` the same with ``b``.  Within any case
+        at most one of them matters, so the pair is *not* an interaction.
+    ``ratio-band``
+        A narrow band of a ratio: ``a`` and ``b`` are log-normal (``exp(0.1 z)``) and a run
+        whose ``d = log(a / b) / (0.1 sqrt 2)`` lies in ``[-0.1, 0.1]`` (8 % of runs, the
+        ratio near its median) fails with probability 0.6, in every case.  Neither input alone
+        shows it.
+    ``ratio-offset``
+        The same with the band off centre, ``d`` in ``[0.5, 0.75]`` (8 % of runs): both inputs
+        then also act alone (failures at high ``a``, low ``b``).
+    ``pair``
+        The pure interaction of :func:`planted_campaign` in every case: probability 0.2 when
+        exactly one of ``a``, ``b`` is above its median.
+
+    Mechanism inputs ``a``, ``b`` come first (not in ``null``).  Cases are ``case-01`` ...,
+    ``runs_per_case`` each.  Draws use one Generator from ``SeedSequence([seed, 26])``.
+
+    Returns
+    -------
+    X : DataFrame, failed : ndarray of bool, case : ndarray of str
+    """
+    if scenario not in STRATIFIED:
+        raise ValueError(f"scenario must be one of {STRATIFIED}, got {scenario!r}")
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 26]))
+    n = n_cases * runs_per_case
+    k = 0 if scenario == "null" else 2
+    z = rng.standard_normal((n, k + n_noise))
+    u = rng.random(n)
+    v = rng.random(n)
+    case_no = np.repeat(np.arange(1, n_cases + 1), runs_per_case)
+    case = np.array([f"case-{c:02d}" for c in case_no])
+    failed = u < failure_rate
+    names = ["a", "b"][:k] + [f"noise_{j + 1:03d}" for j in range(n_noise)]
+    X = pd.DataFrame(z, columns=names)
+    hi = 0.8416  # upper 20 % of a standard normal
+    if scenario == "single":
+        failed |= (z[:, 0] > hi) & (v < 0.3)
+    elif scenario == "two-cases":
+        failed |= (case_no == 5) & (z[:, 0] > hi) & (v < 0.6)
+        failed |= (case_no == 19) & (z[:, 1] > hi) & (v < 0.6)
+    elif scenario in ("ratio-band", "ratio-offset"):
+        d = (z[:, 0] - z[:, 1]) / np.sqrt(2.0)
+        lo, hi = (-0.1, 0.1) if scenario == "ratio-band" else (0.5, 0.75)
+        failed |= (d >= lo) & (d <= hi) & (v < 0.6)
+        X["a"] = np.exp(0.1 * z[:, 0])
+        X["b"] = np.exp(0.1 * z[:, 1])
+    elif scenario == "pair":
+        failed |= ((z[:, 0] > 0) ^ (z[:, 1] > 0)) & (v < 0.2)
+    return X, failed, case
+
+
+def calibration_settings(**overrides):
+    """The :class:`~analysis.results.drivers.pipeline.Settings` of the calibration runs:
+    defaults without the random-forest second opinion (no flag of its own) and one stability
+    split (no flag either), which only cost time here."""
+    from analysis.results.drivers.pipeline import Settings
+
+    kw = {"forest": False, "n_splits": 1, "n_maps": 0, "case_pairs": 0}
+    kw.update(overrides)
+    return Settings(**kw)
+
+
+def flags(scenario: str, seed: int, settings=None, **campaign) -> dict:
+    """Analyse one :func:`stratified_campaign` with :func:`~.pipeline.analyze`; its flags.
+
+    Returns
+    -------
+    dict
+        ``false_single`` / ``false_pair`` / ``false_case``: some input, pair or (case, input)
+        is flagged (family-wise significant) that the planted truth does not hold;
+        ``true_case``: every planted per-case driver is flagged in its case;
+        ``true_interaction``: the planted interaction is flagged; ``interaction_first``: it
+        ranks first among the pairs; ``true_singles``: every pooled driver is flagged.
+    """
+    from analysis.results.drivers.inputs import load_runs
+    from analysis.results.drivers.pipeline import analyze
+
+    settings = settings if settings is not None else calibration_settings()
+    X, failed, case = stratified_campaign(scenario, seed, **campaign)
+    truth = STRATIFIED_TRUTH[scenario]
+    table = X.assign(case=case, failed=failed)
+    rs = load_runs(table, inputs=list(X.columns), derived=False)
+    res = analyze(rs, settings)
+    out = {"false_single": False, "false_pair": False, "false_case": False}
+    d = res.drivers
+    if not res.has_failures or d is None:
+        return out
+    sig = set(d.loc[d["significant"], "factor"])
+    out["false_single"] = bool(sig - set(truth["drivers"]))
+    out["true_singles"] = set(truth["drivers"]) <= sig
+    pt = res.pair_table
+    inter = truth["interaction"]
+    if pt is not None:
+        flagged = {
+            frozenset((a, b))
+            for a, b, s in zip(pt["factor_a"], pt["factor_b"], pt["significant"])
+            if s
+        }
+        want = {frozenset(inter)} if inter else set()
+        out["false_pair"] = bool(flagged - want)
+        if inter:
+            out["true_interaction"] = frozenset(inter) in flagged
+            top = pt.iloc[0]
+            out["interaction_first"] = {top["factor_a"], top["factor_b"]} == set(inter)
+    found: dict = {}
+    for c in res.cases:
+        if c.singles is None or c.p_family is None:
+            continue
+        names = np.asarray(c.singles.feature_names_in_)
+        found[c.case] = set(names[c.p_family < settings.alpha])
+    planted = truth["cases"]
+    # A per-case flag is true when planted in that case, or when the input is a pooled driver
+    # acting in every case (ratio band, pure pair): those are drivers in each case too.
+    everywhere = set(truth["drivers"]) if not planted else set()
+    out["false_case"] = any(
+        bool(f - set(planted.get(c, ())) - everywhere) for c, f in found.items()
+    )
+    if planted:
+        out["true_case"] = all(set(v) <= found.get(c, set()) for c, v in planted.items())
+    return out
+
+
+def calibration(scenario: str, seeds, settings=None, **campaign) -> dict:
+    """:func:`flags` over ``seeds``: the number of tables meeting each criterion."""
+    out: dict = {"tables": 0}
+    for seed in seeds:
+        out["tables"] += 1
+        for key, hit in flags(scenario, seed, settings, **campaign).items():
+            out[key] = out.get(key, 0) + int(bool(hit))
+    return out
