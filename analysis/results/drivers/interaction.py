@@ -24,16 +24,20 @@ Exact conditional null (Zelen's test, one case at a time)
     ``E_s`` and variance ``V_s`` give the statistic ``Q = (sum_s (x_s - E_s))^2 / sum_s V_s``
     (Mantel-Haenszel-like: powerful for an interaction of the same sign in every case).
 
-Calibration and correction
-    ``B`` null draws of every case's ``x_s`` from its exact conditional distribution (cases
-    independent, as the labels are).  Family-wise error over the pairs tested by max-T on the
-    standardised ``Q`` (mean and sd over the observed and the ``B`` null values).  Each pair's
-    draws are independent of the other pairs', so the null maximum is that of independent
-    tests: for positively dependent pairs (sharing an input) this is conservative.  The test
-    is exact whatever the counts: no asymptotics, no plug-in estimate (a parametric bootstrap
-    of a 4 x 4 deviance from the fitted null was tried first and flagged pairs of a single
-    strong driver with a noise input in 10 of 10 tables: with few failures per cell the
-    plug-in fit is sparser than the truth and its bootstrap deviance too small).
+Exact p-value and correction
+    Cases are independent given their margins, so the null distribution of
+    ``T = sum_s x_s`` is the convolution of the cases' exact conditional distributions
+    (computed exactly, by FFT, a block of pairs at a time).  A pair's p-value is the null
+    probability of a ``|T - E[T]|`` at least as large as observed (two-sided: an interaction
+    of either sign), exact whatever the counts -- no asymptotics, no plug-in estimate, no
+    Monte Carlo error.  Family-wise error over all pairs by Holm's step-down adjustment, valid
+    under any dependence between pairs (they share inputs and labels).
+
+    Two earlier designs were measured and replaced: a parametric bootstrap of a 4 x 4 deviance
+    from the fitted null flagged pairs of a single strong driver with a noise input in 10 of
+    10 tables (with few failures per cell the plug-in fit is sparser than the truth); and a
+    max-T over independent draws of each pair's conditional null flagged at least one pair in
+    4 of 20 full-size null tables (26 x 1,000 runs, 100 noise inputs), above the nominal 5 %.
 """
 
 from __future__ import annotations
@@ -43,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import rankdata
 
-from analysis.results.drivers.kde import maxt_p, standardise
+from analysis.results.drivers.baseline import holm
 
 #: Bins per axis (within-case median split) of the interaction test.
 N_BINS = 2
@@ -124,49 +128,61 @@ def conditional_null(n: np.ndarray, f: np.ndarray):
     return lo, prob
 
 
+#: Pairs whose null distributions are convolved at once (bounds memory: pairs x cases x
+#: support points, complex).
+_BLOCK_PAIRS = 256
+
+
 @dataclass
 class InteractionResult:
-    """Interaction statistic, its exact-conditional null and max-T p-values, per pair."""
+    """Interaction statistic, its exact p-value and the Holm-adjusted one, per pair."""
 
-    statistic: np.ndarray  # Q
-    excess: np.ndarray  # sum_s (x_s - E_s) / sqrt(sum_s V_s): signed, 0 = no interaction
-    p_raw: np.ndarray
-    p_maxt: np.ndarray
+    excess: np.ndarray  # (T - E[T]) / sd(T): signed, 0 = no interaction
+    p_raw: np.ndarray  # exact two-sided conditional p-value
+    p_holm: np.ndarray  # Holm-adjusted over all pairs tested
+
+
+def sum_distribution(prob: np.ndarray) -> np.ndarray:
+    """Distribution of the sum over axis 1 of independent variables on ``0 .. G-1``.
+
+    ``prob`` (P, S, G): per pair and stratum, ``P(g)``.  Returns (P, S * (G - 1) + 1): the
+    distribution of the sum of the S offsets, by FFT (products of the strata's transforms),
+    clipped at zero and renormalised (FFT round-off is ~1e-16 of the largest mass).
+    """
+    P, S, G = prob.shape
+    L = S * (G - 1) + 1
+    n_fft = 1 << int(np.ceil(np.log2(max(L, 2))))
+    spec = np.fft.rfft(prob, n=n_fft, axis=-1).prod(axis=1)
+    dist = np.fft.irfft(spec, n=n_fft, axis=-1)[:, :L]
+    dist = np.clip(dist, 0.0, None)
+    return dist / dist.sum(axis=-1, keepdims=True)
 
 
 def interaction_test(
-    X: np.ndarray,
-    minority: np.ndarray,
-    strata: np.ndarray,
-    pairs: np.ndarray,
-    n_draws: int,
-    rng: np.random.Generator,
+    X: np.ndarray, minority: np.ndarray, strata: np.ndarray, pairs: np.ndarray
 ) -> InteractionResult:
     """The interaction test of the module docstring for ``pairs`` (P, 2) of columns of ``X``."""
     pairs = np.asarray(pairs, dtype=np.intp).reshape(-1, 2)
     P = len(pairs)
     if P == 0:
         empty = np.empty(0)
-        return InteractionResult(empty, empty, empty, empty)
+        return InteractionResult(empty, empty, empty)
     labels, sidx = np.unique(strata, return_inverse=True)
     codes = stratum_codes(X, sidx, N_BINS)
-    n, f = cell_counts(codes, pairs, sidx, labels.size, minority)
-    lo, prob = conditional_null(n, f)
-    G = prob.shape[-1]
-    grid = np.arange(G)
-    mean = (prob * grid).sum(axis=-1)  # E_s - lo
-    var = (prob * (grid - mean[..., None]) ** 2).sum(axis=-1)
-    vsum = var.sum(axis=1)
-    scale = np.where(vsum > 0, 1.0 / np.sqrt(np.where(vsum > 0, vsum, 1.0)), 0.0)
-    d_obs = ((f[..., 1, 1] - lo - mean).sum(axis=1)) * scale
-    obs = d_obs**2
-    cdf = np.cumsum(prob, axis=-1)
-    cdf[..., -1] = 1.0
-    null = np.empty((int(n_draws), P))
-    for b in range(int(n_draws)):
-        u = rng.random(lo.shape)
-        g = (u[..., None] > cdf).sum(axis=-1)  # inverse-CDF draw, offset from lo
-        null[b] = ((g - mean).sum(axis=1) * scale) ** 2
-    z, max_null = standardise(obs, null)
-    p_raw = (1.0 + (null >= obs - 1e-9).sum(axis=0)) / (n_draws + 1.0)
-    return InteractionResult(statistic=obs, excess=d_obs, p_raw=p_raw, p_maxt=maxt_p(z, max_null))
+    excess = np.empty(P)
+    p_raw = np.empty(P)
+    for s0 in range(0, P, _BLOCK_PAIRS):
+        block = pairs[s0 : s0 + _BLOCK_PAIRS]
+        n, f = cell_counts(codes, block, sidx, labels.size, minority)
+        lo, prob = conditional_null(n, f)
+        dist = sum_distribution(prob)  # of T - sum_s lo_s
+        grid = np.arange(dist.shape[-1], dtype=float)
+        mean = (dist * grid).sum(axis=-1)
+        sd = np.sqrt((dist * (grid - mean[:, None]) ** 2).sum(axis=-1))
+        dev = (f[..., 1, 1] - lo).sum(axis=1) - mean
+        # Two-sided: every value at least as far from the mean (tolerance for round-off).
+        far = np.abs(grid[None] - mean[:, None]) >= np.abs(dev)[:, None] - 1e-7
+        p_raw[s0 : s0 + len(block)] = np.minimum((dist * far).sum(axis=-1), 1.0)
+        excess[s0 : s0 + len(block)] = np.where(sd > 0, dev / np.where(sd > 0, sd, 1.0), 0.0)
+    # A pair with no freedom (a degenerate table: sd 0) has p = 1 by the rule above.
+    return InteractionResult(excess=excess, p_raw=p_raw, p_holm=holm(p_raw))

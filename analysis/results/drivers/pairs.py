@@ -9,11 +9,11 @@ Two tests per pair:
   nothing about the pair as such.
 * **interaction** (``p_value_``, ``significant_``): does the pair add anything beyond the
   separate effects of its two inputs within the same runs of the same case
-  (:mod:`analysis.results.drivers.interaction`)?  Every pair is tested and the p-values are
-  max-T adjusted over all pairs.  (Testing only the pairs that pass the joint test was tried:
-  the screen then selects pairs for chance joint patterns when a driver is weak pooled, and
-  flagged 4 of 20 tables with two drivers in two different cases.)  Two inputs that act in
-  different cases are not an interaction.
+  (:mod:`analysis.results.drivers.interaction`)?  Every pair is tested with an exact
+  conditional p-value, Holm-adjusted over all pairs.  (Testing only the pairs that pass the
+  joint test was tried: the screen then selects pairs for chance joint patterns when a driver
+  is weak pooled, and flagged 4 of 20 tables with two drivers in two different cases.)  Two
+  inputs that act in different cases are not an interaction.
 
 ``gain = score(a, b) - max(score(a), score(b))``: the separation the pair shows beyond its
 better single input, a descriptive effect size (not a test).
@@ -46,8 +46,7 @@ class PairKDE:
     n_bins : int
         Rank-scale bins per axis (default 16).
     n_permutations : int
-        Label permutations of the joint test, and bootstrap tables of the interaction test
-        (default 200).
+        Label permutations of the joint test (default 200; the interaction test is exact).
     alpha : float
         Family-wise level of both tests: a pair is an interaction when its interaction p-value
         is below it, "joint" when only its joint p-value is.
@@ -63,7 +62,7 @@ class PairKDE:
     p_joint_ : ndarray (P,)
         Joint test, max-T adjusted over all pairs.
     p_interaction_ : ndarray (P,)
-        Interaction test, max-T adjusted over all pairs.
+        Interaction test: exact conditional p-value, Holm-adjusted over all pairs.
     interaction_excess_ : ndarray (P,)
         Signed interaction z: failed runs with both inputs high beyond the no-interaction
         expectation, in null sd, summed over cases.
@@ -142,10 +141,10 @@ class PairKDE:
 
     def _interactions(self, X, minority, strata, rng):
         P = len(self.pairs_)
-        it = interaction_test(X, minority, strata, self.pairs_, int(self.n_permutations), rng)
-        self.p_interaction_ = it.p_maxt
+        it = interaction_test(X, minority, strata, self.pairs_)
+        self.p_interaction_ = it.p_holm
         self.interaction_excess_ = it.excess
-        self.p_value_ = it.p_maxt
+        self.p_value_ = it.p_holm
         self.significant_ = self.p_value_ < self.alpha
         joint = self.p_joint_ < self.alpha
         self.kind_ = np.where(self.significant_, "interaction", np.where(joint, "joint", ""))
