@@ -155,7 +155,10 @@ def bound_words(need: float, have: int, bound_p: float) -> str:
     """The runs-to-bound answer in words, against the runs already flown."""
     target = f"below {100 * bound_p:g} %"
     if not np.isfinite(need):
-        return f"not at this rate (observed rate >= {100 * bound_p:g} %)"
+        return (
+            f"no number of runs bounds it {target}: the observed rate is already "
+            f">= {100 * bound_p:g} %"
+        )
     need = int(need)
     if need <= have:
         return f"{need:,} runs bound it {target}; {have:,} flown"

@@ -58,7 +58,7 @@ def test_known_counts_and_words():
     t0 = probability_frame([0], [100], bound_p=0.01).iloc[0]
     assert t0["runs_to_bound"] == 299
     assert bound_words(299, 100, 0.01) == "299 runs bound it below 1 % (199 more)"
-    assert "not at this rate" in bound_words(np.inf, 100, 0.01)
+    assert "no number of runs bounds it below 1 %" in bound_words(np.inf, 100, 0.01)
 
 
 def test_region_probability_is_a_recount():
