@@ -186,6 +186,9 @@ class DriverResults:
     pair_table: pd.DataFrame | None = None
     cases: list = field(default_factory=list)
     maps: list = field(default_factory=list)  # (case or None, KNNFailureMap)
+    # Why each map was drawn (aligned with ``maps``), and the cases left without a map.
+    map_reasons: list = field(default_factory=list)
+    unmapped_cases: list = field(default_factory=list)  # (case, failed runs)
     timings_s: dict = field(default_factory=dict)
     # PNG bytes of the figures shown both in the report and in figures/, rendered once
     # (filled by analysis.results.drivers.figures.report_pngs).
@@ -406,33 +409,69 @@ def _distinct_top(table: pd.DataFrame, X: pd.DataFrame, seen: set, only_signific
     return None
 
 
-def _maps(res: DriverResults, seed: int) -> None:
-    """kNN maps: the top pair of the cases with most failures, then the best pooled pairs.
+#: Gambone's Fig. 15 pair (Izz against the yaw jets' thrust), mapped whenever both inputs are
+#: analysed so a reader can set the paper's figure beside the data's own best pair.
+FIG15_PAIR = ("izz_kg_m2", "thrust_yaw_fire_n")
 
-    Pairs of strongly rank-correlated inputs (e.g. a group's authority and its firing-direction
-    copy) are skipped: their map is a line, not a picture of two drivers.
+
+def _maps(res: DriverResults, seed: int) -> None:
+    """kNN maps of the pairs with the strongest evidence, and the paper's Fig. 15 pair.
+
+    Per case (most failures first, at most half of ``n_maps``): only a case with a significant
+    per-case driver gets a map, of its best pair that holds such a driver; a case without one
+    is listed in ``unmapped_cases`` ("no significant driver in this case").  Pooled: the pairs
+    with most evidence, interactions first, then jointly significant pairs by score.  Then
+    :data:`FIG15_PAIR` when both inputs are analysed.  Pairs of strongly rank-correlated inputs
+    (e.g. a group's authority and its firing-direction copy) are skipped: their map is a line,
+    not a picture of two drivers.
     """
     rs, st = res.runset, res.settings
     chosen: list = []
     seen: set = set()
     if res.pair_table is not None:
+        per_case = 0
         for c in sorted(res.cases, key=lambda c: -c.failed):
-            if c.pairs is not None and len(chosen) < max(st.n_maps // 2, 1):
-                t = c.pairs.table()
-                top = _distinct_top(t, rs.X[rs.strata == c.case], seen, False)
-                if top is not None:
-                    chosen.append((c.case, *top))
-                    seen.add(frozenset(top))
+            if per_case >= max(st.n_maps // 2, 1) or c.failed == 0:
+                break
+            drivers = (
+                set()
+                if c.singles is None or c.p_family is None
+                else {c.singles.feature_names_in_[j] for j in np.flatnonzero(c.p_family < st.alpha)}
+            )
+            per_case += 1
+            if not drivers:
+                res.unmapped_cases.append((c.case, c.failed))
+                continue
+            if c.pairs is None:
+                continue
+            t = c.pairs.table()
+            t = t[t["factor_a"].isin(drivers) | t["factor_b"].isin(drivers)]
+            top = _distinct_top(t, rs.X[rs.strata == c.case], seen, False)
+            if top is not None:
+                chosen.append((c.case, *top, "the case's best pair holding a significant driver"))
+                seen.add(frozenset(top))
+        kinds = dict(
+            zip(zip(res.pair_table["factor_a"], res.pair_table["factor_b"]), res.pair_table["kind"])
+        )
         while len(chosen) < st.n_maps:
             top = _distinct_top(res.pair_table, rs.X, seen, True)
             if top is None:
                 break
-            chosen.append((None, *top))
+            why = (
+                "a calibrated interaction"
+                if kinds.get(top) == "interaction"
+                else "among the pairs with most evidence: joint test, no interaction"
+            )
+            chosen.append((None, *top, why))
             seen.add(frozenset(top))
-    for case, a, b in chosen:
+        a, b = FIG15_PAIR
+        if a in rs.X.columns and b in rs.X.columns and frozenset(FIG15_PAIR) not in seen:
+            chosen.append((None, a, b, "the pair of Gambone Fig. 15, for comparison"))
+    for case, a, b, why in chosen:
         rows = np.ones(rs.y.size, bool) if case is None else rs.strata == case
         y = rs.y[rows]
         if y.all() or not y.any():
             continue
         m = KNNFailureMap(random_state=seed).fit(rs.X.loc[rows, [a, b]], y)
         res.maps.append((case, m))
+        res.map_reasons.append(why)

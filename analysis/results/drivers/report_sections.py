@@ -229,12 +229,24 @@ def pairs(res, top: int = 15) -> Section:
                 "Interactions (calibrated test), largest gain over their better input first",
             )
         )
-    for (case, fmap), name in zip(res.maps, figures.map_png_names(res)):
+    if res.unmapped_cases:
+        blocks.append(
+            text_block(
+                "No map for "
+                + ", ".join(f"case {c} ({n} failed runs)" for c, n in res.unmapped_cases)
+                + ": no significant driver in this case (family-wise over every case and "
+                "input), so a map would show noise."
+            )
+        )
+    reasons = res.map_reasons or [""] * len(res.maps)
+    for (case, fmap), name, why in zip(res.maps, figures.map_png_names(res), reasons):
         title = figures.map_title(case)
         blocks.append(
             figure_block(
                 figures.report_pngs(res)[name],
-                f"{title}: {fmap.feature_names_in_[0]} against {fmap.feature_names_in_[1]}. "
+                f"{title}: {fmap.feature_names_in_[0]} against {fmap.feature_names_in_[1]}"
+                + (f" ({why})" if why else "")
+                + ". "
                 "Shading: failure probability of the k nearest runs (k by cross-validation); "
                 "blank cells hold no runs. Red dots failed, blue succeeded (as Gambone Fig. 15). "
                 "Right: the uncertainty of the shading.",

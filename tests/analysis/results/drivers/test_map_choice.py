@@ -1,0 +1,51 @@
+"""Issue 16, item 5: the kNN maps show what the evidence supports.
+
+A case with many failures but no significant per-case driver gets no map (the report says
+"no significant driver in this case"); a case whose failures one input drives gets a map of a
+pair holding that input; the paper's Fig. 15 pair (Izz against yaw firing thrust) is mapped
+beside the data's own pairs whenever both inputs are analysed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from analysis.results.drivers.inputs import load_runs
+from analysis.results.drivers.pipeline import FIG15_PAIR, Settings, analyze
+from analysis.results.drivers.report_sections import pairs as pairs_section
+
+
+def _table(seed: int = 3) -> pd.DataFrame:
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 16]))
+    n = 600
+    X = pd.DataFrame(rng.standard_normal((n * 3, 6)), columns=["a", "b", "n1", "n2", "n3", "n4"])
+    X[FIG15_PAIR[0]] = rng.standard_normal(n * 3)
+    X[FIG15_PAIR[1]] = rng.standard_normal(n * 3)
+    case = np.repeat(["random", "driven", "quiet"], n)
+    u = rng.random(n * 3)
+    failed = np.where(
+        case == "random",
+        u < 0.3,  # many failures, no input involved
+        np.where(case == "driven", X["a"].to_numpy() > 0.8, u < 0.05),  # 'a' high fails
+    )
+    return X.assign(case=case, failed=failed)
+
+
+def test_maps_follow_the_evidence_and_include_the_fig15_pair():
+    table = _table()
+    inputs = [c for c in table.columns if c not in ("case", "failed")]
+    rs = load_runs(table, inputs=inputs, derived=False)
+    res = analyze(rs, Settings(n_permutations=99, forest=False, n_maps=4, case_pairs=3))
+    # The 'random' case holds the most failures (about 180 of 600) and no driver: no map.
+    assert ("random", int(table.loc[table.case == "random", "failed"].sum())) in res.unmapped_cases
+    mapped = {(case, tuple(m.feature_names_in_)) for case, m in res.maps}
+    assert all(case != "random" for case, _ in mapped)
+    # The 'driven' case is mapped on a pair holding its driver.
+    assert any(case == "driven" and "a" in names for case, names in mapped)
+    # The paper's pair is there, pooled, and says why.
+    assert (None, FIG15_PAIR) in mapped
+    assert any("Fig. 15" in why for why in res.map_reasons)
+    assert len(res.map_reasons) == len(res.maps)
+    html = "".join(str(b) for b in pairs_section(res).blocks)
+    assert "no significant driver in this case" in html
