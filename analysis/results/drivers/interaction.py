@@ -142,19 +142,24 @@ class InteractionResult:
     p_holm: np.ndarray  # Holm-adjusted over all pairs tested
 
 
-def sum_distribution(prob: np.ndarray) -> np.ndarray:
+def sum_distribution(prob: np.ndarray, budget_bytes: int = 64 << 20) -> np.ndarray:
     """Distribution of the sum over axis 1 of independent variables on ``0 .. G-1``.
 
     ``prob`` (P, S, G): per pair and stratum, ``P(g)``.  Returns (P, S * (G - 1) + 1): the
     distribution of the sum of the S offsets, by FFT (products of the strata's transforms),
-    clipped at zero and renormalised (FFT round-off is ~1e-16 of the largest mass).
+    clipped at zero and renormalised (FFT round-off is ~1e-16 of the largest mass).  Pairs are
+    transformed a few at a time so that the spectra stay within ``budget_bytes`` (the support,
+    and with it the transform, grows with the failures per case).
     """
     P, S, G = prob.shape
     L = S * (G - 1) + 1
     n_fft = 1 << int(np.ceil(np.log2(max(L, 2))))
-    spec = np.fft.rfft(prob, n=n_fft, axis=-1).prod(axis=1)
-    dist = np.fft.irfft(spec, n=n_fft, axis=-1)[:, :L]
-    dist = np.clip(dist, 0.0, None)
+    step = max(1, budget_bytes // (S * (n_fft // 2 + 1) * 16))
+    dist = np.empty((P, L))
+    for s0 in range(0, P, step):
+        spec = np.fft.rfft(prob[s0 : s0 + step], n=n_fft, axis=-1).prod(axis=1)
+        dist[s0 : s0 + step] = np.fft.irfft(spec, n=n_fft, axis=-1)[:, :L]
+    np.clip(dist, 0.0, None, out=dist)
     return dist / dist.sum(axis=-1, keepdims=True)
 
 

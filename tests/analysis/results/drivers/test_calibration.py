@@ -105,3 +105,24 @@ def test_conditional_null_is_a_distribution_on_the_tables_with_these_margins():
     assert set(got) == set(w)
     for x in w:
         assert abs(got[x] - w[x] / total) < 1e-12
+
+
+def test_sum_distribution_is_the_convolution_of_the_cases():
+    import numpy as np
+
+    from analysis.results.drivers.interaction import sum_distribution
+
+    # Oracle: the distribution of a sum of independent variables is the convolution of their
+    # distributions (np.convolve, case after case).  FFT round-off: ~1e-16 of the largest mass,
+    # so 1e-12 absolute is generous.  A tiny memory budget forces one pair per transform.
+    rng = np.random.default_rng(5)
+    prob = rng.random((7, 4, 6))
+    prob[:, :, 4:] *= rng.random((7, 4, 2)) < 0.5  # some supports shorter than others
+    prob /= prob.sum(axis=-1, keepdims=True)
+    for budget in (64 << 20, 1):
+        got = sum_distribution(prob, budget_bytes=budget)
+        for p in range(7):
+            want = np.array([1.0])
+            for s in range(4):
+                want = np.convolve(want, prob[p, s])
+            np.testing.assert_allclose(got[p], want, atol=1e-12)
