@@ -136,10 +136,10 @@ class PairKDE:
         self.p_joint_, self.p_raw_ = res.p_maxt, res.p_raw
         self.single_score_ = single_score
         self.gain_ = self.score_ - np.maximum(single_score[ia], single_score[ib])
-        self._interactions(X, minority, strata, rng)
+        self._interactions(X, minority, strata)
         return self
 
-    def _interactions(self, X, minority, strata, rng):
+    def _interactions(self, X, minority, strata):
         P = len(self.pairs_)
         it = interaction_test(X, minority, strata, self.pairs_)
         self.p_interaction_ = it.p_holm
