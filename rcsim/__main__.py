@@ -10,6 +10,6 @@ except ImportError as exc:
     print(f"rcsim: error: {str(exc).removeprefix('rcsim: ')}", file=sys.stderr)
     sys.exit(2)
 
-from analysis.apps.cli import main  # noqa: E402 - only once the layers are rcsim's
+from analysis.apps.cli import run  # noqa: E402 - only once the layers are rcsim's
 
-sys.exit(main())
+run()

@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
+import threading
 
 from models.errors import InputError
 
@@ -165,5 +167,38 @@ def main(argv: list[str] | None = None) -> int:
         return code
 
 
+#: Seconds the interpreter may take to exit after an interrupt before the process ends anyway.
+EXIT_GRACE_S = 15.0
+
+
+def run() -> None:
+    """The ``rcsim`` command: :func:`main`, then exit with its status.
+
+    After Ctrl-C or SIGTERM the stop is guaranteed: every cleanup has run by the time
+    :func:`main` returns, but CPython's exit hook for process pools joins a pool's manager
+    thread with no timeout, and a killed pool's manager was seen to hang there once in CI
+    (the one line printed, then no exit for over a minute).  A daemon timer ends the process
+    with the same status if the interpreter has not exited within :data:`EXIT_GRACE_S`.
+    (Only here, never in :func:`main`, which tests and notebooks call in their own process.)
+    """
+    code = main()
+    from analysis.engine.interrupts import INTERRUPTED, TERMINATED
+
+    if code in (INTERRUPTED, TERMINATED):
+
+        def end(status: int = code) -> None:
+            for stream in (sys.stderr, sys.stdout):
+                try:
+                    stream.flush()
+                except (OSError, ValueError):
+                    pass
+            os._exit(status)
+
+        timer = threading.Timer(EXIT_GRACE_S, end)
+        timer.daemon = True
+        timer.start()
+    sys.exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()
