@@ -69,11 +69,13 @@ def _interrupt(spec_path: Path, out: Path, extra: list[str], sig: int, *, group:
     # A terminal's rcsim starts with Ctrl-C at its default; a test runner started in the
     # background of a non-interactive shell passes SIGINT on *ignored*, and an ignored SIGINT
     # stays ignored in Python.  Restore the default so the test sees what a user sees.
+    # faulthandler: should the process crash instead of stopping, stderr says where.
     proc = subprocess.Popen(
         cli,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
+        env={**os.environ, "PYTHONFAULTHANDLER": "1"},
         start_new_session=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
@@ -111,12 +113,14 @@ def test_interrupt_stops_with_one_line_and_is_resumable(tmp_path, uninterrupted,
     # One line: what stopped it, and the command that finishes it (issue 17).
     hint = f"; resume with: rcsim campaign run {spec_path} --out {out}"
     hint += " --workers 2 --resume\n" if extra else " --resume\n"
+    committed = len(list((out / "chunks").glob("runs-*.parquet")))
+    state = f"exit {code}, {committed} of 8 chunks committed, stderr: {err!r}"
     if sig == signal.SIGTERM:
-        assert err == "rcsim: terminated" + hint, err
-        assert code == 128 + signal.SIGTERM == 143
+        assert err == "rcsim: terminated" + hint, state
+        assert code == 128 + signal.SIGTERM == 143, state
     else:
-        assert err == "rcsim: interrupted" + hint, err
-        assert code == 130
+        assert err == "rcsim: interrupted" + hint, state
+        assert code == 130, state
     assert not (out / "runs.parquet").exists()
     committed = len(list((out / "chunks").glob("runs-*.parquet")))
     assert 1 <= committed < 8
