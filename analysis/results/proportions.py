@@ -147,19 +147,25 @@ def mcnemar_one_sided(b, c) -> np.ndarray:
     return np.where(b > 0, stats.binom.sf(b - 1, b + c, 0.5), 1.0)
 
 
+def holm_adjusted(pvalues) -> np.ndarray:
+    """Holm step-down adjusted p-values (family-wise error), in the order of ``pvalues``:
+    sorted ascending, ``max_{j <= i} (m - j) p_(j)``, capped at 1 (Holm 1979)."""
+    p = np.asarray(pvalues, dtype=float)
+    order = np.argsort(p, kind="stable")
+    m = p.size
+    adj = np.maximum.accumulate((m - np.arange(m)) * p[order])
+    out = np.empty(m)
+    out[order] = np.minimum(adj, 1.0)
+    return out
+
+
 def holm(pvalues, alpha: float) -> np.ndarray:
     """Holm's step-down test: which of the hypotheses with ``pvalues`` are rejected with the
     family-wise error rate held at ``alpha`` (Holm 1979, "A simple sequentially rejective
     multiple test procedure", Scand. J. Statist. 6(2)).
 
     Sorted ascending, ``p_(i)`` is compared with ``alpha / (m - i)`` (``i`` from 0); the first
-    that exceeds its level stops the procedure, and it and every larger p-value stand.
+    that exceeds its level stops the procedure, and it and every larger p-value stand: the
+    rejected ones are those whose :func:`holm_adjusted` p-value is at most ``alpha``.
     """
-    p = np.asarray(pvalues, float)
-    order = np.argsort(p, kind="stable")
-    reject = np.zeros(p.shape, bool)
-    for rank, i in enumerate(order):
-        if p[i] > alpha / (p.size - rank):
-            break
-        reject[i] = True
-    return reject
+    return holm_adjusted(pvalues) <= alpha

@@ -14,6 +14,7 @@ from scipy import stats
 
 from analysis.results.drivers.base import check_xy
 from analysis.results.drivers.single import _ranks
+from analysis.results.proportions import holm_adjusted
 
 
 class TTestBaseline:
@@ -35,17 +36,6 @@ class TTestBaseline:
         p = np.nan_to_num(p, nan=1.0)
         self.feature_names_in_ = names
         self.statistic_, self.p_raw_ = t, p
-        self.p_value_ = holm(p)
+        self.p_value_ = holm_adjusted(p)
         self.rank_ = _ranks(t)
         return self
-
-
-def holm(p: np.ndarray) -> np.ndarray:
-    """Holm step-down adjusted p-values (family-wise error), same order as ``p``."""
-    p = np.asarray(p, dtype=float)
-    order = np.argsort(p)
-    m = p.size
-    adj = np.maximum.accumulate((m - np.arange(m)) * p[order])
-    out = np.empty(m)
-    out[order] = np.minimum(adj, 1.0)
-    return out

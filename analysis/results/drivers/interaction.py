@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import rankdata
 
-from analysis.results.drivers.baseline import holm
+from analysis.results.proportions import holm_adjusted
 
 #: Bins per axis (within-case median split) of the interaction test.
 N_BINS = 2
@@ -190,4 +190,4 @@ def interaction_test(
         p_raw[s0 : s0 + len(block)] = np.minimum((dist * far).sum(axis=-1), 1.0)
         excess[s0 : s0 + len(block)] = np.where(sd > 0, dev / np.where(sd > 0, sd, 1.0), 0.0)
     # A pair with no freedom (a degenerate table: sd 0) has p = 1 by the rule above.
-    return InteractionResult(excess=excess, p_raw=p_raw, p_holm=holm(p_raw))
+    return InteractionResult(excess=excess, p_raw=p_raw, p_holm=holm_adjusted(p_raw))

@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.results.drivers.baseline import TTestBaseline, holm
+from analysis.results.drivers.baseline import TTestBaseline
 from analysis.results.drivers.kde import BinnedTV, Strata, bin_codes, rank_scale, smoothing_matrix
 from analysis.results.drivers.maps import KNNFailureMap
 from analysis.results.drivers.pairs import PairKDE
@@ -20,6 +20,7 @@ from analysis.results.drivers.second_opinion import ForestImportance
 from analysis.results.drivers.single import SingleFactorKDE, _format_region
 from analysis.results.drivers.stability import HalfSampleStability
 from analysis.results.drivers.synthetic import planted_campaign
+from analysis.results.proportions import holm_adjusted
 from models.errors import InputError
 
 ESTIMATORS = [SingleFactorKDE, PairKDE, KNNFailureMap, ForestImportance, HalfSampleStability]
@@ -180,7 +181,7 @@ def test_failure_region_format_and_share():
 def test_holm_matches_the_step_down_definition():
     p = np.array([0.01, 0.04, 0.03, 0.2])
     # Holm: sorted 0.01*4, max(0.03*3, .04), max(0.04*2, .09), max(0.2, .09) -> 0.04, .09, .09, .2
-    np.testing.assert_allclose(holm(p), [0.04, 0.09, 0.09, 0.2])
+    np.testing.assert_allclose(holm_adjusted(p), [0.04, 0.09, 0.09, 0.2])
 
 
 def test_ttest_baseline_misses_a_two_sided_driver():
