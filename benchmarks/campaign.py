@@ -164,11 +164,12 @@ def bench_single_core(spec_path: Path, n: int = 256, repeats: int = 3) -> dict:
     duration = spec.cases[0].duration_s
     model = flight_model(load_model())  # the model the campaign's MuJoCo integrates
     nstep = int(round(duration / model.opt.timestep))
-    best_chunk, best_raw = float("inf"), float("inf")
+    best_chunk, best_raw, best_same = float("inf"), float("inf"), float("inf")
     for _ in range(repeats):
         t0 = time.perf_counter()
         simulate_chunk(spec, Chunk(0, n), nthread=1)
         best_chunk = min(best_chunk, time.perf_counter() - t0)
+        best_same = min(best_same, _replay_same_steps(spec, n))
         batch = Batch(model, n, 1)
         batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
         control = np.zeros((n, nstep, model.nu))
@@ -182,7 +183,58 @@ def bench_single_core(spec_path: Path, n: int = 256, repeats: int = 3) -> dict:
         "chunk_sim_s_per_s": n * duration / best_chunk,
         "raw_sim_s_per_s": n * duration / best_raw,
         "ratio": best_raw / best_chunk,
+        "raw_same_steps_sim_s_per_s": n * duration / best_same,
+        "ratio_same_steps": best_same / best_chunk,
     }
+
+
+def _replay_same_steps(spec, n: int) -> float:
+    """Seconds MuJoCo alone takes for the closed loop's own steps, pieces included.
+
+    The closed loop integrates a cycle in which a jet switches in pieces cut at each run's
+    switch instants (exact in time, ``spacecraft/pieces.py``), so it steps more often than a
+    fixed-step rollout.  This records every ``rollout`` call of one closed-loop chunk (steps,
+    controls, runs, per-run step lengths) and replays them, open loop, on a fresh batch: the
+    ceiling for *this* physics, against which the controller's own overhead is measured.
+    """
+    import mujoco
+    import numpy as np
+    from mujoco.batch import Batch
+
+    import spacecraft.simulation as sim
+    from analysis.engine.campaign.chunk import Chunk, simulate_chunk
+    from spacecraft.flight_model import flight_model
+    from spacecraft.vehicle import load_model
+
+    calls = []
+    original = sim.BatchSimulation._rollout
+
+    def record(self, nstep, control, runs, failed, reason):
+        ids = np.flatnonzero(runs)
+        calls.append((nstep, control[ids].copy(), ids, self._timestep[ids].copy()))
+        return original(self, nstep, control, runs, failed, reason)
+
+    sim.BatchSimulation._rollout = record
+    try:
+        simulate_chunk(spec, Chunk(0, n), nthread=1)
+    finally:
+        sim.BatchSimulation._rollout = original
+    batch = Batch(flight_model(load_model()), n, 1)
+    batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
+    timestep = batch.expand("opt.timestep")
+    ctrl_spec = int(mujoco.mjtState.mjSTATE_CTRL)
+    t0 = time.perf_counter()
+    for nstep, control, ids, dt in calls:
+        timestep[ids] = dt
+        everyone = ids.size == n
+        batch.rollout(
+            nstep,
+            control=control,
+            control_spec=ctrl_spec,
+            record=(),
+            ids=None if everyone else ids,
+        )
+    return time.perf_counter() - t0
 
 
 def bench_memory(folder: Path, runs_total: int, duration: float, chunk: int) -> dict:

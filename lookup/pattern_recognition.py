@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from lookup.jet_sets import load_table_for_jets
+from lookup.step_kernel import kernel_available, kernel_step
 from models.errors import InputError
 from models.tables import (
     CONTROL_CYCLE_S,
@@ -255,6 +256,14 @@ class LookupController:
         self._group_jets = [np.flatnonzero(used & (group == g)) for g in range(2 * N_AXES)]
         # Opposing group of each jet; unused jets point at an extra all-zero column.
         self._opp_group = np.where(used, 2 * self.jet_axis_ + (self.jet_sign_ < 0), 2 * N_AXES)
+        # The same roles as the compiled cycle takes them (lookup/step_kernel.py).
+        self._kernel_roles = (
+            np.ascontiguousarray(self._case_of_code, np.int64),
+            np.ascontiguousarray(self._rate_abs, np.float64),
+            np.ascontiguousarray(self.jet_axis_, np.int64),
+            np.ascontiguousarray(np.where(used, group, 2 * N_AXES), np.int64),
+            np.ascontiguousarray(self._opp_group, np.int64),
+        )
 
     @property
     def cycle_s(self) -> float:
@@ -398,6 +407,29 @@ class LookupController:
         p = self.params
         e = nav.att_err_B
         theta = np.sqrt(np.einsum("ij,ij->i", e, e))  # total attitude error [rad], (n,)
+        if kernel_available():  # the same arithmetic as below, compiled (bit for bit)
+            on, rem_next, hold, need, case, axis_new, axis_done = kernel_step(
+                e,
+                theta,
+                nav.rate_err_B,
+                state.remaining_s,
+                state.hold_s,
+                self._times,
+                case_scale,
+                *self._kernel_roles,
+                (
+                    p.maneuver_limit_rad,
+                    p.maneuver_rate_rad_s,
+                    p.rate_error_limit_rad_s,
+                    p.no_fire_band_rad,
+                    p.on_time_limit_s,
+                    p.cycle_s,
+                    p.hold_time_s,
+                    _TIMER_EPS_S,
+                ),
+            )
+            detail = {"case": case, "need": need, "axis_new": axis_new, "axis_done": axis_done}
+            return on, LookupState(remaining_s=rem_next, hold_s=hold), detail
         err = self.rate_error(nav, theta[:, None])
         need = -err  # rate change the vehicle needs
         code = ((np.sign(need).astype(int) + 1) * np.array([9, 3, 1])).sum(axis=1)
