@@ -66,6 +66,20 @@ class Pieces:
         return self.on if self.level is None else self.level
 
 
+def any_last(a: np.ndarray) -> np.ndarray:
+    """``a.any(axis=-1)`` of a bool array whose last axis is short (a jet's few intervals).
+
+    numpy reduces over a short inner axis slowly: ~90 us for (512, 16, 3), most of a cycle's
+    cutting; or-ing the slices takes ~7 us, with the same result.
+    """
+    if a.shape[-1] == 0:
+        return np.zeros(a.shape[:-1], bool)
+    out = a[..., 0].copy()
+    for i in range(1, a.shape[-1]):  # the intervals of a jet (1-3), not runs
+        out |= a[..., i]
+    return out
+
+
 def cycle_pieces(
     start_s: np.ndarray,
     end_s: np.ndarray,
@@ -109,7 +123,7 @@ def cycle_pieces(
         switching = np.ones(n, bool)
     rows = np.flatnonzero(switching)
     if rows.size == 0:  # every interval empty or the whole cycle: the grid steps themselves
-        on = np.broadcast_to(np.asarray(live.any(axis=-1))[:, None, :], (n, n_grid, live.shape[1]))
+        on = np.broadcast_to(any_last(live)[:, None, :], (n, n_grid, live.shape[1]))
         return Pieces(np.full((n, n_grid), step), on, np.full(n, n_grid), uniform=True)
     cut = _cut(
         start_s[rows],
@@ -129,7 +143,7 @@ def cycle_pieces(
     on = np.zeros((n, width, live.shape[1]), bool)
     count = np.full(n, n_grid)
     length[:, :n_grid] = step
-    on[:, :n_grid] = np.asarray(live.any(axis=-1))[:, None, :]
+    on[:, :n_grid] = any_last(live)[:, None, :]
     length[rows] = 0.0
     on[rows] = False
     length[rows, : cut.n_pieces] = cut.length_s
@@ -170,7 +184,7 @@ def _cut(
     length = np.take_along_axis(np.where(nonzero, length, 0.0), order, axis=1)
     t0 = np.take_along_axis(bounds[:, :-1], order, axis=1)
     mid = (t0 + 0.5 * length)[:, :, None, None]  # (n, p, 1, 1) vs intervals (n, 1, jets, k)
-    on = ((s[:, None] <= mid) & (mid < e[:, None]) & live[:, None]).any(axis=-1)
+    on = any_last((s[:, None] <= mid) & (mid < e[:, None]) & live[:, None])
     on &= (length > 0.0)[:, :, None]
     return Pieces(length, on, count, uniform=False)
 

@@ -154,3 +154,14 @@ def test_pieces_keep_the_physics_grid():
     p = cycle_pieces(np.zeros((1, 1, 1)), np.full((1, 1, 1), 0.017), CYCLE_S, dt_s=0.01)
     np.testing.assert_allclose(p.length_s[0], [0.01, 0.007, 0.003, 0.01, 0.01], atol=1e-17)
     np.testing.assert_array_equal(p.on[0, :, 0], [True, True, False, False, False])
+
+
+@pytest.mark.parametrize("shape", [(7, 16, 0), (7, 16, 1), (512, 16, 3), (5, 4, 16, 3)])
+def test_any_last_is_numpys_any_over_the_last_axis(shape):
+    """The cutting's fast ``any`` over a jet's few intervals (oracle: ``ndarray.any``)."""
+    from spacecraft.pieces import any_last
+
+    a = np.random.default_rng(len(shape)).random(shape) < 0.1
+    out = any_last(a)
+    assert out.dtype == bool and out.shape == shape[:-1]
+    assert np.array_equal(out, a.any(axis=-1))
