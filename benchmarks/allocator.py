@@ -122,7 +122,7 @@ def canted(runs: int) -> None:
         propellant_mean_g=("propellant_kg", lambda p: 1e3 * p.mean()),
         propellant_max_g=("propellant_kg", lambda p: 1e3 * p.max()),
     )
-    print(f"canted16, allocator, 26 x {runs} runs, Table 5 dispersions: {wall:.0f} s wall")
+    print(f"canted16, allocator, 26 x {runs} runs, the file's dispersions: {wall:.0f} s wall")
     print(per_case.to_string())
     print(f"total failed {int(frame['failed'].sum())} of {len(frame)}")
 

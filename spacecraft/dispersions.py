@@ -17,15 +17,49 @@ Every Table 5 entry is normal about the nominal vehicle with standard deviation
   uniform because Table 5 prefers no direction.  (Two orthogonal normal tilts of the same sigma
   would instead make the misalignment Rayleigh-distributed, with a mean 1.57 times larger.)
 
+Beyond Table 5 (not in the paper, 0 unless a campaign spec or vehicle file gives them):
+
+* ``cg_y``, ``cg_z``: the y and z coordinates of the CG [m], independently (MuJoCo's
+  ``body_ipos``: the jets' moment arms about the CG follow);
+* ``ixy, ixz, iyz``: the products of inertia [kg m^2], independently, added to the tensor's
+  off-diagonal entries in B (MuJoCo's ``fullinertia`` convention, ``I_xy = -sum m x y``).
+  ``ixx, iyy, izz`` disperse the nominal principal moments as before; the run's tensor is the
+  nominal principal frame's ``diag(moments)`` plus the products, and it is flown as its
+  principal moments and principal frame (``body_inertia``, ``body_iquat``, computed by
+  :func:`spacecraft.propellant.principal`).  For the paper's vehicle (principal axes along B)
+  the tensor's diagonal is exactly the dispersed ``ixx, iyy, izz``.
+
+Physical tensors
+----------------
+A symmetric tensor ``I`` is a rigid body's inertia exactly when its second moments of mass
+``S = tr(I)/2 E - I`` (``S = sum m r r^T``) are positive semidefinite, i.e. when its largest
+principal moment is at most half its trace: the triangle inequality ``a + b >= c`` (which also
+makes ``I`` positive definite when strict).  Independent normal draws of moments and products
+can leave that set, so the 3-sigma values are limited where they are read
+(:func:`inertia_scale_limit`): along any unit direction ``v`` the second moment ``v^T S v`` of a
+dispersed tensor is normal, its mean at least the nominal vehicle's smallest second moment
+``s_min = tr(I0)/2 - max principal moment`` and its standard deviation at most
+``sqrt((s_xx^2 + s_yy^2 + s_zz^2)/4 + s_xy^2 + s_xz^2 + s_yz^2)/3`` (3-sigma values ``s``;
+``|v^T A v| <= ||A||`` for each entry's unit change ``A``: 1/2 for a moment, 1 for a product).
+Requiring ``s_min`` to exceed three of those standard deviations -- every second moment stays
+positive out to 3 sigma, the rule Table 5's other rows follow (a 3-sigma draw stays a vehicle)
+-- is ``sqrt(...) < s_min``.  A draw in the far tail that still breaks the triangle inequality
+is not flown: the simulation records the run failed with that reason
+(:func:`spacecraft.simulation.invalid_runs`), never a silent redraw.
+
 Reproducibility
 ---------------
 Run ``i`` of a campaign with root ``seed`` uses ``SeedSequence(seed, spawn_key=(i,))``, spawned
 into ``(dispersion, noise)`` streams in that fixed order (a new random source appends a spawn,
 never reorders).  The dispersion stream always draws the same count of standard variates
 (:data:`N_NORMALS` normals then :data:`N_UNIFORMS` uniforms) whatever the sigmas, so changing
-one sigma (or setting it to zero) never changes the other dispersions of a run.  A run's
-vehicle is therefore a function of ``(seed, i)`` and the sigmas only: independent of the
-chunk it is simulated in, of the worker and of the order.
+one sigma (or setting it to zero) never changes the other dispersions of a run.  The quantities
+beyond Table 5 (CG y and z, products of inertia) draw :data:`N_MASS_EXTRAS` normals from a
+*child* of the dispersion stream ``D``, ``SeedSequence(D.entropy, spawn_key=D.spawn_key +
+(0,))`` (:func:`mass_extra_stream`), only when one of their sigmas is non-zero: the dispersion
+stream's own draws are untouched, so a campaign without them flies every run exactly as before.
+A run's vehicle is therefore a function of ``(seed, i)`` and the sigmas only: independent of
+the chunk it is simulated in, of the worker and of the order.
 """
 
 from __future__ import annotations
@@ -37,21 +71,44 @@ import numpy as np
 import pandas as pd
 
 from models.errors import InputError
-from spacecraft.vehicle import N_JETS, VehicleParams
+from spacecraft.propellant import full_inertia, principal
+from spacecraft.vehicle import IDENTITY_QUAT, N_JETS, VehicleParams
 
-#: Table 5 names this module models, in the order they are drawn.
-DISPERSION_NAMES = ("mass", "cg_x", "ixx", "iyy", "izz", "thrust", "thruster_angle")
+#: Dispersions this module models: Table 5's names in the order they are drawn, then the ones
+#: beyond Table 5 (CG y and z, products of inertia; drawn from the mass-extras stream).
+DISPERSION_NAMES = (
+    "mass",
+    "cg_x",
+    "ixx",
+    "iyy",
+    "izz",
+    "thrust",
+    "thruster_angle",
+    "cg_y",
+    "cg_z",
+    "ixy",
+    "ixz",
+    "iyz",
+)
 #: The 3-sigma keys of input files (campaign specs' ``[dispersions.three_sigma]``, vehicle
-#: files' ``[dispersions]``): key -> (Table 5 name, factor to SI).
+#: files' ``[dispersions]``): key -> (dispersion name, factor to SI).
 THREE_SIGMA_KEYS = {
     "mass_kg": ("mass", 1.0),
     "cg_x_m": ("cg_x", 1.0),
+    "cg_y_m": ("cg_y", 1.0),
+    "cg_z_m": ("cg_z", 1.0),
     "ixx_kg_m2": ("ixx", 1.0),
     "iyy_kg_m2": ("iyy", 1.0),
     "izz_kg_m2": ("izz", 1.0),
+    "ixy_kg_m2": ("ixy", 1.0),
+    "ixz_kg_m2": ("ixz", 1.0),
+    "iyz_kg_m2": ("iyz", 1.0),
     "thrust_n": ("thrust", 1.0),
     "thruster_angle_deg": ("thruster_angle", math.pi / 180.0),
 }
+#: Inertia dispersions and the norm of the change of the second moments ``S`` a unit change of
+#: each makes (module docstring, "Physical tensors"): 1/2 for a moment, 1 for a product.
+INERTIA_ENTRIES = {"ixx": 0.5, "iyy": 0.5, "izz": 0.5, "ixy": 1.0, "ixz": 1.0, "iyz": 1.0}
 
 # Standard-normal layout of one run's draw: mass, cg_x, ixx, iyy, izz, thrust x16, tilt x16.
 _Z_MASS, _Z_CG, _Z_INERTIA, _Z_THRUST, _Z_TILT = 0, 1, slice(2, 5), slice(5, 21), slice(21, 37)
@@ -59,6 +116,10 @@ _Z_MASS, _Z_CG, _Z_INERTIA, _Z_THRUST, _Z_TILT = 0, 1, slice(2, 5), slice(5, 21)
 N_NORMALS = 37
 #: Uniforms drawn per run (jet tilt azimuths).
 N_UNIFORMS = N_JETS
+#: Standard normals drawn per run from the mass-extras stream: cg_y, cg_z, ixy, ixz, iyz.
+N_MASS_EXTRAS = 5
+#: Child of a run's dispersion stream that the mass extras draw from.
+MASS_EXTRAS = 0
 
 
 @dataclass(frozen=True)
@@ -69,11 +130,15 @@ class DispersionSigmas:
     ----------
     mass_kg, cg_x_m : float
     inertia_kg_m2 : tuple of 3 floats
-        Ixx, Iyy, Izz.
+        Ixx, Iyy, Izz (the nominal principal moments).
     thrust_n : float
         Per jet.
     thruster_angle_rad : float
         Tilt of each jet's thrust direction (see the module docstring).
+    cg_y_m, cg_z_m : float
+        CG y and z (beyond Table 5).
+    products_kg_m2 : tuple of 3 floats
+        Ixy, Ixz, Iyz: the tensor's off-diagonal entries in B (beyond Table 5).
     """
 
     mass_kg: float = 0.0
@@ -81,19 +146,37 @@ class DispersionSigmas:
     inertia_kg_m2: tuple[float, float, float] = (0.0, 0.0, 0.0)
     thrust_n: float = 0.0
     thruster_angle_rad: float = 0.0
+    cg_y_m: float = 0.0
+    cg_z_m: float = 0.0
+    products_kg_m2: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self):
+        if len(self.inertia_kg_m2) != 3 or len(self.products_kg_m2) != 3:
+            raise ValueError("inertia_kg_m2 and products_kg_m2 need 3 values each")
         values = [
             self.mass_kg,
             self.cg_x_m,
             *self.inertia_kg_m2,
             self.thrust_n,
             self.thruster_angle_rad,
+            self.cg_y_m,
+            self.cg_z_m,
+            *self.products_kg_m2,
         ]
-        if len(self.inertia_kg_m2) != 3:
-            raise ValueError("inertia_kg_m2 needs 3 values")
         if not all(np.isfinite(v) and v >= 0 for v in values):
             raise ValueError(f"sigmas must be finite and >= 0, got {values}")
+
+    @property
+    def disperses_products(self) -> bool:
+        """Some product of inertia is dispersed: runs get their own principal frames, and
+        runs.parquet records the whole tensor in B."""
+        return any(v > 0 for v in self.products_kg_m2)
+
+    @property
+    def has_mass_extras(self) -> bool:
+        """Some dispersion beyond Table 5 (CG y or z, a product of inertia) is non-zero: the
+        runs draw from their mass-extras streams (module docstring)."""
+        return self.cg_y_m > 0 or self.cg_z_m > 0 or self.disperses_products
 
     @classmethod
     def from_table(cls, table: pd.DataFrame, scale: float = 1.0) -> DispersionSigmas:
@@ -119,6 +202,9 @@ class DispersionSigmas:
             inertia_kg_m2=(sig["ixx"], sig["iyy"], sig["izz"]),
             thrust_n=sig["thrust"],
             thruster_angle_rad=sig["thruster_angle"],
+            cg_y_m=sig["cg_y"],
+            cg_z_m=sig["cg_z"],
+            products_kg_m2=(sig["ixy"], sig["ixz"], sig["iyz"]),
         )
 
 
@@ -170,6 +256,113 @@ def standard_draws(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     return rng.standard_normal(N_NORMALS), rng.random(N_UNIFORMS)
 
 
+def mass_extra_stream(seed: int, run_id: int) -> np.random.SeedSequence:
+    """Child :data:`MASS_EXTRAS` of run ``run_id``'s dispersion stream ``D``:
+    ``SeedSequence(D.entropy, spawn_key=D.spawn_key + (0,))`` (what ``D.spawn`` would give
+    first, without its counter).  CG y, CG z and the products of inertia draw from it."""
+    disp = run_streams(seed, run_id)[0]
+    return np.random.SeedSequence(disp.entropy, spawn_key=tuple(disp.spawn_key) + (MASS_EXTRAS,))
+
+
+def mass_extra_draws(seed: int, run_ids) -> np.ndarray:
+    """Standard normals of the mass extras of runs ``run_ids``, (n, N_MASS_EXTRAS): cg_y, cg_z,
+    ixy, ixz, iyz, always all five whatever the sigmas."""
+    run_ids = np.asarray(run_ids, dtype=np.int64).reshape(-1)
+    x = np.empty((run_ids.size, N_MASS_EXTRAS))
+    for k, i in enumerate(run_ids):
+        x[k] = np.random.default_rng(mass_extra_stream(seed, i)).standard_normal(N_MASS_EXTRAS)
+    return x
+
+
+def second_moment_slack(inertia_B: np.ndarray) -> float:
+    """The smallest second moment of mass of a tensor (3, 3) [kg m^2]: ``tr(I)/2 - max
+    principal moment``, half the slack of its triangle inequality (>= 0 for a rigid body)."""
+    moments = np.linalg.eigvalsh(np.asarray(inertia_B, float))
+    return float(moments.sum() / 2.0 - moments[-1])
+
+
+def inertia_spread(three_sigma: dict) -> float:
+    """``sqrt((s_xx^2 + s_yy^2 + s_zz^2)/4 + s_xy^2 + s_xz^2 + s_yz^2)`` of the inertia
+    3-sigma values ``three_sigma`` (name -> kg m^2; absent names are 0): three times the
+    largest standard deviation a second moment of the dispersed tensor can have (module
+    docstring, "Physical tensors")."""
+    return math.sqrt(
+        sum((c * float(three_sigma.get(n, 0.0))) ** 2 for n, c in INERTIA_ENTRIES.items())
+    )
+
+
+#: The inertia rule in words (messages of campaign specs and vehicle files); ``{slack}`` is
+#: :func:`second_moment_slack` of the nominal tensor.
+INERTIA_RULE = (
+    "sqrt((Ixx^2 + Iyy^2 + Izz^2)/4 + Ixy^2 + Ixz^2 + Iyz^2) of the inertia 3-sigma values "
+    "times scale must stay below the nominal vehicle's smallest second moment of mass, "
+    "tr(I)/2 - its largest principal moment = {slack:.4g} kg m^2 (the slack of the triangle "
+    "inequality), so that every second moment stays positive out to 3 sigma and the dispersed "
+    "tensor stays a rigid body's"
+)
+
+
+def largest_inertia_sigma(
+    inertia_B: np.ndarray, three_sigma: dict, name: str, scale: float = 1.0
+) -> float:
+    """Largest 3-sigma [kg m^2] of inertia entry ``name`` (``ixx`` ... ``iyz``) that keeps the
+    inertia rule with the other values of ``three_sigma`` and ``scale``; 0 when none does."""
+    rest = inertia_spread({n: v for n, v in three_sigma.items() if n != name}) ** 2
+    room = (second_moment_slack(inertia_B) / scale) ** 2 - rest
+    return math.sqrt(room) / INERTIA_ENTRIES[name] if room > 0 else 0.0
+
+
+def three_sigma_bounds(
+    mass_kg: float, moments_kg_m2, thrust_n, cg_B, jet_pos_B
+) -> dict[str, tuple[float, str]]:
+    """Upper bounds of single 3-sigma values [SI] of a vehicle, each with its reason: a 3-sigma
+    draw must stay a vehicle.
+
+    Parameters
+    ----------
+    mass_kg : float
+    moments_kg_m2 : 3 floats
+        The moments ``ixx, iyy, izz`` disperse.
+    thrust_n : array of floats
+        Every jet's nominal thrust (the smallest bounds the per-jet dispersion).
+    cg_B, jet_pos_B : (3,) and (n_jets, 3)
+        Nominal CG and jet positions in B [m].
+
+    Returns
+    -------
+    dict
+        Dispersion name -> (bound, reason): the nominal mass, moments and thrust (a 3-sigma
+        draw must stay positive), 90 deg of thruster tilt (a jet must still push forwards), and
+        for each CG coordinate the distance from the nominal CG to the farthest jet (the jets
+        sit on the structure: a CG beyond all of them is outside the vehicle).  The products of
+        inertia have no single bound: the tensor as a whole is limited
+        (:func:`inertia_scale_limit`).
+    """
+    moments = [float(m) for m in moments_kg_m2]
+    arms = np.asarray(jet_pos_B, float) - np.asarray(cg_B, float)
+    reach = float(np.max(np.linalg.norm(arms, axis=1)))
+    bounds = {
+        "mass": (float(mass_kg), "the nominal mass"),
+        "ixx": (moments[0], "the nominal Ixx"),
+        "iyy": (moments[1], "the nominal Iyy"),
+        "izz": (moments[2], "the nominal Izz"),
+        "thrust": (float(np.min(thrust_n)), "the nominal thrust"),
+        "thruster_angle": (math.pi / 2, "a 90 deg tilt (the jet would no longer push forwards)"),
+    }
+    for axis in "xyz":
+        bounds[f"cg_{axis}"] = (reach, "the distance from the nominal CG to the farthest jet")
+    return bounds
+
+
+def inertia_scale_limit(inertia_B: np.ndarray, three_sigma: dict) -> float:
+    """Largest factor on the inertia 3-sigma values ``three_sigma`` (name -> kg m^2) that keeps
+    every second moment of mass of the dispersed tensor positive out to 3 sigma (module
+    docstring, "Physical tensors"): ``second_moment_slack / inertia_spread``; inf when nothing
+    is dispersed.  A scale must stay strictly below it."""
+    spread = inertia_spread(three_sigma)
+    return math.inf if spread == 0 else second_moment_slack(inertia_B) / spread
+
+
 def _perpendicular_basis(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit vectors ``e1, e2`` completing unit vectors ``d`` (..., 3) to right-handed frames.
 
@@ -213,7 +406,11 @@ def pointing(
 
 
 def apply_draws(
-    nominal: VehicleParams, sigmas: DispersionSigmas, z: np.ndarray, u: np.ndarray
+    nominal: VehicleParams,
+    sigmas: DispersionSigmas,
+    z: np.ndarray,
+    u: np.ndarray,
+    x: np.ndarray | None = None,
 ) -> tuple[VehicleParams, np.ndarray, np.ndarray]:
     """Dispersed vehicles from standard variates.
 
@@ -226,6 +423,9 @@ def apply_draws(
         Standard normals, laid out as :func:`standard_draws` returns them.
     u : ndarray, (n, N_UNIFORMS)
         Uniforms in [0, 1).
+    x : ndarray, (n, N_MASS_EXTRAS), optional
+        The mass extras' standard normals (:func:`mass_extra_draws`); required when
+        ``sigmas.has_mass_extras``.
 
     Returns
     -------
@@ -242,6 +442,21 @@ def apply_draws(
     tilt = sigmas.thruster_angle_rad * z[:, _Z_TILT]
     azimuth = 2.0 * np.pi * u
     direction = pointing(base.jet_dir_S, tilt, azimuth)
+    iquat = base.iquat
+    if sigmas.has_mass_extras:
+        if x is None:
+            raise ValueError("sigmas beyond Table 5 need the mass extras' draws x")
+        cg[:, 1] += sigmas.cg_y_m * x[:, 0]
+        cg[:, 2] += sigmas.cg_z_m * x[:, 1]
+        if sigmas.disperses_products:
+            # The tensor in B: the dispersed moments in the nominal principal frame, plus the
+            # products; flown as its principal moments and frame (module docstring).
+            frame = np.asarray(IDENTITY_QUAT) if iquat is None else iquat
+            tensor = full_inertia(inertia, frame)
+            for (a, b), sigma, k in zip(((0, 1), (0, 2), (1, 2)), sigmas.products_kg_m2, (2, 3, 4)):
+                tensor[:, a, b] += sigma * x[:, k]
+                tensor[:, b, a] = tensor[:, a, b]
+            inertia, iquat = principal(tensor)
     params = VehicleParams(
         mass_kg=mass,
         cg_B=cg,
@@ -249,6 +464,7 @@ def apply_draws(
         thrust_n=thrust,
         jet_dir_S=direction,
         isp_s=nominal.isp_s,
+        iquat=iquat,
     )
     return params, tilt, azimuth
 
@@ -266,5 +482,6 @@ def draw_runs(
     u = np.empty((run_ids.size, N_UNIFORMS))
     for k, i in enumerate(run_ids):
         z[k], u[k] = standard_draws(np.random.default_rng(run_streams(seed, i)[0]))
-    params, tilt, azimuth = apply_draws(nominal, sigmas, z, u)
+    x = mass_extra_draws(seed, run_ids) if sigmas.has_mass_extras else None
+    params, tilt, azimuth = apply_draws(nominal, sigmas, z, u, x)
     return DispersedRuns(run_ids=run_ids, params=params, tilt_rad=tilt, azimuth_rad=azimuth)

@@ -105,9 +105,21 @@ def mass_properties(
 
 
 def full_inertia(moments_B: np.ndarray, iquat: np.ndarray) -> np.ndarray:
-    """Full tensors (n, 3, 3) from principal moments (n, 3) in the frame ``iquat`` (4,)."""
+    """Full tensors (n, 3, 3) from principal moments (n, 3) in the frame ``iquat``: one
+    quaternion (4,) for every run, or one per run (n, 4) (a batch whose runs share one frame
+    is computed as with a single quaternion, to the bit)."""
+    iquat = np.asarray(iquat, float)
+    moments_B = np.asarray(moments_B, float)
+    if iquat.ndim == 2:
+        if (iquat == iquat[:1]).all():
+            return full_inertia(moments_B, iquat[0])
+        mats = np.empty((iquat.shape[0], 9))
+        for k in range(iquat.shape[0]):  # mju_quat2Mat has no batched form; ~1 us a run
+            mujoco.mju_quat2Mat(mats[k], iquat[k])
+        rots = mats.reshape(-1, 3, 3)
+        return np.einsum("nij,nj,nkj->nik", rots, moments_B, rots)
     flat = np.empty(9)
-    mujoco.mju_quat2Mat(flat, np.asarray(iquat, float))
+    mujoco.mju_quat2Mat(flat, iquat)
     rot = flat.reshape(3, 3)
     return np.einsum("ij,nj,kj->nik", rot, moments_B, rot)
 

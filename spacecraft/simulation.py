@@ -128,6 +128,26 @@ def invalid_runs(params: VehicleParams) -> list[str]:
         for i in np.flatnonzero(bad.any(axis=1)):
             if not reasons[i]:
                 reasons[i] = f"invalid parameter {name}: {values[i].tolist()}"
+    if params.iquat is not None:
+        with np.errstate(invalid="ignore"):
+            unit = np.abs(np.linalg.norm(params.iquat, axis=1) - 1.0) <= 1e-9
+        for i in np.flatnonzero(~unit):
+            if not reasons[i]:
+                reasons[i] = (
+                    f"invalid parameter iquat: {params.iquat[i].tolist()} (not a unit quaternion)"
+                )
+    # Principal moments of a rigid body obey the triangle inequality (a + b >= c); positive
+    # moments that do not (a far tail draw of dispersed moments or products of inertia) are
+    # no body, and are not flown (spacecraft.dispersions, "Physical tensors").
+    with np.errstate(invalid="ignore"):
+        m = np.sort(params.inertia_B, axis=1)
+        no_body = m[:, 0] + m[:, 1] < m[:, 2] * (1 - 1e-12)
+    for i in np.flatnonzero(no_body):
+        if not reasons[i]:
+            reasons[i] = (
+                f"invalid parameter inertia_B: {params.inertia_B[i].tolist()} (principal moments "
+                "violate the triangle inequality: no rigid body has them)"
+            )
     return reasons
 
 
@@ -239,7 +259,13 @@ class BatchSimulation:
                     parameter="tank",
                 )
             self._start_params = self.flown_params()  # the wet vehicle, read back before flying
-            self._iquat0 = self._flight.body_iquat[self._flight.body(BODY).id].copy()
+            # Principal frame of the wet vehicle: each run's own, or the model's for all.
+            frames = self._start_params.iquat
+            self._iquat0 = (
+                self._flight.body_iquat[self._flight.body(BODY).id].copy()
+                if frames is None
+                else frames
+            )
             # Live per-run fields (expand() of an expanded field returns the same memory).
             self._mass_fields = {
                 name: self._batch.expand(name)
@@ -265,6 +291,8 @@ class BatchSimulation:
         b.expand("body_mass")[:, body] = pick(p.mass_kg, nominal.mass_kg)
         b.expand("body_ipos")[:, body] = pick(p.cg_B, nominal.cg_B)
         b.expand("body_inertia")[:, body] = pick(p.inertia_B, nominal.inertia_B)
+        if p.iquat is not None:  # each run's principal frame (products of inertia)
+            b.expand("body_iquat")[:, body] = pick(p.iquat, self._flight.body_iquat[body][None])
         # The jets as flown: thrust and direction per run, summed into the wrench matrix.
         self._flown_thrust_n = pick(p.thrust_n, nominal.thrust_n)
         self._flown_dir_S = pick(p.jet_dir_S, nominal.jet_dir_S)
@@ -280,7 +308,8 @@ class BatchSimulation:
         """The parameters each run is flown with, read back from MuJoCo's per-run model.
 
         Mass, CG and inertia are read from the batch's per-simulation fields after
-        ``mj_setConst`` (``body_mass``, ``body_ipos``, ``body_inertia``); the jets' thrust and
+        ``mj_setConst`` (``body_mass``, ``body_ipos``, ``body_inertia``, and ``body_iquat``
+        when :attr:`params` gives each run its principal frame); the jets' thrust and
         directions are the ones their wrench matrix was built from
         (:func:`spacecraft.flight_model.jet_wrench_B`).  They equal :attr:`params` bit for bit,
         except for runs with invalid parameters, which are flown (and read back) with the
@@ -289,9 +318,10 @@ class BatchSimulation:
         MuJoCo stores a body's inertia as principal moments ``body_inertia`` in the frame
         ``body_iquat``.  Both are *inputs* of ``mj_setConst`` (mujoco 4.0:
         ``MjModel._setconst_inputs``; its outputs are derived constants such as
-        ``body_subtreemass``), so neither is re-oriented or re-diagonalized after the write, and
-        the packaged vehicle's ``body_iquat`` is the identity: the moments read back are about
-        the body axes B, as :class:`VehicleParams` defines them.
+        ``body_subtreemass``), so neither is re-oriented or re-diagonalized after the write:
+        the moments read back are about the principal axes the run was given, as
+        :class:`VehicleParams` defines them (the body axes B for the packaged vehicle, whose
+        ``body_iquat`` is the identity).
 
         Returns
         -------
@@ -318,6 +348,7 @@ class BatchSimulation:
             thrust_n=self._flown_thrust_n.copy(),
             jet_dir_S=self._flown_dir_S.copy(),
             isp_s=self.params.isp_s,
+            iquat=None if self.params.iquat is None else field_of("body_iquat")[:, body],
         )
 
     def run(
@@ -516,7 +547,8 @@ class BatchSimulation:
         """Mass, CG and inertia of runs ``ids`` after the propellant they used."""
         start, tank = self._start_params, self.tank
         assert tank is not None  # only called when propellant is tracked
-        inertia0 = full_inertia(start.inertia_B[ids], self._iquat0)
+        q0 = self._iquat0 if self._iquat0.ndim == 1 else self._iquat0[ids]
+        inertia0 = full_inertia(start.inertia_B[ids], q0)
         m, c, inertia = mass_properties(
             start.mass_kg[ids], start.cg_B[ids], inertia0, tank.position_B, self._used_kg[ids]
         )

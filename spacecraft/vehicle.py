@@ -20,6 +20,8 @@ JET_NAMES = tuple(f"jet_{i:02d}" for i in range(1, N_JETS + 1))
 DIST_NAMES = ("dist_x", "dist_y", "dist_z")
 AXES = ("roll", "pitch", "yaw")
 BODY = "vehicle"
+#: MuJoCo's identity quaternion (w, x, y, z): principal axes along the body axes.
+IDENTITY_QUAT = (1.0, 0.0, 0.0, 0.0)
 
 # Standard gravity for Isp -> mass flow [m/s^2] (CGPM 1901 definition).
 G0_M_S2 = 9.80665
@@ -87,7 +89,9 @@ class VehicleParams:
     cg_B : ndarray, (n_runs, 3)
         Centre of gravity in the body frame [m].
     inertia_B : ndarray, (n_runs, 3)
-        Principal moments of inertia about the CG, axes along B [kg m^2].
+        Principal moments of inertia about the CG [kg m^2], along the principal axes
+        ``iquat`` (the body axes B for the packaged vehicle and any vehicle without products
+        of inertia).
     thrust_n : ndarray, (n_runs, 16)
         Thrust of each jet [N].
     jet_dir_S : ndarray, (n_runs, 16, 3)
@@ -95,6 +99,12 @@ class VehicleParams:
     isp_s : float
         Specific impulse [s], for propellant accounting (an assumption: 280 s, typical of a
         22 N bipropellant RCS thruster; the paper does not give one).
+    iquat : ndarray, (n_runs, 4), or None
+        Principal frame of each run's inertia in B, as MuJoCo's ``body_iquat`` (w, x, y, z);
+        None: the model's own frame, the identity for the packaged vehicle.  Set by
+        :meth:`nominal` for a model whose principal axes are not B (a vehicle file with
+        products of inertia) and by dispersed products of inertia
+        (:mod:`spacecraft.dispersions`).
     """
 
     mass_kg: np.ndarray
@@ -103,6 +113,7 @@ class VehicleParams:
     thrust_n: np.ndarray
     jet_dir_S: np.ndarray
     isp_s: float = 280.0
+    iquat: np.ndarray | None = None
 
     @property
     def n_runs(self) -> int:
@@ -110,19 +121,22 @@ class VehicleParams:
 
     @classmethod
     def nominal(cls, n_runs: int = 1, model: mujoco.MjModel | None = None) -> VehicleParams:
-        """The packaged vehicle, repeated ``n_runs`` times."""
+        """The vehicle of ``model`` (default the packaged one), repeated ``n_runs`` times; its
+        principal frame as ``iquat`` when that is not the identity."""
         if n_runs < 1:
             raise ValueError(f"n_runs must be >= 1, got {n_runs}")
         model = load_model() if model is None else model
         body = model.body(BODY).id
         jets = jet_actuator_ids(model)
         rep = lambda a: np.repeat(np.asarray(a, float)[None], n_runs, axis=0)  # noqa: E731
+        frame = model.body_iquat[body]
         return cls(
             mass_kg=rep(model.body_mass[body]),
             cg_B=rep(model.body_ipos[body]),
             inertia_B=rep(model.body_inertia[body]),
             thrust_n=rep(model.actuator_gainprm[jets, 0]),
             jet_dir_S=rep(model.actuator_gear[jets, 0:3]),
+            iquat=None if np.array_equal(frame, IDENTITY_QUAT) else rep(frame),
         )
 
     def take(self, index) -> VehicleParams:
@@ -135,6 +149,7 @@ class VehicleParams:
             inertia_B=self.inertia_B[index],
             thrust_n=self.thrust_n[index],
             jet_dir_S=self.jet_dir_S[index],
+            iquat=None if self.iquat is None else self.iquat[index],
         )
 
     def check(self) -> None:
@@ -146,9 +161,12 @@ class VehicleParams:
             "inertia_B": (n, 3),
             "thrust_n": (n, N_JETS),
             "jet_dir_S": (n, N_JETS, 3),
+            "iquat": (n, 4),
         }
         for name, shape in shapes.items():
             value = getattr(self, name)
+            if value is None and name == "iquat":
+                continue
             if value.shape != shape:
                 raise ValueError(f"VehicleParams.{name}: shape {value.shape}, expected {shape}")
             if not np.all(np.isfinite(value)):
@@ -161,6 +179,10 @@ class VehicleParams:
         norms = np.linalg.norm(self.jet_dir_S, axis=-1)
         if not np.allclose(norms, 1.0, atol=1e-9):
             raise ValueError("VehicleParams.jet_dir_S: directions must be unit vectors")
+        if self.iquat is not None and not np.allclose(
+            np.linalg.norm(self.iquat, axis=-1), 1.0, atol=1e-9
+        ):
+            raise ValueError("VehicleParams.iquat: quaternions must be unit")
 
 
 def jet_geometry_B(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:

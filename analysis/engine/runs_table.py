@@ -32,7 +32,8 @@ import numpy as np
 import pandas as pd
 
 from spacecraft.dispersions import DispersedRuns, pointing
-from spacecraft.vehicle import AXES, N_JETS, VehicleParams
+from spacecraft.propellant import full_inertia, principal
+from spacecraft.vehicle import AXES, IDENTITY_QUAT, N_JETS, VehicleParams
 
 # The campaign directory (analysis.engine.campaign.results writes it):
 MANIFEST = "manifest.json"  # spec (resolved), code version, control cycle, times, status
@@ -98,7 +99,9 @@ INPUT_COLUMNS: tuple[Column, ...] = (
             f"i{a}{a}_kg_m2",
             "float64",
             "kg m^2",
-            f"principal moment of inertia about body {a} (read back)",
+            "moments of inertia about body x, y, z (read back): the principal moments as MuJoCo "
+            "holds them (about body x, y, z for a vehicle whose principal axes are B, as the "
+            "paper's); with dispersed products of inertia, the tensor's diagonal entries in B",
         )
         for a in "xyz"
     ],
@@ -113,6 +116,22 @@ INPUT_COLUMNS: tuple[Column, ...] = (
         "jet_{jet}_azimuth_deg", "float64", "deg", "azimuth of the tilt, [0, 360) (the draw)"
     ),
 )
+
+#: Products of inertia, present only in campaigns that disperse them (``ixy_kg_m2``,
+#: ``ixz_kg_m2`` or ``iyz_kg_m2`` in the spec's ``[dispersions.three_sigma]`` or the vehicle
+#: file's ``[dispersions]``), after the vehicle inputs; with them the inertia columns are the
+#: whole tensor about the CG in B.  A campaign without them keeps its columns.
+PRODUCT_COLUMNS: tuple[Column, ...] = tuple(
+    Column(
+        f"i{a}_kg_m2",
+        "float64",
+        "kg m^2",
+        f"product of inertia I_{a}, the tensor entry in B (-sum m {a[0]} {a[1]}; MuJoCo's "
+        "fullinertia convention), read back from the run's principal moments and frame",
+    )
+    for a in ("xy", "xz", "yz")
+)
+PRODUCT_NAMES: tuple[str, ...] = tuple(c.name for c in PRODUCT_COLUMNS)
 
 #: What the run did.  Runs whose simulation failed (``sim_failed``) have NaN in every numeric
 #: outcome: their state is not a flight.
@@ -262,10 +281,11 @@ EFFECT_NOT_APPLICABLE: dict[str, tuple[str, str]] = {
 }
 
 RUN_COLUMNS: tuple[Column, ...] = ID_COLUMNS + INPUT_COLUMNS + OUTCOME_COLUMNS
-#: Every column a runs.parquet may have (all effect groups), in order.
+#: Every column a runs.parquet may have (products and all effect groups), in order.
 ALL_COLUMNS: tuple[Column, ...] = (
     ID_COLUMNS
     + INPUT_COLUMNS
+    + PRODUCT_COLUMNS
     + tuple(c for g in EFFECT_GROUPS for c in EFFECT_COLUMNS[g])
     + OUTCOME_COLUMNS
 )
@@ -300,14 +320,15 @@ def missing_outcomes(n: int, reason: str) -> pd.DataFrame:
     return outcome_frame(values)
 
 
-def run_columns(effects=()) -> tuple[Column, ...]:
+def run_columns(effects=(), products: bool = False) -> tuple[Column, ...]:
     """The columns of a campaign whose spec has the effect groups ``effects`` (names of
-    :data:`EFFECT_COLUMNS`), in order."""
+    :data:`EFFECT_COLUMNS`) and, with ``products``, disperses products of inertia, in order."""
     unknown = [g for g in effects if g not in EFFECT_COLUMNS]
     if unknown:
         raise KeyError(f"unknown effect group(s) {unknown}; known: {list(EFFECT_GROUPS)}")
     extra = tuple(c for g in EFFECT_GROUPS if g in effects for c in EFFECT_COLUMNS[g])
-    return ID_COLUMNS + INPUT_COLUMNS + extra + OUTCOME_COLUMNS
+    inputs = INPUT_COLUMNS + (PRODUCT_COLUMNS if products else ())
+    return ID_COLUMNS + inputs + extra + OUTCOME_COLUMNS
 
 
 def effect_frame_of(values: dict, effects) -> pd.DataFrame:
@@ -320,10 +341,10 @@ def effect_frame_of(values: dict, effects) -> pd.DataFrame:
     return pd.DataFrame({c.name: _cast(values[c.name], c.dtype) for c in cols})
 
 
-def check_run_frame(frame: pd.DataFrame, effects=()) -> pd.DataFrame:
-    """``frame`` if its columns are exactly :func:`run_columns` of ``effects``, in order;
-    else a KeyError."""
-    names = tuple(c.name for c in run_columns(effects))
+def check_run_frame(frame: pd.DataFrame, effects=(), products: bool = False) -> pd.DataFrame:
+    """``frame`` if its columns are exactly :func:`run_columns` of ``effects`` and
+    ``products``, in order; else a KeyError."""
+    names = tuple(c.name for c in run_columns(effects, products))
     if tuple(frame.columns) != names:
         diff = sorted(set(frame.columns) ^ set(names)) or "(order)"
         raise KeyError(f"runs frame differs from analysis.engine.runs_table: {diff}")
@@ -345,6 +366,8 @@ def markdown_table() -> str:
         name, meaning = c.name, c.meaning
         if name in group_of:
             meaning = f"{meaning} (only with [dispersions.{group_of[name]}])"
+        if name in PRODUCT_NAMES:
+            meaning = f"{meaning} (only when products of inertia are dispersed)"
         for axis in AXES:
             if f"_{axis}_" in name or name.endswith(f"_{axis}"):
                 name = name.replace(axis, "<axis>", 1)
@@ -354,6 +377,11 @@ def markdown_table() -> str:
             name = "jet_NN" + name[6:]
         if name.startswith("cg_") and name.endswith("_m"):
             name = "cg_{x,y,z}_m"
+        if name in _INERTIA:
+            name = "i{xx,yy,zz}_kg_m2"
+        if name in PRODUCT_NAMES:
+            name = "i{xy,xz,yz}_kg_m2"
+            meaning = meaning.replace("I_xy", "I_ab").replace("-sum m x y", "-sum m a b")
         if name in seen:
             continue
         seen.add(name)
@@ -372,22 +400,50 @@ _CG = [f"cg_{a}_m" for a in "xyz"]
 _INERTIA = [f"i{a}{a}_kg_m2" for a in "xyz"]
 
 
-def input_frame(runs: DispersedRuns) -> pd.DataFrame:
-    """The :data:`INPUT_COLUMNS` of dispersed runs (SI; angles in degrees at this boundary).
+_PRODUCT_ENTRIES = ((0, 1), (0, 2), (1, 2))
+
+
+def inertia_tensor_B(params: VehicleParams) -> np.ndarray:
+    """Each run's inertia tensor about the CG in B, (n, 3, 3) [kg m^2], from its principal
+    moments and frame (the model's when ``params.iquat`` is None: pass parameters read back
+    from a model whose frame is the identity, or that carry their frames)."""
+    frame = np.asarray(IDENTITY_QUAT) if params.iquat is None else params.iquat
+    return full_inertia(params.inertia_B, frame)
+
+
+def input_frame(runs: DispersedRuns, products: bool = False) -> pd.DataFrame:
+    """The :data:`INPUT_COLUMNS` of dispersed runs (SI; angles in degrees at this boundary),
+    and with ``products`` the :data:`PRODUCT_COLUMNS`.
 
     Jet tilt and azimuth are the draws (MuJoCo holds only the direction they make);
-    :func:`vehicles_from_runs` is the inverse.
+    :func:`vehicles_from_runs` is the inverse.  With ``products`` the inertia columns are the
+    tensor in B rebuilt from each run's principal moments and frame (:func:`inertia_tensor_B`).
     """
     p = runs.params
+    if products:
+        tensor = inertia_tensor_B(p)
+        inertia = np.diagonal(tensor, axis1=1, axis2=2)
+        extra = {c: tensor[:, a, b] for c, (a, b) in zip(PRODUCT_NAMES, _PRODUCT_ENTRIES)}
+    else:
+        inertia, extra = p.inertia_B, {}
     cols = {
         "mass_kg": p.mass_kg,
         **{c: p.cg_B[:, a] for a, c in enumerate(_CG)},
-        **{c: p.inertia_B[:, a] for a, c in enumerate(_INERTIA)},
+        **{c: inertia[:, a] for a, c in enumerate(_INERTIA)},
         **dict(zip(_jet_columns("thrust_n"), p.thrust_n.T)),
         **dict(zip(_jet_columns("tilt_deg"), np.degrees(runs.tilt_rad).T)),
         **dict(zip(_jet_columns("azimuth_deg"), np.degrees(runs.azimuth_rad).T)),
+        **extra,
     }
-    return pd.DataFrame(cols)[list(INPUT_NAMES)]  # a KeyError if the two ever disagree
+    names = list(INPUT_NAMES) + (list(PRODUCT_NAMES) if products else [])
+    return pd.DataFrame(cols)[names]  # a KeyError if the two ever disagree
+
+
+def axis_inertia(runs: pd.DataFrame) -> np.ndarray:
+    """Moment of inertia about each body axis of every row, (n, 3) [kg m^2]: the recorded
+    ``ixx_kg_m2``, ``iyy_kg_m2``, ``izz_kg_m2`` (with dispersed products, the tensor's
+    diagonal in B)."""
+    return runs[_INERTIA].to_numpy(float)
 
 
 def vehicles_from_runs(
@@ -412,13 +468,21 @@ def vehicles_from_runs(
     n = len(runs)
     tilt = np.radians(runs[_jet_columns("tilt_deg")].to_numpy(float))
     azimuth = np.radians(runs[_jet_columns("azimuth_deg")].to_numpy(float))
+    inertia, iquat = runs[_INERTIA].to_numpy(float), None
+    if all(c in runs.columns for c in PRODUCT_NAMES):  # the whole tensor in B
+        tensor = np.zeros((n, 3, 3))
+        tensor[:, [0, 1, 2], [0, 1, 2]] = inertia
+        for c, (a, b) in zip(PRODUCT_NAMES, _PRODUCT_ENTRIES):
+            tensor[:, a, b] = tensor[:, b, a] = runs[c].to_numpy(float)
+        inertia, iquat = principal(tensor)
     straight = VehicleParams(
         mass_kg=runs["mass_kg"].to_numpy(float),
         cg_B=runs[_CG].to_numpy(float),
-        inertia_B=runs[_INERTIA].to_numpy(float),
+        inertia_B=inertia,
         thrust_n=runs[_jet_columns("thrust_n")].to_numpy(float),
         jet_dir_S=np.repeat(nominal.jet_dir_S, n, axis=0),
         isp_s=nominal.isp_s,
+        iquat=iquat,
     )
     dispersed = replace(straight, jet_dir_S=pointing(nominal.jet_dir_S, tilt, azimuth))
     return dispersed, straight

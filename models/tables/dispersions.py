@@ -25,6 +25,12 @@ _DISPERSION_DIMENSIONS = {
     "izz": "inertia",
     "thrust": "force",
     "thruster_angle": "angle",
+    # Beyond Table 5 (spacecraft.dispersions): CG y and z, products of inertia.
+    "cg_y": "length",
+    "cg_z": "length",
+    "ixy": "inertia",
+    "ixz": "inertia",
+    "iyz": "inertia",
 }
 # Paper section III: "The three-sigma values used to generate normal Monte Carlo inputs".
 _DISTRIBUTIONS = ("normal",)

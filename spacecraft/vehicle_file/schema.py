@@ -34,7 +34,15 @@ import pandas as pd
 from models.errors import InputError
 from models.tables import CONTROL_CYCLE_S
 from models.toml_reader import Reader
-from spacecraft.dispersions import THREE_SIGMA_KEYS
+from spacecraft.dispersions import (
+    INERTIA_ENTRIES,
+    INERTIA_RULE,
+    THREE_SIGMA_KEYS,
+    inertia_scale_limit,
+    largest_inertia_sigma,
+    second_moment_slack,
+    three_sigma_bounds,
+)
 from spacecraft.vehicle import G0_M_S2, N_JETS
 
 #: Vehicle files packaged with rcsim, by name (``models/vehicle/<name>.toml``).
@@ -42,6 +50,31 @@ PACKAGED_VEHICLES = ("paper", "canted16")
 INTEGRATORS = ("RK4", "Euler", "implicit", "implicitfast")
 #: A jet closer to the CG than this [m] has no moment arm worth the name (a jet "inside the CG").
 MIN_ARM_M = 1e-3
+
+# Plausible ranges (docs/vehicles.md, "Ranges"): values that parse but no real vehicle has,
+# chosen so that a program's vehicle never meets them while a unit or decimal slip does.
+#: Largest wet mass [kg]: over 20 times the ISS (about 4.2e5 kg); no spacecraft with reaction
+#: control comes near it (a mass in grams of a vehicle above 10 t does).
+MAX_MASS_KG = 1e7
+#: Range of the radii of gyration ``sqrt(I/m)`` of the principal moments [m].  A 10 cm cube
+#: has 4.1 cm, the paper's vehicle 0.84-1.01 m, the ISS about 20 m; an inertia in kg mm^2 (or
+#: a mass in mg) moves it 1000x, out of the range.
+GYRATION_RANGE_M = (5e-3, 200.0)
+#: Farthest a jet or the tank may be from the CG, in radii of gyration (the largest principal
+#: moment's).  A body's mass lies within its extent, so its radius of gyration is a fair share
+#: of it (a solid sphere's is 0.63 of its radius, a rod's 0.58 of its half length); a point 20
+#: times further out needs a light boom 20 times the body's size, or a position in mm.
+MAX_REACH_GYRATIONS = 20.0
+#: Largest thrust of one jet [N]: about 2.6 times the Space Shuttle's primary RCS jets (3,870 N),
+#: the largest reaction-control jets flown; a thrust in mN (1000x) of a jet above 10 N is over.
+MAX_THRUST_N = 1e4
+#: Range of the specific impulse [s]: cold gas (xenon about 30 s, nitrogen about 70 s) to arcjets
+#: (500-600 s), every chemical jet in between (hydrazine 220-235 s, bipropellant 280-320 s); an
+#: exhaust velocity in m/s of a chemical jet (9.81x: 2,746 for 280 s) is over.
+ISP_RANGE_S = (20.0, 1000.0)
+#: Finest physics step [s]: 0.1 ms, ten times finer than the 1 ms reference of the convergence
+#: study (docs/convergence.md: RK4 at 40 ms is converged); 400 steps a cycle already.
+MIN_TIMESTEP_S = 1e-4
 
 
 @dataclass(frozen=True)
@@ -226,7 +259,22 @@ def _inertia(r: Reader) -> np.ndarray:
     return tensor
 
 
-def _jets(top: Reader, cg: tuple, src: str) -> tuple[list[Jet], float]:
+def _reach(r: Reader, name: str, what: str, point, cg: tuple, gyration_m: float) -> None:
+    """Refuse a ``point`` farther from the CG than :data:`MAX_REACH_GYRATIONS` radii of
+    gyration."""
+    reach = MAX_REACH_GYRATIONS * gyration_m
+    distance = float(np.linalg.norm(np.subtract(point, cg)))
+    if distance > reach:
+        raise r.error(
+            name,
+            f"{what} is {distance:.4g} m from the CG; it must be within {reach:.4g} m "
+            f"({MAX_REACH_GYRATIONS:g} radii of gyration, sqrt(Imax/m) = {gyration_m:.4g} m): "
+            "farther than any real vehicle's structure reaches (a position in mm?)",
+            list(point),
+        )
+
+
+def _jets(top: Reader, cg: tuple, src: str, gyration_m: float) -> tuple[list[Jet], float]:
     defaults = top.table_("jet_defaults")
     shared = dict(defaults.table)
     for key in shared:
@@ -259,6 +307,14 @@ def _jets(top: Reader, cg: tuple, src: str) -> tuple[list[Jet], float]:
         if not r.has("thrust_n"):
             raise r.error("thrust_n", "is required (here or in [jet_defaults])")
         thrust = r.number("thrust_n", None, minimum=0.0, strict=True)
+        if thrust > MAX_THRUST_N:
+            raise r.error(
+                "thrust_n",
+                f"must be at most {MAX_THRUST_N:g} N, over 2.5 times the largest "
+                "reaction-control jets flown (Space Shuttle primary RCS, 3,870 N): a thrust "
+                "in mN?",
+                thrust,
+            )
         min_on.add(r.number("min_on_s", 0.0, minimum=0.0))
         r.done()
         if np.linalg.norm(np.subtract(pos, cg)) < MIN_ARM_M:
@@ -268,6 +324,7 @@ def _jets(top: Reader, cg: tuple, src: str) -> tuple[list[Jet], float]:
                 "has no moment arm",
                 list(pos),
             )
+        _reach(r, "position_m", "the jet", pos, cg, gyration_m)
         jets.append(Jet(name, pos, unit, d if norm == 1.0 else unit, thrust))
     if len(min_on) > 1:
         raise top.error(
@@ -283,6 +340,54 @@ def _jets(top: Reader, cg: tuple, src: str) -> tuple[list[Jet], float]:
             shortest,
         )
     return jets, shortest
+
+
+_UNITS = {"kg": "kg", "m": "m", "m2": "kg m^2", "n": "N", "deg": "deg"}
+
+
+def _dispersions(ds: Reader, mass: float, inertia: np.ndarray, cg: tuple, jets: list) -> dict:
+    """``[dispersions]``: dispersion name -> 3-sigma in SI, each below its bound (a 3-sigma
+    draw must stay a vehicle: :func:`spacecraft.dispersions.three_sigma_bounds`) and the
+    inertia values together keeping the tensor a rigid body's
+    (:func:`spacecraft.dispersions.inertia_scale_limit`)."""
+    three_sigma, given = {}, {}
+    for key in list(ds.table):
+        if key not in THREE_SIGMA_KEYS:
+            raise ds.error(key, "unknown dispersion; known: " + ", ".join(THREE_SIGMA_KEYS))
+        row, factor = THREE_SIGMA_KEYS[key]
+        given[row] = (key, ds.number(key, None, minimum=0.0))
+        three_sigma[row] = given[row][1] * factor
+    ds.done()
+    bounds = three_sigma_bounds(
+        mass,
+        np.diag(inertia),
+        [j.thrust_n for j in jets],
+        cg,
+        [j.position_m for j in jets],
+    )
+    for row, (key, value) in given.items():
+        if row in bounds and not three_sigma[row] < bounds[row][0]:
+            bound, why = bounds[row]
+            factor = THREE_SIGMA_KEYS[key][1]
+            unit = _UNITS[key.rsplit("_", 1)[-1]]
+            raise ds.error(
+                key,
+                f"must be below {bound / factor:.4g} {unit}, {why}: a 3-sigma draw must stay "
+                "physical",
+                value,
+            )
+    inertia_sigma = {n: v for n, v in three_sigma.items() if n in INERTIA_ENTRIES}
+    if not inertia_scale_limit(inertia, inertia_sigma) > 1.0:
+        # Named: the inertia value that weighs most, with the most it may be given the others.
+        row = max(inertia_sigma, key=lambda n: INERTIA_ENTRIES[n] * inertia_sigma[n])
+        most = largest_inertia_sigma(inertia, inertia_sigma, row)
+        raise ds.error(
+            given[row][0],
+            INERTIA_RULE.format(slack=second_moment_slack(inertia)).replace(" times scale", "")
+            + f"; with the other values it must be below {most:.4g} kg m^2",
+            given[row][1],
+        )
+    return three_sigma
 
 
 def load_vehicle(path: str | os.PathLike) -> VehicleDef:
@@ -319,8 +424,26 @@ def load_vehicle(path: str | os.PathLike) -> VehicleDef:
     if not m.has("mass_kg"):
         raise m.error("mass_kg", "is required")
     mass = m.number("mass_kg", None, minimum=0.0, strict=True)
+    if mass > MAX_MASS_KG:
+        raise m.error(
+            "mass_kg",
+            f"must be at most {MAX_MASS_KG:g} kg, over 20 times the ISS: no spacecraft with "
+            "reaction control is that heavy (a mass in grams?)",
+            mass,
+        )
     cg = m.vector("cg_m", 3)
     inertia = _inertia(m)
+    gyration = np.sqrt(np.linalg.eigvalsh(inertia) / mass)
+    lo, hi = GYRATION_RANGE_M
+    if gyration.min() < lo or gyration.max() > hi:
+        raise m.error(
+            "inertia_kg_m2",
+            f"does not fit mass_kg = {mass:g}: the radii of gyration sqrt(I/m) of its principal "
+            f"moments are {np.round(gyration, 4).tolist()} m, outside {lo:g} to {hi:g} m (a 10 cm "
+            "cube has 0.041 m, the ISS about 20 m; an inertia in kg mm^2 or g m^2, or a mass "
+            "in another unit?)",
+            inertia.tolist(),
+        )
     m.done()
     ph = top.table_("physics")
     dt = ph.number("timestep_s", CONTROL_CYCLE_S, minimum=0.0, strict=True)
@@ -329,44 +452,45 @@ def load_vehicle(path: str | os.PathLike) -> VehicleDef:
         raise ph.error(
             "timestep_s", f"must divide the {CONTROL_CYCLE_S * 1e3:g} ms control cycle", dt
         )
+    if dt < MIN_TIMESTEP_S:
+        raise ph.error(
+            "timestep_s",
+            f"must be at least {MIN_TIMESTEP_S * 1e3:g} ms, ten times finer than the 1 ms "
+            "reference of the convergence study (RK4 at 40 ms is converged): a finer step buys "
+            f"nothing and costs {round(CONTROL_CYCLE_S / dt)} steps a cycle",
+            dt,
+        )
     integrator = ph.choice("integrator", "RK4", INTEGRATORS)
     ph.done()
     hull = top.table_("hull")
     hull_half = hull.vector("half_size_m", 3, required=False)
     hull_center = hull.vector("center_m", 3, list(cg) if hull_half else None, required=False)
     hull.done()
-    jets, min_on = _jets(top, cg, src)
+    reach_unit = float(gyration.max())  # the radius of gyration of the largest moment
+    jets, min_on = _jets(top, cg, src, reach_unit)
     pr = top.table_("propellant")
     isp = pr.number("isp_s", 280.0, minimum=0.0, strict=True)
+    lo, hi = ISP_RANGE_S
+    if not lo <= isp <= hi:
+        raise pr.error(
+            "isp_s",
+            f"must be within {lo:g} to {hi:g} s, cold gas to arcjets (an exhaust velocity in "
+            "m/s, 9.81 times the Isp?)",
+            isp,
+        )
     prop = pr.number("mass_kg", None, minimum=0.0, strict=True) if pr.has("mass_kg") else None
     tank = pr.vector("tank_position_m", 3, list(cg) if prop is not None else None, required=False)
     if tank is not None and prop is None:
         raise pr.error("tank_position_m", "needs propellant.mass_kg", list(tank))
+    if tank is not None:
+        _reach(pr, "tank_position_m", "the tank", tank, cg, reach_unit)
     pr.done()
     if prop is not None and prop >= mass:
         raise InputError(
             f"{src}: propellant.mass_kg: must be below mass.mass_kg = {mass:g} (got {prop!r})"
         )
-    ds = top.table_("dispersions")
-    three_sigma = {}
-    for key in list(ds.table):
-        if key not in THREE_SIGMA_KEYS:
-            raise ds.error(key, "unknown dispersion; known: " + ", ".join(THREE_SIGMA_KEYS))
-        row, factor = THREE_SIGMA_KEYS[key]
-        three_sigma[row] = ds.number(key, None, minimum=0.0) * factor
-    ds.done()
+    three_sigma = _dispersions(top.table_("dispersions"), mass, inertia, cg, jets)
     top.done()
-    for row, nominal in (
-        ("mass", mass),
-        ("ixx", inertia[0, 0]),
-        ("iyy", inertia[1, 1]),
-        ("izz", inertia[2, 2]),
-    ):
-        if three_sigma.get(row, 0.0) >= nominal:
-            raise InputError(
-                f"{src}: dispersions: the 3-sigma of {row} ({three_sigma[row]:g}) must be below "
-                f"its nominal {nominal:g}"
-            )
     return VehicleDef(
         source=src,
         name=name,

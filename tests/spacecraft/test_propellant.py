@@ -15,6 +15,8 @@ Oracles
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import mujoco
 import numpy as np
 import pytest
@@ -104,6 +106,41 @@ def test_inertia_follows_the_point_mass_model(canted):
     moments, quat = principal(inertia)
     rebuilt = full_inertia(moments, quat[0])
     np.testing.assert_allclose(rebuilt[0], inertia[0], atol=1e-9 * np.abs(i_exp).max())
+
+
+def test_each_runs_own_principal_frame_follows_the_propellant(canted):
+    """Issue 18: runs with dispersed products of inertia have their own wet tensors (their
+    own principal frames).  After 2 s of one jet, the tensor MuJoCo flies in each run (its
+    principal moments and frame, rebuilt) is that run's wet tensor moved by the point-mass
+    model with the propellant the run used: 1e-9 of the largest moment (eigen round trips on
+    ~3.5e3 kg m^2)."""
+    vehicle, model = canted
+    wet = np.repeat(vehicle.inertia_kg_m2[None], 2, axis=0)
+    wet[0, 0, 1] = wet[0, 1, 0] = 60.0  # run 0: Ixy moved from -25 to 60 kg m^2
+    wet[1, 1, 2] = wet[1, 2, 1] = -90.0  # run 1: Iyz from -15 to -90
+    moments, iquat = principal(wet)
+    params = VehicleParams.nominal(2, model)
+    params = replace(params, inertia_B=moments, iquat=iquat, isp_s=vehicle.isp_s)
+    tank = PropellantTank.of(2, vehicle.propellant_kg, vehicle.tank_position_m)
+    sim = BatchSimulation(params, model=model, nthread=1, tank=tank)
+    on = np.zeros((2, 16), bool)
+    on[:, 2] = True
+    history = sim.run(_Constant(on), Guidance.rate(np.zeros((2, 3))), 2.0)
+    used = history.propulsion.propellant_kg(vehicle.isp_s)
+    assert (used > 0).all()
+    _, _, expect = mass_properties(
+        np.full(2, vehicle.mass_kg),
+        np.repeat(np.array(vehicle.cg_m)[None], 2, axis=0),
+        wet,
+        np.array(vehicle.tank_position_m),
+        used,
+    )
+    flown = full_inertia(
+        sim._batch.expanded("body_inertia")[:, 1], sim._batch.expanded("body_iquat")[:, 1]
+    )
+    np.testing.assert_allclose(flown, expect, rtol=0, atol=1e-9 * np.abs(expect).max())
+    # The wet vehicle is what the history records as flown (the draw, read back).
+    np.testing.assert_array_equal(history.flown_params.iquat, iquat)
 
 
 def test_exhaustion_stops_the_jets_at_the_exact_instant(canted):

@@ -15,12 +15,15 @@ Oracles
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
+from analysis.engine.runs_table import PRODUCT_NAMES, input_frame
 from lookup.open_loop import OpenLoopController
 from models.tables import load_dispersions
-from spacecraft.dispersions import DispersionSigmas, draw_runs, run_generators
+from spacecraft.dispersions import DispersionSigmas, draw_runs, mass_extra_draws, run_generators
 from spacecraft.navigation import Guidance
 from spacecraft.simulation import BatchSimulation
 from spacecraft.vehicle import BODY, VehicleParams
@@ -81,3 +84,43 @@ def test_run_generators_follow_the_seeding_rule():
         expected = np.random.SeedSequence(seed, spawn_key=(run_id,)).spawn(2)
         for got, seq in zip((first, second), expected):
             np.testing.assert_array_equal(got.random(4), np.random.default_rng(seq).random(4))
+
+
+def test_flown_cg_and_principal_frames_equal_the_draw_exactly(model):
+    """Issue 18: with CG y/z and products of inertia dispersed, each run has its own CG
+    (``body_ipos``) and principal frame (``body_iquat``, an input of mj_setConst like the
+    moments): read back, they equal the draw exactly.  The recorded inputs
+    (:func:`analysis.engine.runs_table.input_frame`) are the tensor in B rebuilt from them,
+    equal to the drawn tensor (the nominal moments plus the drawn products) to 1e-12 of the
+    largest moment: the eigen round trip's rounding."""
+    sigmas = replace(
+        DispersionSigmas.from_table(load_dispersions(), scale=3.0),
+        cg_y_m=0.01,
+        cg_z_m=0.01,
+        products_kg_m2=(20.0, 30.0, 40.0),
+    )
+    drawn = draw_runs(VehicleParams.nominal(1, model), sigmas, seed=2024, run_ids=np.arange(7, 19))
+    sim = BatchSimulation(drawn.params, model=model, nthread=1)
+    flown = sim.flown_params()
+    for name in (*FIELDS, "iquat"):
+        np.testing.assert_array_equal(
+            getattr(flown, name), getattr(drawn.params, name), err_msg=name
+        )
+    assert np.all(drawn.params.cg_B[:, 1:] != 0.0)
+    # The drawn tensor, rebuilt independently: Table 5's moments on the diagonal (the paper's
+    # principal axes are B) and the products off it, from the same standard normals.
+    moments_only = draw_runs(
+        VehicleParams.nominal(1, model),
+        DispersionSigmas(inertia_kg_m2=sigmas.inertia_kg_m2),
+        seed=2024,
+        run_ids=np.arange(7, 19),
+    ).params.inertia_B
+    x = mass_extra_draws(2024, np.arange(7, 19))
+    frame = input_frame(replace(drawn, params=flown), products=True)
+    scale = 1e-12 * moments_only.max()
+    for a, col in enumerate(("ixx_kg_m2", "iyy_kg_m2", "izz_kg_m2")):
+        np.testing.assert_allclose(frame[col], moments_only[:, a], rtol=0, atol=scale)
+    for k, col in enumerate(PRODUCT_NAMES):
+        np.testing.assert_allclose(
+            frame[col], sigmas.products_kg_m2[k] * x[:, 2 + k], rtol=0, atol=scale
+        )

@@ -299,14 +299,19 @@ def flown_inputs(dispersed: DispersedRuns, flown: VehicleParams | None) -> Dispe
         inertia_B=pick(flown.inertia_B, drawn.inertia_B),
         thrust_n=pick(flown.thrust_n, drawn.thrust_n),
         jet_dir_S=pick(flown.jet_dir_S, drawn.jet_dir_S),
+        iquat=(
+            None if drawn.iquat is None or flown.iquat is None else pick(flown.iquat, drawn.iquat)
+        ),
     )
     return replace(dispersed, params=params)
 
 
 def run_rows(spec: CampaignSpec, dispersed: DispersedRuns, outcome: pd.DataFrame) -> pd.DataFrame:
-    """The runs.parquet rows of runs ``dispersed.run_ids``: identity, inputs (vehicle, then
-    the spec's sensor / timing / fault draws), ``outcome`` (columns:
-    :func:`analysis.engine.runs_table.run_columns` of ``spec.effects.groups``)."""
+    """The runs.parquet rows of runs ``dispersed.run_ids``: identity, inputs (vehicle, its
+    products of inertia when the spec disperses them, then the spec's sensor / timing / fault
+    draws), ``outcome`` (columns: :func:`analysis.engine.runs_table.run_columns` of
+    ``spec.effects.groups`` and ``spec.sigmas.disperses_products``)."""
+    products = spec.sigmas.disperses_products
     cases = dispersed.run_ids // spec.runs_per_case
     # The effects' draws are a function of (seed, run id): the ones fly_runs flew (a few
     # variates per run, negligible next to a flight).
@@ -323,13 +328,14 @@ def run_rows(spec: CampaignSpec, dispersed: DispersedRuns, outcome: pd.DataFrame
         pd.concat(
             [
                 head,
-                input_frame(dispersed),
+                input_frame(dispersed, products),
                 effects.reset_index(drop=True),
                 outcome.reset_index(drop=True),
             ],
             axis=1,
         ),
         spec.effects.groups,
+        products,
     )
 
 

@@ -41,51 +41,55 @@ def max_duration_s(measured: bool = False, delivered: bool = False) -> float:
 _LIMITS: dict = {}
 
 
-def physical_limits() -> dict:
-    """Ranges the nominal vehicle gives (computed once from the packaged model).
+def vehicle_limits(model) -> dict:
+    """Ranges the nominal vehicle of ``model`` gives (a vehicle file's compiled model, or the
+    packaged one).
 
     Returns
     -------
     dict
         ``torque_n_m``: (3,) largest torque the jets give about each body axis (all jets of
-        one sign on the axis firing, nominal thrust) [N m].  ``three_sigma``: Table 5 name ->
-        (upper bound of its 3-sigma in the table's unit, reason): the nominal mass, moments
-        and thrust (a 3-sigma draw must stay positive), 90 deg of thruster tilt (a jet must
-        still push forwards), and the largest distance along x from the nominal CG to a jet
-        (the CG must stay inside the jet layout).
+        one sign on the axis firing, nominal thrust) [N m].  ``three_sigma``: dispersion name
+        -> (upper bound of its 3-sigma in SI, reason)
+        (:func:`spacecraft.dispersions.three_sigma_bounds`).  ``inertia_B``: (3, 3) the
+        nominal inertia tensor about the CG in B [kg m^2], which limits the inertia 3-sigma
+        values as a whole (:func:`spacecraft.dispersions.inertia_scale_limit`).
     """
-    if not _LIMITS:
-        from spacecraft.vehicle import VehicleParams, jet_geometry_B, load_model, torque_per_jet_B
+    from spacecraft.dispersions import three_sigma_bounds
+    from spacecraft.propellant import full_inertia
+    from spacecraft.vehicle import BODY, VehicleParams, jet_geometry_B, torque_per_jet_B
 
-        model = load_model()
-        nom = VehicleParams.nominal(1, model)
-        torque = torque_per_jet_B(nom, model)[0]  # (16, 3)
-        authority = np.minimum(
-            np.where(torque > 0, torque, 0).sum(axis=0),
-            -np.where(torque < 0, torque, 0).sum(axis=0),
-        )
-        pos_B, _ = jet_geometry_B(model)
-        extent = float(np.max(np.abs(pos_B[:, 0] - nom.cg_B[0, 0])))
-        _LIMITS.update(
-            torque_n_m=authority,
-            three_sigma={
-                "mass": (float(nom.mass_kg[0]), "the nominal mass"),
-                "ixx": (float(nom.inertia_B[0, 0]), "the nominal Ixx"),
-                "iyy": (float(nom.inertia_B[0, 1]), "the nominal Iyy"),
-                "izz": (float(nom.inertia_B[0, 2]), "the nominal Izz"),
-                "thrust": (float(nom.thrust_n.min()), "the nominal thrust"),
-                "thruster_angle": (
-                    math.pi / 2,
-                    "a 90 deg tilt (the jet would no longer push forwards)",
-                ),
-                "cg_x": (extent, "the distance from the nominal CG to the farthest jet along x"),
-            },
-        )
+    nom = VehicleParams.nominal(1, model)
+    torque = torque_per_jet_B(nom, model)[0]  # (16, 3)
+    authority = np.minimum(
+        np.where(torque > 0, torque, 0).sum(axis=0),
+        -np.where(torque < 0, torque, 0).sum(axis=0),
+    )
+    pos_B, _ = jet_geometry_B(model)
+    return {
+        "torque_n_m": authority,
+        "three_sigma": three_sigma_bounds(
+            nom.mass_kg[0], nom.inertia_B[0], nom.thrust_n[0], nom.cg_B[0], pos_B
+        ),
+        "inertia_B": full_inertia(nom.inertia_B, model.body_iquat[model.body(BODY).id])[0],
+    }
+
+
+def physical_limits() -> dict:
+    """:func:`vehicle_limits` of the packaged vehicle (computed once)."""
+    if not _LIMITS:
+        from spacecraft.vehicle import load_model
+
+        _LIMITS.update(vehicle_limits(load_model()))
     return _LIMITS
 
 
-def check_three_sigma(frame, scale: float, overrides: dict, source: str, sigma_keys: dict) -> None:
-    """Every 3-sigma times ``scale`` must be below its physical bound (:func:`physical_limits`).
+def check_three_sigma(
+    frame, scale: float, overrides: dict, source: str, sigma_keys: dict, limits: dict | None = None
+) -> None:
+    """Every 3-sigma times ``scale`` must be below its physical bound, and the inertia 3-sigma
+    values together must keep the dispersed tensor a rigid body's
+    (:func:`spacecraft.dispersions.inertia_scale_limit`).
 
     Names the override key when an override is out of range, else ``dispersions.scale`` with
     the largest scale these 3-sigma values allow.
@@ -100,18 +104,27 @@ def check_three_sigma(frame, scale: float, overrides: dict, source: str, sigma_k
     source : str
         The spec file, for the message.
     sigma_keys : dict
-        Spec key -> (Table 5 name, factor from the key's unit to SI).
+        Spec key -> (dispersion name, factor from the key's unit to SI).
+    limits : dict, optional
+        :func:`vehicle_limits` of the vehicle flown; default the packaged vehicle's.
     """
-    limits = physical_limits()["three_sigma"]
+    from spacecraft.dispersions import (
+        INERTIA_ENTRIES,
+        INERTIA_RULE,
+        inertia_scale_limit,
+        largest_inertia_sigma,
+        second_moment_slack,
+    )
+
+    limits = physical_limits() if limits is None else limits
+    bounds = limits["three_sigma"]
     keys = {row: key for key, (row, _) in sigma_keys.items()}
     entries = [
-        (keys[n], float(v), *limits[n])
+        (keys[n], float(v), *bounds[n])
         for n, v in zip(frame["name"], frame["three_sigma"])
-        if n in limits
+        if n in bounds
     ]
     bad = [(key, v, bound, why) for key, v, bound, why in entries if not v * scale < bound]
-    if not bad:
-        return
     units = {"kg": "kg", "m": "m", "m2": "kg m^2", "n": "N", "deg": "deg"}
     unit = lambda key: units[key.rsplit("_", 1)[-1]]  # noqa: E731
     for key, _v, bound, why in bad:
@@ -122,7 +135,36 @@ def check_three_sigma(frame, scale: float, overrides: dict, source: str, sigma_k
                 f"below {bound / factor:.4g} {unit(key)}, {why}: a 3-sigma draw must stay "
                 f"physical (got {overrides[key]!r})"
             )
-    largest = min(bound / v for _, v, bound, _ in entries if v > 0)
+    inertia = {
+        n: float(v) for n, v in zip(frame["name"], frame["three_sigma"]) if n in INERTIA_ENTRIES
+    }
+    tensor_scale = inertia_scale_limit(limits["inertia_B"], inertia)
+    tensor_bad = scale > 0 and not scale < tensor_scale
+    if tensor_bad:
+        slack = second_moment_slack(limits["inertia_B"])
+        named = [keys[n] for n in INERTIA_ENTRIES if keys[n] in overrides and inertia.get(n, 0) > 0]
+        if named:
+            # The override that weighs most, named with the largest value it could take with
+            # the others as they are -- when some value would do; else the scale is to blame.
+            key = max(named, key=lambda k: INERTIA_ENTRIES[sigma_keys[k][0]] * overrides[k])
+            most = largest_inertia_sigma(limits["inertia_B"], inertia, sigma_keys[key][0], scale)
+            if most > 0:
+                raise InputError(
+                    f"{source}: dispersions.three_sigma.{key}: "
+                    + INERTIA_RULE.format(slack=slack)
+                    + f"; with the other values and scale {scale:g} it must be below "
+                    f"{most:.4g} kg m^2 (got {overrides[key]!r})"
+                )
+    if not bad and not tensor_bad:
+        return
+    per_entry = min((bound / v for _, v, bound, _ in entries if v > 0), default=math.inf)
+    largest = min(per_entry, tensor_scale)
+    if tensor_scale <= per_entry:
+        raise InputError(
+            f"{source}: dispersions.scale: must be < {largest:.4g} with these 3-sigma values: "
+            + INERTIA_RULE.format(slack=second_moment_slack(limits["inertia_B"]))
+            + f" (got {scale!r})"
+        )
     key, v, bound, why = min(bad, key=lambda e: e[2] / e[1])
     factor = sigma_keys[key][1]
     raise InputError(

@@ -4,7 +4,8 @@ Every mistake is an :class:`~models.errors.InputError` naming the file, the key 
 ``dispersions.three_sigma.thrust_n``) and the value, raised before anything is written.
 Values of the right type but outside the range the physics (or the paper) gives are refused
 too, with the range and its reason (:mod:`~analysis.engine.campaign.limits`): a 3-sigma
-dispersion at least as large as its nominal value, a hold disturbance beyond the jets' torque, an
+dispersion at least as large as its nominal value, inertia 3-sigma values that can make the
+dispersed tensor no rigid body's, a hold disturbance beyond the jets' torque, an
 initial rate beyond
 the rates the physics step was validated for, a run too long for one chunk's memory.
 Units are in the key names (``_deg``, ``_deg_s``, ``_n``, ...); inside, everything is SI.
@@ -37,6 +38,7 @@ from analysis.engine.campaign.limits import (
     check_three_sigma,
     max_duration_s,
     physical_limits,
+    vehicle_limits,
 )
 from analysis.engine.campaign.reader import Reader, file_digest, file_key
 from analysis.engine.flight import Scenario
@@ -466,11 +468,18 @@ def _dispersions(
 
     disp_table = file_key(d, "table", base_dir)
     frame = load_dispersions(disp_table)
-    if vehicle is not None and disp_table is None:
-        from spacecraft.vehicle_file import load_vehicle
+    limits = None  # the packaged vehicle's ranges
+    if vehicle is not None:
+        from spacecraft.vehicle_file import FlyingVehicle
 
-        own = load_vehicle(vehicle).three_sigma
-        frame["three_sigma"] = [float(own.get(name, 0.0)) for name in frame["name"]]
+        flying = FlyingVehicle.load(vehicle)
+        limits = vehicle_limits(flying.model)
+        if disp_table is None:
+            own = flying.definition.three_sigma
+            frame["three_sigma"] = [float(own.get(name, 0.0)) for name in frame["name"]]
+            for name in own:  # rows beyond Table 5 (CG y and z, products of inertia)
+                if name not in set(frame["name"]):
+                    frame.loc[len(frame), ["name", "three_sigma"]] = [name, float(own[name])]
     if d.has("table_sha256"):
         if d.raw("table_sha256") != file_digest(disp_table):
             raise d.error(
@@ -487,7 +496,7 @@ def _dispersions(
             else:
                 frame.loc[len(frame), ["name", "three_sigma"]] = [row, overrides[key] * factor]
     over.done()
-    check_three_sigma(frame, scale, overrides, source, _SIGMA_KEYS)
+    check_three_sigma(frame, scale, overrides, source, _SIGMA_KEYS, limits)
     effects, effects_resolved = parse_effects(
         d.table,
         source=source,

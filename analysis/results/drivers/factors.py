@@ -9,7 +9,8 @@ group ``G`` (axis ``a`` in roll/pitch/yaw, direction ``pos``/``neg``) this modul
     Control authority: the torque of the group's jets about the run's dispersed CG (dispersed
     thrust and pointing), component along axis ``a`` and signed so that positive means "in the
     group's direction", divided by the run's inertia about ``a`` -- the angular acceleration
-    the group gives [rad/s^2].
+    the group gives [rad/s^2] (the inertia about ``a`` is the tensor's diagonal entry: with
+    products of inertia a single-axis figure, as Gambone's Fig. 15 plots it).
 ``thrust_{a}_{dir}_n``
     Total thrust of the group [N].
 ``imbalance_{a}_{dir}_n``
@@ -39,7 +40,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from analysis.engine.runs_table import INPUT_NAMES, vehicles_from_runs
+from analysis.engine.runs_table import INPUT_NAMES, axis_inertia, vehicles_from_runs
 from spacecraft.vehicle import AXES, VehicleParams, load_model, torque_per_jet_B
 
 _DIRS = ((1, "pos"), (-1, "neg"))
@@ -92,7 +93,7 @@ def physics_factors(
     dispersed, straight = vehicles_from_runs(runs, nominal)
     torque = torque_per_jet_B(dispersed, model)  # (n, 16, 3) [N m]
     torque_nom = torque_per_jet_B(straight, model)
-    inertia = dispersed.inertia_B
+    inertia = axis_inertia(runs)  # about each body axis (the tensor's diagonal)
     thrust = dispersed.thrust_n
     cols: dict[str, np.ndarray] = {}
     per_group = {}

@@ -1,7 +1,8 @@
 """Loading what ``rcsim analyze`` reads: a campaign directory or a Parquet/CSV table of runs.
 
 A campaign directory (``manifest.json`` + ``runs.parquet``) gives the recorded inputs (the
-columns of :data:`analysis.engine.runs_table.INPUT_COLUMNS`), the ``failed`` outcome and
+columns of :data:`analysis.engine.runs_table.INPUT_COLUMNS`, with the products of inertia and
+the sensor, timing and fault draws when the campaign recorded them), the ``failed`` outcome and
 the rate case of every run; any other table is taken as it is, with the inputs named by the
 caller or, by default, the recorded-input columns when present, else every numeric column other
 than the outcome and identifiers.  Physics-aware factors
@@ -170,7 +171,9 @@ def load_runs(
                 for c in runs_table.EFFECT_COLUMNS[g]
                 if c.name in runs.columns
             ]
-            raw = list(raw_cols) + effects
+            # Products of inertia, recorded when the campaign dispersed them.
+            products = [c for c in runs_table.PRODUCT_NAMES if c in runs.columns]
+            raw = list(raw_cols) + products + effects
         else:
             raw = [
                 c

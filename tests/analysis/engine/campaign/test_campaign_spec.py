@@ -244,16 +244,43 @@ BAD = [
         "output.histories: must be one of",
     ),
     # Valid types, physically absurd values (issue 8): refused with the range and its reason.
-    # Table 5's Ixx 3-sigma is 322.48 kg m^2 and the nominal Ixx 3583.09: scale < 11.11.
+    # Table 5 and Table 1 (issue 18's inertia rule, spacecraft.dispersions "Physical
+    # tensors"): the smallest second moment of mass is (3160.22 + 2457.06 - 3583.09) / 2 =
+    # 1017.095 kg m^2 and sqrt((322.48^2 + 284.42^2 + 221.13^2) / 4) = 241.757 kg m^2, so
+    # scale < 4.207 (below the single-entry bound, Ixx: 3583.09 / 322.48 = 11.11).
     (
         "absurd scale",
         MINIMAL + "[dispersions]\nscale = 1e300\n",
-        "dispersions.scale: must be < 11.11 with these 3-sigma values",
+        "dispersions.scale: must be < 4.207 with these 3-sigma values",
     ),
     (
         "scale just too large",
+        MINIMAL + "[dispersions]\nscale = 4.21\n",
+        "dispersions.scale: must be < 4.207",
+    ),
+    (
+        "scale beyond both bounds: the binding one (the tensor) is named",
         MINIMAL + "[dispersions]\nscale = 11.2\n",
-        "dispersions.scale: must be < 11.11",
+        "second moment of mass, tr(I)/2 - its largest principal moment = 1017 kg m^2",
+    ),
+    # Issue 18: CG y, z and products of inertia (keys beyond Table 5).  The paper's farthest
+    # jets are 1 m from the CG (jets 5, 6 along x, 7, 8 along z: models/vehicle/README.md).
+    (
+        "cg_y beyond the jets",
+        MINIMAL + "[dispersions.three_sigma]\ncg_y_m = 1.01\n",
+        "dispersions.three_sigma.cg_y_m: times scale 1 it must be below 1 m, the distance from "
+        "the nominal CG to the farthest jet",
+    ),
+    (
+        "negative cg_z",
+        MINIMAL + "[dispersions.three_sigma]\ncg_z_m = -0.01\n",
+        "dispersions.three_sigma.cg_z_m: must be >= 0",
+    ),
+    # sqrt(1017.095^2 - 241.757^2) = 987.93 kg m^2: the most Ixy may be with Table 5's moments.
+    (
+        "product of inertia that can break the triangle inequality",
+        MINIMAL + "[dispersions.three_sigma]\nixy_kg_m2 = 1000.0\n",
+        "dispersions.three_sigma.ixy_kg_m2: sqrt((Ixx^2 + Iyy^2 + Izz^2)/4 + Ixy^2",
     ),
     (
         "override beyond nominal thrust",
@@ -344,8 +371,9 @@ def test_parse_errors_raise_input_error(tmp_path):
 
 
 def test_ranges_accept_their_edges(tmp_path):
-    """The ranges refuse only beyond them: Table 5 at 3x (the paper's Figs 13-14 stress runs),
-    a hold disturbance of 36 N m about roll and an initial rate of 3 deg/s load."""
+    """The ranges refuse only beyond them: Table 5 at 4.2x (beyond the paper's 3x of Figs
+    13-14; the inertia rule's limit is 4.207, see BAD), a hold disturbance of 36 N m about roll
+    and an initial rate of 3 deg/s load."""
     spec = load_spec(
         _write(
             tmp_path,
@@ -353,11 +381,14 @@ def test_ranges_accept_their_edges(tmp_path):
                 "cases = [13]",
                 "kind = 'hold'\ndisturbance_n_m = [36.0, 0, 0]\ninitial_rate_deg_s = [0, 0, 3.0]",
             )
-            + "[dispersions]\nscale = 11.0\n",
+            + "[dispersions]\nscale = 4.2\n",
         )
     )
     assert spec.cases[0].disturbance_n_m[0] == 36.0
-    assert spec.sigmas.thrust_n == pytest.approx(2.0 / 3 * 11.0)
+    assert spec.sigmas.thrust_n == pytest.approx(2.0 / 3 * 4.2)
+    # Ixy up to 987.93 kg m^2 with Table 5's moments at scale 1 (BAD's arithmetic).
+    loaded = load_spec(_write(tmp_path, MINIMAL + "[dispersions.three_sigma]\nixy_kg_m2 = 987.0\n"))
+    assert loaded.sigmas.products_kg_m2 == (987.0 / 3, 0.0, 0.0)
 
 
 def test_spec_with_utf8_byte_order_mark_is_read(tmp_path):

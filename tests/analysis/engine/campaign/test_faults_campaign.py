@@ -70,7 +70,9 @@ def test_spec_without_effect_tables_resolves_as_before(tmp_path):
     """A spec without the new tables must keep its digest, or campaigns run before issue 11
     could not be resumed.  Oracle: the digest of this spec computed by the code before issue 11
     (the campaign spec module of commit d972f6a, run on the same text); all-zero tables fly
-    nothing different and resolve to the same digest."""
+    nothing different and resolve to the same digest.  Issue 18's 3-sigma keys (CG y, z,
+    products of inertia) are recorded only when written, so this spec keeps the digest too
+    (their draws: tests/analysis/engine/campaign/test_mass_dispersions_campaign.py)."""
     text = """
 seed = 7
 runs_per_case = 3
@@ -90,6 +92,8 @@ rate_error_deg_s = 0.05
     spec = parse_dict(tomllib.loads(text), source="x.toml", base_dir=None)
     assert spec.digest() == before_issue_11
     assert set(spec.resolved["dispersions"]) == {"table", "table_sha256", "scale", "three_sigma"}
+    assert spec.resolved["dispersions"]["three_sigma"] == {"thrust_n": 1.5}
+    assert not spec.sigmas.has_mass_extras
     zeros = text + (
         "[dispersions.sensor]\nrate_noise_deg_s = 0.0\n[dispersions.timing]\n"
         'open_delay_s = 0.0\n[dispersions.fault]\nmode = "off"\nprobability = 0.0\n'

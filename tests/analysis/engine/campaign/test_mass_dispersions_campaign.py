@@ -1,0 +1,128 @@
+"""CG y/z and products of inertia in campaigns (issue 18): the spec keys, the runs they draw,
+what runs.parquet records, the replay, the failure drivers' inputs, and vehicle files.
+
+The physics and the draws themselves are tested in tests/spacecraft/test_mass_dispersions.py;
+the digest of a spec written before these keys is pinned in test_faults_campaign.py
+(``test_spec_without_effect_tables_resolves_as_before``: the keys absent, nothing is recorded).
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis.apps.cli import main
+from analysis.engine.campaign import chunk as chunk_mod
+from analysis.engine.campaign.replay import replay
+from analysis.engine.campaign.spec import load_spec
+from analysis.engine.runs_table import INPUT_NAMES, OUTCOME_NAMES, PRODUCT_NAMES
+from analysis.results.drivers.inputs import load_runs
+from models.errors import InputError
+from spacecraft.vehicle_file.schema import packaged_vehicle
+
+BASE = """
+seed = 5
+runs_per_case = {runs}
+[scenario]
+cases = [13, 22]
+duration_s = 3.0
+[controller]
+name = "lookup"
+[output]
+histories = "none"
+plots = false
+"""
+EXTRAS = """
+[dispersions.three_sigma]
+cg_y_m = 0.02
+cg_z_m = 0.03
+ixy_kg_m2 = 30.0
+ixz_kg_m2 = 45.0
+iyz_kg_m2 = 60.0
+"""
+
+
+def _spec(tmp_path: Path, extra: str = "", *, runs: int = 3, name: str = "spec.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(BASE.format(runs=runs) + extra)
+    return path
+
+
+def test_new_keys_leave_the_table5_draws_unchanged(tmp_path):
+    """The extras draw from a child of each run's dispersion stream: the same spec with them
+    records the same mass, CG x, thrust, tilt and azimuth bit for bit, and the moments as the
+    tensor's diagonal to 1e-12 relative (rebuilt from the flown principal moments and frame);
+    CG y, z and the products are dispersed, and the products' columns follow the vehicle
+    inputs.  The spec resolves the keys as written (the manifest rebuilds the same sigmas)."""
+    plain = load_spec(_spec(tmp_path, name="plain.toml"))
+    extra = load_spec(_spec(tmp_path, EXTRAS, name="extra.toml"))
+    assert extra.sigmas.cg_y_m == pytest.approx(0.02 / 3)
+    assert extra.sigmas.products_kg_m2 == pytest.approx((10.0, 15.0, 20.0))
+    assert extra.resolved["dispersions"]["three_sigma"]["iyz_kg_m2"] == 60.0
+    ids = chunk_mod.Chunk(0, plain.n_runs)
+    a = chunk_mod.simulate_chunk(plain, ids).runs
+    b = chunk_mod.simulate_chunk(extra, ids).runs
+    inputs = list(INPUT_NAMES)
+    assert list(b.columns) == list(a.columns[:4]) + inputs + list(PRODUCT_NAMES) + list(
+        OUTCOME_NAMES
+    )
+    inertia = ["ixx_kg_m2", "iyy_kg_m2", "izz_kg_m2"]
+    same = [c for c in inputs if c not in inertia + ["cg_y_m", "cg_z_m"]]
+    pd.testing.assert_frame_equal(a[same], b[same], check_exact=True)
+    np.testing.assert_allclose(b[inertia], a[inertia], rtol=1e-12, atol=0)
+    assert (a[["cg_y_m", "cg_z_m"]] == 0.0).all().all()
+    assert (b[["cg_y_m", "cg_z_m"]] != 0.0).all().all()
+    assert (b[list(PRODUCT_NAMES)].abs() > 0).all().all()
+    assert not b["sim_failed"].any()
+
+
+def test_replay_of_a_run_with_products_matches_its_row(tmp_path):
+    """A run with its own principal frame is a function of (spec, run id): the replay matches
+    its runs.parquet row exactly, and a resumed spec resolves to the same digest."""
+    spec_file = _spec(tmp_path, EXTRAS)
+    out = tmp_path / "mc"
+    assert main(["campaign", "run", str(spec_file), "--out", str(out), "--no-progress"]) == 0
+    for run_id in (1, 4):
+        assert replay(out, run_id, tmp_path / f"replay-{run_id}")["matches"] is True
+
+
+def test_failure_drivers_take_the_new_inputs(tmp_path):
+    """``rcsim analyze`` (load_runs) takes the CG y, z and the products as inputs of a campaign
+    that dispersed them, beside Table 5's."""
+    spec_file = _spec(tmp_path, EXTRAS, runs=6)
+    out = tmp_path / "mc"
+    assert main(["campaign", "run", str(spec_file), "--out", str(out), "--no-progress"]) == 0
+    runset = load_runs(out)
+    assert {"cg_y_m", "cg_z_m", *PRODUCT_NAMES, "mass_kg", "ixx_kg_m2"} <= set(runset.raw_inputs)
+    assert set(PRODUCT_NAMES) <= set(runset.X.columns)
+
+
+def _vehicle_file(tmp_path: Path, dispersions: str) -> Path:
+    text = packaged_vehicle("paper").read_text()
+    head, _, tail = text.partition("[dispersions]")
+    assert tail, "the paper vehicle file has a [dispersions] table"
+    path = tmp_path / "v.toml"
+    path.write_text(head + "[dispersions]\n" + dispersions + "\n" + tail.split("\n", 1)[1])
+    return path
+
+
+def test_a_vehicle_files_extras_are_flown(tmp_path):
+    """A vehicle file's [dispersions] may give CG y, z and products (beyond Table 5's rows): a
+    campaign on it disperses them, its ranges are the vehicle's."""
+    vehicle = _vehicle_file(tmp_path, "cg_y_m = 0.015\nixy_kg_m2 = 24.0")
+    spec_file = tmp_path / "with_vehicle.toml"
+    spec_file.write_text(f'vehicle = "{vehicle.name}"\n' + BASE.format(runs=2))
+    spec = load_spec(spec_file)
+    assert spec.sigmas.cg_y_m == pytest.approx(0.005)
+    assert spec.sigmas.products_kg_m2 == pytest.approx((8.0, 0.0, 0.0))
+    assert spec.sigmas.mass_kg == pytest.approx(73.6 / 3)  # Table 5's rows as the file has them
+    runs = chunk_mod.simulate_chunk(spec, chunk_mod.Chunk(0, 2)).runs
+    assert set(PRODUCT_NAMES) <= set(runs.columns) and (runs["cg_y_m"] != 0).all()
+    # Scaled, the file's own inertia values meet the vehicle's inertia rule (slack 1017.095
+    # kg m^2, spread sqrt(241.757^2 + 24^2) = 242.945: scale < 4.187).
+    spec_file.write_text(
+        f'vehicle = "{vehicle.name}"\n' + BASE.format(runs=2) + "[dispersions]\nscale = 4.19\n"
+    )
+    with pytest.raises(InputError, match=r"dispersions.scale: must be < 4.187"):
+        load_spec(spec_file)
