@@ -9,8 +9,10 @@ alone: checked against Table 2 it would be refused.  Its companion file
 map *of the vehicle it was made for* (Table 2 without those jets).
 
 Owns the jet-set rules: which jet sets a table can be made for (:func:`check_jets_off`) and
-the jet map of the jets left (:func:`jet_map_without`).  Imports ``models`` and
-``spacecraft.vehicle`` only.
+the jet map of the jets left (:func:`jet_map_without`).  A *channel table* (a vehicle whose jets
+torque several axes, :mod:`lookup.channels`) records its jets off in its recipe instead, and is
+checked against the vehicle it was solved for (:func:`check_table_vehicle`).  Imports
+``models``, ``spacecraft`` and :mod:`lookup.channels` only.
 """
 
 from __future__ import annotations
@@ -21,8 +23,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from lookup.channels import check_recipe_vehicle
 from models.errors import InputError
-from models.tables import LookupTable, load_jet_map, load_lookup_table
+from models.tables import (
+    LookupTable,
+    is_channel_table,
+    load_jet_map,
+    load_lookup_table,
+    load_recipe,
+    recipe_path,
+)
 from spacecraft.vehicle import AXES, N_JETS
 
 
@@ -34,7 +44,10 @@ def companion_path(table: str | os.PathLike) -> Path:
 
 def jets_off_of(table: str | os.PathLike) -> tuple:
     """Jets (1..16) the table at path ``table`` was generated without, from its companion
-    file; ``()`` when there is no companion or it records none."""
+    file; ``()`` when there is no companion or it records none.  A channel table's come from
+    its recipe (the vehicle's jet numbers)."""
+    if is_channel_table(table):
+        return load_recipe(recipe_path(table), table=str(table)).jets_off
     comp = companion_path(table)
     if not comp.is_file():
         return ()
@@ -68,7 +81,21 @@ def load_table_for_jets(table: str | os.PathLike, jets_off=None) -> tuple[Lookup
     Returns
     -------
     (LookupTable, jets_off)
+
+    A channel table loads with its recipe, which records its jets off (``jets_off`` given
+    must equal them).
     """
+    if is_channel_table(table):
+        tab = load_lookup_table(table)
+        assert tab.recipe is not None
+        if jets_off is not None and tuple(sorted(jets_off)) != tab.recipe.jets_off:
+            raise InputError(
+                f"{table}: its recipe is for jets {list(tab.recipe.jets_off)} off, not "
+                f"{list(jets_off)}",
+                parameter="jets_off",
+                value=list(jets_off),
+            )
+        return tab, tab.recipe.jets_off
     jets_off = jets_off_of(table) if jets_off is None else check_jets_off(jets_off)
     if not jets_off:
         try:
@@ -150,3 +177,20 @@ def jet_map_without(jet_map: np.ndarray, jets_off) -> np.ndarray:
     if len(jets_off):
         out[np.asarray(jets_off, int) - 1] = 0
     return out
+
+
+def check_table_vehicle(table: LookupTable, vehicle) -> None:
+    """Refuse flying ``table`` on ``vehicle`` (a vehicle file, a packaged name, or None for the
+    packaged paper vehicle) when they do not belong together: a channel table only on the
+    vehicle file its recipe was solved for (same SHA-256), never on the packaged vehicle."""
+    recipe = table.recipe
+    if recipe is None:
+        return
+    what = table.source or "<lookup table>"
+    if vehicle is None:
+        raise InputError(
+            f"{what}: a channel table solved for vehicle {recipe.vehicle}; fly it on that "
+            f'vehicle (a campaign spec\'s vehicle = "{recipe.vehicle}", `--vehicle '
+            f"{recipe.vehicle}`), not the packaged paper vehicle"
+        )
+    check_recipe_vehicle(recipe, vehicle, what=what)

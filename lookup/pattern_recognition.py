@@ -36,6 +36,13 @@ Each control cycle, per run (all vectorized over ``n_runs``):
    decremented by the cycle.  When an axis's firing ends, its hold timer is set to the hold
    time (the rate "settles" before the axis may fire again); hold timers count down by the cycle.
 
+*Channel tables* (a vehicle whose jets torque several axes, :mod:`lookup.channels`): the
+table's columns are six axis channels instead of jets; everything above runs on them unchanged
+(a channel's learned axis and sign are its own), and step 7 delivers the channels' on-times
+through the table's recipe (:class:`lookup.channels.ChannelMap`: jet on-times, shared jets
+scaled, short shares owed until the minimum on-time), a channel's remaining on-time counting
+down by the time delivered.  The state then carries the delivery's per-jet valve state.
+
 See ``docs/lookup.md`` for the readings of the paper and why.  (About 400 lines: the logic
 above, the table's jet roles it learns, and the per-run candidate tables of refinement,
 :meth:`LookupController.for_runs`.)
@@ -50,6 +57,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lookup.channels import ChannelMap, ValveState
 from lookup.jet_sets import load_table_for_jets
 from lookup.step_kernel import kernel_available, kernel_step
 from models.errors import InputError
@@ -207,14 +215,19 @@ class LookupState:
 
     Attributes
     ----------
-    remaining_s : ndarray, (n_runs, 16)
-        On-time left in each jet's current firing, from the start of the next cycle [s].
+    remaining_s : ndarray, (n_runs, 16) or (n_runs, 6)
+        On-time left in each jet's (a channel table: each channel's) current firing, from the
+        start of the next cycle [s].
     hold_s : ndarray, (n_runs, 3)
         Time left before each axis may fire again [s].
+    valves : ValveState, optional
+        A channel table's per-jet delivery state (:class:`lookup.channels.ValveState`); None
+        for a jet table.
     """
 
     remaining_s: np.ndarray
     hold_s: np.ndarray
+    valves: ValveState | None = None
 
 
 class LookupController:
@@ -229,14 +242,29 @@ class LookupController:
     jets_off : sequence of int
         Jets (1..16) the table was made without (:mod:`lookup.jet_sets`): an axis direction
         left without a jet is accepted and never fired.
+
+    A channel table (``table.recipe`` set) is flown through its recipe: :meth:`step` returns
+    the vehicle's jet on-times, ``(n_runs, recipe.n_jets)``.  Subclasses (the adaptive
+    controller) fly jet tables only.
     """
 
     def __init__(self, table: LookupTable, params: LookupParams | None = None, *, jets_off=()):
         self.table = table
         self.params = LookupParams.from_table4() if params is None else params
         self.jets_off = tuple(jets_off)
+        recipe = table.recipe
+        self._channels: ChannelMap | None = None
+        if recipe is not None:
+            if type(self) is not LookupController:
+                raise InputError(
+                    f"{table.source or '<lookup table>'}: a channel table (for a vehicle whose "
+                    f"jets torque several axes) flies with the lookup controller, not "
+                    f"{type(self).__name__}"
+                )
+            self._channels = ChannelMap(recipe.fractions, recipe.min_on_s, self.params.cycle_s)
         self.jet_axis_, self.jet_sign_, self.opposing_ = learn_jets(
-            table, allow_unserved=bool(self.jets_off)
+            table,
+            allow_unserved=bool(self.jets_off) or (recipe is not None and not recipe.served.all()),
         )
         signs = np.sign(np.asarray(table.rate_cmd)).astype(int)
         # Case row of each sign pattern, indexed by the base-3 code of (roll, pitch, yaw) + 1.
@@ -357,7 +385,9 @@ class LookupController:
                 f"controller has tables for {self._times.shape[0]} runs, asked for {n_runs}"
             )
         return LookupState(
-            remaining_s=np.zeros((n_runs, self._times.shape[-1])), hold_s=np.zeros((n_runs, N_AXES))
+            remaining_s=np.zeros((n_runs, self._times.shape[-1])),
+            hold_s=np.zeros((n_runs, N_AXES)),
+            valves=None if self._channels is None else self._channels.initial(n_runs),
         )
 
     def rate_error(self, nav: NavState, theta: np.ndarray | None = None) -> np.ndarray:
@@ -397,7 +427,8 @@ class LookupController:
         Returns
         -------
         on_time_s : ndarray, (n_runs, 16)
-            On-time of each jet this cycle [s], in ``[0, cycle]``.
+            On-time of each jet this cycle [s], in ``[0, cycle]`` (a channel table: of each of
+            the vehicle's jets, through the recipe).
         state : LookupState
         detail : dict
             ``case`` (n_runs,) table row selected; ``need`` (n_runs, 3) rate change asked for
@@ -461,11 +492,21 @@ class LookupController:
         replan = (axis_new.astype(float) @ self._axis_onehot.T) > 0  # (n, 16)
         rem = np.where(replan, np.where(fire_new, new, 0.0), rem)
 
-        on = np.minimum(rem, p.cycle_s)
-        rem_next = np.maximum(rem - p.cycle_s, 0.0)
+        valves = None
+        if self._channels is None:
+            on = np.minimum(rem, p.cycle_s)
+            rem_next = np.maximum(rem - p.cycle_s, 0.0)
+            out = on
+        else:
+            # Channels: the jets get the recipe's shares; a channel counts down by the time
+            # delivered (less than the cycle when shared jets were scaled).
+            assert state.valves is not None
+            out, on, valves = self._channels.deliver(rem, state.valves)
+            rem_next = rem - on
+            rem_next = np.where(rem_next > _TIMER_EPS_S, rem_next, 0.0)
         # Hold starts when an axis's firing ends (it fired this cycle and nothing remains).
         fired = (on.astype(bool).astype(float) @ self._axis_onehot) > 0
         left = ((rem_next > 0).astype(float) @ self._axis_onehot) > 0
         hold = np.where(fired & ~left, p.hold_time_s, np.maximum(state.hold_s - p.cycle_s, 0.0))
         detail = {"case": case, "need": need, "axis_new": axis_new, "axis_done": fired & ~left}
-        return on, LookupState(remaining_s=rem_next, hold_s=hold), detail
+        return out, LookupState(remaining_s=rem_next, hold_s=hold, valves=valves), detail

@@ -59,7 +59,8 @@ def make_controller(
         :class:`lookup.adaptive.AdaptParams` fields for ``"adaptive"``.
     vehicle : spacecraft.vehicle_file.VehicleDef, optional
         The vehicle file flown; the allocator takes its Isp and minimum on-time from it
-        (default: the packaged vehicle's 280 s and none).
+        (default: the packaged vehicle's 280 s and none); a channel table must have been
+        solved for it (:func:`lookup.jet_sets.check_table_vehicle`).
     jets_off : sequence of int
         Jets (1-based) the allocator may not use.
 
@@ -85,9 +86,13 @@ def make_controller(
             PhasePlaneParams.for_vehicle(load_jet_map(), model=model, **(phase_plane_options or {}))
         )
     if name == "lookup":
+        from lookup.jet_sets import check_table_vehicle
         from lookup.pattern_recognition import LookupController
 
-        return LookupController.from_files(table, **(lookup_options or {}))
+        ctl = LookupController.from_files(table, **(lookup_options or {}))
+        # A channel table flies only the vehicle file its recipe was solved for.
+        check_table_vehicle(ctl.table, None if vehicle is None else vehicle.source)
+        return ctl
     if name == "adaptive":
         from lookup.adaptive import AdaptiveLookupController, AdaptParams
 

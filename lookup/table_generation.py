@@ -297,6 +297,28 @@ def firing_times(
     return times
 
 
+def settle_after_firing(verify: History, fire_end_s: np.ndarray, tol_rad_s: float) -> np.ndarray:
+    """Per run, the time from the end of its firing (``fire_end_s``, (n,) [s]) until every axis
+    stays within ``tol_rad_s`` of the command (cycle resolution), NaN if it never does
+    (:attr:`GeneratedTable.settle_after_firing_s`)."""
+    cyc = verify.cycle_s
+    err = np.concatenate([verify.rate_err_B, verify.final.rate_err_B[:, None]], axis=1)
+    t = np.append(verify.t_s, verify.t_s[-1] + cyc)
+    outside = np.abs(err).max(axis=2) > tol_rad_s  # (n, K+1)
+    after_fire = t[None, :] >= fire_end_s[:, None] - 1e-9
+    # Settled from the first sample after the firing from which no later sample is outside.
+    last_out = np.where(outside & after_fire, t[None, :], -np.inf).max(axis=1)
+    settle_at = np.array(
+        [
+            t[(t >= fire_end_s[i] - 1e-9) & (t > last_out[i])].min()
+            if np.any((t >= fire_end_s[i] - 1e-9) & (t > last_out[i]))
+            else np.nan
+            for i in range(len(fire_end_s))  # 26 cases, post-processing only
+        ]
+    )
+    return settle_at - fire_end_s
+
+
 def generate_table(
     *,
     rate_cases: RateCases | None = None,
@@ -396,21 +418,7 @@ def generate_table(
         model=model,
         faults=faults,
     )
-    err = np.concatenate([verify.rate_err_B, verify.final.rate_err_B[:, None]], axis=1)
-    t = np.append(verify.t_s, verify.t_s[-1] + cyc)
-    outside = np.abs(err).max(axis=2) > settle_tol_rad_s  # (26, K+1)
-    after_fire = t[None, :] >= fire_end[:, None] - 1e-9
-    # Settled from the first sample after the firing from which no later sample is outside.
-    last_out = np.where(outside & after_fire, t[None, :], -np.inf).max(axis=1)
-    settle_at = np.array(
-        [
-            t[(t >= fire_end[i] - 1e-9) & (t > last_out[i])].min()
-            if np.any((t >= fire_end[i] - 1e-9) & (t > last_out[i]))
-            else np.nan
-            for i in range(n)  # 26 cases, post-processing only
-        ]
-    )
-    settle = settle_at - fire_end
+    settle = settle_after_firing(verify, fire_end, settle_tol_rad_s)
     unreachable = (
         (np.sign(rate) != 0)
         & (command.cycles == 0)

@@ -1,9 +1,9 @@
 """A generated lookup table on disk: the table CSV and its companion, written whole or not at all.
 
 ``rcsim lookup generate`` is this module's :func:`generate_table_files` behind a parser: both
-outputs are checked before the 26 flights (an existing file is replaced only with
-``overwrite``), missing parent directories are created and removed again if the writing
-fails, and each file appears by an atomic rename, never half written.
+outputs (and a channel table's recipe) are checked before the 26 flights (an existing file is
+replaced only with ``overwrite``), missing parent directories are created and removed again if
+the writing fails, and each file appears by an atomic rename, never half written.
 """
 
 from __future__ import annotations
@@ -45,10 +45,13 @@ def generate_table_files(
         About ``out`` or ``settling_out``: an existing file without ``overwrite``, a path the
         system refuses, the two paths equal, or ``settling_out`` with ``jets_off`` (the loader
         finds a table's jet set only in its companion beside it); about ``jets_off``: the
-        library's jet-set rule (:func:`lookup.jet_sets.check_jets_off`); about ``vehicle``:
-        an invalid vehicle file, or one whose jets do not each turn one axis as Table 2's do
-        (the pattern-recognition table assumes that jet map; fly such a vehicle with the
-        allocator controller).
+        library's jet-set rule (:func:`lookup.jet_sets.check_jets_off`, or for a channel
+        table :func:`lookup.channels.solve_recipe`'s); about ``vehicle``: an invalid vehicle
+        file.
+
+    A vehicle whose jets do not each turn one axis as Table 2's do gets a *channel table*
+    (:mod:`lookup.channel_generation`): six axis channels and the recipe that fires the jets,
+    written beside the table as ``<out stem>_recipe.csv``.
     """
     jets_off = tuple(jets_off or ())
     if jets_off and settling_out is not None:
@@ -67,14 +70,20 @@ def generate_table_files(
         raise InputError(
             f"{settling}: is the table itself (out)", parameter="settling_out", value=str(settling)
         )
-    flying = {}
-    if vehicle is not None:
-        flying = _vehicle_generation(vehicle)
-    gen = generate_table(jets_off=jets_off, **flying)
+    channels = vehicle is not None and is_coupled(vehicle)
+    if channels:
+        from models.tables import recipe_path
+
+        check_out_file(recipe_path(table), overwrite=overwrite, parameter="out")
+    gen = generate(vehicle, jets_off)
     frame = gen.settling_frame()
     created = make_parents(table) + make_parents(settling)
     try:
-        atomic_write(table, lambda tmp: gen.table.to_csv(tmp))
+        if channels:
+            # Both atomic, the recipe first: a table on disk never lacks its recipe.
+            gen.table.to_csv(table)
+        else:
+            atomic_write(table, lambda tmp: gen.table.to_csv(tmp))
         atomic_write(settling, lambda tmp: frame.to_csv(tmp, index=False))
     except BaseException:
         remove_parents(created)
@@ -82,24 +91,34 @@ def generate_table_files(
     return TableFiles(gen, table, settling)
 
 
-def _vehicle_generation(vehicle: str | os.PathLike) -> dict:
-    """The :func:`generate_table` arguments that fly a vehicle file instead of the packaged
-    vehicle: its model, nominal parameters and valve limits."""
+def generate(vehicle: str | os.PathLike | None, jets_off=()) -> GeneratedTable:
+    """The lookup table of a vehicle (None: the packaged one), nothing written: a jet table
+    when its jets play Table 2's roles (:func:`lookup.table_generation.generate_table`), else
+    a channel table (:func:`lookup.channel_generation.generate_channel_table`)."""
+    if vehicle is not None and is_coupled(vehicle):
+        from lookup.channel_generation import generate_channel_table
+
+        return generate_channel_table(vehicle, jets_off=jets_off)
+    flying = {} if vehicle is None else _vehicle_generation(vehicle)
+    return generate_table(jets_off=jets_off, **flying)
+
+
+def is_coupled(vehicle: str | os.PathLike) -> bool:
+    """Whether a vehicle file's jets do *not* each turn one axis as Table 2's do: its lookup
+    table is a channel table (:mod:`lookup.channels`)."""
     from models.tables import load_jet_map
-    from spacecraft.vehicle_file import FlyingVehicle
+    from spacecraft.vehicle_file import load_vehicle
     from spacecraft.vehicle_file.authority import jet_map_mismatch
 
+    return jet_map_mismatch(load_vehicle(vehicle), load_jet_map()) is not None
+
+
+def _vehicle_generation(vehicle: str | os.PathLike) -> dict:
+    """The :func:`generate_table` arguments that fly a vehicle file (with Table 2's jet map)
+    instead of the packaged vehicle: its model, nominal parameters and valve limits."""
+    from spacecraft.vehicle_file import FlyingVehicle
+
     flying = FlyingVehicle.load(vehicle)
-    differs = jet_map_mismatch(flying.definition, load_jet_map())
-    if differs:
-        raise InputError(
-            f"{flying.definition.source}: the lookup table's pattern recognition needs the "
-            f"paper's jet map (Table 2: each jet turns one axis), but {differs}; fly this "
-            "vehicle with the allocator controller (rcsim lookup database --vehicle gives its "
-            "per-jet responses)",
-            parameter="vehicle",
-            value=str(vehicle),
-        )
     return {
         "model": flying.model,
         "params": flying.nominal(1),

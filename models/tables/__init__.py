@@ -25,8 +25,9 @@ paper_corrections         corrections.csv                          list[Correcti
 Modules: ``constants`` (paper constants, tolerances, physical ranges), ``schema`` (the shared
 CSV reading / cell parsing / unit core), one module per table family (``mass_properties``,
 ``jet_map``, ``rate_cases``, ``lookup_inputs``, ``lookup_tables``, ``dispersions``,
-``corrections``) and ``consistency`` (the cross-table check of a lookup table against Tables 2
-and 3).  Import the public names from here, not from the modules.
+``corrections``), ``channels`` (a channel table's six axis channels and their recipe file, for
+vehicles whose jets torque several axes) and ``consistency`` (the cross-table check of a lookup
+table against Tables 2 and 3).  Import the public names from here, not from the modules.
 
 Design rules
 ------------
@@ -47,6 +48,16 @@ Design rules
 
 from __future__ import annotations
 
+from models.tables.channels import (
+    CHANNEL_COLUMNS,
+    CHANNEL_MAP,
+    CHANNELS,
+    ChannelRecipe,
+    channel_name,
+    is_channel_table,
+    load_recipe,
+    recipe_path,
+)
 from models.tables.consistency import check_consistency
 from models.tables.constants import (
     AXES,
@@ -78,6 +89,14 @@ from models.tables.rate_cases import RateCases, load_rate_cases, sign_patterns
 
 __all__ = [
     "AXES",
+    "CHANNELS",
+    "CHANNEL_COLUMNS",
+    "CHANNEL_MAP",
+    "ChannelRecipe",
+    "channel_name",
+    "is_channel_table",
+    "load_recipe",
+    "recipe_path",
     "CONTROL_CYCLE_S",
     "JET_COLUMNS",
     "MAX_FIRING_TIME_S",

@@ -22,6 +22,7 @@ def check_consistency(
     rows: np.ndarray | None = None,
     cycle_s: float | None = CONTROL_CYCLE_S,
     max_firing_time_s: float | None = MAX_FIRING_TIME_S,
+    columns=None,
 ) -> None:
     """Check a lookup table's firing times against its rate commands and the jet map.
 
@@ -56,6 +57,9 @@ def check_consistency(
         Control cycle, s; None skips rule 2.
     max_firing_time_s : float or None
         Longest allowed firing time, s; None skips the upper bound of rule 1.
+    columns : sequence of str, optional
+        Column names for messages (default ``jet_01 ...``); a channel table's are its
+        channels' (:mod:`models.tables.channels`), whose "jet map" is the channel map.
 
     Raises
     ------
@@ -76,12 +80,19 @@ def check_consistency(
         if value is not None and not (math.isfinite(value) and value > 0):
             raise InputError(f"{name}={value!r}: must be a finite time > 0 s, or None")
     rows = np.arange(1, n + 1) if rows is None else np.asarray(rows, dtype=int)
+    names = [f"jet_{j + 1:02d}" for j in range(jmap.shape[0])] if columns is None else columns
+    # How a column is called in a sentence: "jet 3", or "channel plus_yaw".
+    what = (
+        [f"jet {j + 1}" for j in range(jmap.shape[0])]
+        if columns is None
+        else [f"channel {c}" for c in columns]
+    )
     rate_deg = np.rad2deg(rate)
     rate_sign = np.sign(rate).astype(int)
     for k in range(n):
         loc = dict(row=int(rows[k]), case=int(case[k]))
         for j in range(jmap.shape[0]):
-            col = f"jet_{j + 1:02d}"
+            col = names[j]
             t = float(times[k, j])
             if not math.isfinite(t):
                 raise cell_error(file, "NaN/infinite firing time", column=col, value=t, **loc)
@@ -116,7 +127,10 @@ def check_consistency(
                 if t > 0:
                     raise cell_error(
                         file,
-                        f"jet {j + 1} is unused in the jet map (no torque) but fires",
+                        f"{what[j]} is unused in the jet map (no torque) but fires"
+                        if columns is None
+                        else f"{what[j]} fires, but its recipe serves no jet (no combination "
+                        "of the jets left turns the vehicle that way)",
                         column=col,
                         value=t,
                         **loc,
@@ -125,7 +139,7 @@ def check_consistency(
             for a in axes:
                 s = int(jmap[j, a])
                 should_fire = rate_sign[k, a] == s
-                jet = f"jet {j + 1} ({AXES[a]} {s:+d})"
+                jet = f"{what[j]} ({AXES[a]} {s:+d})"
                 cmd = f"the {AXES[a]} rate command is {rate_deg[k, a]:+.4g} deg/s"
                 if should_fire and t == 0:
                     raise cell_error(
@@ -146,9 +160,9 @@ def check_consistency(
                 if abs(times[k, j] - times[k, first]) > TIME_ATOL_S:
                     raise cell_error(
                         file,
-                        f"paired jets fire unequal times: jet {j + 1} vs jet {first + 1} "
+                        f"paired jets fire unequal times: {what[j]} vs {what[first]} "
                         f"({times[k, first]:g} s); a pair must fire equally long",
-                        column=f"jet_{j + 1:02d}",
+                        column=names[j],
                         value=float(times[k, j]),
                         **loc,
                     )

@@ -1,5 +1,8 @@
 """Jet firing-time lookup tables (paper Tables 6 and 7, or one rcsim generated):
-:class:`LookupTable`, :func:`load_lookup_table`, and the names of the packaged paper tables."""
+:class:`LookupTable`, :func:`load_lookup_table`, and the names of the packaged paper tables.
+
+A table's columns are the 16 jets of the paper's vehicle, or, for a vehicle whose jets torque
+several axes, six axis channels with their recipe (:mod:`models.tables.channels`)."""
 
 from __future__ import annotations
 
@@ -15,6 +18,14 @@ import numpy as np
 
 from models.atomic import atomic_write
 from models.errors import InputError
+from models.tables.channels import (
+    CHANNEL_COLUMNS,
+    CHANNEL_MAP,
+    ChannelRecipe,
+    is_channel_header,
+    load_recipe,
+    recipe_path,
+)
 from models.tables.consistency import check_consistency
 from models.tables.constants import (
     CONTROL_CYCLE_S,
@@ -49,7 +60,7 @@ PAPER_LOOKUP_TABLES = MappingProxyType(
 
 @dataclass(frozen=True, eq=False)
 class LookupTable:
-    """A jet firing-time lookup table (paper Tables 6 and 7), SI, all 16 jets.
+    """A firing-time lookup table (paper Tables 6 and 7), SI: all 16 jets, or six channels.
 
     Attributes
     ----------
@@ -57,11 +68,15 @@ class LookupTable:
         Case numbers 1..26, ascending.
     rate_cmd : numpy.ndarray of float, shape (26, 3)
         Rate command [roll, pitch, yaw] each row was designed for, rad/s.
-    firing_time_s : numpy.ndarray of float, shape (26, 16)
+    firing_time_s : numpy.ndarray of float, shape (26, 16), or (26, 6) with a recipe
         Firing time of jets 1..16 per case, s; jets that do not fire (including the unused
-        translation jets 5-8) are 0.
+        translation jets 5-8) are 0.  A channel table: firing time of each channel
+        (:data:`~models.tables.channels.CHANNELS`), s.
     source : str
         Where the table was read from (for messages); ``""`` if built in memory.
+    recipe : ChannelRecipe, optional
+        A channel table's recipe (how each channel fires the vehicle's jets); None for a jet
+        table.
 
     Notes
     -----
@@ -73,6 +88,7 @@ class LookupTable:
     rate_cmd: np.ndarray
     firing_time_s: np.ndarray
     source: str = ""
+    recipe: ChannelRecipe | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "case", frozen_array(self.case, int, (N_CASES,), "case"))
@@ -82,14 +98,26 @@ class LookupTable:
         object.__setattr__(
             self,
             "firing_time_s",
-            frozen_array(self.firing_time_s, float, (N_CASES, N_JETS), "firing_time_s"),
+            frozen_array(self.firing_time_s, float, (N_CASES, len(self.columns)), "firing_time_s"),
         )
+
+    @property
+    def columns(self) -> tuple:
+        """The table's firing-time column names: ``jet_01 ... jet_16`` or the six channels'."""
+        return JET_COLUMNS if self.recipe is None else CHANNEL_COLUMNS
+
+    @property
+    def is_channel(self) -> bool:
+        """A channel table (six axis channels and a recipe), not a jet table."""
+        return self.recipe is not None
 
     def to_csv(self, path: PathLike) -> Path:
         """Write the table in the rcsim layout, atomically.
 
         Columns: ``case, roll_deg_s, pitch_deg_s, yaw_deg_s, jet_01 ... jet_16`` (rates in
-        deg/s, firing times in s).  Floats are written with ``repr`` so that reading the file
+        deg/s, firing times in s); a channel table has the six channel columns instead and
+        writes its recipe first, beside it (``<stem>_recipe.csv``), so that a table on disk
+        always has its recipe.  Floats are written with ``repr`` so that reading the file
         back gives the same doubles (rates up to the rad<->deg conversion, a few ulp).
 
         The file is written to a temporary file in the target directory and moved into place
@@ -109,7 +137,7 @@ class LookupTable:
         rates_deg = np.rad2deg(self.rate_cmd)
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
-        writer.writerow(["case", *RATE_COLUMNS, *JET_COLUMNS])
+        writer.writerow(["case", *RATE_COLUMNS, *self.columns])
         for i, case in enumerate(self.case):
             writer.writerow(
                 [int(case)]
@@ -123,6 +151,8 @@ class LookupTable:
                 fh.flush()
                 os.fsync(fh.fileno())
 
+        if self.recipe is not None:
+            self.recipe.to_csv(recipe_path(path))
         return atomic_write(Path(path), write)
 
 
@@ -232,11 +262,22 @@ def load_lookup_table(
     src = packaged(PAPER_LOOKUP_TABLES[which]) if path is None else lookup_table_source(path)
     raw = read_raw(src, PAPER_LOOKUP_TABLES[which])
     rcsim = any(c in raw.header for c in RATE_COLUMNS)
-    used = [JET_COLUMNS[j] for j in range(N_JETS) if jmap[j].any()]
-    if rcsim:
+    all_cols = JET_COLUMNS
+    recipe = None
+    if is_channel_header(raw.header):
+        # A channel table: its columns turn one axis each by construction; its recipe (beside
+        # it) says how each fires the jets, and unserved channels must never fire.
+        check_columns(raw, ("case", *RATE_COLUMNS, *CHANNEL_COLUMNS), " (channel table)")
+        recipe = load_recipe(recipe_path(raw.file), table=raw.file)
+        jmap = CHANNEL_MAP * recipe.served[:, None]
+        all_cols = CHANNEL_COLUMNS
+    if recipe is not None:
+        jet_cols = list(CHANNEL_COLUMNS)
+    elif rcsim:
         check_columns(raw, ("case", *RATE_COLUMNS, *JET_COLUMNS), " (rcsim layout)")
         jet_cols = list(JET_COLUMNS)
     else:
+        used = [JET_COLUMNS[j] for j in range(N_JETS) if jmap[j].any()]
         check_columns(
             raw,
             ("case", *used),
@@ -245,10 +286,10 @@ def load_lookup_table(
         )
         jet_cols = used
     case = index_column(raw, "case", N_CASES, "case")
-    times = np.zeros((N_CASES, N_JETS))
+    times = np.zeros((N_CASES, len(all_cols)))
     for i in range(N_CASES):
         for col in jet_cols:
-            times[i, JET_COLUMNS.index(col)] = number(raw, i, col, case=case[i], minimum=0.0)
+            times[i, all_cols.index(col)] = number(raw, i, col, case=case[i], minimum=0.0)
     order = np.argsort(case)
     case, times, rows = case[order], times[order], order + 1
     if rcsim:
@@ -282,5 +323,8 @@ def load_lookup_table(
         rows=rows,
         cycle_s=cycle_s,
         max_firing_time_s=max_firing_time_s,
+        columns=all_cols,
     )
-    return LookupTable(case=case, rate_cmd=rate, firing_time_s=times, source=raw.file)
+    return LookupTable(
+        case=case, rate_cmd=rate, firing_time_s=times, source=raw.file, recipe=recipe
+    )

@@ -20,7 +20,9 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--table",
-        help="table to refine: table6, table7 or a CSV path (default table6)",
+        help="table to refine: table6, table7, a CSV path, or generate (generated for the "
+        "vehicle first; default table6, or generate with a --vehicle whose jets torque "
+        "several axes: its channel table)",
     )
     p.add_argument(
         "--runs-per-case",
@@ -47,7 +49,8 @@ def register(sub) -> None:
         "--vehicle",
         metavar="FILE",
         help="fly your own vehicle (a vehicle TOML file or a packaged name; docs/vehicles.md) "
-        "instead of the paper's; its jets must play Table 2's roles for a lookup table",
+        "instead of the paper's; a vehicle whose jets torque several axes (e.g. canted16) "
+        "gets its channel table generated first (stage generate)",
     )
     p.add_argument(
         "--plots",
@@ -83,7 +86,7 @@ def _resume_hint(args: argparse.Namespace) -> str:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from analysis.apps.loop.run import STATE, LoopSettings, resumed_settings, run_loop
+    from analysis.apps.loop.run import GENERATE, STATE, LoopSettings, resumed_settings, run_loop
     from models.tables import PAPER_LOOKUP_TABLES
 
     given = {
@@ -98,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     given = {k: v for k, v in given.items() if v is not None}
     if "vehicle" in given and Path(given["vehicle"]).suffix:  # a file, not a packaged name
         given["vehicle"] = os.path.abspath(given["vehicle"])
-    if "table" in given and given["table"] not in PAPER_LOOKUP_TABLES:
+    if "table" in given and given["table"] not in (*PAPER_LOOKUP_TABLES, GENERATE):
         # A CSV path is kept absolute: a resumed loop re-reads the same file from anywhere.
         given["table"] = os.path.abspath(given["table"])
     if args.resume and (Path(args.out) / STATE).is_file():

@@ -25,7 +25,36 @@ from analysis.results.report.html import (
     text_block,
     write_report,
 )
-from models.tables import AXES, load_lookup_table
+from models.tables import AXES, PAPER_LOOKUP_TABLES, load_lookup_table, recipe_path
+
+
+def _table_file(out: Path, settings) -> str:
+    """The table refined as the loop's campaigns name it."""
+    from analysis.apps.loop.run import GENERATE, GENERATED_TABLE
+
+    if settings.table == GENERATE:
+        return str(out / GENERATED_TABLE)
+    return settings.table
+
+
+def _table_label(out: Path, settings) -> str:
+    """What the table refined is, in words: the paper's, a file, or the loop's generated one
+    (a channel table: six axis channels and their jet recipe)."""
+    from analysis.apps.loop.run import GENERATE, GENERATED_TABLE
+
+    file = _table_file(out, settings)
+    table = load_lookup_table(file)
+    if settings.table == GENERATE:
+        what = f"{GENERATED_TABLE}, generated for {settings.vehicle} by the loop"
+    else:
+        what = settings.table
+    if table.recipe is None:
+        return what
+    return (
+        f"{what}: a channel table (six axis channels, +roll -roll +pitch -pitch +yaw -yaw, "
+        f"each firing the jets by its recipe {recipe_path(file).name}, solved for "
+        f"{table.recipe.vehicle}, sha256 {table.recipe.vehicle_sha256[:12]}...)"
+    )
 
 
 def _img(path: Path, caption: str) -> str:
@@ -56,8 +85,11 @@ def _summary(
     threshold = np.degrees(load_spec(out / "spec_before.toml").rate_threshold_rad_s)
     n_changed = int(log["changed"].sum())
     fb, fa = int(before["failed"].sum()), int(after["failed"].sum())
+    label = _table_label(out, settings)
+    channels = "channels" in log
     rows = [
-        ("table refined", s["table"]),
+        ("table refined", label),
+        *([("vehicle", str(settings.vehicle))] if settings.vehicle is not None else []),
         ("runs per case", f"{s['runs_per_case']} (26 rate cases of Table 3, Table 5 dispersions)"),
         ("search seed", f"{s['seed']} (the 'before' campaign and the refinement search)"),
         ("fresh seed", f"{fresh} (held out: the refined table's campaign and check)"),
@@ -82,17 +114,25 @@ def _summary(
         ("stage times [s]", ", ".join(f"{k} {v['seconds']:.1f}" for k, v in state["done"].items())),
         ("code version", ", ".join(f"{k} {v}" for k, v in state.get("code_version", {}).items())),
     ]
+    name = "the generated channel table" if channels else f"the lookup table {s['table']}"
+    fly = (
+        "Fly the refined table (refined_table.csv with its recipe refined_table_recipe.csv "
+        f"beside it) as a campaign spec's `controller.table` with `vehicle = "
+        f'"{settings.vehicle}"`'
+        if channels
+        else "Fly the refined table with `--table refined_table.csv` (`rcsim maneuver`, "
+        "`rcsim scenario run`) or as a campaign spec's `controller.table`"
+    )
     blocks = [
         text_block(
-            f"The lookup table {s['table']} was flown over {s['runs_per_case']} dispersed runs "
+            f"{name[0].upper()}{name[1:]} was flown over {s['runs_per_case']} dispersed runs "
             f"of each of the 26 rate cases; {fb} runs failed. The refinement changed "
             f"{n_changed} cases; flown again on a seed the search never saw, the refined table "
             f"failed {fa} runs."
         ),
         table_block(pd.DataFrame(rows, columns=["", "value"]), "The loop"),
         text_block(
-            "Fly the refined table with `--table refined_table.csv` (`rcsim maneuver`, "
-            "`rcsim scenario run`) or as a campaign spec's `controller.table`, or gate a "
+            f"{fly}, or gate a "
             "change in CI with `rcsim campaign run spec_after.toml --out DIR "
             "--max-failed-pct P`. Replay any run with `rcsim campaign replay "
             "campaign_before RUN_ID`."
@@ -143,7 +183,15 @@ def _figs_9_10(out: Path, log: pd.DataFrame) -> Section:
     if best is None:
         return Section(
             "Figs 9-10: one case before and after",
-            [text_block("No case changed: the table was already robust.")],
+            [
+                text_block(
+                    "No case changed: the table was already robust."
+                    if int(log["failed_search_before"].sum() + log["repeated_search_before"].sum())
+                    == 0
+                    else "No case changed: no candidate's gain was significant on the paired "
+                    "runs (the evidence rule, docs/refinement.md); more runs per case can show it."
+                )
+            ],
             "figs-9-10",
         )
     case = int(best["case"])
@@ -242,8 +290,10 @@ def _strongest(table: pd.DataFrame) -> str:
 
 
 def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
+    # A channel table's rows fire channels: say which (``-roll, +yaw``) beside the times.
     cols = (
         ["case"]
+        + (["channels"] if "channels" in log else [])
         + [f"{a}_{w}" for a in AXES for w in ("old_s", "new_s")]
         + [
             "failed_search_before",
@@ -313,7 +363,11 @@ def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
         )
     t6, t7 = load_lookup_table("table6"), load_lookup_table("table7")
     # The paper's refinement is comparable when the table refined is Table 6 (by name or copy).
-    if np.array_equal(load_lookup_table(table).firing_time_s, t6.firing_time_s):
+    if table in PAPER_LOOKUP_TABLES or load_lookup_table(table).recipe is None:
+        is_t6 = np.array_equal(load_lookup_table(table).firing_time_s, t6.firing_time_s)
+    else:
+        is_t6 = False  # a channel table: not the paper's jets
+    if is_t6:
         ours = changed_cells(t6, load_lookup_table(refined))
         paper = changed_cells(t6, t7)
         both = ours.merge(
@@ -346,7 +400,7 @@ def write_loop_report(out: Path, settings, state: dict) -> Path:
         _before_after(out, log, before, after),
         _figs_9_10(out, log),
         _drivers(out),
-        _changelog(log, settings.table, out / "refined_table.csv"),
+        _changelog(log, _table_file(out, settings), out / "refined_table.csv"),
         Section(
             "Traceability",
             [
@@ -362,7 +416,12 @@ def write_loop_report(out: Path, settings, state: dict) -> Path:
     ]
     return write_report(
         out / "report.html",
-        f"Lookup-table robustness: {settings.table}",
+        "Lookup-table robustness: "
+        + (
+            f"channel table for {settings.vehicle}"
+            if load_lookup_table(_table_file(out, settings)).recipe is not None
+            else settings.table
+        ),
         sections,
         "rcsim loop: campaign, failure drivers, refined table, fresh campaign",
     )

@@ -4,6 +4,10 @@
 with the paper's Table 6, its failure-driver analysis, refinement of the table, the refined
 table re-flown on a fresh seed, and one ``report.html`` with the before/after.
 
+On a vehicle file whose jets torque several axes (``--vehicle canted16``) the table refined is
+generated first (stage ``generate``: a channel table and its recipe, :mod:`lookup.channels`),
+then the same stages run on it.
+
 Every stage writes its own sub-directory of ``DIR`` completely or not at all, and the loop
 records each finished stage in ``DIR/loop.json``: a loop killed in its tenth minute resumes
 (``resume=True``) from the last finished stage, and the campaigns resume chunk by chunk.
@@ -33,12 +37,21 @@ from analysis.engine.campaign.spec import load_spec
 from analysis.engine.output import check_out_dir, directory_owner, output_lock, write_marker
 from models.atomic import atomic_write
 from models.errors import InputError
-from models.tables import PAPER_LOOKUP_TABLES, load_lookup_table
+from models.tables import N_CASES, PAPER_LOOKUP_TABLES, load_lookup_table
 
 COMMAND = "loop"
 STATE = "loop.json"
 #: Stages in order, each a sub-directory (or file) of DIR.
 STAGES = ("campaign_before", "drivers", "refine", "campaign_after", "check", "report")
+#: The table setting that makes the loop generate its table first (stage ``generate``).
+GENERATE = "generate"
+#: Where the generated table goes (beside it: its recipe and settling companion).
+GENERATED_TABLE = "generated_table.csv"
+
+
+def stages_of(settings: LoopSettings) -> tuple:
+    """The loop's stages: :data:`STAGES`, after ``generate`` when the table is generated."""
+    return (("generate",) if settings.table == GENERATE else ()) + STAGES
 
 
 @dataclass(frozen=True)
@@ -47,8 +60,11 @@ class LoopSettings:
 
     Attributes
     ----------
-    table : str
-        Table to refine: ``"table6"`` / ``"table7"`` (the paper's) or a CSV path.
+    table : str or None
+        Table to refine: ``"table6"`` / ``"table7"`` (the paper's), a CSV path, or
+        ``"generate"`` (generated for the vehicle by the loop's first stage).  None (the
+        default): ``"table6"``, or ``"generate"`` on a vehicle whose jets do not play Table
+        2's roles (its table is a channel table).
     runs_per_case : int
         Dispersed runs per rate case, for the campaigns and the refinement search.
     seed : int
@@ -66,13 +82,14 @@ class LoopSettings:
         same draws); the refined table is then flown on every run of the held-out seed.
     vehicle : str or None
         A vehicle file (absolute path) or packaged vehicle name the campaigns and the search
-        fly (the lookup table needs the paper's jet roles, Table 2); None: the paper's.
+        fly; None: the paper's.  A paper table needs Table 2's jet roles; a channel table must
+        have been solved for this vehicle file.
     plots : bool
         The campaigns' per-case plots (about 4.5 s per campaign on 2 cores, whatever its
         size); without them the report's Figs 9-10 section says the figures were not made.
     """
 
-    table: str = "table6"
+    table: str | None = None
     runs_per_case: int = 100
     seed: int = 1
     fresh_seed: int | None = None
@@ -96,19 +113,43 @@ class LoopSettings:
             search_runs_per_case=self.search_runs_per_case,
         )
         Settings(n_permutations=self.permutations, random_state=self.seed)
+        coupled = False
         if self.vehicle is not None:
-            # The campaigns' own checks on the vehicle (a file that loads, jets that play the
-            # lookup table's roles), before any directory is made.
+            from analysis.engine.table_files import is_coupled
+
+            try:
+                coupled = is_coupled(self.vehicle)
+            except InputError as exc:
+                raise InputError(str(exc), parameter="vehicle", value=self.vehicle) from None
+        if self.table is None:
+            object.__setattr__(self, "table", GENERATE if coupled else "table6")
+        if coupled and self.table in PAPER_LOOKUP_TABLES:
+            raise InputError(
+                f"{self.table!r} is the paper's table, for its jet map (Table 2), but the jets "
+                f"of {self.vehicle} torque several axes; leave the table out (or give "
+                f"{GENERATE!r}) to generate the vehicle's channel table first",
+                parameter="table",
+                value=self.table,
+            )
+        if self.vehicle is not None or self.table not in (*PAPER_LOOKUP_TABLES, GENERATE):
+            # The campaigns' own checks on the vehicle and the table (a file that loads, jets
+            # that play the table's roles, a channel table solved for this vehicle file),
+            # before any directory is made.  A table still to generate is checked when made.
+            table = "default" if self.table in PAPER_LOOKUP_TABLES else self.table
             try:
                 refinement_spec(
                     runs_per_case=1,
                     seed=0,
                     duration_s=self.duration_s,
                     vehicle=self.vehicle,
-                    source=str(self.vehicle),
+                    source=str(self.vehicle or self.table),
+                    # A table still to generate: the vehicle alone (the allocator flies any).
+                    table=table if table != GENERATE else "default",
+                    controller="allocator" if table == GENERATE else "lookup",
                 )
             except InputError as exc:
-                raise InputError(str(exc), parameter="vehicle", value=self.vehicle) from None
+                which = "vehicle" if self.vehicle is not None else "table"
+                raise InputError(str(exc), parameter=which, value=getattr(self, which)) from None
 
     @property
     def held_out_seed(self) -> int:
@@ -306,7 +347,9 @@ def run_loop(
     echo : callable
         Receives one line per finished stage (the CLI prints them).
     """
-    table = load_refinable_table(settings.table)  # a table that does not load: before any work
+    table = None
+    if settings.table != GENERATE:  # a table that does not load: before any work
+        table = load_refinable_table(settings.table)
     out = check_loop_dir(out, resume=resume, overwrite=False)
     with output_lock(out, COMMAND):
         return _run_stages(table, settings, out, resume, progress, echo)
@@ -317,7 +360,7 @@ def _run_stages(table, settings: LoopSettings, out: Path, resume: bool, progress
     write_marker(out, COMMAND)
     state = _State(out, settings, resume)
     stages = _Stages(out, settings, table, state, progress)
-    for name in STAGES:
+    for name in stages_of(settings):
         if state.done(name):
             echo(f"{name}: already done")
             continue
@@ -342,9 +385,16 @@ class _Stages:
     def __init__(
         self, out: Path, settings: LoopSettings, table, state: _State, progress: bool | None
     ):
-        self.out, self.settings, self.table = out, settings, table
+        self.out, self.settings, self._table = out, settings, table
         self.state, self.progress = state, progress
-        self.cases = np.arange(len(table.case))
+        self.cases = np.arange(N_CASES)
+        # How the campaigns name the table refined: the paper's by name, a file by its path
+        # (the generated one in DIR).
+        self.table_file = (
+            str(out / GENERATED_TABLE)
+            if settings.table == GENERATE
+            else _table_path(settings.table)
+        )
         self.paths = {
             "campaign_before": out / "campaign_before",
             "drivers": out / "drivers",
@@ -354,6 +404,29 @@ class _Stages:
             "campaign_check": out / "campaign_check",
             "report": out / "report.html",
         }
+
+    @property
+    def table(self):
+        """The table refined (the generated one read once the ``generate`` stage wrote it)."""
+        if self._table is None:
+            self._table = load_refinable_table(self.table_file)
+        return self._table
+
+    def generate(self) -> dict:
+        """The vehicle's table: a channel table (and its recipe) for coupled jets."""
+        from analysis.engine.table_files import generate
+
+        gen = generate(self.settings.vehicle)
+        path = Path(self.table_file)
+        # Written whole (atomic, a channel table's recipe first), the companion after.
+        frame = gen.settling_frame()
+        gen.table.to_csv(path)
+        settling = path.with_name(f"{path.stem}_settling.csv")
+        atomic_write(settling, lambda tmp: frame.to_csv(tmp, index=False))
+        kind = "jet table" if gen.table.recipe is None else "channel table (six axis channels)"
+        return {"table": kind, "open_loop_max_err_deg_s": round(
+            float(np.degrees(np.abs(gen.verify_rate_err_rad_s)).max()), 4
+        )}  # fmt: skip
 
     def _campaign(self, name: str, table_path: str, seed: int, plots: bool | None = None) -> dict:
         s = self.settings
@@ -384,9 +457,7 @@ class _Stages:
         return runs_from_campaign(runs, self.cases, self.settings.runs_per_case)
 
     def campaign_before(self) -> dict:
-        return self._campaign(
-            "campaign_before", _table_path(self.settings.table), self.settings.seed
-        )
+        return self._campaign("campaign_before", self.table_file, self.settings.seed)
 
     def drivers(self) -> dict:
         from analysis.results.drivers.inputs import load_runs
@@ -409,13 +480,18 @@ class _Stages:
             confirmation_seed,
             refinement_spec,
             save_search,
+            table_vehicle,
         )
         from analysis.apps.refinement.search import refine
 
         s = self.settings
         # The search's baseline is the "before" campaign itself: same seed, same runs.
         spec = refinement_spec(
-            runs_per_case=s.runs_per_case, seed=s.seed, duration_s=s.duration_s, vehicle=s.vehicle
+            runs_per_case=s.runs_per_case,
+            seed=s.seed,
+            duration_s=s.duration_s,
+            vehicle=s.vehicle,
+            table=table_vehicle(self.table)[1],
         )
         result = refine(
             spec,
@@ -448,6 +524,7 @@ class _Stages:
         from analysis.apps.refinement.outputs import (
             held_out_check,
             load_search,
+            table_vehicle,
             write_refinement,
         )
 
@@ -455,7 +532,7 @@ class _Stages:
         # The refined table's runs on the fresh seed are the "after" campaign's; the old table
         # is flown on that seed as a campaign too: resumable chunk by chunk, so a loop stopped
         # in this stage goes on where it was (no plots: the report shows none).
-        self._campaign("campaign_check", _table_path(s.table), s.held_out_seed, plots=False)
+        self._campaign("campaign_check", self.table_file, s.held_out_seed, plots=False)
         refined = load_lookup_table(self.paths["refined"])
         ref = held_out_check(
             self.table,
@@ -467,6 +544,8 @@ class _Stages:
             fresh_after_runs=self._campaign_runs("campaign_after"),
             fresh_before_runs=self._campaign_runs("campaign_check"),
             progress=self.progress,
+            vehicle=s.vehicle,
+            table_file=table_vehicle(self.table)[1],
         )
         write_refinement(ref, self.paths["refined"], overwrite=True, writer=COMMAND)
         log = ref.changelog

@@ -44,7 +44,7 @@ from models.atomic import atomic_write
 from models.errors import InputError
 from models.tables import AXES, CONTROL_CYCLE_S, LookupTable
 from spacecraft.dispersions import MAX_SEED, draw_runs
-from spacecraft.vehicle import VehicleParams, load_model
+from spacecraft.vehicle import load_model
 
 DPI = 90
 #: Most runs drawn in the before/after plot of one case.
@@ -60,13 +60,15 @@ def rate_cases_campaign(
     histories: str = "none",
     plots: bool = False,
     vehicle: str | None = None,
+    controller: str = "lookup",
 ) -> dict:
     """The campaign a refinement flies, as a spec dict: all 26 Table 3 cases from rest, Table 5
     dispersions, the campaign's default failure threshold.
 
     The one definition: ``rcsim loop`` writes it as the TOML of its campaigns, and uses the
     "before" campaign's runs as the search's baseline -- the same runs only if both come
-    from here.
+    from here.  ``controller``: another than the lookup controller only to check a vehicle
+    before its table exists (the loop's ``generate``).
     """
     spec: dict = {
         "seed": seed,
@@ -77,7 +79,9 @@ def rate_cases_campaign(
             "mode": "command",
             "duration_s": float(duration_s),
         },
-        "controller": {"name": "lookup", "table": table},
+        "controller": {"name": "lookup", "table": table}
+        if controller == "lookup"
+        else {"name": controller},
         "dispersions": {"table": "default", "scale": 1.0},
         "output": {"histories": histories, "plots": plots},
     }
@@ -93,15 +97,45 @@ def refinement_spec(
     duration_s: float = 20.0,
     source: str = "lookup refine",
     vehicle: str | None = None,
+    table: str = "default",
+    controller: str = "lookup",
 ):
-    """:func:`rate_cases_campaign` validated (a :class:`CampaignSpec`)."""
+    """:func:`rate_cases_campaign` validated (a :class:`CampaignSpec`).
+
+    ``table``: the table file the campaign names (the refinement flies its candidates
+    itself); a channel table's file, so that it is checked against ``vehicle``."""
     return parse_dict(
         rate_cases_campaign(
-            runs_per_case=runs_per_case, seed=seed, duration_s=duration_s, vehicle=vehicle
+            runs_per_case=runs_per_case,
+            seed=seed,
+            duration_s=duration_s,
+            vehicle=vehicle,
+            table=table,
+            controller=controller,
         ),
         source=source,
         base_dir=None,
     )
+
+
+def table_vehicle(table: LookupTable) -> tuple[str | None, str]:
+    """What a refinement of ``table`` flies: ``(vehicle, table file)``.
+
+    A jet table flies the packaged vehicle (None) and names no file ("default"); a channel
+    table flies the vehicle file its recipe was solved for, and is named by its own file
+    (the one it was loaded from: its recipe is beside it).
+    """
+    if table.recipe is None:
+        return None, "default"
+    source = Path(table.source)
+    if not source.is_file():
+        raise InputError(
+            f"{table.source or '<lookup table>'}: a channel table is refined from its file "
+            "(its recipe beside it); save it with LookupTable.to_csv and load it",
+            parameter="table",
+            value=table.source,
+        )
+    return table.recipe.vehicle, str(source.absolute())
 
 
 @dataclass
@@ -124,6 +158,10 @@ class Refinement:
         packaged Table 6, the paper's Table 7): :func:`comparison_frame`.
     confirm_seed : int, optional
         The confirmation seed (None: the search gate alone).
+    vehicle : str, optional
+        The vehicle file flown (None: the packaged vehicle).
+    table_file : str
+        The original table's file as the campaigns name it (a channel table's), or "default".
     """
 
     original: LookupTable
@@ -137,6 +175,8 @@ class Refinement:
     duration_s: float
     comparison: pd.DataFrame | None = None
     confirm_seed: int | None = None
+    vehicle: str | None = None
+    table_file: str = "default"
 
     @property
     def table(self) -> LookupTable:
@@ -200,7 +240,15 @@ def run_refinement(
         search_runs_per_case=search_runs_per_case,
         confirm_seed=confirm_seed,
     )
-    spec = refinement_spec(runs_per_case=runs_per_case, seed=seed, duration_s=duration_s)
+    # A channel table flies the vehicle its recipe was solved for; a jet table the packaged one.
+    vehicle, table_file = table_vehicle(table)
+    spec = refinement_spec(
+        runs_per_case=runs_per_case,
+        seed=seed,
+        duration_s=duration_s,
+        vehicle=vehicle,
+        table=table_file,
+    )
     result = refine(
         spec,
         table,
@@ -223,6 +271,8 @@ def run_refinement(
         progress=progress,
         compare_table7=compare_table7,
         confirm_seed=confirm_seed,
+        vehicle=vehicle,
+        table_file=table_file,
     )
 
 
@@ -240,6 +290,8 @@ def held_out_check(
     fresh_before_runs: pd.DataFrame | None = None,
     compare_table7: bool | None = None,
     confirm_seed: int | None = None,
+    vehicle: str | None = None,
+    table_file: str = "default",
 ) -> Refinement:
     """Fly the old and the refined table on ``fresh_seed`` (the seed no decision used).
 
@@ -247,12 +299,19 @@ def held_out_check(
     seed if a campaign already flew them
     (:func:`~analysis.apps.refinement.evaluate.runs_from_campaign`); only the others are flown.
     ``compare_table7``: fly the paper's Table 7 on those runs too (default: when ``table`` is
-    the packaged Table 6, the table the paper refined by hand).
+    the packaged Table 6, the table the paper refined by hand).  ``vehicle`` and
+    ``table_file``: what the refinement flew (:func:`table_vehicle`).
     """
     from models.tables import load_lookup_table
 
     searched = result.before["case_index"].to_numpy()
-    fresh = refinement_spec(runs_per_case=runs_per_case, seed=fresh_seed, duration_s=duration_s)
+    fresh = refinement_spec(
+        runs_per_case=runs_per_case,
+        seed=fresh_seed,
+        duration_s=duration_s,
+        vehicle=vehicle,
+        table=table_file,
+    )
     if compare_table7 is None:
         compare_table7 = is_table6(table)
     given = {"before": fresh_before_runs, "after": fresh_after_runs}
@@ -298,6 +357,8 @@ def held_out_check(
         duration_s,
         comparison=comparison,
         confirm_seed=confirm_seed,
+        vehicle=vehicle,
+        table_file=table_file,
     )
 
 
@@ -469,6 +530,8 @@ def changelog(
     c_old = axis_cycles(old.firing_time_s, jet_axis)[searched]
     c_new = axis_cycles(result.table.firing_time_s, jet_axis)[searched]
     cols: dict = {"case": old.case[searched]}
+    if old.recipe is not None:  # a channel table: which channel each axis's time is
+        cols["channels"] = [", ".join(case_channels(old.rate_cmd[c])) for c in searched]
     for a, axis in enumerate(AXES):
         cols[f"{axis}_old_s"] = c_old[:, a] * CONTROL_CYCLE_S
         cols[f"{axis}_new_s"] = c_new[:, a] * CONTROL_CYCLE_S
@@ -512,16 +575,25 @@ def changelog(
     return frame
 
 
+def case_channels(rate_cmd: np.ndarray) -> list[str]:
+    """The channels a case's row fires, e.g. ``["-roll", "+yaw"]`` (a channel table's columns
+    are named by the axis and sign they turn)."""
+    return [f"{'+' if r > 0 else '-'}{axis}" for axis, r in zip(AXES, rate_cmd) if r != 0]
+
+
 #: The command whose outputs :func:`write_refinement` writes (named in the plots' marker).
 COMMAND = "lookup refine"
 
 
 def output_paths(out_csv: str | Path) -> dict[str, Path]:
     """Where a refinement writes: the table, its changelog and the plots folder (and, while
-    it runs, the search's hidden round-by-round checkpoint)."""
+    it runs, the search's hidden round-by-round checkpoint; a channel table's recipe)."""
+    from models.tables import recipe_path
+
     out_csv = Path(out_csv)
     return {
         "table": out_csv,
+        "recipe": recipe_path(out_csv),
         "changelog": out_csv.with_name(f"{out_csv.stem}_changelog.csv"),
         "heldout": out_csv.with_name(f"{out_csv.stem}_heldout.csv"),
         "plots": out_csv.with_name(f"{out_csv.stem}_plots"),
@@ -530,12 +602,19 @@ def output_paths(out_csv: str | Path) -> dict[str, Path]:
 
 
 def check_outputs(
-    out_csv: str | Path, *, overwrite: bool = False, writer: str | None = None
+    out_csv: str | Path,
+    *,
+    overwrite: bool = False,
+    writer: str | None = None,
+    channels: bool = False,
 ) -> dict[str, Path]:
     """Check all the outputs before any flight (existing ones need ``overwrite``;
-    ``writer``: the loop writing into its own directory, see :func:`check_out_file`)."""
+    ``writer``: the loop writing into its own directory, see :func:`check_out_file`;
+    ``channels``: a channel table, whose recipe is written beside it)."""
     paths = output_paths(out_csv)
     check_out_file(paths["table"], overwrite=overwrite, parameter="out", writer=writer)
+    if channels:
+        check_out_file(paths["recipe"], overwrite=overwrite, parameter="out", writer=writer)
     check_out_file(paths["changelog"], overwrite=overwrite, parameter="out", writer=writer)
     check_out_file(paths["heldout"], overwrite=overwrite, parameter="out", writer=writer)
     check_out_dir(paths["plots"], COMMAND, overwrite=overwrite)
@@ -552,8 +631,11 @@ def write_refinement(
     the two CSV files are renamed into place, the table last, so a table on disk always has
     its changelog beside it.
     """
-    paths = check_outputs(out_csv, overwrite=overwrite, writer=writer)
+    channels = ref.table.recipe is not None
+    paths = check_outputs(out_csv, overwrite=overwrite, writer=writer, channels=channels)
     written = dict(paths)
+    if not channels:
+        del written["recipe"]
     worst = most_improved_case(ref.changelog)
     with atomic_dir(paths["plots"], COMMAND, overwrite=overwrite) as tmp:
         plot_failures_by_case(
@@ -577,7 +659,8 @@ def write_refinement(
         )
     else:
         del written["heldout"]
-    ref.table.to_csv(paths["table"])  # last: the table appears only when the rest is written
+    # Last: the table appears only when the rest is written (a channel table's recipe first).
+    ref.table.to_csv(paths["table"])
     del written["plots"], written["checkpoint"]
     return written
 
@@ -631,23 +714,35 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
     log = ref.changelog.set_index("case").loc[case]
     axis = max(AXES, key=lambda a: abs(int(log[f"{a}_change_cycles"])))
     a = AXES.index(axis)
+    from analysis.engine.campaign.chunk import nominal_of, spec_vehicle
+
     spec = refinement_spec(
-        runs_per_case=ref.runs_per_case, seed=ref.seed, duration_s=ref.duration_s
+        runs_per_case=ref.runs_per_case,
+        seed=ref.seed,
+        duration_s=ref.duration_s,
+        vehicle=ref.vehicle,
+        table=ref.table_file,
     )
     row = case - 1
-    model = load_model()
+    vehicle = spec_vehicle(spec)  # the refinement's vehicle, flown as its campaigns fly it
+    model = load_model() if vehicle is None else vehicle.model
     # At most PLOT_RUNS runs: enough to see the spread, and a fixed cost however many runs
     # the search flew (the whole history of every run is kept for the plot).
     shown = min(ref.runs_per_case, PLOT_RUNS)
     ids = row * ref.runs_per_case + np.arange(shown)
-    params = draw_runs(VehicleParams.nominal(1, model), spec.sigmas, spec.seed, ids).params
+    params = draw_runs(nominal_of(spec, model), spec.sigmas, spec.seed, ids).params
+    flying: dict = {}
+    if vehicle is not None:
+        flying = {"propulsion": vehicle.propulsion(), "tank": vehicle.tank(shown)}
     thr = np.degrees(spec.rate_threshold_rad_s)
     fig, axes = new_figure(1, 2, figsize=(12, 4.5), sharey=True)
     cmd = np.degrees(spec.cases[row].rate_cmd_rad_s[a])
     for ax, (label, table, old_new) in zip(
         axes, (("old table", ref.original, "old"), ("refined table", ref.table, "new"))
     ):
-        history = fly_batch([spec.cases[row]] * shown, params, LookupController(table), model=model)
+        history = fly_batch(
+            [spec.cases[row]] * shown, params, LookupController(table), model=model, **flying
+        )
         rate = np.degrees(history.omega_B[:, :, a])
         failed = outcomes(history, spec)["failed"].to_numpy(bool)
         for fail, color in ((False, AXIS_COLORS["roll"]), (True, "tab:red")):

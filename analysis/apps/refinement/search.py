@@ -332,8 +332,18 @@ class _Search:
             if state in self.visited:
                 continue
             self.visited.add(state)
-            found.append((candidate, f"case {c + 1}: {AXES[a]} {step:+d} cycle", shift))
+            found.append(
+                (candidate, f"case {c + 1}: {self._axis_name(c, a)} {step:+d} cycle", shift)
+            )
         return found
+
+    def _axis_name(self, c: int, a: int) -> str:
+        """How a move is named: the axis (``yaw``), or for a channel table the channel
+        (``+yaw channel``: its columns are channels, named by the axis and sign they turn)."""
+        if self.table.recipe is None:
+            return AXES[a]
+        sign = "+" if self.table.rate_cmd[c, a] > 0 else "-"
+        return f"{sign}{AXES[a]} channel"
 
     def round(self, number: int, trials: Trials, edits: list) -> None:
         """Steps 3-4: fly the candidates, keep each case's best if strictly better, fly the

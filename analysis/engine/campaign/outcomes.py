@@ -23,10 +23,25 @@ if TYPE_CHECKING:
 _FULL_CYCLE_RTOL = 1e-12
 
 
-def axis_jets() -> np.ndarray:
-    """(3, 16) bool: the jets that torque roll, pitch, yaw (Table 2)."""
+def _channel_table(spec: CampaignSpec | None) -> bool:
+    """Whether the campaign flies a channel table (:mod:`models.tables.channels`)."""
+    from models.tables import PAPER_LOOKUP_TABLES, is_channel_table
+
+    table = None if spec is None else spec.table
+    return table is not None and table not in PAPER_LOOKUP_TABLES and is_channel_table(table)
+
+
+def axis_jets(spec: CampaignSpec | None = None) -> np.ndarray:
+    """(3, 16) bool: the jets that torque roll, pitch, yaw (Table 2); for a campaign flying a
+    channel table, the jets its channels of each axis fire (:func:`lookup.channels.axis_jets_of`:
+    on a coupled layout every jet torques several axes, so Table 2 says nothing)."""
     from models.tables import load_jet_map
 
+    if spec is not None and spec.table is not None and _channel_table(spec):
+        from lookup.channels import axis_jets_of
+        from models.tables import load_recipe, recipe_path
+
+        return axis_jets_of(load_recipe(recipe_path(spec.table)))
     return (load_jet_map() != 0).T
 
 
@@ -48,8 +63,10 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     Definitions (``thr`` = ``spec.rate_threshold_rad_s``; rate errors sampled at each cycle's
     start and at the end of the run):
 
-    * ``firings_to_rate_<axis>``: firing events on the axis's jets (cycles in which at least
-      one of them starts a firing -- a jet pair firing together is one event) before the
+    * ``firings_to_rate_<axis>``: firing events on the axis's jets (:func:`axis_jets`; cycles
+      in which at least one of them starts a firing -- a jet pair firing together is one
+      event; for a channel table, the first cycle of a run of cycles in which the axis's
+      jets fire) before the
       commanded rate is first reached on that axis: the first sample with ``|rate error| < thr``
       taken while none of the axis's jets is in the middle of a firing (a firing that
       overshoots sweeps the error through zero mid-firing; that is not reaching the rate).
@@ -69,23 +86,32 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     rate = np.concatenate([history.rate_err_B, history.final.rate_err_B[:, None]], axis=1)
     below = np.abs(rate) < thr  # (n, K + 1, 3)
     times = np.arange(K + 1) * cycle_s
-    jets = axis_jets()
+    jets = axis_jets(spec)
     # Sample k is taken mid-firing on an axis when one of its jets filled cycle k - 1 and is
     # still on in cycle k.  A firing that overshoots sweeps the rate error through zero, so one
     # such sample would lie under thr although the firing ends far from the command: only
     # samples between firings count as "reached".
     on = history.on_time_s
-    full = on >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)  # (n, K, 16)
-    going_on = full[:, :-1] & (on[:, 1:] > 0)  # filled cycle k - 1 and still on in cycle k
-    mid = np.zeros_like(below)
     jets_f = jets.T.astype(float)  # (16, 3): a matmul counts an axis's jets, cheaper than any()
-    mid[:, 1:K] = (going_on.astype(float) @ jets_f) > 0
+    mid = np.zeros_like(below)
+    if _channel_table(spec):
+        # A channel's jets fire their recipe's share of every cycle (0.99 of it, or less when
+        # shared jets are scaled), never a full cycle: a firing is a run of consecutive cycles
+        # in which the axis's jets are on, an event the first cycle of such a run.
+        active = (on.astype(bool).astype(float) @ jets_f) > 0  # (n, K, 3)
+        mid[:, 1:K] = active[:, :-1] & active[:, 1:]
+        events = active.copy()
+        events[:, 1:] &= ~active[:, :-1]
+    else:
+        full = on >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)  # (n, K, 16)
+        going_on = full[:, :-1] & (on[:, 1:] > 0)  # filled cycle k - 1 and still on in cycle k
+        mid[:, 1:K] = (going_on.astype(float) @ jets_f) > 0
+        starts = firing_starts(history.on_time_s, cycle_s)  # (n, K, 16)
+        events = (starts.astype(float) @ jets_f) > 0  # (n, K, 3)
     settled = below & ~mid
     reached = settled.any(axis=1)  # (n, 3)
     first = np.where(reached, settled.argmax(axis=1), K + 1)  # first sample reached
 
-    starts = firing_starts(history.on_time_s, cycle_s)  # (n, K, 16)
-    events = (starts.astype(float) @ jets_f) > 0  # (n, K, 3)
     before = np.arange(K)[None, :, None] < first[:, None, :]
     to_rate = (events & before).sum(axis=1)
 

@@ -313,6 +313,8 @@ def parse_dict(
     name, table, resolved["controller"] = _controller(top.table_("controller"), base_dir)
     if vehicle is not None:
         _check_jet_map(vehicle, name, table, source)
+    if table is not None and table not in PAPER_LOOKUP_TABLES:
+        _check_channel_table(name, table, vehicle, source)
     sigmas, effects, resolved["dispersions"] = _dispersions(
         top.table_("dispersions"), base_dir, cases, source, vehicle
     )
@@ -358,6 +360,26 @@ def _check_jet_map(vehicle: str, controller: str, table: str | None, source: str
             f"{source}: controller.name: {controller!r}{what} assumes the paper's jet map "
             f"(Table 2), but in {definition.source} {differs}; use the allocator controller"
         )
+
+
+def _check_channel_table(controller: str, table: str, vehicle: str | None, source: str) -> None:
+    """A channel table (six axis channels and a recipe, for a vehicle whose jets torque several
+    axes) flies only with the lookup controller, on the vehicle file its recipe was solved for
+    (same SHA-256)."""
+    from lookup.jet_sets import check_table_vehicle
+    from models.tables import is_channel_table, load_lookup_table
+
+    if not is_channel_table(table):
+        return
+    tab = load_lookup_table(table)
+    try:
+        if controller != "lookup":
+            raise InputError(
+                f"{table}: a channel table flies with the lookup controller, not {controller!r}"
+            )
+        check_table_vehicle(tab, vehicle)
+    except InputError as exc:
+        raise InputError(f"{source}: controller.table: {exc}") from None
 
 
 def _check_reachable(vehicle: str, cases: list[Scenario], source: str) -> None:
@@ -446,6 +468,15 @@ def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
         if expect != file_digest(table):
             what = "packaged paper table" if table in PAPER_LOOKUP_TABLES else "file"
             raise c.error("table", f"{what} changed since the campaign ran (sha256 differs)", table)
+    recipe = _recipe_file(table)
+    recipe_sha = None if recipe is None else file_digest(str(recipe))
+    if c.has("recipe_sha256") and c.raw("recipe_sha256") != recipe_sha:
+        problem = (
+            "is no longer the channel table the campaign flew"
+            if recipe is None
+            else f"recipe {recipe.name} changed since the campaign ran (sha256 differs)"
+        )
+        raise c.error("table", problem, table)
     c.done()
     resolved: dict = {
         "name": name,
@@ -454,7 +485,18 @@ def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
     }
     if jets_off:  # recorded only when there are some: other specs resolve as before
         resolved["jets_off"] = list(jets_off)
+    if recipe_sha is not None:  # a channel table's recipe is part of the table
+        resolved["recipe_sha256"] = recipe_sha
     return name, table, resolved
+
+
+def _recipe_file(table: str | None) -> Path | None:
+    """A channel table's recipe file, None for any other table."""
+    from models.tables import is_channel_table, recipe_path
+
+    if table is None or table in PAPER_LOOKUP_TABLES or not is_channel_table(table):
+        return None
+    return recipe_path(table)
 
 
 def _dispersions(
