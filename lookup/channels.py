@@ -155,7 +155,10 @@ def solve_recipe(
         longest > 0
     )
     frac = np.where(served[:, None], t / np.where(longest > 0, longest, 1.0)[:, None], 0.0)
+    # LP round-off is not a share: a fraction within it of 0 or 1 is 0 or 1 (a balanced pair
+    # is two jets fully on, not one at 1 - 1e-16).
     frac = np.where(frac < _FRACTION_FLOOR, 0.0, np.minimum(frac, 1.0))
+    frac = np.where(frac > 1.0 - _FRACTION_FLOOR, 1.0, frac)
     rows = np.flatnonzero(served)
     frac[rows, frac[rows].argmax(axis=1)] = 1.0  # the longest is exactly 1, not 1 - 1e-16
     for a, axis in enumerate(AXES):

@@ -230,15 +230,15 @@ def load_recipe(path: PathLike, *, table: str | None = None) -> ChannelRecipe:
             accel[k, a] = math.radians(_number(raw, i, col))
         for c in _META_COLUMNS:
             meta[c].add(raw.cell(i, c))
-        longest = frac[k].max()
+        longest = float(frac[k].max())
         if longest > 0 and abs(longest - 1.0) > FRACTION_ATOL:
             raise cell_error(
                 file,
-                f"the longest fraction of a channel must be 1 (the channel's time is its "
-                f"longest jet's), got {longest!r}",
+                f"channel {row[0]}: its longest fraction must be 1 (the channel's time is its "
+                "longest jet's)",
                 row=i + 1,
-                column="channel",
-                value=row[0],
+                column=jets[int(frac[k].argmax())],
+                value=longest,
             )
     for c, values in meta.items():
         if len(values) != 1:

@@ -505,7 +505,7 @@ def run_refine(args: argparse.Namespace) -> int:
                 f"p={float(row['confirm_p']):.2g}; mirror: {row['mirror_decision']}"
             )
     if "refused" in log:
-        refused = log[log["refused"].fillna("").astype(str) != ""]
+        refused = log[log["refused"].astype(object).fillna("").astype(str) != ""]
         if not refused.empty:
             print("strictly better, but refused by the search gate (not significant):")
             for _, row in refused.iterrows():

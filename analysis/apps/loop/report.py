@@ -341,7 +341,7 @@ def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
             )
         )
         if "refused" in log:
-            refused = log[log["refused"].fillna("").astype(str) != ""]
+            refused = log[log["refused"].astype(object).fillna("").astype(str) != ""]
             if not refused.empty:
                 blocks.append(
                     table_block(

@@ -27,7 +27,7 @@ def _channel_table(spec: CampaignSpec | None) -> bool:
     """Whether the campaign flies a channel table (:mod:`models.tables.channels`)."""
     from models.tables import PAPER_LOOKUP_TABLES, is_channel_table
 
-    table = None if spec is None else spec.table
+    table = getattr(spec, "table", None)  # None: no table, or a spec-like without one
     return table is not None and table not in PAPER_LOOKUP_TABLES and is_channel_table(table)
 
 
@@ -37,7 +37,7 @@ def axis_jets(spec: CampaignSpec | None = None) -> np.ndarray:
     on a coupled layout every jet torques several axes, so Table 2 says nothing)."""
     from models.tables import load_jet_map
 
-    if spec is not None and spec.table is not None and _channel_table(spec):
+    if spec is not None and _channel_table(spec):
         from lookup.channels import axis_jets_of
         from models.tables import load_recipe, recipe_path
 
