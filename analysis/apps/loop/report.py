@@ -407,7 +407,8 @@ def write_loop_report(out: Path, settings, state: dict) -> Path:
                 text_block(
                     "Settings, seeds, stage times and code version: loop.json. Campaign specs: "
                     "spec_before.toml, spec_after.toml; each campaign's manifest.json records "
-                    "its spec, seed, table checksum and code version."
+                    "its spec, seed, table checksum (a channel table's recipe checksum too; the "
+                    "recipe records the vehicle file's) and code version."
                 ),
                 "<pre>" + html.escape(json.dumps(state, indent=2)) + "</pre>",
             ],

@@ -393,7 +393,7 @@ class _Stages:
         self.table_file = (
             str(out / GENERATED_TABLE)
             if settings.table == GENERATE
-            else _table_path(settings.table)
+            else _table_path(str(settings.table))  # resolved in LoopSettings: never None
         )
         self.paths = {
             "campaign_before": out / "campaign_before",

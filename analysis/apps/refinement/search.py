@@ -557,9 +557,16 @@ def _test_dict(test: PairedTest) -> dict:
     }
 
 
-def _moves(delta: np.ndarray) -> str:
-    """A row's change in cycles per axis, e.g. ``yaw -1``; ``none``."""
-    parts = [f"{AXES[a]} {int(d):+d}" for a, d in enumerate(delta) if d]
+def _moves(delta: np.ndarray, table: LookupTable | None = None, row: int = 0) -> str:
+    """A row's change in cycles per axis, e.g. ``yaw -1`` (a channel table's row:
+    ``+yaw channel -1``); ``none``."""
+
+    def name(a: int) -> str:
+        if table is None or table.recipe is None:
+            return AXES[a]
+        return f"{'+' if table.rate_cmd[row, a] > 0 else '-'}{AXES[a]} channel"
+
+    parts = [f"{name(a)} {int(d):+d}" for a, d in enumerate(delta) if d]
     return ", ".join(parts) or "none"
 
 
@@ -641,7 +648,7 @@ def evidence_frame(
             mirror_decision.append(
                 "consistent: neither changed"
                 if not mine.any()
-                else f"consistent: both {_moves(mine)}"
+                else f"consistent: both {_moves(mine, table, c)}"
             )
             continue
         tm = pos[m]
@@ -655,7 +662,8 @@ def evidence_frame(
             else:
                 why = "each row changed on its own evidence"
         mirror_decision.append(
-            f"differs: case {c + 1} {_moves(mine)}, case {m + 1} {_moves(theirs)} ({why})"
+            f"differs: case {c + 1} {_moves(mine, table, c)}, case {m + 1} "
+            f"{_moves(theirs, table, m)} ({why})"
         )
     frame.insert(1, "mirror_case", mirror_case)
     frame["mirror_decision"] = mirror_decision

@@ -37,11 +37,12 @@ def axis_jets(spec: CampaignSpec | None = None) -> np.ndarray:
     on a coupled layout every jet torques several axes, so Table 2 says nothing)."""
     from models.tables import load_jet_map
 
-    if spec is not None and _channel_table(spec):
+    table = getattr(spec, "table", None)
+    if table is not None and _channel_table(spec):
         from lookup.channels import axis_jets_of
         from models.tables import load_recipe, recipe_path
 
-        return axis_jets_of(load_recipe(recipe_path(spec.table)))
+        return axis_jets_of(load_recipe(recipe_path(table)))
     return (load_jet_map() != 0).T
 
 
