@@ -132,3 +132,45 @@ def test_a_nominal_channel_firing_is_one_event(tmp_path):
         to_rate = runs.sort_values("case_index")[f"firings_to_rate_{axis}"].to_numpy()
         assert np.array_equal(to_rate, (rate[:, a] != 0).astype(float)), axis
     assert not runs["failed"].any()
+
+
+def test_cli_refines_a_channel_table_on_its_recipes_vehicle(tmp_path, capsys):
+    """`rcsim lookup refine --table T.csv` on a channel table flies the vehicle its recipe
+    names (canted16) and writes the refined table with its recipe; the printed move names the
+    channel.  The mis-set cell of the first test, on the CLI's path."""
+    from analysis.apps.cli import main
+
+    generated = generate_channel_table("canted16")
+    times = generated.table.firing_time_s.copy()
+    times[13, 4] += CONTROL_CYCLE_S
+    replace(generated.table, firing_time_s=times).to_csv(tmp_path / "bad.csv")
+    argv = ["lookup", "refine", "--table", str(tmp_path / "bad.csv"), "--runs", "20",
+            "--search-runs", "20", "--duration-s", "10", "--cases", "14", "--max-iterations", "2",
+            "--out", str(tmp_path / "R.csv"), "--no-progress"]  # fmt: skip
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "case 14: +yaw channel 0.20->0.16 s" in out
+    refined = load_lookup_table(tmp_path / "R.csv")
+    assert refined.is_channel and refined.recipe.vehicle == "canted16"
+    assert refined.firing_time_s[13, 4] == pytest.approx(4 * CONTROL_CYCLE_S)
+    assert (tmp_path / "R_plots" / "case_14_before_after.png").is_file()
+
+
+def test_a_changed_recipe_is_refused_on_replay(tmp_path, capsys):
+    from analysis.apps.cli import main
+
+    generate_channel_table("canted16").table.to_csv(tmp_path / "t.csv")
+    (tmp_path / "spec.toml").write_text(
+        'vehicle = "canted16"\nseed = 1\nruns_per_case = 1\n'
+        '[scenario]\nkind = "rate-cases"\ncases = [14]\nmode = "command"\nduration_s = 1.0\n'
+        '[controller]\nname = "lookup"\ntable = "t.csv"\n'
+    )
+    assert main(["campaign", "run", str(tmp_path / "spec.toml"), "--out", str(tmp_path / "C")]) == 0
+    manifest = json.loads((tmp_path / "C" / "manifest.json").read_text())
+    assert len(manifest["spec"]["controller"]["recipe_sha256"]) == 64
+    recipe = tmp_path / "t_recipe.csv"
+    recipe.write_text(recipe.read_text().replace("0.9883632671589648", "0.98836"))  # still valid
+    capsys.readouterr()
+    assert main(["campaign", "replay", str(tmp_path / "C"), "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "t_recipe.csv changed since the campaign ran" in err
