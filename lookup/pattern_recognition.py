@@ -438,7 +438,9 @@ class LookupController:
         p = self.params
         e = nav.att_err_B
         theta = np.sqrt(np.einsum("ij,ij->i", e, e))  # total attitude error [rad], (n,)
-        if kernel_available():  # the same arithmetic as below, compiled (bit for bit)
+        # The same arithmetic as below, compiled (bit for bit); a channel table's delivery
+        # (recipe, shared-jet scaling, owed short shares) is numpy's alone.
+        if kernel_available() and self._channels is None:
             on, rem_next, hold, need, case, axis_new, axis_done = kernel_step(
                 e,
                 theta,
