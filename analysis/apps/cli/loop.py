@@ -86,7 +86,8 @@ def _resume_hint(args: argparse.Namespace) -> str:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from analysis.apps.loop.run import GENERATE, STATE, LoopSettings, resumed_settings, run_loop
+    from analysis.apps.loop.files import GENERATE
+    from analysis.apps.loop.run import STATE, LoopSettings, resumed_settings, run_loop
     from models.tables import PAPER_LOOKUP_TABLES
 
     given = {

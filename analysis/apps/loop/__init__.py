@@ -2,7 +2,9 @@
 
 * :mod:`~analysis.apps.loop.run` -- campaign with the table, failure drivers, refinement,
   the refined table's campaign on a fresh seed; resumable stage by stage;
-* :mod:`~analysis.apps.loop.report` -- the one ``report.html`` of the loop.
+* :mod:`~analysis.apps.loop.report` -- the one ``report.html`` of the loop;
+* :mod:`~analysis.apps.loop.files` -- the table refined as the campaigns name it (a generated
+  one in the loop directory).
 
 Composes ``analysis.engine.campaign``, ``drivers``, ``refinement`` and ``report``.
 

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from analysis.apps.loop.files import GENERATE, GENERATED_TABLE, table_file
 from analysis.apps.refinement.outputs import most_improved_case
 from analysis.apps.refinement.search import changed_cells
 from analysis.engine.campaign.spec import load_spec
@@ -30,18 +31,12 @@ from models.tables import AXES, PAPER_LOOKUP_TABLES, load_lookup_table, recipe_p
 
 def _table_file(out: Path, settings) -> str:
     """The table refined as the loop's campaigns name it."""
-    from analysis.apps.loop.run import GENERATE, GENERATED_TABLE
-
-    if settings.table == GENERATE:
-        return str(out / GENERATED_TABLE)
-    return settings.table
+    return table_file(out, settings.table)
 
 
 def _table_label(out: Path, settings) -> str:
     """What the table refined is, in words: the paper's, a file, or the loop's generated one
     (a channel table: six axis channels and their jet recipe)."""
-    from analysis.apps.loop.run import GENERATE, GENERATED_TABLE
-
     file = _table_file(out, settings)
     table = load_lookup_table(file)
     if settings.table == GENERATE:

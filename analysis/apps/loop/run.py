@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from analysis.apps.loop.files import GENERATE, table_file
 from analysis.apps.refinement.outputs import (
     check_parameters,
     held_out_seed,
@@ -43,10 +44,6 @@ COMMAND = "loop"
 STATE = "loop.json"
 #: Stages in order, each a sub-directory (or file) of DIR.
 STAGES = ("campaign_before", "drivers", "refine", "campaign_after", "check", "report")
-#: The table setting that makes the loop generate its table first (stage ``generate``).
-GENERATE = "generate"
-#: Where the generated table goes (beside it: its recipe and settling companion).
-GENERATED_TABLE = "generated_table.csv"
 
 
 def stages_of(settings: LoopSettings) -> tuple:
@@ -198,11 +195,6 @@ def spec_text(
 def _toml(value) -> str:
     """A TOML scalar: JSON's spelling is TOML's for strings, numbers and booleans."""
     return json.dumps(value)
-
-
-def _table_path(table: str) -> str:
-    """How a campaign spec names the table: the paper's by name, a file by absolute path."""
-    return table if table in PAPER_LOOKUP_TABLES else str(Path(table).absolute())
 
 
 class _State:
@@ -390,11 +382,7 @@ class _Stages:
         self.cases = np.arange(N_CASES)
         # How the campaigns name the table refined: the paper's by name, a file by its path
         # (the generated one in DIR).
-        self.table_file = (
-            str(out / GENERATED_TABLE)
-            if settings.table == GENERATE
-            else _table_path(str(settings.table))  # resolved in LoopSettings: never None
-        )
+        self.table_file = table_file(out, str(settings.table))  # resolved: never None
         self.paths = {
             "campaign_before": out / "campaign_before",
             "drivers": out / "drivers",
