@@ -46,7 +46,7 @@ from spacecraft.dispersions import (
 from spacecraft.vehicle import G0_M_S2, N_JETS
 
 #: Vehicle files packaged with rcsim, by name (``models/vehicle/<name>.toml``).
-PACKAGED_VEHICLES = ("paper", "canted16")
+PACKAGED_VEHICLES = ("paper", "canted16", "canted12")
 INTEGRATORS = ("RK4", "Euler", "implicit", "implicitfast")
 #: A jet closer to the CG than this [m] has no moment arm worth the name (a jet "inside the CG").
 MIN_ARM_M = 1e-3
