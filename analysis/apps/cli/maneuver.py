@@ -78,9 +78,11 @@ def run(args: argparse.Namespace) -> int:
     from analysis.apps.estimates import confirm, flying_seconds
     from models.tables import CONTROL_CYCLE_S as CYCLE
     from spacecraft.guards import check_history_memory
+    from spacecraft.vehicle import jet_count, load_model
 
     # What cannot fit in memory is refused before what merely takes long.
-    check_history_memory(1, math.ceil(args.duration_s / CYCLE), args.duration_s)
+    n_jets = jet_count(load_model())
+    check_history_memory(1, math.ceil(args.duration_s / CYCLE), args.duration_s, n_jets=n_jets)
     confirm(
         "the maneuver (one run, no batching)",
         flying_seconds(args.duration_s, runs=1),
