@@ -124,12 +124,33 @@ def fly(
     params: VehicleParams | None = None,
     propulsion: PropulsionParams = PropulsionParams(),
     controller_obj=None,
+    vehicle=None,
 ) -> History:
-    """Fly ``scenario`` for every run of ``params`` (default: one nominal vehicle)."""
-    model = load_model()
-    params = VehicleParams.nominal(1, model) if params is None else params
-    ctl = controller_obj or make_controller(controller, table=table, model=model)
-    return fly_batch([scenario] * params.n_runs, params, ctl, model=model, propulsion=propulsion)
+    """Fly ``scenario`` for every run of ``params`` (default: one nominal vehicle).
+
+    ``vehicle`` (a :class:`spacecraft.vehicle_file.FlyingVehicle`): fly that vehicle file, its
+    model, nominal parameters, valve limits and propellant, with any jet count, instead of the
+    packaged vehicle (``propulsion`` is then the file's); the controller is built for it.
+    """
+    if vehicle is None:
+        model = load_model()
+        params = VehicleParams.nominal(1, model) if params is None else params
+        ctl = controller_obj or make_controller(controller, table=table, model=model)
+        return fly_batch(
+            [scenario] * params.n_runs, params, ctl, model=model, propulsion=propulsion
+        )
+    params = vehicle.nominal(1) if params is None else params
+    ctl = controller_obj or make_controller(
+        controller, table=table, model=vehicle.model, vehicle=vehicle.definition
+    )
+    return fly_batch(
+        [scenario] * params.n_runs,
+        params,
+        ctl,
+        model=vehicle.model,
+        propulsion=vehicle.propulsion(),
+        tank=vehicle.tank(params.n_runs),
+    )
 
 
 def history_frame(history: History, run: int = 0) -> pd.DataFrame:
