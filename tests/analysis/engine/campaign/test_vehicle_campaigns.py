@@ -82,7 +82,8 @@ def test_paper_vehicle_file_campaign_is_the_packaged_one(tmp_path):
 @pytest.fixture(scope="module")
 def seven_jets(tmp_path_factory) -> Path:
     """canted12.toml's first seven jets (triads A and B, and C's forward jet): every axis
-    direction is still reachable (``rcsim vehicle check``), with seven jets."""
+    direction is still reachable (``rcsim vehicle check``), with seven jets; its dispersions
+    (products of inertia among them) are canted12's."""
     text = resolve_vehicle("canted12").read_text()
     head, *jets = text.split("\n[[jet]]\n")
     assert len(jets) == 12
@@ -95,7 +96,7 @@ def test_a_seven_jet_vehicle_flies_a_campaign_and_is_analysed(tmp_path, seven_je
     out = _campaign(tmp_path, "seven", f'vehicle = "{seven_jets}"', runs=5, cases="[5, 13, 17, 22]")
     runs = pd.read_parquet(out / "runs.parquet")
     assert tuple(runs.columns) == tuple(
-        c.name for c in run_columns(("sensor", "timing", "fault"), n_jets=7)
+        c.name for c in run_columns(("sensor", "timing", "fault"), True, n_jets=7)
     )
     assert recorded_jets(runs.columns) == 7 and "jet_08_thrust_n" not in runs.columns
     for kind in ("thrust_n", "tilt_deg", "azimuth_deg", "on_time_s"):
