@@ -9,12 +9,14 @@ Measures, in one process run:
 2. ``compare``: on the paper's vehicle, the three controllers on the 26 rate cases (from rest
    to the case rate, 20 s), the 5 deg three-axis maneuver and the disturbed attitude hold
    (2 N m yaw): firings, propellant and final errors side by side;
-3. ``canted``: the 26 rate cases x N runs on the canted-quad vehicle with the allocator under
-   Table 5-style dispersions (the vehicle file's table): failures and propellant per case.
+3. ``canted``: the 26 rate cases x N runs on the canted-quad (16 jets) and canted-triad (12
+   jets) vehicles with the allocator under Table 5-style dispersions (the vehicle file's
+   table): failures and propellant per case, and the wall time.
 
 Usage::
 
     python benchmarks/allocator.py [--runs-per-case 40] [--repeats 3] [--canted-runs 1000]
+        [--canted-vehicles canted16,canted12]
 
 Timings are wall-clock on a shared machine: the script prints the load average before and
 after; quote the ratio of interleaved repeats, not an absolute figure.
@@ -109,12 +111,13 @@ def compare() -> None:
             )
 
 
-def canted(runs: int) -> None:
+def canted(runs: int, vehicle: str) -> None:
     import pandas as pd
 
+    print(f"load average before: {os.getloadavg()}")
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        run_campaign(_spec("allocator", runs, 18, "canted16"), Path(tmp) / "c", progress=False)
+        run_campaign(_spec("allocator", runs, 18, vehicle), Path(tmp) / "c", progress=False)
         wall = time.perf_counter() - t0
         frame = pd.read_parquet(Path(tmp) / "c" / "runs.parquet")
     per_case = frame.groupby("case").agg(
@@ -122,7 +125,11 @@ def canted(runs: int) -> None:
         propellant_mean_g=("propellant_kg", lambda p: 1e3 * p.mean()),
         propellant_max_g=("propellant_kg", lambda p: 1e3 * p.max()),
     )
-    print(f"canted16, allocator, 26 x {runs} runs, the file's dispersions: {wall:.0f} s wall")
+    jets = len(frame.filter(regex=r"^jet_\d+_on_time_s$").columns)
+    print(
+        f"{vehicle} ({jets} jets), allocator, 26 x {runs} runs, the file's dispersions: "
+        f"{wall:.0f} s wall; load average after: {os.getloadavg()}"
+    )
     print(per_case.to_string())
     print(f"total failed {int(frame['failed'].sum())} of {len(frame)}")
 
@@ -132,6 +139,7 @@ def main() -> None:
     parser.add_argument("--runs-per-case", type=int, default=40)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--canted-runs", type=int, default=1000)
+    parser.add_argument("--canted-vehicles", default="canted16,canted12")
     parser.add_argument("--only", choices=("speed", "compare", "canted"))
     args = parser.parse_args()
     if args.only in (None, "speed"):
@@ -139,7 +147,8 @@ def main() -> None:
     if args.only in (None, "compare"):
         compare()
     if args.only in (None, "canted"):
-        canted(args.canted_runs)
+        for vehicle in args.canted_vehicles.split(","):
+            canted(args.canted_runs, vehicle)
 
 
 if __name__ == "__main__":

@@ -107,7 +107,7 @@ def naive(model, controller, n_runs: int) -> float:
         d = mujoco.MjData(model)
         mujoco.mj_forward(model, d)
         state = controller.initial_state(1)
-        prop = PropulsionState.zeros(1)
+        prop = PropulsionState.zeros(1, len(jets))
         for k in range(n_cycles):
             nav = navigate(
                 k * prop_params.cycle_s,

@@ -32,6 +32,7 @@ import mujoco
 import numpy as np
 
 from lookup.allocator import Allocator
+from models.errors import InputError
 from models.tables import CONTROL_CYCLE_S
 from spacecraft.propellant import full_inertia
 from spacecraft.vehicle import BODY, G0_M_S2, VehicleParams, torque_per_jet_B
@@ -44,9 +45,10 @@ GIVE_UP_CYCLES = 5
 
 
 def jet_model(model: mujoco.MjModel, isp_s: float = 280.0):
-    """The nominal jet model of a vehicle: ``D`` (3, n) [rad/s per s], ``G`` (3, n)
-    [m/s per s], ``mdot`` (n,) [kg/s], mass [kg]; from the compiled model (full inertia, with
-    its principal frame ``body_iquat``)."""
+    """The nominal jet model of a vehicle of ``n`` jets (the model's,
+    :func:`spacecraft.vehicle.jet_count`): ``D`` (3, n) [rad/s per s], ``G`` (3, n) [m/s per s],
+    ``mdot`` (n,) [kg/s], mass [kg]; from the compiled model (full inertia, with its principal
+    frame ``body_iquat``)."""
     params = VehicleParams.nominal(1, model)
     torque = torque_per_jet_B(params, model)[0]  # (n, 3) about the CG [N m]
     inertia = full_inertia(params.inertia_B, model.body_iquat[model.body(BODY).id])[0]
@@ -194,13 +196,27 @@ def allocator_controller(
     jets_off=(),
     **options,
 ) -> AllocatorController:
-    """The allocator controller of a vehicle model: minimum propellant, translation priced at
-    the propellant that would null it (``m / (Isp g0)`` per m/s), jets ``jets_off`` (1-based
-    numbers) never used."""
+    """The allocator controller of a vehicle model (any number of jets, the model's): minimum
+    propellant, translation priced at the propellant that would null it (``m / (Isp g0)`` per
+    m/s), jets ``jets_off`` (1-based numbers) never used.
+
+    Raises
+    ------
+    InputError
+        A number in ``jets_off`` that is not a jet of the vehicle.
+    """
     D, G, mdot, mass = jet_model(model, isp_s)
     allocator = Allocator(D, mdot, G=G, w_v=mass / (isp_s * G0_M_S2))
     available = None
-    if jets_off:
-        available = np.ones(D.shape[1], bool)
+    if len(jets_off):
+        n_jets = D.shape[1]
+        bad = [j for j in jets_off if not 1 <= int(j) <= n_jets]
+        if bad:
+            raise InputError(
+                f"no jet {bad[0]}: the vehicle has jets 1..{n_jets}",
+                parameter="jets_off",
+                value=list(jets_off),
+            )
+        available = np.ones(n_jets, bool)
         available[np.asarray(jets_off, int) - 1] = False
     return AllocatorController(allocator, min_on_s=min_on_s, available=available, **options)

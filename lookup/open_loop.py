@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.tables import CONTROL_CYCLE_S, N_JETS
+from models.tables import CONTROL_CYCLE_S
 
 
 class OpenLoopController:
@@ -17,8 +17,9 @@ class OpenLoopController:
 
     Parameters
     ----------
-    total_s : array_like, (n_runs, 16) or (16,)
-        Total on-time of each jet [s]; a (16,) row is every run's.  ``np.zeros(16)`` coasts.
+    total_s : array_like, (n_runs, n_jets) or (n_jets,)
+        Total on-time of each of the vehicle's ``n_jets`` jets [s]; a row is every run's.
+        ``np.zeros(n_jets)`` coasts.  The simulation refuses a width other than its vehicle's.
     cycle_s : float
         Control cycle [s]; the simulation refuses one that disagrees with its own.
 
@@ -30,10 +31,9 @@ class OpenLoopController:
 
     def __init__(self, total_s, cycle_s: float = CONTROL_CYCLE_S):
         self.total_s = np.asarray(total_s, float)
-        if self.total_s.shape[-1] != N_JETS or self.total_s.ndim not in (1, 2):
+        if self.total_s.ndim not in (1, 2) or self.total_s.shape[-1] < 1:
             raise ValueError(
-                f"total_s must have shape (n_runs, {N_JETS}) or ({N_JETS},), "
-                f"got {self.total_s.shape}"
+                f"total_s must have shape (n_runs, n_jets) or (n_jets,), got {self.total_s.shape}"
             )
         self.cycle_s = float(cycle_s)
 
@@ -43,6 +43,6 @@ class OpenLoopController:
         return 0
 
     def step(self, nav, k: int) -> tuple[np.ndarray, int]:
-        """On-times of cycle ``k`` [s], shape (n_runs, 16), and the next state."""
+        """On-times of cycle ``k`` [s], shape (n_runs, n_jets), and the next state."""
         on = np.clip(self.total_s - k * self.cycle_s, 0.0, self.cycle_s)
-        return np.broadcast_to(on, (nav.n_runs, N_JETS)).copy(), k + 1
+        return np.broadcast_to(on, (nav.n_runs, on.shape[-1])).copy(), k + 1

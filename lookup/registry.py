@@ -29,6 +29,51 @@ ALL_CONTROLLERS = CONTROLLERS + MORE_CONTROLLERS
 TABLE_CONTROLLERS = ("lookup", "adaptive")
 
 
+def vehicle_problem(name: str, table, vehicle) -> tuple[str, str] | None:
+    """Why controller ``name`` (with lookup ``table``, None: the packaged one) cannot fly the
+    vehicle file ``vehicle`` (a :class:`spacecraft.vehicle_file.VehicleDef`), or None.
+
+    The allocator flies any layout.  The phase-plane controller and the packaged lookup tables
+    (the default and the paper's Tables 6 and 7) assume the paper's jet map (Table 2: which
+    jet turns which axis which way); any jet table fires the paper's 16 jets.  A channel table
+    (:mod:`lookup.channels`) fires the jets of the vehicle its recipe was solved for, whatever
+    their count (:func:`lookup.jet_sets.check_table_vehicle` checks which).  Returns
+    ``(what, problem)``: ``what`` is ``"name"`` or ``"table"`` (the choice at fault),
+    ``problem`` one sentence naming the first jet that differs or the jet counts, ending with
+    the way out.
+    """
+    from models.tables import N_JETS, PAPER_LOOKUP_TABLES, is_channel_table, load_jet_map
+    from spacecraft.vehicle_file.authority import jet_map_mismatch
+
+    if name == "allocator":
+        return None
+    channels = (
+        table is not None and str(table) not in PAPER_LOOKUP_TABLES and is_channel_table(table)
+    )
+    if channels:  # its recipe is per jet of the vehicle it was solved for (checked with it)
+        return None
+    if table is not None and name in TABLE_CONTROLLERS and vehicle.n_jets != N_JETS:
+        return (
+            "table",
+            f"a lookup table fires the paper's {N_JETS} jets; {vehicle.source} has "
+            f"{vehicle.n_jets} (got {str(table)!r}); use the allocator controller",
+        )
+    packaged = table is None or str(table) in PAPER_LOOKUP_TABLES  # made for Table 2's jets
+    if name != "phase-plane" and not packaged:
+        return None  # a user's table made for their vehicle (rcsim lookup generate --vehicle)
+    differs = jet_map_mismatch(vehicle, load_jet_map())
+    if differs:
+        what = ""
+        if name != "phase-plane":
+            what = " with the packaged table" if table is None else f" with the paper's {table}"
+        return (
+            "name",
+            f"{name!r}{what} assumes the paper's jet map (Table 2), but in {vehicle.source} "
+            f"{differs}; use the allocator controller",
+        )
+    return None
+
+
 def make_controller(
     name: str,
     *,

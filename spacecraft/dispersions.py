@@ -8,7 +8,8 @@ Every Table 5 entry is normal about the nominal vehicle with standard deviation
 * ``mass``: vehicle mass [kg];
 * ``cg_x``: x coordinate of the centre of gravity [m] (Table 5 disperses CG_x only);
 * ``ixx, iyy, izz``: principal moments of inertia about the CG [kg m^2], independently;
-* ``thrust``: the thrust of *each* of the 16 jets [N], independently per jet;
+* ``thrust``: the thrust of *each* jet [N], independently per jet (the paper's vehicle has 16;
+  a vehicle file any number);
 * ``thruster_angle``: the pointing of *each* jet.  Its force direction is tilted away from the
   nominal direction by an angle ``theta ~ N(0, sigma)`` about an azimuth ``phi ~ U[0, 2 pi)``
   measured in the plane normal to the nominal direction.  The misalignment angle (between the
@@ -52,7 +53,7 @@ Reproducibility
 Run ``i`` of a campaign with root ``seed`` uses ``SeedSequence(seed, spawn_key=(i,))``, spawned
 into ``(dispersion, noise)`` streams in that fixed order (a new random source appends a spawn,
 never reorders).  The dispersion stream always draws the same count of standard variates
-(:data:`N_NORMALS` normals then :data:`N_UNIFORMS` uniforms) whatever the sigmas, so changing
+(:func:`n_normals` normals then :func:`n_uniforms` uniforms) whatever the sigmas, so changing
 one sigma (or setting it to zero) never changes the other dispersions of a run.  The quantities
 beyond Table 5 (CG y and z, products of inertia) draw :data:`N_MASS_EXTRAS` normals from a
 *child* of the dispersion stream ``D``, ``SeedSequence(D.entropy, spawn_key=D.spawn_key +
@@ -60,6 +61,12 @@ beyond Table 5 (CG y and z, products of inertia) draw :data:`N_MASS_EXTRAS` norm
 stream's own draws are untouched, so a campaign without them flies every run exactly as before.
 A run's vehicle is therefore a function of ``(seed, i)`` and the sigmas only: independent of
 the chunk it is simulated in, of the worker and of the order.
+
+The counts depend on the vehicle's jets only (``n_jets``: :func:`n_normals`,
+:func:`n_uniforms`): mass, CG x, three inertias, then a thrust and a tilt normal per jet, and an
+azimuth uniform per jet.  The paper's vehicle (16 jets) draws 37 normals and 16 uniforms, as it
+always has; a vehicle of ``n`` jets draws ``5 + 2 n`` and ``n`` in the same layout (the mass
+extras are 5 whatever the jets).
 """
 
 from __future__ import annotations
@@ -72,7 +79,7 @@ import pandas as pd
 
 from models.errors import InputError
 from spacecraft.propellant import full_inertia, principal
-from spacecraft.vehicle import IDENTITY_QUAT, N_JETS, VehicleParams
+from spacecraft.vehicle import IDENTITY_QUAT, VehicleParams
 
 #: Dispersions this module models: Table 5's names in the order they are drawn, then the ones
 #: beyond Table 5 (CG y and z, products of inertia; drawn from the mass-extras stream).
@@ -110,16 +117,23 @@ THREE_SIGMA_KEYS = {
 #: each makes (module docstring, "Physical tensors"): 1/2 for a moment, 1 for a product.
 INERTIA_ENTRIES = {"ixx": 0.5, "iyy": 0.5, "izz": 0.5, "ixy": 1.0, "ixz": 1.0, "iyz": 1.0}
 
-# Standard-normal layout of one run's draw: mass, cg_x, ixx, iyy, izz, thrust x16, tilt x16.
-_Z_MASS, _Z_CG, _Z_INERTIA, _Z_THRUST, _Z_TILT = 0, 1, slice(2, 5), slice(5, 21), slice(21, 37)
-#: Standard normals drawn per run.
-N_NORMALS = 37
-#: Uniforms drawn per run (jet tilt azimuths).
-N_UNIFORMS = N_JETS
+# Standard-normal layout of one run's draw: mass, cg_x, ixx, iyy, izz, then thrust and tilt,
+# one per jet each (_Z_JETS is where the thrusts start).
+_Z_MASS, _Z_CG, _Z_INERTIA, _Z_JETS = 0, 1, slice(2, 5), 5
 #: Standard normals drawn per run from the mass-extras stream: cg_y, cg_z, ixy, ixz, iyz.
 N_MASS_EXTRAS = 5
 #: Child of a run's dispersion stream that the mass extras draw from.
 MASS_EXTRAS = 0
+
+
+def n_normals(n_jets: int) -> int:
+    """Standard normals drawn per run of a vehicle of ``n_jets`` jets (37 for the paper's)."""
+    return _Z_JETS + 2 * int(n_jets)
+
+
+def n_uniforms(n_jets: int) -> int:
+    """Uniforms drawn per run (jet tilt azimuths): one per jet."""
+    return int(n_jets)
 
 
 @dataclass(frozen=True)
@@ -217,9 +231,9 @@ class DispersedRuns:
     run_ids : ndarray of int, (n,)
     params : VehicleParams
         One entry per run.
-    tilt_rad : ndarray, (n, 16)
+    tilt_rad : ndarray, (n, n_jets)
         Signed tilt ``theta`` of each jet; the misalignment angle is ``|theta|`` [rad].
-    azimuth_rad : ndarray, (n, 16)
+    azimuth_rad : ndarray, (n, n_jets)
         Tilt azimuth ``phi`` in [0, 2 pi) [rad].
     """
 
@@ -251,9 +265,10 @@ def run_generators(seed: int, run_id: int) -> tuple[np.random.Generator, np.rand
     return np.random.default_rng(first), np.random.default_rng(second)
 
 
-def standard_draws(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """One run's standard variates: normals (N_NORMALS,) then uniforms (N_UNIFORMS,)."""
-    return rng.standard_normal(N_NORMALS), rng.random(N_UNIFORMS)
+def standard_draws(rng: np.random.Generator, n_jets: int) -> tuple[np.ndarray, np.ndarray]:
+    """One run's standard variates for a vehicle of ``n_jets`` jets: normals
+    ``(n_normals(n_jets),)`` then uniforms ``(n_uniforms(n_jets),)``."""
+    return rng.standard_normal(n_normals(n_jets)), rng.random(n_uniforms(n_jets))
 
 
 def mass_extra_stream(seed: int, run_id: int) -> np.random.SeedSequence:
@@ -385,16 +400,16 @@ def pointing(
 
     Parameters
     ----------
-    nominal_dir_S : ndarray, (..., 16, 3)
+    nominal_dir_S : ndarray, (..., n_jets, 3)
         Nominal directions (need not be unit), broadcast against the angles.
-    tilt_rad : ndarray, (n, 16)
+    tilt_rad : ndarray, (n, n_jets)
         Signed tilt ``theta`` [rad]; the misalignment angle is ``|theta|``.
-    azimuth_rad : ndarray, (n, 16)
+    azimuth_rad : ndarray, (n, n_jets)
         Azimuth ``phi`` of the tilt in the plane normal to the nominal direction [rad].
 
     Returns
     -------
-    ndarray, (n, 16, 3)
+    ndarray, (n, n_jets, 3)
         Unit directions.
     """
     d = nominal_dir_S / np.linalg.norm(nominal_dir_S, axis=-1, keepdims=True)
@@ -417,11 +432,11 @@ def apply_draws(
     Parameters
     ----------
     nominal : VehicleParams
-        The nominal vehicle (one run; broadcast to all).
+        The nominal vehicle (one run; broadcast to all) of ``n_jets`` jets.
     sigmas : DispersionSigmas
-    z : ndarray, (n, N_NORMALS)
+    z : ndarray, (n, n_normals(n_jets))
         Standard normals, laid out as :func:`standard_draws` returns them.
-    u : ndarray, (n, N_UNIFORMS)
+    u : ndarray, (n, n_uniforms(n_jets))
         Uniforms in [0, 1).
     x : ndarray, (n, N_MASS_EXTRAS), optional
         The mass extras' standard normals (:func:`mass_extra_draws`); required when
@@ -430,16 +445,23 @@ def apply_draws(
     Returns
     -------
     params : VehicleParams, n runs
-    tilt_rad, azimuth_rad : ndarray, (n, 16)
+    tilt_rad, azimuth_rad : ndarray, (n, n_jets)
     """
-    n = z.shape[0]
+    n, jets = z.shape[0], nominal.n_jets
+    if z.shape[1:] != (n_normals(jets),) or u.shape != (n, n_uniforms(jets)):
+        raise ValueError(
+            f"draws of shapes {z.shape}, {u.shape} do not fit a vehicle of {jets} jets "
+            f"({n_normals(jets)} normals, {n_uniforms(jets)} uniforms per run)"
+        )
+    thrust_z = slice(_Z_JETS, _Z_JETS + jets)
+    tilt_z = slice(_Z_JETS + jets, _Z_JETS + 2 * jets)
     base = nominal.take(np.zeros(n, int))
     mass = base.mass_kg + sigmas.mass_kg * z[:, _Z_MASS]
     cg = base.cg_B.copy()
     cg[:, 0] += sigmas.cg_x_m * z[:, _Z_CG]
     inertia = base.inertia_B + np.asarray(sigmas.inertia_kg_m2) * z[:, _Z_INERTIA]
-    thrust = base.thrust_n + sigmas.thrust_n * z[:, _Z_THRUST]
-    tilt = sigmas.thruster_angle_rad * z[:, _Z_TILT]
+    thrust = base.thrust_n + sigmas.thrust_n * z[:, thrust_z]
+    tilt = sigmas.thruster_angle_rad * z[:, tilt_z]
     azimuth = 2.0 * np.pi * u
     direction = pointing(base.jet_dir_S, tilt, azimuth)
     iquat = base.iquat
@@ -478,10 +500,11 @@ def draw_runs(
     over runs costs about 45 microseconds per run, negligible beside the flight.
     """
     run_ids = np.asarray(run_ids, dtype=np.int64).reshape(-1)
-    z = np.empty((run_ids.size, N_NORMALS))
-    u = np.empty((run_ids.size, N_UNIFORMS))
+    jets = nominal.n_jets
+    z = np.empty((run_ids.size, n_normals(jets)))
+    u = np.empty((run_ids.size, n_uniforms(jets)))
     for k, i in enumerate(run_ids):
-        z[k], u[k] = standard_draws(np.random.default_rng(run_streams(seed, i)[0]))
+        z[k], u[k] = standard_draws(np.random.default_rng(run_streams(seed, i)[0]), jets)
     x = mass_extra_draws(seed, run_ids) if sigmas.has_mass_extras else None
     params, tilt, azimuth = apply_draws(nominal, sigmas, z, u, x)
     return DispersedRuns(run_ids=run_ids, params=params, tilt_rad=tilt, azimuth_rad=azimuth)

@@ -17,13 +17,15 @@ c     purpose
 ====  ====================================================
 0     sensor noise in flight (:class:`spacecraft.sensors.SensorNoise`)
 1     sensor biases (6 normals)
-2     valve timing (1 + 16 + 16 normals)
+2     valve timing (1 + n_jets + n_jets normals)
 3     faults (4 uniforms)
 ====  ====================================================
 
-Each child draws a fixed count of standard variates whatever the spec, so no spec change shifts
-another draw, and none of them touches the dispersion stream or the noise stream's own draws:
-adding these effects to a campaign leaves every existing run's vehicle bit for bit the same.
+Each child draws a fixed count of standard variates whatever the spec (a function of the
+vehicle's jet count ``n_jets`` only; the paper's vehicle's 16 give 33 timing normals), so no
+spec change shifts another draw, and none of them touches the dispersion stream or the noise
+stream's own draws: adding these effects to a campaign leaves every existing run's vehicle bit
+for bit the same.
 
 The specs are SI dataclasses; reading them from a campaign's TOML (keys in degrees, ranges,
 messages naming the file) is the campaign's job (:mod:`analysis.engine.campaign.effects`), at
@@ -37,10 +39,10 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 import pandas as pd
 
+from models.errors import InputError
 from spacecraft.dispersions import run_streams
 from spacecraft.sensors import SensorParams
 from spacecraft.valves import JetFaults, ValveTiming
-from spacecraft.vehicle import N_JETS
 
 SENSOR_NOISE, SENSOR_BIAS, TIMING, FAULT = 0, 1, 2, 3
 FAULT_MODES = ("none", "off", "stuck", "degraded")
@@ -94,7 +96,8 @@ class FaultSpec:
     ----------
     mode : {"none", "off", "stuck", "degraded"}
     jets : tuple of int
-        Candidate jets, numbered 1..16; one is chosen uniformly per faulty run.
+        Candidate jets, numbered 1..n_jets of the vehicle flown; one is chosen uniformly per
+        faulty run.  Empty (the default): every jet of the vehicle.
     probability : float
         Chance that a run has the fault, in [0, 1].
     time_s : (float, float)
@@ -107,7 +110,7 @@ class FaultSpec:
     """
 
     mode: str = "none"
-    jets: tuple = tuple(range(1, N_JETS + 1))
+    jets: tuple = ()
     probability: float = 1.0
     time_s: tuple = (0.0, 0.0)
     stuck_for_s: tuple = (0.0, 0.0)
@@ -115,6 +118,25 @@ class FaultSpec:
 
     def is_none(self) -> bool:
         return self.mode == "none" or self.probability == 0
+
+    def candidates(self, n_jets: int) -> tuple:
+        """The candidate jets on a vehicle of ``n_jets`` jets (``jets``, or all of them).
+
+        Raises
+        ------
+        InputError
+            A candidate that is not a jet of the vehicle.
+        """
+        if not self.jets:
+            return tuple(range(1, int(n_jets) + 1))
+        bad = [j for j in self.jets if not 1 <= j <= n_jets]
+        if bad:
+            raise InputError(
+                f"no jet {bad[0]}: the vehicle has jets 1..{n_jets}",
+                parameter="jets",
+                value=list(self.jets),
+            )
+        return tuple(self.jets)
 
 
 def draw_sensors(spec: SensorSpec, seed: int, run_ids) -> tuple[SensorParams, list]:
@@ -137,22 +159,27 @@ def draw_sensors(spec: SensorSpec, seed: int, run_ids) -> tuple[SensorParams, li
     return params, [effect_stream(seed, i, SENSOR_NOISE) for i in run_ids]
 
 
-def draw_timing(spec: TimingSpec, seed: int, run_ids) -> ValveTiming:
-    """Per-run delays of campaign runs ``run_ids`` (normal about the means, clipped at 0)."""
+def draw_timing(spec: TimingSpec, seed: int, run_ids, n_jets: int) -> ValveTiming:
+    """Per-run delays of campaign runs ``run_ids`` of a vehicle of ``n_jets`` jets (normal about
+    the means, clipped at 0): the command delay, then an opening and a closing latency per
+    jet, ``1 + 2 n_jets`` normals per run."""
     run_ids = np.asarray(run_ids, np.int64).reshape(-1)
+    k = 1 + 2 * int(n_jets)
     z = np.array(
-        [np.random.default_rng(effect_stream(seed, i, TIMING)).standard_normal(33) for i in run_ids]
-    ).reshape(-1, 33)
+        [np.random.default_rng(effect_stream(seed, i, TIMING)).standard_normal(k) for i in run_ids]
+    ).reshape(-1, k)
     pos = lambda v: np.maximum(v, 0.0)  # noqa: E731
     return ValveTiming(
         command_delay_s=pos(spec.command_delay_s + spec.command_delay_sigma_s * z[:, 0]),
-        open_delay_s=pos(spec.open_delay_s + spec.open_delay_sigma_s * z[:, 1:17]),
-        close_delay_s=pos(spec.close_delay_s + spec.close_delay_sigma_s * z[:, 17:33]),
+        open_delay_s=pos(spec.open_delay_s + spec.open_delay_sigma_s * z[:, 1 : 1 + n_jets]),
+        close_delay_s=pos(spec.close_delay_s + spec.close_delay_sigma_s * z[:, 1 + n_jets : k]),
     )
 
 
-def draw_faults(spec: FaultSpec, seed: int, run_ids) -> tuple[JetFaults, pd.DataFrame]:
-    """Per-run jet faults of campaign runs ``run_ids`` and a frame of what was drawn.
+def draw_faults(spec: FaultSpec, seed: int, run_ids, n_jets: int) -> tuple[JetFaults, pd.DataFrame]:
+    """Per-run jet faults of campaign runs ``run_ids`` of a vehicle of ``n_jets`` jets and a
+    frame of what was drawn (4 uniforms per run whatever the vehicle: the faulty jet is the
+    candidate :meth:`FaultSpec.candidates` at ``floor(u * count)``).
 
     Returns
     -------
@@ -167,12 +194,13 @@ def draw_faults(spec: FaultSpec, seed: int, run_ids) -> tuple[JetFaults, pd.Data
         [np.random.default_rng(effect_stream(seed, i, FAULT)).random(4) for i in run_ids]
     ).reshape(-1, 4)
     faulty = (u[:, 0] < spec.probability) & (spec.mode != "none")
-    jets = np.asarray(spec.jets)[
-        np.minimum((u[:, 1] * len(spec.jets)).astype(int), len(spec.jets) - 1)
+    candidates = spec.candidates(n_jets)
+    jets = np.asarray(candidates)[
+        np.minimum((u[:, 1] * len(candidates)).astype(int), len(candidates) - 1)
     ]
     lerp = lambda lo_hi, x: lo_hi[0] + (lo_hi[1] - lo_hi[0]) * x  # noqa: E731
     when = lerp(spec.time_s, u[:, 2])
-    faults = JetFaults.of(n)
+    faults = JetFaults.of(n, n_jets=n_jets)
     rows, cols = np.flatnonzero(faulty), jets[faulty] - 1
     nan = np.full(n, np.nan)
     stuck_for, factor = nan.copy(), nan.copy()

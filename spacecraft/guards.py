@@ -9,7 +9,7 @@
 * :func:`warning_reasons`: the failure reason of a run whose MuJoCo warning counters rose
   (see :mod:`spacecraft.simulation`, "Failures").
 
-Imports ``models`` and ``spacecraft.vehicle`` only.
+Imports ``models`` only.
 """
 
 from __future__ import annotations
@@ -21,11 +21,12 @@ import mujoco
 import numpy as np
 
 from models.errors import InputError
-from spacecraft.vehicle import N_JETS
 
-#: Bytes a history records per run per control cycle: ``q_BN`` (4), ``omega_B``,
-#: ``att_err_B``, ``rate_err_B`` (3 each) and ``on_time_s`` (16), float64.
-HISTORY_BYTES_PER_RUN_CYCLE = (4 + 3 * 3 + N_JETS) * 8
+
+def history_bytes_per_run_cycle(n_jets: int) -> int:
+    """Bytes a history records per run per control cycle: ``q_BN`` (4), ``omega_B``,
+    ``att_err_B``, ``rate_err_B`` (3 each) and ``on_time_s`` (one per jet), float64."""
+    return (4 + 3 * 3 + int(n_jets)) * 8
 
 
 def check_cycle(controller: object, cycle_s: float) -> None:
@@ -64,21 +65,22 @@ def memory_budget_bytes() -> int | None:
 MEASURED_BYTES_PER_RUN_CYCLE = 6 * 8
 
 
-#: Extra bytes per run per cycle when valve timing, faults or a thrust profile apply:
-#: ``delivered_s`` (16 float64).
-DELIVERED_BYTES_PER_RUN_CYCLE = N_JETS * 8
-
-
 def history_bytes(
-    n_runs: int, n_cycles: int, measured: bool = False, delivered: bool = False
+    n_runs: int,
+    n_cycles: int,
+    measured: bool = False,
+    delivered: bool = False,
+    *,
+    n_jets: int,
 ) -> int:
-    """Bytes of the per-cycle record of ``n_runs`` runs over ``n_cycles`` cycles (with ``t_s``;
-    ``measured``: with the measured errors of imperfect sensors; ``delivered``: with the
-    delivered on-times)."""
+    """Bytes of the per-cycle record of ``n_runs`` runs of a vehicle of ``n_jets`` jets over
+    ``n_cycles`` cycles (with ``t_s``; ``measured``: with the measured errors of imperfect
+    sensors; ``delivered``: with the delivered on-times, ``delivered_s``, one float64 per jet,
+    kept when valve timing, faults or a thrust profile apply)."""
     per_run = (
-        HISTORY_BYTES_PER_RUN_CYCLE
+        history_bytes_per_run_cycle(n_jets)
         + (MEASURED_BYTES_PER_RUN_CYCLE if measured else 0)
-        + (DELIVERED_BYTES_PER_RUN_CYCLE if delivered else 0)
+        + (int(n_jets) * 8 if delivered else 0)
     )
     return int(n_cycles) * (int(n_runs) * per_run + 8)
 
@@ -93,18 +95,24 @@ def human_bytes(n: float) -> str:
 
 
 def check_history_memory(
-    n_runs: int, n_cycles: int, duration_s: float, measured: bool = False, delivered: bool = False
+    n_runs: int,
+    n_cycles: int,
+    duration_s: float,
+    measured: bool = False,
+    delivered: bool = False,
+    *,
+    n_jets: int,
 ) -> None:
-    """Raise InputError if recording ``n_cycles`` cycles of ``n_runs`` runs exceeds
-    :func:`memory_budget_bytes` (``measured``, ``delivered``: the optional records of
-    :func:`history_bytes`)."""
+    """Raise InputError if recording ``n_cycles`` cycles of ``n_runs`` runs of a vehicle of
+    ``n_jets`` jets exceeds :func:`memory_budget_bytes` (``measured``, ``delivered``: the
+    optional records of :func:`history_bytes`)."""
     budget = memory_budget_bytes()
-    need = history_bytes(n_runs, n_cycles, measured, delivered)
+    need = history_bytes(n_runs, n_cycles, measured, delivered, n_jets=n_jets)
     if budget is not None and need > budget:
         raise InputError(
             f"= {duration_s:g} s is {n_cycles} control cycles; recording them for "
             f"{n_runs} run(s) needs {human_bytes(need)} ({need} bytes, "
-            f"{HISTORY_BYTES_PER_RUN_CYCLE} bytes per run per cycle), more than the "
+            f"{history_bytes_per_run_cycle(n_jets)} bytes per run per cycle), more than the "
             f"{human_bytes(budget)} allowed (half of this machine's memory): shorten the "
             f"flight, or split the runs into smaller batches",
             parameter="duration_s",

@@ -28,9 +28,9 @@ class History:
     q_BN : ndarray, (n_runs, n_cycles, 4)
     omega_B, att_err_B, rate_err_B : ndarray, (n_runs, n_cycles, 3)
         Body rate, attitude error and rate error at the cycle's start [rad/s, rad, rad/s].
-    on_time_s : ndarray, (n_runs, n_cycles, 16)
-        On-time each jet was commanded for the cycle, after the valve limits [s] (from the
-        cycle's start; what firing counts are made of).
+    on_time_s : ndarray, (n_runs, n_cycles, n_jets)
+        On-time each of the vehicle's ``n_jets`` jets was commanded for the cycle, after the
+        valve limits [s] (from the cycle's start; what firing counts are made of).
     final : NavState
         State at the end of the last cycle.
     propulsion : PropulsionState
@@ -44,7 +44,7 @@ class History:
     flown_params : VehicleParams or None
         The parameters each run was flown with, read back from MuJoCo's per-run model
         (:meth:`BatchSimulation.flown_params`); None for a history not made by a simulation.
-    delivered_s : ndarray, (n_runs, n_cycles, 16), or None
+    delivered_s : ndarray, (n_runs, n_cycles, n_jets), or None
         Time each jet thrust during the cycle [s]: the command moved by valve timing
         (:mod:`spacecraft.valves`), plus stuck-on windows, minus failed time (with a thrust
         profile, time with any thrust).  None when there is no valve timing, fault or profile:
@@ -78,3 +78,8 @@ class History:
     @property
     def n_runs(self) -> int:
         return int(self.omega_B.shape[0])
+
+    @property
+    def n_jets(self) -> int:
+        """The flown vehicle's jet count (the width of ``on_time_s``)."""
+        return int(self.on_time_s.shape[2])

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.tables import CONTROL_CYCLE_S
-from spacecraft.vehicle import G0_M_S2, N_JETS
+from spacecraft.vehicle import G0_M_S2
 
 
 @dataclass(frozen=True)
@@ -49,7 +49,7 @@ class PropulsionParams:
 
 @dataclass
 class PropulsionState:
-    """Per-run, per-jet accumulators (all arrays shaped ``(n_runs, 16)``).
+    """Per-run, per-jet accumulators (all arrays shaped ``(n_runs, n_jets)``).
 
     ``on_at_end``: the jet was on at the end of the last cycle (the next command continues
     that firing).  ``firings``: firings started.  ``on_time_s``: total on-time [s].
@@ -63,8 +63,9 @@ class PropulsionState:
     dropped: np.ndarray
 
     @classmethod
-    def zeros(cls, n_runs: int) -> PropulsionState:
-        z = lambda dtype: np.zeros((n_runs, N_JETS), dtype)  # noqa: E731
+    def zeros(cls, n_runs: int, n_jets: int) -> PropulsionState:
+        """Nothing fired yet, for ``n_runs`` vehicles of ``n_jets`` jets."""
+        z = lambda dtype: np.zeros((n_runs, n_jets), dtype)  # noqa: E731
         return cls(z(bool), z(np.int64), z(float), z(float), z(np.int64))
 
     def propellant_kg(self, isp_s: float) -> np.ndarray:
@@ -88,16 +89,16 @@ def apply_valve_limits(
 
     Parameters
     ----------
-    on_time_s : ndarray, (n_runs, 16)
+    on_time_s : ndarray, (n_runs, n_jets)
         Commanded on-time this cycle [s].
     state : PropulsionState
         Updated in place.
-    thrust_n : ndarray, (n_runs, 16)
+    thrust_n : ndarray, (n_runs, n_jets)
         Thrust of each jet [N], for the impulse total.
 
     Returns
     -------
-    ndarray, (n_runs, 16)
+    ndarray, (n_runs, n_jets)
         The on-times the valves deliver this cycle [s].
     """
     # NaN commands (a broken controller) are not fired; clip keeps the rest in [0, cycle].

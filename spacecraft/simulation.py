@@ -87,8 +87,8 @@ from spacecraft.valves import (
 from spacecraft.vehicle import (
     BODY,
     G0_M_S2,
-    N_JETS,
     VehicleParams,
+    jet_count,
     load_model,
     route_mujoco_warnings,
 )
@@ -109,7 +109,8 @@ class Controller(Protocol):
     def initial_state(self, n_runs: int) -> Any: ...
 
     def step(self, nav: NavState, state: Any) -> tuple[np.ndarray, Any]:
-        """Return on-times this cycle [s], shape (n_runs, 16), and the next state."""
+        """Return on-times this cycle [s], shape (n_runs, n_jets), and the next state
+        (``n_jets``: the flown vehicle's)."""
 
 
 def invalid_runs(params: VehicleParams) -> list[str]:
@@ -158,7 +159,9 @@ class BatchSimulation:
     ----------
     params : VehicleParams
         One entry per run.  Runs with non-finite or non-physical values are flown with the
-        nominal vehicle's values and reported failed ("invalid parameter ...").
+        nominal vehicle's values and reported failed ("invalid parameter ...").  Its per-jet
+        arrays must be as wide as ``model`` has jets (:func:`spacecraft.vehicle.jet_count`);
+        every per-jet array of the flight is that wide.
     propulsion : PropulsionParams
         Control cycle and minimum pulse.
     model : mujoco.MjModel, optional
@@ -173,9 +176,10 @@ class BatchSimulation:
         (:func:`spacecraft.effect_draws.effect_streams`); required when ``sensors`` has noise
         or a random walk.
     timing : ValveTiming, optional
-        Command (sensor-to-actuator) delay and valve latencies per run; default none.
+        Command (sensor-to-actuator) delay and valve latencies per run (per jet, or one
+        column for every jet); default none.
     faults : JetFaults, optional
-        Jet faults per run; default none.
+        Jet faults per run (per jet, or one column for every jet); default none.
     profile : ThrustProfile, optional
         Thrust transients at valve opening and closing; default none (instant thrust).
     tank : PropellantTank, optional
@@ -186,7 +190,9 @@ class BatchSimulation:
     Raises
     ------
     InputError
-        Invalid sensor, timing or fault parameters; noisy sensors without streams.
+        Invalid sensor, timing or fault parameters (per-jet values for another jet count
+        among them); noisy sensors without streams; ``params`` for another jet count than
+        ``model``'s.
     """
 
     def __init__(
@@ -206,11 +212,22 @@ class BatchSimulation:
         route_mujoco_warnings()
         quiet_stage_timers()
         n = params.n_runs
+        self.model = load_model() if model is None else model
+        # The vehicle's jet count, from its model: every per-jet array below is this wide.
+        self.n_jets = jet_count(self.model)
+        if params.n_jets != self.n_jets:
+            raise InputError(
+                f"have {params.n_jets} jets per run; the vehicle model has {self.n_jets}",
+                parameter="params",
+                value=None,
+            )
         if sensors is not None:
             sensors.check(n)
         if timing is not None:
+            timing = timing.for_jets(self.n_jets)
             timing.check(propulsion.cycle_s, n)
         if faults is not None:
+            faults = faults.for_jets(self.n_jets)
             faults.check(n)
         self.sensors = None if sensors is None or sensors.is_perfect() else sensors
         if self.sensors is not None and self.sensors.is_random():
@@ -222,10 +239,9 @@ class BatchSimulation:
                     value=None,
                 )
         self.sensor_streams = sensor_streams
-        self.timing = ValveTiming.of(n) if timing is None else timing
+        self.timing = ValveTiming.of(n, n_jets=self.n_jets) if timing is None else timing
         self.faults = None if faults is None or faults.is_none() else faults
         self.profile = None if profile is None or profile.is_none() else profile
-        self.model = load_model() if model is None else model
         self.params = params
         self.propulsion = propulsion
         dt = float(self.model.opt.timestep)
@@ -247,7 +263,7 @@ class BatchSimulation:
         self._timestep = self._batch.expand("opt.timestep")
         self._stretched = False  # some run's timestep is not the model's
         self._level = (
-            np.ones((n, N_JETS)) if self.faults is None else self.faults.thrust_factor.copy()
+            np.ones((n, self.n_jets)) if self.faults is None else self.faults.thrust_factor.copy()
         )
         # Live (n_runs, mjNWARNING, 2) view of each simulation's MjData.warning (lastinfo, number).
         self._warning = self._batch.warning
@@ -386,7 +402,8 @@ class BatchSimulation:
         InputError
             ``duration_s`` not > 0; the controller's ``cycle_s`` differs from the
             propulsion's; the history would not fit in memory
-            (:func:`spacecraft.guards.memory_budget_bytes`).
+            (:func:`spacecraft.guards.memory_budget_bytes`); the controller commands another
+            number of jets than the vehicle has (at its first step).
         """
         n, cycle = self.n_runs, self.propulsion.cycle_s
         if not np.isfinite(duration_s) or duration_s <= 0:
@@ -401,6 +418,7 @@ class BatchSimulation:
             duration_s,
             measured=self.sensors is not None,
             delivered=not (self.timing.is_zero() and self.faults is None and self.profile is None),
+            n_jets=self.n_jets,
         )
         self._reset(q0_BN, omega0_B)
         if self.tank is not None:
@@ -408,7 +426,7 @@ class BatchSimulation:
             self._exhausted_s[:] = np.inf
             self._write_mass_properties(np.arange(n))
         state = controller.initial_state(n) if ctrl_state is None else ctrl_state
-        prop = PropulsionState.zeros(n)
+        prop = PropulsionState.zeros(n, self.n_jets)
         failed = np.array([bool(r) for r in self.invalid])
         reason = list(self.invalid)
         self._check_warnings(failed, reason, 0.0, 0.0)  # the initial state itself
@@ -420,7 +438,7 @@ class BatchSimulation:
         if sensors is not None:
             noise = SensorNoise(self.sensor_streams) if sensors.is_random() else None
             sensor_state = SensorState(np.zeros((n, 3)))
-        valves = ValveState.closed(n)
+        valves = ValveState.closed(n, self.n_jets)
         thrust = self.params.thrust_n * self._level
         torque = np.zeros((n, 3))
         for k in range(n_cycles):
@@ -440,6 +458,8 @@ class BatchSimulation:
                 rec["meas_att_err_B"][k] = nav.att_err_B
                 rec["meas_rate_err_B"][k] = nav.rate_err_B
             command, state = controller.step(nav, state)
+            if k == 0:
+                self._check_command(controller, command)
             command = np.where(failed[:, None], 0.0, command)
             on = apply_valve_limits(
                 command, prop, self.propulsion, self.params.thrust_n, account=False
@@ -484,6 +504,20 @@ class BatchSimulation:
             **rec,
         )
 
+    def _check_command(self, controller: Controller, command: np.ndarray) -> None:
+        """Refuse a controller whose commands are not one on-time per run and jet of this
+        vehicle (a controller built for another vehicle: a lookup table fires the paper's
+        16 jets)."""
+        shape = np.shape(command)
+        if shape != (self.n_runs, self.n_jets):
+            raise InputError(
+                f"{type(controller).__name__} commands on-times of shape {shape}; the vehicle "
+                f"flies {self.n_runs} run(s) of {self.n_jets} jets: give it a controller for "
+                "this vehicle (the allocator flies any jet layout)",
+                parameter="controller",
+                value=None,
+            )
+
     def _history_buffers(self, n_cycles: int, *, measured: bool, delivered: bool) -> dict:
         """Cycle-major record buffers, (n_cycles, n_runs, k) each: every cycle writes one
         contiguous block, and :meth:`run` returns them as (n_runs, n_cycles, k) views."""
@@ -493,10 +527,10 @@ class BatchSimulation:
             "omega_B": np.empty((n_cycles, n, 3)),
             "att_err_B": np.empty((n_cycles, n, 3)),
             "rate_err_B": np.empty((n_cycles, n, 3)),
-            "on_time_s": np.empty((n_cycles, n, N_JETS)),
+            "on_time_s": np.empty((n_cycles, n, self.n_jets)),
         }
         if delivered:
-            rec["delivered_s"] = np.empty((n_cycles, n, N_JETS))
+            rec["delivered_s"] = np.empty((n_cycles, n, self.n_jets))
         if measured:
             rec["meas_att_err_B"] = np.empty((n_cycles, n, 3))
             rec["meas_rate_err_B"] = np.empty((n_cycles, n, 3))
@@ -525,7 +559,7 @@ class BatchSimulation:
         return self._cut(start, np.minimum(end, t_out[:, None, None]))
 
     def _cut(self, start: np.ndarray, end: np.ndarray) -> Pieces:
-        """The cycle's pieces for on-intervals ``start``, ``end`` (n_runs, 16, k) [s]."""
+        """The cycle's pieces for on-intervals ``start``, ``end`` (n_runs, n_jets, k) [s]."""
         cycle = self.propulsion.cycle_s
         grid = self.dt_s if self.n_sub > 1 else None
         if self.profile is None:

@@ -24,11 +24,17 @@ Propellant flow (optional, :class:`ThrustProfile`): thrust rises linearly over `
 the valve opens and decays linearly over ``fall_s`` after it closes (the paper's "non-linear
 thrust profile"); :func:`spacecraft.pieces.profile_pieces` flies it with exact impulse.
 
+Per-jet arrays are ``(n_runs, n_jets)``, ``n_jets`` the vehicle's own count
+(:func:`spacecraft.vehicle.jet_count`).  :meth:`ValveTiming.of` and :meth:`JetFaults.of` built
+from per-run values alone give one column, "the same for every jet"; the simulation widens
+them to its vehicle (:meth:`ValveTiming.for_jets`, :meth:`JetFaults.for_jets`) and refuses
+per-jet arrays of another width.
+
 Each delay must be shorter than a control cycle once the command delay is added
 (``d + d_o < T`` and ``d + d_c < T``): then at most one earlier firing is still pending when a
 new one is commanded, and a cycle's command always acts before the next cycle's.
 
-Imports ``models`` and ``spacecraft.vehicle`` only.
+Imports ``models`` only.
 """
 
 from __future__ import annotations
@@ -38,11 +44,47 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.errors import InputError
-from spacecraft.vehicle import N_JETS
 
 # Pending on-intervals kept per jet: the firing in progress, the tail of the previous one
 # (close latency), and a spare (a new firing after a zero-length command gap).
 _SLOTS = 3
+
+
+def _jet_width(n_runs: int, n_jets: int | None, values: dict) -> int:
+    """Width of the per-jet arrays made of ``values`` (name -> scalar, per-jet row, per-run
+    column or full array): ``n_jets`` when given, else the jets the values name (1 when none
+    has a per-jet axis: the same for every jet)."""
+    if n_jets is not None:
+        return int(n_jets)
+    try:
+        shape = np.broadcast_shapes((n_runs, 1), *(np.shape(v) for v in values.values()))
+    except ValueError:
+        shapes = {name: np.shape(v) for name, v in values.items()}
+        raise InputError(
+            f"per-jet values of different shapes {shapes} for {n_runs} runs",
+            parameter=next(iter(values)),
+            value=None,
+        ) from None
+    if len(shape) != 2:
+        raise InputError(
+            f"cannot be shaped as (n_runs, n_jets): shape {shape}",
+            parameter=next(iter(values)),
+            value=None,
+        )
+    return int(shape[1])
+
+
+def _widen(array: np.ndarray, n_jets: int, name: str) -> np.ndarray:
+    """A ``(n_runs, 1)`` or ``(n_runs, n_jets)`` per-jet array as ``(n_runs, n_jets)``."""
+    if array.shape[1] == n_jets:
+        return array
+    if array.shape[1] != 1:
+        raise InputError(
+            f"has per-jet values for {array.shape[1]} jets; the vehicle has {n_jets}",
+            parameter=name,
+            value=None,
+        )
+    return np.repeat(array, n_jets, axis=1)
 
 
 def _per_run(value, n_runs: int, shape: tuple, name: str, dtype=float) -> np.ndarray:
@@ -66,8 +108,9 @@ class ValveTiming:
     command_delay_s : ndarray, (n_runs,)
         Sensor-to-actuator delay: from the instant the sensors are read (a cycle's start) to
         the instant the valve command changes.
-    open_delay_s, close_delay_s : ndarray, (n_runs, 16)
-        Valve latency from a rising (falling) command edge to thrust on (off).
+    open_delay_s, close_delay_s : ndarray, (n_runs, n_jets), or (n_runs, 1)
+        Valve latency from a rising (falling) command edge to thrust on (off); one column:
+        the same for every jet.
     """
 
     command_delay_s: np.ndarray
@@ -76,13 +119,37 @@ class ValveTiming:
 
     @classmethod
     def of(
-        cls, n_runs: int, *, command_delay_s=0.0, open_delay_s=0.0, close_delay_s=0.0
+        cls,
+        n_runs: int,
+        *,
+        n_jets: int | None = None,
+        command_delay_s=0.0,
+        open_delay_s=0.0,
+        close_delay_s=0.0,
     ) -> ValveTiming:
-        """Delays broadcast to ``n_runs`` runs (scalars, per-jet rows or full arrays)."""
+        """Delays broadcast to ``n_runs`` runs (scalars, per-jet rows or full arrays) and
+        ``n_jets`` jets (default: the jets the values name, one column when none does)."""
+        jets = _jet_width(
+            n_runs, n_jets, {"open_delay_s": open_delay_s, "close_delay_s": close_delay_s}
+        )
         return cls(
             _per_run(command_delay_s, n_runs, (), "command_delay_s"),
-            _per_run(open_delay_s, n_runs, (N_JETS,), "open_delay_s"),
-            _per_run(close_delay_s, n_runs, (N_JETS,), "close_delay_s"),
+            _per_run(open_delay_s, n_runs, (jets,), "open_delay_s"),
+            _per_run(close_delay_s, n_runs, (jets,), "close_delay_s"),
+        )
+
+    def for_jets(self, n_jets: int) -> ValveTiming:
+        """The same delays on a vehicle of ``n_jets`` jets (one column widened to all).
+
+        Raises
+        ------
+        InputError
+            Per-jet delays for another number of jets.
+        """
+        return ValveTiming(
+            self.command_delay_s,
+            _widen(self.open_delay_s, n_jets, "open_delay_s"),
+            _widen(self.close_delay_s, n_jets, "close_delay_s"),
         )
 
     @property
@@ -129,12 +196,15 @@ class JetFaults:
 
     Attributes
     ----------
-    off_from_s : ndarray, (n_runs, 16)
+    off_from_s : ndarray, (n_runs, n_jets)
         No thrust from this time on [s] (inf: never).
-    stuck_from_s, stuck_for_s : ndarray, (n_runs, 16)
+    stuck_from_s, stuck_for_s : ndarray, (n_runs, n_jets)
         Stuck-on window start [s] (inf: never) and length [s].
-    thrust_factor : ndarray, (n_runs, 16)
+    thrust_factor : ndarray, (n_runs, n_jets)
         Fraction of the jet's thrust delivered, in [0, 1].
+
+    Every array may instead be ``(n_runs, 1)``: the same for every jet (:meth:`of` from
+    per-run values); :meth:`for_jets` widens them.
     """
 
     off_from_s: np.ndarray
@@ -147,21 +217,35 @@ class JetFaults:
         cls,
         n_runs: int,
         *,
+        n_jets: int | None = None,
         off_from_s=np.inf,
         stuck_from_s=np.inf,
         stuck_for_s=0.0,
         thrust_factor=1.0,
     ) -> JetFaults:
-        """Faults broadcast to ``n_runs`` runs (scalars, per-jet rows or full arrays)."""
-        return cls(
+        """Faults broadcast to ``n_runs`` runs (scalars, per-jet rows or full arrays) and
+        ``n_jets`` jets (default: the jets the values name, one column when none does)."""
+        values = {
+            "off_from_s": off_from_s,
+            "stuck_from_s": stuck_from_s,
+            "stuck_for_s": stuck_for_s,
+            "thrust_factor": thrust_factor,
+        }
+        jets = _jet_width(n_runs, n_jets, values)
+        return cls(*(_per_run(v, n_runs, (jets,), name) for name, v in values.items()))
+
+    def for_jets(self, n_jets: int) -> JetFaults:
+        """The same faults on a vehicle of ``n_jets`` jets (one column widened to all).
+
+        Raises
+        ------
+        InputError
+            Per-jet faults for another number of jets.
+        """
+        return JetFaults(
             *(
-                _per_run(v, n_runs, (N_JETS,), name)
-                for name, v in (
-                    ("off_from_s", off_from_s),
-                    ("stuck_from_s", stuck_from_s),
-                    ("stuck_for_s", stuck_for_s),
-                    ("thrust_factor", thrust_factor),
-                )
+                _widen(getattr(self, name), n_jets, name)
+                for name in ("off_from_s", "stuck_from_s", "stuck_for_s", "thrust_factor")
             )
         )
 
@@ -237,18 +321,19 @@ class ThrustProfile:
 class ValveState:
     """Pending on-intervals of every jet, relative to the current cycle's start [s].
 
-    ``start``/``end`` are ``(n_runs, 16, 3)``; a free slot is NaN; a firing whose close is not
-    yet commanded ends at +inf.
+    ``start``/``end`` are ``(n_runs, n_jets, 3)``; a free slot is NaN; a firing whose close is
+    not yet commanded ends at +inf.
     """
 
     start: np.ndarray
     end: np.ndarray
-    was_on: np.ndarray  # (n_runs, 16): valve command on at the end of the last cycle
+    was_on: np.ndarray  # (n_runs, n_jets): valve command on at the end of the last cycle
 
     @classmethod
-    def closed(cls, n_runs: int) -> ValveState:
-        shape = (n_runs, N_JETS, _SLOTS)
-        return cls(np.full(shape, np.nan), np.full(shape, np.nan), np.zeros((n_runs, N_JETS), bool))
+    def closed(cls, n_runs: int, n_jets: int) -> ValveState:
+        """Every valve closed, nothing pending, for ``n_runs`` vehicles of ``n_jets`` jets."""
+        shape = (n_runs, n_jets, _SLOTS)
+        return cls(np.full(shape, np.nan), np.full(shape, np.nan), np.zeros((n_runs, n_jets), bool))
 
 
 def command_valves(
@@ -260,7 +345,7 @@ def command_valves(
     ----------
     state : ValveState
         Relative to this cycle's start.
-    on_s : ndarray, (n_runs, 16)
+    on_s : ndarray, (n_runs, n_jets)
         Commanded on-time from the cycle's start [s] (after the valve limits).
     timing : ValveTiming
     cycle_s : float
@@ -295,7 +380,7 @@ def cycle_intervals(
     state: ValveState, faults: JetFaults | None, t0_s: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """This cycle's thrust intervals, relative to its start ``t0_s``: the valve's plus the
-    stuck-on window, ended at a failure.  Shapes ``(n_runs, 16, k)``."""
+    stuck-on window, ended at a failure.  Shapes ``(n_runs, n_jets, k)``."""
     start, end = state.start, state.end
     if faults is None:
         return start, end

@@ -1,8 +1,9 @@
 """Per-run vehicle parameters and the MuJoCo model they are written into.
 
 The nominal vehicle is the packaged MJCF (Gambone Table 1 mass properties, the jet geometry of
-``models/vehicle/README.md``).  A batch of runs is a :class:`VehicleParams` whose arrays have a
-leading ``n_runs`` axis; dispersions replace some of them.
+``models/vehicle/README.md``), or a vehicle file's model (:mod:`spacecraft.vehicle_file`) with
+any number of jets.  A batch of runs is a :class:`VehicleParams` whose arrays have a leading
+``n_runs`` axis and, per jet, an ``n_jets`` axis; dispersions replace some of them.
 """
 
 from __future__ import annotations
@@ -15,8 +16,12 @@ import numpy as np
 
 from models import vehicle_xml
 
-N_JETS = 16
-JET_NAMES = tuple(f"jet_{i:02d}" for i in range(1, N_JETS + 1))
+# ``N_JETS`` (16) is the *paper's* jet count (Gambone Table 2), re-exported for what is the
+# paper's: its jet map and its 26 x 16 lookup tables.  Nothing on the flight path uses it: a
+# vehicle's own count is its compiled model's (:func:`jet_count`) or its parameters'
+# (:attr:`VehicleParams.n_jets`), and every per-jet array is that wide.
+from models.tables import N_JETS as N_JETS
+
 DIST_NAMES = ("dist_x", "dist_y", "dist_z")
 AXES = ("roll", "pitch", "yaw")
 BODY = "vehicle"
@@ -69,9 +74,30 @@ def load_model(*, timestep_s: float | None = None, integrator: str | None = None
     return model
 
 
+def jet_name(number: int) -> str:
+    """Actuator name of jet ``number`` (1-based): ``jet_01``, ``jet_02``, ... ``jet_100``."""
+    return f"jet_{number:02d}"
+
+
 def jet_actuator_ids(model: mujoco.MjModel) -> np.ndarray:
-    """Actuator ids of jets 1..16 found by name, shape (16,)."""
-    return np.array([model.actuator(name).id for name in JET_NAMES])
+    """Actuator ids of the vehicle's jets in jet order, shape ``(n_jets,)``.
+
+    The jets are the actuators named ``jet_01``, ``jet_02``, ... (the packaged MJCF's 16, a
+    vehicle file's any number: :mod:`spacecraft.vehicle_file.mjcf`), counted up to the first
+    number that is missing.
+    """
+    ids: list[int] = []
+    while True:
+        k = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, jet_name(len(ids) + 1))
+        if k < 0:
+            return np.array(ids, dtype=int)
+        ids.append(k)
+
+
+def jet_count(model: mujoco.MjModel) -> int:
+    """How many jets the vehicle ``model`` has: the one owner of a vehicle's jet count
+    (:attr:`VehicleParams.n_jets` is the same number, read from the per-jet arrays)."""
+    return int(jet_actuator_ids(model).size)
 
 
 def dist_actuator_ids(model: mujoco.MjModel) -> np.ndarray:
@@ -92,9 +118,9 @@ class VehicleParams:
         Principal moments of inertia about the CG [kg m^2], along the principal axes
         ``iquat`` (the body axes B for the packaged vehicle and any vehicle without products
         of inertia).
-    thrust_n : ndarray, (n_runs, 16)
-        Thrust of each jet [N].
-    jet_dir_S : ndarray, (n_runs, 16, 3)
+    thrust_n : ndarray, (n_runs, n_jets)
+        Thrust of each jet [N] (``n_jets``: the vehicle's, :func:`jet_count`).
+    jet_dir_S : ndarray, (n_runs, n_jets, 3)
         Unit direction of each jet's force in its site frame; nominal (0, 0, 1).
     isp_s : float
         Specific impulse [s], for propellant accounting (an assumption: 280 s, typical of a
@@ -118,6 +144,11 @@ class VehicleParams:
     @property
     def n_runs(self) -> int:
         return int(self.mass_kg.shape[0])
+
+    @property
+    def n_jets(self) -> int:
+        """The vehicle's jet count (the width of ``thrust_n``)."""
+        return int(self.thrust_n.shape[-1])
 
     @classmethod
     def nominal(cls, n_runs: int = 1, model: mujoco.MjModel | None = None) -> VehicleParams:
@@ -159,8 +190,8 @@ class VehicleParams:
             "mass_kg": (n,),
             "cg_B": (n, 3),
             "inertia_B": (n, 3),
-            "thrust_n": (n, N_JETS),
-            "jet_dir_S": (n, N_JETS, 3),
+            "thrust_n": (n, self.n_jets),
+            "jet_dir_S": (n, self.n_jets, 3),
             "iquat": (n, 4),
         }
         for name, shape in shapes.items():
@@ -190,15 +221,15 @@ def jet_geometry_B(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
 
     Returns
     -------
-    pos_B : ndarray, (16, 3)
+    pos_B : ndarray, (n_jets, 3)
         Site positions [m] relative to the body origin.
-    dir_B : ndarray, (16, 3)
+    dir_B : ndarray, (n_jets, 3)
         Unit force directions (site z axes) in B.
     """
     jets = jet_actuator_ids(model)
     sites = model.actuator_trnid[jets, 0]
     pos = model.site_pos[sites].copy()
-    dirs = np.empty((N_JETS, 3))
+    dirs = np.empty((len(jets), 3))
     for k, s in enumerate(sites):
         mat = np.empty(9)
         mujoco.mju_quat2Mat(mat, model.site_quat[s])
@@ -209,17 +240,18 @@ def jet_geometry_B(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
 def torque_per_jet_B(params: VehicleParams, model: mujoco.MjModel) -> np.ndarray:
     """Torque of each jet about each run's CG, firing alone at its thrust [N m].
 
-    Shape ``(n_runs, 16, 3)``.  Used by the phase-plane controller's design (nominal vehicle) and
-    by tests; the simulation itself never needs it (MuJoCo applies forces at the sites).
+    Shape ``(n_runs, n_jets, 3)``.  Used by the phase-plane controller's design (nominal
+    vehicle) and by tests; the simulation itself never needs it (MuJoCo applies forces at the
+    sites).
     """
     jets = jet_actuator_ids(model)
     sites = model.actuator_trnid[jets, 0]
     pos_B, _ = jet_geometry_B(model)
-    mats = np.empty((N_JETS, 9))
+    mats = np.empty((len(jets), 9))
     for k, s in enumerate(sites):
         mujoco.mju_quat2Mat(mats[k], model.site_quat[s])
     # Force in B: site rotation applied to the (possibly dispersed) site-frame direction.
-    force_B = np.einsum("jab,njb->nja", mats.reshape(N_JETS, 3, 3), params.jet_dir_S)
+    force_B = np.einsum("jab,njb->nja", mats.reshape(-1, 3, 3), params.jet_dir_S)
     force_B = force_B * params.thrust_n[..., None]
     arm_B = pos_B[None] - params.cg_B[:, None, :]
     return np.cross(arm_B, force_B)

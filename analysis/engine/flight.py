@@ -20,7 +20,7 @@ from lookup.registry import make_controller
 from spacecraft.navigation import Guidance, euler321_deg, quat_from_rotvec
 from spacecraft.propulsion import PropulsionParams
 from spacecraft.simulation import Controller, History, simulate_batch
-from spacecraft.vehicle import AXES, JET_NAMES, VehicleParams, load_model
+from spacecraft.vehicle import AXES, VehicleParams, jet_name, load_model
 
 #: What :func:`fly_batch` passes on to the simulation besides the vehicle and the scenarios.
 EFFECT_KEYS = ("sensors", "sensor_streams", "timing", "faults", "profile")
@@ -124,12 +124,33 @@ def fly(
     params: VehicleParams | None = None,
     propulsion: PropulsionParams = PropulsionParams(),
     controller_obj=None,
+    vehicle=None,
 ) -> History:
-    """Fly ``scenario`` for every run of ``params`` (default: one nominal vehicle)."""
-    model = load_model()
-    params = VehicleParams.nominal(1, model) if params is None else params
-    ctl = controller_obj or make_controller(controller, table=table, model=model)
-    return fly_batch([scenario] * params.n_runs, params, ctl, model=model, propulsion=propulsion)
+    """Fly ``scenario`` for every run of ``params`` (default: one nominal vehicle).
+
+    ``vehicle`` (a :class:`spacecraft.vehicle_file.FlyingVehicle`): fly that vehicle file, its
+    model, nominal parameters, valve limits and propellant, with any jet count, instead of the
+    packaged vehicle (``propulsion`` is then the file's); the controller is built for it.
+    """
+    if vehicle is None:
+        model = load_model()
+        params = VehicleParams.nominal(1, model) if params is None else params
+        ctl = controller_obj or make_controller(controller, table=table, model=model)
+        return fly_batch(
+            [scenario] * params.n_runs, params, ctl, model=model, propulsion=propulsion
+        )
+    params = vehicle.nominal(1) if params is None else params
+    ctl = controller_obj or make_controller(
+        controller, table=table, model=vehicle.model, vehicle=vehicle.definition
+    )
+    return fly_batch(
+        [scenario] * params.n_runs,
+        params,
+        ctl,
+        model=vehicle.model,
+        propulsion=vehicle.propulsion(),
+        tank=vehicle.tank(params.n_runs),
+    )
 
 
 def history_frame(history: History, run: int = 0) -> pd.DataFrame:
@@ -137,11 +158,12 @@ def history_frame(history: History, run: int = 0) -> pd.DataFrame:
 
     ``att_err_<axis>_deg`` are the components of the attitude-error rotation vector;
     ``roll_deg`` etc. are 3-2-1 Euler angles of the attitude; ``rate_<axis>_deg_s`` the body
-    rates; ``jet_NN_on_s`` the on-time commanded to jet NN in that cycle.  With imperfect
-    sensors, ``meas_att_err_<axis>_deg`` and ``meas_rate_err_<axis>_deg_s`` are the errors the
-    controller measured; with valve timing, jet faults or a thrust profile,
-    ``jet_NN_delivered_s`` the time the jet thrust in that cycle (the command moved by the
-    delays, plus stuck-on time, minus failed time; :class:`spacecraft.history.History`).
+    rates; ``jet_NN_on_s`` the on-time commanded to jet NN in that cycle (one column per jet of
+    the flown vehicle).  With imperfect sensors, ``meas_att_err_<axis>_deg`` and
+    ``meas_rate_err_<axis>_deg_s`` are the errors the controller measured; with valve timing,
+    jet faults or a thrust profile, ``jet_NN_delivered_s`` the time the jet thrust in that
+    cycle (the command moved by the delays, plus stuck-on time, minus failed time;
+    :class:`spacecraft.history.History`).
     """
     cols: dict[str, np.ndarray] = {"t_s": history.t_s}
     euler = euler321_deg(history.q_BN[run])
@@ -153,7 +175,8 @@ def history_frame(history: History, run: int = 0) -> pd.DataFrame:
         cols[f"rate_err_{axis}_deg_s"] = np.degrees(history.rate_err_B[run, :, a])
     for a, axis in enumerate(AXES):
         cols[f"{axis}_deg"] = euler[:, a]
-    for j, name in enumerate(JET_NAMES):
+    names = [jet_name(j + 1) for j in range(history.n_jets)]  # the flown vehicle's jets
+    for j, name in enumerate(names):
         cols[f"{name}_on_s"] = history.on_time_s[run, :, j]
     # What the controller saw (imperfect sensors) and what the jets delivered (valve timing,
     # faults, thrust profile): recorded only when they differ from the columns above.
@@ -163,7 +186,7 @@ def history_frame(history: History, run: int = 0) -> pd.DataFrame:
         for a, axis in enumerate(AXES):
             cols[f"meas_rate_err_{axis}_deg_s"] = np.degrees(history.meas_rate_err_B[run, :, a])
     if history.delivered_s is not None:
-        for j, name in enumerate(JET_NAMES):
+        for j, name in enumerate(names):
             cols[f"{name}_delivered_s"] = history.delivered_s[run, :, j]
     return pd.DataFrame(cols)
 
@@ -192,17 +215,20 @@ def write_flight(
     isp_s: float = VehicleParams.isp_s,
     command: str | None = None,
     overwrite: bool = False,
+    jet_signs=None,
 ) -> dict[str, Path]:
     """Write ``history.parquet``, ``attitude_error.png``, ``rates_jets.png`` and
     ``summary.json`` for one run into ``out_dir`` (atomically).
 
     ``command`` (e.g. ``"maneuver"``) is recorded in the directory's marker, and ``overwrite``
     allows replacing an earlier output of that command (:func:`analysis.engine.output.atomic_dir`).
+    ``jet_signs`` ``(n_jets, 3)``: the flown vehicle's torque signs, which jets the plot draws
+    on which axis (:func:`analysis.engine.campaign.outcomes.jet_signs`); default Table 2's.
     """
     import json
 
     from analysis.engine.output import atomic_dir
-    from analysis.engine.plots import plot_attitude_error, plot_rates_and_jets
+    from analysis.engine.plots import plot_attitude_error, plot_rates_and_jets, signed_jets_of
 
     frame = history_frame(history, run)
     summary = flight_summary(history, run)
@@ -211,7 +237,8 @@ def write_flight(
     with atomic_dir(out_dir, command, overwrite=overwrite) as tmp:
         frame.to_parquet(tmp / "history.parquet", index=False)
         plot_attitude_error(frame, tmp / "attitude_error.png", title=title)
-        plot_rates_and_jets(frame, tmp / "rates_jets.png", title=title)
+        signed = None if jet_signs is None else signed_jets_of(jet_signs)
+        plot_rates_and_jets(frame, tmp / "rates_jets.png", title=title, signed=signed)
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     out = Path(out_dir)
     return {

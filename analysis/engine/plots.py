@@ -20,7 +20,9 @@ SIGNED_JETS = {
     "pitch": ((10, 12), (9, 11)),
     "yaw": ((14, 16), (13, 15)),
 }
-JET_COLORS = ("tab:red", "tab:purple")  # first / second jet of a pair
+# First / second jet of a pair (the paper's); a coupled layout has more jets of one sign on an
+# axis, drawn in the further colours.
+JET_COLORS = ("tab:red", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan")
 # Smallest rate axis span [deg/s]: keeps an idle axis's 1e-30 deg/s numerical noise flat
 # instead of autoscaling it to full height.
 MIN_RATE_SPAN_DEG_S = 0.05
@@ -42,9 +44,21 @@ def new_figure(nrows: int = 1, ncols: int = 1, *, figsize=(8.0, 4.2), **subplot_
     return fig, fig.subplots(nrows, ncols, **subplot_kw)
 
 
-def signed_jets(ax, t, frame, axis: str, *, offset_ms: float = 1.0) -> None:
-    """Jet on-times of ``axis`` in ms per cycle, + jets up and - jets down (pairs offset)."""
-    for sign, jets in zip((1, -1), SIGNED_JETS[axis]):
+def signed_jets_of(jet_signs: np.ndarray) -> dict:
+    """:data:`SIGNED_JETS` of a vehicle from its torque signs (``(n_jets, 3)`` in {-1, 0, 1},
+    :func:`analysis.engine.campaign.outcomes.jet_signs`): per axis, the (1-based) jets that
+    torque it positively and negatively (a canted jet appears on every axis it torques)."""
+    signs = np.asarray(jet_signs)
+    return {
+        axis: tuple(tuple(int(j) + 1 for j in np.flatnonzero(signs[:, a] == s)) for s in (1, -1))
+        for a, axis in enumerate(("roll", "pitch", "yaw"))
+    }
+
+
+def signed_jets(ax, t, frame, axis: str, *, offset_ms: float = 1.0, signed=None) -> None:
+    """Jet on-times of ``axis`` in ms per cycle, + jets up and - jets down (pairs offset);
+    ``signed``: the jets by axis and sign (default Table 2's, :data:`SIGNED_JETS`)."""
+    for sign, jets in zip((1, -1), (SIGNED_JETS if signed is None else signed)[axis]):
         for k, jet in enumerate(jets):
             on = frame[f"jet_{jet:02d}_on_s"].to_numpy()
             if np.any(on > 0):
@@ -54,13 +68,15 @@ def signed_jets(ax, t, frame, axis: str, *, offset_ms: float = 1.0) -> None:
                     y,
                     where="post",
                     lw=0.9,
-                    color=JET_COLORS[k],
+                    color=JET_COLORS[k % len(JET_COLORS)],
                     ls="-" if sign > 0 else "--",
                     label=f"jet {jet} ({'+' if sign > 0 else '-'})",
                 )
 
 
-def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"), windows=None) -> None:
+def plot_axes_jets(
+    frame, path, *, title: str, axes=("roll", "pitch", "yaw"), windows=None, signed=None
+) -> None:
     """Per axis: body rate (top) and signed jet commands (bottom), optionally zoomed.
 
     Parameters
@@ -71,6 +87,9 @@ def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"), wi
         Axes to show, one column pair of panels each.
     windows : sequence of (t0, t1), optional
         Time windows [s] shown as extra zoomed columns (e.g. the two firings of Figs 5-6).
+    signed : dict, optional
+        The jets by axis and sign (:func:`signed_jets_of` of the flown vehicle); default Table
+        2's (:data:`SIGNED_JETS`).
     """
     spans = [None] + list(windows or [])
     fig, grid = new_figure(
@@ -96,7 +115,7 @@ def plot_axes_jets(frame, path, *, title: str, axes=("roll", "pitch", "yaw"), wi
                 mid = 0.5 * (hi + lo)
                 ax_rate.set_ylim(mid - MIN_RATE_SPAN_DEG_S / 2, mid + MIN_RATE_SPAN_DEG_S / 2)
             ax_rate.grid(alpha=0.3)
-            signed_jets(ax_jet, t, sub, axis)
+            signed_jets(ax_jet, t, sub, axis, signed=signed)
             ax_jet.set_ylim(-48, 48)
             ax_jet.axhline(0.0, color="0.6", lw=0.6)
             ax_jet.grid(alpha=0.3)
@@ -127,7 +146,7 @@ def plot_attitude_error(frame: pd.DataFrame, path, *, title: str = "") -> None:
     fig.savefig(path, dpi=110)
 
 
-def plot_rates_and_jets(frame: pd.DataFrame, path, *, title: str = "") -> None:
+def plot_rates_and_jets(frame: pd.DataFrame, path, *, title: str = "", signed=None) -> None:
     """Body rate per axis with that axis's jet commands (Fig. 2): :func:`plot_axes_jets`
-    over the whole flight."""
-    plot_axes_jets(frame, path, title=title)
+    over the whole flight (``signed``: the flown vehicle's jets by axis and sign)."""
+    plot_axes_jets(frame, path, title=title, signed=signed)

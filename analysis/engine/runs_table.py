@@ -3,7 +3,10 @@ engine that writes campaigns and everything that reads them.
 
 It owns
 
-* every column's name, dtype, unit and meaning (:data:`RUN_COLUMNS`, :data:`EFFECT_COLUMNS`);
+* every column's name, dtype, unit and meaning (:func:`run_columns`, :data:`EFFECT_COLUMNS`),
+  with one set of per-jet columns (``jet_01_...`` to ``jet_NN_...``) per jet of the vehicle
+  flown, whatever its count (``n_jets``: 16 for the paper's vehicle; :func:`recorded_jets`
+  reads it back from a table);
 * the file names of a campaign directory (:data:`MANIFEST`, :data:`RUNS`, ...) and how a
   directory is recognised as a campaign (:func:`is_campaign`);
 * the mapping between a run's vehicle and its row, both ways: :func:`input_frame` writes the
@@ -19,7 +22,9 @@ inputs and vehicles through it, and ``docs/campaigns.md`` carries the table
 
 Definitions used below: ``thr`` is the spec's ``failure.rate_error_deg_s``; rate errors
 (``omega - omega_cmd``, body axes) are sampled at the start of every 40 ms control cycle and at
-the end of the run; an axis's jets are those whose Table 2 torque has a component on it.
+the end of the run; an axis's jets are those whose torque has a component on it (Table 2 for
+the paper's vehicle; a vehicle file's own jet matrix,
+:func:`spacecraft.vehicle_file.authority.torque_signs`, otherwise).
 """
 
 from __future__ import annotations
@@ -33,7 +38,7 @@ import pandas as pd
 
 from spacecraft.dispersions import DispersedRuns, pointing
 from spacecraft.propellant import full_inertia, principal
-from spacecraft.vehicle import AXES, IDENTITY_QUAT, N_JETS, VehicleParams
+from spacecraft.vehicle import AXES, IDENTITY_QUAT, VehicleParams, jet_name
 
 # The campaign directory (analysis.engine.campaign.results writes it):
 MANIFEST = "manifest.json"  # spec (resolved), code version, control cycle, times, status
@@ -69,8 +74,11 @@ def _per_axis(pattern: str, dtype: str, unit: str, meaning: str) -> list[Column]
     return [Column(pattern.format(axis=a), dtype, unit, meaning.format(axis=a)) for a in AXES]
 
 
-def _per_jet(pattern: str, dtype: str, unit: str, meaning: str) -> list[Column]:
-    return [Column(pattern.format(jet=f"{j + 1:02d}"), dtype, unit, meaning) for j in range(N_JETS)]
+def _per_jet(pattern: str, dtype: str, unit: str, meaning: str, n_jets: int) -> list[Column]:
+    """One column per jet of a vehicle of ``n_jets`` jets, ``{jet}`` -> ``01``, ``02`` ..."""
+    return [
+        Column(pattern.format(jet=jet_name(j + 1)[4:]), dtype, unit, meaning) for j in range(n_jets)
+    ]
 
 
 #: Identity of a run.
@@ -86,9 +94,16 @@ ID_COLUMNS: tuple[Column, ...] = (
     ),
 )
 
-#: The dispersed vehicle the run flew (:func:`input_frame`), read back from the simulation's
-#: per-run MuJoCo model where MuJoCo holds the value.
-INPUT_COLUMNS: tuple[Column, ...] = (
+
+def input_columns(n_jets: int) -> tuple[Column, ...]:
+    """The dispersed vehicle the run flew (:func:`input_frame`), read back from the simulation's
+    per-run MuJoCo model where MuJoCo holds the value; per-jet columns for ``n_jets`` jets."""
+    return _VEHICLE_INPUTS + tuple(
+        c for pattern in _JET_INPUTS for c in _per_jet(*pattern, n_jets=n_jets)
+    )
+
+
+_VEHICLE_INPUTS: tuple[Column, ...] = (
     Column("mass_kg", "float64", "kg", "vehicle mass (read back from MuJoCo)"),
     *[
         Column(f"cg_{a}_m", "float64", "m", "centre of gravity, body x, y, z (read back)")
@@ -105,16 +120,17 @@ INPUT_COLUMNS: tuple[Column, ...] = (
         )
         for a in "xyz"
     ],
-    *_per_jet("jet_{jet}_thrust_n", "float64", "N", "thrust of the jet (read back)"),
-    *_per_jet(
+)
+# Per jet, in this order (each for every jet before the next): (pattern, dtype, unit, meaning).
+_JET_INPUTS = (
+    ("jet_{jet}_thrust_n", "float64", "N", "thrust of the jet (read back)"),
+    (
         "jet_{jet}_tilt_deg",
         "float64",
         "deg",
         "signed tilt of the jet's thrust direction (the draw); misalignment = |tilt|",
     ),
-    *_per_jet(
-        "jet_{jet}_azimuth_deg", "float64", "deg", "azimuth of the tilt, [0, 360) (the draw)"
-    ),
+    ("jet_{jet}_azimuth_deg", "float64", "deg", "azimuth of the tilt, [0, 360) (the draw)"),
 )
 
 #: Products of inertia, present only in campaigns that disperse them (``ixy_kg_m2``,
@@ -133,9 +149,14 @@ PRODUCT_COLUMNS: tuple[Column, ...] = tuple(
 )
 PRODUCT_NAMES: tuple[str, ...] = tuple(c.name for c in PRODUCT_COLUMNS)
 
-#: What the run did.  Runs whose simulation failed (``sim_failed``) have NaN in every numeric
-#: outcome: their state is not a flight.
-OUTCOME_COLUMNS: tuple[Column, ...] = (
+
+def outcome_columns(n_jets: int) -> tuple[Column, ...]:
+    """What the run did, with per-jet columns for ``n_jets`` jets.  Runs whose simulation
+    failed (``sim_failed``) have NaN in every numeric outcome: their state is not a flight."""
+    return _OUTCOMES_BEFORE_JETS + tuple(_per_jet(*_JET_OUTCOME, n_jets=n_jets)) + _OUTCOMES_AFTER
+
+
+_OUTCOMES_BEFORE_JETS: tuple[Column, ...] = (
     *_per_axis(
         "final_rate_err_{axis}_deg_s",
         "float64",
@@ -163,14 +184,16 @@ OUTCOME_COLUMNS: tuple[Column, ...] = (
     ),
     *_per_axis("firings_{axis}", "float64", "-", "firing events on {axis}'s jets, whole run"),
     Column("firings_total", "float64", "-", "jet firings, whole run (a pair counts 2)"),
-    *_per_jet(
-        "jet_{jet}_on_time_s",
-        "float64",
-        "s",
-        "total on-time of the jet: what it delivered (with [dispersions.timing] or "
-        "[dispersions.fault], the commands moved by the delays, plus stuck-on time, "
-        "minus failed time)",
-    ),
+)
+_JET_OUTCOME = (
+    "jet_{jet}_on_time_s",
+    "float64",
+    "s",
+    "total on-time of the jet: what it delivered (with [dispersions.timing] or "
+    "[dispersions.fault], the commands moved by the delays, plus stuck-on time, "
+    "minus failed time)",
+)
+_OUTCOMES_AFTER: tuple[Column, ...] = (
     Column(
         "propellant_kg",
         "float64",
@@ -234,17 +257,22 @@ EFFECT_COLUMNS: dict[str, tuple[Column, ...]] = {
             "open_delay_max_s",
             "float64",
             "s",
-            "largest valve opening latency of the run's 16 jets (drawn per jet)",
+            "largest valve opening latency of the run's jets (drawn per jet)",
         ),
         Column(
             "close_delay_max_s",
             "float64",
             "s",
-            "largest valve closing latency of the run's 16 jets (drawn per jet)",
+            "largest valve closing latency of the run's jets (drawn per jet)",
         ),
     ),
     "fault": (
-        Column("fault_jet", "int64", "-", "the faulty jet, 1..16; 0 if the run has no fault"),
+        Column(
+            "fault_jet",
+            "int64",
+            "-",
+            "the faulty jet, 1..n_jets of the vehicle; 0 if the run has no fault",
+        ),
         Column(
             "fault_time_s",
             "float64",
@@ -280,23 +308,53 @@ EFFECT_NOT_APPLICABLE: dict[str, tuple[str, str]] = {
     "fault_stuck_for_s": ("zero", "a run without a stuck window counts as stuck for 0 s"),
 }
 
-RUN_COLUMNS: tuple[Column, ...] = ID_COLUMNS + INPUT_COLUMNS + OUTCOME_COLUMNS
-#: Every column a runs.parquet may have (products and all effect groups), in order.
-ALL_COLUMNS: tuple[Column, ...] = (
-    ID_COLUMNS
-    + INPUT_COLUMNS
-    + PRODUCT_COLUMNS
-    + tuple(c for g in EFFECT_GROUPS for c in EFFECT_COLUMNS[g])
-    + OUTCOME_COLUMNS
+_NUMERIC_OUTCOMES = tuple(
+    c.name for c in _OUTCOMES_BEFORE_JETS + _OUTCOMES_AFTER if c.dtype == "float64"
 )
-OUTCOME_NAMES: tuple[str, ...] = tuple(c.name for c in OUTCOME_COLUMNS)
-INPUT_NAMES: tuple[str, ...] = tuple(c.name for c in INPUT_COLUMNS)
-RUN_NAMES: tuple[str, ...] = tuple(c.name for c in RUN_COLUMNS)
-_NUMERIC_OUTCOMES = tuple(c.name for c in OUTCOME_COLUMNS if c.dtype == "float64")
 
 
-def outcome_frame(values: dict) -> pd.DataFrame:
-    """The outcome frame from ``values`` (column name -> (n,) array or list), in schema order.
+def input_names(n_jets: int) -> tuple[str, ...]:
+    """Names of :func:`input_columns` ``(n_jets)``."""
+    return tuple(c.name for c in input_columns(n_jets))
+
+
+def outcome_names(n_jets: int) -> tuple[str, ...]:
+    """Names of :func:`outcome_columns` ``(n_jets)``."""
+    return tuple(c.name for c in outcome_columns(n_jets))
+
+
+def all_columns(n_jets: int) -> tuple[Column, ...]:
+    """Every column a runs.parquet of a vehicle of ``n_jets`` jets may have (products and all
+    effect groups), in order."""
+    return run_columns(EFFECT_GROUPS, True, n_jets=n_jets)
+
+
+def recorded_jets(columns) -> int:
+    """How many jets a runs table records: its ``jet_01_thrust_n``, ``jet_02_thrust_n`` ...
+    columns, counted up to the first missing (0 when it has none)."""
+    names = set(columns)
+    k = 0
+    while f"{jet_name(k + 1)}_thrust_n" in names:
+        k += 1
+    return k
+
+
+def column_named(name: str) -> Column | None:
+    """The schema's column ``name`` (a per-jet column of any jet number included), or None."""
+    schema_name = name
+    if name.startswith("jet_"):
+        number, _, kind = name[4:].partition("_")
+        if number.isdigit() and int(number) >= 1 and name == f"{jet_name(int(number))}_{kind}":
+            schema_name = f"jet_01_{kind}"  # every jet's column: the same dtype, unit, meaning
+    for c in all_columns(1):
+        if c.name == schema_name:
+            return replace(c, name=name)
+    return None
+
+
+def outcome_frame(values: dict, n_jets: int) -> pd.DataFrame:
+    """The outcome frame from ``values`` (column name -> (n,) array or list), in schema order,
+    for a vehicle of ``n_jets`` jets.
 
     Raises
     ------
@@ -304,31 +362,35 @@ def outcome_frame(values: dict) -> pd.DataFrame:
         ``values`` lacks a schema column or has one the schema does not define (a bug: the
         schema is the one list of outcomes).
     """
-    missing = [n for n in OUTCOME_NAMES if n not in values]
-    extra = [n for n in values if n not in OUTCOME_NAMES]
+    columns = outcome_columns(n_jets)
+    names = [c.name for c in columns]
+    missing = [n for n in names if n not in values]
+    extra = [n for n in values if n not in names]
     if missing or extra:
         raise KeyError(
             f"outcomes differ from analysis.engine.runs_table: missing {missing}, undefined {extra}"
         )
-    return pd.DataFrame({c.name: _cast(values[c.name], c.dtype) for c in OUTCOME_COLUMNS})
+    return pd.DataFrame({c.name: _cast(values[c.name], c.dtype) for c in columns})
 
 
-def missing_outcomes(n: int, reason: str) -> pd.DataFrame:
+def missing_outcomes(n: int, reason: str, n_jets: int) -> pd.DataFrame:
     """Outcomes of ``n`` runs that have none (their flight raised): NaN, failed, ``reason``."""
-    values: dict = {name: np.full(n, np.nan) for name in _NUMERIC_OUTCOMES}
+    numeric = _NUMERIC_OUTCOMES + tuple(c.name for c in _per_jet(*_JET_OUTCOME, n_jets=n_jets))
+    values: dict = {name: np.full(n, np.nan) for name in numeric}
     values.update(sim_failed=np.ones(n, bool), failed=np.ones(n, bool), reason=[reason] * n)
-    return outcome_frame(values)
+    return outcome_frame(values, n_jets)
 
 
-def run_columns(effects=(), products: bool = False) -> tuple[Column, ...]:
+def run_columns(effects=(), products: bool = False, *, n_jets: int) -> tuple[Column, ...]:
     """The columns of a campaign whose spec has the effect groups ``effects`` (names of
-    :data:`EFFECT_COLUMNS`) and, with ``products``, disperses products of inertia, in order."""
+    :data:`EFFECT_COLUMNS`), with ``products`` disperses products of inertia, and whose vehicle
+    has ``n_jets`` jets, in order."""
     unknown = [g for g in effects if g not in EFFECT_COLUMNS]
     if unknown:
         raise KeyError(f"unknown effect group(s) {unknown}; known: {list(EFFECT_GROUPS)}")
     extra = tuple(c for g in EFFECT_GROUPS if g in effects for c in EFFECT_COLUMNS[g])
-    inputs = INPUT_COLUMNS + (PRODUCT_COLUMNS if products else ())
-    return ID_COLUMNS + inputs + extra + OUTCOME_COLUMNS
+    inputs = input_columns(n_jets) + (PRODUCT_COLUMNS if products else ())
+    return ID_COLUMNS + inputs + extra + outcome_columns(n_jets)
 
 
 def effect_frame_of(values: dict, effects) -> pd.DataFrame:
@@ -341,10 +403,12 @@ def effect_frame_of(values: dict, effects) -> pd.DataFrame:
     return pd.DataFrame({c.name: _cast(values[c.name], c.dtype) for c in cols})
 
 
-def check_run_frame(frame: pd.DataFrame, effects=(), products: bool = False) -> pd.DataFrame:
-    """``frame`` if its columns are exactly :func:`run_columns` of ``effects`` and
-    ``products``, in order; else a KeyError."""
-    names = tuple(c.name for c in run_columns(effects, products))
+def check_run_frame(
+    frame: pd.DataFrame, effects=(), products: bool = False, *, n_jets: int
+) -> pd.DataFrame:
+    """``frame`` if its columns are exactly :func:`run_columns` of ``effects``, ``products``
+    and ``n_jets``, in order; else a KeyError."""
+    names = tuple(c.name for c in run_columns(effects, products, n_jets=n_jets))
     if tuple(frame.columns) != names:
         diff = sorted(set(frame.columns) ^ set(names)) or "(order)"
         raise KeyError(f"runs frame differs from analysis.engine.runs_table: {diff}")
@@ -362,7 +426,7 @@ def markdown_table() -> str:
     per-axis and per-jet columns folded into one row."""
     rows, seen = [], set()
     group_of = {c.name: g for g in EFFECT_GROUPS for c in EFFECT_COLUMNS[g]}
-    for c in ALL_COLUMNS:
+    for c in all_columns(1):  # per-jet columns are folded into one row: one jet shows them
         name, meaning = c.name, c.meaning
         if name in group_of:
             meaning = f"{meaning} (only with [dispersions.{group_of[name]}])"
@@ -391,9 +455,9 @@ def markdown_table() -> str:
 
 
 # ----------------------------------------------------------------------- vehicles <-> rows --
-def _jet_columns(kind: str) -> list[str]:
-    """``jet_NN_<kind>`` of every jet, in jet order (``thrust_n``, ``tilt_deg``, ...)."""
-    return [f"jet_{j + 1:02d}_{kind}" for j in range(N_JETS)]
+def _jet_columns(kind: str, n_jets: int) -> list[str]:
+    """``jet_NN_<kind>`` of each of ``n_jets`` jets, in jet order (``thrust_n``, ...)."""
+    return [f"{jet_name(j + 1)}_{kind}" for j in range(n_jets)]
 
 
 _CG = [f"cg_{a}_m" for a in "xyz"]
@@ -412,8 +476,9 @@ def inertia_tensor_B(params: VehicleParams) -> np.ndarray:
 
 
 def input_frame(runs: DispersedRuns, products: bool = False) -> pd.DataFrame:
-    """The :data:`INPUT_COLUMNS` of dispersed runs (SI; angles in degrees at this boundary),
-    and with ``products`` the :data:`PRODUCT_COLUMNS`.
+    """The :func:`input_columns` of dispersed runs (SI; angles in degrees at this boundary),
+    one set of per-jet columns per jet of their vehicle, and with ``products`` the
+    :data:`PRODUCT_COLUMNS`.
 
     Jet tilt and azimuth are the draws (MuJoCo holds only the direction they make);
     :func:`vehicles_from_runs` is the inverse.  With ``products`` the inertia columns are the
@@ -426,16 +491,17 @@ def input_frame(runs: DispersedRuns, products: bool = False) -> pd.DataFrame:
         extra = {c: tensor[:, a, b] for c, (a, b) in zip(PRODUCT_NAMES, _PRODUCT_ENTRIES)}
     else:
         inertia, extra = p.inertia_B, {}
+    jets = p.n_jets
     cols = {
         "mass_kg": p.mass_kg,
         **{c: p.cg_B[:, a] for a, c in enumerate(_CG)},
         **{c: inertia[:, a] for a, c in enumerate(_INERTIA)},
-        **dict(zip(_jet_columns("thrust_n"), p.thrust_n.T)),
-        **dict(zip(_jet_columns("tilt_deg"), np.degrees(runs.tilt_rad).T)),
-        **dict(zip(_jet_columns("azimuth_deg"), np.degrees(runs.azimuth_rad).T)),
+        **dict(zip(_jet_columns("thrust_n", jets), p.thrust_n.T)),
+        **dict(zip(_jet_columns("tilt_deg", jets), np.degrees(runs.tilt_rad).T)),
+        **dict(zip(_jet_columns("azimuth_deg", jets), np.degrees(runs.azimuth_rad).T)),
         **extra,
     }
-    names = list(INPUT_NAMES) + (list(PRODUCT_NAMES) if products else [])
+    names = list(input_names(jets)) + (list(PRODUCT_NAMES) if products else [])
     return pd.DataFrame(cols)[names]  # a KeyError if the two ever disagree
 
 
@@ -449,12 +515,12 @@ def axis_inertia(runs: pd.DataFrame) -> np.ndarray:
 def vehicles_from_runs(
     runs: pd.DataFrame, nominal: VehicleParams
 ) -> tuple[VehicleParams, VehicleParams]:
-    """Rebuild each run's vehicle from its recorded :data:`INPUT_COLUMNS`.
+    """Rebuild each run's vehicle from its recorded :func:`input_columns`.
 
     Parameters
     ----------
     runs : DataFrame
-        Rows of ``runs.parquet`` (or any table with the input columns).
+        Rows of ``runs.parquet`` (or any table with the input columns of ``nominal``'s jets).
     nominal : VehicleParams
         The nominal vehicle (one run) whose jets the tilts are measured from.
 
@@ -465,9 +531,9 @@ def vehicles_from_runs(
     nominal_pointing : VehicleParams
         The same with every jet pointing nominally.
     """
-    n = len(runs)
-    tilt = np.radians(runs[_jet_columns("tilt_deg")].to_numpy(float))
-    azimuth = np.radians(runs[_jet_columns("azimuth_deg")].to_numpy(float))
+    n, jets = len(runs), nominal.n_jets
+    tilt = np.radians(runs[_jet_columns("tilt_deg", jets)].to_numpy(float))
+    azimuth = np.radians(runs[_jet_columns("azimuth_deg", jets)].to_numpy(float))
     inertia, iquat = runs[_INERTIA].to_numpy(float), None
     if all(c in runs.columns for c in PRODUCT_NAMES):  # the whole tensor in B
         tensor = np.zeros((n, 3, 3))
@@ -479,7 +545,7 @@ def vehicles_from_runs(
         mass_kg=runs["mass_kg"].to_numpy(float),
         cg_B=runs[_CG].to_numpy(float),
         inertia_B=inertia,
-        thrust_n=runs[_jet_columns("thrust_n")].to_numpy(float),
+        thrust_n=runs[_jet_columns("thrust_n", jets)].to_numpy(float),
         jet_dir_S=np.repeat(nominal.jet_dir_S, n, axis=0),
         isp_s=nominal.isp_s,
         iquat=iquat,

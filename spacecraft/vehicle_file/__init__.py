@@ -13,7 +13,9 @@
 
 The paper's vehicle is the packaged example ``paper`` (``models/vehicle/paper.toml``: it builds
 a model that flies bit-identically to ``models/vehicle/vehicle.xml``); ``canted16`` is a
-four-quad layout with canted jets (arithmetic in ``models/vehicle/README.md``).
+four-quad layout with canted jets and ``canted12`` four canted triads (arithmetic in
+``models/vehicle/README.md``).  Any jet count flies: every per-jet array of the flight is as
+wide as the vehicle's model has jets (:func:`spacecraft.vehicle.jet_count`).
 """
 
 from spacecraft.vehicle_file.flying import FlyingVehicle

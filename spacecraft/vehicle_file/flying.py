@@ -4,7 +4,7 @@ What the engine needs to fly a user's vehicle instead of the packaged one, in on
 
 * :attr:`FlyingVehicle.model` -- the MuJoCo model (:func:`~spacecraft.vehicle_file.build_model`);
 * :meth:`FlyingVehicle.nominal` -- :class:`~spacecraft.vehicle.VehicleParams` read back from
-  that model, with the file's Isp;
+  that model, with the file's Isp (as many jets as the file has: :attr:`FlyingVehicle.n_jets`);
 * :meth:`FlyingVehicle.propulsion` -- the valve limits (the file's minimum on-time);
 * :meth:`FlyingVehicle.tank` -- the tracked propellant, or None when the file gives no
   propellant mass (then the mass properties stay constant, as for the packaged vehicle).
@@ -19,7 +19,7 @@ import mujoco
 
 from spacecraft.propellant import PropellantTank
 from spacecraft.propulsion import PropulsionParams
-from spacecraft.vehicle import VehicleParams
+from spacecraft.vehicle import VehicleParams, jet_count
 from spacecraft.vehicle_file.mjcf import build_model
 from spacecraft.vehicle_file.schema import VehicleDef, load_vehicle
 
@@ -33,16 +33,21 @@ class FlyingVehicle:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> FlyingVehicle:
-        """Read, validate and compile a vehicle file (or a packaged vehicle's name).
+        """Read, validate and compile a vehicle file (or a packaged vehicle's name); any
+        number of jets flies.
 
         Raises
         ------
         InputError
-            The file is invalid, or it has a jet count the simulation does not fly.
+            The file is invalid.
         """
         definition = load_vehicle(path)
-        definition.require_flyable()
         return cls(definition, build_model(definition))
+
+    @property
+    def n_jets(self) -> int:
+        """The vehicle's jet count, its model's (:func:`spacecraft.vehicle.jet_count`)."""
+        return jet_count(self.model)
 
     def nominal(self, n_runs: int = 1) -> VehicleParams:
         """The nominal vehicle ``n_runs`` times, with the file's Isp."""

@@ -43,10 +43,10 @@ from spacecraft.dispersions import (
     second_moment_slack,
     three_sigma_bounds,
 )
-from spacecraft.vehicle import G0_M_S2, N_JETS
+from spacecraft.vehicle import G0_M_S2
 
 #: Vehicle files packaged with rcsim, by name (``models/vehicle/<name>.toml``).
-PACKAGED_VEHICLES = ("paper", "canted16")
+PACKAGED_VEHICLES = ("paper", "canted16", "canted12")
 INTEGRATORS = ("RK4", "Euler", "implicit", "implicitfast")
 #: A jet closer to the CG than this [m] has no moment arm worth the name (a jet "inside the CG").
 MIN_ARM_M = 1e-3
@@ -147,16 +147,6 @@ class VehicleDef:
     @property
     def jet_names(self) -> tuple[str, ...]:
         return tuple(j.name for j in self.jets)
-
-    def require_flyable(self) -> None:
-        """Raise InputError unless the closed loop can fly this vehicle today: its jet
-        arrays are 16 wide (:data:`spacecraft.vehicle.N_JETS`), so a vehicle file with another
-        jet count is checked (``rcsim vehicle check``) but not flown."""
-        if self.n_jets != N_JETS:
-            raise InputError(
-                f"{self.source}: jet: the simulation flies {N_JETS} jets; this vehicle has "
-                f"{self.n_jets} (rcsim vehicle check analyses any count)"
-            )
 
     def positions_m(self) -> np.ndarray:
         """Jet positions in B [m], (n_jets, 3)."""

@@ -33,6 +33,8 @@ def test_pulses_sum_to_the_total_and_a_row_serves_every_run():
 
 def test_shapes_are_checked():
     with pytest.raises(ValueError, match="shape"):
-        OpenLoopController(np.zeros(15))
+        OpenLoopController(np.zeros((2, 3, 16)))
+    with pytest.raises(ValueError, match="shape"):
+        OpenLoopController(np.zeros(0))
     with pytest.raises(ValueError, match="2 runs"):
         OpenLoopController(np.zeros((2, 16))).initial_state(3)

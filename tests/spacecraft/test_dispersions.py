@@ -124,8 +124,8 @@ def test_stream_spawn_order_is_fixed():
     disp, noise = run_streams(5, 9)
     expected = np.random.SeedSequence(5, spawn_key=(9,)).spawn(2)
     assert disp.spawn_key == expected[0].spawn_key and noise.spawn_key == expected[1].spawn_key
-    z, u = standard_draws(np.random.default_rng(disp))
-    z2, _ = standard_draws(np.random.default_rng(expected[0]))
+    z, u = standard_draws(np.random.default_rng(disp), 16)
+    z2, _ = standard_draws(np.random.default_rng(expected[0]), 16)
     assert np.array_equal(z, z2)
 
 

@@ -14,9 +14,10 @@ Oracles
 * The control cycle: a controller and the valves on different clocks cannot both be right,
   so the pair is refused (issue 8: at 80 ms propulsion the 40 ms lookup controller reported
   28 firings instead of 4).
-* Memory: the history is ``HISTORY_BYTES_PER_RUN_CYCLE`` = (4 + 3 + 3 + 3 + 16) float64 =
-  232 bytes per run per cycle plus 8 bytes of ``t_s`` per cycle; a flight needing more than
-  the budget is refused before anything is allocated, one needing exactly the budget flies.
+* Memory: the history of the paper vehicle (16 jets) is
+  ``history_bytes_per_run_cycle(16)`` = (4 + 3 + 3 + 3 + 16) float64 = 232 bytes per run per
+  cycle plus 8 bytes of ``t_s`` per cycle; a flight needing more than the budget is refused
+  before anything is allocated, one needing exactly the budget flies.
 """
 
 from __future__ import annotations
@@ -206,7 +207,7 @@ def test_memory_budget_boundary(model, phase_plane, monkeypatch):
     """Exactly the budget flies; one byte less is refused (2 runs, 1 s = 25 cycles)."""
     params = VehicleParams.nominal(2, model)
     need = 25 * (2 * 232 + 8)
-    assert guards.history_bytes(2, 25) == need
+    assert guards.history_bytes(2, 25, n_jets=16) == need
     monkeypatch.setattr(guards, "memory_budget_bytes", lambda: need)
     hist = simulate_batch(params, phase_plane, hold(2), 1.0, model=model)
     assert hist.t_s.size == 25

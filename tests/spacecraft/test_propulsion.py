@@ -68,7 +68,7 @@ def test_duty_full_and_zero_cycles():
 
 
 def _state(n=1):
-    return PropulsionState.zeros(n)
+    return PropulsionState.zeros(n, 16)  # the paper vehicle's 16 jets
 
 
 def test_valve_clips_commands_to_cycle_and_nonnegative():

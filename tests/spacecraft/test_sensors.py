@@ -139,7 +139,7 @@ def test_effect_draws_leave_vehicles_alone_and_do_not_depend_on_the_batch(model)
     alone, _ = draw_sensors(spec, 11, [2])
     np.testing.assert_array_equal(together.att_bias_rad[2], alone.att_bias_rad[0])
     assert np.abs(together.att_bias_rad).max() > 0
-    timing = draw_timing(TimingSpec(open_delay_s=0.01, open_delay_sigma_s=0.002), 11, [0, 1])
+    timing = draw_timing(TimingSpec(open_delay_s=0.01, open_delay_sigma_s=0.002), 11, [0, 1], 16)
     assert (timing.open_delay_s >= 0).all() and timing.open_delay_s.std() > 0
     after = draw_runs(nominal, sig, 11, [0, 1, 2]).params
     np.testing.assert_array_equal(before.thrust_n, after.thrust_n)
@@ -148,7 +148,7 @@ def test_effect_draws_leave_vehicles_alone_and_do_not_depend_on_the_batch(model)
 
 def test_fault_draw_fails_one_listed_jet_per_run_in_the_window():
     spec = FaultSpec(mode="off", jets=(13, 15), time_s=(1.0, 2.0))
-    faults, drawn = draw_faults(spec, 4, np.arange(200))
+    faults, drawn = draw_faults(spec, 4, np.arange(200), 16)
     failed = np.isfinite(faults.off_from_s)
     np.testing.assert_array_equal(failed.sum(axis=1), 1)
     assert set(np.flatnonzero(failed.any(axis=0)) + 1) == {13, 15}

@@ -17,7 +17,8 @@ def register(sub) -> None:
     p = sub.add_parser(
         "maneuver",
         help="fly one rest-to-rest attitude maneuver (history.parquet + plots)",
-        description="Fly the nominal vehicle from rest to a commanded attitude and write "
+        description="Fly the nominal vehicle (the packaged one, or a vehicle file's with "
+        "--vehicle) from rest to a commanded attitude and write "
         "DIR/history.parquet (one row per 40 ms control cycle), DIR/attitude_error.png, "
         "DIR/rates_jets.png and DIR/summary.json.",
     )
@@ -25,9 +26,9 @@ def register(sub) -> None:
         "--controller",
         choices=ALL_CONTROLLERS,
         default="phase-plane",
-        help="phase-plane, lookup (the paper's pattern recognition) or adaptive "
-        "(lookup whose table entries learn their firing times in flight); "
-        "default phase-plane",
+        help="phase-plane, lookup (the paper's pattern recognition), adaptive "
+        "(lookup whose table entries learn their firing times in flight) or allocator "
+        "(minimum-propellant jet selection, any jet layout); default phase-plane",
     )
     p.add_argument(
         "--attitude-deg",
@@ -40,6 +41,13 @@ def register(sub) -> None:
     p.add_argument("--duration-s", type=float, default=60.0, help="simulated time [s] (default 60)")
     p.add_argument(
         "--table", help="lookup table CSV for --controller lookup or adaptive (default: packaged)"
+    )
+    p.add_argument(
+        "--vehicle",
+        metavar="FILE",
+        help="vehicle file to fly instead of the packaged vehicle, any number of jets (a "
+        'packaged one by name: "paper", "canted16", "canted12"); a layout other than Table '
+        "2's flies with --controller allocator",
     )
     p.add_argument(
         "--out",
@@ -78,9 +86,12 @@ def run(args: argparse.Namespace) -> int:
     from analysis.apps.estimates import confirm, flying_seconds
     from models.tables import CONTROL_CYCLE_S as CYCLE
     from spacecraft.guards import check_history_memory
+    from spacecraft.vehicle import jet_count, load_model
 
+    vehicle = None if args.vehicle is None else _vehicle(args)
+    n_jets = jet_count(load_model()) if vehicle is None else vehicle.n_jets
     # What cannot fit in memory is refused before what merely takes long.
-    check_history_memory(1, math.ceil(args.duration_s / CYCLE), args.duration_s)
+    check_history_memory(1, math.ceil(args.duration_s / CYCLE), args.duration_s, n_jets=n_jets)
     confirm(
         "the maneuver (one run, no batching)",
         flying_seconds(args.duration_s, runs=1),
@@ -93,9 +104,19 @@ def run(args: argparse.Namespace) -> int:
     scenario = Scenario(
         name="maneuver", duration_s=args.duration_s, att_cmd_rad=np.radians(args.attitude_deg)
     )
-    history = fly(scenario, args.controller, table=args.table)
+    history = fly(scenario, args.controller, table=args.table, vehicle=vehicle)
     title = f"{args.controller} maneuver ({r:g}, {p:g}, {y:g}) deg"
-    paths = write_flight(history, out, title=title, command=COMMAND, overwrite=args.overwrite)
+    on = ""
+    flown = {}
+    if vehicle is not None:
+        from spacecraft.vehicle_file.authority import torque_signs
+
+        on = f" on {vehicle.definition.name}"
+        flown = {"isp_s": vehicle.definition.isp_s, "jet_signs": torque_signs(vehicle.definition)}
+    title += on
+    paths = write_flight(
+        history, out, title=title, command=COMMAND, overwrite=args.overwrite, **flown
+    )
     s = flight_summary(history)
     err = ", ".join(f"{v:.4f}" for v in s["final_att_err_deg"])
     print(f"{title}: final attitude error [{err}] deg, {s['firings']} firings")
@@ -104,3 +125,23 @@ def run(args: argparse.Namespace) -> int:
         + ", ".join(p.name for p in paths.values())
     )
     return 0
+
+
+def _vehicle(args: argparse.Namespace):
+    """The ``--vehicle`` file ready to fly, refused (one line) when the controller cannot fly
+    it (:func:`lookup.registry.vehicle_problem`) or its jets cannot turn the vehicle toward
+    the commanded attitude (:func:`spacecraft.vehicle_file.authority.unreachable_command`)."""
+    from lookup.registry import vehicle_problem
+    from spacecraft.vehicle_file import FlyingVehicle
+    from spacecraft.vehicle_file.authority import unreachable_command
+
+    vehicle = FlyingVehicle.load(args.vehicle)
+    problem = vehicle_problem(args.controller, args.table, vehicle.definition)
+    if problem is not None:
+        raise InputError(f"--controller {args.controller} --vehicle {args.vehicle}: {problem[1]}")
+    why = unreachable_command(vehicle.definition, np.radians(args.attitude_deg))
+    if why:
+        raise InputError(
+            f"--vehicle {args.vehicle} cannot fly --attitude-deg {args.attitude_deg}: {why}"
+        )
+    return vehicle

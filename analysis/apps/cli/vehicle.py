@@ -36,7 +36,7 @@ def register(subparsers) -> None:
     check.add_argument(
         "vehicle",
         metavar="FILE",
-        help='a vehicle TOML file, or a packaged one by name ("paper", "canted16")',
+        help='a vehicle TOML file, or a packaged one by name ("paper", "canted16", "canted12")',
     )
     check.add_argument(
         "--no-pairs",

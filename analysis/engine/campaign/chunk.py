@@ -26,7 +26,7 @@ from analysis.engine.runs_table import check_run_frame, input_frame, missing_out
 from spacecraft.dispersions import DispersedRuns, draw_runs
 from spacecraft.guards import history_bytes
 from spacecraft.simulation import History, invalid_runs
-from spacecraft.vehicle import AXES, N_JETS, VehicleParams, load_model
+from spacecraft.vehicle import AXES, VehicleParams, load_model
 
 if TYPE_CHECKING:
     from analysis.engine.campaign.spec import CampaignSpec
@@ -70,7 +70,7 @@ def max_chunk_runs(spec: CampaignSpec, duration_s: float) -> int:
     cycles = int(np.ceil(duration_s / spec.cycle_s))
     # Imperfect sensors record what the controller measured; timing and faults record what
     # the jets delivered (spacecraft.guards.history_bytes).
-    extra = spec.effects.records()
+    extra = dict(spec.effects.records(), n_jets=spec.n_jets)
     # history_bytes(n, cycles) is affine in n: the shared time column plus n runs' records.
     shared = history_bytes(0, cycles, **extra)
     per_run = history_bytes(1, cycles, **extra) - shared
@@ -187,7 +187,7 @@ def fly_runs(
     run_ids = np.asarray(run_ids, dtype=np.int64)
     dispersed = draw_runs(nominal_of(spec, model), spec.sigmas, spec.seed, run_ids)
     scenarios = [spec.cases[c] for c in run_ids // spec.runs_per_case]
-    effects = draw_effects(spec.effects, spec.seed, run_ids)[0]
+    effects = draw_effects(spec.effects, spec.seed, run_ids, spec.n_jets)[0]
     options = (
         {"adapt_options": adapt_options(spec.effects)} if spec.controller == "adaptive" else {}
     )
@@ -223,21 +223,26 @@ def nominal_of(spec: CampaignSpec, model) -> VehicleParams:
     return replace(nominal, isp_s=spec_vehicle(spec).definition.isp_s)
 
 
-def envelope(history: History, cases: np.ndarray, alive: np.ndarray) -> pd.DataFrame:
+def envelope(
+    history: History, cases: np.ndarray, alive: np.ndarray, jets: np.ndarray
+) -> pd.DataFrame:
     """Per case and cycle, min / max / sum over the runs ``alive`` (bool, (n,)) of that case
-    (``cases``: case index per run, (n,)), plus a row for the final sample.
+    (``cases``: case index per run, (n,)), plus a row for the final sample; ``jets``
+    (3, n_jets) bool: each axis's jets (:func:`~analysis.engine.campaign.outcomes.axis_jets`).
 
     Columns ``case_index, cycle, t_s, n_runs`` and, per axis, ``att_err_<axis>_deg_{min,max,sum}``,
     ``rate_<axis>_deg_s_{min,max,sum}``, ``on_time_<axis>_s_sum`` (on-time of the axis's jets
     summed over jets and runs) and ``firing_<axis>_runs`` (runs with any of them on).
     """
     frames = [
-        _case_envelope(history, int(c), alive & (cases == c)) for c in np.unique(cases[alive])
+        _case_envelope(history, int(c), alive & (cases == c), jets) for c in np.unique(cases[alive])
     ]
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
 
-def _case_envelope(history: History, case: int, alive: np.ndarray) -> pd.DataFrame:
+def _case_envelope(
+    history: History, case: int, alive: np.ndarray, jets: np.ndarray
+) -> pd.DataFrame:
     K = history.t_s.size
     cycle = history.cycle_s
     att = np.degrees(
@@ -246,8 +251,9 @@ def _case_envelope(history: History, case: int, alive: np.ndarray) -> pd.DataFra
     rate = np.degrees(
         np.concatenate([history.omega_B[alive], history.final.omega_B[alive, None]], 1)
     )
-    on = np.concatenate([history.on_time_s[alive], np.zeros((int(alive.sum()), 1, N_JETS))], 1)
-    jets = axis_jets()
+    on = np.concatenate(
+        [history.on_time_s[alive], np.zeros((int(alive.sum()), 1, history.n_jets))], 1
+    )
     cols = {
         "case_index": np.full(K + 1, case, dtype=np.int64),
         "cycle": np.arange(K + 1, dtype=np.int64),
@@ -310,12 +316,12 @@ def run_rows(spec: CampaignSpec, dispersed: DispersedRuns, outcome: pd.DataFrame
     """The runs.parquet rows of runs ``dispersed.run_ids``: identity, inputs (vehicle, its
     products of inertia when the spec disperses them, then the spec's sensor / timing / fault
     draws), ``outcome`` (columns: :func:`analysis.engine.runs_table.run_columns` of
-    ``spec.effects.groups`` and ``spec.sigmas.disperses_products``)."""
+    ``spec.effects.groups``, ``spec.sigmas.disperses_products`` and the vehicle's jets)."""
     products = spec.sigmas.disperses_products
     cases = dispersed.run_ids // spec.runs_per_case
     # The effects' draws are a function of (seed, run id): the ones fly_runs flew (a few
     # variates per run, negligible next to a flight).
-    effects = draw_effects(spec.effects, spec.seed, dispersed.run_ids)[1]
+    effects = draw_effects(spec.effects, spec.seed, dispersed.run_ids, spec.n_jets)[1]
     head = pd.DataFrame(
         {
             "run_id": dispersed.run_ids,
@@ -336,6 +342,7 @@ def run_rows(spec: CampaignSpec, dispersed: DispersedRuns, outcome: pd.DataFrame
         ),
         spec.effects.groups,
         products,
+        n_jets=spec.n_jets,
     )
 
 
@@ -350,7 +357,7 @@ def _raised(spec: CampaignSpec, run_ids: np.ndarray, exc: BaseException, model) 
     with the exception as the reason."""
     dispersed = draw_runs(nominal_of(spec, model), spec.sigmas, spec.seed, run_ids)
     reason = f"exception: {type(exc).__name__}: {exc}".replace("\n", " ")
-    return run_rows(spec, dispersed, missing_outcomes(run_ids.size, reason))
+    return run_rows(spec, dispersed, missing_outcomes(run_ids.size, reason, spec.n_jets))
 
 
 def simulate_chunk(
@@ -390,7 +397,12 @@ def simulate_chunk(
     histories = {
         int(chunk.run_ids[i]): history_frame(history, int(i)) for i in np.flatnonzero(keep)
     }
-    env = envelope(history, chunk.run_ids // spec.runs_per_case, ~np.asarray(history.failed, bool))
+    env = envelope(
+        history,
+        chunk.run_ids // spec.runs_per_case,
+        ~np.asarray(history.failed, bool),
+        axis_jets(spec),
+    )
     return ChunkResult(chunk, runs, env, histories)
 
 

@@ -38,7 +38,6 @@ from spacecraft.effect_draws import (
     draw_timing,
     effect_frame,
 )
-from spacecraft.vehicle import N_JETS
 
 #: ``[dispersions.sensor]`` keys (one number for all axes or [roll, pitch, yaw], one-sigma, in
 #: the unit of the name) -> (SensorSpec field, largest value accepted).  The largest values lie
@@ -150,25 +149,33 @@ def timing_spec(table: dict, where: str) -> TimingSpec:
     return TimingSpec(**out)
 
 
-def fault_spec(table: dict, where: str, longest_s: float) -> FaultSpec:
-    """``[dispersions.fault]`` as the SI spec: ``mode``, ``jets``, ``probability`` and the
-    windows ``[lo, hi]`` of :data:`FAULT_WINDOWS` (a number means [x, x]); times within the
-    longest run, ``longest_s`` [s] (a fault after the end never happens)."""
+def fault_spec(
+    table: dict, where: str, longest_s: float, n_jets: int, vehicle: str = "the vehicle"
+) -> FaultSpec:
+    """``[dispersions.fault]`` as the SI spec: ``mode``, ``jets`` (numbers 1..``n_jets``, the
+    jets of the campaign's vehicle, named ``vehicle`` in messages; default all of them),
+    ``probability`` and the windows ``[lo, hi]`` of :data:`FAULT_WINDOWS` (a number means
+    [x, x]); times within the longest run, ``longest_s`` [s] (a fault after the end never
+    happens)."""
     _unknown(table, FAULT_KEYS, where)
     mode = table.get("mode", "none")
     if not isinstance(mode, str) or mode not in FAULT_MODES:
         raise InputError(f"{where}: mode must be one of {', '.join(FAULT_MODES)}, got {mode!r}")
-    jets = table.get("jets", list(range(1, N_JETS + 1)))
+    jets = table.get("jets", list(range(1, n_jets + 1)))
     if (
         not isinstance(jets, list)
         or not jets
-        or not all(
-            isinstance(j, int) and not isinstance(j, bool) and 1 <= j <= N_JETS for j in jets
-        )
+        or not all(isinstance(j, int) and not isinstance(j, bool) for j in jets)
         or len(set(jets)) != len(jets)
     ):
         raise InputError(
-            f"{where}: jets must be a list of distinct jet numbers 1..{N_JETS}, got {jets!r}"
+            f"{where}: jets must be a list of distinct jet numbers 1..{n_jets}, got {jets!r}"
+        )
+    outside = [j for j in jets if not 1 <= j <= n_jets]
+    if outside:
+        raise InputError(
+            f"{where}: jets: no jet {outside[0]}: {vehicle} has {n_jets} jets, numbered "
+            f"1..{n_jets} (got {jets!r})"
         )
     p = table.get("probability", 1.0)
     if not _is_number(p) or not 0 <= p <= 1:
@@ -207,12 +214,19 @@ TABLES: dict[str, Callable[..., Any]] = {
 
 
 def parse_effects(
-    dispersions: dict, *, source: str, cycle_s: float, longest_s: float
+    dispersions: dict,
+    *,
+    source: str,
+    cycle_s: float,
+    longest_s: float,
+    n_jets: int,
+    vehicle: str = "the vehicle",
 ) -> tuple[Effects, dict]:
     """Read the ``sensor``, ``timing`` and ``fault`` sub-tables (popped from ``dispersions``).
 
     ``cycle_s``: the campaign's control cycle [s] (delays must act within it); ``longest_s``:
-    its longest run [s] (fault windows must start within it).
+    its longest run [s] (fault windows must start within it); ``n_jets``: the jets of the
+    campaign's vehicle (a fault's jets are among them), ``vehicle`` its name in messages.
 
     Returns
     -------
@@ -233,7 +247,7 @@ def parse_effects(
         where = f"{source}: [dispersions.{name}]"
         if not isinstance(raw, dict):
             raise InputError(f"{where}: expected a table, got {raw!r}")
-        spec = read(raw, where, longest_s) if name == "fault" else read(raw, where)
+        spec = read(raw, where, longest_s, n_jets, vehicle) if name == "fault" else read(raw, where)
         specs[name] = spec
         if not spec.is_none():
             # TOML values of these keys (numbers, lists, strings) are JSON as they are.
@@ -263,8 +277,9 @@ def adapt_options(effects: Effects) -> dict:
     return {"rate_noise_rad_s": float(np.max(effects.sensor.rate_noise_rad_s))}
 
 
-def draw_effects(effects: Effects, seed: int, run_ids) -> tuple[dict, pd.DataFrame]:
-    """The ``fly_batch`` keywords and the runs.parquet effect columns of runs ``run_ids``.
+def draw_effects(effects: Effects, seed: int, run_ids, n_jets: int) -> tuple[dict, pd.DataFrame]:
+    """The ``fly_batch`` keywords and the runs.parquet effect columns of runs ``run_ids`` of a
+    vehicle of ``n_jets`` jets.
 
     Returns
     -------
@@ -282,11 +297,11 @@ def draw_effects(effects: Effects, seed: int, run_ids) -> tuple[dict, pd.DataFra
         sensors, streams = draw_sensors(effects.sensor, seed, run_ids)
         kwargs.update(sensors=sensors, sensor_streams=streams)
     if not effects.timing.is_none():
-        timing = draw_timing(effects.timing, seed, run_ids)
+        timing = draw_timing(effects.timing, seed, run_ids, n_jets)
         kwargs["timing"] = timing
     values.update({k: v.to_numpy() for k, v in effect_frame(sensors, timing).items()})
     if not effects.fault.is_none():
-        faults, drawn = draw_faults(effects.fault, seed, run_ids)
+        faults, drawn = draw_faults(effects.fault, seed, run_ids, n_jets)
         kwargs["faults"] = faults
         values.update({k: v.to_numpy() for k, v in drawn.items()})
         # Thrust factor 1 (not NaN) where the thrust is whole: a number the driver analysis
@@ -316,7 +331,6 @@ def describe(effects: Effects) -> str:
         )
     f = effects.fault
     if not f.is_none():
-        parts.append(
-            f"jet fault {f.mode} (p = {f.probability:g}, jets {','.join(str(j) for j in f.jets)})"
-        )
+        jets = ",".join(str(j) for j in f.jets) if f.jets else "all"
+        parts.append(f"jet fault {f.mode} (p = {f.probability:g}, jets {jets})")
     return "; ".join(parts)

@@ -26,16 +26,25 @@ MAX_INITIAL_RATE_DEG_S = 3.0
 HISTORY_BUDGET_BYTES = 192 * 2**20
 
 
-def max_duration_s(measured: bool = False, delivered: bool = False) -> float:
-    """Longest run a campaign flies [s]: one run's per-cycle record within a chunk's budget
-    (``measured``, ``delivered``: with the records of imperfect sensors and of valve timing or
-    faults, :func:`spacecraft.guards.history_bytes`)."""
+def max_duration_s(
+    measured: bool = False, delivered: bool = False, *, n_jets: int | None = None
+) -> float:
+    """Longest run a campaign flies [s]: one run's per-cycle record, for a vehicle of
+    ``n_jets`` jets (default the packaged vehicle's), within a chunk's budget (``measured``,
+    ``delivered``: with the records of imperfect sensors and of valve timing or faults,
+    :func:`spacecraft.guards.history_bytes`)."""
     from models.tables import CONTROL_CYCLE_S
     from spacecraft.guards import history_bytes
 
+    if n_jets is None:
+        from spacecraft.vehicle import jet_count, load_model
+
+        n_jets = jet_count(load_model())
+
     # history_bytes(1, 1): one run's record of one cycle, with its share of the time column;
     # campaigns fly the paper's cycle (CampaignSpec.cycle_s).
-    return (HISTORY_BUDGET_BYTES // history_bytes(1, 1, measured, delivered)) * CONTROL_CYCLE_S
+    one = history_bytes(1, 1, measured, delivered, n_jets=n_jets)
+    return (HISTORY_BUDGET_BYTES // one) * CONTROL_CYCLE_S
 
 
 _LIMITS: dict = {}
@@ -60,7 +69,7 @@ def vehicle_limits(model) -> dict:
     from spacecraft.vehicle import BODY, VehicleParams, jet_geometry_B, torque_per_jet_B
 
     nom = VehicleParams.nominal(1, model)
-    torque = torque_per_jet_B(nom, model)[0]  # (16, 3)
+    torque = torque_per_jet_B(nom, model)[0]  # (n_jets, 3)
     authority = np.minimum(
         np.where(torque > 0, torque, 0).sum(axis=0),
         -np.where(torque < 0, torque, 0).sum(axis=0),

@@ -1,7 +1,8 @@
 """The outcomes of flown runs: firings, times to rate, final errors, failure and its reason.
 
-One row per run, columns :data:`analysis.engine.runs_table.OUTCOME_COLUMNS`; a function of the
-batch's :class:`~spacecraft.simulation.History` and the spec's thresholds only (no I/O).
+One row per run, columns :func:`analysis.engine.runs_table.outcome_columns` of the flown
+vehicle's jets; a function of the batch's :class:`~spacecraft.simulation.History`, the spec's
+thresholds and its vehicle's jet map only (no I/O beyond reading the vehicle file).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import pandas as pd
 
 from analysis.engine.runs_table import outcome_frame
 from spacecraft.simulation import History
-from spacecraft.vehicle import AXES, N_JETS
+from spacecraft.vehicle import AXES, jet_name
 
 if TYPE_CHECKING:
     from analysis.engine.campaign.spec import CampaignSpec
@@ -31,23 +32,43 @@ def _channel_table(spec: CampaignSpec | None) -> bool:
     return table is not None and table not in PAPER_LOOKUP_TABLES and is_channel_table(table)
 
 
-def axis_jets(spec: CampaignSpec | None = None) -> np.ndarray:
-    """(3, 16) bool: the jets that torque roll, pitch, yaw (Table 2); for a campaign flying a
-    channel table, the jets its channels of each axis fire (:func:`lookup.channels.axis_jets_of`:
-    on a coupled layout every jet torques several axes, so Table 2 says nothing)."""
-    from models.tables import load_jet_map
+def jet_signs(vehicle: str | None = None) -> np.ndarray:
+    """(n_jets, 3) in {-1, 0, 1}: the sign of each jet's torque about roll, pitch, yaw.
 
+    ``vehicle``: a campaign's vehicle file (its spec's ``vehicle``), whose own nominal torque
+    signs say it (:func:`spacecraft.vehicle_file.authority.torque_signs`: for the paper's
+    vehicle file Table 2 exactly; a canted jet has a sign on every axis it torques); None, the
+    packaged vehicle: Table 2.
+    """
+    if vehicle is None:
+        from models.tables import load_jet_map
+
+        return np.asarray(load_jet_map())
+    from spacecraft.vehicle_file import load_vehicle
+    from spacecraft.vehicle_file.authority import torque_signs
+
+    return torque_signs(load_vehicle(vehicle))
+
+
+def axis_jets(spec: CampaignSpec | None = None) -> np.ndarray:
+    """(3, n_jets) bool: the jets that count as roll, pitch, yaw jets for a campaign.
+
+    The jets that torque each axis (:func:`jet_signs` of the spec's vehicle nonzero; Table 2
+    for the packaged vehicle); for a campaign flying a channel table, the jets its channels of
+    each axis fire (:func:`lookup.channels.axis_jets_of`: on a coupled layout every jet torques
+    several axes, so the torque signs alone say little about which firing serves which axis).
+    """
     table = getattr(spec, "table", None)
     if table is not None and _channel_table(spec):
         from lookup.channels import axis_jets_of
         from models.tables import load_recipe, recipe_path
 
         return axis_jets_of(load_recipe(recipe_path(table)))
-    return (load_jet_map() != 0).T
+    return (jet_signs(getattr(spec, "vehicle", None)) != 0).T
 
 
 def firing_starts(on_time_s: np.ndarray, cycle_s: float) -> np.ndarray:
-    """(n, K, 16) bool: a jet starts a new firing in the cycle (it was not on at the cycle's
+    """(n, K, n_jets) bool: a jet starts a new firing in the cycle (it was not on at the cycle's
     start, i.e. did not fill the previous cycle)."""
     full = on_time_s >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)
     prev_full = np.zeros_like(full)
@@ -79,7 +100,8 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
       (if set) the final total attitude error exceeds ``spec.attitude_threshold_rad``, or the
       propellant ran out (a vehicle file's tracked propellant, :mod:`spacecraft.propellant`).
     Runs whose simulation failed get NaN outcomes: their state is not a flight.  Columns,
-    units and meanings: :data:`analysis.engine.runs_table.OUTCOME_COLUMNS`.
+    units and meanings: :func:`analysis.engine.runs_table.outcome_columns`.  An axis's jets are
+    those of :func:`axis_jets` of the spec's vehicle.
     """
     n, K = history.rate_err_B.shape[:2]
     cycle_s = history.cycle_s
@@ -88,12 +110,14 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     below = np.abs(rate) < thr  # (n, K + 1, 3)
     times = np.arange(K + 1) * cycle_s
     jets = axis_jets(spec)
+    if jets.shape[1] != history.n_jets:  # pragma: no cover - the spec's vehicle is the flown one
+        raise AssertionError(f"{jets.shape[1]} jets in the jet map, {history.n_jets} flown")
     # Sample k is taken mid-firing on an axis when one of its jets filled cycle k - 1 and is
     # still on in cycle k.  A firing that overshoots sweeps the rate error through zero, so one
     # such sample would lie under thr although the firing ends far from the command: only
     # samples between firings count as "reached".
     on = history.on_time_s
-    jets_f = jets.T.astype(float)  # (16, 3): a matmul counts an axis's jets, cheaper than any()
+    jets_f = jets.T.astype(float)  # (n_jets, 3): a matmul counts an axis's jets, cheaper than any()
     mid = np.zeros_like(below)
     if _channel_table(spec):
         # A channel's jets fire their recipe's share of every cycle (0.99 of it, or less when
@@ -104,10 +128,10 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
         events = active.copy()
         events[:, 1:] &= ~active[:, :-1]
     else:
-        full = on >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)  # (n, K, 16)
+        full = on >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)  # (n, K, n_jets)
         going_on = full[:, :-1] & (on[:, 1:] > 0)  # filled cycle k - 1 and still on in cycle k
         mid[:, 1:K] = (going_on.astype(float) @ jets_f) > 0
-        starts = firing_starts(history.on_time_s, cycle_s)  # (n, K, 16)
+        starts = firing_starts(history.on_time_s, cycle_s)  # (n, K, n_jets)
         events = (starts.astype(float) @ jets_f) > 0  # (n, K, 3)
     settled = below & ~mid
     reached = settled.any(axis=1)  # (n, 3)
@@ -140,8 +164,8 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     for a, axis in enumerate(AXES):
         cols[f"firings_{axis}"] = events[:, :, a].sum(axis=1).astype(float)
     cols["firings_total"] = prop.firings.sum(axis=1).astype(float)
-    for j in range(N_JETS):
-        cols[f"jet_{j + 1:02d}_on_time_s"] = prop.on_time_s[:, j]
+    for j in range(history.n_jets):
+        cols[f"{jet_name(j + 1)}_on_time_s"] = prop.on_time_s[:, j]
     assert history.flown_params is not None, "outcomes() needs a simulation's history"
     cols["propellant_kg"] = prop.propellant_kg(history.flown_params.isp_s)
     cols["rate_settled_time_s"] = settle
@@ -178,4 +202,4 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     out["sim_failed"] = sim_failed
     out["failed"] = np.array([bool(r) for r in reasons], dtype=bool)
     out["reason"] = reasons
-    return outcome_frame(out)
+    return outcome_frame(out, history.n_jets)

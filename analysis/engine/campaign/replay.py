@@ -14,6 +14,7 @@ import pandas as pd
 from analysis.engine import runs_table
 from analysis.engine.campaign import results as R
 from analysis.engine.campaign.chunk import fly_runs, tabulate
+from analysis.engine.campaign.outcomes import jet_signs
 from analysis.engine.campaign.spec import parse_dict
 from analysis.engine.output import check_out_dir
 from models.errors import InputError
@@ -80,6 +81,7 @@ def replay(
         isp_s=dispersed.params.isp_s,
         command=COMMAND,
         overwrite=overwrite,
+        jet_signs=jet_signs(spec.vehicle),
     )
     matches = None
     if stored is not None and len(stored) == 1:

@@ -39,8 +39,8 @@ from analysis.engine.runs_table import (
     HISTORIES,
     MANIFEST,
     PLOTS,
-    RUN_NAMES,
     RUNS,
+    run_columns,
 )
 from models.atomic import atomic_write, remove_temporaries
 from spacecraft.vehicle import AXES
@@ -149,7 +149,9 @@ _STAT_INPUTS = (
     *(f"firings_to_rate_{a}" for a in AXES),
     *(f"final_rate_err_{a}_deg_s" for a in AXES),
 )
-assert set(_STAT_INPUTS) <= set(RUN_NAMES), "per-case statistics read columns the schema lacks"
+assert set(_STAT_INPUTS) <= {c.name for c in run_columns(n_jets=1)}, (
+    "per-case statistics read columns the schema lacks"
+)
 # Partial statistics are merged every this many chunks (and envelopes likewise): memory stays
 # bounded by the number of cases, whatever the number of chunks.
 MERGE_EVERY = 32

@@ -45,7 +45,7 @@ from analysis.engine.campaign.local import local_results
 from analysis.engine.campaign.spec import CampaignSpec
 from analysis.engine.interrupts import sigterm_interrupts
 from analysis.engine.output import check_out_dir, output_lock, write_marker
-from analysis.engine.runs_table import ALL_COLUMNS
+from analysis.engine.runs_table import all_columns
 from models.errors import InputError
 
 COMMAND = "campaign run"  # recorded in the directory's marker (analysis.engine.output)
@@ -72,12 +72,18 @@ class CampaignReport:
     gate: GateResult | None = None
 
 
-# Bytes a run's row takes in runs.parquet, at most: 8 per column (numbers are float64 or int64
-# and do not compress; the reason strings are mostly empty).
-_ROW_BYTES = 8 * len(ALL_COLUMNS)  # with every optional effect column: an upper bound
-# Per kept history, per control cycle: the history frame's columns (analysis.engine.flight),
-# float64.
-_HISTORY_ROW_BYTES = 8 * 40
+def _row_bytes(n_jets: int) -> int:
+    """Bytes a run's row takes in runs.parquet, at most: 8 per column (numbers are float64 or
+    int64 and do not compress; the reason strings are mostly empty), with every optional
+    effect column (an upper bound), for a vehicle of ``n_jets`` jets."""
+    return 8 * len(all_columns(n_jets))
+
+
+def _history_row_bytes(n_jets: int) -> int:
+    """Per kept history, per control cycle: the history frame's columns
+    (:func:`analysis.engine.flight.history_frame`: time, 12 per-axis columns, 6 measured
+    ones, an on-time and a delivered time per jet), float64: an upper bound."""
+    return 8 * (1 + 12 + 6 + 2 * n_jets)
 
 
 def check_fits(spec: CampaignSpec, out: Path) -> None:
@@ -91,14 +97,15 @@ def check_fits(spec: CampaignSpec, out: Path) -> None:
     """
     from spacecraft.guards import human_bytes
 
-    need = spec.n_runs * _ROW_BYTES
+    row = _row_bytes(spec.n_jets)
+    need = spec.n_runs * row
     if spec.histories in ("all", "first"):
         cycle_s = spec.cycle_s
         per_case = (
             spec.runs_per_case if spec.histories == "all" else min(spec.first_k, spec.runs_per_case)
         )
         need += sum(
-            per_case * int(case.duration_s / cycle_s + 1) * _HISTORY_ROW_BYTES
+            per_case * int(case.duration_s / cycle_s + 1) * _history_row_bytes(spec.n_jets)
             for case in spec.cases
         )
     ancestor = out
@@ -113,7 +120,7 @@ def check_fits(spec: CampaignSpec, out: Path) -> None:
         raise InputError(
             f"{spec.source}: runs_per_case = {spec.runs_per_case}: the campaign's "
             f"{spec.n_runs:,} runs need about {human_bytes(need)} of results "
-            f"({_ROW_BYTES} bytes per run{kept}), "
+            f"({row} bytes per run{kept}), "
             f"but only {human_bytes(free)} is free where {out} would be written"
         )
 

@@ -81,6 +81,11 @@ class CampaignSpec:
     resolved : dict
         The spec with defaults filled in and paths made absolute (JSON-able); what the
         manifest records, what ``--resume`` compares and what ``replay`` rebuilds from.
+    n_jets : int
+        The flown vehicle's jet count, read from its compiled model when the spec is read
+        (:func:`spacecraft.vehicle.jet_count`; 16 for the packaged vehicle): the width of
+        every per-jet draw, record and column of the campaign.  Not in ``resolved``: the
+        vehicle is (its file and SHA-256).
     effects : Effects
         Sensors, valve timing and jet faults (:mod:`~analysis.engine.campaign.effects`);
         each ``is_none()`` when the spec has no such table.
@@ -107,6 +112,7 @@ class CampaignSpec:
     first_k: int
     plots: bool
     resolved: dict
+    n_jets: int
     max_failed_pct: float | None = None
     effects: Effects = Effects()
     vehicle: str | None = None
@@ -170,7 +176,9 @@ class CampaignSpec:
 # ----------------------------------------------------------------------------------------------
 # Reading (the key-by-key reader is analysis.engine.campaign.reader)
 # ----------------------------------------------------------------------------------------------
-def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
+def _scenarios(raw, source: str, resolved: list, n_jets: int) -> list[Scenario]:
+    """``[scenario]`` (or ``[[scenario]]``): the cases, for a vehicle of ``n_jets`` jets (a
+    run's per-cycle record, hence the longest run, depends on it)."""
     from models.tables import load_rate_cases
 
     blocks = raw if isinstance(raw, list) else [raw]
@@ -181,10 +189,10 @@ def _scenarios(raw, source: str, resolved: list) -> list[Scenario]:
         r = Reader(block, "scenario" if not isinstance(raw, list) else f"scenario[{b}]", source)
         kind = r.choice("kind", "rate-cases", SCENARIO_KINDS)
         duration = r.number("duration_s", 20.0, minimum=0.0, strict=True)
-        if duration > max_duration_s():
+        if duration > max_duration_s(n_jets=n_jets):
             raise r.error(
                 "duration_s",
-                f"must be <= {max_duration_s():.0f} s: one run's "
+                f"must be <= {max_duration_s(n_jets=n_jets):.0f} s: one run's "
                 "per-cycle record must fit a chunk's memory budget (analysis."
                 "engine.campaign.limits.HISTORY_BUDGET_BYTES)",
                 duration,
@@ -303,10 +311,12 @@ def parse_dict(
     if not top.has("scenario"):
         raise InputError(f"{source}: scenario: missing; see `rcsim campaign example`")
     raw_scen = top.raw("scenario")
+    # The vehicle first: its jet count sizes every per-jet record (the longest run, the
+    # jets a fault may name).
+    vehicle, vehicle_resolved, n_jets = _vehicle(top, base_dir)
     scen_resolved: list = []
-    cases = _scenarios(raw_scen, source, scen_resolved)
+    cases = _scenarios(raw_scen, source, scen_resolved, n_jets)
     resolved["scenario"] = scen_resolved if isinstance(raw_scen, list) else scen_resolved[0]
-    vehicle, vehicle_resolved = _vehicle(top, base_dir)
     if vehicle is not None:  # recorded only when given: other specs resolve as before
         resolved.update(vehicle_resolved)
         _check_reachable(vehicle, cases, source)
@@ -316,7 +326,7 @@ def parse_dict(
     if table is not None and table not in PAPER_LOOKUP_TABLES:
         _check_channel_table(name, table, vehicle, source)
     sigmas, effects, resolved["dispersions"] = _dispersions(
-        top.table_("dispersions"), base_dir, cases, source, vehicle
+        top.table_("dispersions"), base_dir, cases, source, vehicle, n_jets
     )
     rate_thr, att_thr, max_failed, resolved["failure"] = _failure(top.table_("failure"))
     histories, first_k, plots, resolved["output"] = _output(top.table_("output"))
@@ -336,6 +346,7 @@ def parse_dict(
         first_k=first_k,
         plots=plots,
         resolved=resolved,
+        n_jets=n_jets,
         max_failed_pct=max_failed,
         effects=effects,
         vehicle=vehicle,
@@ -343,23 +354,15 @@ def parse_dict(
 
 
 def _check_jet_map(vehicle: str, controller: str, table: str | None, source: str) -> None:
-    """The phase-plane controller and the packaged lookup tables assume the paper's jet map
-    (Table 2: which jet turns which axis which way); refuse them on a vehicle whose jets
-    torque otherwise, naming the first jet that differs."""
-    from models.tables import load_jet_map
+    """Refuse a controller that cannot fly the vehicle (:func:`lookup.registry.vehicle_problem`:
+    the phase-plane controller and the packaged lookup tables on a vehicle whose jets torque
+    otherwise than Table 2's, any lookup table on a vehicle without 16 jets), naming the key."""
+    from lookup.registry import vehicle_problem
     from spacecraft.vehicle_file import load_vehicle
-    from spacecraft.vehicle_file.authority import jet_map_mismatch
 
-    if controller == "allocator" or (controller != "phase-plane" and table is not None):
-        return  # the allocator reads the jets; a user's table was made for their vehicle
-    definition = load_vehicle(vehicle)
-    differs = jet_map_mismatch(definition, load_jet_map())
-    if differs:
-        what = "" if controller == "phase-plane" else " with the packaged table"
-        raise InputError(
-            f"{source}: controller.name: {controller!r}{what} assumes the paper's jet map "
-            f"(Table 2), but in {definition.source} {differs}; use the allocator controller"
-        )
+    problem = vehicle_problem(controller, table, load_vehicle(vehicle))
+    if problem is not None:
+        raise InputError(f"{source}: controller.{problem[0]}: {problem[1]}")
 
 
 def _check_channel_table(controller: str, table: str, vehicle: str | None, source: str) -> None:
@@ -403,13 +406,15 @@ def _check_reachable(vehicle: str, cases: list[Scenario], source: str) -> None:
                 )
 
 
-def _vehicle(top: Reader, base_dir: Path) -> tuple[str | None, dict]:
+def _vehicle(top: Reader, base_dir: Path) -> tuple[str | None, dict, int]:
     """``vehicle``: a packaged vehicle's name or a vehicle file (relative to the spec), checked
-    by loading it; with its sha256 in ``resolved`` (a resume or replay refuses a changed file)."""
+    by loading it; with its sha256 in ``resolved`` (a resume or replay refuses a changed file)
+    and its jet count (the packaged vehicle's without the key)."""
+    from spacecraft.vehicle import jet_count, load_model
     from spacecraft.vehicle_file import PACKAGED_VEHICLES, FlyingVehicle, resolve_vehicle
 
     if not top.has("vehicle"):
-        return None, {}
+        return None, {}, jet_count(load_model())
     stored = top.raw("vehicle_sha256") if top.has("vehicle_sha256") else None
     value = top.raw("vehicle")
     if not isinstance(value, str) or not value:
@@ -431,12 +436,12 @@ def _vehicle(top: Reader, base_dir: Path) -> tuple[str | None, dict]:
         if not file.is_file():
             raise top.error("vehicle", "file not found", str(file))
         path = str(file.resolve())
-    FlyingVehicle.load(path)  # InputError naming the vehicle file, the key and the value
+    flying = FlyingVehicle.load(path)  # InputError naming the vehicle file, the key and the value
     digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
     if stored is not None and stored != digest:
         raise top.error("vehicle", "file changed since the campaign ran (sha256 differs)", value)
     name = value if value in PACKAGED_VEHICLES else path
-    return name, {"vehicle": name, "vehicle_sha256": digest}
+    return name, {"vehicle": name, "vehicle_sha256": digest}, flying.n_jets
 
 
 def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
@@ -500,12 +505,17 @@ def _recipe_file(table: str | None) -> Path | None:
 
 
 def _dispersions(
-    d: Reader, base_dir: Path, cases: list[Scenario], source: str, vehicle: str | None = None
+    d: Reader,
+    base_dir: Path,
+    cases: list[Scenario],
+    source: str,
+    vehicle: str | None,
+    n_jets: int,
 ) -> tuple[DispersionSigmas, Effects, dict]:
     """``[dispersions]``: Table 5 (file, scale, 3-sigma overrides, converted to SI one-sigmas
-    here) and the sensor / timing / fault tables.  With a ``vehicle`` and ``table =
-    "default"``, the table is the vehicle file's ``[dispersions]`` (a row it leaves out is not
-    dispersed)."""
+    here) and the sensor / timing / fault tables (a fault's jets among the vehicle's
+    ``n_jets``).  With a ``vehicle`` and ``table = "default"``, the table is the vehicle
+    file's ``[dispersions]`` (a row it leaves out is not dispersed)."""
     from models.tables import load_dispersions
 
     disp_table = file_key(d, "table", base_dir)
@@ -544,9 +554,11 @@ def _dispersions(
         source=source,
         cycle_s=CONTROL_CYCLE_S,
         longest_s=max(case.duration_s for case in cases),
+        n_jets=n_jets,
+        vehicle="the packaged vehicle" if vehicle is None else f"vehicle {vehicle}",
     )
     d.done()
-    longest = max_duration_s(**effects.records())
+    longest = max_duration_s(**effects.records(), n_jets=n_jets)
     if effects.groups and any(case.duration_s > longest for case in cases):
         raise InputError(
             f"{source}: scenario.duration_s: must be <= {longest:.0f} s with "

@@ -1,7 +1,8 @@
 """Physics-aware derived factors: what an analyst thinks in, computed from the recorded inputs.
 
 A campaign records ~55 raw inputs per run (mass, CG, three inertias, and per jet thrust, tilt
-and azimuth).  The jets act in groups: Table 2 of Gambone (``models/data/table2_jet_map.csv``)
+and azimuth: 7 + 3 n for a vehicle of n jets, 55 for the paper's 16).  The jets act in
+groups: Table 2 of Gambone (``models/data/table2_jet_map.csv``)
 gives, for each axis and direction, the two jets that fire about it.  For every run and every
 group ``G`` (axis ``a`` in roll/pitch/yaw, direction ``pos``/``neg``) this module derives
 
@@ -40,10 +41,30 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from analysis.engine.runs_table import INPUT_NAMES, axis_inertia, vehicles_from_runs
+from analysis.engine.runs_table import axis_inertia, input_names, vehicles_from_runs
 from spacecraft.vehicle import AXES, VehicleParams, load_model, torque_per_jet_B
 
 _DIRS = ((1, "pos"), (-1, "neg"))
+
+
+def factor_vehicle(vehicle: str | None = None):
+    """The vehicle a campaign's factors are computed with: ``(model, nominal, jet_map)``.
+
+    ``vehicle``: the campaign's vehicle file (a packaged name or a path), whose model, nominal
+    parameters (its Isp) and own torque signs
+    (:func:`spacecraft.vehicle_file.authority.torque_signs`, ``(n_jets, 3)``) it gives; None:
+    the packaged vehicle and Table 2.
+    """
+    if vehicle is not None:
+        from spacecraft.vehicle_file import FlyingVehicle
+        from spacecraft.vehicle_file.authority import torque_signs
+
+        flying = FlyingVehicle.load(vehicle)
+        return flying.model, flying.nominal(1), torque_signs(flying.definition)
+    from models.tables import load_jet_map
+
+    model = load_model()
+    return model, VehicleParams.nominal(1, model), load_jet_map()
 
 
 def physics_factors(
@@ -57,12 +78,14 @@ def physics_factors(
     Parameters
     ----------
     runs : DataFrame
-        Holds the recorded inputs (:data:`analysis.engine.runs_table.INPUT_NAMES`).
+        Holds the recorded inputs (:func:`analysis.engine.runs_table.input_names` of the
+        vehicle's jets).
     fire_sign : ndarray of int (n, 3), optional
         Per run and axis, the sign of the commanded rate change (0: none); adds the
         firing-direction factors.
-    jet_map : ndarray of int (16, 3), optional
-        Table 2 signs; default the packaged table, or the vehicle's own torque signs.
+    jet_map : ndarray of int (n_jets, 3), optional
+        Torque signs per jet and axis; default the packaged Table 2, or the vehicle's own
+        torque signs (:func:`factor_vehicle`).
     vehicle : str, optional
         The vehicle file the campaign flew (a packaged name or a path); default the packaged
         vehicle.
@@ -71,27 +94,15 @@ def physics_factors(
     -------
     DataFrame, one row per run, index aligned with ``runs``.
     """
-    missing = [c for c in INPUT_NAMES if c not in runs.columns]
+    model, nominal, own_map = factor_vehicle(vehicle)
+    jet_map = own_map if jet_map is None else jet_map
+    missing = [c for c in input_names(nominal.n_jets) if c not in runs.columns]
     if missing:
         raise ValueError(
             f"runs lack the recorded inputs {missing[:3]}{' ...' if len(missing) > 3 else ''}"
         )
-    if vehicle is not None:
-        from spacecraft.vehicle_file import FlyingVehicle
-        from spacecraft.vehicle_file.authority import torque_signs
-
-        flying = FlyingVehicle.load(vehicle)
-        model, nominal = flying.model, flying.nominal(1)
-        jet_map = torque_signs(flying.definition) if jet_map is None else jet_map
-    else:
-        model = load_model()
-        nominal = VehicleParams.nominal(1, model)
-    if jet_map is None:
-        from models.tables import load_jet_map
-
-        jet_map = load_jet_map()
     dispersed, straight = vehicles_from_runs(runs, nominal)
-    torque = torque_per_jet_B(dispersed, model)  # (n, 16, 3) [N m]
+    torque = torque_per_jet_B(dispersed, model)  # (n, n_jets, 3) [N m]
     torque_nom = torque_per_jet_B(straight, model)
     inertia = axis_inertia(runs)  # about each body axis (the tensor's diagonal)
     thrust = dispersed.thrust_n

@@ -1,11 +1,12 @@
 """Loading what ``rcsim analyze`` reads: a campaign directory or a Parquet/CSV table of runs.
 
 A campaign directory (``manifest.json`` + ``runs.parquet``) gives the recorded inputs (the
-columns of :data:`analysis.engine.runs_table.INPUT_COLUMNS`, with the products of inertia and
-the sensor, timing and fault draws when the campaign recorded them), the ``failed`` outcome and
-the rate case of every run; any other table is taken as it is, with the inputs named by the
-caller or, by default, the recorded-input columns when present, else every numeric column other
-than the outcome and identifiers.  Physics-aware factors
+columns of :func:`analysis.engine.runs_table.input_columns`, per jet for as many jets as the
+vehicle flown has, :func:`analysis.engine.runs_table.recorded_jets`; with the products of
+inertia and the sensor, timing and fault draws when the campaign recorded them), the
+``failed`` outcome and the rate case of every run; any other table is taken as it is, with the
+inputs named by the caller or, by default, the recorded-input columns when present, else every
+numeric column other than the outcome and identifiers.  Physics-aware factors
 (:mod:`analysis.results.drivers.factors`) are added when the recorded inputs are present.  Every
 problem a user can fix raises
 :class:`models.errors.InputError` naming the file, the column and the value.
@@ -21,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.engine import runs_table
-from analysis.results.drivers.factors import fire_signs, physics_factors
+from analysis.results.drivers.factors import factor_vehicle, fire_signs, physics_factors
 from models.errors import InputError
 
 #: Fewest runs an analysis accepts (a distribution needs more than a handful of points).
@@ -121,16 +122,26 @@ def load_runs(
     y = _outcome(runs, outcome, where)
 
     notes: list[str] = []
-    raw_cols = list(runs_table.INPUT_NAMES)
-    has_raw = all(c in runs.columns for c in raw_cols)
+    jets = runs_table.recorded_jets(runs.columns)
+    raw_cols = list(runs_table.input_names(jets))
+    has_raw = jets > 0 and all(c in runs.columns for c in raw_cols)
     factors = pd.DataFrame(index=runs.index)
     if derived and has_raw:
-        signs = fire_signs(runs["case"]) if "case" in runs.columns else None
-        if signs is None:
-            notes.append("cases are not rate cases: firing-direction factors not derived")
-        _check_numeric(runs, raw_cols, where)
         flown = ((manifest or {}).get("spec") or {}).get("vehicle")  # a vehicle file's campaign
-        factors = physics_factors(runs, signs, vehicle=flown)
+        _, nominal, _ = factor_vehicle(flown)
+        if nominal.n_jets != jets:  # e.g. a bare table of a vehicle file's campaign
+            vehicle = f"its vehicle {flown}" if flown else "the packaged vehicle"
+            notes.append(
+                f"the table records {jets} jets and {vehicle} has {nominal.n_jets}: no "
+                "physics-aware factors (analyse the campaign directory: its manifest names "
+                "the vehicle)"
+            )
+        else:
+            signs = fire_signs(runs["case"]) if "case" in runs.columns else None
+            if signs is None:
+                notes.append("cases are not rate cases: firing-direction factors not derived")
+            _check_numeric(runs, raw_cols, where)
+            factors = physics_factors(runs, signs, vehicle=flown)
     elif derived:
         notes.append("the table lacks the recorded vehicle inputs: no physics-aware factors")
 

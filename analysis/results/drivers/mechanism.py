@@ -118,9 +118,9 @@ class Mechanism:
 
 def unit_of(factor: str) -> str:
     """The unit of an input: its runs-table unit, else read from the name's suffix."""
-    for col in runs_table.ALL_COLUMNS:
-        if col.name == factor:
-            return "" if col.unit == "-" else col.unit
+    col = runs_table.column_named(factor)
+    if col is not None:
+        return "" if col.unit == "-" else col.unit
     if factor.startswith("pointing_loss_"):
         return ""
     for suffix, unit in _UNITS:
@@ -153,9 +153,9 @@ def describe(factor: str) -> str:
     m = re.fullmatch(r"cg_([xyz])_m", factor)
     if m:
         return f"the centre of gravity's {m.group(1)} position"
-    for col in runs_table.ALL_COLUMNS:
-        if col.name == factor:
-            return col.meaning.replace(" (read back)", "").replace(" (the draw)", "")
+    col = runs_table.column_named(factor)
+    if col is not None:
+        return col.meaning.replace(" (read back)", "").replace(" (the draw)", "")
     return factor
 
 

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from analysis.engine.runs_table import (
-    INPUT_NAMES,
     MANIFEST,
     input_frame,
+    input_names,
     is_campaign,
+    recorded_jets,
     vehicles_from_runs,
 )
 from models.tables import load_dispersions
@@ -31,7 +32,8 @@ def drawn(model):
 
 def test_input_columns_are_the_schemas(drawn):
     # One owner: the frame a draw writes has exactly the schema's input columns, in order.
-    assert tuple(drawn[1].columns) == INPUT_NAMES
+    assert tuple(drawn[1].columns) == input_names(16)  # the packaged vehicle's 16 jets
+    assert recorded_jets(drawn[1].columns) == 16
 
 
 def test_rebuilt_vehicles_give_the_simulators_torques(drawn, model):

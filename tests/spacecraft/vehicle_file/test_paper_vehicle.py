@@ -60,3 +60,48 @@ def test_dispersed_lookup_flights_identical():
     for key in ("q_BN", "omega_B", "on_time_s", "rate_err_B"):
         assert np.array_equal(getattr(out[0], key), getattr(out[1], key)), key
     assert np.array_equal(out[0].propulsion.impulse_ns, out[1].propulsion.impulse_ns)
+
+
+def test_paper_draws_keep_their_layout():
+    """The paper vehicle's runs must draw what they always drew (issue 18 sized every draw by
+    the vehicle's jet count; results stay bit-identical only if 16 jets give the old layout).
+    Oracle: the layout the modules document, rebuilt from the seed streams: dispersions 37
+    normals (mass, CG x, Ixx, Iyy, Izz, 16 thrusts, 16 tilts) then 16 azimuth uniforms; valve
+    timing 33 normals (command, 16 opening, 16 closing delays); a fault 4 uniforms (whether,
+    which of the 16 jets, when, how).  Exact equality."""
+    from spacecraft.dispersions import run_streams
+    from spacecraft.effect_draws import (
+        FAULT,
+        TIMING,
+        FaultSpec,
+        TimingSpec,
+        draw_faults,
+        draw_timing,
+        effect_stream,
+    )
+
+    model = build_model(load_vehicle("paper"))
+    nominal = VehicleParams.nominal(1, model)
+    sig = DispersionSigmas.from_table(load_dispersions())
+    runs = draw_runs(nominal, sig, 18, [0, 7])
+    timing = draw_timing(TimingSpec(open_delay_s=0.008, open_delay_sigma_s=0.001), 18, [0, 7], 16)
+    spec = FaultSpec(mode="off", probability=0.5, time_s=(0.0, 3.0))
+    faults, drawn = draw_faults(spec, 18, [0, 7], nominal.n_jets)
+    for k, run in enumerate((0, 7)):
+        rng = np.random.default_rng(run_streams(18, run)[0])
+        z, u = rng.standard_normal(37), rng.random(16)
+        assert runs.params.mass_kg[k] == nominal.mass_kg[0] + sig.mass_kg * z[0]
+        np.testing.assert_array_equal(
+            runs.params.thrust_n[k], nominal.thrust_n[0] + sig.thrust_n * z[5:21]
+        )
+        np.testing.assert_array_equal(runs.tilt_rad[k], sig.thruster_angle_rad * z[21:37])
+        np.testing.assert_array_equal(runs.azimuth_rad[k], 2 * np.pi * u)
+        zt = np.random.default_rng(effect_stream(18, run, TIMING)).standard_normal(33)
+        np.testing.assert_array_equal(
+            timing.open_delay_s[k], np.maximum(0.008 + 0.001 * zt[1:17], 0)
+        )
+        uf = np.random.default_rng(effect_stream(18, run, FAULT)).random(4)
+        jet = int(uf[1] * 16) + 1 if uf[0] < 0.5 else 0
+        assert drawn["fault_jet"][k] == jet
+        if jet:
+            assert faults.off_from_s[k, jet - 1] == 3.0 * uf[2]

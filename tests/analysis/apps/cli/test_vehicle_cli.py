@@ -24,6 +24,22 @@ def test_canted_check(capsys):
     assert "0 of 16 single jets out lose an axis direction" in out
 
 
+def test_canted12_check(capsys):
+    """Oracle for jet_01 (triad A, forward): as canted16's jet_01 (same corner, same canted
+    forward direction); jet_04 (triad B, aft): force 22.24 N x (-cos 10 deg, sin 10 deg cos 45
+    deg, -sin 10 deg sin 45 deg) = (-21.902, 2.731, -2.731) N at r - CG = (1.0, -0.9, 0.9) m:
+    torque (r - CG) x F = (0, -16.981, -16.981) N m.  Every axis direction is reachable, and
+    no single jet or pair of jets out loses one (the LP of ``rcsim vehicle check``)."""
+    assert main(["vehicle", "check", "canted12"]) == 0
+    out = capsys.readouterr().out
+    rows = {line.split()[0]: line.split()[1:7] for line in out.splitlines() if line[:4] == "jet_"}
+    assert rows["jet_01"] == ["21.902", "-2.731", "-2.731", "0.000", "22.443", "-22.443"]
+    assert rows["jet_04"] == ["-21.902", "2.731", "-2.731", "0.000", "-16.981", "-16.981"]
+    assert "12 jets" in out and "Unreachable directions: none" in out
+    assert "0 of 12 single jets out lose an axis direction" in out
+    assert "Two jets out: 0 of 66 pairs lose an axis direction" in out
+
+
 def test_paper_check_authority(capsys):
     assert main(["vehicle", "check", "paper"]) == 0
     out = capsys.readouterr().out

@@ -294,12 +294,14 @@ def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
         rate_err_B=rate,
         on_time_s=on,
         final=final,
-        propulsion=PropulsionState.zeros(1),
+        propulsion=PropulsionState.zeros(1, 16),
         failed=np.zeros(1, bool),
         reason=[""],
         flown_params=VehicleParams.nominal(1),
     )
-    spec = SimpleNamespace(rate_threshold_rad_s=np.radians(0.04), attitude_threshold_rad=None)
+    spec = SimpleNamespace(
+        rate_threshold_rad_s=np.radians(0.04), attitude_threshold_rad=None, vehicle=None
+    )  # the packaged vehicle: Table 2's axis jets
     row = outcomes(hist, spec).iloc[0]
     assert row["firings_to_rate_yaw"] == 2
     assert row["time_to_rate_yaw_s"] == pytest.approx(6 * cycle)
@@ -317,11 +319,11 @@ def test_long_runs_get_chunks_within_the_history_budget(tmp_path):
     long_spec = load_spec(_spec(tmp_path, runs=300, chunk=256, duration=500.0, name="long.toml"))
     chunks = chunk_mod.plan_chunks(long_spec)
     largest = max(c.stop - c.first for c in chunks)
-    assert history_bytes(largest, 12_500) <= limits_mod.HISTORY_BUDGET_BYTES
+    assert history_bytes(largest, 12_500, n_jets=16) <= limits_mod.HISTORY_BUDGET_BYTES
     # Not needlessly small either: one run more than the per-chunk limit would not fit.
     limit = chunk_mod.max_chunk_runs(long_spec, 500.0)
     assert largest <= limit
-    assert history_bytes(limit + 1, 12_500) > limits_mod.HISTORY_BUDGET_BYTES
+    assert history_bytes(limit + 1, 12_500, n_jets=16) > limits_mod.HISTORY_BUDGET_BYTES
     assert largest < 256
     # Every run is planned exactly once, in order.
     assert np.array_equal(np.concatenate([c.run_ids for c in chunks]), np.arange(600))

@@ -149,29 +149,34 @@ def test_merging_is_independent_of_chunking(many_chunks, tmp_path):
 def test_runs_parquet_follows_the_schema(many_chunks):
     _, out = many_chunks
     runs = pd.read_parquet(out / "runs.parquet")
-    assert tuple(runs.columns) == schema.RUN_NAMES
-    for col in schema.RUN_COLUMNS:
+    columns = schema.run_columns(n_jets=16)  # the packaged vehicle's 16 jets
+    assert tuple(runs.columns) == tuple(c.name for c in columns)
+    for col in columns:
         kind = {"int64": "i", "float64": "f", "bool": "b"}.get(col.dtype)
         if kind is None:  # strings: object or pandas' string dtype, whichever pandas infers
             assert pd.api.types.is_string_dtype(runs[col.name]), col.name
         else:
             assert runs[col.name].dtype.kind == kind, col.name
     # A run whose flight raised gets the same columns and dtypes as a flown one.
-    missing = schema.missing_outcomes(2, "exception: X")
-    flown = runs[list(schema.OUTCOME_NAMES)]
+    missing = schema.missing_outcomes(2, "exception: X", 16)
+    flown = runs[list(schema.outcome_names(16))]
     assert list(missing.columns) == list(flown.columns)
     assert [missing[c].dtype.kind for c in missing] == [flown[c].dtype.kind for c in flown]
     assert missing.drop(columns=["sim_failed", "failed", "reason"]).isna().all().all()
 
 
 def test_outcome_frame_refuses_columns_outside_the_schema():
-    values = {name: np.zeros(1) for name in schema.OUTCOME_NAMES}
+    values = {name: np.zeros(1) for name in schema.outcome_names(16)}
     values["settling_time_s"] = np.zeros(1)
     with pytest.raises(KeyError, match="undefined \\['settling_time_s'\\]"):
-        schema.outcome_frame(values)
+        schema.outcome_frame(values, 16)
     del values["settling_time_s"], values["rate_settled_time_s"]
     with pytest.raises(KeyError, match="missing \\['rate_settled_time_s'\\]"):
-        schema.outcome_frame(values)
+        schema.outcome_frame(values, 16)
+    # A jet the vehicle does not have is a column outside the schema too.
+    values["rate_settled_time_s"] = np.zeros(1)
+    with pytest.raises(KeyError, match="undefined \\['jet_13_on_time_s'"):
+        schema.outcome_frame(values, 12)
 
 
 def test_docs_carry_the_schema_table():

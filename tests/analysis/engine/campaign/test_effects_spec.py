@@ -33,8 +33,23 @@ def test_timing_and_fault_keys_are_seconds_and_windows():
         {"mode": "stuck", "jets": [13, 15], "time_s": 2.0, "stuck_for_s": [0.1, 0.5]},
         WHERE,
         longest_s=20.0,
+        n_jets=16,
     )
     assert (f.time_s, f.stuck_for_s, f.jets) == ((2.0, 2.0), (0.1, 0.5), (13, 15))
+    # Without jets: every jet of the campaign's vehicle is a candidate.
+    assert fault_spec({"mode": "off"}, WHERE, longest_s=20.0, n_jets=12).jets == tuple(range(1, 13))
+
+
+def test_fault_jets_are_those_of_the_campaigns_vehicle():
+    """Jet 13 exists on the 16-jet paper vehicle, not on a 12-jet one: the message names the
+    key, the jet, the vehicle and its count."""
+    assert fault_spec({"mode": "off", "jets": [13]}, WHERE, 20.0, 16).jets == (13,)
+    with pytest.raises(InputError) as err:
+        fault_spec({"mode": "off", "jets": [1, 13]}, WHERE, 20.0, 12, "vehicle canted12")
+    assert str(err.value) == (
+        "spec.toml: [dispersions.fault]: jets: no jet 13: vehicle canted12 has 12 jets, "
+        "numbered 1..12 (got [1, 13])"
+    )
 
 
 @pytest.mark.parametrize(
@@ -62,7 +77,7 @@ def test_timing_and_fault_keys_are_seconds_and_windows():
 )
 def test_bad_fault_tables_name_the_key_and_value(table, key):
     with pytest.raises(InputError, match=key) as err:
-        fault_spec(table, WHERE, longest_s=20.0)
+        fault_spec(table, WHERE, longest_s=20.0, n_jets=16)
     assert "[dispersions.fault]" in str(err.value) and "\n" not in str(err.value)
 
 
@@ -79,4 +94,4 @@ def test_bad_fault_tables_name_the_key_and_value(table, key):
 )
 def test_bad_sensor_and_timing_tables_name_the_key(name, table, key):
     with pytest.raises(InputError, match=key):
-        parse_effects({name: table}, source="spec.toml", cycle_s=0.04, longest_s=20.0)
+        parse_effects({name: table}, source="spec.toml", cycle_s=0.04, longest_s=20.0, n_jets=16)

@@ -16,7 +16,7 @@ from analysis.engine.campaign import limits as limits_mod
 from analysis.engine.campaign.replay import replay
 from analysis.engine.campaign.runner import run_campaign
 from analysis.engine.campaign.spec import load_spec, parse_dict
-from analysis.engine.runs_table import EFFECT_COLUMNS, INPUT_NAMES, OUTCOME_NAMES
+from analysis.engine.runs_table import EFFECT_COLUMNS, input_names, outcome_names
 from models.errors import InputError
 from spacecraft.guards import history_bytes
 
@@ -122,11 +122,10 @@ def test_effects_leave_the_vehicle_draws_unchanged(tmp_path):
     ids = chunk_mod.Chunk(0, plain.n_runs)
     a = chunk_mod.simulate_chunk(plain, ids).runs
     b = chunk_mod.simulate_chunk(noisy, ids).runs
-    pd.testing.assert_frame_equal(a[list(INPUT_NAMES)], b[list(INPUT_NAMES)], check_exact=True)
+    inputs, outcomes = list(input_names(16)), list(outcome_names(16))  # the packaged vehicle
+    pd.testing.assert_frame_equal(a[inputs], b[inputs], check_exact=True)
     added = [c.name for g in ("sensor", "timing", "fault") for c in EFFECT_COLUMNS[g]]
-    assert list(b.columns) == list(a.columns[: len(a.columns) - len(OUTCOME_NAMES)]) + added + list(
-        OUTCOME_NAMES
-    )
+    assert list(b.columns) == list(a.columns[: len(a.columns) - len(outcomes)]) + added + outcomes
     assert not a["propellant_kg"].equals(b["propellant_kg"])
     # The draws are those of spacecraft.effect_draws: delays about their means (8 ms
     # +- 1 ms 1-sigma, the largest of 16 jets), the fault among the candidates.
@@ -212,8 +211,9 @@ def test_chunks_count_the_effect_records(tmp_path):
     spec = load_spec(path)
     limit = chunk_mod.max_chunk_runs(spec, 500.0)
     cycles = 12_500
-    assert history_bytes(limit, cycles, True, True) <= limits_mod.HISTORY_BUDGET_BYTES
-    assert history_bytes(limit + 1, cycles, True, True) > limits_mod.HISTORY_BUDGET_BYTES
+    budget = limits_mod.HISTORY_BUDGET_BYTES
+    assert history_bytes(limit, cycles, True, True, n_jets=16) <= budget
+    assert history_bytes(limit + 1, cycles, True, True, n_jets=16) > budget
     plain = load_spec(_spec(tmp_path, name="plain.toml"))
     assert limit < chunk_mod.max_chunk_runs(plain, 500.0)
 

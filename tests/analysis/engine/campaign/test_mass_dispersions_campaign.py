@@ -16,7 +16,7 @@ from analysis.apps.cli import main
 from analysis.engine.campaign import chunk as chunk_mod
 from analysis.engine.campaign.replay import replay
 from analysis.engine.campaign.spec import load_spec
-from analysis.engine.runs_table import INPUT_NAMES, OUTCOME_NAMES, PRODUCT_NAMES
+from analysis.engine.runs_table import PRODUCT_NAMES, input_names, outcome_names
 from analysis.results.drivers.inputs import load_runs
 from models.errors import InputError
 from spacecraft.vehicle_file.schema import packaged_vehicle
@@ -63,9 +63,9 @@ def test_new_keys_leave_the_table5_draws_unchanged(tmp_path):
     ids = chunk_mod.Chunk(0, plain.n_runs)
     a = chunk_mod.simulate_chunk(plain, ids).runs
     b = chunk_mod.simulate_chunk(extra, ids).runs
-    inputs = list(INPUT_NAMES)
+    inputs = list(input_names(16))  # the packaged vehicle's 16 jets
     assert list(b.columns) == list(a.columns[:4]) + inputs + list(PRODUCT_NAMES) + list(
-        OUTCOME_NAMES
+        outcome_names(16)
     )
     inertia = ["ixx_kg_m2", "iyy_kg_m2", "izz_kg_m2"]
     same = [c for c in inputs if c not in inertia + ["cg_y_m", "cg_z_m"]]

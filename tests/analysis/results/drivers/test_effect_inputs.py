@@ -16,7 +16,7 @@ from analysis.results.drivers.pipeline import Settings, analyze
 
 def _fault_runs(n: int = 400, seed: int = 3) -> pd.DataFrame:
     rng = np.random.default_rng(seed)
-    frame = pd.DataFrame({c: rng.normal(1.0, 0.1, n) for c in runs_table.INPUT_NAMES})
+    frame = pd.DataFrame({c: rng.normal(1.0, 0.1, n) for c in runs_table.input_names(16)})
     frame.insert(0, "run_id", np.arange(n))
     frame["case"] = "rate-13"
     has_fault = rng.uniform(size=n) < 0.5

@@ -1,8 +1,9 @@
 """Authority factors of a vehicle file's campaign come from that vehicle's jet matrix.
 
 Oracles: (1) the paper's vehicle file gives exactly the packaged vehicle's factors (its torque
-signs are Table 2); (2) on the canted-quad vehicle with no dispersion, the +roll authority is
-the sum of the +roll jets' roll torques over Ixx, from the vehicle file's geometry
+signs are Table 2); (2) on the canted-quad (16 jets) and canted-triad (12 jets) vehicles with
+no dispersion, the +roll authority is the sum of the +roll jets' roll torques over Ixx, from
+the vehicle file's geometry
 (``VehicleDef.force_torque``), to 1e-12 relative (rounding only).
 """
 
@@ -10,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from analysis.engine.runs_table import input_frame
 from analysis.results.drivers.factors import physics_factors
@@ -28,11 +30,12 @@ def test_paper_vehicle_file_gives_the_packaged_factors():
     pd.testing.assert_frame_equal(physics_factors(runs), physics_factors(runs, vehicle="paper"))
 
 
-def test_canted_authority_from_the_jet_matrix():
-    flying = FlyingVehicle.load("canted16")
+@pytest.mark.parametrize("name", ["canted16", "canted12"])
+def test_canted_authority_from_the_jet_matrix(name):
+    flying = FlyingVehicle.load(name)
     runs = _runs(flying, DispersionSigmas(), n=2)
-    factors = physics_factors(runs, vehicle="canted16")
-    torque = flying.definition.force_torque()[3:]  # (3, 16) about the CG [N m]
+    factors = physics_factors(runs, vehicle=name)
+    torque = flying.definition.force_torque()[3:]  # (3, n_jets) about the CG [N m]
     roll = torque[0]
     # MuJoCo's principal moment about the axis closest to roll (products are small)
     moments = flying.model.body_inertia[1]
