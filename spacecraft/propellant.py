@@ -21,8 +21,15 @@ Model (stated)
   in one 40 ms cycle of all 16 paper jets at once is 0.013 kg of 3505 kg, 4e-6 relative).
 * Exhaustion: the instant in a cycle at which the propellant left is used up, found exactly
   from the cycle's pieces (constant jets within a piece); every jet's on-interval is ended
-  there (the jets stop) and the run records ``propellant exhausted at t = ... s``, a failure
-  reason of its campaign row.  The run flies on without thrust.
+  there (the jets stop) and the run records ``propellant exhausted at t = ... s``
+  (:func:`exhausted_text`), a failure reason of its campaign row and the ``reason`` of a
+  maneuver's summary.  The run flies on without thrust.
+* Firings after exhaustion: a controller keeps commanding, but a jet without propellant
+  delivers nothing, so a command in a control cycle that starts at or after the exhaustion
+  instant is not counted as a firing (``PropulsionState.firings``, a campaign's
+  ``firings_*`` columns); the firings of the cycle in which the propellant runs out count
+  (they were commanded with propellant left).  The recorded commands themselves
+  (``History.on_time_s``) stay what the controller asked for.
 
 The mass properties written to MuJoCo are the principal moments and the principal frame
 (``body_inertia``, ``body_iquat``) of ``I_c(u)``; a diagonal tensor keeps the identity frame
@@ -67,6 +74,22 @@ class PropellantTank:
         if not np.isfinite(position).all():
             raise InputError("must be finite", parameter="tank_position_m", value=position.tolist())
         return cls(initial, position)
+
+
+def exhausted_text(t_s: float) -> str:
+    """The failure reason of a run whose propellant ran out at ``t_s`` [s] (one wording for
+    campaigns and maneuvers)."""
+    return f"propellant exhausted at t = {t_s:.4f} s"
+
+
+def exhausted_before(times_s: np.ndarray, exhausted_s: np.ndarray | None) -> np.ndarray | None:
+    """(n, K) bool: cycle ``k`` of run ``i`` starts at or after the run's propellant ran out
+    (``times_s`` (K,) the cycles' start times, ``exhausted_s`` (n,) the exhaustion instants,
+    inf when it did not); None when propellant is not tracked.  Its commands are no firings
+    (module docstring)."""
+    if exhausted_s is None:
+        return None
+    return np.asarray(times_s)[None, :] >= np.asarray(exhausted_s)[:, None]
 
 
 def mass_flow_kg_s(thrust_n: np.ndarray, isp_s: float) -> np.ndarray:

@@ -461,11 +461,18 @@ class BatchSimulation:
             if k == 0:
                 self._check_command(controller, command)
             command = np.where(failed[:, None], 0.0, command)
+            counted = None if self.tank is None else prop.firings.copy()
             on = apply_valve_limits(
                 command, prop, self.propulsion, self.params.thrust_n, account=False
             )
             command_valves(valves, on, self.timing, cycle)
             pieces = self._pieces(valves, t0)
+            if counted is not None:
+                # A firing commanded at or after the propellant ran out is no firing: the jet
+                # delivers nothing (spacecraft.propellant, "Exhaustion").  Commands start at
+                # the cycle's start, so a run whose exhaustion instant is <= t0 fired nothing.
+                dead = self._exhausted_s <= t0  # exhausted_before's rule, for this cycle
+                prop.firings[dead] = counted[dead]
             delivered = pieces.on_time_s()
             prop.on_time_s += delivered
             prop.impulse_ns += pieces.thrust_time_s() * thrust

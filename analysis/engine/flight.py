@@ -18,6 +18,7 @@ import pandas as pd
 
 from lookup.registry import make_controller
 from spacecraft.navigation import Guidance, euler321_deg, quat_from_rotvec
+from spacecraft.propellant import exhausted_text
 from spacecraft.propulsion import PropulsionParams
 from spacecraft.simulation import Controller, History, simulate_batch
 from spacecraft.vehicle import AXES, VehicleParams, jet_name, load_model
@@ -192,17 +193,30 @@ def history_frame(history: History, run: int = 0) -> pd.DataFrame:
 
 
 def flight_summary(history: History, run: int = 0) -> dict:
-    """Final errors, firings, propellant of one run (degrees at this boundary)."""
+    """Final errors, firings, propellant of one run (degrees at this boundary).
+
+    ``propellant_exhausted_s``: when a vehicle file's tracked propellant ran out [s] (None:
+    it did not, or is not tracked); the jets deliver nothing after it, and commands after it
+    are not counted in ``firings`` (:mod:`spacecraft.propellant`).  ``reason``: the
+    simulator's own when ``sim_failed``, else ``"propellant exhausted at t = ... s"`` when
+    the propellant ran out (a campaign's failure reason), else empty.
+    """
     final = history.final
+    exhausted = history.propellant_exhausted_s
+    t_out = float(exhausted[run]) if exhausted is not None and np.isfinite(exhausted[run]) else None
+    reason = history.reason[run]
+    if not reason and t_out is not None:
+        reason = exhausted_text(t_out)
     return {
         "final_att_err_deg": np.degrees(final.att_err_B[run]).round(6).tolist(),
         "final_rate_err_deg_s": np.degrees(final.rate_err_B[run]).round(6).tolist(),
         "firings": int(history.propulsion.firings[run].sum()),
         "on_time_s": float(history.propulsion.on_time_s[run].sum()),
         # The simulation itself failed (MuJoCo error or warning, diverged state): the numbers
-        # above are then not a flight.  ``reason`` is the simulator's own.
+        # above are then not a flight.
         "sim_failed": bool(history.failed[run]),
-        "reason": history.reason[run],
+        "propellant_exhausted_s": t_out,
+        "reason": reason,
     }
 
 

@@ -182,8 +182,19 @@ _OUTCOMES_BEFORE_JETS: tuple[Column, ...] = (
     *_per_axis(
         "time_to_rate_{axis}_s", "float64", "s", "time of that first sample; NaN if never reached"
     ),
-    *_per_axis("firings_{axis}", "float64", "-", "firing events on {axis}'s jets, whole run"),
-    Column("firings_total", "float64", "-", "jet firings, whole run (a pair counts 2)"),
+    *_per_axis(
+        "firings_{axis}",
+        "float64",
+        "-",
+        "firing events on {axis}'s jets, whole run (none commanded after the propellant ran "
+        "out: those jets deliver nothing)",
+    ),
+    Column(
+        "firings_total",
+        "float64",
+        "-",
+        "jet firings, whole run (a pair counts 2; none commanded after the propellant ran out)",
+    ),
 )
 _JET_OUTCOME = (
     "jet_{jet}_on_time_s",
@@ -220,7 +231,8 @@ _OUTCOMES_AFTER: tuple[Column, ...] = (
         "bool",
         "-",
         "sim_failed, or some axis ends with |rate error| >= thr, "
-        "or (if failure.attitude_error_deg is set) final_att_err_deg exceeds it",
+        "or (if failure.attitude_error_deg is set) final_att_err_deg exceeds it, or the "
+        "propellant ran out (a vehicle file's [propellant] mass_kg)",
     ),
     Column("reason", "str", "-", "why the run failed; empty if it did not"),
 )

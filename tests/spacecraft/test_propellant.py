@@ -157,6 +157,50 @@ def test_exhaustion_stops_the_jets_at_the_exact_instant(canted):
     assert not history.failed[0]
 
 
+class _Pulses:
+    """Command ``pulse_s`` (under a cycle, so every pulse starts a new firing) to the jets of
+    ``on`` (n_runs, n_jets) bool, every cycle."""
+
+    cycle_s = 0.04
+
+    def __init__(self, on, pulse_s):
+        self.on, self.pulse_s = np.asarray(on, bool), pulse_s
+
+    def initial_state(self, n_runs):
+        return None
+
+    def step(self, nav, state):
+        return np.where(self.on, self.pulse_s, 0.0), None
+
+
+def test_commands_after_exhaustion_are_no_firings(canted):
+    """Issue 18 review: a jet without propellant delivers nothing, so its commands are not
+    counted as firings.  Oracle: jet_03 fires a 20 ms pulse at the start of every 40 ms cycle
+    (each a new firing, mass flow ``mdot = F / (Isp g0)``); with ``L`` kg the propellant runs
+    out in pulse ``k = floor(L / (mdot 0.02))`` (0-based) at ``k 0.04 + (L - k mdot 0.02) /
+    mdot`` s, so exactly ``k + 1`` firings are counted (the pulses commanded with propellant
+    left) against 75 commands in 3 s; a run with plenty of propellant counts all 75."""
+    vehicle, model = canted
+    on = np.zeros((2, 16), bool)
+    on[:, 2] = True
+    n, pulse, cycle, duration = 2, 0.02, 0.04, 3.0
+    mdot = vehicle.thrusts_n()[2] / (vehicle.isp_s * G0_M_S2)
+    left = np.array([0.006, vehicle.propellant_kg])  # runs out in the 38th of 75 pulses
+    params = VehicleParams.nominal(n, model)
+    params = VehicleParams(**{**params.__dict__, "isp_s": vehicle.isp_s})
+    tank = PropellantTank.of(n, left, vehicle.tank_position_m)
+    sim = BatchSimulation(params, model=model, nthread=1, tank=tank)
+    history = sim.run(_Pulses(on, pulse), Guidance.rate(np.zeros((n, 3))), duration)
+    k = int(left[0] // (mdot * pulse))
+    t_out = k * cycle + (left[0] - k * mdot * pulse) / mdot
+    assert history.propellant_exhausted_s[0] == pytest.approx(t_out, abs=1e-12)
+    assert history.propulsion.firings[0, 2] == k + 1
+    assert history.propulsion.firings[1, 2] == round(duration / cycle)
+    assert np.isinf(history.propellant_exhausted_s[1])
+    # The commands themselves are recorded as the controller gave them.
+    assert (history.on_time_s[0, :, 2] == pulse).all()
+
+
 def test_exhaustion_time_with_two_jets_in_pieces():
     """Jet 1 from 10 ms, jet 2 from 20 ms: the crossing falls in the third piece."""
     mdot = np.array([[0.008, 0.008]])

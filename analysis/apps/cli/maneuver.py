@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import math
 
 import numpy as np
@@ -70,7 +71,7 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from analysis.engine.flight import Scenario, flight_summary, fly, write_flight
+    from analysis.engine.flight import Scenario, fly, write_flight
     from analysis.engine.output import check_out_dir
     from models.tables import CONTROL_CYCLE_S
 
@@ -117,9 +118,16 @@ def run(args: argparse.Namespace) -> int:
     paths = write_flight(
         history, out, title=title, command=COMMAND, overwrite=args.overwrite, **flown
     )
-    s = flight_summary(history)
+    s = json.loads(paths["summary.json"].read_text())  # what the user's file says
     err = ", ".join(f"{v:.4f}" for v in s["final_att_err_deg"])
     print(f"{title}: final attitude error [{err}] deg, {s['firings']} firings")
+    if s["propellant_exhausted_s"] is not None:
+        print(
+            f"{s['reason']}: all {s['propellant_kg']:.4g} kg used; the jets delivered nothing "
+            "after it (commands after it are not counted as firings)"
+        )
+    elif s["sim_failed"]:
+        print(f"the simulation failed: {s['reason']}")
     print(
         f"outputs in {paths['history.parquet'].parent}/: "
         + ", ".join(p.name for p in paths.values())

@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.engine.runs_table import outcome_frame
+from spacecraft.propellant import exhausted_before, exhausted_text
 from spacecraft.simulation import History
 from spacecraft.vehicle import AXES, jet_name
 
@@ -96,6 +97,9 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     * ``time_to_rate_<axis>_s``: time of that first sample (NaN if never).
     * ``rate_settled_time_s``: start of the final stretch in which every axis stays under
       ``thr`` through the end of the run (NaN if the run does not end under it).
+    * Firing events in a cycle that starts at or after the run's propellant ran out are not
+      counted (the jets deliver nothing; :mod:`spacecraft.propellant`), as
+      ``firings_total`` does not count them.
     * ``failed``: the simulation failed, or some axis ends with ``|rate error| >= thr``, or
       (if set) the final total attitude error exceeds ``spec.attitude_threshold_rad``, or the
       propellant ran out (a vehicle file's tracked propellant, :mod:`spacecraft.propellant`).
@@ -133,6 +137,10 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
         mid[:, 1:K] = (going_on.astype(float) @ jets_f) > 0
         starts = firing_starts(history.on_time_s, cycle_s)  # (n, K, n_jets)
         events = (starts.astype(float) @ jets_f) > 0  # (n, K, 3)
+    # Commands after the propellant ran out are no firings (spacecraft.propellant).
+    dead = exhausted_before(times[:K], history.propellant_exhausted_s)  # (n, K) or None
+    if dead is not None:
+        events &= ~dead[:, :, None]
     settled = below & ~mid
     reached = settled.any(axis=1)  # (n, 3)
     first = np.where(reached, settled.argmax(axis=1), K + 1)  # first sample reached
@@ -193,7 +201,7 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
                 f"{np.degrees(spec.attitude_threshold_rad):.4g} deg"
             )
         if exhausted is not None and np.isfinite(exhausted[i]):
-            why.append(f"propellant exhausted at t = {exhausted[i]:.4f} s")
+            why.append(exhausted_text(exhausted[i]))
         reasons.append("; ".join(why))
     # Outcomes of a non-flight are not numbers.
     out: dict[str, Any] = {

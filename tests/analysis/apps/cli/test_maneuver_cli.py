@@ -364,3 +364,38 @@ def test_maneuver_of_a_twelve_jet_vehicle_file(tmp_path, capsys):
     assert summary["propellant_kg"] == pytest.approx(burnt, rel=1e-12)
     assert np.linalg.norm(summary["final_att_err_deg"]) < 0.6
     assert "canted-triads-12" in capsys.readouterr().out
+
+
+def test_maneuver_says_when_the_propellant_ran_out(tmp_path, capsys):
+    """Issue 18 review: a maneuver whose propellant runs out says so and when, in
+    summary.json and on stdout, as a campaign's failure reason does.  Oracle: 2 g of
+    propellant is used up (``propellant_kg`` = 0.002 kg to 1e-9 relative, the exact
+    exhaustion instant of spacecraft.propellant), the history's commands go on after the
+    instant (the allocator never reaches the attitude), and none of them is counted:
+    ``firings`` equals the new firings (a command > 0 to a jet that did not fill the
+    previous cycle) in the cycles starting before it."""
+    import json
+
+    from spacecraft.vehicle_file import resolve_vehicle
+
+    text = resolve_vehicle("canted12").read_text()
+    vehicle = tmp_path / "dry.toml"
+    vehicle.write_text(text.replace("mass_kg = 40.0", "mass_kg = 0.002", 1))
+    out = tmp_path / "m"
+    argv = ["maneuver", "--vehicle", str(vehicle), "--controller", "allocator"]
+    rc = main([*argv, "--attitude-deg", "0", "0", "5", "--duration-s", "20", "--out", str(out)])
+    assert rc == 0, capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    t_out = summary["propellant_exhausted_s"]
+    assert 0 < t_out < 20
+    assert summary["reason"] == f"propellant exhausted at t = {t_out:.4f} s"
+    assert not summary["sim_failed"]
+    assert summary["propellant_kg"] == pytest.approx(0.002, rel=1e-9)
+    assert f"propellant exhausted at t = {t_out:.4f} s" in capsys.readouterr().out
+    frame = pd.read_parquet(out / "history.parquet")
+    on = frame.filter(regex=r"^jet_\d\d_on_s$").to_numpy()
+    full = on >= CYCLE_S * (1 - 1e-12)
+    starts = (on > 0) & ~np.vstack([np.zeros((1, on.shape[1]), bool), full[:-1]])
+    before = frame["t_s"].to_numpy() < t_out
+    assert summary["firings"] == starts[before].sum()
+    assert starts[~before].sum() > 0

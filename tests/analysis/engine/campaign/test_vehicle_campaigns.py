@@ -22,6 +22,7 @@ import pandas as pd
 import pytest
 
 from analysis.apps.cli import main
+from analysis.engine.campaign.results import history_path
 from analysis.engine.campaign.runner import run_campaign
 from analysis.engine.campaign.spec import load_spec
 from analysis.engine.runs_table import recorded_jets, run_columns
@@ -149,3 +150,38 @@ def test_a_channel_table_flies_a_twelve_jet_vehicle(tmp_path):
         .all()
         .all()
     )
+
+
+def test_propellant_exhaustion_is_a_failure_and_ends_the_firing_count(tmp_path):
+    """Issue 18 review: canted12 with 2 g of propellant runs dry in the first second of a
+    rate case; the run fails with ``propellant exhausted at t = T s`` and counts no firing
+    commanded after T (the jets deliver nothing).  Oracle: the firings counted from the kept
+    history's commands by spacecraft.propulsion's rule (a new firing: a command > 0 to a jet
+    that did not fill the previous cycle) in the cycles starting before T -- while the
+    allocator, its rate never reached, keeps commanding far more after T."""
+    text = resolve_vehicle("canted12").read_text()
+    assert "mass_kg = 40.0" in text
+    vehicle = tmp_path / "dry.toml"
+    vehicle.write_text(text.replace("mass_kg = 40.0", "mass_kg = 0.002", 1))
+    spec = tmp_path / "spec.toml"
+    spec.write_text(
+        f'seed = 3\nruns_per_case = 2\nvehicle = "{vehicle.name}"\n[scenario]\ncases = [13]\n'
+        'duration_s = 6\n[controller]\nname = "allocator"\n[output]\nhistories = "all"\n'
+        "plots = false\n"
+    )
+    out = tmp_path / "C"
+    run_campaign(load_spec(spec), out, progress=False)
+    runs = pd.read_parquet(out / "runs.parquet")
+    assert runs["failed"].all() and not runs["sim_failed"].any()
+    for _, run in runs.iterrows():
+        reason = str(run["reason"])
+        assert "propellant exhausted at t = " in reason
+        t_out = float(reason.split("propellant exhausted at t = ")[1].split(" s")[0])
+        history = pd.read_parquet(history_path(out, int(run["run_id"])))
+        on = history.filter(regex=r"^jet_\d\d_on_s$").to_numpy()
+        full = on >= 0.04 * (1 - 1e-12)
+        starts = (on > 0) & ~np.vstack([np.zeros((1, on.shape[1]), bool), full[:-1]])
+        # t_out is printed to 0.1 ms; no cycle starts within that of it here.
+        before = history["t_s"].to_numpy() < t_out
+        assert run["firings_total"] == starts[before].sum()
+        assert starts[~before].sum() > starts[before].sum()
