@@ -15,8 +15,13 @@ group ``G`` (axis ``a`` in roll/pitch/yaw, direction ``pos``/``neg``) this modul
 ``thrust_{a}_{dir}_n``
     Total thrust of the group [N].
 ``imbalance_{a}_{dir}_n``
-    Thrust of the group's first jet minus its second [N] (a pair imbalance torques the other
-    axes).
+    Only for a group of exactly two jets (the paper's pairs, Table 2): thrust of the pair's
+    first jet minus its second [N].  A pair is built so that its two torques about the other
+    axes cancel at equal thrust; the difference is what the other axes feel when it fires.
+    A group of three or more jets (a canted layout's: every jet whose torque about ``a`` has
+    the group's sign) has no such meaning -- its jets do not fire together as a set, and no
+    one difference of two of them is what the other axes feel -- so it gets no imbalance
+    factor (its authority and pointing loss already carry the thrust and pointing draws).
 ``pointing_loss_{a}_{dir}``
     ``1 - torque / torque with nominal pointing`` about ``a`` (same thrust and CG): the share
     of authority lost to jet misalignment alone (dimensionless).
@@ -120,7 +125,7 @@ def physics_factors(
             loss = 1.0 - t_disp / t_nom
             cols[f"authority_{axis}_{dname}_rad_s2"] = auth
             cols[f"thrust_{axis}_{dname}_n"] = group_thrust
-            if jets.size >= 2:
+            if jets.size == 2:  # a pair only (module docstring)
                 cols[f"imbalance_{axis}_{dname}_n"] = thrust[:, jets[0]] - thrust[:, jets[1]]
             cols[f"pointing_loss_{axis}_{dname}"] = loss
             per_group[(a, sign)] = (auth, group_thrust, loss)

@@ -142,7 +142,8 @@ def describe(factor: str) -> str:
             "imbalance": "thrust imbalance",
             "pointing_loss": "torque lost to jet misalignment",
         }[kind]
-        return f"the {axis} {_DIRS[d]} jet group's {what}"
+        group = "pair" if kind == "imbalance" else "group"  # imbalance: pairs only (factors)
+        return f"the {axis} {_DIRS[d]} jet {group}'s {what}"
     m = re.fullmatch(r"jet_(\d+)_(thrust_n|tilt_deg|azimuth_deg)", factor)
     if m:
         part = {"thrust_n": "thrust", "tilt_deg": "tilt", "azimuth_deg": "tilt azimuth"}

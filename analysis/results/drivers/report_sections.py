@@ -120,6 +120,19 @@ def _criterion(m) -> str:
     return runs_table.criterion_text(float(t["rate_error_deg_s"]), t.get("attitude_error_deg"))
 
 
+def _imbalance_text(res) -> str:
+    """What imbalance_* is, or why there is none (factors.py: pairs only)."""
+    if any(f.startswith("imbalance_") for f in res.runset.derived_inputs):
+        return (
+            "imbalance_* (a group of exactly two jets, the paper's pairs, only) the thrust of "
+            "the pair's first jet minus its second, what the other axes feel when it fires; "
+        )
+    return (
+        "no imbalance_* factor: none of the vehicle's jet groups is a pair (a larger group's "
+        "jets do not fire as one set, so no difference of two of them means anything); "
+    )
+
+
 def method(res) -> Section:
     st = res.settings
     bw = res.singles.bandwidth_ if res.singles is not None else float("nan")
@@ -156,8 +169,9 @@ def method(res) -> Section:
                 "Physics-aware factors: authority_<axis>_<pos|neg|fire>_rad_s2 is the angular "
                 "acceleration the jet group gives (torque about the dispersed CG over the "
                 "inertia); "
-                "thrust_* the group's total thrust; imbalance_* the thrust difference of its two "
-                "jets; pointing_loss_* the share of torque lost to jet misalignment; 'fire' is the "
+                "thrust_* the group's total thrust; "
+                + _imbalance_text(res)
+                + "pointing_loss_* the share of torque lost to jet misalignment; 'fire' is the "
                 "group firing toward each case's commanded rate.",
                 "Failure probabilities (overall, per case, per failure region, per outcome) are "
                 "shares of runs; each carries the Clopper-Pearson exact 95 % interval (its "

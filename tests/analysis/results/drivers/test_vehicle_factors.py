@@ -42,3 +42,43 @@ def test_canted_authority_from_the_jet_matrix(name):
     expect = roll[roll > 1e-9 * np.abs(roll).max()].sum()
     got = factors["authority_roll_pos_rad_s2"].to_numpy() * moments[0]
     np.testing.assert_allclose(got, expect, rtol=1e-12)
+
+
+def test_imbalance_only_for_pairs():
+    """Issue 18 review: the imbalance factor is a pair's (Table 2: each axis direction has
+    exactly two jets).  Oracle: on the paper's vehicle it is the thrust of the pair's first
+    jet minus its second, jets from Table 2 (``models/data/table2_jet_map.csv``), exactly;
+    canted16's and canted12's groups have 4-8 jets (their own torque signs), so they have
+    none."""
+    from models.tables import load_jet_map
+
+    sig = DispersionSigmas.from_table(load_dispersions())
+    runs = _runs(FlyingVehicle.load("paper"), sig)
+    factors = physics_factors(runs, vehicle="paper")
+    jet_map = load_jet_map()
+    for a, axis in enumerate(("roll", "pitch", "yaw")):
+        for sign, d in ((1, "pos"), (-1, "neg")):
+            first, second = np.flatnonzero(jet_map[:, a] == sign)
+            expect = runs[f"jet_{first + 1:02d}_thrust_n"] - runs[f"jet_{second + 1:02d}_thrust_n"]
+            np.testing.assert_array_equal(factors[f"imbalance_{axis}_{d}_n"], expect)
+    for name in ("canted16", "canted12"):
+        flying = FlyingVehicle.load(name)
+        canted = physics_factors(_runs(flying, DispersionSigmas(), n=2), vehicle=name)
+        assert "authority_roll_pos_rad_s2" in canted
+        assert not [c for c in canted if c.startswith("imbalance_")]
+
+
+def test_report_explains_imbalance_only_when_it_is_there():
+    """The report's method text describes the pairs' imbalance where the factor exists and
+    says why there is none otherwise (not 'the thrust difference of its two jets' of a
+    six-jet group)."""
+    from types import SimpleNamespace
+
+    from analysis.results.drivers.report_sections import _imbalance_text
+
+    def res(inputs):
+        return SimpleNamespace(runset=SimpleNamespace(derived_inputs=inputs))
+
+    assert "exactly two jets" in _imbalance_text(res(["imbalance_roll_pos_n"]))
+    text = _imbalance_text(res(["authority_roll_pos_rad_s2"]))
+    assert "no imbalance_* factor" in text and "two jets" not in text
