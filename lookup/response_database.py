@@ -1,6 +1,9 @@
 """The per-jet response database (Gambone sec. IV): every jet fired alone, under dispersions.
 
-For each jet, each on-time of :data:`ON_TIMES_S` and each of ``n_vehicles`` dispersed vehicles
+For each jet, each on-time of :data:`ON_TIMES_S` at or above the vehicle's minimum on-time
+(a shorter pulse is one its valves never make: every such row would be zero and pull the
+slope toward zero; :func:`flown_on_times` drops them) and each of ``n_vehicles`` dispersed
+vehicles
 (the vehicle file's Table 5-format dispersions, drawn as a campaign draws them: vehicle ``i``
 from ``SeedSequence(seed, spawn_key=(i,))``), the vehicle is flown from rest with that jet
 alone firing one pulse from t = 0, and the flight is read at the end of the pulse's cycle:
@@ -38,6 +41,14 @@ RATE_COLUMNS = tuple(f"dw_{a}_rad_s" for a in AXES)
 VELOCITY_COLUMNS = tuple(f"dv_{a}_m_s" for a in "xyz")
 
 
+def flown_on_times(on_times_s, min_on_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """The on-times a vehicle's valves make (at or above ``min_on_s`` [s], the valve rule of
+    :func:`spacecraft.propulsion.apply_valve_limits`) and those dropped, both [s]."""
+    on_times = np.asarray(on_times_s, float)
+    made = on_times >= min_on_s
+    return on_times[made], on_times[~made]
+
+
 def response_database(
     vehicle: FlyingVehicle,
     *,
@@ -49,12 +60,15 @@ def response_database(
     """Fly every jet alone (module docstring); one row per (jet, on-time, vehicle).
 
     Columns: ``jet`` (name), ``jet_number`` (1-based), ``on_time_s``, ``vehicle`` (dispersed
-    vehicle index), :data:`RATE_COLUMNS`, :data:`VELOCITY_COLUMNS`.
+    vehicle index), :data:`RATE_COLUMNS`, :data:`VELOCITY_COLUMNS`.  On-times below the
+    vehicle's minimum on-time are not flown (:func:`flown_on_times`); ``frame.attrs``
+    records them (``dropped_on_times_s``) and the minimum (``min_on_s``).
 
     Raises
     ------
     InputError
-        ``n_vehicles`` < 1, or an on-time not in (0, 1] s.
+        ``n_vehicles`` < 1, an on-time not in (0, 1] s, or every on-time below the vehicle's
+        minimum on-time.
     """
     if isinstance(n_vehicles, bool) or not isinstance(n_vehicles, int) or n_vehicles < 1:
         raise InputError(f"must be an integer >= 1, got {n_vehicles!r}", parameter="n_vehicles")
@@ -62,6 +76,13 @@ def response_database(
     if not (np.isfinite(on_times).all() and (on_times > 0).all() and (on_times <= 1).all()):
         raise InputError(f"must be in (0, 1] s, got {on_times.tolist()}", parameter="on_times_s")
     d = vehicle.definition
+    on_times, dropped = flown_on_times(on_times, d.min_on_s)
+    if not on_times.size:
+        raise InputError(
+            f"every on-time is below {d.source}'s minimum on-time {d.min_on_s:g} s "
+            f"(got {dropped.tolist()})",
+            parameter="on_times_s",
+        )
     n_jets = d.n_jets
     sigmas = DispersionSigmas.from_table(d.dispersion_table())
     dispersed = draw_runs(vehicle.nominal(1), sigmas, seed, np.arange(n_vehicles))
@@ -105,6 +126,8 @@ def response_database(
     for a, col in enumerate(VELOCITY_COLUMNS):
         frame[col] = dv[:, a]
     frame.attrs["vehicle"] = d.source
+    frame.attrs["min_on_s"] = d.min_on_s
+    frame.attrs["dropped_on_times_s"] = dropped.tolist()
     return frame
 
 

@@ -9,11 +9,14 @@ replaced only with ``overwrite``), flies the database
   spread over the dispersed vehicles (:func:`lookup.response_database.response_summary`);
 * ``<DB stem>.png``: that rate response per jet, with 3-sigma bars.
 
-The Parquet file's metadata names the vehicle file, the seed and the dispersed vehicles.
+The Parquet file's metadata (key ``rcsim``, JSON) names the vehicle file and its SHA-256, the
+seed, the dispersed vehicles, the on-times flown and those dropped (below the vehicle's
+minimum on-time, a pulse its valves never make), and the code version.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from dataclasses import dataclass
@@ -22,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from analysis.engine.campaign.results import code_version
 from analysis.engine.output import check_out_file, make_parents, remove_parents
 from analysis.engine.plots import AXIS_COLORS, new_figure
 from lookup.response_database import response_database, response_summary
@@ -66,7 +70,17 @@ def write_response_database(
     flying = FlyingVehicle.load(vehicle)
     frame = response_database(flying, n_vehicles=n_vehicles, seed=seed, nthread=nthread)
     table = response_summary(frame)
-    meta = {"vehicle": flying.definition.source, "seed": seed, "n_vehicles": n_vehicles}
+    meta = {
+        "vehicle": flying.definition.source,
+        "vehicle_name": flying.definition.name,
+        "vehicle_sha256": hashlib.sha256(Path(flying.definition.source).read_bytes()).hexdigest(),
+        "seed": seed,
+        "n_vehicles": n_vehicles,
+        "on_times_s": sorted(set(frame["on_time_s"].tolist())),
+        "min_on_s": flying.definition.min_on_s,
+        "dropped_on_times_s": frame.attrs["dropped_on_times_s"],
+        "code_version": code_version(),
+    }
     fig = _plot(flying, table, n_vehicles)
     created = make_parents(database)
     try:
@@ -106,7 +120,7 @@ def _plot(flying: FlyingVehicle, table: pd.DataFrame, n_vehicles: int):
     ax.set_ylabel("rate change per second of firing\n[deg/s per s]")
     ax.set_title(
         f"Per-jet response of {flying.definition.name!r}: each jet fired alone "
-        f"(mean, bars 3 sd over {n_vehicles} Table 5-dispersed vehicles)"
+        f"(mean, bars 3 sd over {n_vehicles} vehicles dispersed by its [dispersions])"
     )
     ax.legend(title="axis", loc="best")
     ax.grid(axis="y", alpha=0.3)

@@ -573,11 +573,29 @@ def is_campaign(path: str | os.PathLike) -> bool:
     return (Path(path) / MANIFEST).is_file()
 
 
-def criterion_text(rate_error_deg_s: float, attitude_error_deg: float | None = None) -> str:
+def criterion_text(
+    rate_error_deg_s: float, attitude_error_deg: float | None = None, *, vehicle_file: bool = False
+) -> str:
     """What the ``failed`` column means, in words, as the campaign's outcomes apply it
     (:func:`analysis.engine.campaign.outcomes.outcomes`: a run fails when ``not |rate error| <
-    threshold``, i.e. at the threshold too): the one wording every report uses."""
+    threshold``, i.e. at the threshold too): the one wording every report uses.
+    ``vehicle_file``: the campaign flew a vehicle file, whose propellant may run out (a
+    failure too)."""
     parts = [f"|final rate error| >= {rate_error_deg_s:g} deg/s on any axis"]
     if attitude_error_deg is not None:
         parts.append(f"final attitude error > {attitude_error_deg:g} deg")
+    if vehicle_file:
+        parts.append("propellant exhausted (a vehicle file's [propellant] mass_kg)")
     return " or ".join(parts + ["simulation failure"])
+
+
+def dispersions_source(resolved: dict) -> str:
+    """Which dispersion table a resolved spec (:attr:`CampaignSpec.resolved`, or a manifest's
+    ``spec``) flies, in words: with ``table = "default"`` it is the vehicle file's
+    ``[dispersions]`` when the spec names a ``vehicle``, else Gambone Table 5 (packaged)."""
+    table = (resolved.get("dispersions") or {}).get("table", "default")
+    if table != "default":
+        return f"the table file {table}"
+    if resolved.get("vehicle"):
+        return "the vehicle file's [dispersions]"
+    return "Gambone Table 5 (packaged)"

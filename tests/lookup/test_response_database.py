@@ -52,3 +52,36 @@ def test_files_are_written_and_traceable(tmp_path):
     assert files.summary.exists() and files.plot.stat().st_size > 10_000
     # the dispersion spread is real: thrust and pointing differ between the vehicles
     assert (pd.read_csv(files.summary)["dw_roll_rad_s_per_s_sd"] > 0).any()
+
+
+def test_on_times_below_the_minimum_on_time_are_not_flown(tmp_path, capsys):
+    """Issue 18 review: a vehicle whose valves make no pulse under 15 ms (canted16 edited:
+    ``min_on_s = 0.015``) gets no 10 ms rows, which would all be zero (the valve drops the
+    command: spacecraft.propulsion.apply_valve_limits) and pull every slope toward zero; the
+    CLI says so, and the Parquet metadata records the dropped on-time, the vehicle file's
+    SHA-256 (of its bytes) and the code version."""
+    import hashlib
+    import json
+
+    import pyarrow.parquet as pq
+
+    from analysis.apps.cli import main
+    from spacecraft.vehicle_file import resolve_vehicle
+
+    text = resolve_vehicle("canted16").read_text()
+    assert "min_on_s = 0.010" in text
+    vehicle = tmp_path / "v.toml"
+    vehicle.write_text(text.replace("min_on_s = 0.010", "min_on_s = 0.015", 1))
+    out = tmp_path / "db.parquet"
+    assert main(["lookup", "database", "--vehicle", str(vehicle), "--out", str(out),
+                 "--vehicles", "2"]) == 0  # fmt: skip
+    assert "on-times 10 ms, below the vehicle's minimum on-time 15 ms" in capsys.readouterr().out
+    frame = pd.read_parquet(out)
+    assert sorted(set(frame["on_time_s"])) == [0.02, 0.04, 0.08, 0.16, 0.32]
+    assert len(frame) == 16 * 5 * 2
+    # Every flown pulse moved the vehicle (a jet fired alone from rest always torques it).
+    assert (np.abs(frame[list(RATE_COLUMNS)].to_numpy()).max(axis=1) > 0).all()
+    meta = json.loads(pq.read_schema(out).metadata[b"rcsim"])
+    assert meta["vehicle_sha256"] == hashlib.sha256(vehicle.read_bytes()).hexdigest()
+    assert meta["dropped_on_times_s"] == [0.01] and meta["min_on_s"] == 0.015
+    assert {"rcsim", "git_commit", "mujoco"} <= set(meta["code_version"])

@@ -91,7 +91,8 @@ def register(sub) -> None:
     db = cmds.add_parser(
         "database",
         help="fire each jet alone under dispersions: the per-jet response database",
-        description="Fire every jet of a vehicle alone, for on-times from 10 ms to 0.32 s, on "
+        description="Fire every jet of a vehicle alone, for on-times from 10 ms to 0.32 s (those "
+        "below the vehicle's minimum on-time are left out: its valves never make them), on "
         "N vehicles dispersed by the vehicle file's Table 5-format table, from rest.  Writes "
         "DB (Parquet: one row per jet, on-time and vehicle: rate change and CG velocity "
         "change), <DB stem>_summary.csv (per jet: change per second of firing and its spread "
@@ -367,6 +368,14 @@ def run_database(args: argparse.Namespace) -> int:
         overwrite=args.overwrite,
     )  # fmt: skip
     print(f"wrote {files.database} ({len(files.frame)} flights), {files.summary} and {files.plot}")
+    dropped = files.frame.attrs.get("dropped_on_times_s") or []
+    if dropped:
+        ms = ", ".join(f"{t * 1e3:g}" for t in dropped)
+        print(
+            f"not flown: on-times {ms} ms, below the vehicle's minimum on-time "
+            f"{files.frame.attrs['min_on_s'] * 1e3:g} ms (its valves never make them: their "
+            "rows would be zero and pull the slopes toward zero)"
+        )
     return 0
 
 

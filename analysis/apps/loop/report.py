@@ -18,6 +18,7 @@ import pandas as pd
 from analysis.apps.loop.files import GENERATE, GENERATED_TABLE, table_file
 from analysis.apps.refinement.outputs import most_improved_case
 from analysis.apps.refinement.search import changed_cells
+from analysis.engine import runs_table
 from analysis.engine.campaign.spec import load_spec
 from analysis.results.report.html import (
     Section,
@@ -26,6 +27,7 @@ from analysis.results.report.html import (
     text_block,
     write_report,
 )
+from models.errors import InputError
 from models.tables import AXES, PAPER_LOOKUP_TABLES, load_lookup_table, recipe_path
 
 
@@ -40,7 +42,7 @@ def _table_label(out: Path, settings) -> str:
     file = _table_file(out, settings)
     table = load_lookup_table(file)
     if settings.table == GENERATE:
-        what = f"{GENERATED_TABLE}, generated for {settings.vehicle} by the loop"
+        what = f"{GENERATED_TABLE}, generated for {_vehicle_name(settings)} by the loop"
     else:
         what = settings.table
     if table.recipe is None:
@@ -50,6 +52,17 @@ def _table_label(out: Path, settings) -> str:
         f"each firing the jets by its recipe {recipe_path(file).name}, solved for "
         f"{table.recipe.vehicle}, sha256 {table.recipe.vehicle_sha256[:12]}...)"
     )
+
+
+def _vehicle_name(settings) -> str:
+    """The loop's vehicle file by its ``[vehicle] name`` (its file's stem if it no longer
+    loads: the report is rebuilt from the stages' files)."""
+    from spacecraft.vehicle_file import load_vehicle
+
+    try:
+        return load_vehicle(settings.vehicle).name
+    except (InputError, OSError):
+        return Path(str(settings.vehicle)).stem
 
 
 def _img(path: Path, caption: str) -> str:
@@ -77,15 +90,29 @@ def _summary(
 ) -> Section:
     s = state["settings"]
     fresh = settings.held_out_seed
-    threshold = np.degrees(load_spec(out / "spec_before.toml").rate_threshold_rad_s)
+    spec = load_spec(out / "spec_before.toml")
+    threshold = np.degrees(spec.rate_threshold_rad_s)
+    dispersions = runs_table.dispersions_source(spec.resolved)
+    if dispersions.startswith("Gambone Table 5"):
+        dispersions = "Table 5 dispersions"
     n_changed = int(log["changed"].sum())
     fb, fa = int(before["failed"].sum()), int(after["failed"].sum())
     label = _table_label(out, settings)
     channels = "channels" in log
     rows = [
         ("table refined", label),
-        *([("vehicle", str(settings.vehicle))] if settings.vehicle is not None else []),
-        ("runs per case", f"{s['runs_per_case']} (26 rate cases of Table 3, Table 5 dispersions)"),
+        *(
+            [
+                (
+                    "vehicle",
+                    f"{_vehicle_name(settings)!r}, file {spec.vehicle}, sha256 "
+                    f"{spec.resolved.get('vehicle_sha256')}",
+                )
+            ]
+            if settings.vehicle is not None
+            else []
+        ),
+        ("runs per case", f"{s['runs_per_case']} (26 rate cases of Table 3, {dispersions})"),
         ("search seed", f"{s['seed']} (the 'before' campaign and the refinement search)"),
         ("fresh seed", f"{fresh} (held out: the refined table's campaign and check)"),
         (
@@ -414,7 +441,7 @@ def write_loop_report(out: Path, settings, state: dict) -> Path:
         out / "report.html",
         "Lookup-table robustness: "
         + (
-            f"channel table for {settings.vehicle}"
+            f"channel table for {_vehicle_name(settings)}"
             if load_lookup_table(_table_file(out, settings)).recipe is not None
             else settings.table
         ),

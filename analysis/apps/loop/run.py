@@ -183,7 +183,8 @@ def spec_text(
         plots=plots,
         vehicle=vehicle,
     )
-    lines = ["# Written by `rcsim loop`: the 26 Table 3 rate cases, Table 5 dispersions."]
+    disp = "the vehicle file's [dispersions]" if vehicle is not None else "Table 5 dispersions"
+    lines = [f"# Written by `rcsim loop`: the 26 Table 3 rate cases, {disp}."]
     scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
     lines += [f"{k} = {_toml(v)}" for k, v in scalars.items()]
     for name, table_ in data.items():

@@ -298,6 +298,13 @@ def _run(
     manifest["control_cycle_s"] = spec.cycle_s  # the cycle every chunk's History flies
     if spec.controller in ("lookup", "adaptive") and spec.table is None:
         manifest["lookup_default_table"] = R.default_lookup_table()
+    # In words, beside the spec (whose resolved form stays as it was: its digest is what a
+    # resume compares): which table "default" meant, and the vehicle file's own name.
+    manifest["dispersions_source"] = runs_table.dispersions_source(spec.resolved)
+    if spec.vehicle is not None:
+        from spacecraft.vehicle_file import load_vehicle
+
+        manifest["vehicle_name"] = load_vehicle(spec.vehicle).name
     if resume and manifest.get("status") == "running":
         manifest.setdefault("resumed_utc", []).append(R.now_utc())
     R.write_json(manifest, out / runs_table.MANIFEST)

@@ -180,7 +180,8 @@ def pooled_criterion(runset) -> str:
     if runset.outcome != "failed" or thr is None:
         return f"column {runset.outcome!r}"
     att = ((runset.manifest or {}).get("thresholds") or {}).get("attitude_error_deg")
-    return runs_table.criterion_text(thr, att)
+    flown = ((runset.manifest or {}).get("spec") or {}).get("vehicle")
+    return runs_table.criterion_text(thr, att, vehicle_file=bool(flown))
 
 
 def outcome_table(res, top: int = TOP_DRIVERS) -> pd.DataFrame:

@@ -66,12 +66,13 @@ def summary(res) -> Section:
         ctrl = spec.get("controller", {})
         disp = spec.get("dispersions", {})
         facts += [
+            ("controller", _controller_text(ctrl)),
+            *_vehicle_facts(m),
             (
-                "controller",
-                f"{ctrl.get('name', '?')}"
-                + (f", table {str(ctrl.get('table')).split('/')[-1]}" if ctrl.get("table") else ""),
+                "dispersions",
+                f"{m.get('dispersions_source') or runs_table.dispersions_source(spec)}, "
+                f"scale {disp.get('scale', '?')}",
             ),
-            ("dispersions", f"table {disp.get('table', '?')}, scale {disp.get('scale', '?')}"),
             ("seed / runs per case", f"{spec.get('seed', '?')} / {spec.get('runs_per_case', '?')}"),
             ("failure criterion", _criterion(m)),
             ("code version", ", ".join(f"{k} {v}" for k, v in m.get("code_version", {}).items())),
@@ -113,11 +114,50 @@ def summary(res) -> Section:
     return Section("Summary", blocks, "summary")
 
 
+def _controller_text(ctrl: dict) -> str:
+    """The controller and, for a table controller, its table (a spec resolves ``table`` to
+    "default" for every controller; only lookup and adaptive fly one)."""
+    name, table = ctrl.get("name", "?"), ctrl.get("table")
+    if name not in ("lookup", "adaptive") or not table:
+        return str(name)
+    if table == "default":
+        return f"{name}, the packaged default table"
+    return f"{name}, table {str(table).split('/')[-1]}"
+
+
+def _vehicle_facts(m: dict) -> list[tuple[str, str]]:
+    """The vehicle file a campaign flew: its name, file and SHA-256 (none: the packaged
+    vehicle).  The name is the manifest's (``vehicle_name``); a campaign written before it
+    was recorded gets it from the file when that is still the one flown (same SHA-256)."""
+    spec = m.get("spec", {})
+    file, digest = spec.get("vehicle"), spec.get("vehicle_sha256")
+    if not file:
+        return [("vehicle", "the packaged vehicle (Gambone's, models/vehicle/vehicle.xml)")]
+    name = m.get("vehicle_name")
+    if name is None:
+        import hashlib
+
+        from models.errors import InputError
+        from spacecraft.vehicle_file import load_vehicle, resolve_vehicle
+
+        try:
+            if hashlib.sha256(resolve_vehicle(file).read_bytes()).hexdigest() == digest:
+                name = load_vehicle(file).name
+        except (InputError, OSError):
+            name = None
+    label = f"{name!r}, " if name else ""
+    return [("vehicle", f"{label}file {file}, sha256 {digest}")]
+
+
 def _criterion(m) -> str:
     t = m.get("thresholds", {})
     if t.get("rate_error_deg_s") is None:
         return "see the spec"
-    return runs_table.criterion_text(float(t["rate_error_deg_s"]), t.get("attitude_error_deg"))
+    return runs_table.criterion_text(
+        float(t["rate_error_deg_s"]),
+        t.get("attitude_error_deg"),
+        vehicle_file=bool(m.get("spec", {}).get("vehicle")),
+    )
 
 
 def _imbalance_text(res) -> str:

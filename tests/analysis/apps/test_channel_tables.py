@@ -109,7 +109,8 @@ def test_loop_resumes_and_report_renders(loop_dir, render_page, tmp_path):
     assert '<pre id="js-errors"></pre>' in dom
     for anchor in SECTIONS:
         assert f'id="{anchor}"' in dom
-    assert "channel table for canted16" in dom
+    # Titled by the vehicle file's [vehicle] name (canted16.toml), not its path.
+    assert "channel table for canted-quads-16" in dom
     assert "generated_table_recipe.csv" in dom
     assert "Table 7" not in dom  # the paper's hand refinement is not this table's
 

@@ -124,6 +124,20 @@ def test_loop_with_the_paper_vehicle_file_flies_the_same_loop(tmp_path):
         )
     assert (a.out / "refined_table.csv").read_text() == (b.out / "refined_table.csv").read_text()
     assert 'vehicle = "paper"' in (b.out / "spec_before.toml").read_text()
+    # Issue 18 review: the report names the vehicle file (its [vehicle] name and SHA-256) and
+    # says its own [dispersions] flew, not Table 5's (the same values for this file, but the
+    # vehicle file's table is what the spec flies: analysis/engine/campaign/spec.py).
+    import hashlib
+    import html
+
+    from spacecraft.vehicle_file import load_vehicle, resolve_vehicle
+
+    report = html.unescape((b.out / "report.html").read_text())
+    digest = hashlib.sha256(resolve_vehicle("paper").read_bytes()).hexdigest()
+    assert repr(load_vehicle("paper").name) in report and digest in report
+    assert "26 rate cases of Table 3, the vehicle file's [dispersions]" in report
+    packaged = html.unescape((a.out / "report.html").read_text())
+    assert "26 rate cases of Table 3, Table 5 dispersions" in packaged
 
 
 def test_report_prints_to_pdf_with_nothing_cut(loop_dir, print_report):

@@ -120,6 +120,23 @@ def test_a_seven_jet_vehicle_flies_a_campaign_and_is_analysed(tmp_path, seven_je
     factors = set(drivers.iloc[:, 0])
     assert {"authority_roll_pos_rad_s2", "jet_07_thrust_n"} <= factors
 
+    # Traceable (issue 18 review): the manifest and the report name the vehicle (its
+    # [vehicle] name, file and SHA-256) and which dispersion table "default" was.
+    import hashlib
+    import json
+
+    manifest = json.loads((out / "manifest.json").read_text())
+    digest = hashlib.sha256(seven_jets.read_bytes()).hexdigest()
+    assert manifest["vehicle_name"] == "canted-triads-12"  # canted12.toml's [vehicle] name
+    assert manifest["dispersions_source"] == "the vehicle file's [dispersions]"
+    html = (tmp_path / "drivers" / "report.html").read_text()
+    assert "canted-triads-12" in html and digest in html
+    assert (
+        "the vehicle file&#x27;s [dispersions]" in html
+        or "the vehicle file's [dispersions]" in html
+    )
+    assert "table default" not in html
+
 
 def test_a_channel_table_flies_a_twelve_jet_vehicle(tmp_path):
     """A channel table (six axis channels, the recipe per jet of the vehicle it was solved for)
