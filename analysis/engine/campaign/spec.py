@@ -52,7 +52,9 @@ from spacecraft.dispersions import THREE_SIGMA_KEYS as _SIGMA_KEYS
 #: what it means (a data file beside this module, ``example_spec.toml``; a test loads it).
 EXAMPLE_SPEC = (files("analysis.engine.campaign") / "example_spec.toml").read_text(encoding="utf-8")
 
-_DEFAULT_RATE_ERROR_DEG_S = 0.04
+#: The failure threshold of a spec without ``[failure] rate_error_deg_s`` [deg/s] (Gambone
+#: sec. III; example_spec.toml says why).
+DEFAULT_RATE_ERROR_DEG_S = 0.04
 HISTORY_MODES = ("none", "failures", "all", "first")
 SCENARIO_KINDS = ("rate-cases", "maneuver", "hold")
 
@@ -581,7 +583,7 @@ def _dispersions(
 
 def _failure(f: Reader) -> tuple[float, float | None, float | None, dict]:
     """``[failure]``: rate and attitude thresholds [deg/s, deg], the gate [%], resolved."""
-    rate_thr = f.number("rate_error_deg_s", _DEFAULT_RATE_ERROR_DEG_S, minimum=0.0, strict=True)
+    rate_thr = f.number("rate_error_deg_s", DEFAULT_RATE_ERROR_DEG_S, minimum=0.0, strict=True)
     att_thr = (
         f.number("attitude_error_deg", None, minimum=0.0, strict=True)
         if f.has("attitude_error_deg")
