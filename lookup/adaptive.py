@@ -138,6 +138,8 @@ class AdaptiveLookupController(LookupController):
         As :class:`LookupController`.
     """
 
+    NAME = "adaptive"
+
     def __init__(
         self,
         table: LookupTable,

@@ -161,15 +161,28 @@ def solve_recipe(
     frac = np.where(frac > 1.0 - _FRACTION_FLOOR, 1.0, frac)
     rows = np.flatnonzero(served)
     frac[rows, frac[rows].argmax(axis=1)] = 1.0  # the longest is exactly 1, not 1 - 1e-16
-    for a, axis in enumerate(AXES):
-        if not served[2 * a : 2 * a + 2].any():
-            off = f"with jets {', '.join(map(str, jets_off))} off " if jets_off else ""
+    dead = [axis for a, axis in enumerate(AXES) if not served[2 * a : 2 * a + 2].any()]
+    if dead:
+        # Every direction lost is named (not only the first axis with none): the user fixes
+        # the layout once.
+        lost = [c for c, ok in zip(CHANNELS, served) if not ok]
+        left = [c for c, ok in zip(CHANNELS, served) if ok]
+        reach = (
+            f"of the six axis directions it reaches only {', '.join(left)}"
+            if left
+            else "it reaches none of the six axis directions"
+        )
+        what = (
+            f"no jet combination turns the vehicle toward {', '.join(lost)} ({reach}); no "
+            "table can control " + " or ".join(dead)
+        )
+        if jets_off:
             raise InputError(
-                f"{off}no jet combination turns the vehicle about {axis} either way; no "
-                f"table can control {axis}",
-                parameter="jets_off" if jets_off else "vehicle",
-                value=list(jets_off) if jets_off else str(vehicle),
+                f"{','.join(map(str, jets_off))}: with these jets of {vehicle} off, {what}",
+                parameter="jets_off",
+                value=list(jets_off),
             )
+        raise InputError(f"{vehicle}: {what}", parameter="vehicle", value=str(vehicle))
     return ChannelRecipe(
         fractions=frac,
         accel_rad_s2=frac @ allocator.D.T,

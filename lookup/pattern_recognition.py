@@ -248,6 +248,10 @@ class LookupController:
     controller) fly jet tables only.
     """
 
+    #: The controller's name as the CLI and campaign specs give it (:mod:`lookup.registry`),
+    #: for messages.
+    NAME = "lookup"
+
     def __init__(self, table: LookupTable, params: LookupParams | None = None, *, jets_off=()):
         self.table = table
         self.params = LookupParams.from_table4() if params is None else params
@@ -258,8 +262,9 @@ class LookupController:
             if type(self) is not LookupController:
                 raise InputError(
                     f"{table.source or '<lookup table>'}: a channel table (for a vehicle whose "
-                    f"jets torque several axes) flies with the lookup controller, not "
-                    f"{type(self).__name__}"
+                    "jets torque several axes) flies with the lookup controller, not "
+                    f"{self.NAME!r} (it learns jet tables only): --controller lookup, or "
+                    'controller.name = "lookup" in a campaign spec'
                 )
             self._channels = ChannelMap(recipe.fractions, recipe.min_on_s, self.params.cycle_s)
         self.jet_axis_, self.jet_sign_, self.opposing_ = learn_jets(

@@ -29,7 +29,9 @@ ALL_CONTROLLERS = CONTROLLERS + MORE_CONTROLLERS
 TABLE_CONTROLLERS = ("lookup", "adaptive")
 
 
-def vehicle_problem(name: str, table, vehicle) -> tuple[str, str] | None:
+def vehicle_problem(
+    name: str, table, vehicle, *, table_option: str = "controller.table ="
+) -> tuple[str, str] | None:
     """Why controller ``name`` (with lookup ``table``, None: the packaged one) cannot fly the
     vehicle file ``vehicle`` (a :class:`spacecraft.vehicle_file.VehicleDef`), or None.
 
@@ -40,7 +42,9 @@ def vehicle_problem(name: str, table, vehicle) -> tuple[str, str] | None:
     their count (:func:`lookup.jet_sets.check_table_vehicle` checks which).  Returns
     ``(what, problem)``: ``what`` is ``"name"`` or ``"table"`` (the choice at fault),
     ``problem`` one sentence naming the first jet that differs or the jet counts, ending with
-    the way out.
+    the way out: the allocator, or a table generated for the vehicle (``rcsim lookup generate
+    --vehicle``), given as ``table_option`` (how the caller sets the table: ``--table`` on the
+    command line, ``controller.table =`` in a campaign spec).
     """
     from models.tables import N_JETS, PAPER_LOOKUP_TABLES, is_channel_table, load_jet_map
     from spacecraft.vehicle_file.authority import jet_map_mismatch
@@ -66,10 +70,19 @@ def vehicle_problem(name: str, table, vehicle) -> tuple[str, str] | None:
         what = ""
         if name != "phase-plane":
             what = " with the packaged table" if table is None else f" with the paper's {table}"
+        # A vehicle whose jets differ from Table 2's gets a channel table, which only the
+        # lookup controller flies (`rcsim lookup generate --vehicle`: is_coupled).
+        generate = f"`rcsim lookup generate --vehicle {vehicle.source} --out T.csv`"
+        own = (
+            f"or generate this vehicle's own table ({generate}) and fly it with "
+            f"{table_option} T.csv"
+            if name == "lookup"
+            else f"or the lookup controller with this vehicle's own table ({generate})"
+        )
         return (
             "name",
             f"{name!r}{what} assumes the paper's jet map (Table 2), but in {vehicle.source} "
-            f"{differs}; use the allocator controller",
+            f"{differs}; use the allocator controller, {own}",
         )
     return None
 

@@ -255,9 +255,10 @@ def check_text(vehicle: VehicleDef, result: VehicleCheck) -> str:
 def unreachable_command(vehicle: VehicleDef, change_rad_s) -> str | None:
     """Why the jets cannot give the rate change ``change_rad_s`` (3,), or None when they can.
 
-    The answer names the axis directions of the command that no jet combination reaches
-    (``"+roll"``), or the command itself when each of its axes is reachable alone but not the
-    combination."""
+    The answer names the command's direction (its axis directions together, e.g. ``"(-roll,
+    -pitch, -yaw) together"``: what is unreachable is that combined direction, not each axis)
+    and which of its axis directions the jets cannot reach even alone, or that they reach
+    each alone."""
     change = np.asarray(change_rad_s, float)
     if not np.any(change):
         return None
@@ -268,14 +269,18 @@ def unreachable_command(vehicle: VehicleDef, change_rad_s) -> str | None:
     if res.status == 0:
         return None
     every = np.ones(n, bool)
+    names = [direction_name(a, int(np.sign(change[a]))) for a in range(3) if change[a] != 0]
     lost = [
         direction_name(a, int(np.sign(change[a])))
         for a in range(3)
         if change[a] != 0 and pure_axis_authority(accel, a, int(np.sign(change[a])), every)[0] <= 0
     ]
+    if len(names) == 1:
+        return f"no jet combination turns the vehicle toward {names[0]}"
+    toward = f"no jet combination turns the vehicle toward ({', '.join(names)}) together"
     if lost:
-        return f"no jet combination turns the vehicle about {', '.join(lost)}"
-    return "no jet combination gives this combination of axes"
+        return f"{toward}, nor even toward {' or '.join(lost)} alone"
+    return f"{toward}, although it reaches each of {', '.join(names)} alone"
 
 
 def torque_signs(vehicle: VehicleDef) -> np.ndarray:

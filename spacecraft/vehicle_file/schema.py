@@ -259,7 +259,9 @@ def _reach(r: Reader, name: str, what: str, point, cg: tuple, gyration_m: float)
             name,
             f"{what} is {distance:.4g} m from the CG; it must be within {reach:.4g} m "
             f"({MAX_REACH_GYRATIONS:g} radii of gyration, sqrt(Imax/m) = {gyration_m:.4g} m): "
-            "farther than any real vehicle's structure reaches (a position in mm?)",
+            "farther than any real vehicle's structure reaches: a position in mm? or mass.mass_kg "
+            "or mass.inertia_kg_m2 in other units (sqrt(Imax/m) is computed from them: a mass in "
+            "grams makes it 32 times small)",
             list(point),
         )
 
@@ -288,6 +290,7 @@ def _jets(top: Reader, cg: tuple, src: str, gyration_m: float) -> tuple[list[Jet
         if name in seen:
             raise r.error("name", f"duplicate (first in jet[{seen[name]}])", name)
         seen[name] = k + 1
+        r.note = f" ({name})"  # every later message names the jet too: jet[9].position_m (fwd)
         pos = r.vector("position_m", 3)
         d = r.vector("direction", 3)
         norm = math.sqrt(sum(x * x for x in d))

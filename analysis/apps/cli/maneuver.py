@@ -144,7 +144,9 @@ def _vehicle(args: argparse.Namespace):
     from spacecraft.vehicle_file.authority import unreachable_command
 
     vehicle = FlyingVehicle.load(args.vehicle)
-    problem = vehicle_problem(args.controller, args.table, vehicle.definition)
+    problem = vehicle_problem(
+        args.controller, args.table, vehicle.definition, table_option="--table"
+    )
     if problem is not None:
         raise InputError(f"--controller {args.controller} --vehicle {args.vehicle}: {problem[1]}")
     why = unreachable_command(vehicle.definition, np.radians(args.attitude_deg))

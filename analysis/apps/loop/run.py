@@ -146,7 +146,14 @@ class LoopSettings:
                 )
             except InputError as exc:
                 which = "vehicle" if self.vehicle is not None else "table"
-                raise InputError(str(exc), parameter=which, value=getattr(self, which)) from None
+                text = str(exc)
+                # The spec's message names its source (here the vehicle) and the key, then the
+                # vehicle file again ("FILE: vehicle: FILE cannot fly ..."): under --vehicle
+                # the file once is enough.
+                again = f"{self.vehicle}: vehicle: "
+                if which == "vehicle" and text.startswith(again):
+                    text = text[len(again) :]
+                raise InputError(text, parameter=which, value=getattr(self, which)) from None
 
     @property
     def held_out_seed(self) -> int:

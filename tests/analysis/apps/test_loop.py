@@ -9,6 +9,7 @@ case, 19 permutations) keep it near 20 s.
 """
 
 import json
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -157,3 +158,18 @@ def test_report_tables_fit_a_1400_px_screen(loop_dir, screen_tables):
     tables = screen_tables(loop_dir / "report.html")
     assert tables
     assert [t for t in tables if t[1] > t[2]] == []
+
+
+def test_vehicle_refusal_names_the_file_once(tmp_path, capsys):
+    """Issue 18 review: `rcsim loop --vehicle FILE` on a layout that cannot fly a rate case
+    said "--vehicle FILE: vehicle: FILE cannot fly ...": the file once, no key repeated.
+    The vehicle is the corpus's 10-jet bus without its forward yaw jets and with one aft jet
+    of every pod: no jet combination turns it toward -roll (``rcsim vehicle check``)."""
+    text = (Path(__file__).parent / "cli" / "corpus" / "files" / "mybus10.toml").read_text()
+    head, *jets = text.split("\n[[jet]]\n")
+    vehicle = tmp_path / "fourjets.toml"
+    vehicle.write_text("\n[[jet]]\n".join([head, *jets[0:8:2]]) + "\n")
+    assert main(["loop", "--vehicle", str(vehicle), "--out", str(tmp_path / "L")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("fourjets.toml") == 1 and "vehicle: " not in err
+    assert "cannot fly case 'rate-01'" in err and "together" in err
