@@ -77,7 +77,8 @@ def _version() -> str:
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="rcsim",
-        description="Spacecraft reaction-control simulation (16 on/off jets, MuJoCo).",
+        description="Spacecraft reaction-control simulation in MuJoCo: on/off jets, any "
+        "number (a vehicle file's; the paper's vehicle has 16).",
     )
     parser.add_argument("--version", action="version", version=f"rcsim {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)

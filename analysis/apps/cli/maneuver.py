@@ -48,7 +48,8 @@ def register(sub) -> None:
         metavar="FILE",
         help="vehicle file to fly instead of the packaged vehicle, any number of jets (a "
         'packaged one by name: "paper", "canted16", "canted12"); a layout other than Table '
-        "2's flies with --controller allocator",
+        "2's flies with --controller allocator, or --controller lookup --table T.csv with a "
+        "table made by `rcsim lookup generate --vehicle FILE --out T.csv`",
     )
     p.add_argument(
         "--out",
