@@ -186,6 +186,7 @@ def check_text(vehicle: VehicleDef, result: VehicleCheck) -> str:
     """The printout of ``rcsim vehicle check`` (degrees, N, N m, grams at this boundary)."""
     d = vehicle
     inertia = d.inertia_kg_m2
+    w = max(10, *(len(j.name) + 1 for j in d.jets))  # the jet column fits the longest name
     out = [
         f"vehicle {d.name!r} ({d.source}): {d.n_jets} jets, mass {d.mass_kg:g} kg, "
         f"CG {list(d.cg_m)} m, Isp {d.isp_s:g} s, minimum on-time {d.min_on_s * 1e3:g} ms",
@@ -194,7 +195,7 @@ def check_text(vehicle: VehicleDef, result: VehicleCheck) -> str:
         f"{np.round(np.linalg.eigvalsh(inertia), 3).tolist()}",
         "",
         "Force [N] and torque about the CG [N m] of each jet at full thrust:",
-        f"{'jet':10s}"
+        f"{'jet':{w}s}"
         + "".join(f"{c:>9s}" for c in ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz"))
         + "   axes torqued",
     ]
@@ -202,7 +203,7 @@ def check_text(vehicle: VehicleDef, result: VehicleCheck) -> str:
     for j, jet in enumerate(d.jets):
         t = ft[3:, j]
         torqued = "".join("RPY"[a] for a in range(3) if abs(t[a]) > 1e-9 * np.abs(t).max())
-        out.append(f"{jet.name:10s}" + "".join(f"{v:9.3f}" for v in ft[:, j]) + f"   {torqued}")
+        out.append(f"{jet.name:{w}s}" + "".join(f"{v:9.3f}" for v in ft[:, j]) + f"   {torqued}")
     out += [
         "",
         "Control authority per axis and direction (jets at most fully on, the other two axes' "
@@ -231,11 +232,21 @@ def check_text(vehicle: VehicleDef, result: VehicleCheck) -> str:
             f"{result.unreachable_fraction * 100:.1f} % of sampled rate-change directions"
         )
     out += ["", "Jet-out cases (one jet failed off):"]
+    # A direction the full vehicle has no pure couple for is said once, not on every line.
+    nominal = [ax.direction for ax in result.axes if ax.couple_accel_rad_s2 <= 0]
+    if nominal:
+        out.append(
+            f"  (the full vehicle already has no pure couple for {', '.join(nominal)}; "
+            "below, only the directions a jet out adds)"
+        )
+    lost_w = max(24, *(len(", ".join(jo.lost)) for jo in result.jet_out))
     for jo in result.jet_out:
         left = "-" if not np.isfinite(jo.worst_left) else f"{jo.worst_left * 100:5.1f} %"
+        added = [c for c in jo.no_couple if c not in nominal]
+        label = "no pure couple also for" if nominal else "no pure couple for"
         out.append(
-            f"  {jo.jet:10s} loses: {', '.join(jo.lost) or 'no axis':24s} least authority left "
-            f"{left}; no pure couple for: {', '.join(jo.no_couple) or 'none'}"
+            f"  {jo.jet:{w}s} loses: {', '.join(jo.lost) or 'no axis':{lost_w}s} least authority "
+            f"left {left:>7s}; {label}: {', '.join(added) or 'none'}"
         )
     losing = [jo.jet for jo in result.jet_out if jo.lost]
     out.append(

@@ -12,6 +12,9 @@ User mistakes print one line on stderr and exit with code 2, never a traceback:
   path and the system's reason;
 * argparse errors (unknown option, bad number).
 
+A closed stdout (``rcsim ... | head``) ends the command quietly with status 141, as a process
+that SIGPIPE ended (a campaign stopped that way resumes with ``--resume``).
+
 The CLI writes files only, so it selects matplotlib's file backend (Agg) before any command
 runs; library plotting modules never choose a backend (that would switch a notebook's).
 
@@ -153,6 +156,10 @@ def main(argv: list[str] | None = None) -> int:
             _use_file_backend()
             return int(args.func(args) or 0)
     except (InputError, OSError) as exc:
+        if isinstance(exc, BrokenPipeError) and _stdout_closed():
+            # `rcsim ... | head`: the reader has gone.  End quietly, as other command-line
+            # tools do (killed by SIGPIPE: status 128 + 13); nothing to report to anyone.
+            return STDOUT_CLOSED
         # One line even if a message carries a newline (a path, a parser's text).
         line = " ".join(error_line(exc, getattr(args, "_parser", None)).split("\n"))
         print(f"rcsim: error: {line}", file=sys.stderr)
@@ -170,6 +177,26 @@ def main(argv: list[str] | None = None) -> int:
 
 #: Seconds the interpreter may take to exit after an interrupt before the process ends anyway.
 EXIT_GRACE_S = 15.0
+#: Exit status when stdout was closed by its reader (``| head``): a shell's for a process that
+#: SIGPIPE ended, 128 + 13.
+STDOUT_CLOSED = 141
+
+
+def _stdout_closed() -> bool:
+    """Whether stdout is a pipe whose reader has gone, as opposed to a broken pipe of some
+    other file, which is reported.  Asked of the descriptor (poll: POLLERR on a pipe with no
+    reader), since Python's buffer drops what a failed write held, so a second flush succeeds.
+    """
+    import select
+
+    try:
+        fd = sys.stdout.fileno()
+        poller = select.poll()
+        poller.register(fd, select.POLLOUT)
+        events = poller.poll(0)
+    except (AttributeError, OSError, ValueError):  # no descriptor (captured), or no poll
+        return False
+    return any(ev & (select.POLLERR | select.POLLHUP) for _, ev in events)
 
 
 def run() -> None:
@@ -183,6 +210,17 @@ def run() -> None:
     (Only here, never in :func:`main`, which tests and notebooks call in their own process.)
     """
     code = main()
+    if code != STDOUT_CLOSED:
+        try:  # what is still buffered goes now, not in the interpreter's exit hook
+            sys.stdout.flush()
+        except BrokenPipeError:
+            code = STDOUT_CLOSED
+    if code == STDOUT_CLOSED:
+        # Python flushes stdout again at exit and would print its own broken-pipe complaint:
+        # point the closed descriptor at /dev/null first.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
     from analysis.engine.interrupts import INTERRUPTED, TERMINATED
 
     if code in (INTERRUPTED, TERMINATED):

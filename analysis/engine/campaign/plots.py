@@ -22,6 +22,8 @@ from analysis.engine.plots import new_figure
 from spacecraft.vehicle import AXES
 
 if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
     from analysis.engine.campaign.spec import CampaignSpec
 
 COLORS = {"roll": "tab:blue", "pitch": "tab:orange", "yaw": "tab:green"}
@@ -30,8 +32,9 @@ DPI = 80  # keeps a 3-panel figure near 60-90 KB
 
 def plot_case(
     env: pd.DataFrame, name: str, path: Path, *, title: str = "", rate_cmd_deg_s=None
-) -> None:
-    """Envelope plot of one case (``env``: its rows of envelopes.parquet)."""
+) -> Figure:
+    """Envelope plot of one case (``env``: its rows of envelopes.parquet), written to
+    ``path``; returns the figure."""
     t = env["t_s"].to_numpy()
     n = env["n_runs"].to_numpy()
     fig, axes = new_figure(3, 1, figsize=(8, 7.5), sharex=True)
@@ -72,9 +75,20 @@ def plot_case(
         ax.legend(loc="best", fontsize=8, ncol=3, framealpha=0.8)
     runs = int(n.max()) if n.size else 0
     fig.suptitle(
-        f"{title or name}: {runs} runs (band: min-max over runs, line: mean, dashed: command)"
+        _wrapped(f"{title or name}: {runs} runs", 78)
+        + "\n(band: min-max over runs, line: mean, dashed: command)"
     )
     fig.savefig(path, dpi=DPI)
+    return fig
+
+
+def _wrapped(text: str, width: int) -> str:
+    """A title on as many lines as it needs (a long table file name would run off both
+    edges of the figure: a centred title is cut at both ends); ``width`` in characters of
+    the title font that fit the figure."""
+    import textwrap
+
+    return "\n".join(textwrap.wrap(text, width, break_on_hyphens=False)) or text
 
 
 def plot_summary(
@@ -84,8 +98,9 @@ def plot_summary(
     *,
     title: str = "",
     rate_threshold_deg_s: float | None = None,
-) -> None:
-    """Failures and firings per case, and the final rate-error histogram (Fig 16)."""
+) -> Figure:
+    """Failures and firings per case, and the final rate-error histogram (Fig 16), written to
+    ``path``; returns the figure."""
     fig, axes = new_figure(3, 1, figsize=(9, 8.5))
     x = np.arange(len(cases))
     axes[0].bar(x, cases["failed_pct"], color="tab:red")
@@ -110,8 +125,9 @@ def plot_summary(
         axes[2].legend(fontsize=8)
     axes[2].set_xlabel("final |rate error|, worst axis [deg/s]")
     axes[2].set_ylabel("runs")
-    fig.suptitle(title)
+    fig.suptitle(_wrapped(title, 88))
     fig.savefig(path, dpi=DPI)
+    return fig
 
 
 def plot_campaign(out: Path, spec: CampaignSpec) -> list[Path]:

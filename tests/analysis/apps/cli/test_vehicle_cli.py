@@ -66,3 +66,28 @@ def test_unreachable_axis_is_reported(tmp_path, capsys):
     assert status["+roll"] == status["-pitch"] == "UNREACHABLE"
     assert status["+yaw"] != "UNREACHABLE"
     assert "Unreachable directions: +roll, -roll, +pitch, -pitch" in out
+
+
+def test_long_jet_names_keep_the_columns_and_couples_are_said_once(capsys):
+    """Issue 18 review: the review's 10-jet bus (corpus/files/mybus10.toml), whose jet names
+    run to 13 characters: every row of the force/torque table has its numbers under the
+    header's columns (each number ends where its header ends), and its pure-couple authority
+    is 0 in every direction (the authority table), said once rather than on each jet-out line.
+    """
+    from pathlib import Path
+
+    vehicle = Path(__file__).parent / "corpus" / "files" / "mybus10.toml"
+    assert main(["vehicle", "check", str(vehicle), "--no-pairs"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    header = next(line for line in lines if line.startswith("jet ") and "Fx" in line)
+    ends = [header.index(c) + len(c) for c in ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")]
+    rows = [line for line in lines if line.startswith(("aft_", "fwd_"))]
+    assert len(rows) == 10
+    for row in rows:
+        numbers = row.split()[1:7]
+        at = [row.index(n, e - len(n) - 1) + len(n) for n, e in zip(numbers, ends)]
+        assert at == ends, row
+    said = [line for line in lines if "already has no pure couple" in line]
+    assert len(said) == 1 and "+roll, -roll, +pitch, -pitch, +yaw, -yaw" in said[0]
+    jet_out = [line for line in lines if " loses: " in line]
+    assert len(jet_out) == 10 and not any("+roll" in line for line in jet_out)
