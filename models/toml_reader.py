@@ -25,6 +25,9 @@ class Reader:
             raise InputError(f"{source}: {path or 'spec'}: expected a table, got {table!r}")
         self.table, self.path, self.source, self.note = dict(table), path, source, note
         self.asked: dict[str, None] = {}  # the keys read or asked about, in order
+        # Keys accepted but not offered in a message: what a manifest records for a resume
+        # (checksums end in _sha256 and are never listed either).
+        self.unlisted: set[str] = set()
 
     def key(self, name: str) -> str:
         return f"{self.path}.{name}" if self.path else name
@@ -36,6 +39,11 @@ class Reader:
     def _pop(self, name: str, default):
         self.asked[name] = None
         return self.table.pop(name, default)
+
+    def takes(self, *names: str) -> None:
+        """Say that the table takes ``names`` although they are read elsewhere (listed when an
+        unknown key is refused)."""
+        self.asked.update(dict.fromkeys(names))
 
     def has(self, name: str) -> bool:
         self.asked[name] = None
@@ -96,7 +104,11 @@ class Reader:
         import difflib
 
         for name in self.table:
-            known = [k for k in self.asked if k != name]
+            known = [
+                k
+                for k in self.asked
+                if k != name and k not in self.unlisted and not k.endswith("_sha256")
+            ]
             close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
             hint = f"; did you mean '{self.key(close[0])}'?" if close else ""
             where = f"[{self.path}]" if self.path else "the top level"

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from analysis.engine.campaign.effects import TABLES as EFFECT_TABLES
 from analysis.engine.campaign.effects import Effects, parse_effects
 from analysis.engine.campaign.gate import check_max_failed_pct, max_failed_pct_problem
 from analysis.engine.campaign.limits import (
@@ -461,6 +462,7 @@ def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
     elif table is not None:
         # Checked against the jets of the vehicle it was made for (its companion file).
         jets_off = load_table_for_jets(table)[1]
+    c.unlisted.add("jets_off")  # a manifest's record, not a key to offer a user
     if c.has("jets_off"):  # a manifest's: the companion must still name the same jets
         expect = c.raw("jets_off")
         if expect != list(jets_off):
@@ -551,6 +553,7 @@ def _dispersions(
                 frame.loc[len(frame), ["name", "three_sigma"]] = [row, overrides[key] * factor]
     over.done()
     check_three_sigma(frame, scale, overrides, source, _SIGMA_KEYS, limits)
+    d.takes(*EFFECT_TABLES)  # read from d.table by parse_effects
     effects, effects_resolved = parse_effects(
         d.table,
         source=source,
