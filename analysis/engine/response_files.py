@@ -9,7 +9,8 @@ replaced only with ``overwrite``), flies the database
   spread over the dispersed vehicles (:func:`lookup.response_database.response_summary`);
 * ``<DB stem>.png``: that rate response per jet, with 3-sigma bars.
 
-The Parquet file's metadata names the vehicle file, the seed and the dispersed vehicles.
+The Parquet file's metadata names the vehicle file, the seed and the dispersed vehicles, and
+the valve timing flown when the vehicle has one (``valve_timing``).
 """
 
 from __future__ import annotations
@@ -66,7 +67,9 @@ def write_response_database(
     flying = FlyingVehicle.load(vehicle)
     frame = response_database(flying, n_vehicles=n_vehicles, seed=seed, nthread=nthread)
     table = response_summary(frame)
-    meta = {"vehicle": flying.definition.source, "seed": seed, "n_vehicles": n_vehicles}
+    meta: dict = {"vehicle": flying.definition.source, "seed": seed, "n_vehicles": n_vehicles}
+    if flying.definition.has_delays:  # the valve timing flown (the file's), when it has one
+        meta["valve_timing"] = flying.definition.delay_record()
     fig = _plot(flying, table, n_vehicles)
     created = make_parents(database)
     try:
