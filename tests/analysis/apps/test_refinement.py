@@ -297,10 +297,12 @@ def test_the_search_flies_a_vehicle_files_valve_delays(tmp_path):
     text = resolve_vehicle("paper").read_text()
     vehicle = tmp_path / "delayed.toml"
     vehicle.write_text(
-        text.replace("# [timing]\n# command_delay_s", "[timing]\ncommand_delay_s")
-        .replace("# open_delay_s", "open_delay_s")
-        .replace("# close_delay_s", "close_delay_s")
-    )  # the example values paper.toml carries as comments: 5 ms, 8 ms, 5 ms
+        text.replace(
+            "[jet_defaults]", "[timing]\ncommand_delay_s = 0.005\n\n[jet_defaults]", 1
+        ).replace(
+            "min_on_s = 0.0", "min_on_s = 0.0\nopen_delay_s = 0.008\nclose_delay_s = 0.005", 1
+        )
+    )  # docs/vehicles.md's example valve timing: 5 ms, 8 ms, 5 ms
     table = load_lookup_table(which="table6")
     trials = Trials(np.repeat(table.firing_time_s[None], 2, 0), np.array(CASES), ("a", "b"))
     flown = {}

@@ -19,8 +19,6 @@ Oracles
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -206,10 +204,3 @@ def test_bad_delays_are_one_line_naming_the_key(tmp_path, edit, expect):
     assert "\n" not in message and str(path) in message
     for part in expect:
         assert part in message
-
-
-def test_paper_example_comments_name_the_keys():
-    """paper.toml documents the keys (commented out: the paper's vehicle has no delays)."""
-    text = Path(load_vehicle("paper").source).read_text()
-    for key in ("# open_delay_s", "# close_delay_s", "# command_delay_s", "# [timing]"):
-        assert key in text
