@@ -35,7 +35,7 @@ def fly(vehicle: FlyingVehicle, controller, rate: np.ndarray) -> dict:
     n = rate.shape[0]
     h = simulate_batch(
         vehicle.nominal(n), controller, Guidance.rate(rate), 20.0, model=vehicle.model,
-        propulsion=vehicle.propulsion(), tank=vehicle.tank(n), nthread=1,
+        nthread=1, **vehicle.flight_options(n),
     )  # fmt: skip
     cmd = rate != 0
     final = np.degrees(np.abs(h.final.rate_err_B))

@@ -25,6 +25,11 @@ it delivered):
 Rate damping (Figs 3-4) is checked the same way: from each case's rate with a zero command,
 the cycles found must be the command's on the opposing channels.
 
+Valve timing (the vehicle file's delays) is flown in both steps.  The firing loop's cycle-end
+rates then lag what a row delivers by the command delay plus the closing latency, less than a
+cycle (:mod:`lookup.table_candidates`), so each axis's candidates gain the whole cycle below
+the bracket.
+
 Imports ``models``, ``spacecraft`` and ``lookup`` only.
 """
 
@@ -120,9 +125,14 @@ class ChannelOpenLoop:
 
 
 def _candidates(
-    hist: History, channel_map: ChannelMap, served: np.ndarray, loop: ChannelFiringLoop
+    hist: History,
+    channel_map: ChannelMap,
+    served: np.ndarray,
+    loop: ChannelFiringLoop,
+    delayed: bool = False,
 ) -> tuple[list, np.ndarray]:
-    """Per run, per axis, the whole-cycle channel times bracketing the crossing (step 1).
+    """Per run, per axis, the whole-cycle channel times bracketing the crossing (step 1);
+    ``delayed`` (the vehicle has valve timing): one cycle below the bracket too.
 
     Returns ``(cands, direction)``: ``cands[i][a]`` a list of cycle counts (``[0]`` on an axis
     that does not fire), ``direction`` (n, 3).
@@ -166,7 +176,7 @@ def _candidates(
                 per_axis.append([0])
                 continue
             kc = k_cross[i, a]
-            lo = int(np.floor(total[i, max(kc - 1, 0), a] / cyc + _CYCLE_EPS))
+            lo = int(np.floor(total[i, max(kc - 1, 0), a] / cyc + _CYCLE_EPS)) - int(delayed)
             hi = int(np.ceil(total[i, kc, a] / cyc - _CYCLE_EPS))
             per_axis.append(list(range(max(lo, 1), max(hi, 1) + 1)))
         cands.append(per_axis)
@@ -212,6 +222,7 @@ def _choose(
         omega0_B=omega0[owner_arr],
         propulsion=flying.propulsion(),
         model=flying.model,
+        timing=flying.timing(len(rows)),
     )
     score = (hist.final.rate_err_B**2).sum(axis=1)
     n = len(cands)
@@ -276,8 +287,9 @@ def generate_channel_table(
             omega0_B=omega0,
             propulsion=propulsion,
             model=flying.model,
+            timing=flying.timing(len(rate)),
         )
-        cands, direction = _candidates(hist, cmap, served, loop)
+        cands, direction = _candidates(hist, cmap, served, loop, flying.definition.has_delays)
         cycles, times, chosen, rows = _choose(
             cands, direction, omega0, target, flying, cmap, settle_window_s
         )

@@ -14,11 +14,18 @@ alone firing one pulse from t = 0, and the flight is read at the end of the puls
   attitude change during the pulse (below 0.1 deg for the longest pulse on the packaged
   vehicles).
 
+A vehicle with valve timing (:meth:`FlyingVehicle.timing`) is flown with it: the pulse commanded
+over ``[0, t]`` thrusts over ``[d + d_o, d + t + d_c]`` (command delay, the jet's opening and
+closing latency), so the flight lasts until that thrust has ended, and the frame gains
+``thrust_s``, the time the jet thrust (``max(0, t + d_c - d_o)``, as the simulation delivered
+it).
+
 :func:`response_summary` fits, per jet, the rate and velocity change per second of firing
-(least squares through the origin over every on-time and vehicle) and its spread over the
-dispersed vehicles (the standard deviation of the per-vehicle slopes): the jet model an
-allocator can use (:class:`lookup.allocator.Allocator` ``D`` and ``G``).  All the flights are
-one batched simulation.
+(least squares through the origin over every on-time and vehicle; per second of thrust,
+``thrust_s``, when the frame has it: the jet's own response, the valve's offset apart) and its
+spread over the dispersed vehicles (the standard deviation of the per-vehicle slopes): the jet
+model an allocator can use (:class:`lookup.allocator.Allocator` ``D`` and ``G``).  All the
+flights are one batched simulation.
 """
 
 from __future__ import annotations
@@ -60,9 +67,10 @@ def response_database(
     """Fly every jet alone (module docstring); one row per (jet, on-time, vehicle).
 
     Columns: ``jet`` (name), ``jet_number`` (1-based), ``on_time_s``, ``vehicle`` (dispersed
-    vehicle index), :data:`RATE_COLUMNS`, :data:`VELOCITY_COLUMNS`.  On-times below the
-    vehicle's minimum on-time are not flown (:func:`flown_on_times`); ``frame.attrs``
-    records them (``dropped_on_times_s``) and the minimum (``min_on_s``).
+    vehicle index), :data:`RATE_COLUMNS`, :data:`VELOCITY_COLUMNS`; with valve timing,
+    ``thrust_s`` (module docstring).  On-times below the vehicle's minimum on-time are not
+    flown (:func:`flown_on_times`); ``frame.attrs`` records them (``dropped_on_times_s``) and
+    the minimum (``min_on_s``).
 
     Raises
     ------
@@ -97,7 +105,10 @@ def response_database(
     total = np.zeros((n, n_jets))
     total[np.arange(n), jet] = on_times[k]
     cycle = vehicle.propulsion().cycle_s
-    duration = float(np.ceil(on_times.max() / cycle - 1e-9) * cycle)
+    timing = vehicle.timing(n)
+    # Read after the thrust has ended: the command delay and the closing latency move it on.
+    lag = 0.0 if timing is None else d.command_delay_s + float(d.close_delays_s().max())
+    duration = float(np.ceil((on_times.max() + lag) / cycle - 1e-9) * cycle)
     history = simulate_batch(
         params,
         OpenLoopController(total, cycle),
@@ -105,6 +116,7 @@ def response_database(
         duration,
         model=vehicle.model,
         propulsion=vehicle.propulsion(),
+        timing=timing,
         nthread=nthread,
     )
     dw = history.final.omega_B
@@ -125,6 +137,8 @@ def response_database(
         frame[col] = dw[:, a]
     for a, col in enumerate(VELOCITY_COLUMNS):
         frame[col] = dv[:, a]
+    if timing is not None:
+        frame["thrust_s"] = history.propulsion.on_time_s[np.arange(n), jet]
     frame.attrs["vehicle"] = d.source
     frame.attrs["min_on_s"] = d.min_on_s
     frame.attrs["dropped_on_times_s"] = dropped.tolist()
@@ -136,7 +150,7 @@ def response_summary(frame: pd.DataFrame) -> pd.DataFrame:
     the origin over all rows) and ``<column>_per_s_sd``, the standard deviation over the
     dispersed vehicles of each vehicle's own slope.  One row per jet, in jet order."""
     cols = list(RATE_COLUMNS + VELOCITY_COLUMNS)
-    t = frame["on_time_s"].to_numpy()
+    t = frame["thrust_s" if "thrust_s" in frame else "on_time_s"].to_numpy()
     values = frame[cols].to_numpy()
     key = frame["jet_number"].to_numpy()
     veh = frame["vehicle"].to_numpy()

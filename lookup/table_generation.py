@@ -21,7 +21,7 @@ the maneuver table's, on the opposing jets.
 Generation may use the jet map (it happens in simulation, where the vehicle is known); the
 controller that uses the table (:mod:`lookup.pattern_recognition`) never does.
 
-Module size: about 430 lines, over the ~400 guideline: generation, its verification and the
+Module size: about 470 lines, over the ~400 guideline: generation, its verification and the
 failed-jet variant share the firing loop and the result types; the comparison with the paper's
 tables is in :mod:`lookup.table_compare`.
 
@@ -33,6 +33,11 @@ direction with no jet left cannot be commanded, and its cases fire nothing on th
 axes and each case's translation side effect (velocity change of the CG, body axes), and the
 table checks and loads against the jet map without those jets
 (:func:`lookup.jet_sets.jet_map_without`).
+
+Valve timing (a vehicle file's delays, ``generate_table(timing=...)``): every flight above flies
+them, and since the firing loop's cycle-end rates then lag what a row of that many cycles
+delivers, the rows are chosen among the loop's neighbours flown open loop
+(:mod:`lookup.table_candidates`).
 """
 
 from __future__ import annotations
@@ -46,6 +51,7 @@ import pandas as pd
 
 from lookup.jet_sets import check_jets_off, jet_map_without
 from lookup.open_loop import OpenLoopController
+from lookup.table_candidates import nearest_rows
 from models.tables import (
     CONTROL_CYCLE_S,
     LookupTable,
@@ -57,7 +63,7 @@ from models.tables import (
 from spacecraft.navigation import Guidance, NavState
 from spacecraft.propulsion import PropulsionParams
 from spacecraft.simulation import History, simulate_batch
-from spacecraft.valves import JetFaults
+from spacecraft.valves import JetFaults, ValveTiming
 from spacecraft.vehicle import AXES, N_JETS, VehicleParams, jet_geometry_B, load_model
 
 #: Default tolerance of the settling-time measurement [rad/s]: Table 4's rate error limit
@@ -116,7 +122,8 @@ class FiringSweep:
     cycles : ndarray of int, (n_cases, 3)
         Whole control cycles chosen per axis (0 on axes that do not fire).
     end_rate_err_rad_s : ndarray, (n_cases, 3)
-        Measured rate error after the chosen number of cycles [rad/s].
+        Measured rate error after the chosen number of cycles [rad/s] (with valve timing:
+        after the chosen row's open-loop flight, :mod:`lookup.table_candidates`).
     direction : ndarray of int, (n_cases, 3)
         Torque sign fired per axis.
     history : History
@@ -218,6 +225,7 @@ def sweep(
     propulsion: PropulsionParams = PropulsionParams(),
     max_fire_s: float = 3.0,
     faults: JetFaults | None = None,
+    timing: ValveTiming | None = None,
 ) -> FiringSweep:
     """Fly the firing loop for every row and pick the nearest whole number of cycles per axis.
 
@@ -235,6 +243,9 @@ def sweep(
         unless no jet of ``jet_map`` serves its direction (then it fires 0 cycles).
     faults : JetFaults, optional
         Jet faults to fly with (e.g. failed jets, whose rows ``jet_map`` should zero).
+    timing : ValveTiming, optional
+        The ``n`` runs' valve timing (the cycle-end rates then lag the thrust:
+        :mod:`lookup.table_candidates`).
 
     Returns
     -------
@@ -254,6 +265,7 @@ def sweep(
         propulsion=propulsion,
         model=model,
         faults=faults,
+        timing=timing,
     )
     # err[:, k] = rate error after k cycles (k = 0 .. K), the last one from the final state.
     err = np.concatenate([hist.rate_err_B, hist.final.rate_err_B[:, None]], axis=1)
@@ -330,6 +342,7 @@ def generate_table(
     settle_window_s: float = 2.0,
     max_fire_s: float = 3.0,
     jets_off=(),
+    timing: ValveTiming | None = None,
 ) -> GeneratedTable:
     """Generate, verify and damping-check the lookup table for one vehicle.
 
@@ -352,6 +365,11 @@ def generate_table(
     jets_off : sequence of int
         Jets (numbered 1..16) failed off: the vehicle is flown without them and the table
         fires only the others (module docstring).
+    timing : ValveTiming, optional
+        The vehicle's valve timing (its first run's delays; a vehicle file's
+        :meth:`~spacecraft.vehicle_file.FlyingVehicle.timing`): every flight flies it, and
+        the rows are the loop's neighbours flown open loop whose rates end nearest the
+        commands (:mod:`lookup.table_candidates`).  None or all zero: the paper's rule alone.
 
     Returns
     -------
@@ -377,17 +395,36 @@ def generate_table(
         off = np.full((n, N_JETS), np.inf)
         off[:, np.asarray(jets_off) - 1] = 0.0
         faults = JetFaults.of(n, off_from_s=off)
+    delays = None if timing is None or timing.is_zero() else timing.take(np.zeros(n, int))
+    flying: dict[str, Any] = dict(params=batch, model=model, propulsion=propulsion)
 
-    command = sweep(
-        rate,
-        np.zeros_like(rate),
-        jet_map,
-        params=batch,
-        model=model,
-        propulsion=propulsion,
-        max_fire_s=max_fire_s,
-        faults=faults,
-    )
+    def loop(target: np.ndarray, omega0: np.ndarray) -> FiringSweep:
+        found = sweep(
+            target,
+            omega0,
+            jet_map,
+            max_fire_s=max_fire_s,
+            faults=faults,
+            timing=delays,
+            **flying,
+        )
+        if delays is None:
+            return found
+        cycles, end_err = nearest_rows(
+            found.cycles,
+            found.direction,
+            target,
+            omega0,
+            jet_map,
+            lambda c, d: firing_times(c, d, jet_map, cyc),
+            timing=delays,
+            faults=faults,
+            settle_window_s=settle_window_s,
+            **flying,
+        )
+        return FiringSweep(cycles, end_err, found.direction, found.history)
+
+    command = loop(rate, np.zeros_like(rate))
     times = firing_times(command.cycles, command.direction, jet_map, cyc)
     check_consistency(rate_cases.case, rate, times, jet_map, file="<generated table>", cycle_s=cyc)
     source = "generated by lookup.table_generation" + (
@@ -395,16 +432,7 @@ def generate_table(
     )
     table = LookupTable(case=rate_cases.case, rate_cmd=rate, firing_time_s=times, source=source)
 
-    damping = sweep(
-        np.zeros_like(rate),
-        rate,
-        jet_map,
-        params=batch,
-        model=model,
-        propulsion=propulsion,
-        max_fire_s=max_fire_s,
-        faults=faults,
-    )
+    damping = loop(np.zeros_like(rate), rate)
     damping_times = firing_times(damping.cycles, damping.direction, jet_map, cyc)
 
     # Verification: fly the table open loop under the rate command, then watch the rate.
@@ -417,6 +445,7 @@ def generate_table(
         propulsion=propulsion,
         model=model,
         faults=faults,
+        timing=delays,
     )
     settle = settle_after_firing(verify, fire_end, settle_tol_rad_s)
     unreachable = (

@@ -159,20 +159,32 @@ def draw_sensors(spec: SensorSpec, seed: int, run_ids) -> tuple[SensorParams, li
     return params, [effect_stream(seed, i, SENSOR_NOISE) for i in run_ids]
 
 
-def draw_timing(spec: TimingSpec, seed: int, run_ids, n_jets: int) -> ValveTiming:
+def draw_timing(
+    spec: TimingSpec, seed: int, run_ids, n_jets: int, nominal: ValveTiming | None = None
+) -> ValveTiming:
     """Per-run delays of campaign runs ``run_ids`` of a vehicle of ``n_jets`` jets (normal about
     the means, clipped at 0): the command delay, then an opening and a closing latency per
-    jet, ``1 + 2 n_jets`` normals per run."""
+    jet, ``1 + 2 n_jets`` normals per run.
+
+    ``nominal`` (one run: a vehicle file's own delays, per jet) is added to the spec's means:
+    the spec's sigmas disperse about it.  (A campaign never gives both a mean and a vehicle's
+    nominal of the same delay: :func:`analysis.engine.campaign.effects.parse_effects`.)"""
     run_ids = np.asarray(run_ids, np.int64).reshape(-1)
     k = 1 + 2 * int(n_jets)
     z = np.array(
         [np.random.default_rng(effect_stream(seed, i, TIMING)).standard_normal(k) for i in run_ids]
     ).reshape(-1, k)
+    command, opens, closes = spec.command_delay_s, spec.open_delay_s, spec.close_delay_s
+    if nominal is not None:
+        own = nominal.for_jets(n_jets)
+        command = own.command_delay_s[0] + command
+        opens = own.open_delay_s[0] + opens
+        closes = own.close_delay_s[0] + closes
     pos = lambda v: np.maximum(v, 0.0)  # noqa: E731
     return ValveTiming(
-        command_delay_s=pos(spec.command_delay_s + spec.command_delay_sigma_s * z[:, 0]),
-        open_delay_s=pos(spec.open_delay_s + spec.open_delay_sigma_s * z[:, 1 : 1 + n_jets]),
-        close_delay_s=pos(spec.close_delay_s + spec.close_delay_sigma_s * z[:, 1 + n_jets : k]),
+        command_delay_s=pos(command + spec.command_delay_sigma_s * z[:, 0]),
+        open_delay_s=pos(opens + spec.open_delay_sigma_s * z[:, 1 : 1 + n_jets]),
+        close_delay_s=pos(closes + spec.close_delay_sigma_s * z[:, 1 + n_jets : k]),
     )
 
 

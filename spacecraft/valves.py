@@ -152,6 +152,14 @@ class ValveTiming:
             _widen(self.close_delay_s, n_jets, "close_delay_s"),
         )
 
+    def take(self, rows) -> ValveTiming:
+        """The delays of runs ``rows`` (indices into the runs, repeats allowed): e.g. one
+        vehicle's nominal delays for ``n`` runs, ``take(np.zeros(n, int))``."""
+        rows = np.asarray(rows, int)
+        return ValveTiming(
+            self.command_delay_s[rows], self.open_delay_s[rows], self.close_delay_s[rows]
+        )
+
     @property
     def n_runs(self) -> int:
         return int(self.command_delay_s.shape[0])
@@ -245,6 +253,16 @@ class JetFaults:
         return JetFaults(
             *(
                 _widen(getattr(self, name), n_jets, name)
+                for name in ("off_from_s", "stuck_from_s", "stuck_for_s", "thrust_factor")
+            )
+        )
+
+    def take(self, rows) -> JetFaults:
+        """The faults of runs ``rows`` (indices into the runs, repeats allowed)."""
+        rows = np.asarray(rows, int)
+        return JetFaults(
+            *(
+                getattr(self, name)[rows]
                 for name in ("off_from_s", "stuck_from_s", "stuck_for_s", "thrust_factor")
             )
         )

@@ -130,8 +130,9 @@ def fly(
     """Fly ``scenario`` for every run of ``params`` (default: one nominal vehicle).
 
     ``vehicle`` (a :class:`spacecraft.vehicle_file.FlyingVehicle`): fly that vehicle file, its
-    model, nominal parameters, valve limits and propellant, with any jet count, instead of the
-    packaged vehicle (``propulsion`` is then the file's); the controller is built for it.
+    model, nominal parameters, valve limits, valve timing and propellant, with any jet count,
+    instead of the packaged vehicle (``propulsion`` is then the file's); the controller is
+    built for it.
     """
     if vehicle is None:
         model = load_model()
@@ -149,8 +150,7 @@ def fly(
         params,
         ctl,
         model=vehicle.model,
-        propulsion=vehicle.propulsion(),
-        tank=vehicle.tank(params.n_runs),
+        **vehicle.flight_options(params.n_runs),
     )
 
 

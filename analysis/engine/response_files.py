@@ -11,7 +11,8 @@ replaced only with ``overwrite``), flies the database
 
 The Parquet file's metadata (key ``rcsim``, JSON) names the vehicle file and its SHA-256, the
 seed, the dispersed vehicles, the on-times flown and those dropped (below the vehicle's
-minimum on-time, a pulse its valves never make), and the code version.
+minimum on-time, a pulse its valves never make), the valve timing flown when the vehicle has
+one (``valve_timing``), and the code version.
 """
 
 from __future__ import annotations
@@ -70,7 +71,7 @@ def write_response_database(
     flying = FlyingVehicle.load(vehicle)
     frame = response_database(flying, n_vehicles=n_vehicles, seed=seed, nthread=nthread)
     table = response_summary(frame)
-    meta = {
+    meta: dict = {
         "vehicle": flying.definition.source,
         "vehicle_name": flying.definition.name,
         "vehicle_sha256": hashlib.sha256(Path(flying.definition.source).read_bytes()).hexdigest(),
@@ -81,6 +82,8 @@ def write_response_database(
         "dropped_on_times_s": frame.attrs["dropped_on_times_s"],
         "code_version": code_version(),
     }
+    if flying.definition.has_delays:  # the valve timing flown (the file's), when it has one
+        meta["valve_timing"] = flying.definition.delay_record()
     fig = _plot(flying, table, n_vehicles)
     created = make_parents(database)
     try:

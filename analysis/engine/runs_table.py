@@ -200,9 +200,9 @@ _JET_OUTCOME = (
     "jet_{jet}_on_time_s",
     "float64",
     "s",
-    "total on-time of the jet: what it delivered (with [dispersions.timing] or "
-    "[dispersions.fault], the commands moved by the delays, plus stuck-on time, "
-    "minus failed time)",
+    "total on-time of the jet: what it delivered (with valve timing -- the vehicle file's or "
+    "[dispersions.timing] -- or [dispersions.fault], the commands moved by the delays, plus "
+    "stuck-on time, minus failed time)",
 )
 _OUTCOMES_AFTER: tuple[Column, ...] = (
     Column(

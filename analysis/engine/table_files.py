@@ -115,7 +115,8 @@ def is_coupled(vehicle: str | os.PathLike) -> bool:
 
 def _vehicle_generation(vehicle: str | os.PathLike) -> dict:
     """The :func:`generate_table` arguments that fly a vehicle file (with Table 2's jet map)
-    instead of the packaged vehicle: its model, nominal parameters and valve limits."""
+    instead of the packaged vehicle: its model, nominal parameters, valve limits and valve
+    timing (None when it has no delay: the paper's rule alone)."""
     from spacecraft.vehicle_file import FlyingVehicle
 
     flying = FlyingVehicle.load(vehicle)
@@ -123,4 +124,5 @@ def _vehicle_generation(vehicle: str | os.PathLike) -> dict:
         "model": flying.model,
         "params": flying.nominal(1),
         "propulsion": flying.propulsion(),
+        "timing": flying.timing(1),
     }

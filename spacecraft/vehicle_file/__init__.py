@@ -2,11 +2,11 @@
 
 * :mod:`~spacecraft.vehicle_file.schema` -- the file's keys, their checks and the validated
   :class:`~spacecraft.vehicle_file.schema.VehicleDef` (mass, CG, full inertia, any number of
-  jets, propellant, the Table 5-format dispersion table);
+  jets with their valve delays, propellant, the Table 5-format dispersion table);
 * :mod:`~spacecraft.vehicle_file.mjcf` -- the vehicle's MJCF text and compiled model, with the
   packaged vehicle's structure (jets as site actuators named ``jet_01``...);
 * :mod:`~spacecraft.vehicle_file.flying` -- a file ready to fly (model, nominal parameters
-  with its Isp, minimum on-time, propellant tank);
+  with its Isp, minimum on-time, valve timing, propellant tank);
 * :mod:`~spacecraft.vehicle_file.authority` -- what the jets can do: force/torque matrix,
   authority per axis and direction, unreachable directions, jet-out cases
   (``rcsim vehicle check``).

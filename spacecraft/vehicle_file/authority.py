@@ -193,6 +193,15 @@ def check_text(vehicle: VehicleDef, result: VehicleCheck) -> str:
         f"inertia about the CG: moments {np.diag(inertia).tolist()} kg m^2, products "
         f"[{inertia[0, 1]:g}, {inertia[0, 2]:g}, {inertia[1, 2]:g}]; principal "
         f"{np.round(np.linalg.eigvalsh(inertia), 3).tolist()}",
+    ]
+    if d.delay_keys:  # the vehicle's nominal valve timing, flown by every flight of it
+        ms = lambda v: "/".join(f"{x * 1e3:g}" for x in sorted(set(v.tolist())))  # noqa: E731
+        out.append(
+            f"valve timing: command delay {d.command_delay_s * 1e3:g} ms; jets open "
+            f"{ms(d.open_delays_s())} ms, close {ms(d.close_delays_s())} ms after their "
+            "command edges"
+        )
+    out += [
         "",
         "Force [N] and torque about the CG [N m] of each jet at full thrust:",
         f"{'jet':{w}s}"

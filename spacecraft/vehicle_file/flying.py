@@ -7,7 +7,13 @@ What the engine needs to fly a user's vehicle instead of the packaged one, in on
   that model, with the file's Isp (as many jets as the file has: :attr:`FlyingVehicle.n_jets`);
 * :meth:`FlyingVehicle.propulsion` -- the valve limits (the file's minimum on-time);
 * :meth:`FlyingVehicle.tank` -- the tracked propellant, or None when the file gives no
-  propellant mass (then the mass properties stay constant, as for the packaged vehicle).
+  propellant mass (then the mass properties stay constant, as for the packaged vehicle);
+* :meth:`FlyingVehicle.timing` -- the file's nominal valve timing (command, opening and closing
+  delays), or None when it has none (then the flight is exactly one without delays);
+* :meth:`FlyingVehicle.flight_options` -- all three as the keywords of
+  :func:`spacecraft.simulation.simulate_batch` / :func:`analysis.engine.flight.fly_batch`: the
+  one way a flight of the vehicle outside a campaign gets them (a campaign combines the
+  timing with its spec's ``[dispersions.timing]``, :mod:`analysis.engine.campaign.effects`).
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ import mujoco
 
 from spacecraft.propellant import PropellantTank
 from spacecraft.propulsion import PropulsionParams
+from spacecraft.valves import ValveTiming
 from spacecraft.vehicle import VehicleParams, jet_count
 from spacecraft.vehicle_file.mjcf import build_model
 from spacecraft.vehicle_file.schema import VehicleDef, load_vehicle
@@ -63,3 +70,19 @@ class FlyingVehicle:
         if d.propellant_kg is None:
             return None
         return PropellantTank.of(n_runs, d.propellant_kg, d.tank_position_m)
+
+    def timing(self, n_runs: int) -> ValveTiming | None:
+        """The file's nominal valve timing for ``n_runs`` runs, None when every delay is zero
+        (a flight without timing is then exactly the flight it always was)."""
+        d = self.definition
+        return d.valve_timing(n_runs) if d.has_delays else None
+
+    def flight_options(self, n_runs: int) -> dict:
+        """``propulsion``, ``tank`` and ``timing`` of ``n_runs`` flights of the vehicle: the
+        keywords of :func:`~spacecraft.simulation.simulate_batch` (None where the file gives
+        no propellant mass or no delay)."""
+        return {
+            "propulsion": self.propulsion(),
+            "tank": self.tank(n_runs),
+            "timing": self.timing(n_runs),
+        }

@@ -15,6 +15,13 @@ Conventions
   vehicle at t = 0), a point mass at ``tank_position_m`` (default the CG); absent, the
   propellant is accounted but never runs out and the mass properties stay constant.
 * ``[dispersions]`` is Table 5 in the campaign specs' ``three_sigma`` keys (3-sigma, normal).
+* Valve timing (optional, seconds; the names of :class:`spacecraft.valves.ValveTiming` and of a
+  campaign's ``[dispersions.timing]``): ``open_delay_s`` and ``close_delay_s`` per jet (in
+  ``[jet_defaults]``, overridden per ``[[jet]]``), the valve's latency from a rising (falling)
+  command edge to thrust on (off); ``[timing] command_delay_s``, the sensor-to-actuator delay of
+  the whole vehicle.  A pulse commanded over ``[t, t + u]`` thrusts over
+  ``[t + command + open, t + command + u + close]``.  Absent: zero, and the vehicle flies exactly
+  as a file without them.  They are the vehicle's nominal timing, flown by every flight of it.
 
 Layout of the file: ``models/vehicle/paper.toml`` (every key, commented).
 """
@@ -43,6 +50,7 @@ from spacecraft.dispersions import (
     second_moment_slack,
     three_sigma_bounds,
 )
+from spacecraft.valves import ValveTiming
 from spacecraft.vehicle import G0_M_S2
 
 #: Vehicle files packaged with rcsim, by name (``models/vehicle/<name>.toml``).
@@ -75,6 +83,11 @@ ISP_RANGE_S = (20.0, 1000.0)
 #: Finest physics step [s]: 0.1 ms, ten times finer than the 1 ms reference of the convergence
 #: study (docs/convergence.md: RK4 at 40 ms is converged); 400 steps a cycle already.
 MIN_TIMESTEP_S = 1e-4
+#: The valve-timing keys (seconds), named as :class:`spacecraft.valves.ValveTiming` names them:
+#: the per-jet valve latencies (``[jet_defaults]``, ``[[jet]]``) and the vehicle's
+#: sensor-to-actuator delay (``[timing]``).
+VALVE_DELAY_KEYS = ("open_delay_s", "close_delay_s")
+DELAY_KEYS = ("command_delay_s", *VALVE_DELAY_KEYS)
 
 
 @dataclass(frozen=True)
@@ -83,7 +96,8 @@ class Jet:
 
     ``direction`` is the unit force on the vehicle; ``direction_text`` is what the MJCF gets
     (the file's vector when it is already unit, so the packaged vehicle compiles to the same
-    site frames bit for bit).
+    site frames bit for bit).  ``open_delay_s``, ``close_delay_s``: the valve's latency from
+    a rising (falling) command edge to thrust on (off) [s] (0: none).
     """
 
     name: str
@@ -91,6 +105,8 @@ class Jet:
     direction: tuple
     direction_text: tuple
     thrust_n: float
+    open_delay_s: float = 0.0
+    close_delay_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -121,6 +137,12 @@ class VehicleDef:
         Where the propellant is (point mass) [m].
     three_sigma : dict
         Table 5 name -> 3-sigma in SI.
+    command_delay_s : float
+        Sensor-to-actuator delay [s] (``[timing]``; 0: none).
+    delay_keys : tuple of str
+        The valve-timing keys (:data:`DELAY_KEYS`) the file gives, anywhere (even as 0): the
+        delays it states as its own, which a campaign spec may disperse but not restate
+        (:mod:`analysis.engine.campaign.effects`).
     """
 
     source: str
@@ -139,6 +161,8 @@ class VehicleDef:
     tank_position_m: tuple | None = None
     three_sigma: dict = field(default_factory=dict)
     doc: str = ""
+    command_delay_s: float = 0.0
+    delay_keys: tuple = ()
 
     @property
     def n_jets(self) -> int:
@@ -159,6 +183,41 @@ class VehicleDef:
     def thrusts_n(self) -> np.ndarray:
         """Thrust of each jet [N], (n_jets,)."""
         return np.array([j.thrust_n for j in self.jets], float)
+
+    def open_delays_s(self) -> np.ndarray:
+        """Valve opening latency of each jet [s], (n_jets,)."""
+        return np.array([j.open_delay_s for j in self.jets], float)
+
+    def close_delays_s(self) -> np.ndarray:
+        """Valve closing latency of each jet [s], (n_jets,)."""
+        return np.array([j.close_delay_s for j in self.jets], float)
+
+    @property
+    def has_delays(self) -> bool:
+        """Whether any delay is non-zero (else the vehicle flies as one without delays)."""
+        return bool(
+            self.command_delay_s or self.open_delays_s().any() or self.close_delays_s().any()
+        )
+
+    def delay_record(self) -> dict:
+        """The nominal delays as JSON-able values [s]: ``command_delay_s`` and the per-jet
+        ``open_delay_s``, ``close_delay_s`` lists (what manifests and metadata record)."""
+        return {
+            "command_delay_s": self.command_delay_s,
+            "open_delay_s": self.open_delays_s().tolist(),
+            "close_delay_s": self.close_delays_s().tolist(),
+        }
+
+    def valve_timing(self, n_runs: int = 1) -> ValveTiming:
+        """The vehicle's nominal delays for ``n_runs`` runs, ``(n_runs, n_jets)`` per jet
+        (zeros when the file gives none)."""
+        return ValveTiming.of(
+            n_runs,
+            n_jets=self.n_jets,
+            command_delay_s=self.command_delay_s,
+            open_delay_s=self.open_delays_s(),
+            close_delay_s=self.close_delays_s(),
+        )
 
     def force_torque(self) -> np.ndarray:
         """Force [N] and torque about the CG [N m] of each jet at full thrust, (6, n_jets):
@@ -266,14 +325,34 @@ def _reach(r: Reader, name: str, what: str, point, cg: tuple, gyration_m: float)
         )
 
 
+def _delay(r: Reader, name: str, default: float = 0.0) -> float:
+    """A delay key [s]: finite, >= 0 and shorter than the control cycle."""
+    value = r.number(name, default, minimum=0.0)
+    if value >= CONTROL_CYCLE_S:
+        raise r.error(
+            name,
+            f"must be shorter than the {CONTROL_CYCLE_S * 1e3:g} ms control cycle: a valve "
+            "command must act within its cycle (a delay in ms?)",
+            value,
+        )
+    return value
+
+
+_JET_DEFAULT_KEYS = ("thrust_n", "min_on_s", *VALVE_DELAY_KEYS)
+
+
 def _jets(top: Reader, cg: tuple, src: str, gyration_m: float) -> tuple[list[Jet], float]:
     defaults = top.table_("jet_defaults")
     shared = dict(defaults.table)
     for key in shared:
-        if key not in ("thrust_n", "min_on_s"):
+        if key not in _JET_DEFAULT_KEYS:
             raise InputError(
-                f"{src}: unknown key 'jet_defaults.{key}' (jet_defaults takes thrust_n, min_on_s)"
+                f"{src}: unknown key 'jet_defaults.{key}' (jet_defaults takes "
+                f"{', '.join(_JET_DEFAULT_KEYS)})"
             )
+    for key in VALVE_DELAY_KEYS:  # checked here, so that a message names jet_defaults
+        if key in shared:
+            _delay(Reader(dict(shared), "jet_defaults", src), key)
     raw_jets = top.raw("jet", None)
     if not isinstance(raw_jets, list) or not raw_jets:
         raise top.error("jet", "at least one [[jet]] block is required", raw_jets)
@@ -309,6 +388,7 @@ def _jets(top: Reader, cg: tuple, src: str, gyration_m: float) -> tuple[list[Jet
                 thrust,
             )
         min_on.add(r.number("min_on_s", 0.0, minimum=0.0))
+        open_s, close_s = (_delay(r, key) for key in VALVE_DELAY_KEYS)
         r.done()
         if np.linalg.norm(np.subtract(pos, cg)) < MIN_ARM_M:
             raise r.error(
@@ -318,7 +398,7 @@ def _jets(top: Reader, cg: tuple, src: str, gyration_m: float) -> tuple[list[Jet
                 list(pos),
             )
         _reach(r, "position_m", "the jet", pos, cg, gyration_m)
-        jets.append(Jet(name, pos, unit, d if norm == 1.0 else unit, thrust))
+        jets.append(Jet(name, pos, unit, d if norm == 1.0 else unit, thrust, open_s, close_s))
     if len(min_on) > 1:
         raise top.error(
             "jet",
@@ -333,6 +413,39 @@ def _jets(top: Reader, cg: tuple, src: str, gyration_m: float) -> tuple[list[Jet
             shortest,
         )
     return jets, shortest
+
+
+def _timing(t: Reader, jets: list[Jet], raw_jets: list, defaults: dict) -> tuple[float, tuple]:
+    """``[timing] command_delay_s`` and the delay keys the file gives (:data:`DELAY_KEYS`,
+    from the ``[jet_defaults]`` and ``[[jet]]`` tables as written); with each jet's valve
+    latencies the command must still act within the cycle, as the simulator requires
+    (``command + open < T``, ``command + close < T``)."""
+    given = [key for key in VALVE_DELAY_KEYS if key in defaults or any(key in j for j in raw_jets)]
+    for key in VALVE_DELAY_KEYS:
+        if t.has(key):
+            raise t.error(
+                key,
+                "valve latencies are per jet: give them in [jet_defaults] (every jet) or in a "
+                "[[jet]] block; [timing] takes command_delay_s",
+                t.raw(key),
+            )
+    if t.has("command_delay_s"):
+        given.insert(0, "command_delay_s")
+    command = _delay(t, "command_delay_s")
+    t.done()
+    for k, jet in enumerate(jets):
+        for key in VALVE_DELAY_KEYS:
+            own = key in raw_jets[k]
+            total = command + getattr(jet, key)
+            if total >= CONTROL_CYCLE_S:
+                where = f"jet[{k + 1}].{key}" if own else f"jet_defaults.{key}"
+                raise InputError(
+                    f"{t.source}: {where}: plus timing.command_delay_s = {command:g} s is "
+                    f"{total:.4g} s; it must be shorter than the {CONTROL_CYCLE_S * 1e3:g} ms "
+                    f"control cycle: a valve command must act within its cycle "
+                    f"(got {getattr(jet, key)!r})"
+                )
+    return command, tuple(given)
 
 
 _UNITS = {"kg": "kg", "m": "m", "m2": "kg m^2", "n": "N", "deg": "deg"}
@@ -460,7 +573,10 @@ def load_vehicle(path: str | os.PathLike) -> VehicleDef:
     hull_center = hull.vector("center_m", 3, list(cg) if hull_half else None, required=False)
     hull.done()
     reach_unit = float(gyration.max())  # the radius of gyration of the largest moment
+    # The tables as written (``_jets`` validates them): which delay keys the file gives.
+    raw_jets, raw_defaults = top.table.get("jet", []), top.table.get("jet_defaults", {})
     jets, min_on = _jets(top, cg, src, reach_unit)
+    command_delay, delay_keys = _timing(top.table_("timing"), jets, raw_jets, raw_defaults)
     pr = top.table_("propellant")
     isp = pr.number("isp_s", 280.0, minimum=0.0, strict=True)
     lo, hi = ISP_RANGE_S
@@ -501,4 +617,6 @@ def load_vehicle(path: str | os.PathLike) -> VehicleDef:
         tank_position_m=tank,
         three_sigma=three_sigma,
         doc=doc,
+        command_delay_s=command_delay,
+        delay_keys=delay_keys,
     )

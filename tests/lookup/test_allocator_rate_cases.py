@@ -9,9 +9,18 @@ On the paper's vehicle (pure couples) the same holds.  The controller is told wh
 (``jets_off``), as a table generated with ``--jets-off`` is.  Every case is flown with every
 jet off: on these vehicles no single jet out loses an axis direction (``rcsim vehicle
 check``, asserted below), so every case stays reachable.
+
+With valve delays in the vehicle file (command 5 ms, open 8 ms, close 5 ms on every jet) the
+allocator is not told them: it plans thrust time as if each pulse thrust as commanded, and each
+opening delivers 3 ms less.  The re-planning from the measured rate (the receding horizon)
+absorbs it, so the final requirements hold; the within-cycle cancellation does not hold to
+0.01 deg/s at every cycle (pulses of unequal length lose the same 3 ms, which shifts their
+torque ratio: up to 0.013 deg/s measured on canted12), so that one is not asserted there.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -25,9 +34,17 @@ from spacecraft.vehicle_file import FlyingVehicle
 from spacecraft.vehicle_file.authority import check_vehicle
 
 
+def _with_delays(vehicle: FlyingVehicle) -> FlyingVehicle:
+    d = vehicle.definition
+    jets = tuple(replace(j, open_delay_s=0.008, close_delay_s=0.005) for j in d.jets)
+    return FlyingVehicle(replace(d, jets=jets, command_delay_s=0.005), vehicle.model)
+
+
+@pytest.mark.parametrize("delays", [False, True], ids=["instant-valves", "valve-delays"])
 @pytest.mark.parametrize("name", ["canted16", "canted12", "paper"])
-def test_rate_cases_nominal_and_one_jet_off(name):
+def test_rate_cases_nominal_and_one_jet_off(name, delays):
     vehicle = FlyingVehicle.load(name)
+    vehicle = _with_delays(vehicle) if delays else vehicle
     assert not any(out.lost for out in check_vehicle(vehicle.definition, pairs=False).jet_out)
     rate = np.asarray(load_rate_cases().rate_cmd, float)
     n_jets = vehicle.definition.n_jets
@@ -43,13 +60,14 @@ def test_rate_cases_nominal_and_one_jet_off(name):
     controller.available = available  # per run: the jet each run has lost
     history = simulate_batch(
         vehicle.nominal(n), controller, Guidance.rate(rates), 6.0, model=vehicle.model,
-        propulsion=vehicle.propulsion(), faults=JetFaults.of(n, off_from_s=off_from),
-        tank=vehicle.tank(n), nthread=1,
+        faults=JetFaults.of(n, off_from_s=off_from), nthread=1, **vehicle.flight_options(n),
     )  # fmt: skip
+    assert (vehicle.timing(n) is not None) == delays
     assert not history.failed.any()
     commanded = rates != 0
     final = np.degrees(np.abs(history.final.rate_err_B))
     assert np.where(commanded, final, 0).max() < 0.04
     assert np.where(~commanded, final, 0).max() < 0.01
-    flown = np.degrees(np.abs(history.omega_B))  # (n, cycles, 3), every cycle's start
-    assert np.where(~commanded[:, None, :], flown, 0).max() < 0.01
+    if not delays:
+        flown = np.degrees(np.abs(history.omega_B))  # (n, cycles, 3), every cycle's start
+        assert np.where(~commanded[:, None, :], flown, 0).max() < 0.01

@@ -5,6 +5,11 @@ Oracle: with no dispersion, a paper-vehicle jet fired alone from rest torques on
 the rate change is exactly ``tau t / I`` (about that axis; zero about the others), and the CG
 velocity change is ``F t / m`` along the jet (Newton).  Tolerance 1e-9 relative: the flight
 is an RK4 integration of a constant torque about a principal axis, exact to rounding.
+
+With valve timing (command delay ``d``, the jet's latencies ``o`` and ``c``) the pulse thrusts
+``max(0, t + c - o)`` instead of ``t`` (the timing model, ``spacecraft/valves.py``): the same
+oracles with that time, which the frame's ``thrust_s`` must be (1e-12), and the summary's slope
+is per second of thrust.
 """
 
 from __future__ import annotations
@@ -13,21 +18,37 @@ from dataclasses import replace
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from analysis.engine.response_files import write_response_database
 from lookup.response_database import RATE_COLUMNS, response_database, response_summary
 from spacecraft.vehicle_file import FlyingVehicle
 
 
-def test_single_jet_response_is_euler_and_newton():
+@pytest.mark.parametrize("delays", [False, True])
+def test_single_jet_response_is_euler_and_newton(delays):
     flying = FlyingVehicle.load("paper")
     d = replace(flying.definition, three_sigma={})
+    lag = np.zeros(d.n_jets)
+    if delays:  # per jet: closing latency minus opening latency from -7 to +8 ms
+        opens = 0.002 + 0.0005 * np.arange(d.n_jets)
+        closes = 0.009 - 0.0005 * np.arange(d.n_jets)
+        jets = tuple(
+            replace(jet, open_delay_s=o, close_delay_s=c)
+            for jet, o, c in zip(d.jets, opens, closes, strict=True)
+        )
+        d = replace(d, jets=jets, command_delay_s=0.006)
+        lag = closes - opens
     flying = FlyingVehicle(d, flying.model)
-    frame = response_database(flying, n_vehicles=2, on_times_s=(0.04, 0.2), nthread=1)
+    frame = response_database(flying, n_vehicles=2, on_times_s=(0.01, 0.04, 0.2), nthread=1)
+    assert ("thrust_s" in frame) == delays
     ft = d.force_torque()
     inertia = np.diag(d.inertia_kg_m2)
     for _, row in frame.iterrows():
-        j, t = row["jet_number"] - 1, row["on_time_s"]
+        j = row["jet_number"] - 1
+        t = max(0.0, row["on_time_s"] + lag[j])
+        if delays:
+            assert row["thrust_s"] == pytest.approx(t, rel=1e-12, abs=1e-15)
         expect_w = ft[3:, j] * t / inertia
         got_w = row[list(RATE_COLUMNS)].to_numpy(float)
         np.testing.assert_allclose(got_w, expect_w, rtol=1e-9, atol=1e-15)

@@ -14,6 +14,10 @@ Oracles
   recording controller received equals ``meas_*`` and differs from the true errors.
 * Adding sensors/timing/faults draws never changes a run's Table 5 vehicle (the dispersion
   stream is untouched) and a run's draws do not depend on which other runs are drawn with it.
+* A vehicle file's nominal delays (``draw_timing(..., nominal)``): the documented draw,
+  ``max(0, nominal + mean + sigma z)`` per jet with ``z`` the run's timing stream's normals in
+  their fixed order (command, then the opening, then the closing latencies), rebuilt from the
+  stream: exact (the same operations on the same numbers).
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ from models.errors import InputError
 from spacecraft.dispersions import DispersionSigmas, draw_runs
 from spacecraft.effect_draws import (
     SENSOR_NOISE,
+    TIMING,
     FaultSpec,
     SensorSpec,
     TimingSpec,
@@ -36,6 +41,7 @@ from spacecraft.effect_draws import (
 from spacecraft.navigation import Guidance
 from spacecraft.sensors import SensorParams
 from spacecraft.simulation import BatchSimulation
+from spacecraft.valves import ValveTiming
 from spacecraft.vehicle import VehicleParams
 
 CYCLE_S = 0.04
@@ -144,6 +150,41 @@ def test_effect_draws_leave_vehicles_alone_and_do_not_depend_on_the_batch(model)
     after = draw_runs(nominal, sig, 11, [0, 1, 2]).params
     np.testing.assert_array_equal(before.thrust_n, after.thrust_n)
     np.testing.assert_array_equal(before.mass_kg, after.mass_kg)
+
+
+def test_timing_draws_disperse_about_a_vehicles_own_delays():
+    n_jets, runs = 5, [3, 8, 9, 10, 11, 12]
+    nominal = ValveTiming.of(
+        1,
+        command_delay_s=0.004,
+        open_delay_s=[[0.001, 0.002, 0.003, 0.004, 0.0]],
+        close_delay_s=[[0.005, 0.004, 0.003, 0.002, 0.001]],
+    )
+    spec = TimingSpec(
+        command_delay_sigma_s=0.001,
+        open_delay_sigma_s=0.002,
+        close_delay_s=0.0,
+        close_delay_sigma_s=0.0015,
+    )
+    got = draw_timing(spec, 11, runs, n_jets, nominal)
+    z = np.array(
+        [np.random.default_rng(effect_stream(11, i, TIMING)).standard_normal(11) for i in runs]
+    )
+    np.testing.assert_array_equal(got.command_delay_s, np.maximum(0.004 + 0.001 * z[:, 0], 0))
+    np.testing.assert_array_equal(
+        got.open_delay_s, np.maximum(nominal.open_delay_s + 0.002 * z[:, 1:6], 0)
+    )
+    np.testing.assert_array_equal(
+        got.close_delay_s, np.maximum(nominal.close_delay_s + 0.0015 * z[:, 6:], 0)
+    )
+    assert (got.open_delay_s[:, 4] == 0).any()  # a zero nominal clips: the clip is exercised
+    # A uniform nominal is the spec's mean: the same draws either way.
+    uniform = ValveTiming.of(1, n_jets=n_jets, open_delay_s=0.003)
+    np.testing.assert_array_equal(
+        draw_timing(spec, 11, runs, n_jets, uniform).open_delay_s,
+        draw_timing(TimingSpec(**{**spec.__dict__, "open_delay_s": 0.003}), 11, runs, n_jets)
+        .open_delay_s,
+    )  # fmt: skip
 
 
 def test_fault_draw_fails_one_listed_jet_per_run_in_the_window():

@@ -69,7 +69,7 @@ def _fly_chunk(
     """Fly one chunk: run ``i`` flies case ``cases[i]`` with vehicle ``params.take(i)`` and
     table ``run_times[i]``; return its outcome columns.  Runs in a worker process.  The
     spec's vehicle file, if it has one, is flown as a campaign flies it (its model,
-    propulsion and tank)."""
+    propulsion, valve timing and tank)."""
     from analysis.engine.campaign.chunk import spec_vehicle
 
     controller = LookupController.for_runs(table, run_times, lookup_params)
@@ -77,7 +77,7 @@ def _fly_chunk(
     model = load_model() if vehicle is None else vehicle.model
     flying: dict = {}
     if vehicle is not None:
-        flying = {"propulsion": vehicle.propulsion(), "tank": vehicle.tank(len(cases))}
+        flying = vehicle.flight_options(len(cases))
     history = fly_batch(
         [spec.cases[c] for c in cases], params, controller, model=model, nthread=nthread, **flying
     )

@@ -733,7 +733,7 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
     params = draw_runs(nominal_of(spec, model), spec.sigmas, spec.seed, ids).params
     flying: dict = {}
     if vehicle is not None:
-        flying = {"propulsion": vehicle.propulsion(), "tank": vehicle.tank(shown)}
+        flying = vehicle.flight_options(shown)
     thr = np.degrees(spec.rate_threshold_rad_s)
     fig, axes = new_figure(1, 2, figsize=(12, 4.5), sharey=True)
     cmd = np.degrees(spec.cases[row].rate_cmd_rad_s[a])

@@ -198,6 +198,8 @@ def fly_runs(
         controller = _Cancellable(controller, cancel)
     flying: dict = {}
     if vehicle is not None:
+        # Its valve timing comes with the effects: the spec's [dispersions.timing] disperses
+        # about it (analysis.engine.campaign.effects).
         flying = {"propulsion": vehicle.propulsion(), "tank": vehicle.tank(run_ids.size)}
     history = fly_batch(
         scenarios, dispersed.params, controller, model=model, nthread=nthread, **flying, **effects

@@ -14,6 +14,16 @@ such a spec resolves exactly as one written before these tables existed (same di
 existing campaigns resume and replay as before.  Every draw comes from children of the run's
 noise stream, never the Table 5 dispersion stream: adding an effect leaves every run's vehicle
 bit for bit the same.
+
+A vehicle file's own valve timing (``[timing] command_delay_s``, per-jet ``open_delay_s`` and
+``close_delay_s``: :mod:`spacecraft.vehicle_file.schema`) is the vehicle's *nominal*: every run
+flies it.  ``[dispersions.timing]`` then disperses about it: its sigmas are applied to the
+vehicle's nominal delays, jet by jet, clipped at 0.  A delay the vehicle file gives (even as 0)
+cannot also get a mean in the spec -- whether the spec's value should replace the file's or
+add to it is the analyst's to say, so both are refused naming the key; a delay the file does
+not give takes the spec's mean as before.  Without a ``[dispersions.timing]`` table every run
+flies the vehicle's delays exactly, and ``runs.parquet`` has no delay columns (the delays are a
+property of the vehicle, recorded in the manifest's ``vehicle_timing``).
 """
 
 from __future__ import annotations
@@ -38,6 +48,7 @@ from spacecraft.effect_draws import (
     draw_timing,
     effect_frame,
 )
+from spacecraft.valves import ValveTiming
 
 #: ``[dispersions.sensor]`` keys (one number for all axes or [roll, pitch, yaw], one-sigma, in
 #: the unit of the name) -> (SensorSpec field, largest value accepted).  The largest values lie
@@ -76,11 +87,14 @@ DELAY_SIGMAS = 5.0
 
 @dataclass(frozen=True)
 class Effects:
-    """A campaign's sensor, timing and fault specs (each ``is_none()`` when absent)."""
+    """A campaign's sensor, timing and fault specs (each ``is_none()`` when absent), and the
+    vehicle file's nominal valve timing (``vehicle_timing``, one run; None when it has no
+    non-zero delay), which the spec's timing disperses about (module docstring)."""
 
     sensor: SensorSpec = field(default_factory=SensorSpec)
     timing: TimingSpec = field(default_factory=TimingSpec)
     fault: FaultSpec = field(default_factory=FaultSpec)
+    vehicle_timing: ValveTiming | None = None
 
     @property
     def groups(self) -> tuple[str, ...]:
@@ -93,7 +107,9 @@ class Effects:
         imperfect sensors, the delivered on-times under valve timing or faults."""
         return {
             "measured": not self.sensor.is_none(),
-            "delivered": not (self.timing.is_none() and self.fault.is_none()),
+            "delivered": not (
+                self.timing.is_none() and self.fault.is_none() and self.vehicle_timing is None
+            ),
         }
 
 
@@ -221,12 +237,15 @@ def parse_effects(
     longest_s: float,
     n_jets: int,
     vehicle: str = "the vehicle",
+    definition=None,
 ) -> tuple[Effects, dict]:
     """Read the ``sensor``, ``timing`` and ``fault`` sub-tables (popped from ``dispersions``).
 
     ``cycle_s``: the campaign's control cycle [s] (delays must act within it); ``longest_s``:
     its longest run [s] (fault windows must start within it); ``n_jets``: the jets of the
-    campaign's vehicle (a fault's jets are among them), ``vehicle`` its name in messages.
+    campaign's vehicle (a fault's jets are among them), ``vehicle`` its name in messages;
+    ``definition``: its :class:`~spacecraft.vehicle_file.VehicleDef` (None: the packaged
+    vehicle), whose valve timing is the nominal the spec's timing disperses about.
 
     Returns
     -------
@@ -239,7 +258,8 @@ def parse_effects(
     ------
     InputError
         Naming the file, table and key: a bad value, a table that is not a
-        table, delays that do not fit in the control cycle.
+        table, delays that do not fit in the control cycle, the mean of a delay the vehicle
+        file gives.
     """
     specs, resolved = {}, {}
     for name, read in TABLES.items():
@@ -252,20 +272,48 @@ def parse_effects(
         if not spec.is_none():
             # TOML values of these keys (numbers, lists, strings) are JSON as they are.
             resolved[name] = dict(sorted(raw.items()))
-    effects = Effects(**specs)
-    _check_timing(effects.timing, f"{source}: [dispersions.timing]", cycle_s)
+        if name == "timing" and definition is not None:
+            _check_vehicle_timing(raw, where, definition)
+    nominal = None
+    if definition is not None and definition.has_delays:
+        nominal = definition.valve_timing(1)
+    effects = Effects(**specs, vehicle_timing=nominal)
+    _check_timing(effects.timing, f"{source}: [dispersions.timing]", cycle_s, nominal)
     return effects, resolved
 
 
-def _check_timing(t: TimingSpec, where: str, cycle: float) -> None:
+def _check_vehicle_timing(table: dict, where: str, definition) -> None:
+    """Refuse a spec mean of a delay the vehicle file gives (module docstring): replace or
+    add would both be a guess."""
+    for key in definition.delay_keys:
+        if key in table:
+            per_jet = "" if key == "command_delay_s" else " (per jet)"
+            sigma = key.replace("_delay_s", "_delay_sigma_s")
+            raise InputError(
+                f"{where}: {key}: the vehicle file {definition.source} gives its nominal "
+                f"{key}{per_jet}; the spec may disperse it ({sigma}, about the vehicle's) but "
+                f"not set it again: remove {key} from the spec, or from the vehicle file to "
+                f"fly the spec's (got {table[key]!r})"
+            )
+
+
+def _check_timing(
+    t: TimingSpec, where: str, cycle: float, nominal: ValveTiming | None = None
+) -> None:
     """Refuse delays whose draws would leave the control cycle ``cycle`` [s] (the simulator
-    requires ``command + open < cycle`` and ``command + close < cycle``)."""
+    requires ``command + open < cycle`` and ``command + close < cycle``), about the vehicle's
+    ``nominal`` delays (one run; its slowest jet) when it has them."""
     for valve in ("open", "close"):
         mean = t.command_delay_s + getattr(t, f"{valve}_delay_s")
+        what = f"command_delay_s + {valve}_delay_s"
+        if nominal is not None:
+            own = float(nominal.command_delay_s[0] + getattr(nominal, f"{valve}_delay_s").max())
+            mean = own + mean
+            what += f" (with the vehicle's nominal, {own:.4g} s at its slowest jet)"
         sigma = t.command_delay_sigma_s + getattr(t, f"{valve}_delay_sigma_s")
         if mean + DELAY_SIGMAS * sigma >= cycle:
             raise InputError(
-                f"{where}: command_delay_s + {valve}_delay_s + {DELAY_SIGMAS:g} x their sigmas "
+                f"{where}: {what} + {DELAY_SIGMAS:g} x their sigmas "
                 f"is {mean + DELAY_SIGMAS * sigma:.4g} s; it must stay under the "
                 f"{cycle:g} s control cycle (a valve command must act within its cycle)"
             )
@@ -297,8 +345,10 @@ def draw_effects(effects: Effects, seed: int, run_ids, n_jets: int) -> tuple[dic
         sensors, streams = draw_sensors(effects.sensor, seed, run_ids)
         kwargs.update(sensors=sensors, sensor_streams=streams)
     if not effects.timing.is_none():
-        timing = draw_timing(effects.timing, seed, run_ids, n_jets)
+        timing = draw_timing(effects.timing, seed, run_ids, n_jets, effects.vehicle_timing)
         kwargs["timing"] = timing
+    elif effects.vehicle_timing is not None:  # the vehicle's own delays, the same every run
+        kwargs["timing"] = effects.vehicle_timing.for_jets(n_jets).take(np.zeros(run_ids.size))
     values.update({k: v.to_numpy() for k, v in effect_frame(sensors, timing).items()})
     if not effects.fault.is_none():
         faults, drawn = draw_faults(effects.fault, seed, run_ids, n_jets)
@@ -323,8 +373,22 @@ def describe(effects: Effects) -> str:
             f"sensor noise (rate {math.degrees(float(np.max(s.rate_noise_rad_s))):g} "
             f"deg/s, attitude {math.degrees(float(np.max(s.att_noise_rad))):g} deg 1-sigma)"
         )
-    t = effects.timing
-    if not t.is_none():
+    t, own = effects.timing, effects.vehicle_timing
+    if own is not None:
+        text = (
+            f"the vehicle's delays (command {own.command_delay_s[0] * 1e3:g} ms, valve open "
+            f"up to {own.open_delay_s.max() * 1e3:g} / close up to "
+            f"{own.close_delay_s.max() * 1e3:g} ms)"
+        )
+        if not t.is_none():
+            ms = lambda *v: " / ".join(f"{x * 1e3:g}" for x in v)  # noqa: E731
+            text += (
+                " + [dispersions.timing] (command / open / close: means "
+                f"{ms(t.command_delay_s, t.open_delay_s, t.close_delay_s)} ms, 1-sigma "
+                f"{ms(t.command_delay_sigma_s, t.open_delay_sigma_s, t.close_delay_sigma_s)} ms)"
+            )
+        parts.append(text)
+    elif not t.is_none():
         parts.append(
             f"delays (command {t.command_delay_s * 1e3:g} ms, valve open "
             f"{t.open_delay_s * 1e3:g} / close {t.close_delay_s * 1e3:g} ms)"

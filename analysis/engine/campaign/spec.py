@@ -412,13 +412,17 @@ def _check_reachable(vehicle: str, cases: list[Scenario], source: str) -> None:
 def _vehicle(top: Reader, base_dir: Path) -> tuple[str | None, dict, int]:
     """``vehicle``: a packaged vehicle's name or a vehicle file (relative to the spec), checked
     by loading it; with its sha256 in ``resolved`` (a resume or replay refuses a changed file)
-    and its jet count (the packaged vehicle's without the key)."""
+    and its jet count (the packaged vehicle's without the key).  A file that gives valve
+    timing has it in ``resolved`` too (``vehicle_timing``: the nominal delays every run flies,
+    about which ``[dispersions.timing]`` disperses; recorded only then, so other specs resolve
+    as before)."""
     from spacecraft.vehicle import jet_count, load_model
     from spacecraft.vehicle_file import PACKAGED_VEHICLES, FlyingVehicle, resolve_vehicle
 
     if not top.has("vehicle"):
         return None, {}, jet_count(load_model())
     stored = top.raw("vehicle_sha256") if top.has("vehicle_sha256") else None
+    stored_timing = top.raw("vehicle_timing") if top.has("vehicle_timing") else None
     value = top.raw("vehicle")
     if not isinstance(value, str) or not value:
         names = ", ".join(f'"{n}"' for n in PACKAGED_VEHICLES)
@@ -444,7 +448,19 @@ def _vehicle(top: Reader, base_dir: Path) -> tuple[str | None, dict, int]:
     if stored is not None and stored != digest:
         raise top.error("vehicle", "file changed since the campaign ran (sha256 differs)", value)
     name = value if value in PACKAGED_VEHICLES else path
-    return name, {"vehicle": name, "vehicle_sha256": digest}, flying.n_jets
+    resolved: dict = {"vehicle": name, "vehicle_sha256": digest}
+    definition = flying.definition
+    timing = definition.delay_record() if definition.delay_keys else None
+    if stored_timing is not None and stored_timing != timing:
+        raise top.error(
+            "vehicle_timing",
+            f"is not the valve timing of {definition.source} "
+            f"({'it gives none' if timing is None else timing})",
+            stored_timing,
+        )
+    if timing is not None:
+        resolved["vehicle_timing"] = timing
+    return name, resolved, flying.n_jets
 
 
 def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
@@ -525,10 +541,12 @@ def _dispersions(
     disp_table = file_key(d, "table", base_dir)
     frame = load_dispersions(disp_table)
     limits = None  # the packaged vehicle's ranges
+    definition = None
     if vehicle is not None:
         from spacecraft.vehicle_file import FlyingVehicle
 
         flying = FlyingVehicle.load(vehicle)
+        definition = flying.definition
         limits = vehicle_limits(flying.model)
         if disp_table is None:
             own = flying.definition.three_sigma
@@ -561,13 +579,17 @@ def _dispersions(
         longest_s=max(case.duration_s for case in cases),
         n_jets=n_jets,
         vehicle="the packaged vehicle" if vehicle is None else f"vehicle {vehicle}",
+        definition=definition,
     )
     d.done()
-    longest = max_duration_s(**effects.records(), n_jets=n_jets)
-    if effects.groups and any(case.duration_s > longest for case in cases):
+    records = effects.records()
+    longest = max_duration_s(**records, n_jets=n_jets)
+    if any(records.values()) and any(case.duration_s > longest for case in cases):
+        what = [f"[dispersions.{'/'.join(effects.groups)}]"] if effects.groups else []
+        what += ["the vehicle's valve timing"] if effects.vehicle_timing is not None else []
         raise InputError(
             f"{source}: scenario.duration_s: must be <= {longest:.0f} s with "
-            f"[dispersions.{'/'.join(effects.groups)}] (their per-cycle records "
+            f"{' and '.join(what)} (their per-cycle records "
             "must fit a chunk's memory budget too)"
         )
     try:

@@ -284,3 +284,41 @@ def test_a_confirmed_change_is_offered_to_the_mirror_case(monkeypatch):
     assert ev.loc[ROW3, "mirror_decision"] == (
         "differs: case 3 yaw -1, case 24 none (the change was not confirmed for case 24)"
     )
+
+
+def test_the_search_flies_a_vehicle_files_valve_delays(tmp_path):
+    """Issue 18: a vehicle file's valve delays are the vehicle's, flown by every flight of it:
+    the refinement's flights of a table (``rcsim loop --vehicle`` refines through them) are
+    its campaign's runs, delays included -- and not the same vehicle's runs without them."""
+    from analysis.apps.refinement.evaluate import Trials, evaluate, runs_from_campaign
+    from analysis.engine.campaign.runner import run_campaign
+    from spacecraft.vehicle_file import resolve_vehicle
+
+    text = resolve_vehicle("paper").read_text()
+    vehicle = tmp_path / "delayed.toml"
+    vehicle.write_text(
+        text.replace(
+            "[jet_defaults]", "[timing]\ncommand_delay_s = 0.005\n\n[jet_defaults]", 1
+        ).replace(
+            "min_on_s = 0.0", "min_on_s = 0.0\nopen_delay_s = 0.008\nclose_delay_s = 0.005", 1
+        )
+    )  # docs/vehicles.md's example valve timing: 5 ms, 8 ms, 5 ms
+    table = load_lookup_table(which="table6")
+    trials = Trials(np.repeat(table.firing_time_s[None], 2, 0), np.array(CASES), ("a", "b"))
+    flown = {}
+    for name, file in (("delayed", vehicle), ("paper", "paper")):
+        spec = refinement_spec(runs_per_case=3, seed=5, duration_s=6.0, vehicle=str(file))
+        flown[name] = evaluate(spec, table, trials, progress=False, threads=1)
+    assert spec.effects.vehicle_timing is None
+    spec = refinement_spec(
+        runs_per_case=3, seed=5, duration_s=6.0, vehicle=str(vehicle), table="table6"
+    )
+    assert spec.effects.vehicle_timing is not None
+    run_campaign(spec, tmp_path / "C", progress=False)
+    campaign = runs_from_campaign(pd.read_parquet(tmp_path / "C" / "runs.parquet"), CASES, 3)
+    columns = [c for c in flown["delayed"].columns if c.startswith("final_rate_err")]
+    assert columns
+    pd.testing.assert_frame_equal(
+        flown["delayed"][columns], campaign[columns], check_exact=True, check_dtype=False
+    )
+    assert not np.array_equal(flown["delayed"][columns], flown["paper"][columns])

@@ -7,6 +7,13 @@ Oracles
   packaged campaign's ``runs.parquet`` and envelopes exactly -- with the allocator, Table 5
   dispersions, sensor noise, valve delays and jet faults, i.e. every per-jet draw and record
   sized by the vehicle's own jet count.
+* A vehicle file's own valve timing is the nominal about which ``[dispersions.timing]``
+  disperses (``analysis/engine/campaign/effects.py``): the draw is ``max(0, nominal + sigma z)``
+  per jet, the same numbers as a spec mean equal to the nominal gives
+  (``tests/spacecraft/test_sensors.py``).  So canted12 with uniform delays in its file flies,
+  run for run, what canted12 without them flies with those delays as the spec's means: the
+  same ``runs.parquet``, envelopes and histories exactly (without a spec table, the same but
+  the spec's delay columns).
 * Propellant accounting (``runs.parquet`` ``propellant_kg``: ``F t / (Isp g0)`` summed over the
   jets): on a seven-jet vehicle it equals the sum over the run's seven recorded per-jet
   on-times and thrusts, to 1e-12 relative (rounding of the sum's order only) -- which holds
@@ -15,6 +22,7 @@ Oracles
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +32,9 @@ import pytest
 from analysis.apps.cli import main
 from analysis.engine.campaign.results import history_path
 from analysis.engine.campaign.runner import run_campaign
-from analysis.engine.campaign.spec import load_spec
+from analysis.engine.campaign.spec import load_spec, parse_dict
 from analysis.engine.runs_table import recorded_jets, run_columns
+from models.errors import InputError
 from spacecraft.vehicle import G0_M_S2
 from spacecraft.vehicle_file import resolve_vehicle
 
@@ -77,6 +86,9 @@ def test_paper_vehicle_file_campaign_is_the_packaged_one(tmp_path):
         )
     runs = pd.read_parquet(file / "runs.parquet")
     assert recorded_jets(runs.columns) == 16
+    # paper.toml gives no valve timing: nothing about it enters the resolved spec (the digest
+    # of every vehicle without delays is what it was).
+    assert "vehicle_timing" not in json.loads((file / "manifest.json").read_text())["spec"]
     assert runs["fault_jet"].between(0, 16).all() and (runs["fault_jet"] > 0).any()
 
 
@@ -202,3 +214,112 @@ def test_propellant_exhaustion_is_a_failure_and_ends_the_firing_count(tmp_path):
         before = history["t_s"].to_numpy() < t_out
         assert run["firings_total"] == starts[before].sum()
         assert starts[~before].sum() > starts[before].sum()
+
+
+DELAY_SPEC = """
+seed = 7
+runs_per_case = 3
+vehicle = "{vehicle}"
+[scenario]
+kind = "rate-cases"
+cases = [5, 13]
+duration_s = 3.0
+[controller]
+name = "allocator"
+[dispersions.three_sigma]
+thrust_n = 2.0
+{timing}
+[output]
+histories = "first"
+first_k = 1
+plots = false
+"""
+#: The delays canted12 gets in its file, or in the spec.
+DELAYS = {"command_delay_s": 0.005, "open_delay_s": 0.008, "close_delay_s": 0.005}
+SIGMAS = {
+    "command_delay_sigma_s": 0.0005,
+    "open_delay_sigma_s": 0.001,
+    "close_delay_sigma_s": 0.001,
+}
+
+
+@pytest.fixture(scope="module")
+def delayed12(tmp_path_factory) -> Path:
+    """canted12.toml with DELAYS: the command delay in [timing], the valve latencies in
+    [jet_defaults] (every jet)."""
+    text = resolve_vehicle("canted12").read_text()
+    valves = "".join(f"{k} = {v}\n" for k, v in DELAYS.items() if k != "command_delay_s")
+    text = text.replace(
+        "[jet_defaults]\n", f"[timing]\ncommand_delay_s = 0.005\n\n[jet_defaults]\n{valves}"
+    )
+    path = tmp_path_factory.mktemp("delayed") / "delayed12.toml"
+    path.write_text(text)
+    return path
+
+
+def _delay_campaign(tmp_path: Path, name: str, vehicle, timing: dict) -> Path:
+    table = "[dispersions.timing]\n" + "".join(f"{k} = {v}\n" for k, v in timing.items())
+    spec = tmp_path / f"{name}.toml"
+    spec.write_text(DELAY_SPEC.format(vehicle=vehicle, timing=table if timing else ""))
+    out = tmp_path / name
+    run_campaign(load_spec(spec), out, progress=False)
+    return out
+
+
+def _same_flights(a: Path, b: Path, drop=()) -> None:
+    runs_a = pd.read_parquet(a / "runs.parquet")
+    runs_b = pd.read_parquet(b / "runs.parquet").drop(columns=list(drop))
+    pd.testing.assert_frame_equal(runs_a, runs_b, check_exact=True)
+    for name in ("envelopes.parquet", "histories/run-0000000.parquet"):
+        pd.testing.assert_frame_equal(
+            pd.read_parquet(a / name), pd.read_parquet(b / name), check_exact=True
+        )
+
+
+def test_a_vehicles_delays_fly_as_the_same_delays_in_the_spec(tmp_path, delayed12):
+    # Dispersed: the file's nominal + the spec's sigmas == the spec's means + sigmas.
+    own = _delay_campaign(tmp_path, "own", delayed12, SIGMAS)
+    spec = _delay_campaign(tmp_path, "spec", "canted12", {**DELAYS, **SIGMAS})
+    _same_flights(own, spec)
+    runs = pd.read_parquet(own / "runs.parquet")
+    assert runs["open_delay_max_s"].std() > 0 and not runs["sim_failed"].any()
+    history = pd.read_parquet(own / "histories/run-0000000.parquet")
+    assert "jet_01_delivered_s" in history  # what the jets delivered, recorded with timing
+    # Nominal only: every run flies the file's delays; the spec's way has its delay columns.
+    fixed = _delay_campaign(tmp_path, "fixed", delayed12, {})
+    means = _delay_campaign(tmp_path, "means", "canted12", DELAYS)
+    columns = ["command_delay_s", "open_delay_max_s", "close_delay_max_s"]
+    _same_flights(fixed, means, drop=columns)
+    assert (
+        pd.read_parquet(means / "runs.parquet")[columns].to_numpy() == [0.005, 0.008, 0.005]
+    ).all()
+    # The manifest says which delays are the vehicle's (per jet) and what the spec adds.
+    resolved = json.loads((own / "manifest.json").read_text())["spec"]
+    assert resolved["vehicle_timing"] == {
+        "command_delay_s": 0.005,
+        "open_delay_s": [0.008] * 12,
+        "close_delay_s": [0.005] * 12,
+    }
+    assert resolved["dispersions"]["timing"] == SIGMAS
+    assert "vehicle_timing" not in json.loads((means / "manifest.json").read_text())["spec"]
+    # A resolved spec whose vehicle_timing is not the file's is refused (resume, replay).
+    stale = dict(resolved, vehicle_timing={**resolved["vehicle_timing"], "command_delay_s": 0.0})
+    with pytest.raises(InputError, match="vehicle_timing.*not the valve timing"):
+        parse_dict(stale, source="manifest")
+    assert (
+        parse_dict(resolved, source="manifest").digest()
+        == load_spec(tmp_path / "own.toml").digest()
+    )
+
+
+@pytest.mark.parametrize("key", list(DELAYS))
+def test_a_spec_mean_of_a_delay_the_vehicle_gives_is_refused(tmp_path, delayed12, key):
+    spec = tmp_path / "s.toml"
+    spec.write_text(
+        DELAY_SPEC.format(vehicle=delayed12, timing=f"[dispersions.timing]\n{key} = 0.002")
+    )
+    with pytest.raises(InputError) as err:
+        load_spec(spec)
+    message = str(err.value)
+    for part in (str(spec), f"[dispersions.timing]: {key}", str(delayed12), "0.002", "sigma"):
+        assert part in message
