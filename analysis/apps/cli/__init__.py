@@ -13,7 +13,8 @@ User mistakes print one line on stderr and exit with code 2, never a traceback:
 * argparse errors (unknown option, bad number).
 
 A closed stdout (``rcsim ... | head``) ends the command quietly with status 141, as a process
-that SIGPIPE ended (a campaign stopped that way resumes with ``--resume``).
+that SIGPIPE ended (a campaign prints its summary once its directory is written, so it is
+complete then).
 
 The CLI writes files only, so it selects matplotlib's file backend (Agg) before any command
 runs; library plotting modules never choose a backend (that would switch a notebook's).
