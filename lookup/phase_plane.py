@@ -27,6 +27,7 @@ import numpy as np
 
 from models.tables import CONTROL_CYCLE_S
 from spacecraft.navigation import NavState
+from spacecraft.propellant import inertia_tensor_B
 from spacecraft.vehicle import VehicleParams, load_model, torque_per_jet_B
 
 
@@ -67,14 +68,16 @@ class PhasePlaneParams:
         model: mujoco.MjModel | None = None,
         **gains,
     ) -> PhasePlaneParams:
-        """Gains for the (nominal) vehicle: ``a`` = pair torque / inertia per axis."""
+        """Gains for the (nominal) vehicle: ``a`` = pair torque / inertia per axis (the
+        tensor's diagonal in B, :func:`spacecraft.propellant.inertia_tensor_B`)."""
         model = load_model() if model is None else model
         params = VehicleParams.nominal(1, model) if params is None else params.take(slice(0, 1))
         torque = torque_per_jet_B(params, model)[0]  # (16, 3)
         jet_map = np.asarray(jet_map, int)
         # Torque of the positive jets of each axis (a firing pair) about that axis.
         pair = np.array([torque[jet_map[:, a] > 0, a].sum() for a in range(3)])
-        return cls(jet_map=jet_map, accel_rad_s2=pair / params.inertia_B[0], **gains)
+        axis_inertia = np.diagonal(inertia_tensor_B(params)[0])
+        return cls(jet_map=jet_map, accel_rad_s2=pair / axis_inertia, **gains)
 
 
 @dataclass

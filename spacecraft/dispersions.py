@@ -7,7 +7,9 @@ Every Table 5 entry is normal about the nominal vehicle with standard deviation
 
 * ``mass``: vehicle mass [kg];
 * ``cg_x``: x coordinate of the centre of gravity [m] (Table 5 disperses CG_x only);
-* ``ixx, iyy, izz``: principal moments of inertia about the CG [kg m^2], independently;
+* ``ixx, iyy, izz``: the moments of inertia about body x, y, z through the CG [kg m^2], i.e. the
+  diagonal entries of the inertia tensor in B, independently (for the paper's vehicle, whose
+  principal axes are B, its principal moments; "Inertia" below);
 * ``thrust``: the thrust of *each* jet [N], independently per jet (the paper's vehicle has 16;
   a vehicle file any number);
 * ``thruster_angle``: the pointing of *each* jet.  Its force direction is tilted away from the
@@ -24,11 +26,18 @@ Beyond Table 5 (not in the paper, 0 unless a campaign spec or vehicle file gives
   ``body_ipos``: the jets' moment arms about the CG follow);
 * ``ixy, ixz, iyz``: the products of inertia [kg m^2], independently, added to the tensor's
   off-diagonal entries in B (MuJoCo's ``fullinertia`` convention, ``I_xy = -sum m x y``).
-  ``ixx, iyy, izz`` disperse the nominal principal moments as before; the run's tensor is the
-  nominal principal frame's ``diag(moments)`` plus the products, and it is flown as its
-  principal moments and principal frame (``body_inertia``, ``body_iquat``, computed by
-  :func:`spacecraft.propellant.principal`).  For the paper's vehicle (principal axes along B)
-  the tensor's diagonal is exactly the dispersed ``ixx, iyy, izz``.
+
+Inertia
+-------
+MuJoCo holds a body's inertia as principal moments (``body_inertia``, sorted in descending
+order when it compiles a ``fullinertia``) in a principal frame (``body_iquat``), so a vehicle
+file's moments need not come out in x, y, z order.  The dispersions act on the tensor in B
+instead: a run's tensor is the nominal one in B (the compiled moments in the compiled frame,
+:func:`spacecraft.propellant.inertia_tensor_B`: the vehicle file's tensor to rounding, 1e-15
+relative) plus ``diag(d_xx, d_yy, d_zz)`` and the dispersed products, and it is flown as its
+own principal moments and frame (:func:`spacecraft.propellant.principal`, per run).  A vehicle
+whose principal axes are B and whose products are not dispersed (the paper's) skips the round
+trip: its moments are the diagonal, dispersed in place, bit for bit as they always were.
 
 Physical tensors
 ----------------
@@ -78,8 +87,8 @@ import numpy as np
 import pandas as pd
 
 from models.errors import InputError
-from spacecraft.propellant import full_inertia, principal
-from spacecraft.vehicle import IDENTITY_QUAT, VehicleParams
+from spacecraft.propellant import inertia_tensor_B, principal
+from spacecraft.vehicle import VehicleParams
 
 #: Dispersions this module models: Table 5's names in the order they are drawn, then the ones
 #: beyond Table 5 (CG y and z, products of inertia; drawn from the mass-extras stream).
@@ -144,7 +153,7 @@ class DispersionSigmas:
     ----------
     mass_kg, cg_x_m : float
     inertia_kg_m2 : tuple of 3 floats
-        Ixx, Iyy, Izz (the nominal principal moments).
+        Ixx, Iyy, Izz: the tensor's diagonal entries in B (module docstring, "Inertia").
     thrust_n : float
         Per jet.
     thruster_angle_rad : float
@@ -182,9 +191,14 @@ class DispersionSigmas:
 
     @property
     def disperses_products(self) -> bool:
-        """Some product of inertia is dispersed: runs get their own principal frames, and
-        runs.parquet records the whole tensor in B."""
+        """Some product of inertia is dispersed: runs get their own principal frames (and
+        runs.parquet records the products, :func:`analysis.engine.runs_table.records_products`)."""
         return any(v > 0 for v in self.products_kg_m2)
+
+    @property
+    def disperses_inertia(self) -> bool:
+        """Some entry of the inertia tensor (a moment or a product) is dispersed."""
+        return any(v > 0 for v in self.inertia_kg_m2) or self.disperses_products
 
     @property
     def has_mass_extras(self) -> bool:
@@ -337,7 +351,8 @@ def three_sigma_bounds(
     ----------
     mass_kg : float
     moments_kg_m2 : 3 floats
-        The moments ``ixx, iyy, izz`` disperse.
+        The nominal Ixx, Iyy, Izz: the tensor's diagonal in B, which ``ixx, iyy, izz``
+        disperse (not MuJoCo's sorted principal moments).
     thrust_n : array of floats
         Every jet's nominal thrust (the smallest bounds the per-jet dispersion).
     cg_B, jet_pos_B : (3,) and (n_jets, 3)
@@ -459,26 +474,32 @@ def apply_draws(
     mass = base.mass_kg + sigmas.mass_kg * z[:, _Z_MASS]
     cg = base.cg_B.copy()
     cg[:, 0] += sigmas.cg_x_m * z[:, _Z_CG]
-    inertia = base.inertia_B + np.asarray(sigmas.inertia_kg_m2) * z[:, _Z_INERTIA]
+    moments = np.asarray(sigmas.inertia_kg_m2) * z[:, _Z_INERTIA]  # Ixx, Iyy, Izz in B
     thrust = base.thrust_n + sigmas.thrust_n * z[:, thrust_z]
     tilt = sigmas.thruster_angle_rad * z[:, tilt_z]
     azimuth = 2.0 * np.pi * u
     direction = pointing(base.jet_dir_S, tilt, azimuth)
-    iquat = base.iquat
     if sigmas.has_mass_extras:
         if x is None:
             raise ValueError("sigmas beyond Table 5 need the mass extras' draws x")
         cg[:, 1] += sigmas.cg_y_m * x[:, 0]
         cg[:, 2] += sigmas.cg_z_m * x[:, 1]
+    if base.iquat is None and not sigmas.disperses_products:
+        # Principal axes along B (the paper's vehicle): the moments are the tensor's diagonal.
+        inertia, iquat = base.inertia_B + moments, None
+    elif not sigmas.disperses_inertia:
+        inertia, iquat = base.inertia_B, base.iquat  # the nominal as compiled
+    else:
+        # The nominal tensor in B, its diagonal and products dispersed, flown as its principal
+        # moments and frame (module docstring, "Inertia").
+        tensor = inertia_tensor_B(base)
+        tensor[:, [0, 1, 2], [0, 1, 2]] += moments
         if sigmas.disperses_products:
-            # The tensor in B: the dispersed moments in the nominal principal frame, plus the
-            # products; flown as its principal moments and frame (module docstring).
-            frame = np.asarray(IDENTITY_QUAT) if iquat is None else iquat
-            tensor = full_inertia(inertia, frame)
+            assert x is not None  # has_mass_extras, checked above
             for (a, b), sigma, k in zip(((0, 1), (0, 2), (1, 2)), sigmas.products_kg_m2, (2, 3, 4)):
                 tensor[:, a, b] += sigma * x[:, k]
                 tensor[:, b, a] = tensor[:, a, b]
-            inertia, iquat = principal(tensor)
+        inertia, iquat = principal(tensor)
     params = VehicleParams(
         mass_kg=mass,
         cg_B=cg,

@@ -33,7 +33,9 @@ Model (stated)
 
 The mass properties written to MuJoCo are the principal moments and the principal frame
 (``body_inertia``, ``body_iquat``) of ``I_c(u)``; a diagonal tensor keeps the identity frame
-exactly.
+exactly.  This module owns that conversion both ways (:func:`principal`, :func:`full_inertia`,
+:func:`inertia_tensor_B`): the dispersions, the read-back of ``runs.parquet`` and the
+controllers' nominal models go through it.
 """
 
 from __future__ import annotations
@@ -44,7 +46,9 @@ import mujoco
 import numpy as np
 
 from models.errors import InputError
-from spacecraft.vehicle import G0_M_S2
+from spacecraft.vehicle import G0_M_S2, VehicleParams
+
+_DIAG = [0, 1, 2]  # index of a tensor's diagonal entries
 
 
 @dataclass(frozen=True)
@@ -145,6 +149,21 @@ def full_inertia(moments_B: np.ndarray, iquat: np.ndarray) -> np.ndarray:
     mujoco.mju_quat2Mat(flat, iquat)
     rot = flat.reshape(3, 3)
     return np.einsum("ij,nj,kj->nik", rot, moments_B, rot)
+
+
+def inertia_tensor_B(params: VehicleParams) -> np.ndarray:
+    """Each run's inertia tensor about the CG in B, (n, 3, 3) [kg m^2]: its principal moments
+    ``params.inertia_B`` in its frame ``params.iquat`` (:func:`full_inertia`).
+
+    ``iquat`` None is the identity, as :meth:`VehicleParams.nominal` gives it for a model whose
+    principal axes are B (the packaged vehicle, a vehicle file without products): the tensor
+    is then ``diag(inertia_B)`` exactly, its diagonal the moments to the bit.  Its diagonal is
+    what Ixx, Iyy, Izz mean everywhere in rcsim (dispersions, runs.parquet, authority)."""
+    if params.iquat is None:
+        tensor = np.zeros((params.n_runs, 3, 3))
+        tensor[:, _DIAG, _DIAG] = params.inertia_B
+        return tensor
+    return full_inertia(params.inertia_B, params.iquat)
 
 
 def principal(inertia_B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

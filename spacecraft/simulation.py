@@ -87,6 +87,7 @@ from spacecraft.valves import (
 from spacecraft.vehicle import (
     BODY,
     G0_M_S2,
+    IDENTITY_QUAT,
     VehicleParams,
     jet_count,
     load_model,
@@ -337,7 +338,10 @@ class BatchSimulation:
         ``body_subtreemass``), so neither is re-oriented or re-diagonalized after the write:
         the moments read back are about the principal axes the run was given, as
         :class:`VehicleParams` defines them (the body axes B for the packaged vehicle, whose
-        ``body_iquat`` is the identity).
+        ``body_iquat`` is the identity).  ``iquat`` is each run's frame whenever it is not the
+        identity (the model's own for parameters without one), so the tensor in B
+        (:func:`spacecraft.propellant.inertia_tensor_B`) can always be rebuilt from the
+        read-back.
 
         Returns
         -------
@@ -357,6 +361,12 @@ class BatchSimulation:
 
         if getattr(self, "_start_params", None) is not None:
             return self._start_params  # propellant tracked: the wet vehicle at t = 0
+        if self.params.iquat is not None:
+            iquat = field_of("body_iquat")[:, body]
+        elif np.array_equal(self._flight.body_iquat[body], IDENTITY_QUAT):
+            iquat = None  # principal axes along B, as VehicleParams.nominal says it
+        else:  # the model's own frame, every run (what iquat None flies)
+            iquat = np.repeat(self._flight.body_iquat[body][None], self.n_runs, axis=0)
         return VehicleParams(
             mass_kg=field_of("body_mass")[:, body],
             cg_B=field_of("body_ipos")[:, body],
@@ -364,7 +374,7 @@ class BatchSimulation:
             thrust_n=self._flown_thrust_n.copy(),
             jet_dir_S=self._flown_dir_S.copy(),
             isp_s=self.params.isp_s,
-            iquat=None if self.params.iquat is None else field_of("body_iquat")[:, body],
+            iquat=iquat,
         )
 
     def run(

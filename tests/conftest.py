@@ -11,8 +11,10 @@ why it is missing (``make test`` installs the Debian package when it can).
 """
 
 import shutil
+from types import SimpleNamespace
 
 import mujoco
+import numpy as np
 import pytest
 from hypothesis import settings
 
@@ -34,6 +36,30 @@ def model() -> mujoco.MjModel:
 def table1():
     """Gambone Table 1 mass properties (SI)."""
     return load_mass_properties()
+
+
+@pytest.fixture(scope="session")
+def unsorted_vehicle(tmp_path_factory) -> SimpleNamespace:
+    """A vehicle file whose moments are not in descending x, y, z order and whose tensor has
+    products (issue 18, "your own vehicle"): canted16.toml with Table 1's moments about other
+    axes (Ixx the smallest) and products, so that MuJoCo's principal moments (descending) are
+    neither in x, y, z order nor along B; its jets, propellant and dispersions are canted16's.
+
+    Returns ``path`` and ``tensor_B``, the tensor the file states (3, 3) [kg m^2], written out
+    here from the numbers put in the file (the tests' oracle, not the schema's parse).
+    """
+    from spacecraft.vehicle_file import resolve_vehicle
+
+    moments, products = (2457.06, 3583.09, 3160.22), (-60.0, 45.0, 30.0)
+    text = resolve_vehicle("canted16").read_text()
+    old = "inertia_kg_m2 = [3583.09, 3160.22, 2457.06]\nproducts_kg_m2 = [-25.0, 40.0, -15.0]"
+    assert old in text
+    new = f"inertia_kg_m2 = {list(moments)}\nproducts_kg_m2 = {list(products)}"
+    path = tmp_path_factory.mktemp("unsorted") / "unsorted.toml"
+    path.write_text(text.replace(old, new))
+    (ixx, iyy, izz), (ixy, ixz, iyz) = moments, products
+    tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    return SimpleNamespace(path=path, tensor_B=tensor)
 
 
 @pytest.fixture(scope="session")

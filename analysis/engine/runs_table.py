@@ -37,8 +37,8 @@ import numpy as np
 import pandas as pd
 
 from spacecraft.dispersions import DispersedRuns, pointing
-from spacecraft.propellant import full_inertia, principal
-from spacecraft.vehicle import AXES, IDENTITY_QUAT, VehicleParams, jet_name
+from spacecraft.propellant import inertia_tensor_B, principal
+from spacecraft.vehicle import AXES, VehicleParams, jet_name
 
 # The campaign directory (analysis.engine.campaign.results writes it):
 MANIFEST = "manifest.json"  # spec (resolved), code version, control cycle, times, status
@@ -114,9 +114,10 @@ _VEHICLE_INPUTS: tuple[Column, ...] = (
             f"i{a}{a}_kg_m2",
             "float64",
             "kg m^2",
-            "moments of inertia about body x, y, z (read back): the principal moments as MuJoCo "
-            "holds them (about body x, y, z for a vehicle whose principal axes are B, as the "
-            "paper's); with dispersed products of inertia, the tensor's diagonal entries in B",
+            "moments of inertia about body x, y, z through the CG: the inertia tensor's "
+            "diagonal entries in B, rebuilt from the principal moments and frame read back "
+            "from MuJoCo (for a vehicle whose principal axes are B, as the paper's, its "
+            "principal moments)",
         )
         for a in "xyz"
     ],
@@ -133,10 +134,12 @@ _JET_INPUTS = (
     ("jet_{jet}_azimuth_deg", "float64", "deg", "azimuth of the tilt, [0, 360) (the draw)"),
 )
 
-#: Products of inertia, present only in campaigns that disperse them (``ixy_kg_m2``,
+#: Products of inertia, present when the runs' principal axes are not B (:func:`records_products`:
+#: the vehicle file has products of inertia, or the campaign disperses them with ``ixy_kg_m2``,
 #: ``ixz_kg_m2`` or ``iyz_kg_m2`` in the spec's ``[dispersions.three_sigma]`` or the vehicle
-#: file's ``[dispersions]``), after the vehicle inputs; with them the inertia columns are the
-#: whole tensor about the CG in B.  A campaign without them keeps its columns.
+#: file's ``[dispersions]``), after the vehicle inputs; with the inertia columns they are the
+#: whole tensor flown, about the CG in B.  A campaign of a vehicle whose principal axes are B
+#: without dispersed products (the paper's) keeps its columns.
 PRODUCT_COLUMNS: tuple[Column, ...] = tuple(
     Column(
         f"i{a}_kg_m2",
@@ -395,8 +398,8 @@ def missing_outcomes(n: int, reason: str, n_jets: int) -> pd.DataFrame:
 
 def run_columns(effects=(), products: bool = False, *, n_jets: int) -> tuple[Column, ...]:
     """The columns of a campaign whose spec has the effect groups ``effects`` (names of
-    :data:`EFFECT_COLUMNS`), with ``products`` disperses products of inertia, and whose vehicle
-    has ``n_jets`` jets, in order."""
+    :data:`EFFECT_COLUMNS`), with ``products`` records products of inertia
+    (:func:`records_products`), and whose vehicle has ``n_jets`` jets, in order."""
     unknown = [g for g in effects if g not in EFFECT_COLUMNS]
     if unknown:
         raise KeyError(f"unknown effect group(s) {unknown}; known: {list(EFFECT_GROUPS)}")
@@ -443,7 +446,7 @@ def markdown_table() -> str:
         if name in group_of:
             meaning = f"{meaning} (only with [dispersions.{group_of[name]}])"
         if name in PRODUCT_NAMES:
-            meaning = f"{meaning} (only when products of inertia are dispersed)"
+            meaning = f"{meaning} (only when the vehicle has or the campaign disperses them)"
         for axis in AXES:
             if f"_{axis}_" in name or name.endswith(f"_{axis}"):
                 name = name.replace(axis, "<axis>", 1)
@@ -479,24 +482,27 @@ _INERTIA = [f"i{a}{a}_kg_m2" for a in "xyz"]
 _PRODUCT_ENTRIES = ((0, 1), (0, 2), (1, 2))
 
 
-def inertia_tensor_B(params: VehicleParams) -> np.ndarray:
-    """Each run's inertia tensor about the CG in B, (n, 3, 3) [kg m^2], from its principal
-    moments and frame (the model's when ``params.iquat`` is None: pass parameters read back
-    from a model whose frame is the identity, or that carry their frames)."""
-    frame = np.asarray(IDENTITY_QUAT) if params.iquat is None else params.iquat
-    return full_inertia(params.inertia_B, frame)
+def records_products(params: VehicleParams) -> bool:
+    """Whether the rows of runs flown with ``params`` record :data:`PRODUCT_COLUMNS`: whenever
+    their principal axes are not B (``params.iquat`` set: the vehicle file has products of
+    inertia, or the campaign disperses them; fixed for a campaign), so that the flown tensor
+    is in the table; never for the paper's vehicle with undispersed products."""
+    return params.iquat is not None
 
 
-def input_frame(runs: DispersedRuns, products: bool = False) -> pd.DataFrame:
+def input_frame(runs: DispersedRuns) -> pd.DataFrame:
     """The :func:`input_columns` of dispersed runs (SI; angles in degrees at this boundary),
-    one set of per-jet columns per jet of their vehicle, and with ``products`` the
-    :data:`PRODUCT_COLUMNS`.
+    one set of per-jet columns per jet of their vehicle, and the :data:`PRODUCT_COLUMNS` when
+    :func:`records_products`.
 
     Jet tilt and azimuth are the draws (MuJoCo holds only the direction they make);
-    :func:`vehicles_from_runs` is the inverse.  With ``products`` the inertia columns are the
-    tensor in B rebuilt from each run's principal moments and frame (:func:`inertia_tensor_B`).
+    :func:`vehicles_from_runs` is the inverse.  The inertia columns are the tensor in B
+    rebuilt from each run's principal moments and frame
+    (:func:`spacecraft.propellant.inertia_tensor_B`; for runs without a frame, principal axes
+    along B, the moments themselves, bit for bit).
     """
     p = runs.params
+    products = records_products(p)
     if products:
         tensor = inertia_tensor_B(p)
         inertia = np.diagonal(tensor, axis1=1, axis2=2)
@@ -519,8 +525,7 @@ def input_frame(runs: DispersedRuns, products: bool = False) -> pd.DataFrame:
 
 def axis_inertia(runs: pd.DataFrame) -> np.ndarray:
     """Moment of inertia about each body axis of every row, (n, 3) [kg m^2]: the recorded
-    ``ixx_kg_m2``, ``iyy_kg_m2``, ``izz_kg_m2`` (with dispersed products, the tensor's
-    diagonal in B)."""
+    ``ixx_kg_m2``, ``iyy_kg_m2``, ``izz_kg_m2``, the tensor's diagonal in B."""
     return runs[_INERTIA].to_numpy(float)
 
 

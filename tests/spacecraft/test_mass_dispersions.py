@@ -13,6 +13,11 @@ Oracles
 * The draws: normal with sigma = 3-sigma / 3 (4 standard errors, as tests/spacecraft/
   test_dispersions.py), and a tensor's second moments ``S = tr(I)/2 E - I`` (the
   ``spacecraft.dispersions`` docstring).
+* Inertia in B (a vehicle file whose moments MuJoCo sorts otherwise, with products: the
+  ``unsorted_vehicle`` fixture): a run's tensor in B is the file's tensor, written out by the
+  test, plus ``diag(sigma_xx z_2, sigma_yy z_3, sigma_zz z_4)`` with ``z`` the run's standard
+  normals rebuilt from its dispersion stream (``spacecraft.dispersions`` layout), and Euler's
+  equation ``I_B w' = tau - w x I_B w`` with that tensor.
 """
 
 from dataclasses import replace
@@ -30,6 +35,7 @@ from spacecraft.dispersions import (
     inertia_spread,
     mass_extra_draws,
     mass_extra_stream,
+    n_normals,
     run_streams,
     second_moment_slack,
 )
@@ -37,6 +43,7 @@ from spacecraft.navigation import Guidance
 from spacecraft.propellant import full_inertia, principal
 from spacecraft.simulation import BatchSimulation, invalid_runs
 from spacecraft.vehicle import VehicleParams, jet_geometry_B
+from spacecraft.vehicle_file import FlyingVehicle
 
 N_RUNS = 3000
 K_SE = 4.0  # standard errors, as test_dispersions.py
@@ -266,3 +273,94 @@ def test_a_run_that_is_no_rigid_body_is_not_flown(model, nominal):
     )
     assert hist.failed.tolist() == [False, True, False]
     np.testing.assert_array_equal(hist.flown_params.inertia_B[1], nominal.inertia_B[0])
+
+
+# ------------------------------------------------------------------------- inertia in B --
+@pytest.fixture(scope="module")
+def unsorted(unsorted_vehicle) -> tuple[FlyingVehicle, np.ndarray]:
+    return FlyingVehicle.load(unsorted_vehicle.path), unsorted_vehicle.tensor_B
+
+
+def _inertia_normals(seed: int, run_ids, n_jets: int) -> np.ndarray:
+    """Each run's Ixx, Iyy, Izz standard normals (n, 3): normals 2..4 of its dispersion
+    stream (the layout of spacecraft.dispersions.standard_draws)."""
+    return np.array(
+        [
+            np.random.default_rng(run_streams(seed, i)[0]).standard_normal(n_normals(n_jets))[2:5]
+            for i in run_ids
+        ]
+    )
+
+
+def test_mujoco_sorts_the_unsorted_vehicles_moments(unsorted):
+    """The premise: MuJoCo holds the file's tensor as its principal moments in descending order
+    (numpy's eigenvalues of the file's tensor, 1e-12 relative) in a frame that is not B, so its
+    moments are not Ixx, Iyy, Izz (here the file's Ixx is the smallest, MuJoCo's first the
+    largest)."""
+    flying, tensor = unsorted
+    nominal = flying.nominal(1)
+    assert nominal.iquat is not None
+    np.testing.assert_allclose(
+        nominal.inertia_B[0], np.linalg.eigvalsh(tensor)[::-1], rtol=1e-12, atol=0
+    )
+    assert nominal.inertia_B[0, 0] > tensor[1, 1] > tensor[0, 0]
+
+
+@pytest.mark.parametrize("product_sigma", [0.0, 1e-9])
+def test_ixx_disperses_the_tensors_xx_entry_in_b(unsorted, product_sigma):
+    """Only Ixx dispersed (3-sigma 21 kg m^2), with no product dispersed or a negligible one
+    (the path through the products' draws): every run's tensor in B, rebuilt from the principal
+    moments and frame it is flown with, is the file's tensor plus ``diag(sigma z_2, 0, 0)`` (and
+    the product's draw on xy) to 1e-9 kg m^2 (the eigen round trip's rounding, ~1e-12 of the
+    moments).  So the xx entry is normal with that sigma (mean and sd within 4 SE) and the other
+    diagonal entries do not spread beyond rounding (1e-9 kg m^2); before the fix the draw went
+    to MuJoCo's first principal moment, here about y: a yy spread of sigma."""
+    flying, tensor = unsorted
+    sigma = 21.0 / 3
+    sigmas = DispersionSigmas(inertia_kg_m2=(sigma, 0.0, 0.0), products_kg_m2=(product_sigma, 0, 0))
+    ids = np.arange(N_RUNS)
+    got = _tensor(draw_runs(flying.nominal(1), sigmas, 11, ids).params)
+    expect = np.repeat(tensor[None], N_RUNS, axis=0)
+    expect[:, 0, 0] += sigma * _inertia_normals(11, ids, flying.n_jets)[:, 0]
+    if product_sigma:
+        xy = product_sigma * mass_extra_draws(11, ids)[:, 2]
+        expect[:, 0, 1] += xy
+        expect[:, 1, 0] += xy
+    np.testing.assert_allclose(got, expect, rtol=0, atol=1e-9)
+    _check_normal(got[:, 0, 0], tensor[0, 0], sigma)
+    for a in (1, 2):
+        assert np.ptp(got[:, a, a]) < 1e-9
+
+
+def test_a_flight_follows_euler_with_the_files_tensor(unsorted):
+    """Spin w0 = (0.1, 0.2, -0.3) rad/s under a body torque tau = (5, -8, 3) N m: MuJoCo's
+    angular acceleration at t = 0 (free joint's rotational dofs, body frame) equals
+    I_B^-1 (tau - w0 x I_B w0), I_B the file's tensor for the nominal run and the file's tensor
+    plus the run's diagonal draw for two runs with Ixx and Izz dispersed, to 1e-12 of the
+    largest component (two solves of one equation: rounding, and MuJoCo's compiled tensor is
+    the file's to 1e-15).  The draws on MuJoCo's sorted moments instead (before the fix)
+    were off by up to 28 %."""
+    flying, tensor = unsorted
+    sigmas = DispersionSigmas(inertia_kg_m2=(300.0 / 3, 0.0, 200.0 / 3))
+    dispersed = draw_runs(flying.nominal(1), sigmas, 5, [0, 1]).params
+    z = _inertia_normals(5, [0, 1], flying.n_jets)
+    w0, tau = np.array([0.1, 0.2, -0.3]), np.array([5.0, -8.0, 3.0])
+    for params, tensors in (
+        (flying.nominal(1), tensor[None]),
+        (
+            dispersed,
+            tensor + np.einsum("ni,ij->nij", np.asarray(sigmas.inertia_kg_m2) * z, np.eye(3)),
+        ),
+    ):
+        n = params.n_runs
+        sim = BatchSimulation(params, model=flying.model, nthread=1)
+        qacc, ctrl = sim._batch.bind("qacc"), sim._batch.bind("ctrl")
+        sim._reset(None, np.repeat(w0[None], n, axis=0))
+        ctrl[:, 3:6] = tau  # the flight model's body torques (spacecraft.flight_model)
+        sim._batch.forward()
+        for k in range(n):
+            i_b = tensors[k]
+            expect = np.linalg.solve(i_b, tau - np.cross(w0, i_b @ w0))
+            np.testing.assert_allclose(
+                qacc[k, 3:6], expect, rtol=0, atol=1e-12 * np.abs(expect).max()
+            )

@@ -116,7 +116,7 @@ def test_flown_cg_and_principal_frames_equal_the_draw_exactly(model):
         run_ids=np.arange(7, 19),
     ).params.inertia_B
     x = mass_extra_draws(2024, np.arange(7, 19))
-    frame = input_frame(replace(drawn, params=flown), products=True)
+    frame = input_frame(replace(drawn, params=flown))
     scale = 1e-12 * moments_only.max()
     for a, col in enumerate(("ixx_kg_m2", "iyy_kg_m2", "izz_kg_m2")):
         np.testing.assert_allclose(frame[col], moments_only[:, a], rtol=0, atol=scale)

@@ -22,7 +22,12 @@ from analysis.engine.campaign.limits import HISTORY_BUDGET_BYTES
 # firing_starts is re-exported only for old import paths (no in-tree importer is left; to be
 # dropped once the lead confirms).
 from analysis.engine.campaign.outcomes import axis_jets, firing_starts, outcomes  # noqa: F401
-from analysis.engine.runs_table import check_run_frame, input_frame, missing_outcomes
+from analysis.engine.runs_table import (
+    check_run_frame,
+    input_frame,
+    missing_outcomes,
+    records_products,
+)
 from spacecraft.dispersions import DispersedRuns, draw_runs
 from spacecraft.guards import history_bytes
 from spacecraft.simulation import History, invalid_runs
@@ -316,10 +321,11 @@ def flown_inputs(dispersed: DispersedRuns, flown: VehicleParams | None) -> Dispe
 
 def run_rows(spec: CampaignSpec, dispersed: DispersedRuns, outcome: pd.DataFrame) -> pd.DataFrame:
     """The runs.parquet rows of runs ``dispersed.run_ids``: identity, inputs (vehicle, its
-    products of inertia when the spec disperses them, then the spec's sensor / timing / fault
-    draws), ``outcome`` (columns: :func:`analysis.engine.runs_table.run_columns` of
-    ``spec.effects.groups``, ``spec.sigmas.disperses_products`` and the vehicle's jets)."""
-    products = spec.sigmas.disperses_products
+    products of inertia when its principal axes are not B, then the spec's sensor / timing /
+    fault draws), ``outcome`` (columns: :func:`analysis.engine.runs_table.run_columns` of
+    ``spec.effects.groups``, :func:`~analysis.engine.runs_table.records_products` and the
+    vehicle's jets)."""
+    products = records_products(dispersed.params)
     cases = dispersed.run_ids // spec.runs_per_case
     # The effects' draws are a function of (seed, run id): the ones fly_runs flew (a few
     # variates per run, negligible next to a flight).
@@ -336,7 +342,7 @@ def run_rows(spec: CampaignSpec, dispersed: DispersedRuns, outcome: pd.DataFrame
         pd.concat(
             [
                 head,
-                input_frame(dispersed, products),
+                input_frame(dispersed),
                 effects.reset_index(drop=True),
                 outcome.reset_index(drop=True),
             ],

@@ -75,12 +75,13 @@ def vehicle_limits(model) -> dict:
         -np.where(torque < 0, torque, 0).sum(axis=0),
     )
     pos_B, _ = jet_geometry_B(model)
+    tensor = full_inertia(nom.inertia_B, model.body_iquat[model.body(BODY).id])[0]
     return {
         "torque_n_m": authority,
         "three_sigma": three_sigma_bounds(
-            nom.mass_kg[0], nom.inertia_B[0], nom.thrust_n[0], nom.cg_B[0], pos_B
+            nom.mass_kg[0], np.diag(tensor), nom.thrust_n[0], nom.cg_B[0], pos_B
         ),
-        "inertia_B": full_inertia(nom.inertia_B, model.body_iquat[model.body(BODY).id])[0],
+        "inertia_B": tensor,
     }
 
 

@@ -29,6 +29,17 @@ from models.errors import InputError
 MIN_RUNS = 10
 #: Columns that identify a run rather than describe it; never inputs by default.
 ID_COLUMNS = tuple(c.name for c in runs_table.ID_COLUMNS)
+#: Spread of an input, relative to its largest magnitude, at or below which it is constant:
+#: rounding.  A vehicle's undispersed products of inertia, read back from each run's own
+#: principal frame (its moments dispersed), vary by ~1e-14 relative; no dispersion comes near
+#: 1e-9 (Table 5's smallest relative 3-sigma is CG x's, 0.01 m of 1.41 m).
+ROUNDING_SPREAD = 1e-9
+
+
+def is_constant(values: pd.Series) -> bool:
+    """``values`` (finite numbers) do not vary beyond rounding (:data:`ROUNDING_SPREAD`)."""
+    v = values.to_numpy(float)
+    return bool(v.max() - v.min() <= ROUNDING_SPREAD * np.abs(v).max())
 
 
 @dataclass
@@ -182,7 +193,8 @@ def load_runs(
                 for c in runs_table.EFFECT_COLUMNS[g]
                 if c.name in runs.columns
             ]
-            # Products of inertia, recorded when the campaign dispersed them.
+            # Products of inertia, recorded when the runs' principal axes are not B (constant
+            # unless dispersed: left out below as not dispersed).
             products = [c for c in runs_table.PRODUCT_NAMES if c in runs.columns]
             raw = list(raw_cols) + products + effects
         else:
@@ -201,7 +213,7 @@ def load_runs(
     runs = _fill_not_applicable(runs, raw, notes)
     _check_numeric(runs, raw, where)
     X = pd.concat([runs[raw].astype(float), factors[der]], axis=1)
-    constant = [c for c in X.columns if X[c].nunique() <= 1]
+    constant = [c for c in X.columns if is_constant(X[c])]
     if constant:
         notes.append(f"constant (not dispersed) inputs left out: {', '.join(constant)}")
         X = X.drop(columns=constant)

@@ -7,6 +7,8 @@ that reads back as the same double, so nothing may differ.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from lookup.registry import make_controller
@@ -68,8 +70,11 @@ def test_paper_draws_keep_their_layout():
     Oracle: the layout the modules document, rebuilt from the seed streams: dispersions 37
     normals (mass, CG x, Ixx, Iyy, Izz, 16 thrusts, 16 tilts) then 16 azimuth uniforms; valve
     timing 33 normals (command, 16 opening, 16 closing delays); a fault 4 uniforms (whether,
-    which of the 16 jets, when, how).  Exact equality."""
-    from spacecraft.dispersions import run_streams
+    which of the 16 jets, when, how).  Exact equality.  The moments (principal axes along B) are
+    dispersed in place, without a frame; with products dispersed, the tensor diag(moments) plus
+    the products of the mass-extras stream (5 normals: CG y, z, Ixy, Ixz, Iyz) is flown as its
+    principal moments and frame: inertia in B (issue 18) leaves both as they were."""
+    from spacecraft.dispersions import mass_extra_stream, run_streams
     from spacecraft.effect_draws import (
         FAULT,
         TIMING,
@@ -79,11 +84,15 @@ def test_paper_draws_keep_their_layout():
         draw_timing,
         effect_stream,
     )
+    from spacecraft.propellant import principal
 
     model = build_model(load_vehicle("paper"))
     nominal = VehicleParams.nominal(1, model)
     sig = DispersionSigmas.from_table(load_dispersions())
     runs = draw_runs(nominal, sig, 18, [0, 7])
+    assert runs.params.iquat is None
+    products = replace(sig, products_kg_m2=(10.0, 15.0, 20.0))
+    with_products = draw_runs(nominal, products, 18, [0, 7])
     timing = draw_timing(TimingSpec(open_delay_s=0.008, open_delay_sigma_s=0.001), 18, [0, 7], 16)
     spec = FaultSpec(mode="off", probability=0.5, time_s=(0.0, 3.0))
     faults, drawn = draw_faults(spec, 18, [0, 7], nominal.n_jets)
@@ -91,6 +100,15 @@ def test_paper_draws_keep_their_layout():
         rng = np.random.default_rng(run_streams(18, run)[0])
         z, u = rng.standard_normal(37), rng.random(16)
         assert runs.params.mass_kg[k] == nominal.mass_kg[0] + sig.mass_kg * z[0]
+        moments = nominal.inertia_B[0] + np.asarray(sig.inertia_kg_m2) * z[2:5]
+        np.testing.assert_array_equal(runs.params.inertia_B[k], moments)
+        x = np.random.default_rng(mass_extra_stream(18, run)).standard_normal(5)
+        tensor = np.diag(moments)
+        for (a, b), s, xk in zip(((0, 1), (0, 2), (1, 2)), products.products_kg_m2, x[2:]):
+            tensor[a, b] = tensor[b, a] = s * xk
+        moments_p, frame_p = principal(tensor[None])
+        np.testing.assert_array_equal(with_products.params.inertia_B[k], moments_p[0])
+        np.testing.assert_array_equal(with_products.params.iquat[k], frame_p[0])
         np.testing.assert_array_equal(
             runs.params.thrust_n[k], nominal.thrust_n[0] + sig.thrust_n * z[5:21]
         )

@@ -4,6 +4,13 @@ what runs.parquet records, the replay, the failure drivers' inputs, and vehicle 
 The physics and the draws themselves are tested in tests/spacecraft/test_mass_dispersions.py;
 the digest of a spec written before these keys is pinned in test_faults_campaign.py
 (``test_spec_without_effect_tables_resolves_as_before``: the keys absent, nothing is recorded).
+
+Inertia in B (a vehicle file whose moments MuJoCo sorts otherwise, with products: the
+``unsorted_vehicle`` fixture, whose tensor the fixture writes out): the recorded ``ixx`` ...
+``iyz`` are that tensor's entries plus the run's diagonal draws (its standard normals rebuilt
+from its dispersion stream), and the authority factors are each jet group's torque, from the
+file's own jet matrix (``VehicleDef.force_torque``: positions, directions, thrust, CG), over
+the recorded moment about the axis.
 """
 
 from pathlib import Path
@@ -19,6 +26,9 @@ from analysis.engine.campaign.spec import load_spec
 from analysis.engine.runs_table import PRODUCT_NAMES, input_names, outcome_names
 from analysis.results.drivers.inputs import load_runs
 from models.errors import InputError
+from spacecraft.dispersions import n_normals, run_streams
+from spacecraft.vehicle_file import load_vehicle
+from spacecraft.vehicle_file.authority import torque_signs
 from spacecraft.vehicle_file.schema import packaged_vehicle
 
 BASE = """
@@ -126,3 +136,88 @@ def test_a_vehicle_files_extras_are_flown(tmp_path):
     )
     with pytest.raises(InputError, match=r"dispersions.scale: must be < 4.187"):
         load_spec(spec_file)
+
+
+# ------------------------------------------------------------------------- inertia in B --
+INERTIA = ["ixx_kg_m2", "iyy_kg_m2", "izz_kg_m2"]
+_ENTRIES = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+UNSORTED = """
+seed = 9
+vehicle = "{vehicle}"
+runs_per_case = {runs}
+[scenario]
+cases = [13]
+duration_s = 0.4
+[controller]
+name = "allocator"
+[output]
+histories = "none"
+plots = false
+"""
+
+
+def test_undispersed_inertia_is_recorded_as_the_files_tensor(tmp_path, unsorted_vehicle):
+    """The vehicle's own dispersions but no inertia entry (the reviewer's campaign had no
+    product dispersion): every run records ``ixx`` ... ``izz`` and the products (recorded for
+    a vehicle with products even when they are not dispersed, so the flown tensor is in the
+    table) equal to the tensor the file states, to 1e-9 kg m^2 (the eigen round trip: MuJoCo's
+    compiled moments and frame give back the file's entries to ~1e-12).  Before the fix the
+    columns held MuJoCo's sorted moments (3590, 3155, 2452 here) and no products."""
+    spec_file = tmp_path / "spec.toml"
+    zero = "\n".join(f"{k} = 0.0" for k in (*INERTIA, *PRODUCT_NAMES))
+    spec_file.write_text(
+        UNSORTED.format(vehicle=unsorted_vehicle.path, runs=4)
+        + "[dispersions.three_sigma]\n"
+        + zero
+        + "\n"
+    )
+    spec = load_spec(spec_file)
+    runs = chunk_mod.simulate_chunk(spec, chunk_mod.Chunk(0, 4)).runs
+    assert runs["mass_kg"].nunique() == 4  # the rest of the vehicle is dispersed
+    for col, (a, b) in zip([*INERTIA, *PRODUCT_NAMES], _ENTRIES):
+        np.testing.assert_allclose(runs[col], unsorted_vehicle.tensor_B[a, b], rtol=0, atol=1e-9)
+
+
+def test_analyze_authority_uses_the_moments_about_the_body_axes(tmp_path, unsorted_vehicle):
+    """Only Ixx, Iyy, Izz dispersed (3-sigma 300, 250, 200 kg m^2; thrust, pointing and CG
+    nominal): runs.parquet's ``ixx`` ... ``izz`` are the file's diagonal plus sigma z (z the
+    run's normals 2..4) to 1e-9 kg m^2, and the authority factors ``rcsim analyze`` takes
+    (``load_runs``) are, per axis and sign, the torque of the jets whose torque has that sign
+    (the file's jet matrix at nominal thrust) over the recorded moment about that axis, to
+    1e-9 relative (MuJoCo's site frames against the file's directions: rounding).  The
+    products, recorded but not dispersed, are left out as constant."""
+    (tmp_path / "inertia.csv").write_text(
+        "name,distribution,three_sigma,unit,source\n"
+        "ixx,normal,300,kg*m^2,test\niyy,normal,250,kg*m^2,test\nizz,normal,200,kg*m^2,test\n"
+    )
+    spec_file = tmp_path / "spec.toml"
+    spec_file.write_text(
+        UNSORTED.format(vehicle=unsorted_vehicle.path, runs=12)
+        + '[dispersions]\ntable = "inertia.csv"\n'
+    )
+    out = tmp_path / "mc"
+    assert main(["campaign", "run", str(spec_file), "--out", str(out), "--no-progress"]) == 0
+    runs = pd.read_parquet(out / "runs.parquet")
+    definition = load_vehicle(unsorted_vehicle.path)
+    z = np.array(
+        [
+            np.random.default_rng(run_streams(9, i)[0]).standard_normal(
+                n_normals(definition.n_jets)
+            )[2:5]
+            for i in runs["run_id"]
+        ]
+    )
+    expect = np.diag(unsorted_vehicle.tensor_B) + np.array([300.0, 250.0, 200.0]) / 3 * z
+    np.testing.assert_allclose(runs[INERTIA], expect, rtol=0, atol=1e-9)
+
+    runset = load_runs(out)
+    torque = definition.force_torque()[3:].T  # (n_jets, 3) about the CG [N m]
+    signs = torque_signs(definition)
+    for a, axis in enumerate(("roll", "pitch", "yaw")):
+        for sign, name in ((1, "pos"), (-1, "neg")):
+            group = sign * torque[signs[:, a] == sign, a].sum()
+            np.testing.assert_allclose(
+                runset.X[f"authority_{axis}_{name}_rad_s2"], group / expect[:, a], rtol=1e-9
+            )
+    assert not set(PRODUCT_NAMES) & set(runset.X.columns)
+    assert any("ixy_kg_m2" in note for note in runset.notes)

@@ -33,7 +33,7 @@ from analysis.apps.cli import main
 from analysis.engine.campaign.results import history_path
 from analysis.engine.campaign.runner import run_campaign
 from analysis.engine.campaign.spec import load_spec, parse_dict
-from analysis.engine.runs_table import recorded_jets, run_columns
+from analysis.engine.runs_table import PRODUCT_NAMES, recorded_jets, run_columns
 from models.errors import InputError
 from spacecraft.vehicle import G0_M_S2
 from spacecraft.vehicle_file import resolve_vehicle
@@ -89,6 +89,7 @@ def test_paper_vehicle_file_campaign_is_the_packaged_one(tmp_path):
     # paper.toml gives no valve timing: nothing about it enters the resolved spec (the digest
     # of every vehicle without delays is what it was).
     assert "vehicle_timing" not in json.loads((file / "manifest.json").read_text())["spec"]
+    assert not set(PRODUCT_NAMES) & set(runs.columns)  # principal axes along B: no products
     assert runs["fault_jet"].between(0, 16).all() and (runs["fault_jet"] > 0).any()
 
 
