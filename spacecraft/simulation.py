@@ -283,6 +283,9 @@ class BatchSimulation:
                 if frames is None
                 else frames
             )
+            # The wet tensors in B, once: every cycle's update starts from them (computing
+            # them per cycle from moments and frames looped over the runs that fired).
+            self._inertia0_B = full_inertia(self._start_params.inertia_B, self._iquat0)
             # Live per-run fields (expand() of an expanded field returns the same memory).
             self._mass_fields = {
                 name: self._batch.expand(name)
@@ -598,10 +601,12 @@ class BatchSimulation:
         """Mass, CG and inertia of runs ``ids`` after the propellant they used."""
         start, tank = self._start_params, self.tank
         assert tank is not None  # only called when propellant is tracked
-        q0 = self._iquat0 if self._iquat0.ndim == 1 else self._iquat0[ids]
-        inertia0 = full_inertia(start.inertia_B[ids], q0)
         m, c, inertia = mass_properties(
-            start.mass_kg[ids], start.cg_B[ids], inertia0, tank.position_B, self._used_kg[ids]
+            start.mass_kg[ids],
+            start.cg_B[ids],
+            self._inertia0_B[ids],
+            tank.position_B,
+            self._used_kg[ids],
         )
         moments, quat = principal(inertia)
         body, fields = self._flight.body(BODY).id, self._mass_fields
