@@ -179,11 +179,37 @@ def principal(inertia_B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         w, vecs = np.linalg.eigh(inertia_B[~diag])
         vecs = vecs * np.sign(np.linalg.det(vecs))[:, None, None]  # right-handed
         moments[~diag] = w
-        q = np.empty((vecs.shape[0], 4))
-        for k in range(vecs.shape[0]):  # mju_mat2Quat has no batched form; ~1 us a run
-            mujoco.mju_mat2Quat(q[k], vecs[k].ravel())
-        quats[~diag] = q
+        quats[~diag] = mat2quat(vecs.reshape(-1, 9))
     return moments, quats
+
+
+def mat2quat(mat: np.ndarray) -> np.ndarray:
+    """Unit quaternions (n, 4) of rotation matrices (n, 9), row-major: MuJoCo's
+    ``mju_mat2Quat`` batched, the same branches and operations (bit for bit on 600,000
+    random rotations, and in ``tests/spacecraft/test_propellant.py``).
+
+    Called every cycle for the runs that burned propellant, where a loop over runs calling
+    ``mju_mat2Quat`` (~1 us a run) would be a Python loop in the hot path.
+    """
+    m0, m1, m2, m3, m4, m5, m6, m7, m8 = (mat[:, i] for i in range(9))
+    with np.errstate(invalid="ignore", divide="ignore"):  # the branches not taken
+        a = 0.5 * np.sqrt(1 + m0 + m4 + m8)  # w largest
+        b = 0.5 * np.sqrt(1 + m0 - m4 - m8)  # x largest
+        c = 0.5 * np.sqrt(1 - m0 + m4 - m8)  # y largest
+        d = 0.5 * np.sqrt(1 - m0 - m4 + m8)  # z largest
+        by_w = np.stack([a, 0.25 * (m7 - m5) / a, 0.25 * (m2 - m6) / a, 0.25 * (m3 - m1) / a], 1)
+        by_x = np.stack([0.25 * (m7 - m5) / b, b, 0.25 * (m1 + m3) / b, 0.25 * (m2 + m6) / b], 1)
+        by_y = np.stack([0.25 * (m2 - m6) / c, 0.25 * (m1 + m3) / c, c, 0.25 * (m5 + m7) / c], 1)
+        by_z = np.stack([0.25 * (m3 - m1) / d, 0.25 * (m2 + m6) / d, 0.25 * (m5 + m7) / d, d], 1)
+    use_w = m0 + m4 + m8 > 0
+    use_x = ~use_w & (m0 > m4) & (m0 > m8)
+    use_y = ~use_w & ~use_x & (m4 > m8)
+    q = np.where(
+        use_w[:, None], by_w, np.where(use_x[:, None], by_x, np.where(use_y[:, None], by_y, by_z))
+    )
+    # mju_normalize4: rescaled only when the norm is off 1 by more than mjMINVAL (1e-15).
+    norm = np.sqrt(q[:, 0] * q[:, 0] + q[:, 1] * q[:, 1] + q[:, 2] * q[:, 2] + q[:, 3] * q[:, 3])
+    return np.where((np.abs(norm - 1) > 1e-15)[:, None], q * (1 / norm)[:, None], q)
 
 
 def exhaustion_time_s(
