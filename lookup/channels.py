@@ -44,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lookup.jet_numbers import jet_numbers
 from models.errors import InputError
 from models.tables import AXES, CHANNEL_MAP, CHANNELS, CONTROL_CYCLE_S, ChannelRecipe
 
@@ -95,23 +96,9 @@ def check_recipe_vehicle(recipe: ChannelRecipe, vehicle: str | os.PathLike, *, w
 
 
 def check_channel_jets_off(recipe_jets: int, jets_off) -> tuple:
-    """``jets_off`` as sorted distinct jet numbers 1..``recipe_jets``; InputError otherwise."""
-    try:
-        jets = sorted(int(j) for j in jets_off)
-    except (TypeError, ValueError):
-        raise InputError(
-            f"must be jet numbers, got {jets_off!r}", parameter="jets_off", value=None
-        ) from None
-    bad = [j for j in jets if not 1 <= j <= recipe_jets]
-    if bad:
-        raise InputError(
-            f"no jet {bad[0]}; the vehicle's jets are 1..{recipe_jets}",
-            parameter="jets_off",
-            value=list(jets_off),
-        )
-    if len(set(jets)) != len(jets):
-        raise InputError("a jet appears twice", parameter="jets_off", value=list(jets_off))
-    return tuple(jets)
+    """``jets_off`` as sorted distinct jet numbers 1..``recipe_jets``; InputError otherwise.
+    (A lost direction is the recipe's to find: it leaves that channel empty.)"""
+    return jet_numbers(jets_off, recipe_jets)
 
 
 def solve_recipe(

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from lookup.channels import check_recipe_vehicle
+from lookup.jet_numbers import jet_numbers
 from models.errors import InputError
 from models.tables import (
     LookupTable,
@@ -138,26 +139,7 @@ def check_jets_off(jets_off) -> tuple:
     """``jets_off`` as a sorted tuple of distinct jet numbers 1..16 that leaves every rotation
     axis at least one jet (a table for an axis without jets commands nothing); InputError
     otherwise."""
-    try:
-        jets = [int(j) for j in jets_off]
-    except (TypeError, ValueError):
-        raise InputError(
-            f"must be jet numbers 1..{N_JETS}, got {jets_off!r}", parameter="jets_off", value=None
-        ) from None
-    bad = [j for j in jets if not 1 <= j <= N_JETS]
-    if bad:
-        raise InputError(
-            f"no jet {bad[0]}; jets are 1..{N_JETS}", parameter="jets_off", value=list(jets_off)
-        )
-    dup = sorted({j for j in jets if jets.count(j) > 1})
-    if dup:
-        raise InputError(f"jet {dup[0]} appears twice", parameter="jets_off", value=list(jets_off))
-    if any(int(j) != j for j in jets_off):
-        raise InputError(
-            f"must be whole jet numbers, got {list(jets_off)}",
-            parameter="jets_off",
-            value=list(jets_off),
-        )
+    jets = jet_numbers(jets_off, N_JETS)
     torque = load_jet_map()  # (16, 3): the sign of each jet's torque per axis, Table 2
     for a, axis in enumerate(AXES):
         axis_jets = {j + 1 for j in range(N_JETS) if torque[j, a] != 0}
@@ -168,7 +150,7 @@ def check_jets_off(jets_off) -> tuple:
                 parameter="jets_off",
                 value=list(jets_off),
             )
-    return tuple(sorted(jets))
+    return jets
 
 
 def jet_map_without(jet_map: np.ndarray, jets_off) -> np.ndarray:
