@@ -4,9 +4,12 @@
   reads (``spacecraft/mujoco_timers.py``; -19 % per campaign chunk, ``docs/performance.md``).
 * ``lookup/_step_kernel.c`` is the lookup controller's cycle in one pass, bit for bit its numpy
   form (``lookup/step_kernel.py``; the controller's share of a chunk 7 % -> 2 %).
+* ``spacecraft/_cycle_kernel.c`` is the closed loop's per-cycle bookkeeping (navigation's
+  quaternion algebra, valve limits and commands, the no-switch test, the propulsion totals),
+  bit for bit its numpy forms (``spacecraft/cycle_kernel.py``).
 
-Both are optional: without a C compiler the build skips them and rcsim runs with MuJoCo's
-default timers and the numpy controller.  Declared here rather than in pyproject.toml because
+All are optional: without a C compiler the build skips them and rcsim runs with MuJoCo's
+default timers and the numpy forms.  Declared here rather than in pyproject.toml because
 setuptools still calls its ``ext-modules`` table experimental and warns on every install.
 """
 
@@ -19,6 +22,13 @@ setup(
         Extension(
             "lookup._step_kernel",
             ["lookup/_step_kernel.c"],
+            optional=True,
+            extra_compile_args=["-ffp-contract=off"],
+        ),
+        # Bit for bit the numpy forms (spacecraft/cycle_kernel.py): the same rule.
+        Extension(
+            "spacecraft._cycle_kernel",
+            ["spacecraft/_cycle_kernel.c"],
             optional=True,
             extra_compile_args=["-ffp-contract=off"],
         ),

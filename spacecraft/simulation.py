@@ -59,6 +59,7 @@ import numpy as np
 from mujoco.batch import Batch, SimulationError
 
 from models.errors import InputError
+from spacecraft import cycle_kernel
 from spacecraft.flight_model import flight_model, jet_wrench_B
 from spacecraft.guards import check_cycle, check_history_memory, warning_reasons
 from spacecraft.history import History
@@ -263,6 +264,7 @@ class BatchSimulation:
         # Per-run physics step: the length of each run's current piece of a cycle.
         self._timestep = self._batch.expand("opt.timestep")
         self._stretched = False  # some run's timestep is not the model's
+        self._compiled = False  # the compiled per-cycle passes; decided by each run()
         self._level = (
             np.ones((n, self.n_jets)) if self.faults is None else self.faults.thrust_factor.copy()
         )
@@ -454,10 +456,14 @@ class BatchSimulation:
         valves = ValveState.closed(n, self.n_jets)
         thrust = self.params.thrust_n * self._level
         torque = np.zeros((n, 3))
+        # The compiled per-cycle passes (spacecraft/cycle_kernel.py), bit for bit the numpy
+        # forms; decided once per flight.
+        self._compiled = cycle_kernel.kernel_available()
+        commands = _Commands(guidance, cycle)
         for k in range(n_cycles):
             t0 = k * cycle  # integer tick count -> time: no accumulated float error
             q, w = self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy()
-            nav = truth = navigate(t0, q, w, guidance)
+            nav = truth = self._navigate(t0, q, w, guidance, commands, k)
             if sensors is not None:
                 q_m, w_m = measure(
                     q,
@@ -467,18 +473,23 @@ class BatchSimulation:
                     sensor_state,
                     cycle,
                 )
-                nav = navigate(t0, q_m, w_m, guidance)
+                nav = self._navigate(t0, q_m, w_m, guidance, commands, k)
                 rec["meas_att_err_B"][k] = nav.att_err_B
                 rec["meas_rate_err_B"][k] = nav.rate_err_B
             command, state = controller.step(nav, state)
             if k == 0:
                 self._check_command(controller, command)
-            command = np.where(failed[:, None], 0.0, command)
             counted = None if self.tank is None else prop.firings.copy()
-            on = apply_valve_limits(
-                command, prop, self.propulsion, self.params.thrust_n, account=False
-            )
-            command_valves(valves, on, self.timing, cycle)
+            if self._compiled:
+                on = cycle_kernel.command_valves(
+                    command, failed, prop, self.propulsion, valves, self.timing
+                )
+            else:
+                command = np.where(failed[:, None], 0.0, command)
+                on = apply_valve_limits(
+                    command, prop, self.propulsion, self.params.thrust_n, account=False
+                )
+                command_valves(valves, on, self.timing, cycle)
             pieces = self._pieces(valves, t0)
             if counted is not None:
                 # A firing commanded at or after the propellant ran out is no firing: the jet
@@ -486,9 +497,12 @@ class BatchSimulation:
                 # the cycle's start, so a run whose exhaustion instant is <= t0 fired nothing.
                 dead = self._exhausted_s <= t0  # exhausted_before's rule, for this cycle
                 prop.firings[dead] = counted[dead]
-            delivered = pieces.on_time_s()
-            prop.on_time_s += delivered
-            prop.impulse_ns += pieces.thrust_time_s() * thrust
+            if self._compiled and pieces.uniform and pieces.n_pieces == 1:
+                delivered = cycle_kernel.account(pieces.on[:, 0], cycle, thrust, prop)
+            else:
+                delivered = pieces.on_time_s()
+                prop.on_time_s += delivered
+                prop.impulse_ns += pieces.thrust_time_s() * thrust
             rec["q_BN"][k] = truth.q_BN
             rec["omega_B"][k] = truth.omega_B
             rec["att_err_B"][k] = truth.att_err_B
@@ -503,7 +517,11 @@ class BatchSimulation:
             self._step(pieces, torque, failed, reason, t0, t0 + cycle)
             if self.tank is not None:
                 self._use_propellant(pieces, thrust)
-            end_cycle(valves, cycle, 0.0 if self.profile is None else self.profile.fall_s)
+            tail = 0.0 if self.profile is None else self.profile.fall_s
+            if self._compiled:
+                cycle_kernel.end_cycle(valves, cycle, tail)
+            else:
+                end_cycle(valves, cycle, tail)
             if progress is not None:
                 progress(k + 1)
         final = navigate(
@@ -523,6 +541,20 @@ class BatchSimulation:
             propellant_exhausted_s=None if self.tank is None else self._exhausted_s.copy(),
             **rec,
         )
+
+    def _navigate(
+        self,
+        t0_s: float,
+        q_BN: np.ndarray,
+        omega_B: np.ndarray,
+        guidance: Guidance,
+        commands: _Commands,
+        k: int,
+    ) -> NavState:
+        """Errors of ``(q_BN, omega_B)`` against the command of cycle ``k`` (at ``t0_s``)."""
+        if not self._compiled:
+            return navigate(t0_s, q_BN, omega_B, guidance)
+        return cycle_kernel.navigate(t0_s, q_BN, omega_B, commands.at(k), guidance.omega_cmd_B)
 
     def _check_command(self, controller: Controller, command: np.ndarray) -> None:
         """Refuse a controller whose commands are not one on-time per run and jet of this
@@ -582,6 +614,18 @@ class BatchSimulation:
         """The cycle's pieces for on-intervals ``start``, ``end`` (n_runs, n_jets, k) [s]."""
         cycle = self.propulsion.cycle_s
         grid = self.dt_s if self.n_sub > 1 else None
+        if self.profile is None and self._compiled:
+            # No run switches a jet inside the cycle (most cycles): the grid steps, as
+            # cycle_pieces gives them, without its numpy passes.
+            on = cycle_kernel.uniform_on(start, end, cycle)
+            if on is not None:
+                n, steps = self.n_runs, self.n_sub
+                return Pieces(
+                    np.full((n, steps), self.dt_s if steps > 1 else cycle),
+                    np.broadcast_to(on[:, None, :], (n, steps, on.shape[1])),
+                    np.full(n, steps),
+                    uniform=True,
+                )
         if self.profile is None:
             return cycle_pieces(start, end, cycle, grid)
         return profile_pieces(
@@ -678,6 +722,8 @@ class BatchSimulation:
                 self._timestep[runs] = pieces.length_s[runs, p]
                 self._rollout(1, wrench[:, p : p + 1], runs, failed, reason)
         self._check_warnings(failed, reason, t0_s, t1_s)
+        if self._compiled and cycle_kernel.bounded_state(self._batch.state, self._qpos, self._qvel):
+            return  # every run's state is finite (the test below, without its numpy passes)
         state_ok = np.isfinite(self._qvel.sum(axis=1) + self._qpos.sum(axis=1))
         if state_ok.all():
             return
@@ -714,6 +760,36 @@ class BatchSimulation:
             for i in exc.ids:
                 failed[i] = True
                 reason[i] = f"MuJoCo error: {self._batch.error(int(i))}"
+
+
+class _Commands:
+    """The commanded attitude of each control cycle, computed a block of cycles at a time and
+    once per distinct command (:meth:`spacecraft.navigation.Guidance.attitudes_at`, bit for
+    bit :meth:`Guidance.at` of every run): a campaign chunk flies a few cases' commands."""
+
+    BLOCK = 64  # cycles per block: (64, distinct commands, 4) floats
+
+    def __init__(self, guidance: Guidance, cycle_s: float):
+        self.cycle_s = cycle_s
+        self.q0 = guidance.q_cmd0_BN
+        self.rotating = bool(guidance.omega_cmd_B.any())
+        self.first, self.block = 0, np.empty((0, 0, 4))
+        if self.rotating:
+            # Distinct commands by their bytes (a signed zero is its own command).
+            rows = np.ascontiguousarray(np.hstack([guidance.q_cmd0_BN, guidance.omega_cmd_B]))
+            keys = rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
+            _, index, self.inverse = np.unique(keys, return_index=True, return_inverse=True)
+            self.distinct = Guidance(guidance.q_cmd0_BN[index], guidance.omega_cmd_B[index])
+
+    def at(self, k: int) -> np.ndarray:
+        """Commanded ``q_cmd_BN`` (n_runs, 4) at cycle ``k``'s start."""
+        if not self.rotating:  # attitude commands: the commanded frame stands still
+            return self.q0
+        if not self.first <= k < self.first + self.block.shape[0]:
+            self.first = k
+            ticks = np.arange(k, k + self.BLOCK)
+            self.block = self.distinct.attitudes_at(ticks * self.cycle_s)
+        return self.block[k - self.first][self.inverse]
 
 
 def simulate_batch(
