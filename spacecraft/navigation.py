@@ -119,6 +119,44 @@ class Guidance:
         return quat_mul(self.q_cmd0_BN[None], quat_from_rotvec(self.omega_cmd_B[None] * t))
 
 
+class CommandBlocks:
+    """The commanded attitude of each control cycle of a flight, computed a block of cycles at
+    a time and once per distinct command (:meth:`Guidance.attitudes_at`; bit for bit
+    :meth:`Guidance.at` of every run): a campaign chunk flies a few cases' commands, and a rate
+    command's attitude per cycle was a dozen numpy calls on (n_runs, 4) arrays.
+
+    Parameters
+    ----------
+    guidance : Guidance
+    cycle_s : float
+        Control cycle [s]: cycle ``k`` starts at ``k * cycle_s``.
+    """
+
+    BLOCK = 64  # cycles per block: (64, distinct commands, 4) floats
+
+    def __init__(self, guidance: Guidance, cycle_s: float):
+        self.cycle_s = cycle_s
+        self.q0 = guidance.q_cmd0_BN
+        self.rotating = bool(guidance.omega_cmd_B.any())
+        self.first, self.block = 0, np.empty((0, 0, 4))
+        if self.rotating:
+            # Distinct commands by their bytes (a signed zero is its own command).
+            rows = np.ascontiguousarray(np.hstack([guidance.q_cmd0_BN, guidance.omega_cmd_B]))
+            keys = rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
+            _, index, self.inverse = np.unique(keys, return_index=True, return_inverse=True)
+            self.distinct = Guidance(guidance.q_cmd0_BN[index], guidance.omega_cmd_B[index])
+
+    def at(self, k: int) -> np.ndarray:
+        """Commanded ``q_cmd_BN`` (n_runs, 4) at cycle ``k``'s start."""
+        if not self.rotating:  # attitude commands: the commanded frame stands still
+            return self.q0
+        if not self.first <= k < self.first + self.block.shape[0]:
+            self.first = k
+            ticks = np.arange(k, k + self.BLOCK)
+            self.block = self.distinct.attitudes_at(ticks * self.cycle_s)
+        return self.block[k - self.first][self.inverse]
+
+
 @dataclass(frozen=True)
 class NavState:
     """What a controller sees at the start of a control cycle (arrays over runs).

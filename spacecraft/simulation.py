@@ -40,9 +40,17 @@ cycle disagrees with the propulsion's, and a history that would not fit in memor
 (:func:`spacecraft.guards.memory_budget_bytes`).  The constructor refuses invalid sensor,
 timing and fault parameters (:class:`models.errors.InputError`).
 
-Module size: about 550 lines, over the ~400 guideline: the cycle loop (sensors, controller,
-valves, the cut) and the piecewise stepping share the batch's bound arrays, per-run timesteps
-and failure bookkeeping; splitting them would pass those around for no gain in clarity.  The
+Compiled passes
+---------------
+When the optional extension is built, navigation's algebra, the valve limits and commands, the
+no-switch test, the propulsion totals and the end of a cycle run as compiled passes
+(:mod:`spacecraft.cycle_kernel`), bit for bit the numpy forms, which stay the reference
+(``RCSIM_NUMPY_CYCLE=1``); the choice is made once per :meth:`BatchSimulation.run`.
+
+Module size: about 800 lines with its docstrings, over the ~400 guideline: the cycle loop
+(sensors, controller, valves, the cut) and the piecewise stepping share the batch's bound
+arrays, per-run timesteps and failure bookkeeping; splitting them would pass those around for
+no gain in clarity.  The
 pure parts live in :mod:`spacecraft.pieces`, :mod:`spacecraft.valves`,
 :mod:`spacecraft.sensors`, :mod:`spacecraft.history` and :mod:`spacecraft.flight_model`.
 """
@@ -64,7 +72,7 @@ from spacecraft.flight_model import flight_model, jet_wrench_B
 from spacecraft.guards import check_cycle, check_history_memory, warning_reasons
 from spacecraft.history import History
 from spacecraft.mujoco_timers import quiet_stage_timers
-from spacecraft.navigation import Guidance, NavState, navigate
+from spacecraft.navigation import CommandBlocks, Guidance, NavState, navigate
 from spacecraft.pieces import Pieces, cycle_pieces, profile_pieces
 from spacecraft.propellant import (
     PropellantTank,
@@ -459,7 +467,7 @@ class BatchSimulation:
         # The compiled per-cycle passes (spacecraft/cycle_kernel.py), bit for bit the numpy
         # forms; decided once per flight.
         self._compiled = cycle_kernel.kernel_available()
-        commands = _Commands(guidance, cycle)
+        commands = CommandBlocks(guidance, cycle)
         for k in range(n_cycles):
             t0 = k * cycle  # integer tick count -> time: no accumulated float error
             q, w = self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy()
@@ -548,7 +556,7 @@ class BatchSimulation:
         q_BN: np.ndarray,
         omega_B: np.ndarray,
         guidance: Guidance,
-        commands: _Commands,
+        commands: CommandBlocks,
         k: int,
     ) -> NavState:
         """Errors of ``(q_BN, omega_B)`` against the command of cycle ``k`` (at ``t0_s``)."""
@@ -760,36 +768,6 @@ class BatchSimulation:
             for i in exc.ids:
                 failed[i] = True
                 reason[i] = f"MuJoCo error: {self._batch.error(int(i))}"
-
-
-class _Commands:
-    """The commanded attitude of each control cycle, computed a block of cycles at a time and
-    once per distinct command (:meth:`spacecraft.navigation.Guidance.attitudes_at`, bit for
-    bit :meth:`Guidance.at` of every run): a campaign chunk flies a few cases' commands."""
-
-    BLOCK = 64  # cycles per block: (64, distinct commands, 4) floats
-
-    def __init__(self, guidance: Guidance, cycle_s: float):
-        self.cycle_s = cycle_s
-        self.q0 = guidance.q_cmd0_BN
-        self.rotating = bool(guidance.omega_cmd_B.any())
-        self.first, self.block = 0, np.empty((0, 0, 4))
-        if self.rotating:
-            # Distinct commands by their bytes (a signed zero is its own command).
-            rows = np.ascontiguousarray(np.hstack([guidance.q_cmd0_BN, guidance.omega_cmd_B]))
-            keys = rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
-            _, index, self.inverse = np.unique(keys, return_index=True, return_inverse=True)
-            self.distinct = Guidance(guidance.q_cmd0_BN[index], guidance.omega_cmd_B[index])
-
-    def at(self, k: int) -> np.ndarray:
-        """Commanded ``q_cmd_BN`` (n_runs, 4) at cycle ``k``'s start."""
-        if not self.rotating:  # attitude commands: the commanded frame stands still
-            return self.q0
-        if not self.first <= k < self.first + self.block.shape[0]:
-            self.first = k
-            ticks = np.arange(k, k + self.BLOCK)
-            self.block = self.distinct.attitudes_at(ticks * self.cycle_s)
-        return self.block[k - self.first][self.inverse]
 
 
 def simulate_batch(

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from spacecraft import cycle_kernel
-from spacecraft.navigation import Guidance, navigate, quat_from_rotvec
+from spacecraft.navigation import CommandBlocks, Guidance, navigate, quat_from_rotvec
 from spacecraft.pieces import cycle_pieces
 from spacecraft.propulsion import PropulsionParams, PropulsionState, apply_valve_limits
 from spacecraft.valves import ValveState, ValveTiming, command_valves, end_cycle
@@ -66,13 +66,11 @@ def test_navigation_is_numpys(per_run):
 def test_command_blocks_are_guidance_at_every_cycle():
     """A block of cycles' commanded attitudes at once, per distinct command, equals
     Guidance.at cycle by cycle (a signed zero is a command of its own)."""
-    from spacecraft.simulation import _Commands
-
     rng = np.random.default_rng(2)
     rates = np.radians([[0.3, 0, 0], [-0.0, 0.2, 0.2], [0.0, 0.2, 0.2], [0, 0, 0]])
     omega = rates[rng.integers(0, 4, 300)]
     guidance = Guidance(quat_from_rotvec(np.zeros((300, 3))), omega)
-    commands = _Commands(guidance, CYCLE_S)
+    commands = CommandBlocks(guidance, CYCLE_S)
     assert commands.distinct.omega_cmd_B.shape[0] == 4
     for k in list(range(0, 200)) + [1000, 1063, 1064, 5]:  # across blocks, and back
         _same(commands.at(k), guidance.at(k * CYCLE_S)[0], f"cycle {k}")
