@@ -116,10 +116,11 @@ static PyObject *valves(PyObject *self, PyObject *args) {
     for (Py_ssize_t i = 0; i < n; i++) {
         for (Py_ssize_t j = 0; j < nj; j++) {
             Py_ssize_t e = i * nj + j;
-            /* np.where(failed, 0, command); np.clip(.., 0, cycle) keeps NaN; NaN -> 0 */
+            /* np.where(failed, 0, command); np.clip(.., 0, cycle) + 0.0 keeps NaN; NaN -> 0 */
             double on = failed[i] ? 0.0 : cmd[e];
             if (on < 0.0) on = 0.0;
             if (on > cycle) on = cycle;
+            on = on + 0.0; /* a -0.0 command is +0.0, as the numpy form makes it */
             if (isnan(on)) on = 0.0;
             int new_firing = (on > 0) && !on_at_end[e];
             int too_short = new_firing && (on < min_pulse);

@@ -102,7 +102,8 @@ def apply_valve_limits(
         The on-times the valves deliver this cycle [s].
     """
     # NaN commands (a broken controller) are not fired; clip keeps the rest in [0, cycle].
-    on = np.clip(on_time_s, 0.0, params.cycle_s)
+    # + 0.0 makes a -0.0 command +0.0 whichever zero numpy's clip keeps (1.26 and 2.x differ).
+    on = np.clip(on_time_s, 0.0, params.cycle_s) + 0.0
     on[np.isnan(on)] = 0.0
     new = (on > 0) & ~state.on_at_end
     too_short = new & (on < params.min_pulse_s)
