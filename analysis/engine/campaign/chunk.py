@@ -252,29 +252,43 @@ def _case_envelope(
 ) -> pd.DataFrame:
     K = history.t_s.size
     cycle = history.cycle_s
-    att = np.degrees(
-        np.concatenate([history.att_err_B[alive], history.final.att_err_B[alive, None]], 1)
-    )
-    rate = np.degrees(
-        np.concatenate([history.omega_B[alive], history.final.omega_B[alive, None]], 1)
-    )
-    on = np.concatenate(
-        [history.on_time_s[alive], np.zeros((int(alive.sum()), 1, history.n_jets))], 1
-    )
+    # The runs: a slice when they are consecutive (a chunk is one case; no failures), which
+    # reads the history in place; fancy indexing copies every array first.
+    ids = np.flatnonzero(alive)
+    runs = slice(ids[0], ids[-1] + 1) if ids.size and ids[-1] - ids[0] + 1 == ids.size else ids
+    n = ids.size
+
+    def with_final(series: np.ndarray, final: np.ndarray, a: int) -> np.ndarray:
+        """(n, K + 1) [deg]: component ``a`` of each run's cycles, then its final sample.
+        C-ordered with runs outer, so the sums over runs add them one after another, in run
+        order, as they always did (a different layout lets numpy sum pairwise: other bits)."""
+        out = np.empty((n, K + 1))
+        out[:, :K] = series[runs, :, a]
+        out[:, K] = final[runs, a]
+        return np.degrees(out, out=out)
+
     cols = {
         "case_index": np.full(K + 1, case, dtype=np.int64),
         "cycle": np.arange(K + 1, dtype=np.int64),
         "t_s": np.append(history.t_s, history.t_s[-1] + cycle) if K else np.zeros(1),
-        "n_runs": np.full(K + 1, int(alive.sum()), dtype=np.int64),
+        "n_runs": np.full(K + 1, n, dtype=np.int64),
     }
+    # Run-major (n, K, n_jets), as the sums below have always read it: numpy adds in the
+    # order the memory layout gives, and the history's own (cycle-major) layout would change
+    # the on-time sums' last bits.
+    on = np.ascontiguousarray(history.on_time_s[runs])
     for a, axis in enumerate(AXES):
+        att = with_final(history.att_err_B, history.final.att_err_B, a)
         for stat in ("min", "max", "sum"):
-            cols[f"att_err_{axis}_deg_{stat}"] = getattr(att[:, :, a], stat)(axis=0)
+            cols[f"att_err_{axis}_deg_{stat}"] = getattr(att, stat)(axis=0)
+        rate = with_final(history.omega_B, history.final.omega_B, a)
         for stat in ("min", "max", "sum"):
-            cols[f"rate_{axis}_deg_s_{stat}"] = getattr(rate[:, :, a], stat)(axis=0)
+            cols[f"rate_{axis}_deg_s_{stat}"] = getattr(rate, stat)(axis=0)
+        # The final sample fires nothing: its row is 0, as the zero row summed before was.
         axis_on = on[:, :, jets[a]]
-        cols[f"on_time_{axis}_s_sum"] = axis_on.sum(axis=(0, 2))
-        cols[f"firing_{axis}_runs"] = (axis_on > 0).any(axis=2).sum(axis=0).astype(np.int64)
+        cols[f"on_time_{axis}_s_sum"] = np.append(axis_on.sum(axis=(0, 2)), 0.0)
+        firing = (axis_on > 0).any(axis=2).sum(axis=0).astype(np.int64)
+        cols[f"firing_{axis}_runs"] = np.append(firing, 0)
     return pd.DataFrame(cols)
 
 

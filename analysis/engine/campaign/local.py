@@ -101,12 +101,13 @@ def local_results(
     n_chunks: int,
     cancel: threading.Event,
 ) -> Generator[ChunkResult, None, None]:
-    """Yield the results of ``chunks`` as they finish, at most ``workers`` in flight.
+    """Yield the results of ``chunks`` as they finish, at most ``workers`` flying at once.
 
     One worker (or one chunk): in this process, with MuJoCo's own threads on every CPU (an
     interrupt stops it between two control cycles, through ``cancel``).  More: a
-    :func:`worker_pool`, each chunk flown with one MuJoCo thread; when the consumer stops early
-    (an interrupt), the workers are killed.
+    :func:`worker_pool`, each chunk flown with one MuJoCo thread and one more chunk queued;
+    when the consumer stops early (an interrupt), the workers are killed and the queued chunk
+    dropped.
     """
     workers = max(1, min(workers, n_chunks))
     if workers == 1:
@@ -117,9 +118,13 @@ def local_results(
     pool = worker_pool(workers)
     pending: set = set()
     finished_normally = False
+    # One chunk more than workers: a worker that finishes starts the queued chunk at once,
+    # instead of idling while this process takes its result, commits it and submits the next
+    # (~16 ms a chunk, 1.3 % of a paper-size flight; docs/performance.md).
+    in_flight = workers + 1
     try:
         while True:
-            for chunk in islice(chunks, workers - len(pending)):
+            for chunk in islice(chunks, in_flight - len(pending)):
                 pending.add(submit(pool, simulate_chunk, spec, chunk, 1))
             if not pending:
                 finished_normally = True

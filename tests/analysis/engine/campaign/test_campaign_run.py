@@ -14,7 +14,7 @@ import pytest
 
 from analysis.engine.campaign import chunk as chunk_mod
 from analysis.engine.campaign import limits as limits_mod
-from analysis.engine.campaign.outcomes import firing_starts
+from analysis.engine.campaign.outcomes import _axes_of, _jet_bits, firing_starts
 from analysis.engine.campaign.runner import run_campaign
 from analysis.engine.campaign.spec import load_spec
 from spacecraft.guards import history_bytes
@@ -250,6 +250,24 @@ def test_firing_starts_counts_new_firings_only():
     # new one, and since it was partial the jet was off at its end, so cycle 5 starts another
     # (the rule of spacecraft.propulsion.apply_valve_limits).
     assert starts.tolist() == [True, False, False, False, True, True, False]
+
+
+@pytest.mark.parametrize("n_jets", [5, 12, 16, 17, 33, 64, 70, 130])
+def test_packed_jet_masks_say_which_axes_fire(n_jets):
+    """outcomes() asks "is some jet of this axis on?" of jets packed into 8- to 64-bit words
+    (one AND per cycle and run).  Oracle: the same question asked jet by jet with numpy's
+    any() on the unpacked masks, for jet counts that fill a word exactly, leave one partly
+    empty, or need several words, and a jet map in which jets serve several axes or none."""
+    rng = np.random.default_rng(n_jets)
+    on = rng.random((7, 11, n_jets)) < 0.1  # (K, n, n_jets), cycle-major as histories are
+    jets = rng.random((3, n_jets)) < 0.3
+    jets[:, -1] = True  # the last jet (a partly filled word's top) serves every axis
+    on[0, 0, -1] = True
+    expect = (on[:, :, None, :] & jets[None, None]).any(axis=-1).swapaxes(0, 1)  # (n, K, 3)
+    got = _axes_of(_jet_bits(on), jets)
+    assert got.shape == (11, 7, 3)
+    np.testing.assert_array_equal(got, expect)
+    assert got[0, 0].all()
 
 
 def test_lookup_controller_campaign(tmp_path):
