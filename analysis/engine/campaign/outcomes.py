@@ -70,7 +70,8 @@ def axis_jets(spec: CampaignSpec | None = None) -> np.ndarray:
 
 def firing_starts(on_time_s: np.ndarray, cycle_s: float) -> np.ndarray:
     """(n, K, n_jets) bool: a jet starts a new firing in the cycle (it was not on at the cycle's
-    start, i.e. did not fill the previous cycle)."""
+    start, i.e. did not fill the previous cycle).  The per-jet reference form of
+    :func:`axis_firings`, which outcomes use."""
     full = on_time_s >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)
     prev_full = np.zeros_like(full)
     prev_full[:, 1:] = full[:, :-1]
@@ -109,6 +110,35 @@ def _axes_of(bits: np.ndarray, jets: np.ndarray) -> np.ndarray:
     hit = (bits[:, :, None, :] & masks) != 0  # (K, n, 3, words)
     out = hit[..., 0] if masks.shape[1] == 1 else hit.any(axis=-1)
     return out.swapaxes(0, 1)
+
+
+def axis_firings(
+    on_time_s: np.ndarray, cycle_s: float, jets: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per run, cycle and axis: a firing of the axis's jets starts, and one goes on.
+
+    Parameters
+    ----------
+    on_time_s : ndarray, (n, K, n_jets)
+        Commanded on-times [s] (a history's, whose buffers are cycle-major).
+    cycle_s : float
+        Control cycle [s].
+    jets : ndarray of bool, (3, n_jets)
+        The axes' jets (:func:`axis_jets`).
+
+    Returns
+    -------
+    starts : ndarray of bool, (n, K, 3)
+        Some jet of the axis starts a firing in the cycle (:func:`firing_starts`, the per-jet
+        form this computes on packed jet masks).
+    going_on : ndarray of bool, (n, K - 1, 3)
+        For cycles 1..K-1: some jet of the axis filled the previous cycle and is still on.
+    """
+    on = _cycle_major(on_time_s)  # (K, n, n_jets)
+    on_bits = _jet_bits(on > 0)  # (K, n, words)
+    prev_full = np.zeros_like(on_bits)
+    prev_full[1:] = _jet_bits(on[:-1] >= cycle_s * (1.0 - _FULL_CYCLE_RTOL))
+    return _axes_of(on_bits & ~prev_full, jets), _axes_of(prev_full[1:] & on_bits[1:], jets)
 
 
 def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
@@ -154,23 +184,17 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     # still on in cycle k.  A firing that overshoots sweeps the rate error through zero, so one
     # such sample would lie under thr although the firing ends far from the command: only
     # samples between firings count as "reached".
-    on = _cycle_major(history.on_time_s)  # (K, n, n_jets)
-    on_bits = _jet_bits(on > 0)  # (K, n, bytes): which jets are on, 8 to a byte
     mid = np.zeros_like(below)
     if _channel_table(spec):
         # A channel's jets fire their recipe's share of every cycle (0.99 of it, or less when
         # shared jets are scaled), never a full cycle: a firing is a run of consecutive cycles
         # in which the axis's jets are on, an event the first cycle of such a run.
-        active = _axes_of(on_bits, jets)  # (n, K, 3)
+        active = _axes_of(_jet_bits(_cycle_major(history.on_time_s) > 0), jets)  # (n, K, 3)
         mid[:, 1:K] = active[:, :-1] & active[:, 1:]
         events = active.copy()
         events[:, 1:] &= ~active[:, :-1]
     else:
-        # firing_starts and its "filled the previous cycle and still on", on packed bits.
-        prev_full = np.zeros_like(on_bits)
-        prev_full[1:] = _jet_bits(on[:-1] >= cycle_s * (1.0 - _FULL_CYCLE_RTOL))
-        mid[:, 1:K] = _axes_of(prev_full[1:] & on_bits[1:], jets)
-        events = _axes_of(on_bits & ~prev_full, jets)  # (n, K, 3)
+        events, mid[:, 1:K] = axis_firings(history.on_time_s, cycle_s, jets)
     # Commands after the propellant ran out are no firings (spacecraft.propellant).
     dead = exhausted_before(times[:K], history.propellant_exhausted_s)  # (n, K) or None
     if dead is not None:

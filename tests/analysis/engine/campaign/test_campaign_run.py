@@ -14,7 +14,7 @@ import pytest
 
 from analysis.engine.campaign import chunk as chunk_mod
 from analysis.engine.campaign import limits as limits_mod
-from analysis.engine.campaign.outcomes import _axes_of, _jet_bits, firing_starts
+from analysis.engine.campaign.outcomes import _axes_of, _jet_bits, axis_firings, firing_starts
 from analysis.engine.campaign.runner import run_campaign
 from analysis.engine.campaign.spec import load_spec
 from spacecraft.guards import history_bytes
@@ -268,6 +268,30 @@ def test_packed_jet_masks_say_which_axes_fire(n_jets):
     assert got.shape == (11, 7, 3)
     np.testing.assert_array_equal(got, expect)
     assert got[0, 0].all()
+
+
+def test_axis_firings_are_the_per_jet_rule_per_axis():
+    """outcomes() counts an axis's firing events and its mid-firing samples from packed jet
+    masks on the history's cycle-major layout.  Oracle: the per-jet rule asked jet by jet --
+    :func:`firing_starts` for a start, "filled the previous cycle and still on" for a firing
+    going on -- then any() over each axis's jets, on random commands with full cycles, short
+    pulses, zeros, a cycle a rounding short of full (1e-14 s under: full, as
+    spacecraft.propulsion counts it, to 1e-12 of the cycle) and one short of full (1e-13 s
+    under: not full)."""
+    rng = np.random.default_rng(5)
+    cycle = 0.04
+    choices = np.array([0.0, 0.0, 0.0, 0.012, cycle, cycle, cycle - 1e-14, cycle - 1e-13, 0.03])
+    buf = rng.choice(choices, size=(40, 9, 16))  # (K, n, jets), as a history writes it
+    on = buf.swapaxes(0, 1)
+    jets = rng.random((3, 16)) < 0.35
+    starts, going_on = axis_firings(on, cycle, jets)
+    full = on >= cycle * (1.0 - 1e-12)
+    per_jet_going = full[:, :-1] & (on[:, 1:] > 0)
+    expect_starts = (firing_starts(on, cycle)[:, :, None, :] & jets).any(axis=-1)
+    expect_going = (per_jet_going[:, :, None, :] & jets).any(axis=-1)
+    np.testing.assert_array_equal(starts, expect_starts)
+    np.testing.assert_array_equal(going_on, expect_going)
+    assert starts.any() and going_on.any() and not starts.all()
 
 
 def test_lookup_controller_campaign(tmp_path):
