@@ -26,8 +26,10 @@ from collections.abc import Generator, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from itertools import islice
+from pathlib import Path
 from typing import TYPE_CHECKING
 
+import analysis
 from analysis.engine.campaign.chunk import Chunk, ChunkResult, simulate_chunk, warm_up
 
 if TYPE_CHECKING:
@@ -48,7 +50,33 @@ def worker_pool(workers: int) -> ProcessPoolExecutor:
     """A pool of ``workers`` chunk processes (see the module docstring)."""
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(_PRELOAD)
+    _start_fork_server()
     return ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_worker_init)
+
+
+def _start_fork_server() -> None:
+    """Start the fork server (once per process) importing rcsim from this process's tree.
+
+    The fork server imports :data:`_PRELOAD` before it takes this process's ``sys.path``
+    (CPython 3.11's ``multiprocessing.forkserver.main`` receives it and never applies it), so
+    a tree put on the path at run time -- a notebook's ``sys.path.insert``, a script run from
+    one checkout beside another installed -- would be this process's code while the workers
+    fly the installed one, and the manifest's code version would not be what flew.  The tree
+    this process imported rcsim from goes first on ``PYTHONPATH``, which the fork server's
+    interpreter reads when it starts, and only for that start.
+    """
+    from multiprocessing import forkserver
+
+    tree = str(Path(analysis.__file__).resolve().parent.parent)
+    before = os.environ.get("PYTHONPATH")
+    os.environ["PYTHONPATH"] = os.pathsep.join([tree] + ([before] if before else []))
+    try:
+        forkserver.ensure_running()
+    finally:
+        if before is None:
+            del os.environ["PYTHONPATH"]
+        else:
+            os.environ["PYTHONPATH"] = before
 
 
 @contextmanager
