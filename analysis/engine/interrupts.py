@@ -25,6 +25,12 @@ class Terminated(KeyboardInterrupt):
     signum = signal.SIGTERM
 
 
+#: Interrupts received inside the outermost :func:`sigterm_interrupts` block (signal numbers),
+#: for :func:`raise_if_interrupted`.
+_received: list[int] = []
+_depth = 0
+
+
 @contextlib.contextmanager
 def sigterm_interrupts():
     """While the block runs in the main thread, SIGTERM raises :class:`Terminated`.
@@ -32,7 +38,14 @@ def sigterm_interrupts():
     Nested uses are harmless (the innermost handler raises the same exception).  Library code
     that turns the interrupt into another KeyboardInterrupt on its way out is corrected: the
     exception that leaves the block is a :class:`Terminated` whenever SIGTERM arrived.
+
+    Every interrupt inside the block, Ctrl-C (while SIGINT has Python's own handler) as well
+    as SIGTERM, is also remembered, for :func:`raise_if_interrupted`: library code can swallow
+    the exception a signal handler raised (pyarrow's compiled ``hasattr`` on a pandas frame
+    clears whatever exception the attribute lookup raised), and the work would then run to its
+    end as if no one had asked it to stop.
     """
+    global _depth
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -40,9 +53,18 @@ def sigterm_interrupts():
 
     def interrupt(signum, frame):
         received.append(signum)
+        _received.append(signum)
         raise Terminated
 
+    def ctrl_c(signum, frame):
+        _received.append(signum)
+        raise KeyboardInterrupt
+
     old = signal.signal(signal.SIGTERM, interrupt)
+    old_int = signal.getsignal(signal.SIGINT)
+    if old_int is signal.default_int_handler:  # a caller's own SIGINT handling stays
+        signal.signal(signal.SIGINT, ctrl_c)
+    _depth += 1
     try:
         yield
     except KeyboardInterrupt as exc:
@@ -50,4 +72,25 @@ def sigterm_interrupts():
             raise Terminated from exc
         raise
     finally:
+        _depth -= 1
+        if _depth == 0:
+            _received.clear()
         signal.signal(signal.SIGTERM, old)
+        if old_int is signal.default_int_handler:
+            signal.signal(signal.SIGINT, old_int)
+
+
+def raise_if_interrupted() -> None:
+    """Raise the interrupt that arrived inside :func:`sigterm_interrupts` if something
+    swallowed it: :class:`Terminated` after SIGTERM, :class:`KeyboardInterrupt` after Ctrl-C.
+
+    Call it where long work goes on normally after a step (a chunk committed): reached there,
+    an interrupt was received but no exception is on its way out.
+    """
+    if not _received:
+        return
+    last = _received[-1]
+    _received.clear()
+    if last == signal.SIGTERM:
+        raise Terminated
+    raise KeyboardInterrupt

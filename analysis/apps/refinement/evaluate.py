@@ -27,6 +27,7 @@ from analysis.engine.campaign.local import kill_pool, submit, worker_pool
 from analysis.engine.campaign.outcomes import outcomes
 from analysis.engine.campaign.spec import CampaignSpec
 from analysis.engine.flight import fly_batch
+from analysis.engine.interrupts import raise_if_interrupted
 from analysis.results.scoring import trial_frame
 from lookup.pattern_recognition import LookupController, LookupParams
 from models.tables import LookupTable
@@ -180,6 +181,7 @@ def evaluate(
             for sl in chunks:
                 frames.append(_fly_chunk(*work(sl), nthread=threads))
                 bar.update(sl.stop - sl.start)
+                raise_if_interrupted()  # one a library swallowed (analysis.engine.interrupts)
         else:
             pool = worker_pool(workers)
             try:
@@ -187,6 +189,7 @@ def evaluate(
                 for sl, future in zip(chunks, futures):
                     frames.append(future.result())
                     bar.update(sl.stop - sl.start)
+                    raise_if_interrupted()
             except BaseException:  # an interrupt: stop the workers now, not after their chunks
                 kill_pool(pool)
                 raise

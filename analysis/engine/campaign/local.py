@@ -112,8 +112,17 @@ def kill_pool(pool: ProcessPoolExecutor) -> None:
     # concurrent.futures has no public way to stop a running worker before Python 3.14
     # (ProcessPoolExecutor.kill_workers); its process table is the documented-in-source way.
     manager = getattr(pool, "_executor_manager_thread", None)
+    results = getattr(pool, "_result_queue", None)
     for process in list((getattr(pool, "_processes", None) or {}).values()):
         process.kill()
+    # A worker killed while it sent its result leaves part of a message in the result pipe, and
+    # the manager thread would wait for the rest for ever (then the interpreter's exit for the
+    # thread: ~25 s after Ctrl-C, and a warning of leaked semaphores).  Every worker killed,
+    # this process's write end is the pipe's last: closed, the thread reads the pipe's end and
+    # sees the pool broken, as it is.
+    writer = getattr(results, "_writer", None)
+    if writer is not None:
+        writer.close()
     pool.shutdown(wait=False, cancel_futures=True)
     # Wait for the pool's manager thread to see its workers gone and close its wake-up pipe.
     # Left running, it races the interpreter's exit hook, which writes to that pipe while the

@@ -43,7 +43,7 @@ from analysis.engine.campaign.effects import describe
 from analysis.engine.campaign.gate import GateResult, judge
 from analysis.engine.campaign.local import local_results
 from analysis.engine.campaign.spec import CampaignSpec
-from analysis.engine.interrupts import sigterm_interrupts
+from analysis.engine.interrupts import raise_if_interrupted, sigterm_interrupts
 from analysis.engine.output import check_out_dir, output_lock, write_marker
 from analysis.engine.runs_table import all_columns
 from models.errors import InputError
@@ -393,6 +393,8 @@ def _drain(
     ) as bar:
         for result in results:
             R.commit_chunk(out, result)
+            # An interrupt a library swallowed (analysis.engine.interrupts) stops it here.
+            raise_if_interrupted()
             n = result.chunk.stop - result.chunk.first
             flown += n
             # A chunk's runs all last equally long (plan_chunks).
