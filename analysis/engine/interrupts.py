@@ -41,9 +41,9 @@ def sigterm_interrupts():
 
     Every interrupt inside the block, Ctrl-C (while SIGINT has Python's own handler) as well
     as SIGTERM, is also remembered, for :func:`raise_if_interrupted`: library code can swallow
-    the exception a signal handler raised (pyarrow's compiled ``hasattr`` on a pandas frame
-    clears whatever exception the attribute lookup raised), and the work would then run to its
-    end as if no one had asked it to stop.
+    the exception a signal handler raised (numpy's comparison of a dtype with a string, which
+    pandas makes while pyarrow converts a table, clears any exception raised while it runs),
+    and the work would then run to its end as if no one had asked it to stop.
     """
     global _depth
     if threading.current_thread() is not threading.main_thread():
