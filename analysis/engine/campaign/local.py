@@ -63,11 +63,19 @@ def _start_fork_server() -> None:
     one checkout beside another installed -- would be this process's code while the workers
     fly the installed one, and the manifest's code version would not be what flew.  The tree
     this process imported rcsim from goes first on ``PYTHONPATH``, which the fork server's
-    interpreter reads when it starts, and only for that start.
+    interpreter reads when it starts, and only for that start -- unless that tree is an
+    installed one (a site-packages folder), which the fork server finds anyway and which put
+    before the standard library could shadow it with a stray backport.
     """
+    import site
     from multiprocessing import forkserver
 
     tree = str(Path(analysis.__file__).resolve().parent.parent)
+    installed = {str(Path(p).resolve()) for p in site.getsitepackages()}
+    installed.add(str(Path(site.getusersitepackages()).resolve()))
+    if tree in installed:
+        forkserver.ensure_running()
+        return
     before = os.environ.get("PYTHONPATH")
     os.environ["PYTHONPATH"] = os.pathsep.join([tree] + ([before] if before else []))
     try:
