@@ -9,6 +9,7 @@ any number of jets.  A batch of runs is a :class:`VehicleParams` whose arrays ha
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import mujoco
@@ -168,6 +169,25 @@ class VehicleParams:
             thrust_n=rep(model.actuator_gainprm[jets, 0]),
             jet_dir_S=rep(model.actuator_gear[jets, 0:3]),
             iquat=None if np.array_equal(frame, IDENTITY_QUAT) else rep(frame),
+        )
+
+    @classmethod
+    def concat(cls, parts: Sequence[VehicleParams]) -> VehicleParams:
+        """The runs of ``parts`` one after another (same jet count, same ``isp_s``; ``iquat``
+        None in all of them or in none)."""
+        first = parts[0]
+        frames = [p.iquat for p in parts]
+        if any(f is None for f in frames) and not all(f is None for f in frames):
+            raise ValueError("some parts have their own principal frames and some do not")
+        join = lambda name: np.concatenate([getattr(p, name) for p in parts])  # noqa: E731
+        return replace(
+            first,
+            mass_kg=join("mass_kg"),
+            cg_B=join("cg_B"),
+            inertia_B=join("inertia_B"),
+            thrust_n=join("thrust_n"),
+            jet_dir_S=join("jet_dir_S"),
+            iquat=None if frames[0] is None else join("iquat"),
         )
 
     def take(self, index) -> VehicleParams:

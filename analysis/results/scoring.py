@@ -14,6 +14,14 @@ import pandas as pd
 
 from models.tables import AXES
 
+#: The outcome columns :func:`trial_frame` reads (a campaign's ``runs.parquet`` has ~100 more:
+#: a caller scoring a campaign need read only these).
+SCORED_COLUMNS = (
+    "failed",
+    *(f"firings_to_rate_{a}" for a in AXES),
+    *(f"final_rate_err_{a}_deg_s" for a in AXES),
+)
+
 
 def trial_frame(trial, case, k, outcome: pd.DataFrame) -> pd.DataFrame:
     """The per-run scoring frame of candidate ``trial`` runs from their campaign outcome columns

@@ -231,6 +231,26 @@ def test_draws_with_extras_depend_only_on_seed_and_run_id(nominal, extras):
         )
 
 
+def test_draws_in_blocks_are_the_draws_at_once(nominal, extras, monkeypatch):
+    """Issue 19: draw_runs disperses DRAW_BLOCK_RUNS runs at a time to bound its temporaries;
+    every run's arithmetic is its own, so blocks of 7 (and a short last block) give the same
+    vehicles, principal frames (products of inertia) and tilts to the last bit."""
+    from spacecraft import dispersions
+
+    ids = np.arange(40, 0, -1)
+    whole = draw_runs(nominal, extras, 6, ids)
+    monkeypatch.setattr(dispersions, "DRAW_BLOCK_RUNS", 7)
+    blocks = draw_runs(nominal, extras, 6, ids)
+    assert whole.params.iquat is not None
+    for name in ("mass_kg", "cg_B", "inertia_B", "thrust_n", "jet_dir_S", "iquat"):
+        np.testing.assert_array_equal(getattr(blocks.params, name), getattr(whole.params, name))
+    np.testing.assert_array_equal(blocks.tilt_rad, whole.tilt_rad)
+    np.testing.assert_array_equal(blocks.azimuth_rad, whole.azimuth_rad)
+    np.testing.assert_array_equal(blocks.run_ids, ids)
+    with pytest.raises(ValueError, match="principal frames"):  # no frame cannot be invented
+        VehicleParams.concat([nominal, whole.params])
+
+
 # ---------------------------------------------------------------------- physical tensors --
 def test_the_second_moment_slack_is_the_triangle_inequalitys(nominal):
     """Table 1: (Iyy + Izz - Ixx) / 2 = (3160.22 + 2457.06 - 3583.09) / 2 = 1017.095 kg m^2 is

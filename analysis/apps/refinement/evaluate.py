@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import os
 import sys
+from collections import deque
 from dataclasses import dataclass
+from itertools import islice
 
 import numpy as np
 import pandas as pd
@@ -33,6 +35,10 @@ from lookup.pattern_recognition import LookupController, LookupParams
 from models.tables import LookupTable
 from spacecraft.dispersions import draw_runs
 from spacecraft.vehicle import VehicleParams, load_model
+
+#: Chunks submitted per worker process at a time (one flying, one waiting, so that a worker
+#: never waits for this process to hand it the next).
+IN_FLIGHT_PER_WORKER = 2
 
 
 @dataclass(frozen=True)
@@ -185,11 +191,22 @@ def evaluate(
         else:
             pool = worker_pool(workers)
             try:
-                futures = [submit(pool, _fly_chunk, *work(sl)) for sl in chunks]
-                for sl, future in zip(chunks, futures):
+                # A few chunks in flight, not all: each holds its runs' vehicles and tables
+                # (a 26,000-run evaluation held ~200 MB of them at once in this process).
+                # Results are taken in chunk order, so the frame is the same either way.
+                todo = iter(chunks)
+                flying = deque(
+                    (sl, submit(pool, _fly_chunk, *work(sl)))
+                    for sl in islice(todo, IN_FLIGHT_PER_WORKER * workers)
+                )
+                while flying:
+                    sl, future = flying.popleft()
                     frames.append(future.result())
                     bar.update(sl.stop - sl.start)
                     raise_if_interrupted()
+                    nxt = next(todo, None)
+                    if nxt is not None:
+                        flying.append((nxt, submit(pool, _fly_chunk, *work(nxt))))
             except BaseException:  # an interrupt: stop the workers now, not after their chunks
                 kill_pool(pool)
                 raise

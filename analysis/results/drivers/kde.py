@@ -134,6 +134,10 @@ class Strata:
         return np.concatenate(parts) if parts else np.empty(0, dtype=np.intp)
 
 
+#: Bytes of flat cell indices one bincount pass of :class:`BinnedTV` may hold.
+COUNT_PASS_BYTES = 16 * 2**20
+
+
 class BinnedTV:
     """Total-variation distances of many single inputs or pairs, for any set of "minority" rows.
 
@@ -146,11 +150,13 @@ class BinnedTV:
         Column pairs; None scores single columns.
     h : float
         Kernel sd on the rank scale.
-    chunk_rows : int
-        Rows per bincount pass (bounds memory at ``chunk_rows x n_tests`` int32).
+    chunk_rows : int, optional
+        Rows per bincount pass; default as many as keep a pass's flat cell indices
+        (``chunk_rows x n_tests`` int32, and as much again while they are built) within
+        :data:`COUNT_PASS_BYTES`, and at most 4096.
     """
 
-    def __init__(self, codes, n_bins, pairs=None, *, h, chunk_rows=4096):
+    def __init__(self, codes, n_bins, pairs=None, *, h, chunk_rows=None):
         # Test-major layout (p, n): a bincount then writes each test's few cells in turn,
         # which is ~6x faster than row-major scattering over all tests' cells.
         self.codes_T = np.ascontiguousarray(np.asarray(codes, dtype=np.int32).T)
@@ -159,6 +165,10 @@ class BinnedTV:
         self.n_tests = self.codes_T.shape[0] if pairs is None else self.pairs.shape[0]
         self.cells = self.m if pairs is None else self.m * self.m
         self.K = smoothing_matrix(self.m, h)
+        if chunk_rows is None:
+            # A campaign's ~90 inputs make ~4,000 pairs: 4096 rows a pass held 120 MB of
+            # indices at once; counts are integers, so the pass size changes no result.
+            chunk_rows = min(4096, max(64, COUNT_PASS_BYTES // (4 * self.n_tests)))
         self.chunk_rows = int(chunk_rows)
         self._offsets = (np.arange(self.n_tests, dtype=np.int32) * self.cells)[:, None]
         self.n = self.codes_T.shape[1]

@@ -130,6 +130,34 @@ def test_the_search_flies_the_first_runs_and_does_not_depend_on_the_split():
     np.testing.assert_array_equal(first, one.before["failed"].to_numpy())
 
 
+def test_evaluation_keeps_a_few_chunks_in_flight_and_returns_them_in_order(monkeypatch):
+    """Issue 19: two workers get chunks a few at a time (not all at once: each holds its runs'
+    vehicles and tables in this process), and the frame is the one flown in this process."""
+    from analysis.apps.refinement import evaluate as evaluate_module
+    from analysis.apps.refinement.evaluate import Trials, evaluate
+
+    spec = refinement_spec(runs_per_case=6, seed=4, duration_s=4.0)
+    table = load_lookup_table(which="table6")
+    trials = Trials(np.repeat(table.firing_time_s[None], 3, 0), np.array(CASES + [5]), "abc")
+    monkeypatch.setattr(evaluate_module, "max_chunk_runs", lambda spec, duration_s: 2)
+    outstanding, taken = [], []  # chunks submitted and not yet taken, at each submission
+    real_submit = evaluate_module.submit
+
+    def counting_submit(pool, fn, *args):
+        outstanding.append(len(outstanding) + 1 - len(taken))
+        return real_submit(pool, fn, *args)
+
+    monkeypatch.setattr(evaluate_module, "submit", counting_submit)
+    # Called once per chunk taken (after its result).
+    monkeypatch.setattr(evaluate_module, "raise_if_interrupted", lambda: taken.append(1))
+    two = evaluate(spec, table, trials, progress=False, threads=2)
+    assert len(outstanding) == 10  # 18 runs, at most 2 a chunk, a multiple of 2 workers
+    assert max(outstanding) == evaluate_module.IN_FLIGHT_PER_WORKER * 2
+    one = evaluate(spec, table, trials, progress=False, threads=1)
+    pd.testing.assert_frame_equal(two, one, check_exact=True)
+    assert list(two["trial"]) == sorted(two["trial"])  # chunk order kept
+
+
 def test_a_stopped_search_resumes_at_its_last_round_and_finds_the_same_table(tmp_path):
     """Issue 17: a kill lost the whole refinement.  Stopped (KeyboardInterrupt, as Ctrl-C or
     SIGTERM raise it) in its second round, the search resumes from the checkpoint of its first

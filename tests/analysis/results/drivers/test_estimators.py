@@ -12,7 +12,14 @@ import pandas as pd
 import pytest
 
 from analysis.results.drivers.baseline import TTestBaseline
-from analysis.results.drivers.kde import BinnedTV, Strata, bin_codes, rank_scale, smoothing_matrix
+from analysis.results.drivers.kde import (
+    COUNT_PASS_BYTES,
+    BinnedTV,
+    Strata,
+    bin_codes,
+    rank_scale,
+    smoothing_matrix,
+)
 from analysis.results.drivers.maps import KNNFailureMap
 from analysis.results.drivers.pairs import PairKDE
 from analysis.results.drivers.pipeline import Settings
@@ -50,6 +57,25 @@ def test_fit_returns_self_and_is_reproducible():
     s = HalfSampleStability(n_splits=2)
     assert s.fit(X, y, a, p) is s
     assert s.single_half_rank_.shape == (4, 6)
+
+
+def test_forest_importance_does_not_depend_on_the_prediction_blocks(monkeypatch):
+    # The shuffled held-out copies are predicted a block of inputs at a time to bound memory;
+    # a forest predicts each row on its own and the shuffles are drawn input by input, so one
+    # input per block and all inputs in one block give the same AUC drops to the last bit.
+    from analysis.results.drivers import second_opinion
+
+    X, y = planted_campaign("one-sided", seed=5, n_runs=800, n_noise=5)
+    fits = []
+    for block_bytes in (1, 2**40):
+        monkeypatch.setattr(second_opinion, "PREDICT_BLOCK_BYTES", block_bytes)
+        fits.append(ForestImportance(n_estimators=20, random_state=3).fit(X, y))
+    one, whole = fits
+    assert np.isfinite(one.importance_mean_).all()
+    np.testing.assert_array_equal(one.importance_mean_, whole.importance_mean_)
+    np.testing.assert_array_equal(one.importance_sd_, whole.importance_sd_)
+    # The planted mechanism's inputs (the first two) matter to the forest, noise does not.
+    assert set(np.flatnonzero(one.important_)) <= {0, 1} and one.important_[:2].any()
 
 
 def test_bad_fit_input_is_a_clear_error():
@@ -102,6 +128,26 @@ def test_smoothing_keeps_mass_and_pair_counts_marginalise():
     np.testing.assert_array_equal(e2.pooled[0].sum(axis=1), e1.pooled[0])
     np.testing.assert_array_equal(e2.pooled[2].sum(axis=0), e1.pooled[2])
     assert e2.pooled.sum() == 3 * 500
+
+
+def test_bincount_passes_change_no_count():
+    # Counts are integers: any split of the rows into passes sums to the same cells.  Pairs
+    # of many inputs get passes bounded by COUNT_PASS_BYTES (a 90-input campaign's ~4,000
+    # pairs held 120 MB of indices a pass at the old fixed 4096 rows).
+    rng = np.random.default_rng(1)
+    codes = bin_codes(rng.random((3000, 6)), 16)
+    pairs = np.array([(a, b) for a in range(6) for b in range(a + 1, 6)])
+    rows = rng.choice(3000, 700, replace=False)
+    for p in (None, pairs):
+        whole = BinnedTV(codes, 16, p, h=0.05, chunk_rows=4096)
+        split = BinnedTV(codes, 16, p, h=0.05, chunk_rows=64)
+        np.testing.assert_array_equal(split.pooled, whole.pooled)
+        np.testing.assert_array_equal(split.counts(rows), whole.counts(rows))
+    assert BinnedTV(codes, 16, pairs, h=0.05).chunk_rows == 4096  # few pairs: the old size
+    many = np.array([(a, b) for a in range(90) for b in range(a + 1, 90)])
+    wide = BinnedTV(bin_codes(rng.random((50, 90)), 16), 16, many, h=0.05)
+    assert 64 <= wide.chunk_rows < 4096
+    assert wide.chunk_rows * wide.n_tests * 4 <= COUNT_PASS_BYTES
 
 
 def test_tv_of_identical_groups_is_zero_and_disjoint_is_one():
