@@ -3,10 +3,10 @@
 The KDE ranking looks at one input (or pair) at a time; a random forest looks at all inputs at
 once and can pick up what a marginal view misses (or show that a KDE driver is only a proxy
 for a correlated one).  Importance is the drop in held-out ROC AUC when one input is shuffled
-(as scikit-learn's ``permutation_importance``, with all shuffled copies predicted at once), mean
-and sd over ``n_repeats`` shuffles; an input
-is "important" to the forest when ``mean - 2 sd > 0``.  Rows beyond ``max_rows`` are
-subsampled (stratified by outcome) to bound the cost.
+(as scikit-learn's ``permutation_importance``, the shuffled copies predicted in a few blocks),
+mean and sd over ``n_repeats`` shuffles; an input is "important" to the forest when
+``mean - 2 sd > 0``.  Rows beyond ``max_rows`` are subsampled (stratified by outcome) to
+bound the cost.
 """
 
 from __future__ import annotations
