@@ -21,6 +21,10 @@ from sklearn.neighbors import KNeighborsClassifier, NearestNeighbors
 
 from analysis.results.drivers.base import check_xy
 
+#: Runs whose neighbours one query asks for (bounds the neighbour table: k + 1 indices and
+#: distances a run).
+MAP_QUERY_ROWS = 8192
+
 
 class KNNFailureMap:
     """kNN ``P(fail)`` over two inputs on a grid, with k by cross-validation.
@@ -62,14 +66,23 @@ class KNNFailureMap:
         self._sorted = [np.sort(X[:, j]) for j in range(2)]
         R = np.column_stack([self._to_rank(X[:, j], j) for j in range(2)])
         ks = [k for k in self.k_grid if k <= 0.8 * n] or [max(1, n // 2)]
-        nn = NearestNeighbors(n_neighbors=max(ks) + 1).fit(R)
-        _, idx = nn.kneighbors(R)
-        # Drop each run itself (it is its own nearest neighbour unless tied at distance 0).
-        own = idx == np.arange(n)[:, None]
-        own[:, -1] |= ~own.any(axis=1)
-        neigh = idx[~own].reshape(n, max(ks))
-        running = np.cumsum(y[neigh], axis=1)
-        self.cv_brier_ = {k: float(np.mean((running[:, k - 1] / k - y) ** 2)) for k in ks}
+        kmax = max(ks)
+        nn = NearestNeighbors(n_neighbors=kmax + 1).fit(R)
+        # Failed runs among each run's first k neighbours, per candidate k.  Queried
+        # MAP_QUERY_ROWS runs at a time: the whole neighbour table and its running counts were
+        # ~0.5 GB at 10^5 runs.  A tree answers each query on its own, so the blocks change no
+        # neighbour; a table small enough for one block is queried whole, as before.
+        fails = np.empty((len(ks), n), dtype=np.int64)
+        at_k = np.array(ks) - 1
+        for start in range(0, n, MAP_QUERY_ROWS):
+            rows = np.arange(start, min(start + MAP_QUERY_ROWS, n))
+            _, idx = nn.kneighbors(R[rows])
+            # Drop each run itself (its own nearest neighbour unless tied at distance 0).
+            own = idx == rows[:, None]
+            own[:, -1] |= ~own.any(axis=1)
+            neigh = idx[~own].reshape(rows.size, kmax)
+            fails[:, rows] = np.cumsum(y[neigh], axis=1)[:, at_k].T
+        self.cv_brier_ = {k: float(np.mean((fails[i] / k - y) ** 2)) for i, k in enumerate(ks)}
         self.k_ = min(self.cv_brier_, key=self.cv_brier_.get)
         model = KNeighborsClassifier(self.k_).fit(R, y)
         g = int(self.n_grid)

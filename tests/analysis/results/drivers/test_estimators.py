@@ -78,6 +78,22 @@ def test_forest_importance_does_not_depend_on_the_prediction_blocks(monkeypatch)
     assert set(np.flatnonzero(one.important_)) <= {0, 1} and one.important_[:2].any()
 
 
+def test_knn_map_does_not_depend_on_the_query_blocks(monkeypatch):
+    # Neighbours are queried a block of runs at a time to bound memory (the whole table was
+    # ~0.5 GB at 10^5 runs); each run's neighbours are its own, so blocks of 97 runs (and a
+    # short last one) give the same cross-validated k, Brier scores and map to the last bit.
+    from analysis.results.drivers import maps
+
+    X, y = planted_campaign("two-sided", seed=2, n_runs=2000, n_noise=0)
+    whole = KNNFailureMap().fit(X, y)
+    monkeypatch.setattr(maps, "MAP_QUERY_ROWS", 97)
+    blocks = KNNFailureMap().fit(X, y)
+    assert blocks.k_ == whole.k_ and blocks.cv_brier_ == whole.cv_brier_
+    assert len(whole.cv_brier_) == 6  # every k of the grid was scored
+    np.testing.assert_array_equal(blocks.prob_, whole.prob_)
+    np.testing.assert_array_equal(blocks.uncertainty_, whole.uncertainty_)
+
+
 def test_bad_fit_input_is_a_clear_error():
     X, y = planted_campaign("null", seed=1, n_runs=100, n_noise=2)
     with pytest.raises(InputError, match="both failed and successful"):
@@ -114,6 +130,12 @@ def test_rank_scale_is_uniform_and_unit_free():
     x = np.array([[3.0, 1e6], [1.0, -5.0], [2.0, 7.0]])
     np.testing.assert_allclose(rank_scale(x)[:, 0], [5 / 6, 1 / 6, 3 / 6])
     np.testing.assert_array_equal(rank_scale(x), rank_scale(x * [1.0, 1e-3] + [10, 0]))
+    # Ranked a column at a time (bounded temporaries): scipy's whole-table form, ties included.
+    from scipy.stats import rankdata
+
+    t = np.random.default_rng(3).integers(0, 9, size=(500, 4)).astype(float)  # many ties
+    whole = (rankdata(t, axis=0, method="average") - 0.5) / 500
+    np.testing.assert_array_equal(rank_scale(t), whole)
 
 
 def test_smoothing_keeps_mass_and_pair_counts_marginalise():
