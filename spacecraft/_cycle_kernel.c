@@ -289,6 +289,59 @@ static PyObject *bounded_state(PyObject *self, PyObject *args) {
     return PyBool_FromLong(ok);
 }
 
+/* Per cycle, each jet group's on-time summed over the chosen runs, and how many of those runs
+ * fire a jet of the group: the envelope's two jet columns (analysis/engine/campaign/chunk.py),
+ * read from the cycle-major record in place.  The numpy form gathers the runs run-major and a
+ * group's jets with advanced indexing, which lays the gathered array out jet by jet, so numpy
+ * adds, for each cycle, jet after jet and within a jet run after run, from 0.0; the same order
+ * here (tests/analysis/engine/campaign/test_campaign_tables.py checks it on both pinned numpys).
+ * record (n_cycles, n_total, n_jets); runs (n_runs,) indices; groups (n_groups, n_jets) flags;
+ * sums and firing (n_groups, n_cycles). */
+static PyObject *group_on_time(PyObject *self, PyObject *args) {
+    (void)self;
+    Py_buffer rec_b, runs_b, grp_b, sum_b, fire_b;
+    Py_ssize_t n_cycles, n_total, n_jets, n_runs, n_groups;
+    if (!PyArg_ParseTuple(args, "nnnnny*y*y*w*w*", &n_cycles, &n_total, &n_jets, &n_runs,
+                          &n_groups, &rec_b, &runs_b, &grp_b, &sum_b, &fire_b))
+        return NULL;
+    const double *rec = rec_b.buf;
+    const int64_t *runs = runs_b.buf;
+    const uint8_t *groups = grp_b.buf;
+    double *sums = sum_b.buf;
+    int64_t *firing = fire_b.buf;
+    Py_BEGIN_ALLOW_THREADS;
+    for (Py_ssize_t k = 0; k < n_cycles; k++) {
+        const double *row = rec + k * n_total * n_jets;
+        for (Py_ssize_t g = 0; g < n_groups; g++) {
+            const uint8_t *in_group = groups + g * n_jets;
+            double acc = 0.0;
+            for (Py_ssize_t j = 0; j < n_jets; j++) {
+                if (!in_group[j]) continue;
+                for (Py_ssize_t r = 0; r < n_runs; r++) acc += row[runs[r] * n_jets + j];
+            }
+            int64_t count = 0;
+            for (Py_ssize_t r = 0; r < n_runs; r++) {
+                const double *on = row + runs[r] * n_jets;
+                for (Py_ssize_t j = 0; j < n_jets; j++) {
+                    if (in_group[j] && on[j] > 0) {
+                        count++;
+                        break;
+                    }
+                }
+            }
+            sums[g * n_cycles + k] = acc;
+            firing[g * n_cycles + k] = count;
+        }
+    }
+    Py_END_ALLOW_THREADS;
+    PyBuffer_Release(&rec_b);
+    PyBuffer_Release(&runs_b);
+    PyBuffer_Release(&grp_b);
+    PyBuffer_Release(&sum_b);
+    PyBuffer_Release(&fire_b);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"nav_product", nav_product, METH_VARARGS, "Navigation: q_cmd^-1 q, sign, w, vec."},
     {"nav_finish", nav_finish, METH_VARARGS, "Navigation: rotation vector and rate error."},
@@ -297,6 +350,7 @@ static PyMethodDef methods[] = {
     {"account", account, METH_VARARGS, "Delivered on-time and propulsion totals."},
     {"end_cycle", end_cycle, METH_VARARGS, "Drop finished intervals, shift the rest."},
     {"bounded_state", bounded_state, METH_VARARGS, "Every qpos, qvel entry finite, < 1e300."},
+    {"group_on_time", group_on_time, METH_VARARGS, "Per cycle: a jet group's on-time, firing."},
     {NULL, NULL, 0, NULL},
 };
 

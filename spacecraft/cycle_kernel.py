@@ -166,6 +166,51 @@ def bounded_state(state: np.ndarray, qpos: np.ndarray, qvel: np.ndarray) -> bool
     )
 
 
+def group_on_time(
+    record: np.ndarray, runs: np.ndarray, groups: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per cycle, each jet group's on-time summed over ``runs`` and the number of those runs
+    firing a jet of the group, read in place from a flight's cycle-major on-time record.
+
+    Bit for bit the numpy form of :func:`analysis.engine.campaign.chunk.envelope` (its
+    summation order is reproduced: ``_cycle_kernel.c``).
+
+    Parameters
+    ----------
+    record : ndarray, (n_cycles, n_runs_total, n_jets)
+        C-contiguous float64 [s] (``History.on_time_s.swapaxes(0, 1)`` of a flight).
+    runs : ndarray of int, (n,)
+        The runs summed, in order.
+    groups : ndarray of bool, (n_groups, n_jets)
+
+    Returns
+    -------
+    sums : ndarray, (n_groups, n_cycles) [s]
+    firing : ndarray of int64, (n_groups, n_cycles)
+    """
+    n_cycles, n_total, n_jets = record.shape
+    _require_contiguous(record, "record")
+    runs = np.ascontiguousarray(runs, dtype=np.int64)
+    if runs.size and (runs.min() < 0 or runs.max() >= n_total):
+        raise IndexError(f"run indices outside 0..{n_total - 1}")
+    groups = np.ascontiguousarray(groups, dtype=np.bool_).reshape(-1, n_jets)
+    sums = np.empty((groups.shape[0], n_cycles))
+    firing = np.empty((groups.shape[0], n_cycles), np.int64)
+    _cycle_kernel.group_on_time(
+        n_cycles,
+        n_total,
+        n_jets,
+        runs.size,
+        groups.shape[0],
+        _f64(record),
+        runs,
+        groups.view(np.uint8),
+        sums,
+        firing,
+    )
+    return sums, firing
+
+
 def _require_contiguous(a: np.ndarray, name: str) -> None:
     if not a.flags.c_contiguous or not a.flags.writeable:  # pragma: no cover - built so
         raise AssertionError(f"{name} must be a writable C-contiguous array")
@@ -176,6 +221,7 @@ __all__ = [
     "bounded_state",
     "command_valves",
     "end_cycle",
+    "group_on_time",
     "kernel_available",
     "navigate",
     "uniform_on",

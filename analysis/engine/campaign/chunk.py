@@ -28,6 +28,7 @@ from analysis.engine.runs_table import (
     missing_outcomes,
     records_products,
 )
+from spacecraft import cycle_kernel
 from spacecraft.dispersions import DispersedRuns, draw_runs
 from spacecraft.guards import history_bytes
 from spacecraft.simulation import History, invalid_runs
@@ -273,10 +274,7 @@ def _case_envelope(
         "t_s": np.append(history.t_s, history.t_s[-1] + cycle) if K else np.zeros(1),
         "n_runs": np.full(K + 1, n, dtype=np.int64),
     }
-    # Run-major (n, K, n_jets), as the sums below have always read it: numpy adds in the
-    # order the memory layout gives, and the history's own (cycle-major) layout would change
-    # the on-time sums' last bits.
-    on = np.ascontiguousarray(history.on_time_s[runs])
+    on_sum, firing = _group_on_time(history, runs, ids, jets)
     for a, axis in enumerate(AXES):
         att = with_final(history.att_err_B, history.final.att_err_B, a)
         for stat in ("min", "max", "sum"):
@@ -285,11 +283,29 @@ def _case_envelope(
         for stat in ("min", "max", "sum"):
             cols[f"rate_{axis}_deg_s_{stat}"] = getattr(rate, stat)(axis=0)
         # The final sample fires nothing: its row is 0, as the zero row summed before was.
-        axis_on = on[:, :, jets[a]]
-        cols[f"on_time_{axis}_s_sum"] = np.append(axis_on.sum(axis=(0, 2)), 0.0)
-        firing = (axis_on > 0).any(axis=2).sum(axis=0).astype(np.int64)
-        cols[f"firing_{axis}_runs"] = np.append(firing, 0)
+        cols[f"on_time_{axis}_s_sum"] = np.append(on_sum[a], 0.0)
+        cols[f"firing_{axis}_runs"] = np.append(firing[a], 0)
     return pd.DataFrame(cols)
+
+
+def _group_on_time(
+    history: History, runs: slice | np.ndarray, ids: np.ndarray, jets: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per axis and cycle: the on-time of the axis's jets summed over the runs ``runs``
+    (``ids`` as indices), and how many of those runs fire one of them; (3, K) each.
+
+    The compiled pass reads the flight's cycle-major record in place
+    (:func:`spacecraft.cycle_kernel.group_on_time`); the numpy form copies the runs run-major
+    (32 MB for a 500-run chunk) and gathers each axis's jets, which numpy lays out jet by jet,
+    and that layout is the summation order both keep (a run-major or cycle-major order would
+    change the sums' last bits)."""
+    record = history.on_time_s.swapaxes(0, 1)  # the (K, n, n_jets) buffer the flight wrote
+    if cycle_kernel.kernel_available() and record.flags.c_contiguous:
+        return cycle_kernel.group_on_time(record, ids, jets)
+    on = np.ascontiguousarray(history.on_time_s[runs])
+    sums = np.array([on[:, :, g].sum(axis=(0, 2)) for g in jets])
+    firing = np.array([(on[:, :, g] > 0).any(axis=2).sum(axis=0) for g in jets], np.int64)
+    return sums, firing
 
 
 def _keep(spec: CampaignSpec, run_ids: np.ndarray, failed: np.ndarray) -> np.ndarray:

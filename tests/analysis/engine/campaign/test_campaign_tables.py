@@ -262,3 +262,42 @@ def test_an_invalid_run_records_its_draw(tmp_path, monkeypatch):
     runs = pd.read_parquet(tmp_path / "out" / "runs.parquet").set_index("run_id")
     assert np.isnan(runs.loc[1, "ixx_kg_m2"]) and runs.loc[1, "sim_failed"]
     assert np.isfinite(runs.drop(index=1)["ixx_kg_m2"]).all()
+
+
+@pytest.mark.parametrize("runs_kind", ["slice", "ids"])
+def test_group_on_time_is_the_numpy_envelope_bit_for_bit(monkeypatch, runs_kind):
+    """Issue 19: the envelope's per-axis on-time sums and firing counts come from a compiled
+    pass over the flight's cycle-major record; they must be the numpy form's to the last bit.
+    The numpy form adds jet after jet and, within a jet, run after run (the layout numpy's
+    advanced indexing gives the gathered jets): a run-major order would change the last bits,
+    and groups of 1 to 9 jets, zeros, -0.0 and values nine decades apart make it show."""
+    from types import SimpleNamespace
+
+    from spacecraft import cycle_kernel
+
+    if cycle_kernel._cycle_kernel is None:
+        pytest.skip("the compiled passes were not built")
+    rng = np.random.default_rng(11)
+    n_cycles, n_runs, n_jets = 41, 37, 16
+    record = rng.random((n_cycles, n_runs, n_jets)) * (rng.random((n_cycles, n_runs, n_jets)) < 0.5)
+    record[rng.random(record.shape) < 0.2] *= 1e-9
+    record[rng.random(record.shape) < 0.05] = -0.0
+    history = SimpleNamespace(on_time_s=record.swapaxes(0, 1))  # as the flight returns it
+    groups = np.zeros((4, n_jets), bool)
+    for g, size in enumerate((1, 4, 8, 9)):
+        groups[g, rng.choice(n_jets, size, replace=False)] = True
+    ids = np.arange(n_runs) if runs_kind == "slice" else np.sort(rng.choice(n_runs, 23, False))
+    runs = slice(0, n_runs) if runs_kind == "slice" else ids
+    monkeypatch.setenv("RCSIM_NUMPY_CYCLE", "1")
+    ref_sums, ref_firing = chunk_mod._group_on_time(history, runs, ids, groups)
+    monkeypatch.setenv("RCSIM_NUMPY_CYCLE", "0")
+    sums, firing = chunk_mod._group_on_time(history, runs, ids, groups)
+    assert sums.tobytes() == ref_sums.tobytes()
+    np.testing.assert_array_equal(firing, ref_firing)
+    assert firing.dtype == np.int64 and ref_firing.max() > 0
+    # The order matters: the same numbers summed in memory order (numpy then adds pairwise),
+    # some cycle's total differs in its last bits.
+    other = np.array(
+        [np.ascontiguousarray(record[:, ids][:, :, g]).sum(axis=(1, 2)) for g in groups]
+    )
+    assert other.tobytes() != ref_sums.tobytes()
