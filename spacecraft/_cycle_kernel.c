@@ -342,6 +342,51 @@ static PyObject *group_on_time(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+/* Per cycle, run and jet group: a firing of the group's jets starts (some jet on that was not
+ * on for the whole previous cycle), and one goes on (some jet on the whole previous cycle and
+ * on again), from the cycle-major on-time record; analysis/engine/campaign/outcomes.py's
+ * axis_firings, whose rule this is jet by jet (booleans: nothing to round).
+ * record (n_cycles, n_runs, n_jets); groups (n_groups, n_jets) flags; starts (n_cycles,
+ * n_runs, n_groups) and going_on (n_cycles - 1, n_runs, n_groups) flags out. */
+static PyObject *group_firings(PyObject *self, PyObject *args) {
+    (void)self;
+    Py_buffer rec_b, grp_b, st_b, go_b;
+    Py_ssize_t n_cycles, n_runs, n_jets, n_groups;
+    double full_at;
+    if (!PyArg_ParseTuple(args, "nnnny*y*w*w*d", &n_cycles, &n_runs, &n_jets, &n_groups, &rec_b,
+                          &grp_b, &st_b, &go_b, &full_at))
+        return NULL;
+    const double *rec = rec_b.buf;
+    const uint8_t *groups = grp_b.buf;
+    uint8_t *starts = st_b.buf, *going = go_b.buf;
+    Py_BEGIN_ALLOW_THREADS;
+    for (Py_ssize_t k = 0; k < n_cycles; k++) {
+        for (Py_ssize_t i = 0; i < n_runs; i++) {
+            const double *on = rec + (k * n_runs + i) * n_jets;
+            const double *prev = k > 0 ? on - n_runs * n_jets : NULL;
+            for (Py_ssize_t g = 0; g < n_groups; g++) {
+                const uint8_t *in_group = groups + g * n_jets;
+                uint8_t start = 0, go = 0;
+                for (Py_ssize_t j = 0; j < n_jets; j++) {
+                    if (!in_group[j] || !(on[j] > 0)) continue;
+                    if (prev != NULL && prev[j] >= full_at)
+                        go = 1;
+                    else
+                        start = 1;
+                }
+                starts[(k * n_runs + i) * n_groups + g] = start;
+                if (k > 0) going[((k - 1) * n_runs + i) * n_groups + g] = go;
+            }
+        }
+    }
+    Py_END_ALLOW_THREADS;
+    PyBuffer_Release(&rec_b);
+    PyBuffer_Release(&grp_b);
+    PyBuffer_Release(&st_b);
+    PyBuffer_Release(&go_b);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"nav_product", nav_product, METH_VARARGS, "Navigation: q_cmd^-1 q, sign, w, vec."},
     {"nav_finish", nav_finish, METH_VARARGS, "Navigation: rotation vector and rate error."},
@@ -351,6 +396,7 @@ static PyMethodDef methods[] = {
     {"end_cycle", end_cycle, METH_VARARGS, "Drop finished intervals, shift the rest."},
     {"bounded_state", bounded_state, METH_VARARGS, "Every qpos, qvel entry finite, < 1e300."},
     {"group_on_time", group_on_time, METH_VARARGS, "Per cycle: a jet group's on-time, firing."},
+    {"group_firings", group_firings, METH_VARARGS, "Per cycle and run: firings start, go on."},
     {NULL, NULL, 0, NULL},
 };
 

@@ -211,6 +211,47 @@ def group_on_time(
     return sums, firing
 
 
+def group_firings(
+    record: np.ndarray, groups: np.ndarray, full_at_s: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per cycle, run and jet group: some jet of the group starts a firing (on, and not on for
+    a whole previous cycle: ``>= full_at_s``), and some jet goes on firing (on a whole previous
+    cycle and on again), read in place from a flight's cycle-major on-time record.
+
+    The rule of :func:`analysis.engine.campaign.outcomes.axis_firings` (booleans, exact).
+
+    Parameters
+    ----------
+    record : ndarray, (n_cycles, n_runs, n_jets)
+        C-contiguous float64 [s].
+    groups : ndarray of bool, (n_groups, n_jets)
+    full_at_s : float
+        On-time that fills a cycle [s].
+
+    Returns
+    -------
+    starts : ndarray of bool, (n_cycles, n_runs, n_groups)
+    going_on : ndarray of bool, (n_cycles - 1, n_runs, n_groups)
+    """
+    n_cycles, n_runs, n_jets = record.shape
+    _require_contiguous(record, "record")
+    groups = np.ascontiguousarray(groups, dtype=np.bool_).reshape(-1, n_jets)
+    starts = np.empty((n_cycles, n_runs, groups.shape[0]), np.bool_)
+    going_on = np.empty((max(n_cycles - 1, 0), n_runs, groups.shape[0]), np.bool_)
+    _cycle_kernel.group_firings(
+        n_cycles,
+        n_runs,
+        n_jets,
+        groups.shape[0],
+        _f64(record),
+        groups.view(np.uint8),
+        starts.view(np.uint8),
+        going_on.view(np.uint8),
+        float(full_at_s),
+    )
+    return starts, going_on
+
+
 def _require_contiguous(a: np.ndarray, name: str) -> None:
     if not a.flags.c_contiguous or not a.flags.writeable:  # pragma: no cover - built so
         raise AssertionError(f"{name} must be a writable C-contiguous array")
@@ -221,6 +262,7 @@ __all__ = [
     "bounded_state",
     "command_valves",
     "end_cycle",
+    "group_firings",
     "group_on_time",
     "kernel_available",
     "navigate",

@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.engine.runs_table import outcome_frame
+from spacecraft import cycle_kernel
 from spacecraft.propellant import exhausted_before, exhausted_text
 from spacecraft.simulation import History
 from spacecraft.vehicle import AXES, jet_name
@@ -135,9 +136,14 @@ def axis_firings(
         For cycles 1..K-1: some jet of the axis filled the previous cycle and is still on.
     """
     on = _cycle_major(on_time_s)  # (K, n, n_jets)
+    full_at = cycle_s * (1.0 - _FULL_CYCLE_RTOL)
+    if cycle_kernel.kernel_available() and on.flags.c_contiguous and on.dtype == np.float64:
+        # One compiled pass over the record in place: the same rule, booleans.
+        starts, going_on = cycle_kernel.group_firings(on, jets, full_at)
+        return starts.swapaxes(0, 1), going_on.swapaxes(0, 1)
     on_bits = _jet_bits(on > 0)  # (K, n, words)
     prev_full = np.zeros_like(on_bits)
-    prev_full[1:] = _jet_bits(on[:-1] >= cycle_s * (1.0 - _FULL_CYCLE_RTOL))
+    prev_full[1:] = _jet_bits(on[:-1] >= full_at)
     return _axes_of(on_bits & ~prev_full, jets), _axes_of(prev_full[1:] & on_bits[1:], jets)
 
 

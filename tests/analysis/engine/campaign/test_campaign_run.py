@@ -270,9 +270,12 @@ def test_packed_jet_masks_say_which_axes_fire(n_jets):
     assert got[0, 0].all()
 
 
-def test_axis_firings_are_the_per_jet_rule_per_axis():
+@pytest.mark.parametrize("numpy_form", ["1", "0"])
+def test_axis_firings_are_the_per_jet_rule_per_axis(monkeypatch, numpy_form):
     """outcomes() counts an axis's firing events and its mid-firing samples from packed jet
-    masks on the history's cycle-major layout.  Oracle: the per-jet rule asked jet by jet --
+    masks on the history's cycle-major layout (numpy form, ``RCSIM_NUMPY_CYCLE=1``) or in one
+    compiled pass over it (spacecraft.cycle_kernel.group_firings, where it is built).  Oracle:
+    the per-jet rule asked jet by jet --
     :func:`firing_starts` for a start, "filled the previous cycle and still on" for a firing
     going on -- then any() over each axis's jets, on random commands with full cycles, short
     pulses, zeros, a cycle a rounding short of full (1e-14 s under: full, as
@@ -284,6 +287,7 @@ def test_axis_firings_are_the_per_jet_rule_per_axis():
     buf = rng.choice(choices, size=(40, 9, 16))  # (K, n, jets), as a history writes it
     on = buf.swapaxes(0, 1)
     jets = rng.random((3, 16)) < 0.35
+    monkeypatch.setenv("RCSIM_NUMPY_CYCLE", numpy_form)
     starts, going_on = axis_firings(on, cycle, jets)
     full = on >= cycle * (1.0 - 1e-12)
     per_jet_going = full[:, :-1] & (on[:, 1:] > 0)
