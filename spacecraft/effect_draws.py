@@ -40,7 +40,7 @@ import numpy as np
 import pandas as pd
 
 from models.errors import InputError
-from spacecraft.dispersions import run_streams
+from spacecraft.dispersions import run_stream
 from spacecraft.sensors import SensorParams
 from spacecraft.valves import JetFaults, ValveTiming
 
@@ -50,7 +50,7 @@ FAULT_MODES = ("none", "off", "stuck", "degraded")
 
 def effect_stream(seed: int, run_id: int, purpose: int) -> np.random.SeedSequence:
     """Child ``purpose`` (module table) of run ``run_id``'s noise stream."""
-    noise = run_streams(seed, run_id)[1]
+    noise = run_stream(seed, run_id, 1)
     return np.random.SeedSequence(noise.entropy, spawn_key=tuple(noise.spawn_key) + (purpose,))
 
 

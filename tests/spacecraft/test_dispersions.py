@@ -129,6 +129,24 @@ def test_stream_spawn_order_is_fixed():
     assert np.array_equal(z, z2)
 
 
+def test_a_stream_built_directly_is_the_spawned_child():
+    """run_stream(seed, i, k) skips making the parent and its sibling: it must be child k of
+    run_streams' spawn, state for state, for seeds up to MAX_SEED and large run ids (every
+    campaign's draws and effects come through it)."""
+    from spacecraft.dispersions import MAX_SEED, run_stream
+
+    for seed in (0, 5, 2**32 + 1, MAX_SEED):
+        for run_id in (0, 9, 10**9):
+            spawned = run_streams(seed, run_id)
+            for k in (0, 1):
+                direct = run_stream(seed, run_id, k)
+                assert direct.spawn_key == spawned[k].spawn_key
+                np.testing.assert_array_equal(
+                    direct.generate_state(8, np.uint64), spawned[k].generate_state(8, np.uint64)
+                )
+    assert run_stream(5, 9, 0).generate_state(4)[0] != run_stream(5, 9, 1).generate_state(4)[0]
+
+
 def test_scale_multiplies_deviations_exactly(nominal, table5):
     """A 3x stress campaign (Figs 13-14) flies the same runs with 3x the deviations."""
     ids = np.arange(50)
