@@ -11,6 +11,11 @@ navigate`, :func:`spacecraft.propulsion.apply_valve_limits`, :func:`spacecraft.v
 command_valves`, :func:`spacecraft.pieces.cycle_pieces`, :func:`spacecraft.valves.end_cycle`)
 stay the reference and run whenever the extension was not built (no C compiler at install) or
 ``RCSIM_NUMPY_CYCLE=1`` is set.
+
+Two more passes read a finished flight's cycle-major on-time record in place for a campaign
+chunk's tables (:func:`group_on_time`, :func:`group_firings`); their numpy forms are in
+:mod:`analysis.engine.campaign.chunk` and :mod:`analysis.engine.campaign.outcomes`, under the
+same switch.
 """
 
 from __future__ import annotations
