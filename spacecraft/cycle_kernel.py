@@ -194,7 +194,7 @@ def group_on_time(
     firing : ndarray of int64, (n_groups, n_cycles)
     """
     n_cycles, n_total, n_jets = record.shape
-    _require_contiguous(record, "record")
+    record = _f64(record)  # read only; a copy if not C-contiguous float64
     runs = np.ascontiguousarray(runs, dtype=np.int64)
     if runs.size and (runs.min() < 0 or runs.max() >= n_total):
         raise IndexError(f"run indices outside 0..{n_total - 1}")
@@ -239,7 +239,7 @@ def group_firings(
     going_on : ndarray of bool, (n_cycles - 1, n_runs, n_groups)
     """
     n_cycles, n_runs, n_jets = record.shape
-    _require_contiguous(record, "record")
+    record = _f64(record)  # read only; a copy if not C-contiguous float64
     groups = np.ascontiguousarray(groups, dtype=np.bool_).reshape(-1, n_jets)
     starts = np.empty((n_cycles, n_runs, groups.shape[0]), np.bool_)
     going_on = np.empty((max(n_cycles - 1, 0), n_runs, groups.shape[0]), np.bool_)
