@@ -183,7 +183,8 @@ def group_on_time(
     Parameters
     ----------
     record : ndarray, (n_cycles, n_runs_total, n_jets)
-        C-contiguous float64 [s] (``History.on_time_s.swapaxes(0, 1)`` of a flight).
+        [s] (``History.on_time_s.swapaxes(0, 1)`` of a flight: C-contiguous float64, read in
+        place; anything else is copied first).
     runs : ndarray of int, (n,)
         The runs summed, in order.
     groups : ndarray of bool, (n_groups, n_jets)
@@ -207,7 +208,7 @@ def group_on_time(
         n_jets,
         runs.size,
         groups.shape[0],
-        _f64(record),
+        record,
         runs,
         groups.view(np.uint8),
         sums,
@@ -228,7 +229,7 @@ def group_firings(
     Parameters
     ----------
     record : ndarray, (n_cycles, n_runs, n_jets)
-        C-contiguous float64 [s].
+        [s] (C-contiguous float64 is read in place; anything else is copied first).
     groups : ndarray of bool, (n_groups, n_jets)
     full_at_s : float
         On-time that fills a cycle [s].
@@ -248,7 +249,7 @@ def group_firings(
         n_runs,
         n_jets,
         groups.shape[0],
-        _f64(record),
+        record,
         groups.view(np.uint8),
         starts.view(np.uint8),
         going_on.view(np.uint8),

@@ -300,7 +300,8 @@ def _group_on_time(
     and that layout is the summation order both keep (a run-major or cycle-major order would
     change the sums' last bits)."""
     record = history.on_time_s.swapaxes(0, 1)  # the (K, n, n_jets) buffer the flight wrote
-    if cycle_kernel.kernel_available() and record.flags.c_contiguous:
+    # A float64 record, as flights write it: numpy would sum another dtype in that dtype.
+    if cycle_kernel.kernel_available() and record.flags.c_contiguous and record.dtype == np.float64:
         return cycle_kernel.group_on_time(record, ids, jets)
     on = np.ascontiguousarray(history.on_time_s[runs])
     sums = np.array([on[:, :, g].sum(axis=(0, 2)) for g in jets])
