@@ -11,7 +11,10 @@ Measures, on this machine, in one process run:
    (the only one before issue 19's third round), and vehicles spinning at their case's
    commanded rate, the state the campaign's vehicles fly in: MuJoCo steps a body at rest 7-9 %
    faster than a spinning one (zero rates short-cut work in its step), so the ceiling at rest
-   overstates what the campaign's steps cost;
+   overstates what the campaign's steps cost.  Beside them, the floor of any closed loop
+   through MuJoCo's batch API: the spinning steps in one call per control cycle (every run's
+   state loaded into MuJoCo and saved back each cycle) with nothing between the calls
+   (``per_cycle_calls``; issue 19's sixth round);
 3. ``single-core``: one 256-run chunk against a raw rollout of its steps on one core (the
    closed loop's own efficiency, least disturbed by other load);
 4. ``local modes``: the campaign with one chunk at a time on MuJoCo's thread pool versus
@@ -122,20 +125,25 @@ def bench_raw(spec_path: Path) -> dict:
     cycle = PropulsionParams().cycle_s
     chunks = plan_chunks(spec)
 
-    def roll(chunk, nthread, spinning):
+    def roll(chunk, nthread, spinning, per_cycle=False):
         model = flight_model(load_model())  # the model the campaign's MuJoCo integrates
         n = chunk.stop - chunk.first
         duration = spec.cases[spec.case_of(chunk.first)].duration_s
-        nstep = int(round(np.ceil(duration / cycle - 1e-9) * cycle / model.opt.timestep))
+        n_cycles = int(np.ceil(duration / cycle - 1e-9))
+        n_sub = int(round(cycle / model.opt.timestep))
         batch = Batch(model, n, nthread)
         batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
         if spinning:
             batch.bind("qvel")[:, 3:6] = _commanded_rates(spec, chunk.first, chunk.stop)
-        control = np.zeros((n, nstep, model.nu))
-        batch.rollout(
-            nstep, control=control, control_spec=int(mujoco.mjtState.mjSTATE_CTRL), record=()
-        )
-        return n * nstep * model.opt.timestep
+        ctrl_spec = int(mujoco.mjtState.mjSTATE_CTRL)
+        if per_cycle:  # one call per control cycle, as any closed loop must make
+            control = np.zeros((n, n_sub, model.nu))
+            for _ in range(n_cycles):
+                batch.rollout(n_sub, control=control, control_spec=ctrl_spec, record=())
+        else:
+            control = np.zeros((n, n_cycles * n_sub, model.nu))
+            batch.rollout(n_cycles * n_sub, control=control, control_spec=ctrl_spec, record=())
+        return n * n_cycles * n_sub * model.opt.timestep
 
     out = {}
     cpus = os.cpu_count() or 1
@@ -153,6 +161,15 @@ def bench_raw(spec_path: Path) -> dict:
         out[f"{state}_sequential_mujoco_pool_sim_s_per_s"] = sequential
         out[f"{state}_threaded_chunks_sim_s_per_s"] = threaded
         out[f"{state}_sim_s_per_s"] = max(sequential, threaded)
+    # The floor of any closed loop through this API: the same spinning steps, one call per
+    # control cycle (each run's state loaded into MuJoCo and saved back every cycle), with no
+    # controller between the calls; the campaign's schedule.
+    t0 = time.perf_counter()
+    with ThreadPoolExecutor(threads) as pool:
+        simulated = sum(
+            pool.map(lambda c: roll(c, max(1, cpus // threads), True, per_cycle=True), chunks)
+        )
+    out["per_cycle_calls_sim_s_per_s"] = simulated / (time.perf_counter() - t0)
     out["sim_s_per_s"] = out["spinning_sim_s_per_s"]
     return out
 
@@ -409,10 +426,15 @@ def main(argv=None) -> int:
                 ratio = fly / raw["spinning_sim_s_per_s"]
                 results["campaign_over_raw"] = ratio
                 results["campaign_over_raw_at_rest"] = fly / raw["at_rest_sim_s_per_s"]
+                results["per_cycle_calls_over_raw"] = (
+                    raw["per_cycle_calls_sim_s_per_s"] / raw["spinning_sim_s_per_s"]
+                )
+                results["campaign_over_per_cycle_calls"] = fly / raw["per_cycle_calls_sim_s_per_s"]
                 print(
                     f"campaign / raw = {ratio:.2f} against vehicles spinning at their commanded "
                     f"rates, {results['campaign_over_raw_at_rest']:.2f} against vehicles at rest "
-                    "(target >= 0.8, issue 19)",
+                    "(target >= 0.8, issue 19); the same steps in one call per cycle and no "
+                    f"controller reach {results['per_cycle_calls_over_raw']:.2f} of raw",
                     flush=True,
                 )
         if want("single-core"):
