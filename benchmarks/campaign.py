@@ -107,7 +107,8 @@ def bench_raw(spec_path: Path) -> dict:
 
     Two schedules, the better one is the ceiling: chunks one after another on MuJoCo's own
     thread pool (``nthread=0``), and the campaign's local schedule (``cpus`` chunks in flight
-    on a thread pool, one MuJoCo thread each).
+    on a thread pool, one MuJoCo thread each).  The closed-loop floor (``per_cycle_calls``)
+    steps the spinning vehicles on the campaign's schedule in one call per control cycle.
     """
     from concurrent.futures import ThreadPoolExecutor
 
