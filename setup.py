@@ -1,12 +1,12 @@
 """The compiled pieces of rcsim; everything else is declared in pyproject.toml.
 
-* ``spacecraft/_zero_clock.c`` is a zero clock for MuJoCo's stage timers, which rcsim never
-  reads (``spacecraft/mujoco_timers.py``; -19 % per campaign chunk, ``docs/performance.md``).
-* ``lookup/_step_kernel.c`` is the lookup controller's cycle in one pass, bit for bit its numpy
-  form (``lookup/step_kernel.py``; the controller's share of a chunk 7 % -> 2 %).
-* ``spacecraft/_cycle_kernel.c`` is the closed loop's per-cycle bookkeeping (navigation's
+* ``rcsim/spacecraft/_zero_clock.c`` is a zero clock for MuJoCo's stage timers, which rcsim never
+  reads (``rcsim/spacecraft/mujoco_timers.py``; -19 % per campaign chunk, ``docs/performance.md``).
+* ``rcsim/lookup/_step_kernel.c`` is the lookup controller's cycle in one pass, bit for bit its
+  numpy form (``rcsim/lookup/step_kernel.py``; the controller's share of a chunk 7 % -> 2 %).
+* ``rcsim/spacecraft/_cycle_kernel.c`` is the closed loop's per-cycle bookkeeping (navigation's
   quaternion algebra, valve limits and commands, the no-switch test, the propulsion totals),
-  bit for bit its numpy forms (``spacecraft/cycle_kernel.py``).
+  bit for bit its numpy forms (``rcsim/spacecraft/cycle_kernel.py``).
 
 All are optional: without a C compiler the build skips them and rcsim runs with MuJoCo's
 default timers and the numpy forms.  Declared here rather than in pyproject.toml because
@@ -17,18 +17,21 @@ from setuptools import Extension, setup
 
 setup(
     ext_modules=[
-        Extension("spacecraft._zero_clock", ["spacecraft/_zero_clock.c"], optional=True),
-        # Bit for bit the numpy form (lookup/step_kernel.py): never fuse a multiply and an add.
         Extension(
-            "lookup._step_kernel",
-            ["lookup/_step_kernel.c"],
+            "rcsim.spacecraft._zero_clock", ["rcsim/spacecraft/_zero_clock.c"], optional=True
+        ),
+        # Bit for bit the numpy form (rcsim/lookup/step_kernel.py): never fuse a multiply and
+        # an add.
+        Extension(
+            "rcsim.lookup._step_kernel",
+            ["rcsim/lookup/_step_kernel.c"],
             optional=True,
             extra_compile_args=["-ffp-contract=off"],
         ),
-        # Bit for bit the numpy forms (spacecraft/cycle_kernel.py): the same rule.
+        # Bit for bit the numpy forms (rcsim/spacecraft/cycle_kernel.py): the same rule.
         Extension(
-            "spacecraft._cycle_kernel",
-            ["spacecraft/_cycle_kernel.c"],
+            "rcsim.spacecraft._cycle_kernel",
+            ["rcsim/spacecraft/_cycle_kernel.c"],
             optional=True,
             extra_compile_args=["-ffp-contract=off"],
         ),

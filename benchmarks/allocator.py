@@ -36,8 +36,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from analysis.engine.campaign.runner import run_campaign  # noqa: E402
-from analysis.engine.campaign.spec import parse_dict  # noqa: E402
+from rcsim.analysis.engine.campaign.runner import run_campaign  # noqa: E402
+from rcsim.analysis.engine.campaign.spec import parse_dict  # noqa: E402
 
 
 def _spec(controller: str, runs: int, seed: int, vehicle: str | None = None):
@@ -72,12 +72,12 @@ def speed(runs: int, repeats: int) -> None:
 
 
 def compare() -> None:
-    from analysis.engine.flight import Scenario, fly_batch
-    from analysis.engine.scenarios.catalog import get_scenario
-    from analysis.engine.scenarios.flying import build_controller
-    from lookup.registry import make_controller
-    from models.tables import load_rate_cases
-    from spacecraft.vehicle import VehicleParams, load_model
+    from rcsim.analysis.engine.flight import Scenario, fly_batch
+    from rcsim.analysis.engine.scenarios.catalog import get_scenario
+    from rcsim.analysis.engine.scenarios.flying import build_controller
+    from rcsim.lookup.registry import make_controller
+    from rcsim.models.tables import load_rate_cases
+    from rcsim.spacecraft.vehicle import VehicleParams, load_model
 
     model = load_model()
     rates = np.asarray(load_rate_cases().rate_cmd, float)

@@ -1,6 +1,6 @@
 """`rcsim analyze` at 10^4, 10^5 and 10^6 runs: wall time and peak memory (issue 17).
 
-Each size is a synthetic runs table (``analysis.results.drivers.synthetic.planted_campaign``,
+Each size is a synthetic runs table (``rcsim.analysis.results.drivers.synthetic.planted_campaign``,
 the one-sided scenario: failures from two inputs, the rest noise) with 60 inputs and 26 cases,
 written as Parquet and analysed by the real command in a subprocess, so the peak resident memory
 is the command's own (``RUSAGE_CHILDREN``).  The issue's target: 10^6 runs x 60 inputs within
@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT))
 def table(n_runs: int, n_inputs: int, path: Path) -> None:
     import numpy as np
 
-    from analysis.results.drivers.synthetic import planted_campaign
+    from rcsim.analysis.results.drivers.synthetic import planted_campaign
 
     X, failed = planted_campaign("one-sided", seed=1, n_runs=n_runs, n_noise=n_inputs - 2)
     X.insert(0, "run_id", np.arange(n_runs))

@@ -52,7 +52,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from spacecraft.mujoco_timers import quiet_stage_timers  # noqa: E402
+from rcsim.spacecraft.mujoco_timers import quiet_stage_timers  # noqa: E402
 
 # The raw ceilings step MuJoCo as the campaign does: stage timers on the zero clock.
 quiet_stage_timers()
@@ -87,8 +87,8 @@ def _spec_file(folder: Path, *, runs, chunk, duration, controller="lookup", plot
 
 
 def bench_campaign(folder: Path, spec_path: Path, name: str, **kw) -> dict:
-    from analysis.engine.campaign.runner import run_campaign
-    from analysis.engine.campaign.spec import load_spec
+    from rcsim.analysis.engine.campaign.runner import run_campaign
+    from rcsim.analysis.engine.campaign.spec import load_spec
 
     spec = load_spec(spec_path)
     report = run_campaign(spec, folder / name, progress=False, **kw)
@@ -116,11 +116,11 @@ def bench_raw(spec_path: Path) -> dict:
     import numpy as np
     from mujoco.batch import Batch
 
-    from analysis.engine.campaign.chunk import plan_chunks
-    from analysis.engine.campaign.spec import load_spec
-    from spacecraft.flight_model import flight_model
-    from spacecraft.propulsion import PropulsionParams
-    from spacecraft.vehicle import load_model
+    from rcsim.analysis.engine.campaign.chunk import plan_chunks
+    from rcsim.analysis.engine.campaign.spec import load_spec
+    from rcsim.spacecraft.flight_model import flight_model
+    from rcsim.spacecraft.propulsion import PropulsionParams
+    from rcsim.spacecraft.vehicle import load_model
 
     spec = load_spec(spec_path)
     cycle = PropulsionParams().cycle_s
@@ -190,10 +190,10 @@ def bench_single_core(spec_path: Path, n: int = 256, repeats: int = 3) -> dict:
     import numpy as np
     from mujoco.batch import Batch
 
-    from analysis.engine.campaign.chunk import Chunk, simulate_chunk, warm_up
-    from analysis.engine.campaign.spec import load_spec
-    from spacecraft.flight_model import flight_model
-    from spacecraft.vehicle import load_model
+    from rcsim.analysis.engine.campaign.chunk import Chunk, simulate_chunk, warm_up
+    from rcsim.analysis.engine.campaign.spec import load_spec
+    from rcsim.spacecraft.flight_model import flight_model
+    from rcsim.spacecraft.vehicle import load_model
 
     spec = load_spec(spec_path)
     warm_up()
@@ -239,7 +239,7 @@ def _replay_same_steps(spec, n: int) -> float:
     """Seconds MuJoCo alone takes for the closed loop's own steps, pieces included.
 
     The closed loop integrates a cycle in which a jet switches in pieces cut at each run's
-    switch instants (exact in time, ``spacecraft/pieces.py``), so it steps more often than a
+    switch instants (exact in time, ``rcsim/spacecraft/pieces.py``), so it steps more often than a
     fixed-step rollout.  This records every ``rollout`` call of one closed-loop chunk (steps,
     controls, runs, per-run step lengths) and replays them, open loop, on a fresh batch: the
     ceiling for *this* physics, against which the controller's own overhead is measured.
@@ -248,10 +248,10 @@ def _replay_same_steps(spec, n: int) -> float:
     import numpy as np
     from mujoco.batch import Batch
 
-    import spacecraft.simulation as sim
-    from analysis.engine.campaign.chunk import Chunk, simulate_chunk
-    from spacecraft.flight_model import flight_model
-    from spacecraft.vehicle import load_model
+    import rcsim.spacecraft.simulation as sim
+    from rcsim.analysis.engine.campaign.chunk import Chunk, simulate_chunk
+    from rcsim.spacecraft.flight_model import flight_model
+    from rcsim.spacecraft.vehicle import load_model
 
     calls = []
     original = sim.BatchSimulation._rollout
@@ -292,7 +292,7 @@ def bench_memory(folder: Path, runs_total: int, duration: float, chunk: int) -> 
     )
     out = folder / f"mem-{runs_total}"
     code = (
-        "import resource, sys; from analysis.apps.cli import main; rc = main(sys.argv[1:]); "
+        "import resource, sys; from rcsim.analysis.apps.cli import main; rc = main(sys.argv[1:]); "
         "print('MAXRSS_KB', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss); sys.exit(rc)"
     )
     t0 = time.perf_counter()

@@ -1,7 +1,7 @@
 """The 26 rate cases on a coupled vehicle: its channel lookup table against the allocator.
 
-Generates the vehicle's channel table (``lookup/channel_generation.py``), then flies the 26 rate
-cases of Table 3 from rest on the nominal vehicle for 20 s (a campaign's duration) with the
+Generates the vehicle's channel table (``rcsim/lookup/channel_generation.py``), then flies the 26
+rate cases of Table 3 from rest on the nominal vehicle for 20 s (a campaign's duration) with the
 lookup controller on that table and with the allocator controller, and prints per case the
 final rate error on the commanded axes and on the others (and the largest off-axis rate at any
 cycle), then the totals: firings, propellant, pulses dropped by the valves.  The numbers of
@@ -23,12 +23,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from lookup.channel_generation import generate_channel_table  # noqa: E402
-from lookup.pattern_recognition import LookupController  # noqa: E402
-from lookup.registry import make_controller  # noqa: E402
-from spacecraft.navigation import Guidance  # noqa: E402
-from spacecraft.simulation import simulate_batch  # noqa: E402
-from spacecraft.vehicle_file import FlyingVehicle  # noqa: E402
+from rcsim.lookup.channel_generation import generate_channel_table  # noqa: E402
+from rcsim.lookup.pattern_recognition import LookupController  # noqa: E402
+from rcsim.lookup.registry import make_controller  # noqa: E402
+from rcsim.spacecraft.navigation import Guidance  # noqa: E402
+from rcsim.spacecraft.simulation import simulate_batch  # noqa: E402
+from rcsim.spacecraft.vehicle_file import FlyingVehicle  # noqa: E402
 
 
 def fly(vehicle: FlyingVehicle, controller, rate: np.ndarray) -> dict:

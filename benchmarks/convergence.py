@@ -12,7 +12,7 @@ physics steps that divide the 40 ms control cycle (1, 2, 4, 5, 8, 10, 20, 40 ms)
 * ``pulse_rel_err``: max over a set of pulses (sub-cycle, not a multiple of the step,
   multi-cycle; single-axis pairs and simultaneous three-axis pairs) of
   ``|dw_sim - dw_ref| / |dw_ref|``, flown through the production path
-  (:class:`spacecraft.simulation.BatchSimulation`, exact per-step duty).  Single-axis oracle:
+  (:class:`rcsim.spacecraft.simulation.BatchSimulation`, exact per-step duty).  Single-axis oracle:
   ``dw = 2 F r t / I`` (Table 1 F and I, design arm r).  Three-axis oracle: Euler's equations
   ``I dw/dt = tau - w x I w`` with the same body-fixed pair torques, integrated by SciPy's DOP853
   at rtol 1e-13 between the switch times (the gyroscopic term makes the closed form inexact
@@ -29,7 +29,7 @@ physics steps that divide the 40 ms control cycle (1, 2, 4, 5, 8, 10, 20, 40 ms)
   one thread, best of 3) and ``us_per_sim_s`` = that / dt: physics cost per simulated second.
 
 Second part (issue 11), ``--part scenarios``: exact in time.  The closed loop cuts every control
-cycle at the jets' switch instants (``spacecraft/pieces.py``).  For every paper scenario (both
+cycle at the jets' switch instants (``rcsim/spacecraft/pieces.py``).  For every paper scenario (both
 controllers, nominal vehicle) plus a 600 s attitude hold under the 2 N m yaw disturbance:
 
 * ``replay_dev_deg``: max over cycle boundaries of the angle between the simulated attitude at
@@ -62,16 +62,16 @@ from scipy.integrate import solve_ivp
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
-from models.tables import load_jet_map, load_mass_properties  # noqa: E402
-from spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat  # noqa: E402
-from spacecraft.simulation import BatchSimulation  # noqa: E402
-from spacecraft.vehicle import VehicleParams, load_model  # noqa: E402
+from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
+from rcsim.models.tables import load_jet_map, load_mass_properties  # noqa: E402
+from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat  # noqa: E402
+from rcsim.spacecraft.simulation import BatchSimulation  # noqa: E402
+from rcsim.spacecraft.vehicle import VehicleParams, load_model  # noqa: E402
 
 INTEGRATORS = ("RK4", "Euler", "implicitfast")
 STEPS_MS = (1, 2, 4, 5, 8, 10, 20, 40)
 CYCLE_S = 0.04
-# Design moment arms of the rotation pairs [m] (models/vehicle/README.md).
+# Design moment arms of the rotation pairs [m] (rcsim/models/vehicle/README.md).
 ARM_M = np.array([0.812, 0.776, 0.724])
 # Acceptance thresholds (issue 2, and the tumbling test's bound).
 PULSE_TOL, ATT_TOL_DEG, DH_TOL = 1e-6, 1e-3, 1e-9
@@ -232,7 +232,7 @@ def study_scenarios():
     """(name, PaperScenario) of every paper scenario plus the long disturbed hold."""
     from dataclasses import replace
 
-    from analysis.engine.scenarios.catalog import all_scenarios
+    from rcsim.analysis.engine.scenarios.catalog import all_scenarios
 
     out = list(all_scenarios().items())
     hold = all_scenarios()["attitude-hold-disturbed"]
@@ -249,8 +249,8 @@ def study_scenarios():
 
 
 def fly_scenario_at(scenario, controller: str, dt_ms: int):
-    from analysis.engine.flight import fly_batch
-    from analysis.engine.scenarios.flying import build_controller
+    from rcsim.analysis.engine.flight import fly_batch
+    from rcsim.analysis.engine.scenarios.flying import build_controller
 
     model = load_model(timestep_s=dt_ms * 1e-3, integrator="RK4")
     ctl = build_controller(scenario, controller, model=model)

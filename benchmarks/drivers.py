@@ -5,12 +5,12 @@ Usage::
     python benchmarks/drivers.py speed CAMPAIGN_DIR      # time and peak memory of the analysis
     python benchmarks/drivers.py planted [--seeds 100]   # recovery rates for docs/drivers.md
 
-``speed`` runs :func:`analysis.results.drivers.pipeline.analyze` (what ``rcsim analyze`` does,
+``speed`` runs :func:`rcsim.analysis.results.drivers.pipeline.analyze` (what ``rcsim analyze`` does,
 without
 writing files) on a campaign directory and prints the time per step and the peak resident
 memory.  The issue's target: the full Table 5 campaign (26 cases x 1,000 runs, 86 inputs,
 3,655 pairs) in <= 30 s with < 2 GB on a 2-core machine.  ``planted`` prints the Markdown
-table of :func:`analysis.results.drivers.synthetic.recovery` over seeds 0..N-1 per scenario.
+table of :func:`rcsim.analysis.results.drivers.synthetic.recovery` over seeds 0..N-1 per scenario.
 """
 
 from __future__ import annotations
@@ -21,8 +21,8 @@ import time
 
 
 def speed(path: str) -> None:
-    from analysis.results.drivers.inputs import load_runs
-    from analysis.results.drivers.pipeline import Settings, analyze
+    from rcsim.analysis.results.drivers.inputs import load_runs
+    from rcsim.analysis.results.drivers.pipeline import Settings, analyze
 
     t0 = time.perf_counter()
     rs = load_runs(path)
@@ -39,7 +39,7 @@ def speed(path: str) -> None:
 
 
 def planted(n_seeds: int, n_permutations: int) -> None:
-    from analysis.results.drivers.synthetic import SCENARIOS, recovery
+    from rcsim.analysis.results.drivers.synthetic import SCENARIOS, recovery
 
     keys = [
         "drivers_top",

@@ -7,7 +7,7 @@ integrate the rigid-body attitude equations
     q' = q (0, w) / 2,        I w' = tau(t) - w x I w,
 
 with ``tau(t)`` the sum of the torques about the CG of the jets on at ``t``
-(:func:`spacecraft.vehicle.torque_per_jet_B`, built from the MJCF geometry but never from
+(:func:`rcsim.spacecraft.vehicle.torque_per_jet_B`, built from the MJCF geometry but never from
 MuJoCo's integrator) plus the disturbance, by DOP853 (rtol 1e-12, atol 1e-14) *between the
 exact switch instants*, so the forcing is constant in every integration interval.  The result
 is the attitude at every cycle boundary: what the simulation should have produced for the same
@@ -19,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from spacecraft.navigation import quat_mul
-from spacecraft.vehicle import VehicleParams, torque_per_jet_B
+from rcsim.spacecraft.navigation import quat_mul
+from rcsim.spacecraft.vehicle import VehicleParams, torque_per_jet_B
 
 RTOL, ATOL = 1e-12, 1e-14
 

@@ -31,17 +31,17 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from lookup.pattern_recognition import LookupController  # noqa: E402
-from models.tables import load_dispersions, load_rate_cases  # noqa: E402
-from spacecraft import simulation  # noqa: E402
-from spacecraft.dispersions import DispersionSigmas, draw_runs, run_streams  # noqa: E402
-from spacecraft.navigation import Guidance  # noqa: E402
-from spacecraft.vehicle import VehicleParams, load_model  # noqa: E402
+from rcsim.lookup.pattern_recognition import LookupController  # noqa: E402
+from rcsim.models.tables import load_dispersions, load_rate_cases  # noqa: E402
+from rcsim.spacecraft import simulation  # noqa: E402
+from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs, run_streams  # noqa: E402
+from rcsim.spacecraft.navigation import Guidance  # noqa: E402
+from rcsim.spacecraft.vehicle import VehicleParams, load_model  # noqa: E402
 
 
 def noisy_options(n: int, seed: int, run_ids) -> dict:
-    from spacecraft.sensors import SensorParams
-    from spacecraft.valves import ValveTiming
+    from rcsim.spacecraft.sensors import SensorParams
+    from rcsim.spacecraft.valves import ValveTiming
 
     sensors = SensorParams.of(
         n,

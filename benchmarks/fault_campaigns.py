@@ -4,7 +4,7 @@ the table regenerated without the failed jet; and the campaign's speed with nois
 on and off.
 
 Every configuration is a campaign spec (written to ``OUT/specs/``) flown by ``rcsim campaign
-run`` (in this process, :func:`analysis.apps.cli.main`): the 26 rate cases of Table 3
+run`` (in this process, :func:`rcsim.analysis.apps.cli.main`): the 26 rate cases of Table 3
 commanded from rest, ``--runs-per-case`` runs each, Table 5 dispersions, seed 1, 20 s, the
 default failure threshold (0.04 deg/s), histories not kept.  The regenerated table is made by
 ``rcsim lookup generate --jets-off 13``.  Per campaign it prints, from ``runs.parquet``: the
@@ -31,7 +31,7 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from analysis.apps.cli import main as rcsim  # noqa: E402
+from rcsim.analysis.apps.cli import main as rcsim  # noqa: E402
 
 BASE = """seed = 1
 runs_per_case = {runs}
@@ -169,8 +169,8 @@ def evidence(out: Path, runs: int) -> None:
 
 
 def speed(out: Path, runs: int, repeats: int) -> None:
-    from analysis.engine.campaign.runner import run_campaign
-    from analysis.engine.campaign.spec import load_spec
+    from rcsim.analysis.engine.campaign.runner import run_campaign
+    from rcsim.analysis.engine.campaign.spec import load_spec
 
     spec_dir = out / "specs"
     spec_dir.mkdir(parents=True, exist_ok=True)

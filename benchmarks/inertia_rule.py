@@ -2,10 +2,10 @@
 "Physical inertia tensors").
 
 Draws ``--runs`` vehicles at each of several scales of Table 5 (optionally with products of
-inertia) through the simulator's own dispersion code (``spacecraft.dispersions.apply_draws`` on
-standard variates of one generator: the same distribution a campaign draws, run streams
+inertia) through the simulator's own dispersion code (``rcsim.spacecraft.dispersions.apply_draws``
+on standard variates of one generator: the same distribution a campaign draws, run streams
 aside), and counts the runs whose principal moments break the triangle inequality, i.e. the
-runs ``spacecraft.simulation.invalid_runs`` refuses to fly.  Printed per scale: that fraction
+runs ``rcsim.spacecraft.simulation.invalid_runs`` refuses to fly.  Printed per scale: that fraction
 with its 95 % Clopper-Pearson interval, and whether the inertia rule accepts the scale.
 
 Usage::
@@ -28,9 +28,9 @@ sys.path.insert(0, str(ROOT))
 def main() -> None:
     import numpy as np
 
-    from analysis.results.proportions import clopper_pearson
-    from models.tables import load_dispersions
-    from spacecraft.dispersions import (
+    from rcsim.analysis.results.proportions import clopper_pearson
+    from rcsim.models.tables import load_dispersions
+    from rcsim.spacecraft.dispersions import (
         N_MASS_EXTRAS,
         N_NORMALS,
         N_UNIFORMS,
@@ -38,7 +38,7 @@ def main() -> None:
         apply_draws,
         inertia_scale_limit,
     )
-    from spacecraft.vehicle import VehicleParams
+    from rcsim.spacecraft.vehicle import VehicleParams
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=2_000_000)

@@ -25,8 +25,8 @@ sys.path.insert(0, str(ROOT))
 def main() -> None:
     import numpy as np
 
-    from analysis.results.drivers.interaction import interaction_test
-    from analysis.results.proportions import clopper_pearson
+    from rcsim.analysis.results.drivers.interaction import interaction_test
+    from rcsim.analysis.results.proportions import clopper_pearson
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tables", type=int, default=200)

@@ -35,7 +35,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from analysis.apps.loop.run import STAGES  # noqa: E402
+from rcsim.analysis.apps.loop.run import STAGES  # noqa: E402
 
 SAMPLE_S = 0.5
 FOREIGN_CPU = 0.10  # fraction of one CPU over a sample

@@ -3,7 +3,7 @@
 Prints simulated seconds per wall second for
 
 * ``closed loop``: 256 runs of the 5/5/5 deg three-axis phase-plane maneuver, 60 s each, through
-  :func:`spacecraft.simulation.simulate_batch` (vectorized controller every 40 ms cycle,
+  :func:`rcsim.spacecraft.simulation.simulate_batch` (vectorized controller every 40 ms cycle,
   MuJoCo batch rollout of the cycle's physics steps with the GIL released);
 * ``raw``: the same number of physics steps of 256 runs in :meth:`mujoco.batch.Batch.rollout`
   with a precomputed control array and no controller (long rollouts of ``CHUNK_S`` of simulated
@@ -39,19 +39,19 @@ from mujoco.batch import Batch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
-from models.tables import load_jet_map  # noqa: E402
-from spacecraft.flight_model import flight_model, jet_wrench_B  # noqa: E402
-from spacecraft.mujoco_timers import quiet_stage_timers  # noqa: E402
-from spacecraft.navigation import Guidance, navigate  # noqa: E402
-from spacecraft.propulsion import (  # noqa: E402
+from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
+from rcsim.models.tables import load_jet_map  # noqa: E402
+from rcsim.spacecraft.flight_model import flight_model, jet_wrench_B  # noqa: E402
+from rcsim.spacecraft.mujoco_timers import quiet_stage_timers  # noqa: E402
+from rcsim.spacecraft.navigation import Guidance, navigate  # noqa: E402
+from rcsim.spacecraft.propulsion import (  # noqa: E402
     PropulsionParams,
     PropulsionState,
     apply_valve_limits,
     duty_profile,
 )
-from spacecraft.simulation import simulate_batch  # noqa: E402
-from spacecraft.vehicle import VehicleParams, jet_actuator_ids, load_model  # noqa: E402
+from rcsim.spacecraft.simulation import simulate_batch  # noqa: E402
+from rcsim.spacecraft.vehicle import VehicleParams, jet_actuator_ids, load_model  # noqa: E402
 
 # The raw ceiling steps MuJoCo as the closed loop does: stage timers on the zero clock.
 quiet_stage_timers()
@@ -75,7 +75,8 @@ def raw(model, hist, n_runs: int, nthread: int) -> float:
     n_total = int(round(DURATION_S / dt))
     chunk = min(n_total, int(round(CHUNK_S / dt)))
     # Duties of the closed loop's first chunk, per run, as the flight model's wrench controls
-    # (n_runs, chunk, 6): the steps the closed loop's MuJoCo takes (spacecraft/flight_model.py).
+    # (n_runs, chunk, 6): the steps the closed loop's MuJoCo takes
+    # (rcsim/spacecraft/flight_model.py).
     n_cyc = chunk // n_sub
     duty = duty_profile(hist.on_time_s[:, :n_cyc].reshape(-1, 16), dt, n_sub)
     wrench = jet_wrench_B(VehicleParams.nominal(n_runs, model), model)

@@ -2,10 +2,10 @@
 
 Measures three things, each ``--repeat`` times, and prints median and range:
 
-* ``study``: the library call :func:`analysis.apps.studies.noisy_sensor.run_study` in this
+* ``study``: the library call :func:`rcsim.analysis.apps.studies.noisy_sensor.run_study` in this
   (already warm) process: random draws for N runs, six vectorized RK4 Monte Carlos of 100
   steps, the tables.  This is the figure to quote for "the study takes X s".
-* ``write``: :func:`~analysis.apps.studies.noisy_sensor.write_outputs` (summary.csv,
+* ``write``: :func:`~rcsim.analysis.apps.studies.noisy_sensor.write_outputs` (summary.csv,
   percent.csv, runs.parquet, scatter.png) after one study.
 * ``cli``: the wall time a user waits for ``rcsim study noisy-sensor --runs N --out DIR``, a
   fresh process each time (interpreter start, imports of numpy/pandas/matplotlib/pyarrow,
@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.apps.studies.noisy_sensor import StudyConfig, run_study, write_outputs
+from rcsim.analysis.apps.studies.noisy_sensor import StudyConfig, run_study, write_outputs
 
 
 def _rcsim_command() -> list[str]:

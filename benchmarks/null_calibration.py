@@ -1,11 +1,11 @@
 """Null calibration of every flag `rcsim analyze` raises, at full campaign size (issue 16).
 
-For each scenario of :func:`analysis.results.drivers.synthetic.stratified_campaign` (26 cases x
-1,000 runs, 100 noise inputs, 5 % failures at random, plus the planted mechanism), ``--tables``
-seeded tables are analysed by :func:`analysis.results.drivers.pipeline.analyze` with the
+For each scenario of :func:`rcsim.analysis.results.drivers.synthetic.stratified_campaign` (26 cases
+x 1,000 runs, 100 noise inputs, 5 % failures at random, plus the planted mechanism), ``--tables``
+seeded tables are analysed by :func:`rcsim.analysis.results.drivers.pipeline.analyze` with the
 default permutations (200 for inputs, 100 for pairs, alpha 0.05; the random forest, the
 stability splits and the maps raise no flag and are left out: see
-:func:`~analysis.results.drivers.synthetic.calibration_settings`).  Printed per scenario and
+:func:`~rcsim.analysis.results.drivers.synthetic.calibration_settings`).  Printed per scenario and
 flag family (singles, pairs, per case): the share of tables with at least one false flag, with
 its 95 % Clopper-Pearson interval, and the recovery of the planted truth.
 
@@ -38,8 +38,8 @@ RECOVERY = ("true_singles", "true_case", "true_interaction", "interaction_first"
 def main() -> None:
     import pandas as pd
 
-    from analysis.results.drivers.synthetic import STRATIFIED, calibration_settings, flags
-    from analysis.results.proportions import clopper_pearson
+    from rcsim.analysis.results.drivers.synthetic import STRATIFIED, calibration_settings, flags
+    from rcsim.analysis.results.proportions import clopper_pearson
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tables", type=int, default=20)

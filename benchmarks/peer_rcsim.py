@@ -37,10 +37,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from spacecraft.navigation import Guidance, NavState  # noqa: E402
-from spacecraft.propulsion import PropulsionParams  # noqa: E402
-from spacecraft.simulation import BatchSimulation  # noqa: E402
-from spacecraft.vehicle import N_JETS, VehicleParams, load_model, torque_per_jet_B  # noqa: E402
+from rcsim.spacecraft.navigation import Guidance, NavState  # noqa: E402
+from rcsim.spacecraft.propulsion import PropulsionParams  # noqa: E402
+from rcsim.spacecraft.simulation import BatchSimulation  # noqa: E402
+from rcsim.spacecraft.vehicle import N_JETS, VehicleParams, load_model, torque_per_jet_B  # noqa: E402
 
 DURATION_S = 20.0
 CYCLE_S = 0.04
@@ -53,7 +53,7 @@ PROBE_ON_S = np.zeros(N_JETS)
 PROBE_ON_S[[1, 3]] = 0.012
 PROBE_DURATION_S = 1.0
 
-# Table 5 three-sigma values -> one sigma (models/data/table5_dispersions.csv).
+# Table 5 three-sigma values -> one sigma (rcsim/models/data/table5_dispersions.csv).
 SIGMA_MASS_KG = 73.60 / 3
 SIGMA_INERTIA = np.array([322.48, 284.42, 221.13]) / 3
 SIGMA_THRUST_N = 2.00 / 3

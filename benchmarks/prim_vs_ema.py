@@ -1,4 +1,4 @@
-"""rcsim's PRIM (analysis/results/drivers/boxes.py) against EMA Workbench's ``prim.Prim``.
+"""rcsim's PRIM (rcsim/analysis/results/drivers/boxes.py) against EMA Workbench's ``prim.Prim``.
 
 Usage (EMA Workbench is not an rcsim dependency: run this from an environment that has it and
 numpy, pandas and scipy, with the repository root on ``PYTHONPATH``)::
@@ -22,7 +22,7 @@ import time
 import numpy as np
 import pandas as pd
 
-from analysis.results.drivers.boxes import peel
+from rcsim.analysis.results.drivers.boxes import peel
 
 
 def planted_box(seed: int, n: int = 5000):

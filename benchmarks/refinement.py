@@ -27,9 +27,9 @@ import time
 
 import numpy as np
 
-from analysis.apps.refinement import evaluate as evaluate_module
-from analysis.apps.refinement import outputs, search
-from models.tables import load_lookup_table
+from rcsim.analysis.apps.refinement import evaluate as evaluate_module
+from rcsim.analysis.apps.refinement import outputs, search
+from rcsim.models.tables import load_lookup_table
 
 
 def main() -> None:

@@ -1,9 +1,10 @@
 """rcsim: spacecraft reaction-control simulation for RCS analysts.
 
-The package on top owns the version, ``python -m rcsim`` and the public Python API; the code
-lives in the four layers the tree shows, each a top-level package, with one-way imports::
+The package owns one name; its visible top is the design card's four layers, with one-way
+imports (``rcsim.models`` <- ``rcsim.spacecraft`` <- ``rcsim.lookup`` <- ``rcsim.analysis``),
+and this module on top owns the version, ``python -m rcsim`` and the public Python API::
 
-    models  <-  spacecraft  <-  lookup  <-  analysis  <-  rcsim
+    models  <-  spacecraft  <-  lookup  <-  analysis  <-  rcsim (this module)
     (MJCF,      (vehicle,       (control-   (engine: fly and write; results: read and
      tables)     physics)        lers)       judge; apps: loop, CLI, studies)
 
@@ -35,26 +36,26 @@ __version__ = "0.2.0"
 
 #: Public name -> (module, attribute); the attribute is the name unless it differs.
 _API: dict[str, tuple[str, str]] = {
-    "Scenario": ("analysis.engine.flight", "Scenario"),
-    "fly": ("analysis.engine.flight", "fly"),
-    "history_frame": ("analysis.engine.flight", "history_frame"),
-    "write_flight": ("analysis.engine.flight", "write_flight"),
-    "VehicleParams": ("spacecraft.vehicle", "VehicleParams"),
-    "make_controller": ("lookup.registry", "make_controller"),
-    "parse_dict": ("analysis.engine.campaign.spec", "parse_dict"),
-    "load_spec": ("analysis.engine.campaign.spec", "load_spec"),
-    "CampaignSpec": ("analysis.engine.campaign.spec", "CampaignSpec"),
-    "run_campaign": ("analysis.engine.campaign.runner", "run_campaign"),
-    "runs_table": ("analysis.engine", "runs_table"),
-    "load_runs": ("analysis.results.drivers.inputs", "load_runs"),
-    "analyze": ("analysis.results.drivers.pipeline", "analyze"),
-    "DriverSettings": ("analysis.results.drivers.pipeline", "Settings"),
-    "write_analysis": ("analysis.results.drivers.outputs", "write_analysis"),
-    "load_lookup_table": ("models.tables", "load_lookup_table"),
-    "generate_table": ("lookup.table_generation", "generate_table"),
-    "run_refinement": ("analysis.apps.refinement.outputs", "run_refinement"),
-    "LoopSettings": ("analysis.apps.loop.run", "LoopSettings"),
-    "run_loop": ("analysis.apps.loop.run", "run_loop"),
+    "Scenario": ("rcsim.analysis.engine.flight", "Scenario"),
+    "fly": ("rcsim.analysis.engine.flight", "fly"),
+    "history_frame": ("rcsim.analysis.engine.flight", "history_frame"),
+    "write_flight": ("rcsim.analysis.engine.flight", "write_flight"),
+    "VehicleParams": ("rcsim.spacecraft.vehicle", "VehicleParams"),
+    "make_controller": ("rcsim.lookup.registry", "make_controller"),
+    "parse_dict": ("rcsim.analysis.engine.campaign.spec", "parse_dict"),
+    "load_spec": ("rcsim.analysis.engine.campaign.spec", "load_spec"),
+    "CampaignSpec": ("rcsim.analysis.engine.campaign.spec", "CampaignSpec"),
+    "run_campaign": ("rcsim.analysis.engine.campaign.runner", "run_campaign"),
+    "runs_table": ("rcsim.analysis.engine", "runs_table"),
+    "load_runs": ("rcsim.analysis.results.drivers.inputs", "load_runs"),
+    "analyze": ("rcsim.analysis.results.drivers.pipeline", "analyze"),
+    "DriverSettings": ("rcsim.analysis.results.drivers.pipeline", "Settings"),
+    "write_analysis": ("rcsim.analysis.results.drivers.outputs", "write_analysis"),
+    "load_lookup_table": ("rcsim.models.tables", "load_lookup_table"),
+    "generate_table": ("rcsim.lookup.table_generation", "generate_table"),
+    "run_refinement": ("rcsim.analysis.apps.refinement.outputs", "run_refinement"),
+    "LoopSettings": ("rcsim.analysis.apps.loop.run", "LoopSettings"),
+    "run_loop": ("rcsim.analysis.apps.loop.run", "run_loop"),
 }
 __all__ = ["__version__", *_API]
 
@@ -62,9 +63,6 @@ __all__ = ["__version__", *_API]
 def __getattr__(name: str):
     if name not in _API:
         raise AttributeError(f"module 'rcsim' has no attribute {name!r}")
-    from rcsim._layers import check_layers
-
-    check_layers()  # a shadowing models.py in the working directory: one clear message
     module, attribute = _API[name]
     value = getattr(importlib.import_module(module), attribute)
     globals()[name] = value  # later lookups skip __getattr__

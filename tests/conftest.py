@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 from hypothesis import settings
 
-from models.tables import load_mass_properties
-from spacecraft.vehicle import load_model
+from rcsim.models.tables import load_mass_properties
+from rcsim.spacecraft.vehicle import load_model
 
 HYPOTHESIS_PROFILE = "rcsim-derandomized"
 settings.register_profile(HYPOTHESIS_PROFILE, derandomize=True, database=None)
@@ -48,7 +48,7 @@ def unsorted_vehicle(tmp_path_factory) -> SimpleNamespace:
     Returns ``path`` and ``tensor_B``, the tensor the file states (3, 3) [kg m^2], written out
     here from the numbers put in the file (the tests' oracle, not the schema's parse).
     """
-    from spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.spacecraft.vehicle_file import resolve_vehicle
 
     moments, products = (2457.06, 3583.09, 3160.22), (-60.0, 45.0, 30.0)
     text = resolve_vehicle("canted16").read_text()

@@ -3,8 +3,9 @@
 Oracles:
 
 * the user's design card ("Imports flow one way"): ``models <- spacecraft <- lookup <- analysis``,
-  with ``rcsim`` (version, command line, public API) on top;
-* ``analysis/__init__.py``: its three layers ``engine <- results <- apps``;
+  the four layers that are the visible top of the one package ``rcsim``, with the top module
+  (``rcsim/__init__.py``, ``rcsim/__main__.py``: version, command line, public API) above them;
+* ``rcsim/analysis/__init__.py``: its three layers ``engine <- results <- apps``;
 * every package's own ``__init__`` docstring, whose ``Must not import:`` and
   ``Only imported by:`` paragraphs are the rules of that package (the docstring is their one
   statement; this test reads it, so a rule cannot be written in one place and checked in
@@ -14,6 +15,9 @@ Oracles:
 
 Every import statement is read from the source (AST), so the tree is the whole truth: the
 folders are the packages (``pyproject.toml``), nothing is mapped at install time.
+
+In a rule, the name ``rcsim`` alone means the top module (``rcsim`` and ``rcsim.__main__``), not
+the whole package: every module is inside ``rcsim``.
 """
 
 from __future__ import annotations
@@ -25,10 +29,12 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-#: Top-level packages, lowest first.
-LAYERS = ["models", "spacecraft", "lookup", "analysis", "rcsim"]
+#: The package's layers, lowest first; the top module last.
+LAYERS = ["rcsim.models", "rcsim.spacecraft", "rcsim.lookup", "rcsim.analysis", "rcsim"]
+#: What the name ``rcsim`` means in a rule or a layer: the top module, not its subpackages.
+TOP = {"rcsim", "rcsim.__main__"}
 #: The layers inside ``analysis``, lowest first.
-ANALYSIS_LAYERS = ["analysis.engine", "analysis.results", "analysis.apps"]
+ANALYSIS_LAYERS = ["rcsim.analysis.engine", "rcsim.analysis.results", "rcsim.analysis.apps"]
 
 
 def _module_name(path: Path, root: Path = ROOT) -> str:
@@ -69,9 +75,7 @@ def imports_of(path: Path, root: Path = ROOT) -> set[str]:
 
 
 def _python_files(root: Path = ROOT) -> list[Path]:
-    return sorted(
-        p for layer in LAYERS for p in (root / layer).rglob("*.py") if "__pycache__" not in p.parts
-    )
+    return sorted(p for p in (root / "rcsim").rglob("*.py") if "__pycache__" not in p.parts)
 
 
 def _modules(root: Path = ROOT) -> dict[str, set[str]]:
@@ -82,6 +86,8 @@ def _modules(root: Path = ROOT) -> dict[str, set[str]]:
 
 
 def _within(name: str, prefix: str) -> bool:
+    if prefix == "rcsim":
+        return name in TOP
     return name == prefix or name.startswith(prefix + ".")
 
 
@@ -95,7 +101,7 @@ def _rank(name: str, order: list[str]) -> int | None:
 def package_rules(root: Path = ROOT) -> dict[str, dict[str, list[str]]]:
     """Each package's stated rules: ``{package: {"must_not": [...], "only_by": [...]}}``."""
     rules = {}
-    for init in sorted(p for layer in LAYERS for p in (root / layer).rglob("__init__.py")):
+    for init in sorted((root / "rcsim").rglob("__init__.py")):
         doc = ast.get_docstring(ast.parse(init.read_text())) or ""
         entry = {}
         for key, label in (("must_not", "Must not import:"), ("only_by", "Only imported by:")):
@@ -178,14 +184,14 @@ def test_every_package_states_its_rules_and_each_rule_names_a_real_package():
     # A rule naming a module that does not exist checks nothing (a typo, or a module moved).
     rules = package_rules()
     assert {
-        "models",
-        "spacecraft",
-        "lookup",
-        "analysis",
-        "analysis.engine",
-        "analysis.results",
-        "analysis.results.report",
-        "analysis.apps.cli",
+        "rcsim.models",
+        "rcsim.spacecraft",
+        "rcsim.lookup",
+        "rcsim.analysis",
+        "rcsim.analysis.engine",
+        "rcsim.analysis.results",
+        "rcsim.analysis.results.report",
+        "rcsim.analysis.apps.cli",
     } <= set(rules)
     known = set(_modules())
     stale = [
@@ -198,50 +204,56 @@ def test_every_package_states_its_rules_and_each_rule_names_a_real_package():
     assert not stale, f"rules naming no module of the tree: {stale}"
 
 
-def test_no_namespaced_layer_imports():
-    # The layers are top-level packages: ``rcsim.models`` does not exist (issue 15 moved the
-    # package-dir mapping away); only ``rcsim`` itself and its version are importable from it.
+def test_no_top_level_layer_imports():
+    # The package owns one name (issue 27): the layers are ``rcsim.models`` ... and nothing
+    # imports a top-level ``models``, ``spacecraft``, ``lookup`` or ``analysis`` -- which would
+    # be another project's package, or a user's ``analysis.py`` in the working directory.
     bad = sorted(
         {
             f"{p.relative_to(ROOT)}: {i}"
-            for folder in LAYERS + ["tests", "benchmarks"]
+            for folder in ["rcsim", "tests", "benchmarks"]
             for p in (ROOT / folder).rglob("*.py")
             if "__pycache__" not in p.parts
             for i in imports_of(p)
-            if re.match(r"rcsim\.(models|spacecraft|lookup|analysis)", i)
+            if i.split(".")[0] in ("models", "spacecraft", "lookup", "analysis")
         }
     )
-    assert not bad, f"imports of the old namespace: {bad}"
+    assert not bad, f"imports of top-level layer names: {bad}"
 
 
-@pytest.mark.parametrize("case", ["upward", "analysis_layer", "must_not", "only_by", "cycle"])
+@pytest.mark.parametrize(
+    "case", ["upward", "analysis_layer", "must_not", "only_by", "cycle", "top"]
+)
 def test_the_checker_sees_violations(tmp_path, case):
     """The checker itself can fail: each kind of violation, planted in a small tree, is seen."""
     files = {
-        "models/__init__.py": '"""Bottom.\n\nMust not import: spacecraft.\n"""\n',
-        "spacecraft/__init__.py": '"""Physics."""\n',
-        "spacecraft/a.py": "import models\n",
-        "spacecraft/b.py": "",
-        "lookup/__init__.py": '"""Controllers.\n\nOnly imported by: analysis.apps.\n"""\n',
-        "analysis/__init__.py": "",
-        "analysis/engine/__init__.py": "",
-        "analysis/results/__init__.py": "",
-        "analysis/apps/__init__.py": "",
+        "rcsim/models/__init__.py": '"""Bottom.\n\nMust not import: rcsim.spacecraft.\n"""\n',
+        "rcsim/spacecraft/__init__.py": '"""Physics."""\n',
+        "rcsim/spacecraft/a.py": "import rcsim.models\n",
+        "rcsim/spacecraft/b.py": "",
+        "rcsim/lookup/__init__.py": (
+            '"""Controllers.\n\nOnly imported by: rcsim.analysis.apps.\n"""\n'
+        ),
+        "rcsim/analysis/__init__.py": "",
+        "rcsim/analysis/engine/__init__.py": "",
+        "rcsim/analysis/results/__init__.py": "",
+        "rcsim/analysis/apps/__init__.py": "",
         "rcsim/__init__.py": "",
     }
     planted = {
-        "upward": ("models/x.py", "def f():\n    from spacecraft import a\n"),
-        "analysis_layer": ("analysis/engine/x.py", "from analysis.apps import y\n"),
-        "must_not": ("models/x.py", "import models\n"),  # allowed...
-        "only_by": ("analysis/engine/x.py", "import lookup\n"),
-        "cycle": ("spacecraft/b.py", "from spacecraft import a\n"),
+        "upward": ("rcsim/models/x.py", "def f():\n    from rcsim.spacecraft import a\n"),
+        "analysis_layer": ("rcsim/analysis/engine/x.py", "from rcsim.analysis.apps import y\n"),
+        "must_not": ("rcsim/models/x.py", "import rcsim.models\n"),  # allowed...
+        "only_by": ("rcsim/analysis/engine/x.py", "import rcsim.lookup\n"),
+        "cycle": ("rcsim/spacecraft/b.py", "from rcsim.spacecraft import a\n"),
+        "top": ("rcsim/lookup/x.py", "import rcsim\n"),
     }
-    files["analysis/apps/y.py"] = ""
+    files["rcsim/analysis/apps/y.py"] = ""
     if case == "must_not":  # ...but a stated rule forbids spacecraft from models' subtree
-        files["models/__init__.py"] = '"""Bottom.\n\nMust not import: models.x.\n"""\n'
-        files["models/y.py"] = "from models import x\n"
+        files["rcsim/models/__init__.py"] = '"""Bottom.\n\nMust not import: rcsim.models.x.\n"""\n'
+        files["rcsim/models/y.py"] = "from rcsim.models import x\n"
     if case == "cycle":
-        files["spacecraft/a.py"] = "from spacecraft import b\n"
+        files["rcsim/spacecraft/a.py"] = "from rcsim.spacecraft import b\n"
     path, text = planted[case]
     files[path] = text
     for name, content in files.items():

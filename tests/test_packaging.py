@@ -9,6 +9,7 @@ database (CI is reproducible), and no test skips because one of our own modules 
 """
 
 import ast
+import os
 import re
 import tomllib
 from pathlib import Path
@@ -23,7 +24,9 @@ ROOT = Path(__file__).resolve().parents[1]
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
 SETUPTOOLS = PYPROJECT["tool"]["setuptools"]
 FIND = SETUPTOOLS["packages"]["find"]
-TOP_LEVEL = ("rcsim", "models", "spacecraft", "lookup", "analysis")
+#: The one name the package owns, and the design card's four layers, its visible top.
+PACKAGE = "rcsim"
+LAYERS = ("models", "spacecraft", "lookup", "analysis")
 MIN_PINS = ROOT / ".ci" / "min-versions.txt"
 
 
@@ -41,9 +44,7 @@ def _found_packages() -> set[str]:
 
 
 def _source_files(pattern: str) -> list[Path]:
-    return sorted(
-        p for top in TOP_LEVEL for p in (ROOT / top).rglob(pattern) if "__pycache__" not in p.parts
-    )
+    return sorted(p for p in (ROOT / PACKAGE).rglob(pattern) if "__pycache__" not in p.parts)
 
 
 def _package_of(folder: Path) -> str:
@@ -51,14 +52,15 @@ def _package_of(folder: Path) -> str:
 
 
 # --------------------------------------------------------------------------- packages --
-def test_the_layers_are_top_level_packages_of_the_tree():
-    # Issue 15: the tree is the package layout (no package-dir mapping onto other names), so
-    # tools resolve every import from the folders.  "" -> "." only makes the root the source
-    # root (an editable install is then one .pth entry).
+def test_the_package_owns_one_name_and_the_layers_are_its_top():
+    # Issue 27: ``rcsim`` is the only top-level name; the design card's four layers are its
+    # visible top (rcsim/models, ...), so tools resolve every import from the folders.  "" ->
+    # "." only makes the root the source root (an editable install is then one .pth entry).
     assert SETUPTOOLS.get("package-dir", {}) in ({}, {"": "."})
     found = _found_packages()
-    assert set(TOP_LEVEL) <= found
-    assert not any(p.startswith(("tests", "benchmarks", "docs")) for p in found)
+    assert {p.split(".")[0] for p in found} == {PACKAGE}, sorted(found)
+    assert {f"{PACKAGE}.{layer}" for layer in LAYERS} <= found
+    assert not any((ROOT / layer).exists() for layer in LAYERS), "a layer left at the root"
 
 
 def test_every_python_module_is_inside_an_installed_package():
@@ -114,10 +116,10 @@ def test_every_c_source_is_a_declared_extension():
     assert present == named, f"C sources {sorted(present)} against setup.py's {sorted(named)}"
 
 
-def test_every_package_is_typed():
-    # PEP 561: a type checker uses an installed package's annotations only beside py.typed.
-    missing = [top for top in TOP_LEVEL if not (ROOT / top / "py.typed").is_file()]
-    assert not missing, f"py.typed missing in {missing}"
+def test_the_package_is_typed():
+    # PEP 561: a type checker uses an installed package's annotations only beside py.typed
+    # at the package's top (it covers the subpackages).
+    assert (ROOT / PACKAGE / "py.typed").is_file()
 
 
 def test_packaged_data_the_code_loads_is_present():
@@ -125,9 +127,9 @@ def test_packaged_data_the_code_loads_is_present():
     from importlib.resources import files
 
     for package, name in [
-        ("models", "vehicle/vehicle.xml"),
-        ("models", "data/table1_mass_properties.csv"),
-        ("lookup", "data/generated_table.csv"),
+        ("rcsim.models", "vehicle/vehicle.xml"),
+        ("rcsim.models", "data/table1_mass_properties.csv"),
+        ("rcsim.lookup", "data/generated_table.csv"),
     ]:
         assert (files(package) / name).is_file(), f"{package}: {name} missing"
 
@@ -242,7 +244,53 @@ def test_no_importorskip_of_our_own_modules():
                 and ast.unparse(node.func).endswith("importorskip")
                 and node.args
                 and isinstance(node.args[0], ast.Constant)
-                and str(node.args[0].value).split(".")[0] in TOP_LEVEL
+                and str(node.args[0].value).split(".")[0] == PACKAGE
             ):
                 bad.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.args[0].value}")
     assert not bad, f"importorskip on rcsim's own modules: {bad}"
+
+
+# ------------------------------------------------------------------ the installed wheel --
+def test_an_installed_wheel_puts_only_rcsim_into_site_packages(tmp_path):
+    """Issue 27: the wheel, installed into a clean venv, adds ``rcsim`` and its dist-info and
+    no other top-level name (``models``, ``analysis``... are other projects' on the package
+    index).  Oracle: site-packages listed before and after the install."""
+    import subprocess
+    import sys
+    import venv
+
+    wheels = tmp_path / "wheels"
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "--no-build-isolation",
+         "--wheel-dir", str(wheels), str(ROOT)],
+        check=True, capture_output=True, timeout=600,
+    )  # fmt: skip
+    (wheel,) = wheels.glob("rcsim-*.whl")
+    env = tmp_path / "venv"
+    venv.create(env, with_pip=True)
+    python = env / "bin" / "python"
+    site = subprocess.run(
+        [python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        check=True, capture_output=True, text=True,
+    ).stdout.strip()  # fmt: skip
+    before = set(os.listdir(site))
+    subprocess.run(
+        [python, "-m", "pip", "install", "--quiet", "--no-deps", "--no-index", str(wheel)],
+        check=True, capture_output=True, timeout=300,
+    )  # fmt: skip
+    added = set(os.listdir(site)) - before
+    names = {n for n in added if n != "__pycache__"}
+    dist_info = {n for n in names if n.endswith(".dist-info")}
+    assert names - dist_info == {"rcsim"}, sorted(names)
+    assert len(dist_info) == 1 and next(iter(dist_info)).startswith("rcsim-"), sorted(names)
+    version = subprocess.run(
+        [python, "-c", "import rcsim; print(rcsim.__version__)"],
+        check=True, capture_output=True, text=True, cwd=tmp_path,
+    ).stdout.strip()  # fmt: skip
+    assert version == PYPROJECT_VERSION()
+
+
+def PYPROJECT_VERSION() -> str:  # noqa: N802 - reads like the constant it stands for
+    import rcsim
+
+    return rcsim.__version__

@@ -34,18 +34,28 @@ def test_an_unknown_name_is_an_attribute_error():
         rcsim.no_such_thing  # noqa: B018
 
 
-def test_a_shadowing_module_in_the_working_directory_is_named(tmp_path):
-    # A user's models.py next to their notebook would be imported instead of rcsim's layer.
-    (tmp_path / "models.py").write_text("x = 1\n")
-    run = subprocess.run(
-        [sys.executable, "-m", "rcsim", "--help"], capture_output=True, text=True, cwd=tmp_path
-    )
-    assert run.returncode == 2
-    assert run.stderr.count("\n") == 1 and "models.py" in run.stderr and "shadows" in run.stderr
+def test_a_users_modules_named_like_the_layers_change_nothing(tmp_path):
+    # Issue 27: the package owns its namespace.  A user's analysis.py, models.py, lookup.py
+    # and spacecraft.py beside their script (the working directory comes first on sys.path)
+    # are theirs, and rcsim's layers are still rcsim's.
+    for name in ("analysis", "models", "lookup", "spacecraft"):
+        (tmp_path / f"{name}.py").write_text("raise RuntimeError('the user module was imported')\n")
     probe = subprocess.run(
-        [sys.executable, "-c", "import rcsim; rcsim.fly"],
+        [
+            sys.executable,
+            "-c",
+            "import rcsim, rcsim.models.tables as t; rcsim.fly; print(len(t.load_rate_cases().case))",
+        ],
         capture_output=True,
         text=True,
         cwd=tmp_path,
     )
-    assert probe.returncode != 0 and "shadows it" in probe.stderr
+    assert probe.returncode == 0, probe.stderr
+    assert probe.stdout.strip() == "26"  # Table 3's rate cases, read through rcsim.models
+    command = subprocess.run(
+        [sys.executable, "-m", "rcsim", "vehicle", "check", "paper", "--no-pairs"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
+    assert command.returncode == 0, command.stderr

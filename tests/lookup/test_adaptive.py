@@ -1,4 +1,4 @@
-"""The adaptive lookup controller (lookup.adaptive).
+"""The adaptive lookup controller (rcsim.lookup.adaptive).
 
 Oracles
 -------
@@ -20,15 +20,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lookup.adaptive import AdaptiveLookupController, AdaptParams
-from lookup.pattern_recognition import LookupController, load_default_table
-from models.tables import load_rate_cases
-from spacecraft.effect_draws import SENSOR_NOISE, effect_stream
-from spacecraft.navigation import Guidance, NavState
-from spacecraft.sensors import SensorParams
-from spacecraft.simulation import BatchSimulation
-from spacecraft.valves import JetFaults
-from spacecraft.vehicle import VehicleParams
+from rcsim.lookup.adaptive import AdaptiveLookupController, AdaptParams
+from rcsim.lookup.pattern_recognition import LookupController, load_default_table
+from rcsim.models.tables import load_rate_cases
+from rcsim.spacecraft.effect_draws import SENSOR_NOISE, effect_stream
+from rcsim.spacecraft.navigation import Guidance, NavState
+from rcsim.spacecraft.sensors import SensorParams
+from rcsim.spacecraft.simulation import BatchSimulation
+from rcsim.spacecraft.valves import JetFaults
+from rcsim.spacecraft.vehicle import VehicleParams
 
 YAW_JETS = slice(12, 16)
 CYCLE_S = 0.04
@@ -150,7 +150,7 @@ def test_bad_adapt_params_are_refused():
 
 
 def test_registry_builds_the_adaptive_controller():
-    from lookup.registry import make_controller
+    from rcsim.lookup.registry import make_controller
 
     ctl = make_controller("adaptive", adapt_options={"min_rel": 0.1})
     assert isinstance(ctl, AdaptiveLookupController) and ctl.adapt.min_rel == 0.1

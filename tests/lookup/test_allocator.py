@@ -1,4 +1,4 @@
-"""The batched allocator (:mod:`lookup.allocator`) against exact answers.
+"""The batched allocator (:mod:`rcsim.lookup.allocator`) against exact answers.
 
 Oracles
 -------
@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
-from lookup.allocator import Allocator
+from rcsim.lookup.allocator import Allocator
 
 G0, ISP, F = 9.80665, 280.0, 22.24
 MDOT = F / (ISP * G0)

@@ -25,13 +25,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from lookup.registry import make_controller
-from models.tables import load_rate_cases
-from spacecraft.navigation import Guidance
-from spacecraft.simulation import simulate_batch
-from spacecraft.valves import JetFaults
-from spacecraft.vehicle_file import FlyingVehicle
-from spacecraft.vehicle_file.authority import check_vehicle
+from rcsim.lookup.registry import make_controller
+from rcsim.models.tables import load_rate_cases
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.simulation import simulate_batch
+from rcsim.spacecraft.valves import JetFaults
+from rcsim.spacecraft.vehicle_file import FlyingVehicle
+from rcsim.spacecraft.vehicle_file.authority import check_vehicle
 
 
 def _with_delays(vehicle: FlyingVehicle) -> FlyingVehicle:

@@ -26,12 +26,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lookup.channel_generation import generate_channel_table
-from lookup.pattern_recognition import LookupController
-from models.tables import CONTROL_CYCLE_S, load_lookup_table
-from spacecraft.navigation import Guidance
-from spacecraft.simulation import simulate_batch
-from spacecraft.vehicle_file import FlyingVehicle
+from rcsim.lookup.channel_generation import generate_channel_table
+from rcsim.lookup.pattern_recognition import LookupController
+from rcsim.models.tables import CONTROL_CYCLE_S, load_lookup_table
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.simulation import simulate_batch
+from rcsim.spacecraft.vehicle_file import FlyingVehicle
 
 
 @pytest.fixture(scope="module")

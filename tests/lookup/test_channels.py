@@ -26,8 +26,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lookup.channels import ChannelMap, axis_jets_of, solve_recipe
-from models.tables import CHANNEL_MAP, load_jet_map
+from rcsim.lookup.channels import ChannelMap, axis_jets_of, solve_recipe
+from rcsim.models.tables import CHANNEL_MAP, load_jet_map
 
 CYCLE = 0.04
 

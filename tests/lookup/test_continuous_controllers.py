@@ -9,23 +9,23 @@ import math
 import numpy as np
 import pytest
 
-from lookup.continuous.controllers import (
+from rcsim.lookup.continuous.controllers import (
     ContinuousController,
     ControllerConfig,
     dai_update,
 )
-from lookup.continuous.observer import error_poles, observer_matrices, observer_step
-from lookup.continuous.regression import (
+from rcsim.lookup.continuous.observer import error_poles, observer_matrices, observer_step
+from rcsim.lookup.continuous.regression import (
     feedforward,
     inertia_from_theta,
     regressor,
     theta_from_inertia,
 )
-from lookup.continuous.trajectory import SinusoidalTrajectory
-from models.dai import load_setup
-from models.errors import InputError
-from spacecraft.continuous.kinematics import angle_between
-from spacecraft.continuous.plant import ContinuousPlant, fly
+from rcsim.lookup.continuous.trajectory import SinusoidalTrajectory
+from rcsim.models.dai import load_setup
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.continuous.kinematics import angle_between
+from rcsim.spacecraft.continuous.plant import ContinuousPlant, fly
 
 J002 = np.full((3, 3), 0.1) + 9.9 * np.eye(3)
 
@@ -231,9 +231,9 @@ def test_both_readings_track_a_damaged_vehicle(method):
     closed-loop sanity bound only: it catches a learned term three times too large (checked by
     hand), while the learning arithmetic itself (sign and scale) is pinned exactly by the
     analytic tests above."""
-    from models.dai import load_cmg
-    from spacecraft.continuous.cmg import CmgArray
-    from spacecraft.continuous.plant import ContinuousPlant, fly
+    from rcsim.models.dai import load_cmg
+    from rcsim.spacecraft.continuous.cmg import CmgArray
+    from rcsim.spacecraft.continuous.plant import ContinuousPlant, fly
 
     setup = load_setup("wilt2022")
     traj = SinusoidalTrajectory((0, 0, 0), (0, 0, math.radians(100)), 1.0, 20.0)
@@ -254,6 +254,6 @@ def test_both_readings_track_a_damaged_vehicle(method):
         cmg=CmgArray(load_cmg()),
     )
     ref = traj.sample(hist.t_s)
-    from spacecraft.continuous.kinematics import angle_between
+    from rcsim.spacecraft.continuous.kinematics import angle_between
 
     assert np.degrees(angle_between(hist.q_BN[0], ref["q"])).max() < 1.0

@@ -6,7 +6,7 @@ Oracles
 * A spherical inertia (Ixx = Iyy = Izz) has no gyroscopic term: the body rate is the initial
   rate plus the torque impulse over I, axis by axis, exactly.  On the paper's jets (pure
   couples, Table 2) a row of ``k`` whole cycles on an axis, with command delay ``d`` and valve
-  latencies ``o``, ``c``, thrusts ``k T + c - o`` (the timing model, ``spacecraft/valves.py``;
+  latencies ``o``, ``c``, thrusts ``k T + c - o`` (the timing model, ``rcsim/spacecraft/valves.py``;
   nothing for ``k = 0``), so its end rate is ``alpha (k T + c - o)`` with ``alpha`` the pair's
   torque over I, and the row nearest the command is the ``k`` minimising
   ``|target - alpha (k T + c - o)|`` per axis -- computed here in closed form, compared exactly
@@ -29,10 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.engine.table_files import generate
-from lookup.channel_generation import generate_channel_table
-from models.tables import RateCases, load_jet_map, load_rate_cases
-from spacecraft.vehicle_file import load_vehicle, resolve_vehicle
+from rcsim.analysis.engine.table_files import generate
+from rcsim.lookup.channel_generation import generate_channel_table
+from rcsim.models.tables import RateCases, load_jet_map, load_rate_cases
+from rcsim.spacecraft.vehicle_file import load_vehicle, resolve_vehicle
 
 CYCLE_S = 0.04
 COMMAND_S, OPEN_S, CLOSE_S = 0.005, 0.008, 0.004

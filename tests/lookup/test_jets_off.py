@@ -18,14 +18,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lookup.jet_sets import jets_off_of
-from lookup.pattern_recognition import LookupController
-from lookup.table_generation import generate_table
-from models.errors import InputError
-from spacecraft.navigation import Guidance
-from spacecraft.simulation import simulate_batch
-from spacecraft.valves import JetFaults
-from spacecraft.vehicle import VehicleParams
+from rcsim.lookup.jet_sets import jets_off_of
+from rcsim.lookup.pattern_recognition import LookupController
+from rcsim.lookup.table_generation import generate_table
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.simulation import simulate_batch
+from rcsim.spacecraft.valves import JetFaults
+from rcsim.spacecraft.vehicle import VehicleParams
 
 CYCLE_S = 0.04
 J13, J15 = 12, 14  # 0-based columns of jets 13, 15

@@ -1,4 +1,4 @@
-"""The open-loop controller (lookup.open_loop): the pulses it commands, cycle by cycle.
+"""The open-loop controller (rcsim.lookup.open_loop): the pulses it commands, cycle by cycle.
 
 Oracle: its definition -- jet j on for total_s[j] from t = 0, so cycle k delivers
 clip(total - k cycle, 0, cycle) and the on-times sum to total_s.
@@ -7,8 +7,8 @@ clip(total - k cycle, 0, cycle) and the on-times sum to total_s.
 import numpy as np
 import pytest
 
-from lookup.open_loop import OpenLoopController
-from spacecraft.navigation import NavState
+from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.spacecraft.navigation import NavState
 
 
 def _nav(n):

@@ -14,21 +14,21 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import models.tables as model_tables
-import spacecraft.vehicle as vehicle_mod
-from analysis.engine.scenarios import PaperScenario, fly_scenario, get_scenario
-from lookup.pattern_recognition import (
+import rcsim.models.tables as model_tables
+import rcsim.spacecraft.vehicle as vehicle_mod
+from rcsim.analysis.engine.scenarios import PaperScenario, fly_scenario, get_scenario
+from rcsim.lookup.pattern_recognition import (
     LookupController,
     LookupParams,
     LookupState,
     learn_jets,
     load_default_table,
 )
-from lookup.registry import make_controller
-from models.errors import InputError
-from models.tables import LookupTable, load_lookup_table
-from spacecraft.navigation import NavState
-from spacecraft.vehicle import VehicleParams
+from rcsim.lookup.registry import make_controller
+from rcsim.models.errors import InputError
+from rcsim.models.tables import LookupTable, load_lookup_table
+from rcsim.spacecraft.navigation import NavState
+from rcsim.spacecraft.vehicle import VehicleParams
 
 DEG = np.pi / 180.0
 CYCLE_S = 0.04

@@ -7,11 +7,11 @@ table i gives, run by run, exactly what flying each table alone gives.
 import numpy as np
 import pytest
 
-from analysis.engine.flight import Scenario, fly_batch
-from lookup.pattern_recognition import LookupController
-from lookup.table_edits import jet_axes, shift_axes, with_times
-from models.tables import load_lookup_table
-from spacecraft.vehicle import VehicleParams, load_model
+from rcsim.analysis.engine.flight import Scenario, fly_batch
+from rcsim.lookup.pattern_recognition import LookupController
+from rcsim.lookup.table_edits import jet_axes, shift_axes, with_times
+from rcsim.models.tables import load_lookup_table
+from rcsim.spacecraft.vehicle import VehicleParams, load_model
 
 
 def test_batch_of_candidates_equals_each_table_alone():

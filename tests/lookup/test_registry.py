@@ -1,13 +1,14 @@
-"""Controllers by name (lookup.registry): the one list, and bad input named in library terms."""
+"""Controllers by name (rcsim.lookup.registry): the one list, and bad input named in library
+terms."""
 
 from __future__ import annotations
 
 import pytest
 
-from lookup.pattern_recognition import LookupController
-from lookup.phase_plane import PhasePlaneController
-from lookup.registry import CONTROLLERS, make_controller
-from models.errors import InputError
+from rcsim.lookup.pattern_recognition import LookupController
+from rcsim.lookup.phase_plane import PhasePlaneController
+from rcsim.lookup.registry import CONTROLLERS, make_controller
+from rcsim.models.errors import InputError
 
 
 def test_every_listed_controller_builds(model):

@@ -1,13 +1,13 @@
-"""The per-jet response database (:mod:`lookup.response_database`) against rigid-body physics.
+"""The per-jet response database (:mod:`rcsim.lookup.response_database`) against rigid-body physics.
 
 Oracle: with no dispersion, a paper-vehicle jet fired alone from rest torques one principal axis
-(Table 2 layout, ``models/vehicle/README.md``), so Euler's equations have no gyroscopic term and
-the rate change is exactly ``tau t / I`` (about that axis; zero about the others), and the CG
+(Table 2 layout, ``rcsim/models/vehicle/README.md``), so Euler's equations have no gyroscopic term
+and the rate change is exactly ``tau t / I`` (about that axis; zero about the others), and the CG
 velocity change is ``F t / m`` along the jet (Newton).  Tolerance 1e-9 relative: the flight
 is an RK4 integration of a constant torque about a principal axis, exact to rounding.
 
 With valve timing (command delay ``d``, the jet's latencies ``o`` and ``c``) the pulse thrusts
-``max(0, t + c - o)`` instead of ``t`` (the timing model, ``spacecraft/valves.py``): the same
+``max(0, t + c - o)`` instead of ``t`` (the timing model, ``rcsim/spacecraft/valves.py``): the same
 oracles with that time, which the frame's ``thrust_s`` must be (1e-12), and the summary's slope
 is per second of thrust.
 """
@@ -20,9 +20,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.engine.response_files import write_response_database
-from lookup.response_database import RATE_COLUMNS, response_database, response_summary
-from spacecraft.vehicle_file import FlyingVehicle
+from rcsim.analysis.engine.response_files import write_response_database
+from rcsim.lookup.response_database import RATE_COLUMNS, response_database, response_summary
+from rcsim.spacecraft.vehicle_file import FlyingVehicle
 
 
 @pytest.mark.parametrize("delays", [False, True])
@@ -78,7 +78,7 @@ def test_files_are_written_and_traceable(tmp_path):
 def test_on_times_below_the_minimum_on_time_are_not_flown(tmp_path, capsys):
     """Issue 18 review: a vehicle whose valves make no pulse under 15 ms (canted16 edited:
     ``min_on_s = 0.015``) gets no 10 ms rows, which would all be zero (the valve drops the
-    command: spacecraft.propulsion.apply_valve_limits) and pull every slope toward zero; the
+    command: rcsim.spacecraft.propulsion.apply_valve_limits) and pull every slope toward zero; the
     CLI says so, and the Parquet metadata records the dropped on-time, the vehicle file's
     SHA-256 (of its bytes) and the code version."""
     import hashlib
@@ -86,8 +86,8 @@ def test_on_times_below_the_minimum_on_time_are_not_flown(tmp_path, capsys):
 
     import pyarrow.parquet as pq
 
-    from analysis.apps.cli import main
-    from spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.analysis.apps.cli import main
+    from rcsim.spacecraft.vehicle_file import resolve_vehicle
 
     text = resolve_vehicle("canted16").read_text()
     assert "min_on_s = 0.010" in text

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from lookup import single_axis as sa
+from rcsim.lookup import single_axis as sa
 
 # Times strictly before the default RTOC switch (|det A| < 1e-5 at t ~= 0.8953).
 BEFORE_SWITCH = st.floats(min_value=0.0, max_value=0.89, allow_nan=False)

@@ -1,4 +1,4 @@
-"""The compiled lookup cycle (lookup/_step_kernel.c) is the numpy form bit for bit.
+"""The compiled lookup cycle (rcsim/lookup/_step_kernel.c) is the numpy form bit for bit.
 
 Oracle: ``LookupController.step_detail``'s numpy form, the reference the kernel transcribes
 (``RCSIM_NUMPY_CONTROLLER=1`` switches the kernel off).  Equality is exact (bytes), not a
@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lookup import step_kernel
-from lookup.pattern_recognition import LookupController, LookupState, load_default_table
-from models.tables import load_lookup_table
-from spacecraft.navigation import NavState
+from rcsim.lookup import step_kernel
+from rcsim.lookup.pattern_recognition import LookupController, LookupState, load_default_table
+from rcsim.models.tables import load_lookup_table
+from rcsim.spacecraft.navigation import NavState
 
 pytestmark = pytest.mark.skipif(
     step_kernel._step_kernel is None, reason="the optional extension was not built"
@@ -99,8 +99,8 @@ def test_per_run_tables_and_case_scales_give_the_numpy_cycle(monkeypatch):
 def test_a_campaign_flight_is_the_same_with_and_without_the_kernel(monkeypatch, tmp_path, table):
     """26 rate cases x 2 runs under Table 5 dispersions, 20 s: every recorded array of the
     history equal byte for byte (Table 6 fails and re-fires in some of them)."""
-    from analysis.engine.campaign.chunk import fly_runs
-    from analysis.engine.campaign.spec import load_spec
+    from rcsim.analysis.engine.campaign.chunk import fly_runs
+    from rcsim.analysis.engine.campaign.spec import load_spec
 
     path = tmp_path / "spec.toml"
     path.write_text(

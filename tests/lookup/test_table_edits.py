@@ -1,4 +1,4 @@
-"""Lookup-table edits in whole control cycles (lookup.table_edits).
+"""Lookup-table edits in whole control cycles (rcsim.lookup.table_edits).
 
 Oracles: the paper's Table 6 (jet pairs of an axis share one firing time, all times are whole
 40 ms cycles, Gambone sec. II) and the arithmetic of a shift.
@@ -7,8 +7,8 @@ Oracles: the paper's Table 6 (jet pairs of an axis share one firing time, all ti
 import numpy as np
 import pytest
 
-from lookup.table_edits import axis_cycles, jet_axes, shift_axes
-from models.tables import CONTROL_CYCLE_S, load_lookup_table
+from rcsim.lookup.table_edits import axis_cycles, jet_axes, shift_axes
+from rcsim.models.tables import CONTROL_CYCLE_S, load_lookup_table
 
 
 @pytest.fixture(scope="module")

@@ -2,8 +2,8 @@
 
 Oracles: the paper's Table 2 (jet directions, restated below), Table 3's definition (every sign
 pattern, 0.3 deg/s total), Tables 6 and 7 (as packaged), and the vehicle's designed pure-axis
-times to 0.3 deg/s (models/vehicle/vehicle.xml: 0.5194 s roll, 0.4794 s pitch, 0.3995 s yaw,
-arithmetic in models/vehicle/README.md) -- a rigid body under constant torque gains rate
+times to 0.3 deg/s (rcsim/models/vehicle/vehicle.xml: 0.5194 s roll, 0.4794 s pitch, 0.3995 s yaw,
+arithmetic in rcsim/models/vehicle/README.md) -- a rigid body under constant torque gains rate
 linearly, so reaching |w| on an axis takes ``T_axis * |w| / 0.3 deg/s``.
 """
 
@@ -15,10 +15,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.apps.cli import main
-from lookup.table_compare import compare_tables
-from lookup.table_generation import generate_table
-from models.tables import load_lookup_table
+from rcsim.analysis.apps.cli import main
+from rcsim.lookup.table_compare import compare_tables
+from rcsim.lookup.table_generation import generate_table
+from rcsim.models.tables import load_lookup_table
 
 CYCLE_S = 0.04  # paper sec. II: 40 ms control rate
 # Paper Table 2: jet -> (axis, sign); jets 5-8 unused.
@@ -117,19 +117,19 @@ def test_compare_with_table7(gen):
 
 
 def test_packaged_table_is_the_generated_one(gen):
-    """lookup/data/generated_table.csv is reproducible from the code (README says how)."""
-    path = files("lookup") / "data" / "generated_table.csv"
+    """rcsim/lookup/data/generated_table.csv is reproducible from the code (README says how)."""
+    path = files("rcsim.lookup") / "data" / "generated_table.csv"
     packaged = load_lookup_table(str(path))
     np.testing.assert_allclose(packaged.firing_time_s, gen.table.firing_time_s, atol=1e-12)
     np.testing.assert_allclose(packaged.rate_cmd, gen.table.rate_cmd, rtol=1e-12)
 
 
 def test_packaged_settling_companion_is_the_generated_one(gen):
-    """lookup/data/generated_table_settling.csv is what ``settling_frame`` writes today: the
+    """rcsim/lookup/data/generated_table_settling.csv is what ``settling_frame`` writes today: the
     same columns (``settle_after_firing_s``, the settling time measured from the end of the
     firing) and values (float64 round-trip through CSV; 1e-12 absolute allows for the last
     bit of the printed decimals)."""
-    path = files("lookup") / "data" / "generated_table_settling.csv"
+    path = files("rcsim.lookup") / "data" / "generated_table_settling.csv"
     packaged = pd.read_csv(str(path))
     frame = gen.settling_frame()
     assert list(packaged.columns) == list(frame.columns)

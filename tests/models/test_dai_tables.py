@@ -1,7 +1,9 @@
-"""The DAI papers' data (models/dai): values as printed, SI conversion, clear errors, the MJCF.
+"""The DAI papers' data (rcsim/models/dai): values as printed, SI conversion, clear errors, the
+MJCF.
 
 Oracles: the papers' text -- 001 (Wilt & Sands 2022) Table 5, App. A.2, App. B, App. C; 002
-(Smeresky & Rizzo 2020) Sec. 3 and Table 1 -- and the readings recorded in models/dai/SOURCES.md.
+(Smeresky & Rizzo 2020) Sec. 3 and Table 1 -- and the readings recorded in
+rcsim/models/dai/SOURCES.md.
 """
 
 import math
@@ -10,7 +12,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from models.dai import (
+from rcsim.models.dai import (
     dai_xml,
     load_cmg,
     load_damage,
@@ -18,7 +20,7 @@ from models.dai import (
     load_environment,
     load_setup,
 )
-from models.errors import InputError
+from rcsim.models.errors import InputError
 
 
 def test_wilt_setup_as_printed():
@@ -93,7 +95,7 @@ def test_mjcf_compiles_and_steps_without_warnings():
 def test_paper_table_9_follows_from_its_table_8():
     """001 Table 9 is 100 (FFD+FB - DAI) / FFD+FB of Table 8's three columns; the transcribed
     values must reproduce it to the two decimals the paper prints (0.005 %)."""
-    from models.dai import load_paper_figures
+    from rcsim.models.dai import load_paper_figures
 
     rows = load_paper_figures()
     t8 = {r.method: r for r in rows if r.table == 8}

@@ -1,10 +1,10 @@
-"""Tests for models.tables beyond structure: physical ranges, tables by name, the BOM,
+"""Tests for rcsim.models.tables beyond structure: physical ranges, tables by name, the BOM,
 the packaged vehicle path, and the package's shape (small modules, one control-cycle constant).
 
 Oracles: the paper's text (Gambone, *Pattern Recognition Control Design*, section II: 0.3 deg/s
 total rate command per case, 40 ms control cycle) and its Tables 6/7 (longest firing 0.52 s);
 the exact factor 180/pi between deg/s and rad/s; the ranges' written reasons in
-``models.tables.constants`` (restated below, not imported, where the test needs a number).
+``rcsim.models.tables.constants`` (restated below, not imported, where the test needs a number).
 """
 
 from __future__ import annotations
@@ -20,12 +20,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import models
-from models import tables
-from models.errors import InputError
+from rcsim import models
+from rcsim.models import tables
+from rcsim.models.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[2]
-DATA = files("models") / "data"
+DATA = files("rcsim.models") / "data"
 DEG_PER_RAD = 180.0 / math.pi  # rad/s written under a deg/s header is this much too small
 # Ranges as the brief and constants.py state them: total rate within a factor of ten of the
 # paper's 0.3 deg/s; firing times at most 5 s (about ten times the paper's longest, 0.52 s).
@@ -161,7 +161,7 @@ def test_check_consistency_refuses_meaningless_limits():
 
 
 def test_shipped_tables_are_inside_the_ranges():
-    # The packaged paper tables and lookup/data/generated_table.csv must keep loading.
+    # The packaged paper tables and rcsim/lookup/data/generated_table.csv must keep loading.
     generated = ROOT / "lookup" / "data" / "generated_table.csv"
     for lt in (
         tables.load_lookup_table("table6"),
@@ -271,12 +271,12 @@ def test_control_cycle_is_defined_once():
                 )
                 if any(isinstance(t, ast.Name) and t.id == "CONTROL_CYCLE_S" for t in targets):
                     defs.append(str(path.relative_to(ROOT)))
-    assert defs == ["models/tables/constants.py"]
+    assert defs == ["rcsim/models/tables/constants.py"]
     assert tables.CONTROL_CYCLE_S == 0.040
 
 
 def test_public_names_are_re_exported():
-    # Everything other packages and tests import from models.tables (grep of the repo).
+    # Everything other packages and tests import from rcsim.models.tables (grep of the repo).
     for name in (
         "AXES",
         "CONTROL_CYCLE_S",

@@ -1,4 +1,4 @@
-"""Tests for models.tables: the paper's reference tables (Gambone, Pattern Recognition Control
+"""Tests for rcsim.models.tables: the paper's reference tables (Gambone, Pattern Recognition Control
 Design, Tables 1-7) as packaged CSV files, and the loaders that validate them.
 
 Oracles are the paper's own text and definitions, restated here independently of the code under
@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import tables
-from models.errors import InputError
+from rcsim.models import tables
+from rcsim.models.errors import InputError
 
-DATA = files("models") / "data"
+DATA = files("rcsim.models") / "data"
 PAPER_TABLES = ("table6", "table7")
 LOOKUP_FILE = {"table6": "table6_lookup_original.csv", "table7": "table7_lookup_updated.csv"}
 

@@ -1,4 +1,4 @@
-"""Unknown keys in TOML inputs (:class:`models.toml_reader.Reader`, issue 18 review: a
+"""Unknown keys in TOML inputs (:class:`rcsim.models.toml_reader.Reader`, issue 18 review: a
 misspelt top-level table was refused without saying what the file takes).
 
 Oracle: the reader's contract -- the keys a table takes are the ones the reading code asked
@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import pytest
 
-from models.errors import InputError
-from models.toml_reader import Reader
+from rcsim.models.errors import InputError
+from rcsim.models.toml_reader import Reader
 
 
 def test_unknown_key_names_the_closest_and_every_key_taken():

@@ -1,10 +1,10 @@
-"""The packaged vehicle MJCF (models/vehicle/vehicle.xml) against its sources.
+"""The packaged vehicle MJCF (rcsim/models/vehicle/vehicle.xml) against its sources.
 
 Oracles: Gambone Table 1 (mass properties, read by
-``models.tables.load_mass_properties``, which ``tests/models/test_tables.py`` checks
+``rcsim.models.tables.load_mass_properties``, which ``tests/models/test_tables.py`` checks
 against the paper's text) and the model conventions of
-``models/vehicle/README.md`` (jets are site-transmission actuators named jet_01..jet_16 on sites
-j01..j16, force along the site's z axis, ctrl = on-fraction of the physics step).
+``rcsim/models/vehicle/README.md`` (jets are site-transmission actuators named jet_01..jet_16 on
+sites j01..j16, force along the site's z axis, ctrl = on-fraction of the physics step).
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from models import vehicle_xml
-from spacecraft.vehicle import (
+from rcsim.models import vehicle_xml
+from rcsim.spacecraft.vehicle import (
     BODY,
     DIST_NAMES,
     dist_actuator_ids,

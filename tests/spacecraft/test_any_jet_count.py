@@ -15,8 +15,8 @@ Oracles
 * A jet delivering a fraction ``f`` of its thrust (``JetFaults.thrust_factor``) gives ``f``
   times that rate change (same tolerance).
 * The dispersion and timing draws of an ``n``-jet vehicle follow the layout the modules
-  document (:mod:`spacecraft.dispersions`: ``5 + 2 n`` normals -- mass, CG x, three inertias,
-  a thrust and a tilt per jet -- then ``n`` azimuth uniforms; :mod:`spacecraft.effect_draws`:
+  document (:mod:`rcsim.spacecraft.dispersions`: ``5 + 2 n`` normals -- mass, CG x, three inertias,
+  a thrust and a tilt per jet -- then ``n`` azimuth uniforms; :mod:`rcsim.spacecraft.effect_draws`:
   ``1 + 2 n`` timing normals), rebuilt here from the same seed streams: exact equality.
 """
 
@@ -25,10 +25,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lookup.open_loop import OpenLoopController
-from models.errors import InputError
-from spacecraft.dispersions import DispersionSigmas, draw_runs, run_streams
-from spacecraft.effect_draws import (
+from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs, run_streams
+from rcsim.spacecraft.effect_draws import (
     TIMING,
     FaultSpec,
     TimingSpec,
@@ -36,11 +36,11 @@ from spacecraft.effect_draws import (
     draw_timing,
     effect_stream,
 )
-from spacecraft.navigation import Guidance
-from spacecraft.simulation import simulate_batch
-from spacecraft.valves import JetFaults, ValveTiming
-from spacecraft.vehicle import VehicleParams, jet_count, load_model
-from spacecraft.vehicle_file import FlyingVehicle
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.simulation import simulate_batch
+from rcsim.spacecraft.valves import JetFaults, ValveTiming
+from rcsim.spacecraft.vehicle import VehicleParams, jet_count, load_model
+from rcsim.spacecraft.vehicle_file import FlyingVehicle
 
 VEHICLE = """
 [mass]

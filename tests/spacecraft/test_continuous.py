@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from models.dai import Damage, load_cmg, load_environment
-from spacecraft.continuous.cmg import CmgArray, CmgState, determinant, jacobian, unit_momenta
-from spacecraft.continuous.disturbances import (
+from rcsim.models.dai import Damage, load_cmg, load_environment
+from rcsim.spacecraft.continuous.cmg import CmgArray, CmgState, determinant, jacobian, unit_momenta
+from rcsim.spacecraft.continuous.disturbances import (
     Disturbances,
     density_kg_m3,
     thermosphere_temperature_k,
 )
-from spacecraft.continuous.kinematics import dcm_NB
-from spacecraft.continuous.plant import ContinuousPlant, fly
+from rcsim.spacecraft.continuous.kinematics import dcm_NB
+from rcsim.spacecraft.continuous.plant import ContinuousPlant, fly
 
 J002 = np.full((3, 3), 0.1) + 9.9 * np.eye(3)  # 002 Sec. 3: off-diagonal inertia
 

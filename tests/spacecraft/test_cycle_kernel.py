@@ -1,11 +1,13 @@
-"""The compiled per-cycle passes (spacecraft/_cycle_kernel.c) are the numpy forms bit for bit.
+"""The compiled per-cycle passes (rcsim/spacecraft/_cycle_kernel.c) are the numpy forms bit for bit.
 
-Oracles: the numpy forms the kernel transcribes -- :func:`spacecraft.navigation.navigate`,
-:func:`spacecraft.propulsion.apply_valve_limits` with :func:`spacecraft.valves.command_valves`,
-:func:`spacecraft.pieces.cycle_pieces`, ``Pieces.on_time_s`` and :func:`spacecraft.valves.
-end_cycle` (``RCSIM_NUMPY_CYCLE=1`` switches the kernel off in a flight).  Equality is exact
-(bytes, signed zeros included), not a tolerance: the kernel claims the same operations in the
-same order, and campaigns must give the same ``runs.parquet`` with or without it.
+Oracles: the numpy forms the kernel transcribes -- :func:`rcsim.spacecraft.navigation.navigate`,
+:func:`rcsim.spacecraft.propulsion.apply_valve_limits` with
+:func:`rcsim.spacecraft.valves.command_valves`,
+:func:`rcsim.spacecraft.pieces.cycle_pieces`, ``Pieces.on_time_s`` and
+:func:`rcsim.spacecraft.valves.end_cycle` (``RCSIM_NUMPY_CYCLE=1`` switches the kernel off in a
+flight).  Equality is exact (bytes, signed zeros included), not a tolerance: the kernel claims the
+same operations in the same order, and campaigns must give the same ``runs.parquet`` with or without
+it.
 """
 
 from __future__ import annotations
@@ -15,11 +17,11 @@ import copy
 import numpy as np
 import pytest
 
-from spacecraft import cycle_kernel
-from spacecraft.navigation import CommandBlocks, Guidance, navigate, quat_from_rotvec
-from spacecraft.pieces import cycle_pieces
-from spacecraft.propulsion import PropulsionParams, PropulsionState, apply_valve_limits
-from spacecraft.valves import ValveState, ValveTiming, command_valves, end_cycle
+from rcsim.spacecraft import cycle_kernel
+from rcsim.spacecraft.navigation import CommandBlocks, Guidance, navigate, quat_from_rotvec
+from rcsim.spacecraft.pieces import cycle_pieces
+from rcsim.spacecraft.propulsion import PropulsionParams, PropulsionState, apply_valve_limits
+from rcsim.spacecraft.valves import ValveState, ValveTiming, command_valves, end_cycle
 
 pytestmark = pytest.mark.skipif(
     cycle_kernel._cycle_kernel is None, reason="the optional extension was not built"
@@ -178,7 +180,7 @@ def test_bounded_state_decides_as_the_finite_sum_does():
 
 
 def _fly(monkeypatch, numpy_form, **kw):
-    from analysis.engine.campaign.chunk import fly_runs
+    from rcsim.analysis.engine.campaign.chunk import fly_runs
 
     if numpy_form:
         monkeypatch.setenv("RCSIM_NUMPY_CYCLE", "1")
@@ -214,7 +216,7 @@ SPECS = {
 def test_a_campaign_flight_is_the_same_with_and_without_the_kernel(monkeypatch, tmp_path, kind):
     """26 rate cases x 2 runs under Table 5 dispersions, 20 s: every recorded array of the
     history equal byte for byte."""
-    from analysis.engine.campaign.spec import load_spec
+    from rcsim.analysis.engine.campaign.spec import load_spec
 
     path = tmp_path / "spec.toml"
     path.write_text(
@@ -238,11 +240,11 @@ def test_a_campaign_flight_is_the_same_with_and_without_the_kernel(monkeypatch, 
 def test_phase_plane_partial_pulses_are_the_same(monkeypatch):
     """The phase-plane controller fires pulses shorter than a cycle (cycles cut into pieces,
     the numpy cut) and the propellant of a vehicle file runs out in some runs."""
-    from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
-    from models.tables import load_jet_map
-    from spacecraft.propellant import PropellantTank
-    from spacecraft.simulation import simulate_batch
-    from spacecraft.vehicle import VehicleParams, load_model
+    from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
+    from rcsim.models.tables import load_jet_map
+    from rcsim.spacecraft.propellant import PropellantTank
+    from rcsim.spacecraft.simulation import simulate_batch
+    from rcsim.spacecraft.vehicle import VehicleParams, load_model
 
     model = load_model()
     controller = PhasePlaneController(PhasePlaneParams.for_vehicle(load_jet_map(), model=model))

@@ -4,16 +4,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from models.errors import InputError
-from models.tables import load_dispersions
-from spacecraft.dispersions import (
+from rcsim.models.errors import InputError
+from rcsim.models.tables import load_dispersions
+from rcsim.spacecraft.dispersions import (
     DispersionSigmas,
     draw_runs,
     pointing,
     run_streams,
     standard_draws,
 )
-from spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle import VehicleParams
 
 N_RUNS = 3000
 SEED = 12345
@@ -133,7 +133,7 @@ def test_a_stream_built_directly_is_the_spawned_child():
     """run_stream(seed, i, k) skips making the parent and its sibling: it must be child k of
     run_streams' spawn, state for state, for seeds up to MAX_SEED and large run ids (every
     campaign's draws and effects come through it)."""
-    from spacecraft.dispersions import MAX_SEED, run_stream
+    from rcsim.spacecraft.dispersions import MAX_SEED, run_stream
 
     for seed in (0, 5, 2**32 + 1, MAX_SEED):
         for run_id in (0, 9, 10**9):

@@ -1,4 +1,5 @@
-"""Exact in time: each cycle integrated in pieces at the jets' switch instants (spacecraft.pieces).
+"""Exact in time: each cycle integrated in pieces at the jets' switch instants
+(rcsim.spacecraft.pieces).
 
 Oracles
 -------
@@ -23,13 +24,13 @@ import pytest
 from mujoco.batch import Batch
 from scipy.integrate import solve_ivp
 
-from lookup.open_loop import OpenLoopController
-from models.tables import load_jet_map
-from spacecraft.flight_model import flight_model, jet_wrench_B
-from spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat
-from spacecraft.pieces import cycle_pieces
-from spacecraft.simulation import BatchSimulation
-from spacecraft.vehicle import VehicleParams, torque_per_jet_B
+from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.models.tables import load_jet_map
+from rcsim.spacecraft.flight_model import flight_model, jet_wrench_B
+from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat
+from rcsim.spacecraft.pieces import cycle_pieces
+from rcsim.spacecraft.simulation import BatchSimulation
+from rcsim.spacecraft.vehicle import VehicleParams, torque_per_jet_B
 
 CYCLE_S = 0.04
 REL = 1e-9  # see the module docstring
@@ -159,7 +160,7 @@ def test_pieces_keep_the_physics_grid():
 @pytest.mark.parametrize("shape", [(7, 16, 0), (7, 16, 1), (512, 16, 3), (5, 4, 16, 3)])
 def test_any_last_is_numpys_any_over_the_last_axis(shape):
     """The cutting's fast ``any`` over a jet's few intervals (oracle: ``ndarray.any``)."""
-    from spacecraft.pieces import any_last
+    from rcsim.spacecraft.pieces import any_last
 
     a = np.random.default_rng(len(shape)).random(shape) < 0.1
     out = any_last(a)

@@ -1,9 +1,9 @@
-"""The flight model (spacecraft/flight_model.py) against the vehicle MJCF's own jets.
+"""The flight model (rcsim/spacecraft/flight_model.py) against the vehicle MJCF's own jets.
 
 Oracle: MuJoCo stepping the packaged vehicle with its 16 site-transmission jet actuators
-(``models/vehicle/vehicle.xml``), with dispersed mass, CG, inertia, thrust and jet pointing
+(``rcsim/models/vehicle/vehicle.xml``), with dispersed mass, CG, inertia, thrust and jet pointing
 written into both models.  The flight model replaces the jets by a force and a torque computed
-with :func:`spacecraft.flight_model.jet_wrench_B`; the physics is the same sum in another
+with :func:`rcsim.spacecraft.flight_model.jet_wrench_B`; the physics is the same sum in another
 order, so the states must agree to rounding.  Tolerance 1e-12 (absolute, on quaternion
 components and velocities of order 1e-2): measured differences are ~1e-16 per step and reach
 ~1e-14 after a 20 s campaign run; a wrong arm, sign or frame gives errors of order 1e-4 or more.
@@ -15,11 +15,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from models.tables import load_dispersions
-from spacecraft.dispersions import DispersionSigmas, draw_runs
-from spacecraft.flight_model import WRENCH_NAMES, flight_model, jet_wrench_B
-from spacecraft.simulation import BatchSimulation
-from spacecraft.vehicle import (
+from rcsim.models.tables import load_dispersions
+from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
+from rcsim.spacecraft.flight_model import WRENCH_NAMES, flight_model, jet_wrench_B
+from rcsim.spacecraft.simulation import BatchSimulation
+from rcsim.spacecraft.vehicle import (
     BODY,
     N_JETS,
     VehicleParams,

@@ -1,5 +1,5 @@
-"""What the closed loop refuses and how it records a diverged run (spacecraft.simulation,
-spacecraft.guards).
+"""What the closed loop refuses and how it records a diverged run (rcsim.spacecraft.simulation,
+rcsim.spacecraft.guards).
 
 Oracles
 -------
@@ -26,17 +26,17 @@ import mujoco
 import numpy as np
 import pytest
 
-from lookup.open_loop import OpenLoopController
-from lookup.pattern_recognition import LookupController, LookupParams, load_default_table
-from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
-from lookup.table_generation import RateFiringLoop
-from models.errors import InputError
-from models.tables import CONTROL_CYCLE_S, load_jet_map
-from spacecraft import guards
-from spacecraft.navigation import Guidance
-from spacecraft.propulsion import PropulsionParams
-from spacecraft.simulation import BatchSimulation, simulate_batch
-from spacecraft.vehicle import VehicleParams
+from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.lookup.pattern_recognition import LookupController, LookupParams, load_default_table
+from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
+from rcsim.lookup.table_generation import RateFiringLoop
+from rcsim.models.errors import InputError
+from rcsim.models.tables import CONTROL_CYCLE_S, load_jet_map
+from rcsim.spacecraft import guards
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.propulsion import PropulsionParams
+from rcsim.spacecraft.simulation import BatchSimulation, simulate_batch
+from rcsim.spacecraft.vehicle import VehicleParams
 
 HOLD_S = 2.0  # the 1e8 N m cases diverge within 0.4 s (MuJoCo's own warning times)
 
@@ -146,7 +146,7 @@ def test_nan_disturbance_is_mujocos_bad_ctrl(model, phase_plane):
 # One control cycle
 # ------------------------------------------------------------------------------------------
 def test_default_cycles_are_the_one_constant(phase_plane):
-    """Every default cycle in spacecraft/ and lookup/ is models.tables.CONTROL_CYCLE_S."""
+    """Every default cycle in spacecraft/ and lookup/ is rcsim.models.tables.CONTROL_CYCLE_S."""
     jet_map = load_jet_map()
     lookup = LookupController(load_default_table())
     cycles = {

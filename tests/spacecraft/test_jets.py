@@ -2,17 +2,17 @@
 
 Oracles
 -------
-* Gambone Table 2 (``models.tables.load_jet_map``): the sign of each jet's torque about roll,
+* Gambone Table 2 (``rcsim.models.tables.load_jet_map``): the sign of each jet's torque about roll,
   pitch, yaw; jets 5-8 are not used for rotation.
 * Gambone Table 1 (``load_mass_properties``): thrust F, mass m, inertias I.
-* The design moment arms of ``models/vehicle/README.md`` (roll 0.812 m, pitch 0.776 m, yaw
+* The design moment arms of ``rcsim/models/vehicle/README.md`` (roll 0.812 m, pitch 0.776 m, yaw
   0.724 m), which reproduce Table 6's pure-axis firing times (0.52, 0.48, 0.40 s).
 * Rigid-body mechanics: a firing pair from rest spins the body about one principal axis, where
   Euler's equations reduce to ``I dw/dt = 2 F r`` (no gyroscopic term), so
   ``dw = 2 F r t / I`` exactly; a single jet gives ``dv_CG = F t / m`` (Newton).
 
 Measurements come from MuJoCo itself (``mj_step`` on the packaged model at its default physics
-step, or the production closed loop :class:`spacecraft.simulation.BatchSimulation`), not from
+step, or the production closed loop :class:`rcsim.spacecraft.simulation.BatchSimulation`), not from
 the geometry helpers alone.
 """
 
@@ -26,11 +26,11 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from lookup.open_loop import OpenLoopController
-from models.tables import load_jet_map, load_lookup_table
-from spacecraft.navigation import Guidance
-from spacecraft.simulation import BatchSimulation
-from spacecraft.vehicle import (
+from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.models.tables import load_jet_map, load_lookup_table
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.simulation import BatchSimulation
+from rcsim.spacecraft.vehicle import (
     BODY,
     VehicleParams,
     jet_actuator_ids,

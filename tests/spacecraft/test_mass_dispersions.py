@@ -12,11 +12,11 @@ Oracles
   equation is the reference.
 * The draws: normal with sigma = 3-sigma / 3 (4 standard errors, as tests/spacecraft/
   test_dispersions.py), and a tensor's second moments ``S = tr(I)/2 E - I`` (the
-  ``spacecraft.dispersions`` docstring).
+  ``rcsim.spacecraft.dispersions`` docstring).
 * Inertia in B (a vehicle file whose moments MuJoCo sorts otherwise, with products: the
   ``unsorted_vehicle`` fixture): a run's tensor in B is the file's tensor, written out by the
   test, plus ``diag(sigma_xx z_2, sigma_yy z_3, sigma_zz z_4)`` with ``z`` the run's standard
-  normals rebuilt from its dispersion stream (``spacecraft.dispersions`` layout), and Euler's
+  normals rebuilt from its dispersion stream (``rcsim.spacecraft.dispersions`` layout), and Euler's
   equation ``I_B w' = tau - w x I_B w`` with that tensor.
 """
 
@@ -26,9 +26,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from lookup.open_loop import OpenLoopController
-from models.tables import load_dispersions
-from spacecraft.dispersions import (
+from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.models.tables import load_dispersions
+from rcsim.spacecraft.dispersions import (
     DispersionSigmas,
     draw_runs,
     inertia_scale_limit,
@@ -39,11 +39,11 @@ from spacecraft.dispersions import (
     run_streams,
     second_moment_slack,
 )
-from spacecraft.navigation import Guidance
-from spacecraft.propellant import full_inertia, principal
-from spacecraft.simulation import BatchSimulation, invalid_runs
-from spacecraft.vehicle import VehicleParams, jet_geometry_B
-from spacecraft.vehicle_file import FlyingVehicle
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.propellant import full_inertia, principal
+from rcsim.spacecraft.simulation import BatchSimulation, invalid_runs
+from rcsim.spacecraft.vehicle import VehicleParams, jet_geometry_B
+from rcsim.spacecraft.vehicle_file import FlyingVehicle
 
 N_RUNS = 3000
 K_SE = 4.0  # standard errors, as test_dispersions.py
@@ -70,7 +70,7 @@ def _tensor(params: VehicleParams) -> np.ndarray:
 # ------------------------------------------------------------------------------ physics --
 def test_cg_offset_in_y_and_z_gives_the_torque_f_d(model, nominal):
     """Jet 5 pushes along +x from (0.41, 0, 0), through the nominal CG (1.41, 0, 0)
-    (models/vehicle/README.md).  A CG moved by d along y makes the arm (-1, -d, 0) and the
+    (rcsim/models/vehicle/README.md).  A CG moved by d along y makes the arm (-1, -d, 0) and the
     torque (0, 0, F d); along z, the arm (-1, 0, -d) and the torque (0, -F d, 0).  One whole
     40 ms cycle of firing from rest: w_z = F d t / Izz and w_y = -F d t / Iyy.  Tolerance 1e-9
     relative: the physics is exact, the rest is rounding (1e-16); the other axes stay below
@@ -235,7 +235,7 @@ def test_draws_in_blocks_are_the_draws_at_once(nominal, extras, monkeypatch):
     """Issue 19: draw_runs disperses DRAW_BLOCK_RUNS runs at a time to bound its temporaries;
     every run's arithmetic is its own, so blocks of 7 (and a short last block) give the same
     vehicles, principal frames (products of inertia) and tilts to the last bit."""
-    from spacecraft import dispersions
+    from rcsim.spacecraft import dispersions
 
     ids = np.arange(40, 0, -1)
     whole = draw_runs(nominal, extras, 6, ids)
@@ -303,7 +303,7 @@ def unsorted(unsorted_vehicle) -> tuple[FlyingVehicle, np.ndarray]:
 
 def _inertia_normals(seed: int, run_ids, n_jets: int) -> np.ndarray:
     """Each run's Ixx, Iyy, Izz standard normals (n, 3): normals 2..4 of its dispersion
-    stream (the layout of spacecraft.dispersions.standard_draws)."""
+    stream (the layout of rcsim.spacecraft.dispersions.standard_draws)."""
     return np.array(
         [
             np.random.default_rng(run_streams(seed, i)[0]).standard_normal(n_normals(n_jets))[2:5]
@@ -376,7 +376,7 @@ def test_a_flight_follows_euler_with_the_files_tensor(unsorted):
         sim = BatchSimulation(params, model=flying.model, nthread=1)
         qacc, ctrl = sim._batch.bind("qacc"), sim._batch.bind("ctrl")
         sim._reset(None, np.repeat(w0[None], n, axis=0))
-        ctrl[:, 3:6] = tau  # the flight model's body torques (spacecraft.flight_model)
+        ctrl[:, 3:6] = tau  # the flight model's body torques (rcsim.spacecraft.flight_model)
         sim._batch.forward()
         for k in range(n):
             i_b = tensors[k]

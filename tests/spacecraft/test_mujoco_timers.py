@@ -1,4 +1,5 @@
-"""MuJoCo's stage timers read the zero clock in rcsim's simulations (spacecraft/mujoco_timers.py).
+"""MuJoCo's stage timers read the zero clock in rcsim's simulations
+(rcsim/spacecraft/mujoco_timers.py).
 
 The claims: the physics does not change (the timers feed only ``MjData.timer``), the timers
 stay at zero duration, and a callback the user installed is never replaced.
@@ -10,8 +11,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from spacecraft import mujoco_timers
-from spacecraft.vehicle import load_model
+from rcsim.spacecraft import mujoco_timers
+from rcsim.spacecraft.vehicle import load_model
 
 pytestmark = pytest.mark.skipif(
     not mujoco_timers.zero_clock_available(),
@@ -64,8 +65,8 @@ def test_a_users_callback_is_kept(no_callback):
 
 def test_simulations_install_it(no_callback):
     """Building a batch simulation is enough: campaigns, scenarios and studies all do."""
-    from spacecraft.simulation import BatchSimulation
-    from spacecraft.vehicle import VehicleParams
+    from rcsim.spacecraft.simulation import BatchSimulation
+    from rcsim.spacecraft.vehicle import VehicleParams
 
     model = load_model()
     BatchSimulation(VehicleParams.nominal(2, model), model=model, nthread=1)

@@ -1,4 +1,4 @@
-"""Quaternion helpers, attitude-error sign convention and guidance (spacecraft.navigation).
+"""Quaternion helpers, attitude-error sign convention and guidance (rcsim.spacecraft.navigation).
 
 Oracles: quaternion algebra (Hamilton product, unit norm, q and -q the same rotation), the
 closed forms of elementary rotations (a rotation by angle theta about unit axis n is
@@ -17,8 +17,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from spacecraft import navigation as nav
-from spacecraft.vehicle import load_model
+from rcsim.spacecraft import navigation as nav
+from rcsim.spacecraft.vehicle import load_model
 
 # Float round-trip tolerance: a few ulp of the angle through sin/cos/arctan2 (~1e-16 rad) for
 # angles up to pi; 1e-12 rad is ~1e4 ulp, far below any convention error (>= the angle itself).

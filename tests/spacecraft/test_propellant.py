@@ -1,4 +1,4 @@
-"""Propellant that runs out (:mod:`spacecraft.propellant`), flown in the closed loop.
+"""Propellant that runs out (:mod:`rcsim.spacecraft.propellant`), flown in the closed loop.
 
 Oracles
 -------
@@ -21,17 +21,17 @@ import mujoco
 import numpy as np
 import pytest
 
-from spacecraft.navigation import Guidance
-from spacecraft.propellant import (
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.propellant import (
     PropellantTank,
     exhaustion_time_s,
     full_inertia,
     mass_properties,
     principal,
 )
-from spacecraft.simulation import BatchSimulation
-from spacecraft.vehicle import G0_M_S2, VehicleParams
-from spacecraft.vehicle_file import build_model, load_vehicle
+from rcsim.spacecraft.simulation import BatchSimulation
+from rcsim.spacecraft.vehicle import G0_M_S2, VehicleParams
+from rcsim.spacecraft.vehicle_file import build_model, load_vehicle
 
 
 class _Constant:
@@ -244,7 +244,7 @@ def test_batched_mat2quat_is_mujocos_bit_for_bit():
     frames go into MuJoCo's ``body_iquat``, and campaigns must fly as they did with the loop.
     Random rotations reach all four branches; nearly diagonal tensors (the propellant's
     frames: a vehicle with small products) stay near the identity."""
-    from spacecraft.propellant import mat2quat
+    from rcsim.spacecraft.propellant import mat2quat
 
     rng = np.random.default_rng(3)
     tensors = rng.normal(size=(100_000, 3, 3))

@@ -1,4 +1,4 @@
-"""Jet on-time -> per-step duty, and valve limits / bookkeeping (spacecraft.propulsion).
+"""Jet on-time -> per-step duty, and valve limits / bookkeeping (rcsim.spacecraft.propulsion).
 
 Oracles: the definitions in the module docstring (duty in step k is the on-fraction of that step
 of a firing that starts at the cycle's start), Tsiolkovsky's propellant accounting
@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spacecraft.propulsion import (
+from rcsim.spacecraft.propulsion import (
     PropulsionParams,
     PropulsionState,
     apply_valve_limits,
@@ -23,7 +23,7 @@ from spacecraft.propulsion import (
 
 CYCLE_S = 0.04
 STEPS_MS = (1, 2, 4, 5, 8, 10, 20, 40)  # the physics steps that divide the 40 ms cycle
-G0 = 9.80665  # standard gravity, CGPM 1901 (independent of spacecraft.vehicle.G0_M_S2)
+G0 = 9.80665  # standard gravity, CGPM 1901 (independent of rcsim.spacecraft.vehicle.G0_M_S2)
 # Summing n_sub <= 40 duties times dt: each term exact or one rounding, so the total is within
 # a few ulp of on_time (<= 0.04 s, ulp 7e-18 s); 1e-16 s is ~15 ulp and 1e-14 of a cycle.
 SUM_ATOL_S = 1e-16

@@ -2,9 +2,9 @@
 
 Oracles
 -------
-* The draw (spacecraft.dispersions.draw_runs) is what each run must fly.  BatchSimulation writes
-  it into MuJoCo's per-simulation model fields and runs mj_setConst; the values read back must
-  equal the draw *exactly* (tolerance 0): they are float64 copies, and mj_setConst takes
+* The draw (rcsim.spacecraft.dispersions.draw_runs) is what each run must fly.  BatchSimulation
+  writes it into MuJoCo's per-simulation model fields and runs mj_setConst; the values read back
+  must equal the draw *exactly* (tolerance 0): they are float64 copies, and mj_setConst takes
   ``body_mass``, ``body_ipos``, ``body_iquat``, ``body_inertia`` and ``actuator_gear`` as inputs
   (``mujoco.MjModel._setconst_inputs``), so it re-orients and re-diagonalizes nothing.
 * A run with invalid parameters is flown with the nominal vehicle (and reported failed), so
@@ -20,13 +20,18 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from analysis.engine.runs_table import PRODUCT_NAMES, input_frame
-from lookup.open_loop import OpenLoopController
-from models.tables import load_dispersions
-from spacecraft.dispersions import DispersionSigmas, draw_runs, mass_extra_draws, run_generators
-from spacecraft.navigation import Guidance
-from spacecraft.simulation import BatchSimulation
-from spacecraft.vehicle import BODY, VehicleParams
+from rcsim.analysis.engine.runs_table import PRODUCT_NAMES, input_frame
+from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.models.tables import load_dispersions
+from rcsim.spacecraft.dispersions import (
+    DispersionSigmas,
+    draw_runs,
+    mass_extra_draws,
+    run_generators,
+)
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.simulation import BatchSimulation
+from rcsim.spacecraft.vehicle import BODY, VehicleParams
 
 FIELDS = ("mass_kg", "cg_B", "inertia_B", "thrust_n", "jet_dir_S")
 
@@ -90,7 +95,7 @@ def test_flown_cg_and_principal_frames_equal_the_draw_exactly(model):
     """Issue 18: with CG y/z and products of inertia dispersed, each run has its own CG
     (``body_ipos``) and principal frame (``body_iquat``, an input of mj_setConst like the
     moments): read back, they equal the draw exactly.  The recorded inputs
-    (:func:`analysis.engine.runs_table.input_frame`) are the tensor in B rebuilt from them,
+    (:func:`rcsim.analysis.engine.runs_table.input_frame`) are the tensor in B rebuilt from them,
     equal to the drawn tensor (the nominal moments plus the drawn products) to 1e-12 of the
     largest moment: the eigen round trip's rounding."""
     sigmas = replace(

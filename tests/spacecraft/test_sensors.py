@@ -1,9 +1,9 @@
-"""Sensors (spacecraft.sensors) in the closed loop, and the per-run effect draws
-(spacecraft.effect_draws).
+"""Sensors (rcsim.spacecraft.sensors) in the closed loop, and the per-run effect draws
+(rcsim.spacecraft.effect_draws).
 
 Oracles
 -------
-* The measurement model of ``spacecraft/sensors.py``: measured rate minus true rate is exactly
+* The measurement model of ``rcsim/spacecraft/sensors.py``: measured rate minus true rate is exactly
   ``bias + walk + sigma z`` with ``z`` the run's stream's standard normals, nine per cycle in a
   fixed order (so the test regenerates them from the same seed sequence: 1e-12 absolute, far
   below sigma).  Sample statistics: the white noise's sample standard deviation over N samples
@@ -25,9 +25,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.errors import InputError
-from spacecraft.dispersions import DispersionSigmas, draw_runs
-from spacecraft.effect_draws import (
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
+from rcsim.spacecraft.effect_draws import (
     SENSOR_NOISE,
     TIMING,
     FaultSpec,
@@ -38,11 +38,11 @@ from spacecraft.effect_draws import (
     draw_timing,
     effect_stream,
 )
-from spacecraft.navigation import Guidance
-from spacecraft.sensors import SensorParams
-from spacecraft.simulation import BatchSimulation
-from spacecraft.valves import ValveTiming
-from spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.sensors import SensorParams
+from rcsim.spacecraft.simulation import BatchSimulation
+from rcsim.spacecraft.valves import ValveTiming
+from rcsim.spacecraft.vehicle import VehicleParams
 
 CYCLE_S = 0.04
 

@@ -1,5 +1,5 @@
-"""The batched closed loop (spacecraft.simulation): physics invariants, batching, failures, and the
-5 deg phase-plane maneuvers of Gambone Figs 1-2.
+"""The batched closed loop (rcsim.spacecraft.simulation): physics invariants, batching, failures,
+and the 5 deg phase-plane maneuvers of Gambone Figs 1-2.
 
 Oracles
 -------
@@ -20,13 +20,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lookup.open_loop import OpenLoopController
-from lookup.phase_plane import PhasePlaneController, PhasePlaneParams
-from models.tables import load_jet_map
-from spacecraft.navigation import Guidance, quat_conj, quat_mul
-from spacecraft.propulsion import PropulsionParams
-from spacecraft.simulation import BatchSimulation, simulate_batch
-from spacecraft.vehicle import VehicleParams, load_model
+from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
+from rcsim.models.tables import load_jet_map
+from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul
+from rcsim.spacecraft.propulsion import PropulsionParams
+from rcsim.spacecraft.simulation import BatchSimulation, simulate_batch
+from rcsim.spacecraft.vehicle import VehicleParams, load_model
 
 CYCLE_S = 0.04
 MANEUVER_S = 40.0  # the 5 deg maneuvers finish by ~26 s at 0.2 deg/s; 14 s of margin

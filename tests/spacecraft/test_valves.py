@@ -1,4 +1,4 @@
-"""Valve timing and jet faults in the closed loop (spacecraft.valves).
+"""Valve timing and jet faults in the closed loop (rcsim.spacecraft.valves).
 
 Oracles
 -------
@@ -22,13 +22,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lookup.open_loop import OpenLoopController
-from models.errors import InputError
-from models.tables import load_jet_map
-from spacecraft.navigation import Guidance
-from spacecraft.simulation import BatchSimulation
-from spacecraft.valves import JetFaults, ThrustProfile, ValveTiming
-from spacecraft.vehicle import VehicleParams, torque_per_jet_B
+from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.models.errors import InputError
+from rcsim.models.tables import load_jet_map
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.simulation import BatchSimulation
+from rcsim.spacecraft.valves import JetFaults, ThrustProfile, ValveTiming
+from rcsim.spacecraft.vehicle import VehicleParams, torque_per_jet_B
 
 CYCLE_S = 0.04
 REL = 1e-9

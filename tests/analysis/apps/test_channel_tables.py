@@ -26,11 +26,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.apps.loop.run import STAGES, LoopSettings, run_loop
-from analysis.apps.refinement.outputs import refinement_spec
-from analysis.apps.refinement.search import refine
-from lookup.channel_generation import generate_channel_table
-from models.tables import CONTROL_CYCLE_S, load_lookup_table
+from rcsim.analysis.apps.loop.run import STAGES, LoopSettings, run_loop
+from rcsim.analysis.apps.refinement.outputs import refinement_spec
+from rcsim.analysis.apps.refinement.search import refine
+from rcsim.lookup.channel_generation import generate_channel_table
+from rcsim.models.tables import CONTROL_CYCLE_S, load_lookup_table
 
 SECTIONS = ("summary", "before-after", "figs-9-10", "drivers", "changelog", "traceability")
 SMALL = LoopSettings(
@@ -116,8 +116,8 @@ def test_loop_resumes_and_report_renders(loop_dir, render_page, tmp_path):
 
 
 def test_a_nominal_channel_firing_is_one_event(tmp_path):
-    from analysis.engine.campaign.runner import run_campaign
-    from analysis.engine.campaign.spec import load_spec
+    from rcsim.analysis.engine.campaign.runner import run_campaign
+    from rcsim.analysis.engine.campaign.spec import load_spec
 
     generate_channel_table("canted16").table.to_csv(tmp_path / "t.csv")
     (tmp_path / "spec.toml").write_text(
@@ -139,7 +139,7 @@ def test_cli_refines_a_channel_table_on_its_recipes_vehicle(tmp_path, capsys):
     """`rcsim lookup refine --table T.csv` on a channel table flies the vehicle its recipe
     names (canted16) and writes the refined table with its recipe; the printed move names the
     channel.  The mis-set cell of the first test, on the CLI's path."""
-    from analysis.apps.cli import main
+    from rcsim.analysis.apps.cli import main
 
     generated = generate_channel_table("canted16")
     times = generated.table.firing_time_s.copy()
@@ -158,7 +158,7 @@ def test_cli_refines_a_channel_table_on_its_recipes_vehicle(tmp_path, capsys):
 
 
 def test_a_changed_recipe_is_refused_on_replay(tmp_path, capsys):
-    from analysis.apps.cli import main
+    from rcsim.analysis.apps.cli import main
 
     generate_channel_table("canted16").table.to_csv(tmp_path / "t.csv")
     (tmp_path / "spec.toml").write_text(

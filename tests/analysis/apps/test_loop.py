@@ -14,10 +14,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from analysis.apps.cli import main
-from analysis.apps.loop.run import STAGES, LoopSettings, run_loop
-from models.errors import InputError
-from models.tables import load_lookup_table
+from rcsim.analysis.apps.cli import main
+from rcsim.analysis.apps.loop.run import STAGES, LoopSettings, run_loop
+from rcsim.models.errors import InputError
+from rcsim.models.tables import load_lookup_table
 
 SMALL = LoopSettings(runs_per_case=6, duration_s=6.0, permutations=19, max_iterations=3)
 SECTIONS = ("summary", "before-after", "figs-9-10", "drivers", "changelog", "traceability")
@@ -127,11 +127,11 @@ def test_loop_with_the_paper_vehicle_file_flies_the_same_loop(tmp_path):
     assert 'vehicle = "paper"' in (b.out / "spec_before.toml").read_text()
     # Issue 18 review: the report names the vehicle file (its [vehicle] name and SHA-256) and
     # says its own [dispersions] flew, not Table 5's (the same values for this file, but the
-    # vehicle file's table is what the spec flies: analysis/engine/campaign/spec.py).
+    # vehicle file's table is what the spec flies: rcsim/analysis/engine/campaign/spec.py).
     import hashlib
     import html
 
-    from spacecraft.vehicle_file import load_vehicle, resolve_vehicle
+    from rcsim.spacecraft.vehicle_file import load_vehicle, resolve_vehicle
 
     report = html.unescape((b.out / "report.html").read_text())
     digest = hashlib.sha256(resolve_vehicle("paper").read_bytes()).hexdigest()

@@ -22,10 +22,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.apps.cli import main
-from analysis.apps.refinement.outputs import refinement_spec, run_refinement
-from analysis.apps.refinement.search import changed_cells, refine
-from models.tables import load_lookup_table
+from rcsim.analysis.apps.cli import main
+from rcsim.analysis.apps.refinement.outputs import refinement_spec, run_refinement
+from rcsim.analysis.apps.refinement.search import changed_cells, refine
+from rcsim.models.tables import load_lookup_table
 
 SMALL = dict(runs_per_case=30, seed=1, fresh_seed=2, duration_s=8.0, progress=False)
 CASES = [2, 23]  # table rows of rate cases 3 (-,-,+) and 24 (+,+,-)
@@ -117,7 +117,7 @@ def test_the_search_flies_the_first_runs_and_does_not_depend_on_the_split():
     pd.testing.assert_frame_equal(one.after, two.after)
     assert one.iterations == two.iterations
     # Against the campaign numbering: a 16-run campaign's first 8 runs of each case.
-    from analysis.apps.refinement.evaluate import Trials, evaluate
+    from rcsim.analysis.apps.refinement.evaluate import Trials, evaluate
 
     base = evaluate(
         spec,
@@ -133,8 +133,8 @@ def test_the_search_flies_the_first_runs_and_does_not_depend_on_the_split():
 def test_evaluation_keeps_a_few_chunks_in_flight_and_returns_them_in_order(monkeypatch):
     """Issue 19: two workers get chunks a few at a time (not all at once: each holds its runs'
     vehicles and tables in this process), and the frame is the one flown in this process."""
-    from analysis.apps.refinement import evaluate as evaluate_module
-    from analysis.apps.refinement.evaluate import Trials, evaluate
+    from rcsim.analysis.apps.refinement import evaluate as evaluate_module
+    from rcsim.analysis.apps.refinement.evaluate import Trials, evaluate
 
     spec = refinement_spec(runs_per_case=6, seed=4, duration_s=4.0)
     table = load_lookup_table(which="table6")
@@ -162,7 +162,7 @@ def test_a_stopped_search_resumes_at_its_last_round_and_finds_the_same_table(tmp
     """Issue 17: a kill lost the whole refinement.  Stopped (KeyboardInterrupt, as Ctrl-C or
     SIGTERM raise it) in its second round, the search resumes from the checkpoint of its first
     and ends with exactly the uninterrupted search's table, scores and rounds."""
-    from analysis.apps.refinement import search as search_module
+    from rcsim.analysis.apps.refinement import search as search_module
 
     # Every case, 30 runs of 20 s on seed 2: a search of two rounds (~5 s).
     spec = refinement_spec(runs_per_case=30, seed=2, duration_s=20.0)
@@ -206,9 +206,9 @@ def fake_evaluate(world):
     """An ``evaluate`` that flies nothing: in trial ``i`` the first ``world[(row, yaw cycles,
     seed)]`` runs fail (on yaw), the others converge; 0 for an entry not listed.  The same
     ``k`` fails for every table, so counts are paired as common random numbers pair them."""
-    from analysis.apps.refinement import evaluate as flying
-    from lookup.table_edits import axis_cycles, jet_axes
-    from models.tables import AXES
+    from rcsim.analysis.apps.refinement import evaluate as flying
+    from rcsim.lookup.table_edits import axis_cycles, jet_axes
+    from rcsim.models.tables import AXES
 
     def evaluate(spec, table, trials, *, runs_per_case=None, **kw):
         n = spec.runs_per_case if runs_per_case is None else min(runs_per_case, spec.runs_per_case)
@@ -233,7 +233,7 @@ def fake_evaluate(world):
 
 
 def fake_refine(monkeypatch, world, cases=(ROW3, ROW24), **kw):
-    from analysis.apps.refinement import search as search_module
+    from rcsim.analysis.apps.refinement import search as search_module
 
     monkeypatch.setattr(search_module, "evaluate", fake_evaluate(world))
     spec = refinement_spec(runs_per_case=200, seed=SEARCH_SEED, duration_s=8.0)
@@ -318,9 +318,9 @@ def test_the_search_flies_a_vehicle_files_valve_delays(tmp_path):
     """Issue 18: a vehicle file's valve delays are the vehicle's, flown by every flight of it:
     the refinement's flights of a table (``rcsim loop --vehicle`` refines through them) are
     its campaign's runs, delays included -- and not the same vehicle's runs without them."""
-    from analysis.apps.refinement.evaluate import Trials, evaluate, runs_from_campaign
-    from analysis.engine.campaign.runner import run_campaign
-    from spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.analysis.apps.refinement.evaluate import Trials, evaluate, runs_from_campaign
+    from rcsim.analysis.engine.campaign.runner import run_campaign
+    from rcsim.spacecraft.vehicle_file import resolve_vehicle
 
     text = resolve_vehicle("paper").read_text()
     vehicle = tmp_path / "delayed.toml"

@@ -1,4 +1,5 @@
-"""An interrupt that library code swallowed still stops the work (analysis/engine/interrupts.py).
+"""An interrupt that library code swallowed still stops the work
+(rcsim/analysis/engine/interrupts.py).
 
 A signal handler's exception can be lost: numpy's comparison of a dtype with a string (pandas
 makes it while pyarrow converts a table) clears any exception raised while it runs, so a
@@ -15,7 +16,7 @@ import time
 
 import pytest
 
-from analysis.engine.interrupts import Terminated, raise_if_interrupted, sigterm_interrupts
+from rcsim.analysis.engine.interrupts import Terminated, raise_if_interrupted, sigterm_interrupts
 
 
 def _swallowed(sig: int) -> None:

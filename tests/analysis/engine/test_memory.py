@@ -1,4 +1,4 @@
-"""Freed heap goes back to the system between stages (analysis/engine/memory.py)."""
+"""Freed heap goes back to the system between stages (rcsim/analysis/engine/memory.py)."""
 
 from __future__ import annotations
 
@@ -8,11 +8,11 @@ import textwrap
 
 import pytest
 
-from analysis.engine.memory import _malloc_trim, give_back_free_memory
+from rcsim.analysis.engine.memory import _malloc_trim, give_back_free_memory
 
 
 def test_without_glibc_only_the_collection_runs(monkeypatch):
-    from analysis.engine import memory
+    from rcsim.analysis.engine import memory
 
     monkeypatch.setattr(memory, "_malloc_trim", lambda: None)
     assert give_back_free_memory() is False
@@ -28,7 +28,7 @@ def test_freed_heap_is_returned_to_the_system():
     script = textwrap.dedent(
         """
         import numpy as np
-        from analysis.engine.memory import give_back_free_memory
+        from rcsim.analysis.engine.memory import give_back_free_memory
 
         def rss_mb():
             for line in open("/proc/self/status"):

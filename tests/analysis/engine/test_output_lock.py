@@ -1,4 +1,4 @@
-"""One writer per output (analysis/engine/output.py ``output_lock``), with real processes.
+"""One writer per output (rcsim/analysis/engine/output.py ``output_lock``), with real processes.
 
 Issue 17, defect 3: `rcsim campaign run spec --out D` and, seconds later, the same with
 `--resume` both ran and both exited 0, the second re-flying runs.  The claim: the second
@@ -15,7 +15,7 @@ import time
 import pandas as pd
 import pytest
 
-from analysis.engine.output import OutputLocked, output_lock
+from rcsim.analysis.engine.output import OutputLocked, output_lock
 
 SPEC = """
 seed = 5
@@ -76,7 +76,7 @@ def test_the_lock_names_its_holder_and_is_free_after_the_block(tmp_path):
     target = tmp_path / "out"
     probe = (
         "import sys\n"
-        "from analysis.engine.output import OutputLocked, output_lock\n"
+        "from rcsim.analysis.engine.output import OutputLocked, output_lock\n"
         "try:\n"
         f"    with output_lock({str(target)!r}, 'other'):\n"
         "        print('GOT IT')\n"

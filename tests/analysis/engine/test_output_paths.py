@@ -4,7 +4,7 @@ Issue 17: ``--out`` through a symbolic link to nothing failed after the work wit
 "lnk: File exists", naming neither the flag nor the cause.
 """
 
-from analysis.apps.cli import main
+from rcsim.analysis.apps.cli import main
 
 
 def test_out_through_a_dangling_link_is_refused_first(tmp_path, capsys, monkeypatch):

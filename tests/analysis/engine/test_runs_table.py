@@ -1,16 +1,16 @@
 """The runs table's owner: a dispersed vehicle written to its row and rebuilt from it.
 
-Oracle: the simulator's own draw (:func:`spacecraft.dispersions.draw_runs`, whose jet pointing
-is :func:`spacecraft.dispersions.pointing`) and :func:`spacecraft.vehicle.torque_per_jet_B`:
-rebuilding the vehicles from the *recorded* columns must give the drawn directions to 1e-12
-(the degree conversion of tilt and azimuth is the only round-off) and the same torques to
-rtol 1e-9.
+Oracle: the simulator's own draw (:func:`rcsim.spacecraft.dispersions.draw_runs`, whose jet pointing
+is :func:`rcsim.spacecraft.dispersions.pointing`) and
+:func:`rcsim.spacecraft.vehicle.torque_per_jet_B`: rebuilding the vehicles from the *recorded*
+columns must give the drawn directions to 1e-12 (the degree conversion of tilt and azimuth is the
+only round-off) and the same torques to rtol 1e-9.
 """
 
 import numpy as np
 import pytest
 
-from analysis.engine.runs_table import (
+from rcsim.analysis.engine.runs_table import (
     MANIFEST,
     input_frame,
     input_names,
@@ -18,9 +18,9 @@ from analysis.engine.runs_table import (
     recorded_jets,
     vehicles_from_runs,
 )
-from models.tables import load_dispersions
-from spacecraft.dispersions import DispersionSigmas, draw_runs
-from spacecraft.vehicle import VehicleParams, torque_per_jet_B
+from rcsim.models.tables import load_dispersions
+from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
+from rcsim.spacecraft.vehicle import VehicleParams, torque_per_jet_B
 
 
 @pytest.fixture(scope="module")

@@ -12,8 +12,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.apps.cli import main
-from analysis.engine.scenarios import (
+from rcsim.analysis.apps.cli import main
+from rcsim.analysis.engine.scenarios import (
     all_scenarios,
     compare_controllers,
     comparison_markdown,
@@ -22,8 +22,8 @@ from analysis.engine.scenarios import (
     scenario_metrics,
     settled_time,
 )
-from lookup.pattern_recognition import load_default_table
-from models.errors import InputError
+from rcsim.lookup.pattern_recognition import load_default_table
+from rcsim.models.errors import InputError
 
 DEG = np.pi / 180.0
 PAPER_SCENARIOS = {

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from analysis.results.proportions import (
+from rcsim.analysis.results.proportions import (
     clopper_pearson,
     holm,
     mcnemar_exact,

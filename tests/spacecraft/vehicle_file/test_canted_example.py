@@ -1,4 +1,4 @@
-"""The canted examples are what their documented arithmetic says (models/vehicle/README.md,
+"""The canted examples are what their documented arithmetic says (rcsim/models/vehicle/README.md,
 "The canted-quad example" and "The canted-triad example"): each jet's direction recomputed
 from the formulas, and every jet torquing at least two axes with some force.  Tolerance 1e-14:
 the files hold the directions to 15 significant digits."""
@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spacecraft.vehicle_file import load_vehicle
+from rcsim.spacecraft.vehicle_file import load_vehicle
 
 
 def test_directions_follow_the_arithmetic():

@@ -1,6 +1,6 @@
 """The paper's vehicle through the vehicle file format is the packaged vehicle, bit for bit.
 
-Oracle: ``models/vehicle/vehicle.xml`` compiled by MuJoCo (the model every earlier result
+Oracle: ``rcsim/models/vehicle/vehicle.xml`` compiled by MuJoCo (the model every earlier result
 was flown with).  Exact equality: the vehicle file writes each number as the shortest text
 that reads back as the same double, so nothing may differ.
 """
@@ -11,13 +11,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from lookup.registry import make_controller
-from models.tables import load_dispersions, load_rate_cases
-from spacecraft.dispersions import DispersionSigmas, draw_runs
-from spacecraft.navigation import Guidance
-from spacecraft.simulation import simulate_batch
-from spacecraft.vehicle import VehicleParams, load_model
-from spacecraft.vehicle_file import build_model, load_vehicle
+from rcsim.lookup.registry import make_controller
+from rcsim.models.tables import load_dispersions, load_rate_cases
+from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.simulation import simulate_batch
+from rcsim.spacecraft.vehicle import VehicleParams, load_model
+from rcsim.spacecraft.vehicle_file import build_model, load_vehicle
 
 
 def test_every_model_array_equals_the_packaged_one():
@@ -74,8 +74,8 @@ def test_paper_draws_keep_their_layout():
     dispersed in place, without a frame; with products dispersed, the tensor diag(moments) plus
     the products of the mass-extras stream (5 normals: CG y, z, Ixy, Ixz, Iyz) is flown as its
     principal moments and frame: inertia in B (issue 18) leaves both as they were."""
-    from spacecraft.dispersions import mass_extra_stream, run_streams
-    from spacecraft.effect_draws import (
+    from rcsim.spacecraft.dispersions import mass_extra_stream, run_streams
+    from rcsim.spacecraft.effect_draws import (
         FAULT,
         TIMING,
         FaultSpec,
@@ -84,7 +84,7 @@ def test_paper_draws_keep_their_layout():
         draw_timing,
         effect_stream,
     )
-    from spacecraft.propellant import principal
+    from rcsim.spacecraft.propellant import principal
 
     model = build_model(load_vehicle("paper"))
     nominal = VehicleParams.nominal(1, model)

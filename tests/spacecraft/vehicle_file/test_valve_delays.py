@@ -3,7 +3,7 @@ jet with them delivers.
 
 Oracles
 -------
-* The timing model (:mod:`spacecraft.valves`, ``docs/faults.md``): a pulse commanded over
+* The timing model (:mod:`rcsim.spacecraft.valves`, ``docs/faults.md``): a pulse commanded over
   ``[0, t]`` from a cycle's start thrusts over ``[d + o, d + t + c]`` -- the command delay
   ``d`` (``[timing] command_delay_s``), the jet's opening latency ``o`` and closing latency
   ``c`` (``open_delay_s``, ``close_delay_s``) -- and not at all when that interval is empty
@@ -22,11 +22,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lookup.open_loop import OpenLoopController
-from models.errors import InputError
-from spacecraft.navigation import Guidance
-from spacecraft.simulation import simulate_batch
-from spacecraft.vehicle_file import PACKAGED_VEHICLES, FlyingVehicle, load_vehicle
+from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.simulation import simulate_batch
+from rcsim.spacecraft.vehicle_file import PACKAGED_VEHICLES, FlyingVehicle, load_vehicle
 
 CYCLE_S = 0.04
 COMMAND_S = 0.006
@@ -161,10 +161,10 @@ def test_a_delayed_jet_delivers_the_shifted_lengthened_interval(
 
 
 def test_maneuver_flies_the_vehicles_delays(delayed):
-    """`rcsim maneuver --vehicle` flies through :func:`analysis.engine.flight.fly`: the jets
+    """`rcsim maneuver --vehicle` flies through :func:`rcsim.analysis.engine.flight.fly`: the jets
     deliver what the delays make of the commands (the delivered record exists only with
     timing, faults or a thrust profile)."""
-    from analysis.engine.flight import Scenario, fly
+    from rcsim.analysis.engine.flight import Scenario, fly
 
     hist = fly(
         Scenario("step", 1.0, rate_cmd_rad_s=np.radians([0.05, 0.0, 0.0])),

@@ -9,7 +9,7 @@ inputs that must keep working (a table or spec saved with a UTF-8 BOM).
 The cases are data, one TOML file per command group in ``tests/analysis/apps/cli/corpus/`` (format
 in
 its README.md), so later issues extend the corpus without touching this module.  Most run
-in-process through :func:`analysis.apps.cli.main` (fast); cases marked ``run =
+in-process through :func:`rcsim.analysis.apps.cli.main` (fast); cases marked ``run =
 "subprocess"`` run the installed ``rcsim`` executable, proving the entry point behaves the same.
 """
 
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 
-from analysis.apps.cli import main
+from rcsim.analysis.apps.cli import main
 
 CORPUS = Path(__file__).with_name("corpus")
 FILES = CORPUS / "files"

@@ -1,12 +1,12 @@
 """An interrupted ``rcsim`` always ends: if the interpreter's exit hangs after the one line
 (CPython's process-pool exit hook joins a killed pool's manager thread with no timeout), a
-daemon timer ends the process with the same status (``analysis.apps.cli.run``)."""
+daemon timer ends the process with the same status (``rcsim.analysis.apps.cli.run``)."""
 
 import time
 
 import pytest
 
-import analysis.apps.cli as cli
+import rcsim.analysis.apps.cli as cli
 
 
 @pytest.mark.parametrize("code,armed", [(143, True), (130, True), (0, False), (2, False)])

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.apps.cli import main
+from rcsim.analysis.apps.cli import main
 
 MYBUS = Path(__file__).parent / "corpus" / "files" / "mybus10.toml"
 AXES = ("roll", "pitch", "yaw")

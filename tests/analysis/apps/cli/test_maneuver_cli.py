@@ -1,11 +1,11 @@
 """``rcsim maneuver`` end to end: outputs, and bad input handled as a user error.
 
-Contract (analysis/apps/cli/maneuver.py, issue 2): a run writes DIR/history.parquet with one row per
-40 ms control cycle and the required columns, plus the Fig 1-2 style PNGs; a user mistake prints
-one line on stderr, exits 2, shows no traceback and creates no output directory.
+Contract (rcsim/analysis/apps/cli/maneuver.py, issue 2): a run writes DIR/history.parquet with one
+row per 40 ms control cycle and the required columns, plus the Fig 1-2 style PNGs; a user mistake
+prints one line on stderr, exits 2, shows no traceback and creates no output directory.
 
-Most calls go through ``analysis.apps.cli.main`` in-process (fast); one subprocess call runs the
-installed ``rcsim`` executable to prove the entry point.
+Most calls go through ``rcsim.analysis.apps.cli.main`` in-process (fast); one subprocess call runs
+the installed ``rcsim`` executable to prove the entry point.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.apps.cli import main
+from rcsim.analysis.apps.cli import main
 
 REQUIRED = [
     "t_s",
@@ -263,7 +263,7 @@ def test_unwritable_out_is_one_line_before_the_flight(capsys, monkeypatch):
     # "--out /proc/x dies with FileNotFoundError").
     if not os.path.isdir("/proc/self"):
         pytest.skip("no /proc on this system")
-    import analysis.engine.flight as flight
+    import rcsim.analysis.engine.flight as flight
 
     def must_not_fly(*args, **kwargs):
         raise AssertionError("flew before checking --out")
@@ -279,7 +279,7 @@ def test_os_error_while_writing_is_one_line_naming_the_path(tmp_path, capsys, mo
     # A disk filling up during the write: the OS's reason and the path, exit 2, nothing left.
     import errno
 
-    import analysis.engine.plots as plots
+    import rcsim.analysis.engine.plots as plots
 
     target = tmp_path / "m"
 
@@ -329,7 +329,7 @@ def test_cli_draws_with_the_file_backend(tmp_path):
     # Issue 8: the backend is chosen by the CLI (it only writes files), not by importing a
     # plotting module; a user's MPLBACKEND does not reach the CLI's figures.
     code = (
-        "import matplotlib; from analysis.apps.cli import main; "
+        "import matplotlib; from rcsim.analysis.apps.cli import main; "
         "assert main(['scenario', 'list']) == 0; print(matplotlib.get_backend())"
     )
     proc = subprocess.run(
@@ -370,13 +370,13 @@ def test_maneuver_says_when_the_propellant_ran_out(tmp_path, capsys):
     """Issue 18 review: a maneuver whose propellant runs out says so and when, in
     summary.json and on stdout, as a campaign's failure reason does.  Oracle: 2 g of
     propellant is used up (``propellant_kg`` = 0.002 kg to 1e-9 relative, the exact
-    exhaustion instant of spacecraft.propellant), the history's commands go on after the
+    exhaustion instant of rcsim.spacecraft.propellant), the history's commands go on after the
     instant (the allocator never reaches the attitude), and none of them is counted:
     ``firings`` equals the new firings (a command > 0 to a jet that did not fill the
     previous cycle) in the cycles starting before it."""
     import json
 
-    from spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.spacecraft.vehicle_file import resolve_vehicle
 
     text = resolve_vehicle("canted12").read_text()
     vehicle = tmp_path / "dry.toml"

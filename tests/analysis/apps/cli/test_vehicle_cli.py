@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from analysis.apps.cli import main
+from rcsim.analysis.apps.cli import main
 
 
 def test_canted_check(capsys):

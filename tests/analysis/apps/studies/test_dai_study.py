@@ -1,4 +1,5 @@
-"""The DAI study (analysis.apps.studies.dai): smoke run, reproducibility, Table 9 arithmetic, CLI.
+"""The DAI study (rcsim.analysis.apps.studies.dai): smoke run, reproducibility, Table 9 arithmetic,
+CLI.
 
 Fast: the smoke run flies two scenarios with the periods shortened 10x (``period_scale``).
 """
@@ -9,15 +10,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.apps.cli.study_dai import SCENARIO_NAMES, register_dai
-from analysis.apps.studies.dai import (
+from rcsim.analysis.apps.cli.study_dai import SCENARIO_NAMES, register_dai
+from rcsim.analysis.apps.studies.dai import (
     SCENARIOS,
     SUMMARY_COLUMNS,
     improvement_table,
     run_dai_study,
     run_method,
 )
-from models.errors import InputError
+from rcsim.models.errors import InputError
 
 
 def test_smoke_study_writes_every_output(tmp_path):

@@ -10,10 +10,10 @@ import pandas as pd
 import pytest
 from scipy.integrate import quad, solve_ivp
 
-from analysis.apps.cli import main
-from analysis.apps.studies import noisy_sensor as ns
-from lookup import single_axis as sa
-from models.errors import InputError
+from rcsim.analysis.apps.cli import main
+from rcsim.analysis.apps.studies import noisy_sensor as ns
+from rcsim.lookup import single_axis as sa
+from rcsim.models.errors import InputError
 
 ARCH = {a.key: a for a in sa.ARCHITECTURES}
 

@@ -14,10 +14,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from analysis.apps.cli import main
-from analysis.apps.cli.campaign import GATE_FAILED
-from analysis.engine.campaign.gate import GateResult, check_max_failed_pct, judge
-from models.errors import InputError
+from rcsim.analysis.apps.cli import main
+from rcsim.analysis.apps.cli.campaign import GATE_FAILED
+from rcsim.analysis.engine.campaign.gate import GateResult, check_max_failed_pct, judge
+from rcsim.models.errors import InputError
 
 # The paper's Table 6 in two yaw-coupled three-axis cases (3, 20), where Gambone's Fig 9 and
 # docs/campaigns.md find 25-33 % of dispersed runs failing: a small campaign with some
@@ -199,7 +199,7 @@ def test_bad_limits_name_the_parameter(bad):
 def test_example_spec_documents_the_gate(tmp_path):
     """`rcsim campaign example` shows the key commented out (no gate by default); uncommented,
     it is the spec's limit."""
-    from analysis.engine.campaign.spec import EXAMPLE_SPEC, load_spec
+    from rcsim.analysis.engine.campaign.spec import EXAMPLE_SPEC, load_spec
 
     line = next(t for t in EXAMPLE_SPEC.splitlines() if t.startswith("# max_failed_pct = "))
     path = tmp_path / "example.toml"

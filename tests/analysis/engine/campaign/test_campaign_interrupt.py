@@ -14,9 +14,9 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from analysis.engine.campaign.runner import run_campaign
-from analysis.engine.campaign.spec import load_spec
-from models.atomic import TEMP_GLOB, UMASK, atomic_write, mode_under_umask
+from rcsim.analysis.engine.campaign.runner import run_campaign
+from rcsim.analysis.engine.campaign.spec import load_spec
+from rcsim.models.atomic import TEMP_GLOB, UMASK, atomic_write, mode_under_umask
 
 # 16 runs in 8 chunks of 60 s flights (~0.3 s of computing each with the flight model): the
 # first chunk commits while most are still to fly.
@@ -186,7 +186,7 @@ def test_campaign_outputs_honour_the_umask(tmp_path, umask):
     out = tmp_path / "out"
     code = (
         "import os, sys; os.umask(int(sys.argv[1], 8)); "
-        "from analysis.apps.cli import main; sys.exit(main(sys.argv[2:]))"
+        "from rcsim.analysis.apps.cli import main; sys.exit(main(sys.argv[2:]))"
     )
     subprocess.run(
         [

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from analysis.engine.campaign.plots import plot_case, plot_summary
+from rcsim.analysis.engine.campaign.plots import plot_case, plot_summary
 
 AXES = ("roll", "pitch", "yaw")
 LONG = "lookup (mybus10_channel_table_refined_after_loop_two_with_jet_1_off_and_trimmed_v2.csv)"

@@ -12,12 +12,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.engine.campaign import chunk as chunk_mod
-from analysis.engine.campaign import limits as limits_mod
-from analysis.engine.campaign.outcomes import _axes_of, _jet_bits, axis_firings, firing_starts
-from analysis.engine.campaign.runner import run_campaign
-from analysis.engine.campaign.spec import load_spec
-from spacecraft.guards import history_bytes
+from rcsim.analysis.engine.campaign import chunk as chunk_mod
+from rcsim.analysis.engine.campaign import limits as limits_mod
+from rcsim.analysis.engine.campaign.outcomes import _axes_of, _jet_bits, axis_firings, firing_starts
+from rcsim.analysis.engine.campaign.runner import run_campaign
+from rcsim.analysis.engine.campaign.spec import load_spec
+from rcsim.spacecraft.guards import history_bytes
 
 # Two rate cases (yaw-only 13, roll-only 22), short runs: enough for a firing and its settling.
 SPEC = """
@@ -184,7 +184,7 @@ def test_a_run_that_raises_is_isolated(tmp_path, reference, monkeypatch):
 
 
 def test_replay_reproduces_a_run_alone(tmp_path, capsys):
-    from analysis.apps.cli import main
+    from rcsim.analysis.apps.cli import main
 
     spec = _spec(tmp_path, histories="first", plots="true")
     out = tmp_path / "out"
@@ -213,7 +213,7 @@ def test_replay_reproduces_a_run_alone(tmp_path, capsys):
     capsys.readouterr()
     # The replay's directory names its command: replayed again only with --overwrite, and
     # other commands refuse it.
-    from analysis.engine.output import directory_owner
+    from rcsim.analysis.engine.output import directory_owner
 
     assert directory_owner(replayed) == "campaign replay"
     assert main(["campaign", "replay", str(out), "6"]) == 2
@@ -248,7 +248,7 @@ def test_firing_starts_counts_new_firings_only():
     starts = firing_starts(on, cycle)[0, :, 0]
     # One firing over cycles 0-2 (it continues while the previous cycle was full); cycle 4 is a
     # new one, and since it was partial the jet was off at its end, so cycle 5 starts another
-    # (the rule of spacecraft.propulsion.apply_valve_limits).
+    # (the rule of rcsim.spacecraft.propulsion.apply_valve_limits).
     assert starts.tolist() == [True, False, False, False, True, True, False]
 
 
@@ -274,12 +274,12 @@ def test_packed_jet_masks_say_which_axes_fire(n_jets):
 def test_axis_firings_are_the_per_jet_rule_per_axis(monkeypatch, numpy_form):
     """outcomes() counts an axis's firing events and its mid-firing samples from packed jet
     masks on the history's cycle-major layout (numpy form, ``RCSIM_NUMPY_CYCLE=1``) or in one
-    compiled pass over it (spacecraft.cycle_kernel.group_firings, where it is built).  Oracle:
+    compiled pass over it (rcsim.spacecraft.cycle_kernel.group_firings, where it is built).  Oracle:
     the per-jet rule asked jet by jet --
     :func:`firing_starts` for a start, "filled the previous cycle and still on" for a firing
     going on -- then any() over each axis's jets, on random commands with full cycles, short
     pulses, zeros, a cycle a rounding short of full (1e-14 s under: full, as
-    spacecraft.propulsion counts it, to 1e-12 of the cycle) and one short of full (1e-13 s
+    rcsim.spacecraft.propulsion counts it, to 1e-12 of the cycle) and one short of full (1e-13 s
     under: not full)."""
     rng = np.random.default_rng(5)
     cycle = 0.04
@@ -314,11 +314,11 @@ def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
     at sample 3 after 1."""
     from types import SimpleNamespace
 
-    from analysis.engine.campaign.outcomes import outcomes
-    from spacecraft.navigation import NavState
-    from spacecraft.propulsion import PropulsionState
-    from spacecraft.simulation import History
-    from spacecraft.vehicle import VehicleParams
+    from rcsim.analysis.engine.campaign.outcomes import outcomes
+    from rcsim.spacecraft.navigation import NavState
+    from rcsim.spacecraft.propulsion import PropulsionState
+    from rcsim.spacecraft.simulation import History
+    from rcsim.spacecraft.vehicle import VehicleParams
 
     cycle, K = 0.04, 8
     yaw_err = np.radians([-0.3, -0.2, -0.1, 0.0, 0.1, 0.1, 0.02, 0.02])
@@ -358,7 +358,7 @@ def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
 
 
 def test_long_runs_get_chunks_within_the_history_budget(tmp_path):
-    """Oracle: the record of one chunk is what spacecraft.guards.history_bytes counts for
+    """Oracle: the record of one chunk is what rcsim.spacecraft.guards.history_bytes counts for
     its runs and cycles (History's arrays, at least 29 float64 per run and cycle); a 500 s case
     (12,500 cycles of 40 ms) must be split so that it stays under the budget, while short cases
     keep the spec's chunk size."""
@@ -382,8 +382,8 @@ def test_long_runs_get_chunks_within_the_history_budget(tmp_path):
 def test_progress_phases_and_the_flying_rate(tmp_path, capsys):
     """With progress: a bar for flying and for assembling, a status line for plotting; the
     runs/s of the summary is over the flying time alone (plots take time after it)."""
-    from analysis.apps.cli import main
-    from analysis.engine.campaign.runner import summary_text
+    from rcsim.analysis.apps.cli import main
+    from rcsim.analysis.engine.campaign.runner import summary_text
 
     spec = load_spec(_spec(tmp_path, plots="true"))
     report = run_campaign(spec, tmp_path / "out", local_workers=2, progress=True)
@@ -415,8 +415,8 @@ def test_paper_table_by_name_flies_replays_and_resumes(tmp_path, capsys):
     import json
     import shutil
 
-    from analysis.apps.cli import main
-    from models.tables import PAPER_LOOKUP_TABLES, lookup_table_source
+    from rcsim.analysis.apps.cli import main
+    from rcsim.models.tables import PAPER_LOOKUP_TABLES, lookup_table_source
 
     text = SPEC.format(runs=3, chunk=4, duration=20.0, histories="none", plots="false")
     text = text.replace("cases = [13, 22]", "cases = [3]")

@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from analysis.apps.cli import main
-from analysis.engine.campaign.spec import EXAMPLE_SPEC, load_spec
-from models.errors import InputError
-from spacecraft.guards import history_bytes
+from rcsim.analysis.apps.cli import main
+from rcsim.analysis.engine.campaign.spec import EXAMPLE_SPEC, load_spec
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.guards import history_bytes
 
 # Longest run: one run's record must fit a chunk's budget of 192 MiB; a run of the packaged
 # vehicle (16 jets) records history_bytes(1, 1) bytes per 40 ms cycle (232 bytes of History
@@ -77,7 +77,7 @@ cg_x_m = 0
 
 
 def test_lookup_table_path_is_relative_to_spec(tmp_path):
-    from models.tables import load_lookup_table
+    from rcsim.models.tables import load_lookup_table
 
     load_lookup_table(which="table7").to_csv(tmp_path / "mytable.csv")
     spec = load_spec(
@@ -89,12 +89,12 @@ def test_lookup_table_path_is_relative_to_spec(tmp_path):
 
 def test_paper_tables_by_name(tmp_path):
     """``table = "table6"`` / ``"table7"`` load the installed package's copies of the paper's
-    Tables 6 / 7 (models/tables PAPER_LOOKUP_TABLES), recorded by name with the SHA-256 of
+    Tables 6 / 7 (rcsim/models/tables PAPER_LOOKUP_TABLES), recorded by name with the SHA-256 of
     the packaged file's bytes (oracle: the file read through importlib.resources)."""
     import hashlib
     from importlib.resources import files
 
-    from models.tables import PAPER_LOOKUP_TABLES
+    from rcsim.models.tables import PAPER_LOOKUP_TABLES
 
     assert set(PAPER_LOOKUP_TABLES) == {"table6", "table7"}
     for name, filename in PAPER_LOOKUP_TABLES.items():
@@ -102,7 +102,7 @@ def test_paper_tables_by_name(tmp_path):
             _write(tmp_path, MINIMAL.replace('"phase-plane"', f'"lookup"\ntable = "{name}"'))
         )
         assert spec.table == name
-        packaged = (files("models") / "data" / filename).read_bytes()
+        packaged = (files("rcsim.models") / "data" / filename).read_bytes()
         assert spec.resolved["controller"] == {
             "name": "lookup",
             "table": name,
@@ -118,7 +118,7 @@ def test_paper_tables_by_name(tmp_path):
 
 
 def test_a_file_named_like_a_paper_table_needs_dot_slash(tmp_path):
-    from models.tables import load_lookup_table
+    from rcsim.models.tables import load_lookup_table
 
     load_lookup_table(which="table7").to_csv(tmp_path / "table6")
     text = MINIMAL.replace('"phase-plane"', '"lookup"\ntable = "table6"')
@@ -131,9 +131,9 @@ def test_a_file_named_like_a_paper_table_needs_dot_slash(tmp_path):
 
 
 def test_controller_names_are_the_registry_list(tmp_path):
-    """One list of controller names (lookup.registry.ALL_CONTROLLERS, the adaptive
+    """One list of controller names (rcsim.lookup.registry.ALL_CONTROLLERS, the adaptive
     controller included): the spec accepts each and its error lists them."""
-    from lookup.registry import ALL_CONTROLLERS
+    from rcsim.lookup.registry import ALL_CONTROLLERS
 
     assert "adaptive" in ALL_CONTROLLERS
     for name in ALL_CONTROLLERS:
@@ -245,7 +245,7 @@ BAD = [
         "output.histories: must be one of",
     ),
     # Valid types, physically absurd values (issue 8): refused with the range and its reason.
-    # Table 5 and Table 1 (issue 18's inertia rule, spacecraft.dispersions "Physical
+    # Table 5 and Table 1 (issue 18's inertia rule, rcsim.spacecraft.dispersions "Physical
     # tensors"): the smallest second moment of mass is (3160.22 + 2457.06 - 3583.09) / 2 =
     # 1017.095 kg m^2 and sqrt((322.48^2 + 284.42^2 + 221.13^2) / 4) = 241.757 kg m^2, so
     # scale < 4.207 (below the single-entry bound, Ixx: 3583.09 / 322.48 = 11.11).
@@ -265,7 +265,7 @@ BAD = [
         "second moment of mass, tr(I)/2 - its largest principal moment = 1017 kg m^2",
     ),
     # Issue 18: CG y, z and products of inertia (keys beyond Table 5).  The paper's farthest
-    # jets are 1 m from the CG (jets 5, 6 along x, 7, 8 along z: models/vehicle/README.md).
+    # jets are 1 m from the CG (jets 5, 6 along x, 7, 8 along z: rcsim/models/vehicle/README.md).
     (
         "cg_y beyond the jets",
         MINIMAL + "[dispersions.three_sigma]\ncg_y_m = 1.01\n",
@@ -293,7 +293,7 @@ BAD = [
         MINIMAL + "[dispersions.three_sigma]\nthruster_angle_deg = 90\n",
         "dispersions.three_sigma.thruster_angle_deg: times scale 1 it must be below 90 deg",
     ),
-    # A roll pair: 2 x 22.24 N x 0.812 m = 36.12 N m (models/vehicle/README.md geometry).
+    # A roll pair: 2 x 22.24 N x 0.812 m = 36.12 N m (rcsim/models/vehicle/README.md geometry).
     (
         "absurd disturbance",
         MINIMAL.replace("cases = [13]", "kind = 'hold'\ndisturbance_n_m = [0, 0, 1e300]"),
@@ -409,7 +409,7 @@ def test_spec_that_is_not_utf8_is_one_line_error(tmp_path):
 
 def test_runner_errors_name_its_own_parameters():
     """The library names ``workers`` / ``scheduler`` (the CLI shows them as flags)."""
-    from analysis.engine.campaign.runner import connect
+    from rcsim.analysis.engine.campaign.runner import connect
 
     with pytest.raises(InputError) as err:
         connect(2, "tcp://x:1")

@@ -9,11 +9,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.engine import runs_table as schema
-from analysis.engine.campaign import chunk as chunk_mod
-from analysis.engine.campaign import results as R
-from analysis.engine.campaign.runner import run_campaign
-from analysis.engine.campaign.spec import load_spec
+from rcsim.analysis.engine import runs_table as schema
+from rcsim.analysis.engine.campaign import chunk as chunk_mod
+from rcsim.analysis.engine.campaign import results as R
+from rcsim.analysis.engine.campaign.runner import run_campaign
+from rcsim.analysis.engine.campaign.spec import load_spec
 
 # Two rate cases with short runs.  runs_per_case = 35 and chunk_size = 1 make the 70 chunks of
 # the issue's report: more than results.MERGE_EVERY (32) twice over, so partial statistics and
@@ -188,17 +188,17 @@ def test_docs_carry_the_schema_table():
 def test_recorded_inputs_are_the_flown_values(tmp_path, monkeypatch):
     """runs.parquet records the vehicle read back from MuJoCo's per-run model (issue 9).
 
-    1. Unpatched, the read-back equals the draw bit for bit (spacecraft.simulation
+    1. Unpatched, the read-back equals the draw bit for bit (rcsim.spacecraft.simulation
        BatchSimulation.flown_params: MuJoCo stores float64 as written), so the recorded
        inputs equal draw_runs' values exactly.
     2. With the read-back planted to differ from the draw (+1 kg, x1.5 thrust on jet 3), the
        recorded values follow the read-back, not the draw.
     3. The direction MuJoCo flies each jet along is tilted from the nominal one by the
-       recorded |tilt| (spacecraft.dispersions: misalignment = |theta|), to 1e-12 rad (the
+       recorded |tilt| (rcsim.spacecraft.dispersions: misalignment = |theta|), to 1e-12 rad (the
        angle from atan2 of float64 cross and dot products is accurate to ~1e-16).
     """
-    from spacecraft.dispersions import draw_runs
-    from spacecraft.vehicle import VehicleParams
+    from rcsim.spacecraft.dispersions import draw_runs
+    from rcsim.spacecraft.vehicle import VehicleParams
 
     spec = _spec(tmp_path, runs=3, chunk=8, duration=0.2)
     ids = np.arange(spec.n_runs)
@@ -273,7 +273,7 @@ def test_group_on_time_is_the_numpy_envelope_bit_for_bit(monkeypatch, runs_kind)
     and groups of 1 to 9 jets, zeros, -0.0 and values nine decades apart make it show."""
     from types import SimpleNamespace
 
-    from spacecraft import cycle_kernel
+    from rcsim.spacecraft import cycle_kernel
 
     if cycle_kernel._cycle_kernel is None:
         pytest.skip("the compiled passes were not built")

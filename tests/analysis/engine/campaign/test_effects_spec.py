@@ -1,7 +1,7 @@
 """``[dispersions.sensor|timing|fault]`` read at the input edge: SI specs out, one clear error
 per bad value (file, table, key and value named), never a traceback.
 
-Oracle: the keys and ranges of ``analysis.engine.campaign.effects`` (``docs/faults.md``); the
+Oracle: the keys and ranges of ``rcsim.analysis.engine.campaign.effects`` (``docs/faults.md``); the
 malformed values are those of issue 17's harness (strings, nested lists, inline tables,
 windows beyond any run).
 """
@@ -9,8 +9,13 @@ windows beyond any run).
 import numpy as np
 import pytest
 
-from analysis.engine.campaign.effects import fault_spec, parse_effects, sensor_spec, timing_spec
-from models.errors import InputError
+from rcsim.analysis.engine.campaign.effects import (
+    fault_spec,
+    parse_effects,
+    sensor_spec,
+    timing_spec,
+)
+from rcsim.models.errors import InputError
 
 WHERE = "spec.toml: [dispersions.fault]"
 

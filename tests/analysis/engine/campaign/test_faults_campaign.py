@@ -10,15 +10,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.apps.cli import main
-from analysis.engine.campaign import chunk as chunk_mod
-from analysis.engine.campaign import limits as limits_mod
-from analysis.engine.campaign.replay import replay
-from analysis.engine.campaign.runner import run_campaign
-from analysis.engine.campaign.spec import load_spec, parse_dict
-from analysis.engine.runs_table import EFFECT_COLUMNS, input_names, outcome_names
-from models.errors import InputError
-from spacecraft.guards import history_bytes
+from rcsim.analysis.apps.cli import main
+from rcsim.analysis.engine.campaign import chunk as chunk_mod
+from rcsim.analysis.engine.campaign import limits as limits_mod
+from rcsim.analysis.engine.campaign.replay import replay
+from rcsim.analysis.engine.campaign.runner import run_campaign
+from rcsim.analysis.engine.campaign.spec import load_spec, parse_dict
+from rcsim.analysis.engine.runs_table import EFFECT_COLUMNS, input_names, outcome_names
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.guards import history_bytes
 
 # Two yaw cases (13: +yaw, 14: -yaw; jets 13-16 fire), short runs: a firing and its settling.
 BASE = """
@@ -127,7 +127,7 @@ def test_effects_leave_the_vehicle_draws_unchanged(tmp_path):
     added = [c.name for g in ("sensor", "timing", "fault") for c in EFFECT_COLUMNS[g]]
     assert list(b.columns) == list(a.columns[: len(a.columns) - len(outcomes)]) + added + outcomes
     assert not a["propellant_kg"].equals(b["propellant_kg"])
-    # The draws are those of spacecraft.effect_draws: delays about their means (8 ms
+    # The draws are those of rcsim.spacecraft.effect_draws: delays about their means (8 ms
     # +- 1 ms 1-sigma, the largest of 16 jets), the fault among the candidates.
     assert (b["command_delay_s"] == 0.005).all()
     assert b["open_delay_max_s"].between(0.008, 0.008 + 6 * 0.001).all()
@@ -177,9 +177,9 @@ def test_replay_of_a_noisy_faulty_run_matches_its_row(tmp_path, capsys):
 
 def test_adaptive_controller_is_told_the_rate_noise(tmp_path, monkeypatch):
     """The adaptive controller's confidence rule needs the rate sensor's white noise
-    (lookup.adaptive.AdaptParams.rate_noise_rad_s): the campaign passes the spec's,
+    (rcsim.lookup.adaptive.AdaptParams.rate_noise_rad_s): the campaign passes the spec's,
     the largest axis's, in rad/s."""
-    from lookup import registry
+    from rcsim.lookup import registry
 
     seen = {}
     real = registry.make_controller
@@ -202,7 +202,7 @@ def test_adaptive_controller_is_told_the_rate_noise(tmp_path, monkeypatch):
 
 
 def test_chunks_count_the_effect_records(tmp_path):
-    """Oracle: spacecraft.guards.history_bytes with the measured errors (sensors) and the
+    """Oracle: rcsim.spacecraft.guards.history_bytes with the measured errors (sensors) and the
     delivered on-times (timing, faults): the largest chunk of a 500 s case fits the budget and
     one run more would not."""
     long = BASE.replace("duration_s = 3.0", "duration_s = 500.0")

@@ -1,4 +1,4 @@
-"""Local worker processes and the user's own script (analysis/engine/campaign/local.py).
+"""Local worker processes and the user's own script (rcsim/analysis/engine/campaign/local.py).
 
 A worker started by a fork server re-imports the parent's ``__main__`` by default; a script
 without the ``if __name__ == "__main__":`` guard would then fly its campaign again in every
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pandas as pd
 
-import analysis
+import rcsim
 
 SCRIPT = textwrap.dedent("""
     # A user's script, no __main__ guard, as a notebook export would be.
@@ -44,16 +44,16 @@ def test_an_unguarded_script_runs_its_campaign_once(tmp_path):
 WHERE = textwrap.dedent("""
     import sys
     sys.path.insert(0, r"{tree}")
-    from analysis.engine.campaign.local import worker_pool
+    from rcsim.analysis.engine.campaign.local import worker_pool
 
     def where():
-        import analysis.engine.campaign.chunk as chunk
+        import rcsim.analysis.engine.campaign.chunk as chunk
         return chunk.__file__
 
     if __name__ == "__main__":
-        import analysis
+        import rcsim
         pool = worker_pool(2)
-        print("PARENT", analysis.__file__)
+        print("PARENT", rcsim.__file__)
         print("WORKER", pool.submit(where).result())
         pool.shutdown()
 """)
@@ -65,12 +65,11 @@ def test_workers_fly_the_tree_the_script_imported(tmp_path):
     manifest names.  Python 3.11's fork server preloads the chunk module without the parent's
     path, so without the fix its workers import the installed tree.  Oracle: the
     file the worker's chunk module was loaded from lies in the copy."""
-    installed = Path(analysis.__file__).resolve().parent.parent
+    installed = Path(rcsim.__file__).resolve().parent.parent
     copy = tmp_path / "other-checkout"
-    for package in ("rcsim", "models", "spacecraft", "lookup", "analysis"):
-        shutil.copytree(
-            installed / package, copy / package, ignore=shutil.ignore_patterns("__pycache__")
-        )
+    shutil.copytree(
+        installed / "rcsim", copy / "rcsim", ignore=shutil.ignore_patterns("__pycache__")
+    )
     script = tmp_path / "where.py"
     script.write_text(WHERE.format(tree=copy))
     # Run from tmp_path: the fork server's own working directory comes first on its path.

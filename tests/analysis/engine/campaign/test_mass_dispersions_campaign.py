@@ -19,17 +19,17 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.apps.cli import main
-from analysis.engine.campaign import chunk as chunk_mod
-from analysis.engine.campaign.replay import replay
-from analysis.engine.campaign.spec import load_spec
-from analysis.engine.runs_table import PRODUCT_NAMES, input_names, outcome_names
-from analysis.results.drivers.inputs import load_runs
-from models.errors import InputError
-from spacecraft.dispersions import n_normals, run_streams
-from spacecraft.vehicle_file import load_vehicle
-from spacecraft.vehicle_file.authority import torque_signs
-from spacecraft.vehicle_file.schema import packaged_vehicle
+from rcsim.analysis.apps.cli import main
+from rcsim.analysis.engine.campaign import chunk as chunk_mod
+from rcsim.analysis.engine.campaign.replay import replay
+from rcsim.analysis.engine.campaign.spec import load_spec
+from rcsim.analysis.engine.runs_table import PRODUCT_NAMES, input_names, outcome_names
+from rcsim.analysis.results.drivers.inputs import load_runs
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.dispersions import n_normals, run_streams
+from rcsim.spacecraft.vehicle_file import load_vehicle
+from rcsim.spacecraft.vehicle_file.authority import torque_signs
+from rcsim.spacecraft.vehicle_file.schema import packaged_vehicle
 
 BASE = """
 seed = 5

@@ -8,8 +8,8 @@ Oracles
   dispersions, sensor noise, valve delays and jet faults, i.e. every per-jet draw and record
   sized by the vehicle's own jet count.
 * A vehicle file's own valve timing is the nominal about which ``[dispersions.timing]``
-  disperses (``analysis/engine/campaign/effects.py``): the draw is ``max(0, nominal + sigma z)``
-  per jet, the same numbers as a spec mean equal to the nominal gives
+  disperses (``rcsim/analysis/engine/campaign/effects.py``): the draw is ``max(0, nominal + sigma
+  z)`` per jet, the same numbers as a spec mean equal to the nominal gives
   (``tests/spacecraft/test_sensors.py``).  So canted12 with uniform delays in its file flies,
   run for run, what canted12 without them flies with those delays as the spec's means: the
   same ``runs.parquet``, envelopes and histories exactly (without a spec table, the same but
@@ -29,14 +29,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.apps.cli import main
-from analysis.engine.campaign.results import history_path
-from analysis.engine.campaign.runner import run_campaign
-from analysis.engine.campaign.spec import load_spec, parse_dict
-from analysis.engine.runs_table import PRODUCT_NAMES, recorded_jets, run_columns
-from models.errors import InputError
-from spacecraft.vehicle import G0_M_S2
-from spacecraft.vehicle_file import resolve_vehicle
+from rcsim.analysis.apps.cli import main
+from rcsim.analysis.engine.campaign.results import history_path
+from rcsim.analysis.engine.campaign.runner import run_campaign
+from rcsim.analysis.engine.campaign.spec import load_spec, parse_dict
+from rcsim.analysis.engine.runs_table import PRODUCT_NAMES, recorded_jets, run_columns
+from rcsim.models.errors import InputError
+from rcsim.spacecraft.vehicle import G0_M_S2
+from rcsim.spacecraft.vehicle_file import resolve_vehicle
 
 SPEC = """
 seed = 18
@@ -186,7 +186,7 @@ def test_propellant_exhaustion_is_a_failure_and_ends_the_firing_count(tmp_path):
     """Issue 18 review: canted12 with 2 g of propellant runs dry in the first second of a
     rate case; the run fails with ``propellant exhausted at t = T s`` and counts no firing
     commanded after T (the jets deliver nothing).  Oracle: the firings counted from the kept
-    history's commands by spacecraft.propulsion's rule (a new firing: a command > 0 to a jet
+    history's commands by rcsim.spacecraft.propulsion's rule (a new firing: a command > 0 to a jet
     that did not fill the previous cycle) in the cycles starting before T -- while the
     allocator, its rate never reached, keeps commanding far more after T."""
     text = resolve_vehicle("canted12").read_text()

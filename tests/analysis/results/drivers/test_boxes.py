@@ -1,4 +1,4 @@
-"""PRIM boxes (analysis/results/drivers/boxes.py).
+"""PRIM boxes (rcsim/analysis/results/drivers/boxes.py).
 
 Oracles: planted boxes whose coverage, density and support are known analytically; EMA
 Workbench's quantile rule, ported line by line from its ``prim_util.get_quantile``; the
@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.results.drivers.boxes import (
+from rcsim.analysis.results.drivers.boxes import (
     _ema_quantiles,
     choose,
     find_boxes,
@@ -153,10 +153,10 @@ def test_analyze_writes_boxes_trajectory_and_the_reports_figure(tmp_path):
     driver_regions.csv, and the trajectory figure in the report and in figures/ (same bytes)."""
     import base64
 
-    from analysis.results.drivers.inputs import load_runs
-    from analysis.results.drivers.outputs import write_analysis
-    from analysis.results.drivers.pipeline import Settings, analyze
-    from analysis.results.drivers.synthetic import planted_campaign
+    from rcsim.analysis.results.drivers.inputs import load_runs
+    from rcsim.analysis.results.drivers.outputs import write_analysis
+    from rcsim.analysis.results.drivers.pipeline import Settings, analyze
+    from rcsim.analysis.results.drivers.synthetic import planted_campaign
 
     X, y = planted_campaign("one-sided", 0, n_runs=3000, n_noise=6)
     case = np.where(np.arange(3000) % 3 == 0, "rate-01", "rate-02")
@@ -195,9 +195,9 @@ def test_analyze_writes_boxes_trajectory_and_the_reports_figure(tmp_path):
 def test_a_large_run_set_is_searched_on_a_seeded_subsample(monkeypatch):
     """Beyond MAX_BOX_RUNS the search reads a seeded subsample (the same one every time) and
     says so; the section names both counts."""
-    from analysis.results.drivers import boxes, report_boxes
-    from analysis.results.drivers.inputs import load_runs
-    from analysis.results.drivers.pipeline import DriverResults, Settings
+    from rcsim.analysis.results.drivers import boxes, report_boxes
+    from rcsim.analysis.results.drivers.inputs import load_runs
+    from rcsim.analysis.results.drivers.pipeline import DriverResults, Settings
 
     monkeypatch.setattr(boxes, "MAX_BOX_RUNS", 1000)
     X = _uniform(3000, 3, 10)

@@ -1,8 +1,8 @@
 """Every flag `rcsim analyze` raises is calibrated: null tables, and planted truth with cases.
 
 Oracle: synthetic campaigns with rate cases whose mechanism is known by construction
-(:func:`analysis.results.drivers.synthetic.stratified_campaign`), analysed by the real
-pipeline (:func:`~analysis.results.drivers.pipeline.analyze`).  Small tables (26 cases x 100
+(:func:`rcsim.analysis.results.drivers.synthetic.stratified_campaign`), analysed by the real
+pipeline (:func:`~rcsim.analysis.results.drivers.pipeline.analyze`).  Small tables (26 cases x 100
 runs, 30 noise inputs, 50 permutations for inputs and 25 for pairs) keep the module under a
 minute; the full-size check (26 x 1,000 runs, 100 inputs, default permutations) is
 ``benchmarks/null_calibration.py`` and its figures are in docs/drivers.md.
@@ -20,7 +20,7 @@ every pair holding a driver significant), fail it at once.
 import pytest
 from scipy.stats import binom
 
-from analysis.results.drivers.synthetic import calibration, calibration_settings
+from rcsim.analysis.results.drivers.synthetic import calibration, calibration_settings
 
 ALPHA = 0.05
 SMALL = {"runs_per_case": 100, "n_noise": 30}
@@ -72,7 +72,7 @@ def test_planted_interactions_are_found_as_interactions(scenario):
 def test_bh_qvalues_by_hand():
     import numpy as np
 
-    from analysis.results.drivers.pipeline import bh_qvalues
+    from rcsim.analysis.results.drivers.pipeline import bh_qvalues
 
     # p sorted 0.01, 0.02, 0.03, 0.5 (m = 4): p * m / rank = 0.04, 0.04, 0.04, 0.5, then the
     # running minimum from the top; returned in the input order.
@@ -84,7 +84,7 @@ def test_conditional_null_is_a_distribution_on_the_tables_with_these_margins():
     import numpy as np
     from scipy.special import gammaln
 
-    from analysis.results.drivers.interaction import conditional_null
+    from rcsim.analysis.results.drivers.interaction import conditional_null
 
     # One 2x2x2 table: runs n[a, b], failures f[a, b].  Oracle: enumerate x = f[1, 1] with the
     # three two-way margins fixed and weight each table by 1 / prod(cell!).
@@ -110,7 +110,7 @@ def test_conditional_null_is_a_distribution_on_the_tables_with_these_margins():
 def test_sum_distribution_is_the_convolution_of_the_cases():
     import numpy as np
 
-    from analysis.results.drivers.interaction import sum_distribution
+    from rcsim.analysis.results.drivers.interaction import sum_distribution
 
     # Oracle: the distribution of a sum of independent variables is the convolution of their
     # distributions (np.convolve, case after case).  FFT round-off: ~1e-16 of the largest mass,

@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.apps.cli import main
-from analysis.results.drivers.synthetic import planted_campaign
+from rcsim.analysis.apps.cli import main
+from rcsim.analysis.results.drivers.synthetic import planted_campaign
 
 SECTIONS = (
     "summary",
@@ -36,11 +36,11 @@ def campaign(tmp_path_factory, model):
     campaign is analysed in docs/drivers.md."""
     import json
 
-    from analysis.engine.runs_table import input_frame
-    from analysis.results.drivers.factors import fire_signs, physics_factors
-    from models.tables import load_dispersions
-    from spacecraft.dispersions import DispersionSigmas, draw_runs
-    from spacecraft.vehicle import VehicleParams
+    from rcsim.analysis.engine.runs_table import input_frame
+    from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
+    from rcsim.models.tables import load_dispersions
+    from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
+    from rcsim.spacecraft.vehicle import VehicleParams
 
     root = tmp_path_factory.mktemp("campaign") / "camp"
     root.mkdir()
@@ -157,7 +157,7 @@ def test_outputs_and_columns(analysed):
     assert "rcsim campaign replay" in html
     assert "http://" not in html and "https://" not in html  # self-contained: no network
     # Issue 16: the criterion as the campaign applies it (a run at 0.04 deg/s fails), in the
-    # wording the engine owns (analysis.engine.runs_table.criterion_text).
+    # wording the engine owns (rcsim.analysis.engine.runs_table.criterion_text).
     assert "|final rate error| &gt;= 0.04 deg/s on any axis" in html
     assert "failure probability (Clopper-Pearson 95 % CI)" in html and "(95 % CI " in html
 
@@ -179,8 +179,8 @@ def test_figure_files_are_the_reports_figures(analysed):
 def test_shared_figures_are_rendered_once(monkeypatch):
     """report_pngs keeps its PNG bytes on the result: asked again (by the report's sections,
     then by the figures/ writer), it draws nothing more."""
-    from analysis.results.drivers import figures
-    from analysis.results.drivers.pipeline import DriverResults, Settings
+    from rcsim.analysis.results.drivers import figures
+    from rcsim.analysis.results.drivers.pipeline import DriverResults, Settings
 
     class _Case:
         def __init__(self, case, runs, failed):

@@ -9,9 +9,9 @@ input; a "does not apply" NaN becomes a place on the scale beyond every run that
 import numpy as np
 import pandas as pd
 
-from analysis.engine import runs_table
-from analysis.results.drivers.inputs import load_runs
-from analysis.results.drivers.pipeline import Settings, analyze
+from rcsim.analysis.engine import runs_table
+from rcsim.analysis.results.drivers.inputs import load_runs
+from rcsim.analysis.results.drivers.pipeline import Settings, analyze
 
 
 def _fault_runs(n: int = 400, seed: int = 3) -> pd.DataFrame:
@@ -51,7 +51,7 @@ def test_a_table_beyond_the_ceiling_is_subsampled_and_says_so(monkeypatch):
     """Issue 17: 10^6 runs needed 8 GB.  Beyond MAX_ANALYSED_RUNS the analysis reads a seeded
     uniform subsample of that size and adds a note naming both counts; the same seed gives the
     same subsample (the result is reproducible)."""
-    from analysis.results.drivers import pipeline
+    from rcsim.analysis.results.drivers import pipeline
 
     monkeypatch.setattr(pipeline, "MAX_ANALYSED_RUNS", 300)
     runs = _fault_runs(n=400)

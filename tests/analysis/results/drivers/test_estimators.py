@@ -11,8 +11,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.results.drivers.baseline import TTestBaseline
-from analysis.results.drivers.kde import (
+from rcsim.analysis.results.drivers.baseline import TTestBaseline
+from rcsim.analysis.results.drivers.kde import (
     COUNT_PASS_BYTES,
     BinnedTV,
     Strata,
@@ -20,15 +20,15 @@ from analysis.results.drivers.kde import (
     rank_scale,
     smoothing_matrix,
 )
-from analysis.results.drivers.maps import KNNFailureMap
-from analysis.results.drivers.pairs import PairKDE
-from analysis.results.drivers.pipeline import Settings
-from analysis.results.drivers.second_opinion import ForestImportance
-from analysis.results.drivers.single import SingleFactorKDE, _format_region
-from analysis.results.drivers.stability import HalfSampleStability
-from analysis.results.drivers.synthetic import planted_campaign
-from analysis.results.proportions import holm_adjusted
-from models.errors import InputError
+from rcsim.analysis.results.drivers.maps import KNNFailureMap
+from rcsim.analysis.results.drivers.pairs import PairKDE
+from rcsim.analysis.results.drivers.pipeline import Settings
+from rcsim.analysis.results.drivers.second_opinion import ForestImportance
+from rcsim.analysis.results.drivers.single import SingleFactorKDE, _format_region
+from rcsim.analysis.results.drivers.stability import HalfSampleStability
+from rcsim.analysis.results.drivers.synthetic import planted_campaign
+from rcsim.analysis.results.proportions import holm_adjusted
+from rcsim.models.errors import InputError
 
 ESTIMATORS = [SingleFactorKDE, PairKDE, KNNFailureMap, ForestImportance, HalfSampleStability]
 
@@ -63,7 +63,7 @@ def test_forest_importance_does_not_depend_on_the_prediction_blocks(monkeypatch)
     # The shuffled held-out copies are predicted a block of inputs at a time to bound memory;
     # a forest predicts each row on its own and the shuffles are drawn input by input, so one
     # input per block and all inputs in one block give the same AUC drops to the last bit.
-    from analysis.results.drivers import second_opinion
+    from rcsim.analysis.results.drivers import second_opinion
 
     X, y = planted_campaign("one-sided", seed=5, n_runs=800, n_noise=5)
     fits = []
@@ -82,7 +82,7 @@ def test_knn_map_does_not_depend_on_the_query_blocks(monkeypatch):
     # Neighbours are queried a block of runs at a time to bound memory (the whole table was
     # ~0.5 GB at 10^5 runs); each run's neighbours are its own, so blocks of 97 runs (and a
     # short last one) give the same cross-validated k, Brier scores and map to the last bit.
-    from analysis.results.drivers import maps
+    from rcsim.analysis.results.drivers import maps
 
     X, y = planted_campaign("two-sided", seed=2, n_runs=2000, n_noise=0)
     whole = KNNFailureMap().fit(X, y)

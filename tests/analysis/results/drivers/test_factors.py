@@ -1,20 +1,20 @@
 """Physics-aware factors are computed from what the simulator flew.
 
-Oracle: the simulator's own vehicle model -- :func:`spacecraft.dispersions.draw_runs` builds
-the dispersed vehicles the campaign flies and :func:`spacecraft.vehicle.torque_per_jet_B`
+Oracle: the simulator's own vehicle model -- :func:`rcsim.spacecraft.dispersions.draw_runs` builds
+the dispersed vehicles the campaign flies and :func:`rcsim.spacecraft.vehicle.torque_per_jet_B`
 their jet torques; the factors are computed from the vehicles the runs table rebuilds from
-the *recorded* columns (:func:`analysis.engine.runs_table.input_frame`; the round trip itself is
-``tests/analysis/engine/test_runs_table.py``).
+the *recorded* columns (:func:`rcsim.analysis.engine.runs_table.input_frame`; the round trip itself
+is ``tests/analysis/engine/test_runs_table.py``).
 """
 
 import numpy as np
 import pytest
 
-from analysis.engine.runs_table import input_frame
-from analysis.results.drivers.factors import fire_signs, physics_factors
-from models.tables import load_dispersions, load_jet_map
-from spacecraft.dispersions import DispersionSigmas, draw_runs
-from spacecraft.vehicle import VehicleParams, torque_per_jet_B
+from rcsim.analysis.engine.runs_table import input_frame
+from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
+from rcsim.models.tables import load_dispersions, load_jet_map
+from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
+from rcsim.spacecraft.vehicle import VehicleParams, torque_per_jet_B
 
 
 @pytest.fixture(scope="module")

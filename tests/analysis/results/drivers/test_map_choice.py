@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from analysis.results.drivers.inputs import load_runs
-from analysis.results.drivers.pipeline import FIG15_PAIR, Settings, analyze
-from analysis.results.drivers.report_sections import pairs as pairs_section
+from rcsim.analysis.results.drivers.inputs import load_runs
+from rcsim.analysis.results.drivers.pipeline import FIG15_PAIR, Settings, analyze
+from rcsim.analysis.results.drivers.report_sections import pairs as pairs_section
 
 
 def _table(seed: int = 3) -> pd.DataFrame:

@@ -12,9 +12,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.results.drivers import mechanism
-from analysis.results.drivers.inputs import load_runs
-from analysis.results.drivers.pipeline import Settings, analyze
+from rcsim.analysis.results.drivers import mechanism
+from rcsim.analysis.results.drivers.inputs import load_runs
+from rcsim.analysis.results.drivers.pipeline import Settings, analyze
 
 INPUTS = ["jet_14_thrust_n", "jet_03_thrust_n", "cg_x_m", "izz_kg_m2"]
 

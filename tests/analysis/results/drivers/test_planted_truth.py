@@ -1,8 +1,8 @@
 """Planted-truth recovery, fast variant of the table in docs/drivers.md.
 
 Oracle: synthetic campaigns whose failure mechanism is known by construction
-(:mod:`analysis.results.drivers.synthetic`).  The issue's bar over 100 campaigns per scenario is
-"true drivers above every irrelevant input in >= 95, the true pair first in >= 95, an
+(:mod:`rcsim.analysis.results.drivers.synthetic`).  The issue's bar over 100 campaigns per scenario
+is "true drivers above every irrelevant input in >= 95, the true pair first in >= 95, an
 irrelevant input significant in <= 10".  Here 12 campaigns per scenario (50 permutations):
 with a true per-campaign success rate of 0.95, 12 campaigns give >= 10 successes with
 probability 0.98, so the thresholds below are ">= 10 of 12" for recovery; for false
@@ -13,7 +13,7 @@ thresholds are, not how often it flakes.
 
 import pytest
 
-from analysis.results.drivers.synthetic import recovery
+from rcsim.analysis.results.drivers.synthetic import recovery
 
 SEEDS = range(1000, 1012)
 

@@ -22,19 +22,23 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from analysis.results.drivers.inputs import load_runs
-from analysis.results.drivers.kde import bin_codes, rank_scale
-from analysis.results.drivers.outcomes import build_outcomes, campaign_threshold, outcome_table
-from analysis.results.drivers.pipeline import Settings, analyze
-from analysis.results.drivers.probabilities import (
+from rcsim.analysis.results.drivers.inputs import load_runs
+from rcsim.analysis.results.drivers.kde import bin_codes, rank_scale
+from rcsim.analysis.results.drivers.outcomes import (
+    build_outcomes,
+    campaign_threshold,
+    outcome_table,
+)
+from rcsim.analysis.results.drivers.pipeline import Settings, analyze
+from rcsim.analysis.results.drivers.probabilities import (
     add_region_columns,
     bound_words,
     p_with_ci,
     probability_frame,
 )
-from analysis.results.drivers.single import SingleFactorKDE
-from analysis.results.proportions import runs_to_bound
-from models.errors import InputError
+from rcsim.analysis.results.drivers.single import SingleFactorKDE
+from rcsim.analysis.results.proportions import runs_to_bound
+from rcsim.models.errors import InputError
 
 
 @pytest.mark.parametrize("k, n", [(0, 50), (1, 50), (7, 300), (50, 50), (260, 26000)])

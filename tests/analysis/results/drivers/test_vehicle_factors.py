@@ -13,11 +13,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.engine.runs_table import input_frame
-from analysis.results.drivers.factors import physics_factors
-from models.tables import load_dispersions
-from spacecraft.dispersions import DispersionSigmas, draw_runs
-from spacecraft.vehicle_file import FlyingVehicle
+from rcsim.analysis.engine.runs_table import input_frame
+from rcsim.analysis.results.drivers.factors import physics_factors
+from rcsim.models.tables import load_dispersions
+from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
+from rcsim.spacecraft.vehicle_file import FlyingVehicle
 
 
 def _runs(flying, sigmas, n=8):
@@ -48,10 +48,10 @@ def test_canted_authority_from_the_jet_matrix(name):
 def test_imbalance_only_for_pairs():
     """Issue 18 review: the imbalance factor is a pair's (Table 2: each axis direction has
     exactly two jets).  Oracle: on the paper's vehicle it is the thrust of the pair's first
-    jet minus its second, jets from Table 2 (``models/data/table2_jet_map.csv``), exactly;
+    jet minus its second, jets from Table 2 (``rcsim/models/data/table2_jet_map.csv``), exactly;
     canted16's and canted12's groups have 4-8 jets (their own torque signs), so they have
     none."""
-    from models.tables import load_jet_map
+    from rcsim.models.tables import load_jet_map
 
     sig = DispersionSigmas.from_table(load_dispersions())
     runs = _runs(FlyingVehicle.load("paper"), sig)
@@ -75,7 +75,7 @@ def test_report_explains_imbalance_only_when_it_is_there():
     six-jet group)."""
     from types import SimpleNamespace
 
-    from analysis.results.drivers.report_sections import _imbalance_text
+    from rcsim.analysis.results.drivers.report_sections import _imbalance_text
 
     def res(inputs):
         return SimpleNamespace(runset=SimpleNamespace(derived_inputs=inputs))

@@ -1,0 +1,158 @@
+"""``rcsim maneuver``: fly one attitude maneuver and write its history and plots."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+import numpy as np
+
+from rcsim.lookup.registry import ALL_CONTROLLERS
+from rcsim.models.errors import InputError
+
+COMMAND = "maneuver"  # recorded in the output directory's marker
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "maneuver",
+        help="fly one rest-to-rest attitude maneuver (history.parquet + plots)",
+        description="Fly the nominal vehicle (the packaged one, or a vehicle file's with "
+        "--vehicle) from rest to a commanded attitude and write "
+        "DIR/history.parquet (one row per 40 ms control cycle), DIR/attitude_error.png, "
+        "DIR/rates_jets.png and DIR/summary.json.",
+    )
+    p.add_argument(
+        "--controller",
+        choices=ALL_CONTROLLERS,
+        default="phase-plane",
+        help="phase-plane, lookup (the paper's pattern recognition), adaptive "
+        "(lookup whose table entries learn their firing times in flight) or allocator "
+        "(minimum-propellant jet selection, any jet layout); default phase-plane",
+    )
+    p.add_argument(
+        "--attitude-deg",
+        nargs=3,
+        type=float,
+        required=True,
+        metavar=("R", "P", "Y"),
+        help="commanded attitude as roll, pitch, yaw rotation-vector components [deg]",
+    )
+    p.add_argument("--duration-s", type=float, default=60.0, help="simulated time [s] (default 60)")
+    p.add_argument(
+        "--table", help="lookup table CSV for --controller lookup or adaptive (default: packaged)"
+    )
+    p.add_argument(
+        "--vehicle",
+        metavar="FILE",
+        help="vehicle file to fly instead of the packaged vehicle, any number of jets (a "
+        'packaged one by name: "paper", "canted16", "canted12"); a layout other than Table '
+        "2's flies with --controller allocator, or --controller lookup --table T.csv with a "
+        "table made by `rcsim lookup generate --vehicle FILE --out T.csv`",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="output directory (created; an existing one is refused unless it holds "
+        "an earlier `rcsim maneuver`'s outputs and --overwrite is given)",
+    )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace DIR if it holds an earlier `rcsim maneuver`'s outputs",
+    )
+    p.add_argument(
+        "--yes",
+        action="store_true",
+        help="start even if the estimate is over 30 minutes (the estimate is printed first)",
+    )
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from rcsim.analysis.engine.flight import Scenario, fly, write_flight
+    from rcsim.analysis.engine.output import check_out_dir
+    from rcsim.models.tables import CONTROL_CYCLE_S
+
+    if not math.isfinite(args.duration_s) or args.duration_s < CONTROL_CYCLE_S:
+        raise InputError(
+            f"--duration-s must be at least one control cycle ({CONTROL_CYCLE_S:g} s), "
+            f"got {args.duration_s:g}"
+        )
+    if not all(math.isfinite(a) for a in args.attitude_deg):
+        raise InputError(f"--attitude-deg must be finite, got {args.attitude_deg}")
+    if np.linalg.norm(args.attitude_deg) >= 180.0:
+        raise InputError(f"--attitude-deg: rotation must be under 180 deg, got {args.attitude_deg}")
+    from rcsim.analysis.apps.estimates import confirm, flying_seconds
+    from rcsim.models.tables import CONTROL_CYCLE_S as CYCLE
+    from rcsim.spacecraft.guards import check_history_memory
+    from rcsim.spacecraft.vehicle import jet_count, load_model
+
+    vehicle = None if args.vehicle is None else _vehicle(args)
+    n_jets = jet_count(load_model()) if vehicle is None else vehicle.n_jets
+    # What cannot fit in memory is refused before what merely takes long.
+    check_history_memory(1, math.ceil(args.duration_s / CYCLE), args.duration_s, n_jets=n_jets)
+    confirm(
+        "the maneuver (one run, no batching)",
+        flying_seconds(args.duration_s, runs=1),
+        yes=args.yes,
+        parameter="duration_s",
+        value=args.duration_s,
+    )
+    out = check_out_dir(args.out, COMMAND, overwrite=args.overwrite)  # before the work
+    r, p, y = args.attitude_deg
+    scenario = Scenario(
+        name="maneuver", duration_s=args.duration_s, att_cmd_rad=np.radians(args.attitude_deg)
+    )
+    history = fly(scenario, args.controller, table=args.table, vehicle=vehicle)
+    title = f"{args.controller} maneuver ({r:g}, {p:g}, {y:g}) deg"
+    on = ""
+    flown = {}
+    if vehicle is not None:
+        from rcsim.spacecraft.vehicle_file.authority import torque_signs
+
+        on = f" on {vehicle.definition.name}"
+        flown = {"isp_s": vehicle.definition.isp_s, "jet_signs": torque_signs(vehicle.definition)}
+    title += on
+    paths = write_flight(
+        history, out, title=title, command=COMMAND, overwrite=args.overwrite, **flown
+    )
+    s = json.loads(paths["summary.json"].read_text())  # what the user's file says
+    err = ", ".join(f"{v:.4f}" for v in s["final_att_err_deg"])
+    print(f"{title}: final attitude error [{err}] deg, {s['firings']} firings")
+    if s["propellant_exhausted_s"] is not None:
+        print(
+            f"{s['reason']}: all {s['propellant_kg']:.4g} kg used; the jets delivered nothing "
+            "after it (commands after it are not counted as firings)"
+        )
+    elif s["sim_failed"]:
+        print(f"the simulation failed: {s['reason']}")
+    print(
+        f"outputs in {paths['history.parquet'].parent}/: "
+        + ", ".join(p.name for p in paths.values())
+    )
+    return 0
+
+
+def _vehicle(args: argparse.Namespace):
+    """The ``--vehicle`` file ready to fly, refused (one line) when the controller cannot fly
+    it (:func:`rcsim.lookup.registry.vehicle_problem`) or its jets cannot turn the vehicle toward
+    the commanded attitude (:func:`rcsim.spacecraft.vehicle_file.authority.unreachable_command`)."""
+    from rcsim.lookup.registry import vehicle_problem
+    from rcsim.spacecraft.vehicle_file import FlyingVehicle
+    from rcsim.spacecraft.vehicle_file.authority import unreachable_command
+
+    vehicle = FlyingVehicle.load(args.vehicle)
+    problem = vehicle_problem(
+        args.controller, args.table, vehicle.definition, table_option="--table"
+    )
+    if problem is not None:
+        raise InputError(f"--controller {args.controller} --vehicle {args.vehicle}: {problem[1]}")
+    why = unreachable_command(vehicle.definition, np.radians(args.attitude_deg))
+    if why:
+        raise InputError(
+            f"--vehicle {args.vehicle} cannot fly --attitude-deg {args.attitude_deg}: {why}"
+        )
+    return vehicle

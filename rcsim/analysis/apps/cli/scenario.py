@@ -1,0 +1,175 @@
+"""``rcsim scenario``: fly the paper's named scenarios and compare the two controllers.
+
+* ``rcsim scenario list``
+* ``rcsim scenario run NAME --controller lookup|phase-plane|adaptive [--table T.csv] --out DIR``
+* ``rcsim scenario compare --out DIR`` (every scenario, the paper's two controllers, lookup and
+  phase-plane: comparison.csv/.md; the adaptive controller is compared in campaigns,
+  ``docs/faults.md``)
+* ``rcsim scenario figures --out DIR`` (the lookup figure set of docs/figures, lookup_*.png)
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from rcsim.lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
+from rcsim.models.errors import InputError
+
+
+def register(sub) -> None:
+    scn = sub.add_parser(
+        "scenario",
+        help="fly the paper's named scenarios (Gambone Figs 3-8, 17-28)",
+        description="Named scenarios reproducing Gambone's figures: single-axis and 5 deg "
+        "three-axis maneuvers, large and slow maneuvers, rate damping of the 26 rates, "
+        "attitude hold under a disturbance with and without the no-firing region, and a "
+        "disturbed three-axis maneuver.",
+    )
+    cmds = scn.add_subparsers(dest="scenario_command", metavar="ACTION", parser_class=type(scn))
+    cmds.required = True
+
+    ls = cmds.add_parser("list", help="list the named scenarios")
+    ls.set_defaults(func=run_list)
+
+    run = cmds.add_parser(
+        "run",
+        help="fly one scenario: history.parquet, metrics.csv, summary.json, plots",
+        description="Fly one named scenario and write DIR/history.parquet (one row per run and "
+        "40 ms cycle), DIR/metrics.csv, DIR/summary.json and the paper-style plots.",
+    )
+    run.add_argument("name", help="scenario name (see `rcsim scenario list`)")
+    run.add_argument(
+        "--controller",
+        choices=ALL_CONTROLLERS,
+        default="lookup",
+        help="lookup (default), phase-plane or adaptive (lookup whose table "
+        "entries learn their firing times in flight)",
+    )
+    run.add_argument("--table", help="lookup table CSV (default: the packaged table)")
+    run.add_argument(
+        "--no-fire-band-deg",
+        type=float,
+        metavar="DEG",
+        help="lookup no-firing half-width [deg] (default: the scenario's; 0 = off)",
+    )
+    _add_out(run, "scenario run")
+    run.set_defaults(func=run_run)
+
+    cmp_ = cmds.add_parser(
+        "compare",
+        help="fly every scenario with both controllers; write comparison.csv/.md",
+    )
+    cmp_.add_argument("--table", help="lookup table CSV (default: the packaged table)")
+    cmp_.add_argument("--names", nargs="+", metavar="NAME", help="scenarios (default: all)")
+    _add_out(cmp_, "scenario compare")
+    cmp_.set_defaults(func=run_compare)
+
+    fig = cmds.add_parser(
+        "figures",
+        help="write the lookup figure set (lookup_*.png, as in docs/figures)",
+    )
+    fig.add_argument("--table", help="lookup table CSV (default: the packaged table)")
+    _add_out(fig, "scenario figures")
+    fig.set_defaults(func=run_figures)
+
+
+def _add_out(parser, command: str) -> None:
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help=f"output directory (created; an existing one is refused unless it "
+        f"holds an earlier `rcsim {command}`'s outputs and --overwrite is "
+        "given)",
+    )
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help=f"replace DIR if it holds an earlier `rcsim {command}`'s outputs",
+    )
+
+
+def _check_table(table):
+    from rcsim.models.tables import PAPER_LOOKUP_TABLES
+
+    if table is not None and table not in PAPER_LOOKUP_TABLES and not Path(table).is_file():
+        raise InputError(
+            f"--table {table}: file not found (a CSV path, or {' / '.join(PAPER_LOOKUP_TABLES)})"
+        )
+
+
+def run_list(args: argparse.Namespace) -> int:
+    from rcsim.analysis.engine.scenarios import all_scenarios
+
+    width = max(len(n) for n in all_scenarios())
+    for s in all_scenarios().values():
+        print(
+            f"{s.name:<{width}}  {s.figures:<11} {s.description} "
+            f"({s.n_runs} run{'s' if s.n_runs > 1 else ''}, {s.duration_s:g} s)"
+        )
+    return 0
+
+
+def run_run(args: argparse.Namespace) -> int:
+    import math
+
+    import numpy as np
+
+    from rcsim.analysis.engine.output import check_out_dir
+    from rcsim.analysis.engine.scenarios import (
+        fly_scenario,
+        get_scenario,
+        summarize,
+        write_scenario,
+    )
+
+    scn = get_scenario(args.name)
+    _check_table(args.table)
+    if args.controller not in TABLE_CONTROLLERS and (
+        args.table or args.no_fire_band_deg is not None
+    ):
+        raise InputError(
+            "--table and --no-fire-band-deg are only for --controller lookup or adaptive"
+        )
+    overrides: dict = {}
+    if args.no_fire_band_deg is not None:
+        if not math.isfinite(args.no_fire_band_deg) or args.no_fire_band_deg < 0:
+            raise InputError(f"--no-fire-band-deg must be >= 0, got {args.no_fire_band_deg}")
+        overrides["no_fire_band_rad"] = float(np.radians(args.no_fire_band_deg))
+    out = check_out_dir(args.out, "scenario run", overwrite=args.overwrite)  # before the work
+    hist = fly_scenario(scn, args.controller, table=args.table, **overrides)
+    paths = write_scenario(
+        hist, scn, out, controller=args.controller, command="scenario run", overwrite=args.overwrite
+    )
+    from rcsim.analysis.engine.scenarios import scenario_metrics
+
+    s = summarize(scenario_metrics(hist, scn))
+    t = s["att_rate_settled_time_s"]
+    settle = "not settled" if math.isnan(t) else f"from {t:.2f} s"
+    print(
+        f"{args.controller} {scn.name}: final attitude error {s['final_att_err_deg']:.3f} deg, "
+        f"rate error {s['final_rate_err_deg_s']:.4f} deg/s, {s['firings']} firings, "
+        f"{s['propellant_kg']:.4f} kg, settled {settle}"
+    )
+    print(f"outputs in {Path(args.out)}/: " + ", ".join(p.name for p in paths.values()))
+    return 0
+
+
+def run_compare(args: argparse.Namespace) -> int:
+    from rcsim.analysis.engine.scenarios.outputs import write_comparison
+
+    _check_table(args.table)
+    _, md = write_comparison(args.out, args.names, table=args.table, overwrite=args.overwrite)
+    print(md, end="")
+    print(f"outputs in {Path(args.out)}/: comparison.csv, comparison.md")
+    return 0
+
+
+def run_figures(args: argparse.Namespace) -> int:
+    from rcsim.analysis.engine.scenarios.outputs import write_figures
+
+    _check_table(args.table)
+    names = write_figures(args.out, table=args.table, overwrite=args.overwrite)
+    print(f"wrote {len(names)} figures in {Path(args.out)}/: " + ", ".join(names))
+    return 0

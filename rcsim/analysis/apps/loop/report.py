@@ -1,0 +1,450 @@
+"""The loop's one report: before/after of the refinement, the drivers behind the failures.
+
+Built from the files the stages wrote (nothing is recomputed), so it can be rebuilt at any
+time from ``DIR``: the campaigns' ``cases.csv`` and plots, the driver analysis's CSV files and
+figures, the refinement's changelog and plots, and ``loop.json`` (settings, seeds, times, code
+version).
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rcsim.analysis.apps.loop.files import GENERATE, GENERATED_TABLE, table_file
+from rcsim.analysis.apps.refinement.outputs import most_improved_case
+from rcsim.analysis.apps.refinement.search import changed_cells
+from rcsim.analysis.engine import runs_table
+from rcsim.analysis.engine.campaign.spec import load_spec
+from rcsim.analysis.results.report.html import (
+    Section,
+    figure_block,
+    table_block,
+    text_block,
+    write_report,
+)
+from rcsim.models.errors import InputError
+from rcsim.models.tables import AXES, PAPER_LOOKUP_TABLES, load_lookup_table, recipe_path
+
+
+def _table_file(out: Path, settings) -> str:
+    """The table refined as the loop's campaigns name it."""
+    return table_file(out, settings.table)
+
+
+def _table_label(out: Path, settings) -> str:
+    """What the table refined is, in words: the paper's, a file, or the loop's generated one
+    (a channel table: six axis channels and their jet recipe)."""
+    file = _table_file(out, settings)
+    table = load_lookup_table(file)
+    if settings.table == GENERATE:
+        what = f"{GENERATED_TABLE}, generated for {_vehicle_name(settings)} by the loop"
+    else:
+        what = settings.table
+    if table.recipe is None:
+        return what
+    return (
+        f"{what}: a channel table (six axis channels, +roll -roll +pitch -pitch +yaw -yaw, "
+        f"each firing the jets by its recipe {recipe_path(file).name}, solved for "
+        f"{table.recipe.vehicle}, sha256 {table.recipe.vehicle_sha256[:12]}...)"
+    )
+
+
+def _vehicle_name(settings) -> str:
+    """The loop's vehicle file by its ``[vehicle] name`` (its file's stem if it no longer
+    loads: the report is rebuilt from the stages' files)."""
+    from rcsim.spacecraft.vehicle_file import load_vehicle
+
+    try:
+        return load_vehicle(settings.vehicle).name
+    except (InputError, OSError):
+        return Path(str(settings.vehicle)).stem
+
+
+def _img(path: Path, caption: str) -> str:
+    """A PNG file a stage wrote, inlined with its caption; a note if the file is missing."""
+    if not path.is_file():
+        return text_block(f"(figure not written: {path.name})")
+    return figure_block(path.read_bytes(), caption)
+
+
+def _side_by_side(*blocks: str) -> str:
+    return (
+        "<div style='display:grid;grid-template-columns:1fr 1fr;gap:1em'>"
+        + "".join(f"<div>{b}</div>" for b in blocks)
+        + "</div>"
+    )
+
+
+def _counts(campaign: Path) -> pd.DataFrame:
+    cases = pd.read_csv(campaign / "cases.csv")
+    return cases[["case", "runs", "failed", "one_firing_pct", "firings_per_run_mean"]]
+
+
+def _summary(
+    out: Path, settings, state: dict, log: pd.DataFrame, before: pd.DataFrame, after: pd.DataFrame
+) -> Section:
+    s = state["settings"]
+    fresh = settings.held_out_seed
+    spec = load_spec(out / "spec_before.toml")
+    threshold = np.degrees(spec.rate_threshold_rad_s)
+    dispersions = runs_table.dispersions_source(spec.resolved)
+    if dispersions.startswith("Gambone Table 5"):
+        dispersions = "Table 5 dispersions"
+    n_changed = int(log["changed"].sum())
+    fb, fa = int(before["failed"].sum()), int(after["failed"].sum())
+    label = _table_label(out, settings)
+    channels = "channels" in log
+    rows = [
+        ("table refined", label),
+        *(
+            [
+                (
+                    "vehicle",
+                    f"{_vehicle_name(settings)!r}, file {spec.vehicle}, sha256 "
+                    f"{spec.resolved.get('vehicle_sha256')}",
+                )
+            ]
+            if settings.vehicle is not None
+            else []
+        ),
+        ("runs per case", f"{s['runs_per_case']} (26 rate cases of Table 3, {dispersions})"),
+        ("search seed", f"{s['seed']} (the 'before' campaign and the refinement search)"),
+        ("fresh seed", f"{fresh} (held out: the refined table's campaign and check)"),
+        (
+            "failure criterion",
+            f"any axis ends with |rate error| >= {threshold:g} deg/s, or the "
+            "simulation fails (Gambone sec. III)",
+        ),
+        ("failed runs, before (search seed)", f"{fb} of {int(before['runs'].sum())}"),
+        ("failed runs, after (fresh seed)", f"{fa} of {int(after['runs'].sum())}"),
+        (
+            "repeated-firing runs (search seed)",
+            f"{int(log['repeated_search_before'].sum())} -> "
+            f"{int(log['repeated_search_after'].sum())}",
+        ),
+        (
+            "repeated-firing runs (fresh seed)",
+            f"{int(log['repeated_fresh_before'].sum())} -> "
+            f"{int(log['repeated_fresh_after'].sum())}",
+        ),
+        ("cases changed", f"{n_changed} of {len(log)}"),
+        ("stage times [s]", ", ".join(f"{k} {v['seconds']:.1f}" for k, v in state["done"].items())),
+        ("code version", ", ".join(f"{k} {v}" for k, v in state.get("code_version", {}).items())),
+    ]
+    name = "the generated channel table" if channels else f"the lookup table {s['table']}"
+    fly = (
+        "Fly the refined table (refined_table.csv with its recipe refined_table_recipe.csv "
+        f"beside it) as a campaign spec's `controller.table` with `vehicle = "
+        f'"{settings.vehicle}"`'
+        if channels
+        else "Fly the refined table with `--table refined_table.csv` (`rcsim maneuver`, "
+        "`rcsim scenario run`) or as a campaign spec's `controller.table`"
+    )
+    blocks = [
+        text_block(
+            f"{name[0].upper()}{name[1:]} was flown over {s['runs_per_case']} dispersed runs "
+            f"of each of the 26 rate cases; {fb} runs failed. The refinement changed "
+            f"{n_changed} cases; flown again on a seed the search never saw, the refined table "
+            f"failed {fa} runs."
+        ),
+        table_block(pd.DataFrame(rows, columns=["", "value"]), "The loop"),
+        text_block(
+            f"{fly}, or gate a "
+            "change in CI with `rcsim campaign run spec_after.toml --out DIR "
+            "--max-failed-pct P`. Replay any run with `rcsim campaign replay "
+            "campaign_before RUN_ID`."
+        ),
+    ]
+    return Section("Summary", blocks, "summary")
+
+
+def _before_after(
+    out: Path, log: pd.DataFrame, before: pd.DataFrame, after: pd.DataFrame
+) -> Section:
+    plots = out / "refined_table_plots"
+    merged = before.merge(after, on="case", suffixes=("_before", "_after"))
+    merged = merged[
+        [
+            "case",
+            "runs_before",
+            "failed_before",
+            "failed_after",
+            "one_firing_pct_before",
+            "one_firing_pct_after",
+        ]
+    ]
+    blocks = [
+        _img(
+            plots / "failures_by_case.png",
+            f"Refined, the table fails {int(after['failed'].sum())} runs on the fresh seed "
+            f"against {int(before['failed'].sum())} before on the search seed"
+            f" ({int(log['changed'].sum())} cases changed). "
+            "Failed runs (top) and runs that needed more than one firing to reach the "
+            "commanded rate (bottom), per rate case, before (red) and after (blue) refinement, "
+            "on the search seed (left) and on the held-out fresh seed (right). * marks the "
+            "cases whose firing times changed.",
+        ),
+        table_block(
+            merged,
+            "Campaigns before (search seed) and after (fresh seed): failed runs "
+            "and the share of runs reaching the rate in one firing, per case",
+            max_rows=30,
+            float_format="{:.1f}",
+        ),
+    ]
+    return Section("Failures per case, before and after", blocks, "before-after")
+
+
+def _figs_9_10(out: Path, log: pd.DataFrame) -> Section:
+    best = most_improved_case(log)
+    if best is None:
+        return Section(
+            "Figs 9-10: one case before and after",
+            [
+                text_block(
+                    "No case changed: the table was already robust."
+                    if int(log["failed_search_before"].sum() + log["repeated_search_before"].sum())
+                    == 0
+                    else "No case changed: no candidate's gain was significant on the paired "
+                    "runs (the evidence rule, docs/refinement.md); more runs per case can show it."
+                )
+            ],
+            "figs-9-10",
+        )
+    case = int(best["case"])
+    name = f"case-rate-{case:02d}.png"
+    blocks = [
+        text_block(
+            f"Rate case {case}, the case the refinement helped most: every dispersed run, "
+            "as Gambone Figs 9 (before) and 10 (after)."
+        ),
+        _side_by_side(
+            _img(
+                out / "campaign_before" / "plots" / name,
+                f"Before: case {case} with the original table (search seed)",
+            ),
+            _img(
+                out / "campaign_after" / "plots" / name,
+                f"After: case {case} with the refined table (fresh seed)",
+            ),
+        ),
+        _img(
+            out / "refined_table_plots" / f"case_{case:02d}_before_after.png",
+            f"Case {case}: the changed axis's rate of every run, failed runs red.",
+        ),
+    ]
+    return Section("Figs 9-10: one case before and after", blocks, "figs-9-10")
+
+
+def _drivers(out: Path) -> Section:
+    d = out / "drivers"
+    blocks = [
+        text_block(
+            "Which dispersions make the original table's runs fail (the full "
+            "analysis, with methods and pair maps, is drivers/report.html)."
+        )
+    ]
+    drivers_csv = d / "drivers.csv"
+    if drivers_csv.is_file() and len(pd.read_csv(drivers_csv)):
+        table = pd.read_csv(drivers_csv)
+        cols = [
+            c
+            for c in (
+                "rank",
+                "factor",
+                "score",
+                "p_value",
+                "failure_region",
+                "region_fail_share",
+                "stability",
+                "second_opinion",
+            )
+            if c in table
+        ]
+        blocks.append(
+            _img(
+                d / "figures" / "ranking.png",
+                _strongest(table)
+                + "Single-factor drivers: score, corrected p-value and stability; red "
+                "bars are significant.",
+            )
+        )
+        blocks.append(table_block(table[cols], "Driver ranking (drivers/drivers.csv)", max_rows=12))
+        maps = sorted((d / "figures").glob("map_*.png"))[:2]
+        if maps:
+            blocks.append(
+                _side_by_side(
+                    *[
+                        _img(
+                            m,
+                            "kNN failure map, "
+                            + m.stem.split("_", 2)[2]
+                            .replace("__", " vs ")
+                            .replace("_rate", " rate"),
+                        )
+                        for m in maps
+                    ]
+                )
+            )
+    else:
+        blocks.append(text_block("No failures to analyse."))
+    return Section("Failure drivers", blocks, "drivers")
+
+
+def _strongest(table: pd.DataFrame) -> str:
+    """The caption's conclusion: the best significant driver and its failure region."""
+    sig = table[table["significant"].astype(bool)] if "significant" in table else table[:0]
+    if not len(sig):
+        return "No input is a significant driver. "
+    row = sig.iloc[0]
+    region = row.get("failure_region")
+    where = (
+        f" (failure region {region}, {100 * row['region_fail_share']:.0f} % of failures)"
+        if isinstance(region, str) and region
+        else ""
+    )
+    return f"{row['factor']} is the strongest driver{where}. "
+
+
+def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
+    # A channel table's rows fire channels: say which (``-roll, +yaw``) beside the times.
+    cols = (
+        ["case"]
+        + (["channels"] if "channels" in log else [])
+        + [f"{a}_{w}" for a in AXES for w in ("old_s", "new_s")]
+        + [
+            "failed_search_before",
+            "failed_search_after",
+            "failed_fresh_before",
+            "failed_fresh_after",
+            "repeated_fresh_before",
+            "repeated_fresh_after",
+        ]
+    )
+    blocks = [
+        table_block(
+            log[log["changed"]][cols],
+            "Changed entries (refined_table_changelog.csv)",
+            max_rows=30,
+            float_format="{:.2f}",
+        )
+    ]
+    if "decision" in log:
+        # Every row the search proposed to change, kept or reverted, with its evidence: the
+        # exact one-sided McNemar test on the search runs and on the confirmation seed.
+        ev_cols = [
+            "case",
+            "decision",
+            "decided_on",
+            "search_b",
+            "search_c",
+            "search_p",
+            "confirm_failed_before",
+            "confirm_failed_after",
+            "confirm_b",
+            "confirm_c",
+            "confirm_p",
+            "mirror_case",
+            "mirror_decision",
+        ]
+        blocks.append(
+            table_block(
+                log[log["decision"] != "unchanged"][ev_cols],
+                "Evidence of each proposed change (b / c: runs better / worse after; p: exact "
+                "one-sided McNemar; a change is kept when p <= 0.05 on the search runs and, "
+                "Holm over the rows, on the confirmation seed)",
+                max_rows=40,
+                float_format="{:.3g}",
+            )
+        )
+        if "refused" in log:
+            refused = log[log["refused"].astype(object).fillna("").astype(str) != ""]
+            if not refused.empty:
+                blocks.append(
+                    table_block(
+                        refused[["case", "refused"]],
+                        "Strictly better candidates the search gate refused (not significant "
+                        "on the paired search runs)",
+                        max_rows=30,
+                    )
+                )
+    heldout = refined.with_name(f"{refined.stem}_heldout.csv")
+    if heldout.is_file():
+        blocks.append(
+            table_block(
+                pd.read_csv(heldout),
+                "Held-out seed (no decision used it), all cases: failed runs and the failure "
+                "probability's Clopper-Pearson 95 % interval [%]",
+                float_format="{:.2f}",
+            )
+        )
+    t6, t7 = load_lookup_table("table6"), load_lookup_table("table7")
+    # The paper's refinement is comparable when the table refined is Table 6 (by name or copy).
+    if table in PAPER_LOOKUP_TABLES or load_lookup_table(table).recipe is None:
+        is_t6 = np.array_equal(load_lookup_table(table).firing_time_s, t6.firing_time_s)
+    else:
+        is_t6 = False  # a channel table: not the paper's jets
+    if is_t6:
+        ours = changed_cells(t6, load_lookup_table(refined))
+        paper = changed_cells(t6, t7)
+        both = ours.merge(
+            paper, on=["case", "axis", "old_cycles"], how="outer", suffixes=("_rcsim", "_table7")
+        )
+        same = int((both["new_cycles_rcsim"] == both["new_cycles_table7"]).sum())
+        blocks.append(
+            text_block(
+                f"Against the paper's Table 7 (the authors' hand refinement of Table 6): "
+                f"{same} of {len(both)} changed cells agree."
+            )
+        )
+        blocks.append(
+            table_block(
+                both,
+                "Changed cells, rcsim vs Table 7 (firing time in 40 ms cycles; blank: not changed)",
+                max_rows=40,
+                float_format="{:.0f}",
+            )
+        )
+    return Section("Changelog", blocks, "changelog")
+
+
+def write_loop_report(out: Path, settings, state: dict) -> Path:
+    """Write ``DIR/report.html`` from the stages' files; returns its path."""
+    log = pd.read_csv(out / "refined_table_changelog.csv")
+    before, after = _counts(out / "campaign_before"), _counts(out / "campaign_after")
+    sections = [
+        _summary(out, settings, state, log, before, after),
+        _before_after(out, log, before, after),
+        _figs_9_10(out, log),
+        _drivers(out),
+        _changelog(log, _table_file(out, settings), out / "refined_table.csv"),
+        Section(
+            "Traceability",
+            [
+                text_block(
+                    "Settings, seeds, stage times and code version: loop.json. Campaign specs: "
+                    "spec_before.toml, spec_after.toml; each campaign's manifest.json records "
+                    "its spec, seed, table checksum (a channel table's recipe checksum too; the "
+                    "recipe records the vehicle file's) and code version."
+                ),
+                "<pre>" + html.escape(json.dumps(state, indent=2)) + "</pre>",
+            ],
+            "traceability",
+        ),
+    ]
+    return write_report(
+        out / "report.html",
+        "Lookup-table robustness: "
+        + (
+            f"channel table for {_vehicle_name(settings)}"
+            if load_lookup_table(_table_file(out, settings)).recipe is not None
+            else settings.table
+        ),
+        sections,
+        "rcsim loop: campaign, failure drivers, refined table, fresh campaign",
+    )

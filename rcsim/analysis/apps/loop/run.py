@@ -1,0 +1,565 @@
+"""The analyst's loop: campaign -> failure drivers -> refined table -> fresh campaign -> report.
+
+``rcsim loop`` (and ``make run``) on defaults: a Table 5 campaign of the 26 rate cases flown
+with the paper's Table 6, its failure-driver analysis, refinement of the table, the refined
+table re-flown on a fresh seed, and one ``report.html`` with the before/after.
+
+On a vehicle file whose jets torque several axes (``--vehicle canted16``) the table refined is
+generated first (stage ``generate``: a channel table and its recipe, :mod:`rcsim.lookup.channels`),
+then the same stages run on it.
+
+Every stage writes its own sub-directory of ``DIR`` completely or not at all, and the loop
+records each finished stage in ``DIR/loop.json``: a loop killed in its tenth minute resumes
+(``resume=True``) from the last finished stage, and the campaigns resume chunk by chunk.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rcsim.analysis.apps.loop.files import GENERATE, table_file
+from rcsim.analysis.apps.refinement.outputs import (
+    check_parameters,
+    held_out_seed,
+    load_refinable_table,
+    rate_cases_campaign,
+    refinement_spec,
+)
+from rcsim.analysis.apps.refinement.search import SEARCH_RUNS_PER_CASE
+from rcsim.analysis.engine.campaign import results as campaign_results
+from rcsim.analysis.engine.campaign.runner import run_campaign
+from rcsim.analysis.engine.campaign.spec import load_spec
+from rcsim.analysis.engine.memory import give_back_free_memory
+from rcsim.analysis.engine.output import check_out_dir, directory_owner, output_lock, write_marker
+from rcsim.analysis.results.scoring import SCORED_COLUMNS
+from rcsim.models.atomic import atomic_write
+from rcsim.models.errors import InputError
+from rcsim.models.tables import N_CASES, PAPER_LOOKUP_TABLES, load_lookup_table
+
+COMMAND = "loop"
+STATE = "loop.json"
+#: Stages in order, each a sub-directory (or file) of DIR.
+STAGES = ("campaign_before", "drivers", "refine", "campaign_after", "check", "report")
+
+
+def stages_of(settings: LoopSettings) -> tuple:
+    """The loop's stages: :data:`STAGES`, after ``generate`` when the table is generated."""
+    return (("generate",) if settings.table == GENERATE else ()) + STAGES
+
+
+@dataclass(frozen=True)
+class LoopSettings:
+    """What the loop flies (defaults: ``make run``).
+
+    Attributes
+    ----------
+    table : str or None
+        Table to refine: ``"table6"`` / ``"table7"`` (the paper's), a CSV path, or
+        ``"generate"`` (generated for the vehicle by the loop's first stage).  None (the
+        default): ``"table6"``, or ``"generate"`` on a vehicle whose jets do not play Table
+        2's roles (its table is a channel table).
+    runs_per_case : int
+        Dispersed runs per rate case, for the campaigns and the refinement search.
+    seed : int
+        Campaign and search seed; run i draws from ``SeedSequence(seed, spawn_key=(i,))``.
+    fresh_seed : int
+        Held-out seed: the refined table is re-flown on it (default ``seed + 1``).
+    duration_s : float
+        Simulated time of every run [s].
+    permutations : int
+        Label permutations of the driver analysis's p-values.
+    max_iterations : int
+        Most rounds of the refinement search.
+    search_runs_per_case : int
+        Runs per case the refinement search flies (the first of the "before" campaign's, the
+        same draws); the refined table is then flown on every run of the held-out seed.
+    vehicle : str or None
+        A vehicle file (absolute path) or packaged vehicle name the campaigns and the search
+        fly; None: the paper's.  A paper table needs Table 2's jet roles; a channel table must
+        have been solved for this vehicle file.
+    plots : bool
+        The campaigns' per-case plots (about 4.5 s per campaign on 2 cores, whatever its
+        size); without them the report's Figs 9-10 section says the figures were not made.
+    """
+
+    table: str | None = None
+    runs_per_case: int = 100
+    seed: int = 1
+    fresh_seed: int | None = None
+    duration_s: float = 20.0
+    permutations: int = 200
+    max_iterations: int = 8
+    search_runs_per_case: int = SEARCH_RUNS_PER_CASE
+    plots: bool = True
+    vehicle: str | None = None
+
+    def __post_init__(self):
+        # The refinement's and the driver analysis's own checks: one rule for each.
+        from rcsim.analysis.results.drivers.pipeline import Settings
+
+        check_parameters(
+            runs_per_case=self.runs_per_case,
+            seed=self.seed,
+            fresh_seed=self.held_out_seed,
+            duration_s=self.duration_s,
+            max_iterations=self.max_iterations,
+            search_runs_per_case=self.search_runs_per_case,
+        )
+        Settings(n_permutations=self.permutations, random_state=self.seed)
+        coupled = False
+        if self.vehicle is not None:
+            from rcsim.analysis.engine.table_files import is_coupled
+
+            try:
+                coupled = is_coupled(self.vehicle)
+            except InputError as exc:
+                raise InputError(str(exc), parameter="vehicle", value=self.vehicle) from None
+        if self.table is None:
+            object.__setattr__(self, "table", GENERATE if coupled else "table6")
+        if coupled and self.table in PAPER_LOOKUP_TABLES:
+            raise InputError(
+                f"{self.table!r} is the paper's table, for its jet map (Table 2), but the jets "
+                f"of {self.vehicle} torque several axes; leave the table out (or give "
+                f"{GENERATE!r}) to generate the vehicle's channel table first",
+                parameter="table",
+                value=self.table,
+            )
+        if self.vehicle is not None or self.table not in (*PAPER_LOOKUP_TABLES, GENERATE):
+            # The campaigns' own checks on the vehicle and the table (a file that loads, jets
+            # that play the table's roles, a channel table solved for this vehicle file),
+            # before any directory is made.  A table still to generate is checked when made.
+            table = "default" if self.table in PAPER_LOOKUP_TABLES else self.table
+            try:
+                refinement_spec(
+                    runs_per_case=1,
+                    seed=0,
+                    duration_s=self.duration_s,
+                    vehicle=self.vehicle,
+                    source=str(self.vehicle or self.table),
+                    # A table still to generate: the vehicle alone (the allocator flies any).
+                    table=table if table != GENERATE else "default",
+                    controller="allocator" if table == GENERATE else "lookup",
+                )
+            except InputError as exc:
+                which = "vehicle" if self.vehicle is not None else "table"
+                text = str(exc)
+                # The spec's message names its source (here the vehicle) and the key, then the
+                # vehicle file again ("FILE: vehicle: FILE cannot fly ..."): under --vehicle
+                # the file once is enough.
+                again = f"{self.vehicle}: vehicle: "
+                if which == "vehicle" and text.startswith(again):
+                    text = text[len(again) :]
+                raise InputError(text, parameter=which, value=getattr(self, which)) from None
+
+    @property
+    def held_out_seed(self) -> int:
+        return held_out_seed(self.seed) if self.fresh_seed is None else self.fresh_seed
+
+
+@dataclass
+class LoopResult:
+    """Where the loop wrote, and the time of each stage [s]."""
+
+    out: Path
+    report: Path
+    stage_s: dict = field(default_factory=dict)
+    summary: dict = field(default_factory=dict)
+
+
+def spec_text(
+    *,
+    table: str,
+    runs_per_case: int,
+    seed: int,
+    duration_s: float,
+    plots: bool = True,
+    vehicle: str | None = None,
+) -> str:
+    """The refinement's rate-case campaign (:func:`rate_cases_campaign`) as a TOML spec, with
+    failure histories and (unless ``plots`` is false) plots kept: a user reads these."""
+    data = rate_cases_campaign(
+        runs_per_case=runs_per_case,
+        seed=seed,
+        duration_s=duration_s,
+        table=table,
+        histories="failures",
+        plots=plots,
+        vehicle=vehicle,
+    )
+    disp = "the vehicle file's [dispersions]" if vehicle is not None else "Table 5 dispersions"
+    lines = [f"# Written by `rcsim loop`: the 26 Table 3 rate cases, {disp}."]
+    scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
+    lines += [f"{k} = {_toml(v)}" for k, v in scalars.items()]
+    for name, table_ in data.items():
+        if isinstance(table_, dict):
+            lines += ["", f"[{name}]"] + [f"{k} = {_toml(v)}" for k, v in table_.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _toml(value) -> str:
+    """A TOML scalar: JSON's spelling is TOML's for strings, numbers and booleans."""
+    return json.dumps(value)
+
+
+class _State:
+    """``DIR/loop.json``: the settings and the stages already finished."""
+
+    def __init__(self, out: Path, settings: LoopSettings, resume: bool):
+        self.path = out / STATE
+        wanted = asdict(settings)
+        if resume and self.path.is_file():
+            self.data = read_state(out)
+            stored = _comparable(self.data.get("settings")) or {}
+            ours = _comparable(wanted) or {}
+            differ = [k for k in ours if stored.get(k) != ours[k]]
+            if differ:
+                what = "; ".join(f"{k} {stored.get(k)!r} there, {ours[k]!r} here" for k in differ)
+                raise InputError(
+                    f"{out}: was started with other settings ({what}); resume it with its own "
+                    "settings, or choose another directory",
+                    parameter="out",
+                    value=str(out),
+                )
+        else:
+            self.data = {
+                "format": "rcsim-loop/1",
+                "settings": wanted,
+                "done": {},
+                "code_version": campaign_results.code_version(),
+                "started_utc": campaign_results.now_utc(),
+            }
+        self.save()
+
+    def done(self, stage: str) -> bool:
+        return stage in self.data["done"]
+
+    def finish(self, stage: str, seconds: float, **info) -> None:
+        self.data["done"][stage] = {"seconds": round(seconds, 2), **info}
+        self.save()
+
+    def save(self) -> None:
+        atomic_write(
+            self.path, lambda tmp: Path(tmp).write_text(json.dumps(self.data, indent=2) + "\n")
+        )
+
+
+def _defaults() -> dict:
+    return {f.name: f.default for f in fields(LoopSettings)}
+
+
+def _comparable(settings) -> dict | None:
+    """Settings as they decide what is flown: the held-out seed, not how it was given; a
+    setting an older loop.json lacks at its default (what that loop flew)."""
+    if not isinstance(settings, dict):
+        return None
+    out = {**_defaults(), **settings}
+    if out.get("fresh_seed") is None and isinstance(out.get("seed"), int):
+        out["fresh_seed"] = held_out_seed(out["seed"])
+    return out
+
+
+def resumed_settings(out, given: dict) -> LoopSettings:
+    """The settings of the loop in ``out`` (its ``loop.json``), for a resume.
+
+    ``given`` holds the settings the user named explicitly; each must equal the loop's own
+    (the error names the first that does not, with both values).
+    """
+    out = check_loop_dir(out, resume=True, overwrite=False)  # a loop's, not another's
+    stored = _comparable(read_state(out)["settings"]) or {}
+    for key, value in given.items():
+        mine = _comparable({**stored, key: value}) or {}
+        if mine.get(key) != stored.get(key):
+            raise InputError(
+                f"{value!r} differs from the loop's own {stored.get(key)!r} ({out / STATE}); "
+                "omit it to resume with the loop's settings",
+                parameter=key,
+                value=value,
+            )
+    known = {f.name for f in fields(LoopSettings)}
+    return LoopSettings(**{k: v for k, v in stored.items() if k in known})
+
+
+def read_state(out: Path) -> dict:
+    """``out/loop.json``, checked; :class:`InputError` naming the file if it is not one."""
+    path = out / STATE
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(
+            f"{path}: not a readable loop state file ({exc})", parameter="out", value=str(out)
+        ) from None
+    if not (
+        isinstance(data, dict)
+        and isinstance(data.get("settings"), dict)
+        and isinstance(data.get("done"), dict)
+    ):
+        raise InputError(
+            f"{path}: not a loop state file (no settings and stages)",
+            parameter="out",
+            value=str(out),
+        )
+    return data
+
+
+def check_loop_dir(out, *, resume: bool, overwrite: bool) -> Path:
+    """Check ``out`` before any work: new, or a loop directory to resume."""
+    out = Path(out)
+    if resume:
+        if not (out / STATE).is_file():
+            raise InputError(
+                f"{out}: no {STATE} here to resume; start the loop without resume",
+                parameter="out",
+                value=str(out),
+            )
+        owner = directory_owner(out)
+        if owner != COMMAND:
+            raise InputError(
+                f"{out}: was not written by `rcsim loop`"
+                + (f" (it holds `rcsim {owner}` outputs)" if owner else ""),
+                parameter="out",
+                value=str(out),
+            )
+        read_state(out)
+        return out.absolute()
+    if overwrite:
+        raise InputError(
+            "a loop directory is resumed, never replaced: choose another directory",
+            parameter="overwrite",
+            value=True,
+        )
+    return check_out_dir(out, COMMAND)
+
+
+def run_loop(
+    settings: LoopSettings, out, *, resume: bool = False, progress: bool | None = None, echo=print
+) -> LoopResult:
+    """Run every stage of the loop into ``out`` (see the module docstring).
+
+    Parameters
+    ----------
+    settings : LoopSettings
+    out : path
+        A new directory, or one to finish (``resume``).
+    echo : callable
+        Receives one line per finished stage (the CLI prints them).
+    """
+    table = None
+    if settings.table != GENERATE:  # a table that does not load: before any work
+        table = load_refinable_table(settings.table)
+    out = check_loop_dir(out, resume=resume, overwrite=False)
+    with output_lock(out, COMMAND):
+        return _run_stages(table, settings, out, resume, progress, echo)
+
+
+def _run_stages(table, settings: LoopSettings, out: Path, resume: bool, progress, echo):
+    out.mkdir(parents=True, exist_ok=True)
+    write_marker(out, COMMAND)
+    state = _State(out, settings, resume)
+    stages = _Stages(out, settings, table, state, progress)
+    for name in stages_of(settings):
+        if state.done(name):
+            echo(f"{name}: already done")
+            continue
+        t0 = time.perf_counter()
+        info = getattr(stages, name)() or {}
+        seconds = time.perf_counter() - t0
+        # What the stage freed goes back to the system before the next stage's workers start
+        # (the driver analysis alone left ~170 MB free in this process's heap and pyarrow's pool).
+        give_back_free_memory()
+        state.finish(name, seconds, **info)
+        echo(f"{name}: done in {seconds:.1f} s" + "".join(f"; {k} {v}" for k, v in info.items()))
+    state.data["finished_utc"] = campaign_results.now_utc()
+    state.save()
+    return LoopResult(
+        out=out,
+        report=stages.paths["report"],
+        stage_s={k: v["seconds"] for k, v in state.data["done"].items()},
+    )
+
+
+class _Stages:
+    """The loop's stages, one method each, named as in :data:`STAGES`; each returns the
+    facts its line in ``loop.json`` and on the terminal reports."""
+
+    def __init__(
+        self, out: Path, settings: LoopSettings, table, state: _State, progress: bool | None
+    ):
+        self.out, self.settings, self._table = out, settings, table
+        self.state, self.progress = state, progress
+        self.cases = np.arange(N_CASES)
+        # How the campaigns name the table refined: the paper's by name, a file by its path
+        # (the generated one in DIR).
+        self.table_file = table_file(out, str(settings.table))  # resolved: never None
+        self.paths = {
+            "campaign_before": out / "campaign_before",
+            "drivers": out / "drivers",
+            "refined": out / "refined_table.csv",
+            "search": out / "refine_search.json",
+            "campaign_after": out / "campaign_after",
+            "campaign_check": out / "campaign_check",
+            "report": out / "report.html",
+        }
+
+    @property
+    def table(self):
+        """The table refined (the generated one read once the ``generate`` stage wrote it)."""
+        if self._table is None:
+            self._table = load_refinable_table(self.table_file)
+        return self._table
+
+    def generate(self) -> dict:
+        """The vehicle's table: a channel table (and its recipe) for coupled jets."""
+        from rcsim.analysis.engine.table_files import generate
+
+        gen = generate(self.settings.vehicle)
+        path = Path(self.table_file)
+        # Written whole (atomic, a channel table's recipe first), the companion after.
+        frame = gen.settling_frame()
+        gen.table.to_csv(path)
+        settling = path.with_name(f"{path.stem}_settling.csv")
+        atomic_write(settling, lambda tmp: frame.to_csv(tmp, index=False))
+        kind = "jet table" if gen.table.recipe is None else "channel table (six axis channels)"
+        return {"table": kind, "open_loop_max_err_deg_s": round(
+            float(np.degrees(np.abs(gen.verify_rate_err_rad_s)).max()), 4
+        )}  # fmt: skip
+
+    def _campaign(self, name: str, table_path: str, seed: int, plots: bool | None = None) -> dict:
+        s = self.settings
+        spec_file = self.out / f"spec_{name.split('_')[1]}.toml"
+        if not spec_file.exists():
+            text = spec_text(
+                table=table_path,
+                runs_per_case=s.runs_per_case,
+                seed=seed,
+                duration_s=s.duration_s,
+                plots=s.plots if plots is None else plots,
+                vehicle=s.vehicle,
+            )
+            atomic_write(spec_file, lambda tmp: Path(tmp).write_text(text))
+        report = run_campaign(
+            load_spec(spec_file),
+            self.paths[name],
+            resume=self.paths[name].exists(),
+            progress=self.progress,
+            spec_file=str(spec_file),
+        )
+        return {"runs": report.counts.get("runs"), "failed": report.counts.get("failed")}
+
+    def _campaign_runs(self, name: str) -> pd.DataFrame:
+        from rcsim.analysis.apps.refinement.evaluate import runs_from_campaign
+
+        # Only what the scoring reads: all ~110 columns of 26,000 runs were ~55 MB a table.
+        runs = pd.read_parquet(
+            self.paths[name] / campaign_results.RUNS,
+            columns=["run_id", "case_index", *SCORED_COLUMNS],
+        )
+        return runs_from_campaign(runs, self.cases, self.settings.runs_per_case)
+
+    def campaign_before(self) -> dict:
+        return self._campaign("campaign_before", self.table_file, self.settings.seed)
+
+    def drivers(self) -> dict:
+        from rcsim.analysis.results.drivers.inputs import load_runs
+        from rcsim.analysis.results.drivers.outputs import write_analysis
+        from rcsim.analysis.results.drivers.pipeline import Settings, analyze
+
+        s = self.settings
+        res = analyze(
+            load_runs(self.paths["campaign_before"]),
+            Settings(n_permutations=s.permutations, random_state=s.seed),
+        )
+        write_analysis(res, self.paths["drivers"], overwrite=True)
+        top = []
+        if res.has_failures and res.drivers is not None:
+            top = res.drivers[res.drivers["significant"]]["factor"].head(3).tolist()
+        return {"significant": ", ".join(top) or "none"}
+
+    def refine(self) -> dict:
+        from rcsim.analysis.apps.refinement.outputs import (
+            confirmation_seed,
+            refinement_spec,
+            save_search,
+            table_vehicle,
+        )
+        from rcsim.analysis.apps.refinement.search import refine
+
+        s = self.settings
+        # The search's baseline is the "before" campaign itself: same seed, same runs.
+        spec = refinement_spec(
+            runs_per_case=s.runs_per_case,
+            seed=s.seed,
+            duration_s=s.duration_s,
+            vehicle=s.vehicle,
+            table=table_vehicle(self.table)[1],
+        )
+        result = refine(
+            spec,
+            self.table,
+            max_iterations=s.max_iterations,
+            progress=self.progress,
+            search_runs_per_case=s.search_runs_per_case,
+            baseline_runs=self._campaign_runs("campaign_before"),
+            # A loop stopped in this stage resumes at its last finished round.
+            checkpoint=self.out / ".refine-state",
+            # The second gate: a changed row is kept only if it holds on this seed too (the
+            # held-out seed stays unused by any decision).
+            confirm_seed=confirmation_seed(s.seed, s.held_out_seed),
+        )
+        save_search(result, self.paths["search"])
+        result.table.to_csv(self.paths["refined"])
+        changed = (result.table.firing_time_s != self.table.firing_time_s).any(axis=1)
+        return {
+            "cases_changed": int(changed.sum()),
+            "runs_flown": result.runs_flown,
+            "confirm_seed": confirmation_seed(s.seed, s.held_out_seed),
+        }
+
+    def campaign_after(self) -> dict:
+        return self._campaign(
+            "campaign_after", str(self.paths["refined"]), self.settings.held_out_seed
+        )
+
+    def check(self) -> dict:
+        from rcsim.analysis.apps.refinement.outputs import (
+            held_out_check,
+            load_search,
+            table_vehicle,
+            write_refinement,
+        )
+
+        s = self.settings
+        # The refined table's runs on the fresh seed are the "after" campaign's; the old table
+        # is flown on that seed as a campaign too: resumable chunk by chunk, so a loop stopped
+        # in this stage goes on where it was (no plots: the report shows none).
+        self._campaign("campaign_check", self.table_file, s.held_out_seed, plots=False)
+        refined = load_lookup_table(self.paths["refined"])
+        ref = held_out_check(
+            self.table,
+            load_search(self.paths["search"], refined),
+            seed=s.seed,
+            fresh_seed=s.held_out_seed,
+            runs_per_case=s.runs_per_case,
+            duration_s=s.duration_s,
+            fresh_after_runs=self._campaign_runs("campaign_after"),
+            fresh_before_runs=self._campaign_runs("campaign_check"),
+            progress=self.progress,
+            vehicle=s.vehicle,
+            table_file=table_vehicle(self.table)[1],
+        )
+        write_refinement(ref, self.paths["refined"], overwrite=True, writer=COMMAND)
+        log = ref.changelog
+        return {
+            "failed_fresh": f"{int(log['failed_fresh_before'].sum())} -> "
+            f"{int(log['failed_fresh_after'].sum())}"
+        }
+
+    def report(self) -> dict:
+        from rcsim.analysis.apps.loop.report import write_loop_report
+
+        return {"path": str(write_loop_report(self.out, self.settings, self.state.data))}

@@ -1,0 +1,687 @@
+"""Automated lookup-table refinement (Gambone sec. III, Table 6 -> Table 7, automated).
+
+The paper fixed 14 yaw cases by hand after Monte Carlo and notes that the update "can be
+automated by measuring the number of firings and the final rate error".  Here:
+
+1. Fly the table's dispersed runs of every case (the campaign's seed, dispersions and failure
+   threshold).  A case is *not robust* when some run fails (its final rate error does not
+   converge under the threshold) or needs repeated firings to reach the commanded rate.
+2. For each such case, the *offending axes* are those on which some run failed or needed more
+   than one firing event.  Candidates move all the jets of the axis with the most offending
+   runs by one control cycle, shorter or longer (:func:`rcsim.lookup.table_edits.shift_axes`);
+   an entry already flown is never flown again, so the next round walks on in the direction
+   that helped, or turns to the next offending axis.
+3. Every candidate of every case is flown in one batch over the same dispersed runs as the
+   current table (common random numbers).  A case's best candidate (fewer failures first,
+   then fewer repeated firings) is taken only when its improvement is significant on those
+   paired runs: the exact one-sided McNemar test of :mod:`rcsim.analysis.apps.refinement.gate`.
+4. The cases whose rows changed are flown again with all accepted changes, and 2-3 repeat
+   until every case is robust, no entry is left to try, or ``max_iterations`` is reached.
+   The best table flown (fewest failures, then repeated firings, over all searched cases)
+   is the search's.
+5. With a confirmation seed, every changed row (and the mirror row of a changed case on a
+   symmetric vehicle) is flown before and after on that seed's runs, and kept only if the
+   improvement holds there too (Holm over the rows); the others go back to the original row.
+
+The search flies a subset of each case's runs, the first ``search_runs_per_case`` (200 by
+default) of the campaign's own draws: its cost scales with the evidence a decision needs, not
+with the campaign (a 26 x 1,000 campaign is searched on 26 x 200 runs).
+
+:func:`rcsim.analysis.apps.refinement.outputs.held_out_check` then flies a third seed, which no
+decision used.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import pickle
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rcsim.analysis.apps.refinement.evaluate import Trials, evaluate
+from rcsim.analysis.apps.refinement.gate import ALPHA, FAILED, PairedTest, mirror_rows, paired_test
+from rcsim.analysis.engine.campaign.spec import CampaignSpec
+from rcsim.analysis.results.proportions import holm
+from rcsim.analysis.results.scoring import offending_runs, score_key, total, trial_scores
+from rcsim.lookup.table_edits import axis_cycles, jet_axes, shift_axes, with_times
+from rcsim.models.atomic import atomic_write
+from rcsim.models.tables import AXES, LookupTable
+
+#: Cycles a candidate moves one axis: one control cycle either way; repeated iterations walk
+#: further in the direction that helps.
+STEP_CYCLES = (-1, 1)
+
+
+@dataclass
+class RefineResult:
+    """What :func:`refine` found.
+
+    Attributes
+    ----------
+    table : LookupTable
+        The refined table (``source`` says what it was refined from).
+    before, after : DataFrame
+        Per searched case on the search seed: ``case_index, failed, repeated, runs``.
+    iterations : list of dict
+        Per iteration: candidates flown, cases changed, totals after, and per case whose best
+        candidate was strictly better the gate's test (``decisions``).
+    runs_flown : int
+    evidence : DataFrame, optional
+        Per searched case, the evidence of its change (:func:`evidence_frame`): the search
+        seed's paired test of the original row against the final one, the confirmation
+        seed's, the decision and the mirror case's.
+    """
+
+    table: LookupTable
+    before: pd.DataFrame
+    after: pd.DataFrame
+    iterations: list = field(default_factory=list)
+    runs_flown: int = 0
+    evidence: pd.DataFrame | None = None
+
+
+#: Runs per case the search flies by default: the first 200 of each case's campaign runs (the
+#: same draws).  Enough to tell a candidate that removes failures at a rate of a few percent
+#: from one that does not (issue 19); the held-out check then flies every run at full size.
+SEARCH_RUNS_PER_CASE = 200
+
+
+def refine(
+    spec: CampaignSpec,
+    table: LookupTable,
+    cases=None,
+    *,
+    max_iterations: int = 8,
+    threads: int | None = None,
+    progress: bool | None = None,
+    lookup_params=None,
+    baseline_runs: pd.DataFrame | None = None,
+    search_runs_per_case: int | None = SEARCH_RUNS_PER_CASE,
+    checkpoint: str | Path | None = None,
+    confirm_seed: int | None = None,
+    alpha: float = ALPHA,
+) -> RefineResult:
+    """Refine ``table`` against the dispersed runs of ``spec``.
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+        A rate-cases campaign with one case per table row (all 26, in table order).
+    table : LookupTable
+    cases : sequence of int, optional
+        Table rows (0-based) to search; default all.
+    max_iterations : int
+        Most rounds of candidates (each round: candidates, then the changed cases again).
+    baseline_runs : DataFrame, optional
+        The table's own runs on ``spec`` if already flown (a campaign's, through
+        :func:`~rcsim.analysis.apps.refinement.evaluate.runs_from_campaign`); default: fly them.
+    search_runs_per_case : int or None
+        The search flies runs ``0 .. search_runs_per_case - 1`` of each case (the campaign's
+        own draws, numbered as the campaign numbers them); None or more than
+        ``spec.runs_per_case``: all of them.  The result depends on this number and the seed,
+        never on how the flying is split (chunks, threads).
+    checkpoint : path, optional
+        A file the search keeps its state in after the baseline and after every round
+        (written atomically).  If it exists and was written by a search with the same
+        arguments, the search continues from it instead of starting again: a search killed in
+        its fifth round resumes there, and ends with the table an uninterrupted one finds.
+        Removed when the search ends.
+    confirm_seed : int, optional
+        The confirmation seed (step 5 of the module docstring): every changed row is flown
+        before and after on all ``spec.runs_per_case`` runs of that seed, and kept only if its
+        improvement holds there (Holm at ``alpha`` over the rows).  None: no confirmation (the
+        search gate alone).
+    alpha : float
+        Level of each paired test (:data:`rcsim.analysis.apps.refinement.gate.ALPHA`).
+    """
+    if len(spec.cases) != len(table.case):
+        raise ValueError(f"spec has {len(spec.cases)} cases, the table {len(table.case)}")
+    if max_iterations < 1:
+        raise ValueError(f"max_iterations must be >= 1, got {max_iterations}")
+    if search_runs_per_case is not None and search_runs_per_case < 1:
+        raise ValueError(f"search_runs_per_case must be >= 1, got {search_runs_per_case}")
+    cases = np.arange(len(table.case)) if cases is None else np.asarray(sorted(set(cases)), int)
+    if confirm_seed is not None and confirm_seed == spec.seed:
+        raise ValueError("the confirmation seed must differ from the search seed")
+    search = _Search(
+        spec,
+        table,
+        cases,
+        dict(threads=threads, progress=progress, lookup_params=lookup_params),
+        min(spec.runs_per_case, search_runs_per_case or spec.runs_per_case),
+        alpha,
+    )
+    key = _checkpoint_key(
+        spec, table, cases, max_iterations, search.runs_per_case, confirm_seed, alpha
+    )
+    saved = _load_checkpoint(checkpoint, key)
+    if saved is not None:
+        search.__dict__.update(saved)
+    else:
+        search.start(baseline_runs)
+        _save_checkpoint(checkpoint, key, search)
+    for it in range(len(search.iterations), max_iterations):
+        trials, edits = search.candidates()
+        if trials is None:
+            break
+        search.round(it + 1, trials, edits)
+        _save_checkpoint(checkpoint, key, search)
+    final, after, evidence = search.confirm(confirm_seed)
+    evidence["refused"] = refused_candidates(search.iterations, table.case[cases])
+    if checkpoint is not None:
+        Path(checkpoint).unlink(missing_ok=True)
+    refined = with_times(table, final, source=f"refined from {table.source or 'a table'}")
+    return RefineResult(
+        table=refined,
+        before=search.before,
+        after=after,
+        iterations=search.iterations,
+        runs_flown=search.flown,
+        evidence=evidence,
+    )
+
+
+#: What a checkpoint keeps of a :class:`_Search` (everything a round reads or changes).
+_STATE = (
+    "current",
+    "runs",
+    "scores",
+    "before",
+    "base",
+    "best",
+    "iterations",
+    "flown",
+    "visited",
+)
+
+
+def _checkpoint_key(spec, table, cases, max_iterations, runs_per_case, confirm_seed, alpha) -> str:
+    """A digest of everything the search's result depends on: a checkpoint of another search
+    (another spec, table, cases, subset, confirmation seed or level, or a search without the
+    gate) is never continued."""
+    parts = [
+        "gate-1",
+        spec.digest(),
+        np.asarray(table.firing_time_s, float).tobytes().hex(),
+        np.asarray(cases).tobytes().hex(),
+        str(max_iterations),
+        str(runs_per_case),
+        str(confirm_seed),
+        repr(float(alpha)),
+    ]
+    return hashlib.sha256("|".join(parts).encode()).hexdigest()
+
+
+def _save_checkpoint(path, key: str, search: _Search) -> None:
+    if path is None:
+        return
+    state = {"key": key, **{name: getattr(search, name) for name in _STATE}}
+    Path(path).parent.mkdir(parents=True, exist_ok=True)  # where the outputs will go too
+    atomic_write(path, lambda tmp: Path(tmp).write_bytes(pickle.dumps(state)))
+
+
+def _load_checkpoint(path, key: str) -> dict | None:
+    """The saved search state, or None (no file, another search's, or unreadable: start)."""
+    if path is None or not Path(path).is_file():
+        return None
+    try:
+        state = pickle.loads(Path(path).read_bytes())  # our own file, written by this module
+    except Exception:  # a damaged checkpoint only costs the work it held
+        return None
+    if not isinstance(state, dict) or state.get("key") != key:
+        return None
+    return {name: state[name] for name in _STATE}
+
+
+class _Search:
+    """The state of one :func:`refine` search: the current table, its runs and scores per
+    searched case, the entries already flown, the best table so far (steps 2-4 of the module
+    docstring, one method each)."""
+
+    def __init__(
+        self,
+        spec: CampaignSpec,
+        table: LookupTable,
+        cases: np.ndarray,
+        kw: dict,
+        runs_per_case: int,
+        alpha: float = ALPHA,
+    ):
+        self.spec, self.table, self.cases, self.kw = spec, table, cases, kw
+        self.runs_per_case = runs_per_case
+        self.alpha = alpha
+        self.jet_axis = jet_axes(table)
+        self.threshold_deg_s = float(np.degrees(spec.rate_threshold_rad_s))
+        self.current = np.asarray(table.firing_time_s, float)
+        self.iterations: list = []
+        self.flown = 0
+        # Entries already flown, per case (its firing cycles per axis): a candidate that
+        # returns to one of them (the step back after a step that helped) or repeats a
+        # rejected one is not flown again.  Other entries may have changed since, which could
+        # shift the verdict slightly; the re-fly after each round measures what is kept.
+        self.visited = {(int(c), tuple(axis_cycles(self.current, self.jet_axis)[c])) for c in cases}
+
+    def _fly(
+        self, times: np.ndarray, trial_cases: np.ndarray, desc: str, spec=None, runs_per_case=-1
+    ) -> pd.DataFrame:
+        trials = Trials(
+            np.repeat(times[None], trial_cases.size, axis=0),
+            trial_cases,
+            tuple(f"case {c + 1}: current" for c in trial_cases),
+        )
+        runs = evaluate(
+            self.spec if spec is None else spec,
+            self.table,
+            trials,
+            desc=desc,
+            runs_per_case=self.runs_per_case if runs_per_case == -1 else runs_per_case,
+            **self.kw,
+        )
+        self.flown += len(runs)
+        return runs
+
+    def start(self, baseline_runs: pd.DataFrame | None) -> None:
+        """Step 1: the table's own runs, flown or taken from the campaign that flew them."""
+        if baseline_runs is None:
+            self.runs = self._fly(self.current, self.cases, "refine: baseline")
+        else:
+            mine = baseline_runs[baseline_runs["k"] < self.runs_per_case]
+            self.runs = mine.reset_index(drop=True)
+        self.scores = trial_scores(self.runs, self.cases.size)
+        self.before = self.scores.assign(case_index=self.cases)
+        self.base = self.runs  # the original table's runs: the changelog's "before"
+        self.best = (self.current, self.before, self.runs)
+
+    def candidates(self) -> tuple[Trials | None, list]:
+        """Step 2: one axis per non-robust case, one cycle shorter and longer."""
+        offending = offending_runs(self.runs, self.threshold_deg_s, self.cases.size)
+        times, labels, trial_case, edits = [], [], [], []
+        for t, c in enumerate(self.cases):
+            if score_key(self.scores.iloc[t]) == (0, 0):
+                continue
+            # One axis per case and round: the one most runs fail or re-fire on (the paper's
+            # yaw), before axes with a stray run or two; the next round moves on if it does
+            # not help (its entries are then visited).
+            for a in sorted(np.flatnonzero(offending[t]), key=lambda a: -offending[t, a]):
+                found = self._axis_candidates(t, int(c), int(a))
+                for candidate, label, shift in found:
+                    times.append(candidate)
+                    labels.append(label)
+                    trial_case.append(c)
+                    edits.append((t, shift))
+                if found:
+                    break
+        if not times:
+            return None, []
+        return Trials(np.array(times), np.array(trial_case), tuple(labels)), edits
+
+    def _axis_candidates(self, t: int, c: int, a: int) -> list:
+        """Case ``c``'s axis ``a`` one cycle either way, the entries not flown yet."""
+        found = []
+        for step in STEP_CYCLES:
+            shift = np.zeros((len(self.table.case), len(AXES)), int)
+            shift[c, a] = step
+            try:
+                candidate = shift_axes(self.current, self.jet_axis, shift)
+            except ValueError:  # would leave less than a cycle: not a candidate
+                continue
+            state = (int(c), tuple(axis_cycles(candidate, self.jet_axis)[c]))
+            if state in self.visited:
+                continue
+            self.visited.add(state)
+            found.append(
+                (candidate, f"case {c + 1}: {self._axis_name(c, a)} {step:+d} cycle", shift)
+            )
+        return found
+
+    def _axis_name(self, c: int, a: int) -> str:
+        """How a move is named: the axis (``yaw``), or for a channel table the channel
+        (``+yaw channel``: its columns are channels, named by the axis and sign they turn)."""
+        if self.table.recipe is None:
+            return AXES[a]
+        sign = "+" if self.table.rate_cmd[c, a] > 0 else "-"
+        return f"{sign}{AXES[a]} channel"
+
+    def round(self, number: int, trials: Trials, edits: list) -> None:
+        """Steps 3-4: fly the candidates, keep each case's best if strictly better, fly the
+        changed cases again with every accepted change."""
+        cand_runs = evaluate(
+            self.spec,
+            self.table,
+            trials,
+            desc=f"refine: round {number} candidates",
+            runs_per_case=self.runs_per_case,
+            **self.kw,
+        )
+        self.flown += len(cand_runs)
+        cand = trial_scores(cand_runs, trials.n_trials)
+        accepted = np.zeros((len(self.table.case), len(AXES)), int)
+        changed, decisions = [], []
+        for t in np.unique([e[0] for e in edits]):
+            mine = [i for i, e in enumerate(edits) if e[0] == t]
+            # Best candidate: fewest failures, then fewest repeated firings; first wins a tie
+            # (shorter before longer, roll before yaw), so the search is deterministic.
+            i = min(mine, key=lambda i: score_key(cand.iloc[i]))
+            if score_key(cand.iloc[i]) < score_key(self.scores.iloc[t]):
+                # Strictly better is not enough: the gain must be significant on the paired
+                # runs (a change resting on a run or two in 200 is noise).
+                test = paired_test(
+                    self.runs[self.runs["trial"] == t],
+                    cand_runs[cand_runs["trial"] == i],
+                    self.alpha,
+                )
+                decisions.append({"candidate": trials.label[i], **_test_dict(test)})
+                if test.passed:
+                    accepted += edits[i][1]
+                    changed.append(trials.label[i])
+        if not changed:
+            # Nothing helped: the table and its runs stand; the next round tries the entries
+            # not flown yet (other axes), and the search ends when there are none.
+            self.iterations.append(
+                {
+                    "round": number,
+                    "candidates": trials.n_trials,
+                    "changed": [],
+                    "decisions": decisions,
+                }
+            )
+            return
+        self.current = shift_axes(self.current, self.jet_axis, accepted)
+        self._refly(
+            np.flatnonzero(np.isin(self.cases, np.flatnonzero(accepted.any(axis=1)))),
+            f"refine: round {number} re-fly",
+        )
+        totals = self.scores[["failed", "repeated"]].sum()
+        self.iterations.append(
+            {
+                "round": number,
+                "candidates": trials.n_trials,
+                "changed": changed,
+                "decisions": decisions,
+                "failed": int(totals["failed"]),
+                "repeated": int(totals["repeated"]),
+            }
+        )
+        if total(self.scores) < total(self.best[1]):
+            self.best = (self.current, self.scores.assign(case_index=self.cases), self.runs)
+
+    def _refly(self, positions: np.ndarray, desc: str) -> None:
+        """Fly the current table on the searched cases at ``positions`` (indices into
+        ``cases``) and replace their runs.  Only the cases whose own rows changed are flown
+        again: a row change could in principle alter another case's late correction firings,
+        which the held-out check at full size measures."""
+        fresh = self._fly(self.current, self.cases[positions], desc)
+        fresh["trial"] = positions[fresh["trial"].to_numpy()]
+        kept = self.runs[~self.runs["trial"].isin(positions)]
+        self.runs = (
+            pd.concat([kept, fresh], ignore_index=True)
+            .sort_values(["trial", "k"], kind="stable")
+            .reset_index(drop=True)
+        )
+        self.scores = trial_scores(self.runs, self.cases.size)
+
+    def confirm(self, confirm_seed: int | None) -> tuple[np.ndarray, pd.DataFrame, pd.DataFrame]:
+        """Step 5: the confirmation gate on ``confirm_seed`` (None: none).  Returns the final
+        times, the per-case scores on the search seed and :func:`evidence_frame`'s rows."""
+        from dataclasses import replace
+
+        orig = np.asarray(self.table.firing_time_s, float)
+        best, runs = self.best[0], self.best[2]
+        c_orig = axis_cycles(orig, self.jet_axis)
+        c_best = axis_cycles(best, self.jet_axis)
+        pos = {int(c): t for t, c in enumerate(self.cases)}
+        changed = [t for t, c in enumerate(self.cases) if (c_best[c] != c_orig[c]).any()]
+        mirror = mirror_rows(self.table.rate_cmd)
+        # The packaged vehicle's jets come in pairs mirrored through the centre of mass, and
+        # the Table 5 dispersions are symmetric: a case and its mirror (every rate command
+        # negated) are the same problem flown on the opposite jets.  A vehicle file is not
+        # assumed symmetric.
+        symmetric = self.spec.vehicle in (None, "paper")
+        final = best.copy()
+        source: dict[int, int] = {}  # mirror row position -> the changed case's position
+        notes: dict[int, str] = {}
+        for t in changed:
+            c = int(self.cases[t])
+            m = int(mirror[c])
+            if m < 0 or m not in pos or pos[m] in changed or pos[m] in source:
+                continue
+            if not symmetric:
+                notes[pos[m]] = "a vehicle file: mirror symmetry not assumed"
+                continue
+            if (c_orig[m] != c_orig[c]).any():
+                notes[pos[m]] = "the original table's rows differ: the change does not carry over"
+                continue
+            shift = np.zeros_like(c_orig)
+            shift[m] = c_best[c] - c_orig[c]
+            try:
+                final = shift_axes(final, self.jet_axis, shift)
+            except ValueError:
+                notes[pos[m]] = "the mirrored change would leave less than a cycle"
+                continue
+            source[pos[m]] = t
+        # Search-seed runs of every row as finally proposed (mirror rows flown once here).
+        search_runs = {t: runs[runs["trial"] == t] for t in range(self.cases.size)}
+        if source:
+            mt = np.array(sorted(source))
+            fresh = self._fly(final, self.cases[mt], "refine: mirror rows, search seed")
+            for i, t in enumerate(mt):
+                search_runs[int(t)] = fresh[fresh["trial"] == i].assign(trial=int(t))
+        search_tests = {
+            t: paired_test(self.base[self.base["trial"] == t], search_runs[t], self.alpha)
+            for t in range(self.cases.size)
+        }
+        involved = sorted([*changed, *source])
+        confirm_tests: dict[int, PairedTest] = {}
+        kept = {t: True for t in involved}
+        if confirm_seed is not None and involved:
+            spec = replace(self.spec, seed=int(confirm_seed))
+            rows = self.cases[np.array(involved)]
+            # All runs of the confirmation seed (spec.runs_per_case), the original and the
+            # final table over the same runs.
+            trials = Trials(
+                np.concatenate(
+                    [np.repeat(orig[None], len(rows), 0), np.repeat(final[None], len(rows), 0)]
+                ),
+                np.tile(rows, 2),
+                tuple(["original"] * len(rows) + ["refined"] * len(rows)),
+            )
+            flown = evaluate(spec, self.table, trials, desc="refine: confirmation seed", **self.kw)
+            self.flown += len(flown)
+            for i, t in enumerate(involved):
+                decided = search_tests[source.get(t, t)].outcome
+                confirm_tests[t] = paired_test(
+                    flown[flown["trial"] == i],
+                    flown[flown["trial"] == i + len(rows)],
+                    self.alpha,
+                    outcome=decided,
+                )
+            p = np.array([confirm_tests[t].p for t in involved])
+            held = holm(p, self.alpha)
+            for j, t in enumerate(involved):
+                ct = confirm_tests[t]
+                kept[t] = bool(held[j]) and (
+                    ct.outcome == FAILED or ct.failed_after <= ct.failed_before
+                )
+        for t in involved:
+            if not kept[t]:
+                c = int(self.cases[t])
+                final[c] = orig[c]
+                search_runs[t] = self.base[self.base["trial"] == t]
+        after_runs = pd.concat(search_runs.values(), ignore_index=True)
+        after = trial_scores(after_runs, self.cases.size).assign(case_index=self.cases)
+        evidence = evidence_frame(
+            self.table,
+            self.cases,
+            final,
+            self.jet_axis,
+            search_tests,
+            confirm_tests,
+            kept,
+            source,
+            notes,
+            confirm_seed is not None,
+        )
+        return final, after, evidence
+
+
+def refused_candidates(iterations: list, case_numbers) -> list[str]:
+    """Per searched case, the strictly better candidates the search gate refused, e.g.
+    ``round 2: roll +1 cycle (failed 1:0, p=0.5)``; "" when none."""
+    out: dict[int, list[str]] = {int(c): [] for c in case_numbers}
+    for it in iterations:
+        for d in it.get("decisions", []):
+            if d["accepted"]:
+                continue
+            case = int(d["candidate"].split(":")[0].split()[1])
+            move = d["candidate"].split(": ", 1)[1]
+            out[case].append(
+                f"round {it['round']}: {move} ({d['outcome']} {d['b']}:{d['c']}, p={d['p']:.2g})"
+            )
+    return ["; ".join(out[int(c)]) for c in case_numbers]
+
+
+def _test_dict(test: PairedTest) -> dict:
+    return {
+        "outcome": test.outcome,
+        "b": test.b,
+        "c": test.c,
+        "p": test.p,
+        "failed_before": test.failed_before,
+        "failed_after": test.failed_after,
+        "repeated_before": test.repeated_before,
+        "repeated_after": test.repeated_after,
+        "accepted": test.passed,
+    }
+
+
+def _moves(delta: np.ndarray, table: LookupTable | None = None, row: int = 0) -> str:
+    """A row's change in cycles per axis, e.g. ``yaw -1`` (a channel table's row:
+    ``+yaw channel -1``); ``none``."""
+
+    def name(a: int) -> str:
+        if table is None or table.recipe is None:
+            return AXES[a]
+        return f"{'+' if table.rate_cmd[row, a] > 0 else '-'}{AXES[a]} channel"
+
+    parts = [f"{name(a)} {int(d):+d}" for a, d in enumerate(delta) if d]
+    return ", ".join(parts) or "none"
+
+
+def evidence_frame(
+    table: LookupTable,
+    cases: np.ndarray,
+    final: np.ndarray,
+    jet_axis: np.ndarray,
+    search_tests: dict,
+    confirm_tests: dict,
+    kept: dict,
+    source: dict,
+    notes: dict,
+    confirmed_on_seed: bool,
+) -> pd.DataFrame:
+    """Per searched case: the row's change, the evidence for it and what became of it.
+
+    Columns: ``case_index``, ``decided_on`` (``failed`` or ``failed or repeated``), the search
+    seed's counts and paired test of the original row against the proposed one (``search_b``
+    better / ``search_c`` worse discordant runs, ``search_p``), the confirmation seed's
+    (``confirm_failed_before`` ... ``confirm_p``, empty where nothing was confirmed),
+    ``decision`` and, for the mirror case (every rate command negated), ``mirror_case`` and
+    ``mirror_decision``.  :func:`refine` adds ``refused`` (:func:`refused_candidates`).
+    """
+    orig = np.asarray(table.firing_time_s, float)
+    c_orig = axis_cycles(orig, jet_axis)
+    c_final = axis_cycles(final, jet_axis)
+    mirror = mirror_rows(table.rate_cmd)
+    pos = {int(c): t for t, c in enumerate(cases)}
+    rows = []
+    for t, c in enumerate(cases):
+        c = int(c)
+        st = search_tests[t]
+        ct = confirm_tests.get(t)
+        involved = t in kept
+        row = {
+            "case_index": c,
+            "decided_on": search_tests[source.get(t, t)].outcome if involved else "",
+            "search_failed_before": st.failed_before,
+            "search_failed_after": st.failed_after,
+            "search_repeated_before": st.repeated_before,
+            "search_repeated_after": st.repeated_after,
+            "search_runs": st.runs,
+            "search_b": st.b if involved else 0,
+            "search_c": st.c if involved else 0,
+            "search_p": st.p if involved else 1.0,
+        }
+        for name in ("failed_before", "failed_after", "repeated_before", "repeated_after"):
+            row[f"confirm_{name}"] = getattr(ct, name) if ct else pd.NA
+        row["confirm_runs"] = ct.runs if ct else pd.NA
+        row["confirm_b"] = ct.b if ct else pd.NA
+        row["confirm_c"] = ct.c if ct else pd.NA
+        row["confirm_p"] = ct.p if ct else np.nan
+        if not involved:
+            row["decision"] = "unchanged"
+        else:
+            what = f"mirror of case {int(cases[source[t]]) + 1}" if t in source else "search"
+            if not confirmed_on_seed:
+                row["decision"] = f"changed ({what}; search gate only)"
+            elif kept[t]:
+                row["decision"] = f"changed ({what}; confirmed)"
+            else:
+                row["decision"] = f"reverted ({what}; not confirmed on the confirmation seed)"
+        rows.append(row)
+    frame = pd.DataFrame(rows)
+    mirror_case, mirror_decision = [], []
+    for t, c in enumerate(cases):
+        c = int(c)
+        m = int(mirror[c])
+        mirror_case.append(m + 1 if m >= 0 else 0)
+        if m < 0:
+            mirror_decision.append("no mirror case")
+            continue
+        if m not in pos:
+            mirror_decision.append(f"case {m + 1} not searched")
+            continue
+        mine, theirs = c_final[c] - c_orig[c], c_final[m] - c_orig[m]
+        if (mine == theirs).all():
+            mirror_decision.append(
+                "consistent: neither changed"
+                if not mine.any()
+                else f"consistent: both {_moves(mine, table, c)}"
+            )
+            continue
+        tm = pos[m]
+        why = notes.get(tm) or notes.get(t)
+        if why is None:
+            reverted = [x for x in (t, tm) if x in kept and not kept[x]]
+            if reverted:
+                why = "the change was not confirmed for case " + " and ".join(
+                    str(int(cases[x]) + 1) for x in reverted
+                )
+            else:
+                why = "each row changed on its own evidence"
+        mirror_decision.append(
+            f"differs: case {c + 1} {_moves(mine, table, c)}, case {m + 1} "
+            f"{_moves(theirs, table, m)} ({why})"
+        )
+    frame.insert(1, "mirror_case", mirror_case)
+    frame["mirror_decision"] = mirror_decision
+    return frame
+
+
+def changed_cells(old: LookupTable, new: LookupTable) -> pd.DataFrame:
+    """Per case and axis whose firing time changed: ``case, axis, old_cycles, new_cycles``."""
+    jet_axis = jet_axes(old)
+    a_old = axis_cycles(old.firing_time_s, jet_axis)
+    a_new = axis_cycles(new.firing_time_s, jet_axis)
+    rows = [
+        {
+            "case": int(old.case[c]),
+            "axis": AXES[a],
+            "old_cycles": int(a_old[c, a]),
+            "new_cycles": int(a_new[c, a]),
+        }
+        for c, a in np.argwhere(a_old != a_new)
+    ]
+    return pd.DataFrame(rows, columns=["case", "axis", "old_cycles", "new_cycles"])

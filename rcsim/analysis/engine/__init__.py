@@ -1,0 +1,13 @@
+"""The engine that flies: scenarios and campaigns in, flights and their result files out.
+
+* :mod:`~rcsim.analysis.engine.flight` -- fly scenarios as one batch, history tables, flight plots;
+* :mod:`~rcsim.analysis.engine.scenarios` -- the paper's named scenarios;
+* :mod:`~rcsim.analysis.engine.campaign` -- Monte Carlo dispersion campaigns (spec, chunks, runner,
+  Dask, resume, replay);
+* :mod:`~rcsim.analysis.engine.runs_table` -- ``runs.parquet`` and the campaign directory's file
+  names: the one owner of the data contract between the engine and the results layer;
+* :mod:`~rcsim.analysis.engine.output` -- output directories and files (markers, atomic writes);
+* :mod:`~rcsim.analysis.engine.plots` -- plotting helpers without pyplot.
+
+Must not import: rcsim.analysis.results, rcsim.analysis.apps.
+"""

@@ -1,0 +1,134 @@
+"""Dask execution of a campaign: connect (or start a local cluster), stream chunk results,
+and stop quietly.
+
+Local workers are started with SIGINT ignored: a terminal's Ctrl-C reaches the whole process
+group, and it is the campaign's process that stops them (cancelling their tasks and closing
+the cluster with distributed's loggers silenced), so an interrupt prints one line, not a
+traceback per worker.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import signal
+import threading
+from collections.abc import Generator
+from itertools import islice
+from typing import TYPE_CHECKING
+
+from rcsim.analysis.engine.campaign.chunk import simulate_chunk
+from rcsim.models.errors import InputError
+
+if TYPE_CHECKING:
+    from rcsim.analysis.engine.campaign.chunk import ChunkResult
+    from rcsim.analysis.engine.campaign.spec import CampaignSpec
+
+
+def dask_results(
+    spec: CampaignSpec, chunks, client, in_flight: int
+) -> Generator[ChunkResult, None, None]:
+    """Yield ChunkResults from a Dask client, at most ``in_flight`` tasks submitted; tasks
+    still queued or running when the consumer stops are cancelled."""
+    from distributed import as_completed
+
+    submit = lambda c: client.submit(simulate_chunk, spec, c, 1, pure=False)  # noqa: E731
+    live = {submit(c) for c in islice(chunks, in_flight)}
+    pool = as_completed(list(live))
+    try:
+        for fut in pool:
+            result = fut.result()
+            live.discard(fut)
+            fut.release()
+            for chunk in islice(chunks, 1):
+                new = submit(chunk)
+                live.add(new)
+                pool.add(new)
+            yield result
+    finally:
+        if live:
+            with quiet_dask(), contextlib.suppress(Exception):
+                # Workers log every task cancelled under them; that is the point here.
+                client.run(_quiet_worker)
+                client.cancel(list(live), force=True)
+
+
+def _quiet_worker() -> None:
+    """Run on each Dask worker before its tasks are cancelled: silence distributed's logs."""
+    logging.getLogger("distributed").setLevel(logging.CRITICAL + 1)
+
+
+@contextlib.contextmanager
+def quiet_dask():
+    """Silence distributed's (and its event loop's) loggers: closing a cluster with tasks in
+    flight makes them log every cancelled task and closed stream, which is expected here."""
+    names = ("distributed", "tornado", "asyncio")
+    loggers = [logging.getLogger(n) for n in names]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for lg, level in zip(loggers, levels):
+            lg.setLevel(level)
+
+
+@contextlib.contextmanager
+def _children_ignore_sigint():
+    """Processes started inside ignore SIGINT (an ignored signal stays ignored across exec,
+    and Python keeps it so).  Only in the main thread, where signals can be set."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def connect(workers: int | None, scheduler: str | None):
+    """A Dask client (and the cluster we started, to close), or (None, None) for local mode."""
+    if workers is not None and scheduler is not None:
+        raise InputError(
+            "cannot be combined with a scheduler: workers starts a local cluster, "
+            "scheduler uses an existing one (they are exclusive)",
+            parameter="workers",
+            value=workers,
+        )
+    if workers is None and scheduler is None:
+        return None, None
+    from distributed import Client, LocalCluster
+
+    from rcsim.analysis.engine.campaign.chunk import warm_up
+
+    if workers is not None:
+        if workers < 1:
+            raise InputError(f"must be >= 1, got {workers}", parameter="workers", value=workers)
+        with _children_ignore_sigint():
+            cluster = LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+            )
+        client = Client(cluster)
+    else:
+        cluster = None
+        try:
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise InputError(
+                f"{scheduler}: cannot connect ({exc})", parameter="scheduler", value=scheduler
+            ) from None
+    client.run(warm_up)
+    return client, cluster
+
+
+def close(client, cluster) -> None:
+    """Close a Dask client and the cluster we started, quietly and without a long wait."""
+    with quiet_dask():
+        if client is not None:
+            with contextlib.suppress(Exception):
+                client.close(timeout=5)
+        if cluster is not None:
+            with contextlib.suppress(Exception):
+                cluster.close(timeout=5)

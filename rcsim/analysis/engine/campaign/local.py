@@ -1,0 +1,183 @@
+"""Local execution of a campaign's chunks: in this process, or one worker process per CPU.
+
+Why processes.  A chunk alternates between MuJoCo's batched rollout (native, GIL released)
+and the control cycle's numpy work (navigation, controller, valves, the cut at switch
+instants), which holds the interpreter.  Two chunks on two threads of one process take turns
+at the interpreter, so the second core idles during the other chunk's Python work; two
+processes do not share an interpreter (``docs/performance.md`` has the measurements).  Each
+chunk is a pure function of the spec and its run ids, so results are the same in any process,
+bit for bit, whatever the worker count or the order chunks finish in.
+
+Workers are started by a fork server with the chunk machinery preloaded (no per-worker import
+cost, and no fork of a process that runs MuJoCo threads), ignore SIGINT (a terminal's Ctrl-C
+reaches the whole process group; it is this process that stops them) and are killed, not
+waited for, when the campaign is interrupted: a chunk abandoned mid-flight is redone on
+``--resume`` (chunks commit in this process only).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+from collections.abc import Generator, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from contextlib import contextmanager
+from itertools import islice
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from rcsim.analysis.engine.campaign.chunk import Chunk, ChunkResult, simulate_chunk, warm_up
+
+if TYPE_CHECKING:
+    from rcsim.analysis.engine.campaign.spec import CampaignSpec
+
+#: Modules the fork server imports once, so that every worker starts with them loaded.
+_PRELOAD = ["rcsim.analysis.engine.campaign.chunk"]
+
+
+def _worker_init() -> None:
+    """Run in each worker: Ctrl-C is the parent's to handle; load what chunks need."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    warm_up()
+
+
+def worker_pool(workers: int) -> ProcessPoolExecutor:
+    """A pool of ``workers`` chunk processes (see the module docstring)."""
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(_PRELOAD)
+    _start_fork_server()
+    return ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_worker_init)
+
+
+def _start_fork_server() -> None:
+    """Start the fork server (once per process) importing rcsim from this process's tree.
+
+    The fork server imports :data:`_PRELOAD` before it takes this process's ``sys.path``
+    (CPython 3.11's ``multiprocessing.forkserver.main`` receives it and never applies it), so
+    a tree put on the path at run time -- a notebook's ``sys.path.insert``, a script run from
+    one checkout beside another installed -- would be this process's code while the workers
+    fly the installed one, and the manifest's code version would not be what flew.  The tree
+    this process imported rcsim from goes first on ``PYTHONPATH``, which the fork server's
+    interpreter reads when it starts, and only for that start -- unless that tree is an
+    installed one (a site-packages folder), which the fork server finds anyway and which put
+    before the standard library could shadow it with a stray backport.
+    """
+    import site
+    from multiprocessing import forkserver
+
+    tree = str(Path(__file__).resolve().parents[4])  # the folder holding rcsim/
+    installed = {str(Path(p).resolve()) for p in site.getsitepackages()}
+    installed.add(str(Path(site.getusersitepackages()).resolve()))
+    if tree in installed:
+        forkserver.ensure_running()
+        return
+    before = os.environ.get("PYTHONPATH")
+    os.environ["PYTHONPATH"] = os.pathsep.join([tree] + ([before] if before else []))
+    try:
+        forkserver.ensure_running()
+    finally:
+        if before is None:
+            del os.environ["PYTHONPATH"]
+        else:
+            os.environ["PYTHONPATH"] = before
+
+
+@contextmanager
+def _main_script_hidden():
+    """Start workers without re-running the user's script in them.
+
+    A worker started by a fork server or by spawning re-imports the parent's ``__main__`` from
+    its file, to find functions defined there.  Chunks need nothing from it, and a script or a
+    notebook export written without the ``if __name__ == "__main__":`` guard would run its
+    whole campaign again in every worker.  Hidden only while a worker may start (a ``-m``
+    module is re-imported by name, which its own guard protects, and is left alone).
+    """
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if path is None or getattr(main, "__spec__", None) is not None:
+        yield
+        return
+    del main.__file__
+    try:
+        yield
+    finally:
+        main.__file__ = path
+
+
+def submit(pool: ProcessPoolExecutor, fn, *args) -> Future:
+    """``pool.submit(fn, *args)``; a worker it starts does not re-run the user's script."""
+    with _main_script_hidden():
+        return pool.submit(fn, *args)
+
+
+def kill_pool(pool: ProcessPoolExecutor) -> None:
+    """Stop ``pool`` at once: queued chunks are dropped and running workers killed."""
+    # concurrent.futures has no public way to stop a running worker before Python 3.14
+    # (ProcessPoolExecutor.kill_workers); its process table is the documented-in-source way.
+    manager = getattr(pool, "_executor_manager_thread", None)
+    results = getattr(pool, "_result_queue", None)
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.kill()
+    # A worker killed while it sent its result leaves part of a message in the result pipe, and
+    # the manager thread would wait for the rest for ever (then the interpreter's exit for the
+    # thread: ~25 s after Ctrl-C, and a warning of leaked semaphores).  Every worker killed,
+    # this process's write end is the pipe's last: closed, the thread reads the pipe's end and
+    # sees the pool broken, as it is.
+    writer = getattr(results, "_writer", None)
+    if writer is not None:
+        writer.close()
+    pool.shutdown(wait=False, cancel_futures=True)
+    # Wait for the pool's manager thread to see its workers gone and close its wake-up pipe.
+    # Left running, it races the interpreter's exit hook, which writes to that pipe while the
+    # thread closes it (CPython 3.11 prints "OSError: Bad file descriptor" after our one line).
+    if manager is not None:
+        manager.join(timeout=10.0)
+
+
+def local_results(
+    spec: CampaignSpec,
+    chunks: Iterator[Chunk],
+    workers: int,
+    n_chunks: int,
+    cancel: threading.Event,
+) -> Generator[ChunkResult, None, None]:
+    """Yield the results of ``chunks`` as they finish, at most ``workers`` flying at once.
+
+    One worker (or one chunk): in this process, with MuJoCo's own threads on every CPU (an
+    interrupt stops it between two control cycles, through ``cancel``).  More: a
+    :func:`worker_pool`, each chunk flown with one MuJoCo thread and one more chunk queued;
+    when the consumer stops early (an interrupt), the workers are killed and the queued chunk
+    dropped.
+    """
+    workers = max(1, min(workers, n_chunks))
+    if workers == 1:
+        nthread = os.cpu_count() or 1
+        for chunk in chunks:
+            yield simulate_chunk(spec, chunk, nthread=nthread, cancel=cancel)
+        return
+    pool = worker_pool(workers)
+    pending: set = set()
+    finished_normally = False
+    # One chunk more than workers: a worker that finishes starts the queued chunk at once,
+    # instead of idling while this process takes its result, commits it and submits the next
+    # (~16 ms a chunk, 1.3 % of a paper-size flight; docs/performance.md).
+    in_flight = workers + 1
+    try:
+        while True:
+            for chunk in islice(chunks, in_flight - len(pending)):
+                pending.add(submit(pool, simulate_chunk, spec, chunk, 1))
+            if not pending:
+                finished_normally = True
+                return
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                yield future.result()
+    finally:
+        if finished_normally:
+            pool.shutdown(wait=True)
+        else:
+            kill_pool(pool)

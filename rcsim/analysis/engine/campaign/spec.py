@@ -1,0 +1,668 @@
+"""Campaign specs: a TOML file, validated key by key into a :class:`CampaignSpec`.
+
+Every mistake is an :class:`~rcsim.models.errors.InputError` naming the file, the key path (e.g.
+``dispersions.three_sigma.thrust_n``) and the value, raised before anything is written.
+Values of the right type but outside the range the physics (or the paper) gives are refused
+too, with the range and its reason (:mod:`~rcsim.analysis.engine.campaign.limits`): a 3-sigma
+dispersion at least as large as its nominal value, inertia 3-sigma values that can make the
+dispersed tensor no rigid body's, a hold disturbance beyond the jets' torque, an
+initial rate beyond
+the rates the physics step was validated for, a run too long for one chunk's memory.
+Units are in the key names (``_deg``, ``_deg_s``, ``_n``, ...); inside, everything is SI.
+
+The commented example (``example_spec.toml`` beside this module, :data:`EXAMPLE_SPEC`,
+``rcsim campaign example``) documents every key; the generic reader lives in
+:mod:`~rcsim.analysis.engine.campaign.reader`, the sensor / timing / fault tables in
+:mod:`~rcsim.analysis.engine.campaign.effects`, the physical ranges in
+:mod:`~rcsim.analysis.engine.campaign.limits`, the failure gate in
+:mod:`~rcsim.analysis.engine.campaign.gate`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import tomllib
+from dataclasses import dataclass
+from importlib.resources import files
+from pathlib import Path
+
+import numpy as np
+
+from rcsim.analysis.engine.campaign.effects import TABLES as EFFECT_TABLES
+from rcsim.analysis.engine.campaign.effects import Effects, parse_effects
+from rcsim.analysis.engine.campaign.gate import check_max_failed_pct, max_failed_pct_problem
+from rcsim.analysis.engine.campaign.limits import (
+    MAX_INITIAL_RATE_DEG_S,
+    check_three_sigma,
+    max_duration_s,
+    physical_limits,
+    vehicle_limits,
+)
+from rcsim.analysis.engine.campaign.reader import Reader, file_digest, file_key
+from rcsim.analysis.engine.flight import Scenario
+from rcsim.lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
+from rcsim.models.errors import InputError
+from rcsim.models.tables import CONTROL_CYCLE_S, PAPER_LOOKUP_TABLES
+from rcsim.spacecraft.dispersions import MAX_SEED, DispersionSigmas
+from rcsim.spacecraft.dispersions import THREE_SIGMA_KEYS as _SIGMA_KEYS
+
+#: The commented example spec ``rcsim campaign example`` prints: every key, its default and
+#: what it means (a data file beside this module, ``example_spec.toml``; a test loads it).
+EXAMPLE_SPEC = (files("rcsim.analysis.engine.campaign") / "example_spec.toml").read_text(
+    encoding="utf-8"
+)
+
+#: The failure threshold of a spec without ``[failure] rate_error_deg_s`` [deg/s] (Gambone
+#: sec. III; example_spec.toml says why).
+DEFAULT_RATE_ERROR_DEG_S = 0.04
+HISTORY_MODES = ("none", "failures", "all", "first")
+SCENARIO_KINDS = ("rate-cases", "maneuver", "hold")
+
+
+@dataclass(frozen=True)
+class CampaignSpec:
+    """A validated campaign (SI inside).
+
+    Attributes
+    ----------
+    source : str
+        Where it was read from (for messages).
+    seed, runs_per_case, chunk_size : int
+    cases : tuple of rcsim.analysis.engine.flight.Scenario
+        Case ``c`` holds runs ``c * runs_per_case ... (c + 1) * runs_per_case - 1``.
+    controller : str
+    table : str or None
+        Absolute path of the lookup table (None: packaged default / phase-plane).
+    sigmas : DispersionSigmas
+        One-sigma dispersions after overrides and scale.
+    rate_threshold_rad_s : float
+    attitude_threshold_rad : float or None
+    histories : str
+    first_k : int
+    plots : bool
+    resolved : dict
+        The spec with defaults filled in and paths made absolute (JSON-able); what the
+        manifest records, what ``--resume`` compares and what ``replay`` rebuilds from.
+    n_jets : int
+        The flown vehicle's jet count, read from its compiled model when the spec is read
+        (:func:`rcsim.spacecraft.vehicle.jet_count`; 16 for the packaged vehicle): the width of
+        every per-jet draw, record and column of the campaign.  Not in ``resolved``: the
+        vehicle is (its file and SHA-256).
+    effects : Effects
+        Sensors, valve timing and jet faults (:mod:`~rcsim.analysis.engine.campaign.effects`);
+        each ``is_none()`` when the spec has no such table.
+    max_failed_pct : float or None
+        The failure gate, percent of runs (:mod:`~rcsim.analysis.engine.campaign.gate`);
+        None: no gate.
+        Not in ``resolved``: it judges results and changes nothing that is flown, so a
+        campaign can be resumed under another limit.
+    vehicle : str or None
+        The vehicle file flown (absolute path, or a packaged vehicle's name such as
+        ``"paper"``); None: the packaged ``vehicle.xml``.
+    """
+
+    source: str
+    seed: int
+    runs_per_case: int
+    chunk_size: int
+    cases: tuple
+    controller: str
+    table: str | None
+    sigmas: DispersionSigmas
+    rate_threshold_rad_s: float
+    attitude_threshold_rad: float | None
+    histories: str
+    first_k: int
+    plots: bool
+    resolved: dict
+    n_jets: int
+    max_failed_pct: float | None = None
+    effects: Effects = Effects()
+    vehicle: str | None = None
+
+    @property
+    def sensor(self):
+        """:class:`rcsim.spacecraft.effect_draws.SensorSpec` of the campaign."""
+        return self.effects.sensor
+
+    @property
+    def timing(self):
+        """:class:`rcsim.spacecraft.effect_draws.TimingSpec` of the campaign."""
+        return self.effects.timing
+
+    @property
+    def fault(self):
+        """:class:`rcsim.spacecraft.effect_draws.FaultSpec` of the campaign."""
+        return self.effects.fault
+
+    @property
+    def n_cases(self) -> int:
+        return len(self.cases)
+
+    @property
+    def cycle_s(self) -> float:
+        """The control cycle the campaign flies [s]: every controller and valve model it builds
+        takes :data:`rcsim.models.tables.CONTROL_CYCLE_S`, so its plans (chunk sizes, delay limits,
+        disk estimates) use it before any flight; each flight's
+        :class:`rcsim.spacecraft.history.History` then carries the cycle it flew."""
+        return CONTROL_CYCLE_S
+
+    @property
+    def n_runs(self) -> int:
+        return self.n_cases * self.runs_per_case
+
+    def case_of(self, run_id: int) -> int:
+        """Case index of a run (run ids are case-major)."""
+        return int(run_id) // self.runs_per_case
+
+    def digest(self) -> str:
+        """SHA-256 of the resolved spec: equal digests fly equal runs."""
+        return hashlib.sha256(json.dumps(self.resolved, sort_keys=True).encode()).hexdigest()
+
+    def with_runs_per_case(self, n: int) -> CampaignSpec:
+        """The same campaign with ``n`` runs per case (what the CLI's ``--runs-per-case`` sets)."""
+        resolved = dict(self.resolved, runs_per_case=n)
+        spec = parse_dict(resolved, source=f"{self.source} with runs_per_case={n}", base_dir=None)
+        return dataclasses.replace(spec, max_failed_pct=self.max_failed_pct)
+
+    def with_max_failed_pct(self, pct) -> CampaignSpec:
+        """The same campaign under the failure gate ``pct`` (overrides the spec's).
+
+        Raises
+        ------
+        InputError
+            About parameter ``max_failed_pct``: not a number in [0, 100].
+        """
+        return dataclasses.replace(self, max_failed_pct=check_max_failed_pct(pct))
+
+
+# ----------------------------------------------------------------------------------------------
+# Reading (the key-by-key reader is rcsim.analysis.engine.campaign.reader)
+# ----------------------------------------------------------------------------------------------
+def _scenarios(raw, source: str, resolved: list, n_jets: int) -> list[Scenario]:
+    """``[scenario]`` (or ``[[scenario]]``): the cases, for a vehicle of ``n_jets`` jets (a
+    run's per-cycle record, hence the longest run, depends on it)."""
+    from rcsim.models.tables import load_rate_cases
+
+    blocks = raw if isinstance(raw, list) else [raw]
+    if not blocks:
+        raise InputError(f"{source}: scenario: the list is empty")
+    cases: list[Scenario] = []
+    for b, block in enumerate(blocks):
+        r = Reader(block, "scenario" if not isinstance(raw, list) else f"scenario[{b}]", source)
+        kind = r.choice("kind", "rate-cases", SCENARIO_KINDS)
+        duration = r.number("duration_s", 20.0, minimum=0.0, strict=True)
+        if duration > max_duration_s(n_jets=n_jets):
+            raise r.error(
+                "duration_s",
+                f"must be <= {max_duration_s(n_jets=n_jets):.0f} s: one run's "
+                "per-cycle record must fit a chunk's memory budget (analysis."
+                "engine.campaign.limits.HISTORY_BUDGET_BYTES)",
+                duration,
+            )
+        out = {"kind": kind, "duration_s": duration}
+        if kind == "rate-cases":
+            table = load_rate_cases()
+            numbers = r.raw("cases", "all")
+            if numbers == "all":
+                numbers = [int(c) for c in table.case]
+            elif (
+                not isinstance(numbers, list)
+                or not numbers
+                or not all(isinstance(c, int) and not isinstance(c, bool) for c in numbers)
+            ):
+                raise r.error("cases", 'must be "all" or a non-empty list of case numbers', numbers)
+            bad = [c for c in numbers if c not in set(int(c) for c in table.case)]
+            if bad:
+                raise r.error(
+                    "cases", f"no such rate case {bad[0]}; cases are 1..{len(table.case)}", numbers
+                )
+            mode = r.choice("mode", "command", ("command", "damp"))
+            for c in numbers:
+                rate = table.rate_cmd[list(table.case).index(c)]
+                if mode == "command":
+                    cases.append(
+                        Scenario(
+                            name=f"rate-{c:02d}", duration_s=duration, rate_cmd_rad_s=np.array(rate)
+                        )
+                    )
+                else:
+                    cases.append(
+                        Scenario(
+                            name=f"damp-{c:02d}", duration_s=duration, omega0_rad_s=np.array(rate)
+                        )
+                    )
+            out.update(cases=list(numbers), mode=mode)
+        else:
+            name = r.raw("name", kind)
+            if not isinstance(name, str) or not name.replace("-", "").replace("_", "").isalnum():
+                raise r.error("name", "must be a name of letters, digits, '-' or '_'", name)
+            if kind == "maneuver":
+                att = r.vector3("attitude_deg", None)
+                if np.linalg.norm(att) >= 180.0:
+                    raise r.error("attitude_deg", "rotation must be under 180 deg", att)
+                cases.append(Scenario(name=name, duration_s=duration, att_cmd_rad=np.radians(att)))
+                out.update(name=name, attitude_deg=att)
+            else:
+                dist = r.vector3("disturbance_n_m", [0.0, 0.0, 0.0])
+                torque = physical_limits()["torque_n_m"]
+                over = [a for a in range(3) if abs(dist[a]) > torque[a]]
+                if over:
+                    raise r.error(
+                        "disturbance_n_m",
+                        "each component must be within the jets' "
+                        "largest torque about that axis, +-["
+                        + ", ".join(f"{t:.4g}" for t in torque)
+                        + "] N m (nominal vehicle, "
+                        "all jets of one sign firing): beyond it no controller can "
+                        "hold attitude",
+                        dist,
+                    )
+                w0 = r.vector3("initial_rate_deg_s", [0.0, 0.0, 0.0])
+                if np.linalg.norm(w0) > MAX_INITIAL_RATE_DEG_S:
+                    raise r.error(
+                        "initial_rate_deg_s",
+                        f"magnitude must be <= "
+                        f"{MAX_INITIAL_RATE_DEG_S:g} deg/s, the largest rate the 40 ms "
+                        "physics step is validated for (docs/convergence.md)",
+                        w0,
+                    )
+                cases.append(
+                    Scenario(
+                        name=name,
+                        duration_s=duration,
+                        omega0_rad_s=np.radians(w0),
+                        disturbance_n_m=np.array(dist),
+                    )
+                )
+                out.update(name=name, disturbance_n_m=dist, initial_rate_deg_s=w0)
+        r.done()
+        resolved.append(out)
+    names = [c.name for c in cases]
+    dup = next((n for n in names if names.count(n) > 1), None)
+    if dup is not None:
+        raise InputError(f"{source}: scenario: case name {dup!r} appears twice; give each a name")
+    return cases
+
+
+def parse_dict(
+    data: dict, *, source: str = "<dict>", base_dir: str | os.PathLike | None = None
+) -> CampaignSpec:
+    """Validate a spec already read into a dict (from TOML, a manifest's ``resolved``, or code).
+
+    Parameters
+    ----------
+    data : dict
+        The spec's tables and keys, as the TOML file has them (``rcsim campaign example``).
+    source : str
+        Shown in error messages (the file name); default ``"<dict>"``.
+    base_dir : path, optional
+        Relative file paths (tables) are relative to it; default the working directory.
+
+    Raises
+    ------
+    InputError
+        Naming ``source``, the key path and the value.
+    """
+    base_dir = Path.cwd() if base_dir is None else Path(base_dir)
+    top = Reader(data, "", source)
+    seed = top.integer("seed", 1, minimum=0, maximum=MAX_SEED)  # stored as int64
+    runs = top.integer("runs_per_case", 100, minimum=1)
+    chunk = top.integer("chunk_size", 512, minimum=1)
+    # A run is a function of (seed, run id); run ids are case * runs_per_case + k.
+    resolved: dict = {"seed": seed, "runs_per_case": runs, "chunk_size": chunk}
+    if not top.has("scenario"):
+        raise InputError(f"{source}: scenario: missing; see `rcsim campaign example`")
+    raw_scen = top.raw("scenario")
+    # The vehicle first: its jet count sizes every per-jet record (the longest run, the
+    # jets a fault may name).
+    vehicle, vehicle_resolved, n_jets = _vehicle(top, base_dir)
+    scen_resolved: list = []
+    cases = _scenarios(raw_scen, source, scen_resolved, n_jets)
+    resolved["scenario"] = scen_resolved if isinstance(raw_scen, list) else scen_resolved[0]
+    if vehicle is not None:  # recorded only when given: other specs resolve as before
+        resolved.update(vehicle_resolved)
+        _check_reachable(vehicle, cases, source)
+    name, table, resolved["controller"] = _controller(top.table_("controller"), base_dir)
+    if vehicle is not None:
+        _check_jet_map(vehicle, name, table, source)
+    if table is not None and table not in PAPER_LOOKUP_TABLES:
+        _check_channel_table(name, table, vehicle, source)
+    sigmas, effects, resolved["dispersions"] = _dispersions(
+        top.table_("dispersions"), base_dir, cases, source, vehicle, n_jets
+    )
+    rate_thr, att_thr, max_failed, resolved["failure"] = _failure(top.table_("failure"))
+    histories, first_k, plots, resolved["output"] = _output(top.table_("output"))
+    top.done()
+    return CampaignSpec(
+        source=source,
+        seed=seed,
+        runs_per_case=runs,
+        chunk_size=chunk,
+        cases=tuple(cases),
+        controller=name,
+        table=table,
+        sigmas=sigmas,
+        rate_threshold_rad_s=math.radians(rate_thr),
+        attitude_threshold_rad=None if att_thr is None else math.radians(att_thr),
+        histories=histories,
+        first_k=first_k,
+        plots=plots,
+        resolved=resolved,
+        n_jets=n_jets,
+        max_failed_pct=max_failed,
+        effects=effects,
+        vehicle=vehicle,
+    )
+
+
+def _check_jet_map(vehicle: str, controller: str, table: str | None, source: str) -> None:
+    """Refuse a controller that cannot fly the vehicle
+    (:func:`rcsim.lookup.registry.vehicle_problem`: the phase-plane controller and the packaged
+    lookup tables on a vehicle whose jets torque otherwise than Table 2's, any lookup table on
+    a vehicle without 16 jets), naming the key."""
+    from rcsim.lookup.registry import vehicle_problem
+    from rcsim.spacecraft.vehicle_file import load_vehicle
+
+    problem = vehicle_problem(controller, table, load_vehicle(vehicle))
+    if problem is not None:
+        raise InputError(f"{source}: controller.{problem[0]}: {problem[1]}")
+
+
+def _check_channel_table(controller: str, table: str, vehicle: str | None, source: str) -> None:
+    """A channel table (six axis channels and a recipe, for a vehicle whose jets torque several
+    axes) flies only with the lookup controller, on the vehicle file its recipe was solved for
+    (same SHA-256)."""
+    from rcsim.lookup.jet_sets import check_table_vehicle
+    from rcsim.models.tables import is_channel_table, load_lookup_table
+
+    if not is_channel_table(table):
+        return
+    tab = load_lookup_table(table)
+    try:
+        if controller != "lookup":
+            raise InputError(
+                f"{table}: a channel table flies with the lookup controller, not {controller!r}"
+            )
+        check_table_vehicle(tab, vehicle)
+    except InputError as exc:
+        raise InputError(f"{source}: controller.table: {exc}") from None
+
+
+def _check_reachable(vehicle: str, cases: list[Scenario], source: str) -> None:
+    """Refuse a case whose rate change or attitude step the vehicle's jets cannot give,
+    naming the case and the axis direction."""
+    from rcsim.spacecraft.vehicle_file import load_vehicle
+    from rcsim.spacecraft.vehicle_file.authority import unreachable_command
+
+    definition = load_vehicle(vehicle)
+    for case in cases:
+        for what, need in (
+            ("rate change", case.rate_cmd_rad_s - case.omega0_rad_s),
+            ("attitude step", case.att_cmd_rad),
+        ):
+            why = unreachable_command(definition, need)
+            if why:
+                raise InputError(
+                    f"{source}: vehicle: {definition.source} cannot fly case {case.name!r}: "
+                    f"{why} (its {what} is {np.degrees(need).round(4).tolist()} deg"
+                    f"{'/s' if what == 'rate change' else ''})"
+                )
+
+
+def _vehicle(top: Reader, base_dir: Path) -> tuple[str | None, dict, int]:
+    """``vehicle``: a packaged vehicle's name or a vehicle file (relative to the spec), checked
+    by loading it; with its sha256 in ``resolved`` (a resume or replay refuses a changed file)
+    and its jet count (the packaged vehicle's without the key).  A file that gives valve
+    timing has it in ``resolved`` too (``vehicle_timing``: the nominal delays every run flies,
+    about which ``[dispersions.timing]`` disperses; recorded only then, so other specs resolve
+    as before)."""
+    from rcsim.spacecraft.vehicle import jet_count, load_model
+    from rcsim.spacecraft.vehicle_file import PACKAGED_VEHICLES, FlyingVehicle, resolve_vehicle
+
+    if not top.has("vehicle"):
+        return None, {}, jet_count(load_model())
+    stored = top.raw("vehicle_sha256") if top.has("vehicle_sha256") else None
+    stored_timing = top.raw("vehicle_timing") if top.has("vehicle_timing") else None
+    value = top.raw("vehicle")
+    if not isinstance(value, str) or not value:
+        names = ", ".join(f'"{n}"' for n in PACKAGED_VEHICLES)
+        raise top.error("vehicle", f"must be a packaged vehicle ({names}) or a file path", value)
+    local = base_dir / value
+    if value in PACKAGED_VEHICLES and local.exists():
+        raise top.error(
+            "vehicle",
+            f"ambiguous: both the packaged vehicle {value!r} and the file {local}; "
+            f'write "./{value}"',
+            value,
+        )
+    if value in PACKAGED_VEHICLES:
+        path = str(resolve_vehicle(value))
+    else:
+        file = Path(value).expanduser()
+        file = file if file.is_absolute() else base_dir / file
+        if not file.is_file():
+            raise top.error("vehicle", "file not found", str(file))
+        path = str(file.resolve())
+    flying = FlyingVehicle.load(path)  # InputError naming the vehicle file, the key and the value
+    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    if stored is not None and stored != digest:
+        raise top.error("vehicle", "file changed since the campaign ran (sha256 differs)", value)
+    name = value if value in PACKAGED_VEHICLES else path
+    resolved: dict = {"vehicle": name, "vehicle_sha256": digest}
+    definition = flying.definition
+    timing = definition.delay_record() if definition.delay_keys else None
+    if stored_timing is not None and stored_timing != timing:
+        raise top.error(
+            "vehicle_timing",
+            f"is not the valve timing of {definition.source} "
+            f"({'it gives none' if timing is None else timing})",
+            stored_timing,
+        )
+    if timing is not None:
+        resolved["vehicle_timing"] = timing
+    return name, resolved, flying.n_jets
+
+
+def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
+    """``[controller]``: name, table (absolute path, paper table name or None), resolved."""
+    from rcsim.lookup.jet_sets import load_table_for_jets
+    from rcsim.models.tables import load_lookup_table
+
+    name = c.choice("name", None, ALL_CONTROLLERS)
+    table = file_key(c, "table", base_dir, names=tuple(PAPER_LOOKUP_TABLES))
+    if name not in TABLE_CONTROLLERS and table is not None:
+        raise c.error("table", "is only for the lookup and adaptive controllers", table)
+    jets_off: tuple = ()
+    if table in PAPER_LOOKUP_TABLES:
+        load_lookup_table(table)  # InputError naming the file, row and column
+    elif table is not None:
+        # Checked against the jets of the vehicle it was made for (its companion file).
+        jets_off = load_table_for_jets(table)[1]
+    c.unlisted.add("jets_off")  # a manifest's record, not a key to offer a user
+    if c.has("jets_off"):  # a manifest's: the companion must still name the same jets
+        expect = c.raw("jets_off")
+        if expect != list(jets_off):
+            raise c.error(
+                "table",
+                f"companion file now names jets off {list(jets_off)}, "
+                f"the campaign flew it for {expect}",
+                table,
+            )
+    if c.has("table_sha256"):  # present in a manifest's resolved spec (replay, resume)
+        expect = c.raw("table_sha256")
+        if expect != file_digest(table):
+            what = "packaged paper table" if table in PAPER_LOOKUP_TABLES else "file"
+            raise c.error("table", f"{what} changed since the campaign ran (sha256 differs)", table)
+    recipe = _recipe_file(table)
+    recipe_sha = None if recipe is None else file_digest(str(recipe))
+    if c.has("recipe_sha256") and c.raw("recipe_sha256") != recipe_sha:
+        problem = (
+            "is no longer the channel table the campaign flew"
+            if recipe is None
+            else f"recipe {recipe.name} changed since the campaign ran (sha256 differs)"
+        )
+        raise c.error("table", problem, table)
+    c.done()
+    resolved: dict = {
+        "name": name,
+        "table": table or "default",
+        "table_sha256": file_digest(table),
+    }
+    if jets_off:  # recorded only when there are some: other specs resolve as before
+        resolved["jets_off"] = list(jets_off)
+    if recipe_sha is not None:  # a channel table's recipe is part of the table
+        resolved["recipe_sha256"] = recipe_sha
+    return name, table, resolved
+
+
+def _recipe_file(table: str | None) -> Path | None:
+    """A channel table's recipe file, None for any other table."""
+    from rcsim.models.tables import is_channel_table, recipe_path
+
+    if table is None or table in PAPER_LOOKUP_TABLES or not is_channel_table(table):
+        return None
+    return recipe_path(table)
+
+
+def _dispersions(
+    d: Reader,
+    base_dir: Path,
+    cases: list[Scenario],
+    source: str,
+    vehicle: str | None,
+    n_jets: int,
+) -> tuple[DispersionSigmas, Effects, dict]:
+    """``[dispersions]``: Table 5 (file, scale, 3-sigma overrides, converted to SI one-sigmas
+    here) and the sensor / timing / fault tables (a fault's jets among the vehicle's
+    ``n_jets``).  With a ``vehicle`` and ``table = "default"``, the table is the vehicle
+    file's ``[dispersions]`` (a row it leaves out is not dispersed)."""
+    from rcsim.models.tables import load_dispersions
+
+    disp_table = file_key(d, "table", base_dir)
+    frame = load_dispersions(disp_table)
+    limits = None  # the packaged vehicle's ranges
+    definition = None
+    if vehicle is not None:
+        from rcsim.spacecraft.vehicle_file import FlyingVehicle
+
+        flying = FlyingVehicle.load(vehicle)
+        definition = flying.definition
+        limits = vehicle_limits(flying.model)
+        if disp_table is None:
+            own = flying.definition.three_sigma
+            frame["three_sigma"] = [float(own.get(name, 0.0)) for name in frame["name"]]
+            for name in own:  # rows beyond Table 5 (CG y and z, products of inertia)
+                if name not in set(frame["name"]):
+                    frame.loc[len(frame), ["name", "three_sigma"]] = [name, float(own[name])]
+    if d.has("table_sha256"):
+        if d.raw("table_sha256") != file_digest(disp_table):
+            raise d.error(
+                "table", "file changed since the campaign ran (sha256 differs)", disp_table
+            )
+    scale = d.number("scale", 1.0, minimum=0.0)
+    over = d.table_("three_sigma")
+    overrides = {}
+    for key, (row, factor) in _SIGMA_KEYS.items():
+        if over.has(key):
+            overrides[key] = over.number(key, None, minimum=0.0)
+            if row in set(frame["name"]):
+                frame.loc[frame["name"] == row, "three_sigma"] = overrides[key] * factor
+            else:
+                frame.loc[len(frame), ["name", "three_sigma"]] = [row, overrides[key] * factor]
+    over.done()
+    check_three_sigma(frame, scale, overrides, source, _SIGMA_KEYS, limits)
+    d.takes(*EFFECT_TABLES)  # read from d.table by parse_effects
+    effects, effects_resolved = parse_effects(
+        d.table,
+        source=source,
+        cycle_s=CONTROL_CYCLE_S,
+        longest_s=max(case.duration_s for case in cases),
+        n_jets=n_jets,
+        vehicle="the packaged vehicle" if vehicle is None else f"vehicle {vehicle}",
+        definition=definition,
+    )
+    d.done()
+    records = effects.records()
+    longest = max_duration_s(**records, n_jets=n_jets)
+    if any(records.values()) and any(case.duration_s > longest for case in cases):
+        what = [f"[dispersions.{'/'.join(effects.groups)}]"] if effects.groups else []
+        what += ["the vehicle's valve timing"] if effects.vehicle_timing is not None else []
+        raise InputError(
+            f"{source}: scenario.duration_s: must be <= {longest:.0f} s with "
+            f"{' and '.join(what)} (their per-cycle records "
+            "must fit a chunk's memory budget too)"
+        )
+    try:
+        sigmas = DispersionSigmas.from_table(frame, scale)
+    except InputError as exc:
+        raise InputError(f"{source}: dispersions.table: {exc}") from None
+    resolved = {
+        "table": disp_table or "default",
+        "table_sha256": file_digest(disp_table),
+        "scale": scale,
+        "three_sigma": overrides,
+        **effects_resolved,
+    }
+    return sigmas, effects, resolved
+
+
+def _failure(f: Reader) -> tuple[float, float | None, float | None, dict]:
+    """``[failure]``: rate and attitude thresholds [deg/s, deg], the gate [%], resolved."""
+    rate_thr = f.number("rate_error_deg_s", DEFAULT_RATE_ERROR_DEG_S, minimum=0.0, strict=True)
+    att_thr = (
+        f.number("attitude_error_deg", None, minimum=0.0, strict=True)
+        if f.has("attitude_error_deg")
+        else None
+    )
+    max_failed = f.raw("max_failed_pct") if f.has("max_failed_pct") else None
+    if max_failed is not None:
+        problem = max_failed_pct_problem(max_failed)
+        if problem is not None:
+            raise f.error("max_failed_pct", problem, max_failed)
+        max_failed = float(max_failed)
+    f.done()
+    resolved: dict = {"rate_error_deg_s": rate_thr}
+    if att_thr is not None:
+        resolved["attitude_error_deg"] = att_thr
+    return rate_thr, att_thr, max_failed, resolved
+
+
+def _output(o: Reader) -> tuple[str, int, bool, dict]:
+    """``[output]``: histories kept, first K, plots, resolved."""
+    histories = o.choice("histories", "failures", HISTORY_MODES)
+    first_k = o.integer("first_k", 5, minimum=0)
+    plots = o.raw("plots", True)
+    if not isinstance(plots, bool):
+        raise o.error("plots", "must be true or false", plots)
+    o.done()
+    return histories, first_k, plots, {"histories": histories, "first_k": first_k, "plots": plots}
+
+
+def load_spec(path: str | os.PathLike) -> CampaignSpec:
+    """Read and validate a campaign spec file.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, TOML syntax error, unknown key, bad value, missing table file.
+    """
+    path = Path(path)
+    try:
+        # utf-8-sig: a byte-order mark (what some Windows editors save) is not TOML syntax.
+        text = path.read_text(encoding="utf-8-sig")
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read campaign spec: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(
+            f"{path}: not a UTF-8 text file (byte {exc.start}); a campaign spec is TOML"
+        ) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML: {exc}") from None
+    return parse_dict(data, source=str(path), base_dir=path.absolute().parent)

@@ -1,0 +1,128 @@
+"""A generated lookup table on disk: the table CSV and its companion, written whole or not at all.
+
+``rcsim lookup generate`` is this module's :func:`generate_table_files` behind a parser: both
+outputs (and a channel table's recipe) are checked before the 26 flights (an existing file is
+replaced only with ``overwrite``), missing parent directories are created and removed again if
+the writing fails, and each file appears by an atomic rename, never half written.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from rcsim.analysis.engine.output import check_out_file, make_parents, remove_parents
+from rcsim.lookup.jet_sets import companion_path
+from rcsim.lookup.table_generation import GeneratedTable, generate_table
+from rcsim.models.atomic import atomic_write
+from rcsim.models.errors import InputError
+
+
+@dataclass(frozen=True)
+class TableFiles:
+    """What :func:`generate_table_files` made: the generation and the two paths."""
+
+    generated: GeneratedTable
+    table: Path
+    settling: Path
+
+
+def generate_table_files(
+    out: str | os.PathLike,
+    *,
+    settling_out: str | os.PathLike | None = None,
+    jets_off=(),
+    overwrite: bool = False,
+    vehicle: str | os.PathLike | None = None,
+) -> TableFiles:
+    """Generate the lookup table (:func:`rcsim.lookup.table_generation.generate_table`) and write
+    ``out`` and its companion (default ``<out stem>_settling.csv``).
+
+    Raises
+    ------
+    InputError
+        About ``out`` or ``settling_out``: an existing file without ``overwrite``, a path the
+        system refuses, the two paths equal, or ``settling_out`` with ``jets_off`` (the loader
+        finds a table's jet set only in its companion beside it); about ``jets_off``: the
+        library's jet-set rule (:func:`rcsim.lookup.jet_sets.check_jets_off`, or for a channel
+        table :func:`rcsim.lookup.channels.solve_recipe`'s); about ``vehicle``: an invalid vehicle
+        file.
+
+    A vehicle whose jets do not each turn one axis as Table 2's do gets a *channel table*
+    (:mod:`rcsim.lookup.channel_generation`): six axis channels and the recipe that fires the jets,
+    written beside the table as ``<out stem>_recipe.csv``.
+    """
+    jets_off = tuple(jets_off or ())
+    if jets_off and settling_out is not None:
+        raise InputError(
+            f"{settling_out}: not with jets_off; the table loads only with its "
+            "companion beside it, named <TABLE stem>_settling.csv",
+            parameter="settling_out",
+            value=str(settling_out),
+        )
+    # Both outputs are checked before the 26 flights, not after.
+    table = check_out_file(out, overwrite=overwrite, parameter="out")
+    settling = check_out_file(
+        settling_out or companion_path(table), overwrite=overwrite, parameter="settling_out"
+    )
+    if settling == table:
+        raise InputError(
+            f"{settling}: is the table itself (out)", parameter="settling_out", value=str(settling)
+        )
+    channels = vehicle is not None and is_coupled(vehicle)
+    if channels:
+        from rcsim.models.tables import recipe_path
+
+        check_out_file(recipe_path(table), overwrite=overwrite, parameter="out")
+    gen = generate(vehicle, jets_off)
+    frame = gen.settling_frame()
+    created = make_parents(table) + make_parents(settling)
+    try:
+        if channels:
+            # Both atomic, the recipe first: a table on disk never lacks its recipe.
+            gen.table.to_csv(table)
+        else:
+            atomic_write(table, lambda tmp: gen.table.to_csv(tmp))
+        atomic_write(settling, lambda tmp: frame.to_csv(tmp, index=False))
+    except BaseException:
+        remove_parents(created)
+        raise
+    return TableFiles(gen, table, settling)
+
+
+def generate(vehicle: str | os.PathLike | None, jets_off=()) -> GeneratedTable:
+    """The lookup table of a vehicle (None: the packaged one), nothing written: a jet table
+    when its jets play Table 2's roles (:func:`rcsim.lookup.table_generation.generate_table`), else
+    a channel table (:func:`rcsim.lookup.channel_generation.generate_channel_table`)."""
+    if vehicle is not None and is_coupled(vehicle):
+        from rcsim.lookup.channel_generation import generate_channel_table
+
+        return generate_channel_table(vehicle, jets_off=jets_off)
+    flying = {} if vehicle is None else _vehicle_generation(vehicle)
+    return generate_table(jets_off=jets_off, **flying)
+
+
+def is_coupled(vehicle: str | os.PathLike) -> bool:
+    """Whether a vehicle file's jets do *not* each turn one axis as Table 2's do: its lookup
+    table is a channel table (:mod:`rcsim.lookup.channels`)."""
+    from rcsim.models.tables import load_jet_map
+    from rcsim.spacecraft.vehicle_file import load_vehicle
+    from rcsim.spacecraft.vehicle_file.authority import jet_map_mismatch
+
+    return jet_map_mismatch(load_vehicle(vehicle), load_jet_map()) is not None
+
+
+def _vehicle_generation(vehicle: str | os.PathLike) -> dict:
+    """The :func:`generate_table` arguments that fly a vehicle file (with Table 2's jet map)
+    instead of the packaged vehicle: its model, nominal parameters, valve limits and valve
+    timing (None when it has no delay: the paper's rule alone)."""
+    from rcsim.spacecraft.vehicle_file import FlyingVehicle
+
+    flying = FlyingVehicle.load(vehicle)
+    return {
+        "model": flying.model,
+        "params": flying.nominal(1),
+        "propulsion": flying.propulsion(),
+        "timing": flying.timing(1),
+    }

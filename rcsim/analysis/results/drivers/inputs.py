@@ -1,0 +1,340 @@
+"""Loading what ``rcsim analyze`` reads: a campaign directory or a Parquet/CSV table of runs.
+
+A campaign directory (``manifest.json`` + ``runs.parquet``) gives the recorded inputs (the
+columns of :func:`rcsim.analysis.engine.runs_table.input_columns`, per jet for as many jets as the
+vehicle flown has, :func:`rcsim.analysis.engine.runs_table.recorded_jets`; with the products of
+inertia and the sensor, timing and fault draws when the campaign recorded them), the
+``failed`` outcome and the rate case of every run; any other table is taken as it is, with the
+inputs named by the caller or, by default, the recorded-input columns when present, else every
+numeric column other than the outcome and identifiers.  Physics-aware factors
+(:mod:`rcsim.analysis.results.drivers.factors`) are added when the recorded inputs are
+present. Every problem a user can fix raises
+:class:`rcsim.models.errors.InputError` naming the file, the column and the value.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rcsim.analysis.engine import runs_table
+from rcsim.analysis.results.drivers.factors import factor_vehicle, fire_signs, physics_factors
+from rcsim.models.errors import InputError
+
+#: Fewest runs an analysis accepts (a distribution needs more than a handful of points).
+MIN_RUNS = 10
+#: Columns that identify a run rather than describe it; never inputs by default.
+ID_COLUMNS = tuple(c.name for c in runs_table.ID_COLUMNS)
+#: Spread of an input, relative to its largest magnitude, at or below which it is constant:
+#: rounding.  A vehicle's undispersed products of inertia, read back from each run's own
+#: principal frame (its moments dispersed), vary by ~1e-14 relative; no dispersion comes near
+#: 1e-9 (Table 5's smallest relative 3-sigma is CG x's, 0.01 m of 1.41 m).
+ROUNDING_SPREAD = 1e-9
+
+
+def is_constant(values: pd.Series) -> bool:
+    """``values`` (finite numbers) do not vary beyond rounding (:data:`ROUNDING_SPREAD`)."""
+    v = values.to_numpy(float)
+    return bool(v.max() - v.min() <= ROUNDING_SPREAD * np.abs(v).max())
+
+
+@dataclass
+class RunSet:
+    """Runs ready for the driver analysis.
+
+    Attributes
+    ----------
+    source : Path
+        The campaign directory or table file.
+    kind : {"campaign", "table"}
+    runs : DataFrame
+        Every column of the runs read (after a ``case`` filter).
+    X : DataFrame
+        The analysed inputs (raw then derived), one row per run, all finite.
+    raw_inputs, derived_inputs : list of str
+    outcome : str
+    y : ndarray of bool
+        True where the run failed.
+    strata : ndarray or None
+        Case of every run (None: one group).
+    manifest : dict or None
+    notes : list of str
+        Things the reader must know (inputs dropped as constant, factors not derived).
+    """
+
+    source: Path
+    kind: str
+    runs: pd.DataFrame
+    X: pd.DataFrame
+    raw_inputs: list
+    derived_inputs: list
+    outcome: str
+    y: np.ndarray
+    strata: np.ndarray | None
+    manifest: dict | None = None
+    notes: list = field(default_factory=list)
+
+
+def load_runs(
+    path, inputs=None, outcome: str = "failed", case: str | None = None, derived: bool = True
+) -> RunSet:
+    """Read and validate runs for :func:`rcsim.analysis.results.drivers.pipeline.analyze`.
+
+    Parameters
+    ----------
+    path : str, Path or pandas.DataFrame
+        Campaign directory, a ``.parquet`` / ``.csv`` table with one row per run, or such a
+        table already in memory (e.g. ``pd.read_parquet(...)`` filtered in a notebook).
+    inputs : list of str, optional
+        Input columns (raw or derived names); default as the module docstring says.
+    outcome : str
+        Binary outcome column (bool or 0/1); True/1 = failed.
+    case : str, optional
+        Keep only the runs of this case (column ``case``).
+    derived : bool
+        Add the physics-aware factors when the recorded inputs are present.
+
+    Raises
+    ------
+    InputError
+        Missing path or column, unreadable file, non-binary outcome, too few runs, NaN or
+        non-numeric inputs, unknown case.
+    """
+    if inputs is not None:  # a question about the arguments: before reading anything
+        names = [str(c) for c in inputs]
+        twice = sorted({c for c in names if names.count(c) > 1})
+        if twice:
+            raise InputError(
+                f"names {twice[0]!r} twice; name each input once",
+                parameter="inputs",
+                value=twice[0],
+            )
+    source, runs, where, kind, manifest = _read_source(path)
+
+    if case is not None:
+        if "case" not in runs.columns:
+            raise InputError(
+                f"{case!r}: {where} has no 'case' column", parameter="case", value=case
+            )
+        names = [str(c) for c in pd.unique(runs["case"])]
+        if str(case) not in names:
+            raise InputError(
+                f"{case!r} is not a case of {where}; cases: {', '.join(names[:30])}",
+                parameter="case",
+                value=case,
+            )
+        runs = runs[runs["case"].astype(str) == str(case)].reset_index(drop=True)
+    if len(runs) < MIN_RUNS:
+        raise InputError(f"{where}: {len(runs)} run(s); the analysis needs at least {MIN_RUNS}")
+    y = _outcome(runs, outcome, where)
+
+    notes: list[str] = []
+    jets = runs_table.recorded_jets(runs.columns)
+    raw_cols = list(runs_table.input_names(jets))
+    has_raw = jets > 0 and all(c in runs.columns for c in raw_cols)
+    factors = pd.DataFrame(index=runs.index)
+    if derived and has_raw:
+        flown = ((manifest or {}).get("spec") or {}).get("vehicle")  # a vehicle file's campaign
+        _, nominal, _ = factor_vehicle(flown)
+        if nominal.n_jets != jets:  # e.g. a bare table of a vehicle file's campaign
+            vehicle = f"its vehicle {flown}" if flown else "the packaged vehicle"
+            notes.append(
+                f"the table records {jets} jets and {vehicle} has {nominal.n_jets}: no "
+                "physics-aware factors (analyse the campaign directory: its manifest names "
+                "the vehicle)"
+            )
+        else:
+            signs = fire_signs(runs["case"]) if "case" in runs.columns else None
+            if signs is None:
+                notes.append("cases are not rate cases: firing-direction factors not derived")
+            _check_numeric(runs, raw_cols, where)
+            factors = physics_factors(runs, signs, vehicle=flown)
+    elif derived:
+        notes.append("the table lacks the recorded vehicle inputs: no physics-aware factors")
+
+    if inputs is not None:
+        inputs = [str(c) for c in inputs]
+        if not inputs:
+            raise InputError("is empty", parameter="inputs", value=inputs)
+        twice = sorted({c for c in inputs if inputs.count(c) > 1})
+        if twice:
+            raise InputError(
+                f"names {twice[0]!r} twice; name each input once",
+                parameter="inputs",
+                value=twice[0],
+            )
+        unknown = [c for c in inputs if c not in runs.columns and c not in factors.columns]
+        if unknown:
+            raise InputError(
+                f"{unknown[0]!r} is not a column of {where}"
+                + (" (derived factors need the recorded inputs)" if not has_raw else ""),
+                parameter="inputs",
+                value=unknown[0],
+            )
+        if outcome in inputs:
+            raise InputError(
+                f"{outcome!r} is the outcome column; it cannot be an input",
+                parameter="inputs",
+                value=outcome,
+            )
+        raw = [c for c in inputs if c in runs.columns]
+        der = [c for c in inputs if c not in runs.columns]
+    else:
+        if has_raw:
+            # The vehicle dispersions, plus the sensor, timing and fault draws a campaign with
+            # those effects recorded (issue 17: they were left out unless named).
+            effects = [
+                c.name
+                for g in runs_table.EFFECT_GROUPS
+                for c in runs_table.EFFECT_COLUMNS[g]
+                if c.name in runs.columns
+            ]
+            # Products of inertia, recorded when the runs' principal axes are not B (constant
+            # unless dispersed: left out below as not dispersed).
+            products = [c for c in runs_table.PRODUCT_NAMES if c in runs.columns]
+            raw = list(raw_cols) + products + effects
+        else:
+            raw = [
+                c
+                for c in runs.columns
+                if c not in ID_COLUMNS
+                and c != outcome
+                and pd.api.types.is_numeric_dtype(runs[c])
+                and not pd.api.types.is_bool_dtype(runs[c])
+            ]
+            if not raw:
+                raise InputError(f"{where}: no numeric input columns besides the outcome")
+            notes.append("inputs: every numeric column except the outcome and identifiers")
+        der = list(factors.columns)
+    runs = _fill_not_applicable(runs, raw, notes)
+    _check_numeric(runs, raw, where)
+    X = pd.concat([runs[raw].astype(float), factors[der]], axis=1)
+    constant = [c for c in X.columns if is_constant(X[c])]
+    if constant:
+        notes.append(f"constant (not dispersed) inputs left out: {', '.join(constant)}")
+        X = X.drop(columns=constant)
+        raw = [c for c in raw if c not in constant]
+        der = [c for c in der if c not in constant]
+    if X.shape[1] == 0:
+        raise InputError(f"{where}: every input is constant; nothing can drive the outcome")
+    strata = runs["case"].astype(str).to_numpy() if "case" in runs.columns else None
+    return RunSet(
+        source=source,
+        kind=kind,
+        runs=runs,
+        X=X,
+        raw_inputs=raw,
+        derived_inputs=der,
+        outcome=outcome,
+        y=y,
+        strata=strata,
+        manifest=manifest,
+        notes=notes,
+    )
+
+
+def _read_source(path) -> tuple[Path, pd.DataFrame, object, str, dict | None]:
+    """``(source, runs, where, kind, manifest)`` of a campaign directory, a table file or a
+    DataFrame (``where`` names it in messages)."""
+    if isinstance(path, pd.DataFrame):
+        return Path("<DataFrame>"), path.reset_index(drop=True), "the DataFrame", "table", None
+    source = Path(path)
+    if source.is_dir():
+        manifest_path, runs_path = source / runs_table.MANIFEST, source / runs_table.RUNS
+        if not manifest_path.is_file() or not runs_path.is_file():
+            raise InputError(
+                f"{source}: not a campaign directory (needs manifest.json and "
+                "runs.parquet) and not a table file",
+                parameter="path",
+                value=str(source),
+            )
+        try:
+            manifest = json.loads(manifest_path.read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise InputError(f"{manifest_path}: cannot read the manifest ({exc})") from None
+        return source, _read_table(runs_path), runs_path, "campaign", manifest
+    if source.is_file():
+        return source, _read_table(source), source, "table", None
+    raise InputError(
+        f"{source}: no such campaign directory or table file", parameter="path", value=str(source)
+    )
+
+
+def _read_table(path: Path) -> pd.DataFrame:
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".parquet":
+            return pd.read_parquet(path)
+        if suffix == ".csv":
+            return pd.read_csv(path)
+    except (OSError, ValueError, ImportError) as exc:
+        raise InputError(f"{path}: cannot read the table ({str(exc).splitlines()[0]})") from None
+    except Exception as exc:  # pyarrow raises its own types for corrupt files
+        raise InputError(
+            f"{path}: cannot read the table ({type(exc).__name__}: "
+            f"{str(exc).splitlines()[0] if str(exc) else ''})"
+        ) from None
+    raise InputError(f"{path}: unknown table format {suffix!r}; use .parquet or .csv")
+
+
+def _outcome(runs: pd.DataFrame, outcome: str, where) -> np.ndarray:
+    if outcome not in runs.columns:
+        raise InputError(
+            f"{outcome!r} is not a column of {where}", parameter="outcome", value=outcome
+        )
+    col = runs[outcome]
+    if col.isna().any():
+        raise InputError(
+            f"{where}: outcome column {outcome!r} has {int(col.isna().sum())} missing values"
+        )
+    if pd.api.types.is_bool_dtype(col):
+        return col.to_numpy(bool)
+    if pd.api.types.is_numeric_dtype(col):
+        values = set(np.unique(col.to_numpy()))
+        if values <= {0, 1}:
+            return col.to_numpy() == 1
+    shown = ", ".join(repr(v) for v in list(pd.unique(col))[:5])
+    raise InputError(
+        f"{where}: outcome column {outcome!r} is not binary (bool or 0/1); values include {shown}"
+    )
+
+
+def _fill_not_applicable(runs: pd.DataFrame, cols, notes: list) -> pd.DataFrame:
+    """Effect columns' NaN ("does not apply", :data:`runs_table.EFFECT_NOT_APPLICABLE`) as
+    numbers the rank-based analysis can use, each with a note saying what was done."""
+    fill = {}
+    for c in cols:
+        rule = runs_table.EFFECT_NOT_APPLICABLE.get(c)
+        if rule is None or c not in runs.columns or not runs[c].isna().any():
+            continue
+        where_known = runs[c].dropna()
+        if where_known.empty:  # never applies: a constant, left out below with the others
+            fill[c] = 0.0
+            continue
+        place, why = rule
+        fill[c] = float(where_known.max()) + 1.0 if place == "after" else 0.0
+        notes.append(f"{c}: {int(runs[c].isna().sum())} run(s) without it; {why}")
+    return runs.fillna(fill) if fill else runs
+
+
+def _check_numeric(runs: pd.DataFrame, cols, where) -> None:
+    for c in cols:
+        col = runs[c]
+        if not pd.api.types.is_numeric_dtype(col) or pd.api.types.is_bool_dtype(col):
+            raise InputError(f"{where}: input column {c!r} is not numeric (dtype {col.dtype})")
+        bad = ~np.isfinite(col.to_numpy(float))
+        if bad.any():
+            first = int(np.flatnonzero(bad)[0])
+            label = (
+                f"run_id {runs['run_id'].iloc[first]}"
+                if "run_id" in runs.columns
+                else f"row {first}"
+            )
+            raise InputError(
+                f"{where}: input column {c!r} has {int(bad.sum())} NaN or "
+                f"infinite value(s), first at {label}"
+            )

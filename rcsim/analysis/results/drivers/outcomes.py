@@ -1,0 +1,230 @@
+"""Several failure outcomes at once: per axis, and the failure threshold's sensitivity.
+
+The pooled ``failed`` outcome mixes failures of different axes: a run that ends with too much
+roll rate and one that ends with too much yaw rate are failures of different jets, and an input
+that drives only one axis's failures is diluted by the others (issue 16: in the Table 6
+campaign 28 % of failures are roll-only or pitch-only; analysed alone, roll authority ranks
+first where pooled it ranks 11th).  Beside the pooled outcome this module analyses
+
+* ``roll``, ``pitch``, ``yaw`` -- the run fails on that axis: ``not |final rate error| < thr``
+  on it (``thr`` the campaign's ``failure.rate_error_deg_s``, from its manifest; as the
+  campaign applies the criterion, a run whose simulation failed has NaN errors and so fails on
+  every axis);
+* ``failed at thr2`` -- the campaign's criterion with the rate threshold ``thr2`` instead of
+  ``thr`` (default 0.06 against 0.04 deg/s, the paper's pair): runs that failed for another
+  reason (simulation, attitude, propellant; read from ``reason``) still fail.
+
+Each outcome is scored by :class:`~rcsim.analysis.results.drivers.single.SingleFactorKDE` with the
+same max-T permutations as the pooled singles, labels permuted within cases.  Pairs are not
+run per outcome (they cost ~40x the singles).  Per-axis outcomes need the per-axis
+``final_rate_err_*`` columns and the campaign's threshold; without them they are skipped with
+a note.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from rcsim.analysis.engine import runs_table
+from rcsim.analysis.results.drivers.kde import N_BINS_1D, bin_codes, rank_scale
+from rcsim.analysis.results.drivers.probabilities import probability_frame
+from rcsim.analysis.results.drivers.single import SingleFactorKDE
+
+AXES = ("roll", "pitch", "yaw")
+RATE_COLUMN = "final_rate_err_{axis}_deg_s"
+#: Drivers listed per outcome in ``outcomes.csv`` and the report.
+TOP_DRIVERS = 5
+#: Default second rate threshold [deg/s] of the sensitivity (the paper's 0.04 against 0.06).
+DEFAULT_SECOND_THRESHOLD = 0.06
+#: How the engine words a rate failure in ``reason`` (rcsim.analysis.engine.campaign.outcomes).
+_RATE_REASON = "final |rate error|"
+
+
+@dataclass
+class Outcome:
+    """One outcome analysed: its name, what it means, its labels and (if fitted) singles."""
+
+    name: str
+    criterion: str
+    y: np.ndarray
+    singles: SingleFactorKDE | None = None
+
+    @property
+    def runs(self) -> int:
+        return int(self.y.size)
+
+    @property
+    def failed(self) -> int:
+        return int(self.y.sum())
+
+
+@dataclass
+class OutcomeResults:
+    """Every outcome analysed, the campaign threshold, and what the reader must know."""
+
+    outcomes: list = field(default_factory=list)
+    threshold: float | None = None
+    second_threshold: float | None = None
+    axis_breakdown: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
+
+
+def campaign_threshold(manifest: dict | None) -> float | None:
+    """The campaign's rate threshold [deg/s] (manifest ``thresholds``, else the spec's
+    ``failure`` table); None when the runs carry no manifest."""
+    if not manifest:
+        return None
+    thr = (manifest.get("thresholds") or {}).get("rate_error_deg_s")
+    if thr is None:
+        thr = ((manifest.get("spec") or {}).get("failure") or {}).get("rate_error_deg_s")
+    return None if thr is None else float(thr)
+
+
+def axis_failures(runs: pd.DataFrame, threshold: float) -> dict[str, np.ndarray]:
+    """Per axis: ``not |final rate error| < threshold`` (NaN, a non-flight, fails)."""
+    return {
+        a: ~(np.abs(runs[RATE_COLUMN.format(axis=a)].to_numpy(float)) < threshold) for a in AXES
+    }
+
+
+def other_failures(runs: pd.DataFrame, y: np.ndarray, rate_any: np.ndarray) -> np.ndarray:
+    """Runs that failed for a reason besides the final rate error (simulation failure,
+    attitude, propellant): from ``sim_failed`` and the ``reason`` text when present, else the
+    failed runs whose rate errors all passed."""
+    other = y & ~rate_any
+    if "sim_failed" in runs:
+        other |= runs["sim_failed"].to_numpy(bool)
+    if "reason" in runs:
+        parts = runs["reason"].fillna("").astype(str).str.split("; ")
+        other |= y & parts.map(lambda ps: any(p and not p.startswith(_RATE_REASON) for p in ps))
+    return other
+
+
+def _breakdown(axes: dict[str, np.ndarray]) -> dict[str, int]:
+    """Failed runs by the set of axes they fail on (``roll only``, ..., ``2+ axes``)."""
+    stack = np.column_stack([axes[a] for a in AXES])
+    n_axes = stack.sum(axis=1)
+    out = {f"{a} only": int((stack[:, i] & (n_axes == 1)).sum()) for i, a in enumerate(AXES)}
+    out["2 or 3 axes"] = int((n_axes >= 2).sum())
+    return out
+
+
+def build_outcomes(runset, second_threshold: float = DEFAULT_SECOND_THRESHOLD) -> OutcomeResults:
+    """The outcomes beside the pooled one that ``runset`` supports (no fitting)."""
+    res = OutcomeResults(second_threshold=second_threshold)
+    runs = runset.runs
+    cols = [RATE_COLUMN.format(axis=a) for a in AXES]
+    if not all(c in runs.columns for c in cols):
+        res.notes.append(
+            "outcomes: the runs carry no per-axis final rate errors "
+            f"({', '.join(cols)}); per-axis outcomes and the threshold sensitivity skipped"
+        )
+        return res
+    thr = campaign_threshold(runset.manifest)
+    if thr is None:
+        res.notes.append(
+            "outcomes: no campaign manifest gives the failure threshold; per-axis outcomes and "
+            "the threshold sensitivity skipped (analyse the campaign directory)"
+        )
+        return res
+    res.threshold = thr
+    axes = axis_failures(runs, thr)
+    for a in AXES:
+        res.outcomes.append(Outcome(a, f"|final {a} rate error| >= {thr:g} deg/s", axes[a]))
+    res.axis_breakdown = _breakdown(axes)
+    n_nan = int(runs[cols].isna().any(axis=1).sum())
+    if n_nan:
+        res.notes.append(
+            f"outcomes: {n_nan} run(s) without final rate errors (simulation failed) count as "
+            "failed on every axis, as the campaign's criterion does"
+        )
+    if second_threshold != thr:
+        rate_any = np.logical_or.reduce([axes[a] for a in AXES])
+        y2 = np.logical_or.reduce(list(axis_failures(runs, second_threshold).values()))
+        y2 |= other_failures(runs, runset.y, rate_any) if runset.outcome == "failed" else False
+        res.outcomes.append(
+            Outcome(
+                f"failed at {second_threshold:g}",
+                f"|final rate error| >= {second_threshold:g} deg/s on any axis"
+                + (" or another failure reason" if runset.outcome == "failed" else ""),
+                y2,
+            )
+        )
+    return res
+
+
+def analyze_outcomes(res, rng: np.random.Generator) -> OutcomeResults:
+    """Fit the single factors of every extra outcome of ``res`` (a
+    :class:`~rcsim.analysis.results.drivers.pipeline.DriverResults` whose pooled singles are
+    fitted).
+    """
+    rs, st = res.runset, res.settings
+    out = build_outcomes(rs, getattr(st, "second_threshold", DEFAULT_SECOND_THRESHOLD))
+    codes = None  # the inputs' rank-scale bins: the same for every outcome, computed once
+    for o in out.outcomes:
+        if o.y.all() or not o.y.any():
+            continue
+        if codes is None:
+            codes = bin_codes(rank_scale(rs.X.to_numpy(float)), N_BINS_1D)
+        o.singles = SingleFactorKDE(n_permutations=st.n_permutations, random_state=rng).fit(
+            rs.X, o.y, rs.strata, codes=codes
+        )
+    return out
+
+
+def pooled_criterion(runset) -> str:
+    """What the analysed outcome means: the campaign's criterion for its ``failed`` column."""
+    thr = campaign_threshold(runset.manifest)
+    if runset.outcome != "failed" or thr is None:
+        return f"column {runset.outcome!r}"
+    att = ((runset.manifest or {}).get("thresholds") or {}).get("attitude_error_deg")
+    flown = ((runset.manifest or {}).get("spec") or {}).get("vehicle")
+    return runs_table.criterion_text(thr, att, vehicle_file=bool(flown))
+
+
+def outcome_table(res, top: int = TOP_DRIVERS) -> pd.DataFrame:
+    """``outcomes.csv``: per outcome (the pooled one first) its counts, failure probability
+    with its Clopper-Pearson 95 % interval and runs to the bound, and its top drivers (one row
+    each: rank, factor, score, p-value, significant, the factor's rank on the pooled outcome).
+    """
+    rs, st = res.runset, res.settings
+    bound_p = float(getattr(st, "bound_p", 0.01))
+    pooled = Outcome(rs.outcome, pooled_criterion(rs), rs.y, res.singles)
+    extra = res.outcomes.outcomes if getattr(res, "outcomes", None) is not None else []
+    pooled_rank = (
+        dict(zip(res.singles.feature_names_in_, res.singles.rank_))
+        if res.singles is not None
+        else {}
+    )
+    rows = []
+    for o in [pooled, *extra]:
+        prob = probability_frame(o.failed, o.runs, bound_p).iloc[0].to_dict()
+        base = {
+            "outcome": o.name,
+            "criterion": o.criterion,
+            "runs": o.runs,
+            "failed": o.failed,
+            **prob,
+            "bound_p": bound_p,
+        }
+        if o.singles is None:
+            rows.append({**base, "rank": 0, "factor": ""})
+            continue
+        t = o.singles.table().head(top)
+        for _, r in t.iterrows():
+            rows.append(
+                {
+                    **base,
+                    "rank": int(r["rank"]),
+                    "factor": r["factor"],
+                    "score": r["score"],
+                    "p_value": r["p_value"],
+                    "significant": bool(r["p_value"] < st.alpha),
+                    "pooled_rank": pooled_rank.get(r["factor"], np.nan),
+                    "failure_region": r["failure_region"],
+                }
+            )
+    return pd.DataFrame(rows)

@@ -1,0 +1,488 @@
+"""Report sections of the failure-driver analysis; each returns a :class:`Section`.
+
+They read a :class:`rcsim.analysis.results.drivers.pipeline.DriverResults`; a later analysis builds
+its own
+sections and passes the list to :func:`rcsim.analysis.results.report.html.build_report` with these.
+"""
+
+from __future__ import annotations
+
+import shlex
+
+import numpy as np
+import pandas as pd
+
+from rcsim.analysis.engine import runs_table
+from rcsim.analysis.results.drivers import figures, mechanism, report_boxes
+from rcsim.analysis.results.drivers import report_outcomes as probs
+from rcsim.analysis.results.report.html import (
+    Section,
+    figure_block,
+    png_bytes,
+    table_block,
+    text_block,
+)
+
+_DRIVER_COLS = [
+    "rank",
+    "factor",
+    "score",
+    "p_value",
+    "failure_region",
+    "region_fail_share",
+    "stability",
+    "second_opinion",
+]
+_PAIR_COLS = [
+    "rank",
+    "factor_a",
+    "factor_b",
+    "kind",
+    "score",
+    "p_value",
+    "p_joint",
+    "gain",
+    "stability",
+]
+
+
+def _present(df, cols):
+    return df[[c for c in cols if c in df.columns]]
+
+
+def summary(res) -> Section:
+    """What was analysed: source, campaign spec, counts, failures per case."""
+    rs = res.runset
+    blocks = []
+    n, nf = int(rs.y.size), int(rs.y.sum())
+    facts = [
+        ("source", f"{rs.kind} {rs.source.name}"),
+        ("runs", n),
+        ("failed runs", f"{nf} ({100.0 * nf / n:.2f} %)"),
+        *probs.overall_facts(res),
+        ("outcome column", rs.outcome),
+        (
+            "inputs analysed",
+            f"{len(rs.raw_inputs)} recorded + {len(rs.derived_inputs)} physics-aware derived",
+        ),
+    ]
+    m = rs.manifest
+    if m:
+        spec = m.get("spec", {})
+        ctrl = spec.get("controller", {})
+        disp = spec.get("dispersions", {})
+        facts += [
+            ("controller", _controller_text(ctrl)),
+            *_vehicle_facts(m),
+            (
+                "dispersions",
+                f"{m.get('dispersions_source') or runs_table.dispersions_source(spec)}, "
+                f"scale {disp.get('scale', '?')}",
+            ),
+            ("seed / runs per case", f"{spec.get('seed', '?')} / {spec.get('runs_per_case', '?')}"),
+            ("failure criterion", _criterion(m)),
+            ("code version", ", ".join(f"{k} {v}" for k, v in m.get("code_version", {}).items())),
+        ]
+    blocks.append(table_block(pd.DataFrame(facts, columns=["", "value"]), "Campaign"))
+    cases = pd.DataFrame(
+        [
+            {
+                "case": c.case,
+                "runs": c.runs,
+                "failed": c.failed,
+                "failed_pct": 100.0 * c.failed / max(c.runs, 1),
+                "share_of_all_failures": c.failed / max(nf, 1),
+            }
+            for c in res.cases
+        ]
+    )
+    cases = probs.with_case_columns(cases, res)
+    if len(res.cases) > 1:
+        blocks.append(
+            figure_block(
+                figures.report_pngs(res)["failures_per_case.png"],
+                "Failed runs per case, as a share of the case's runs; whiskers: the exact "
+                "(Clopper-Pearson) 95 % interval of the case's failure probability.",
+            )
+        )
+        carry = cases.sort_values("failed", ascending=False)
+        carry = carry[carry["failed"] > 0]
+        top = carry.head(5)
+        if len(top):
+            share = top["share_of_all_failures"].sum()
+            blocks.append(
+                text_block(
+                    f"{len(carry)} of {len(cases)} cases have failures; the {len(top)} with the "
+                    f"most ({', '.join(top['case'])}) carry {100 * share:.0f} % of all failures."
+                )
+            )
+        blocks.append(table_block(cases, "Failures per case", max_rows=60))
+    return Section("Summary", blocks, "summary")
+
+
+def _controller_text(ctrl: dict) -> str:
+    """The controller and, for a table controller, its table (a spec resolves ``table`` to
+    "default" for every controller; only lookup and adaptive fly one)."""
+    name, table = ctrl.get("name", "?"), ctrl.get("table")
+    if name not in ("lookup", "adaptive") or not table:
+        return str(name)
+    if table == "default":
+        return f"{name}, the packaged default table"
+    return f"{name}, table {str(table).split('/')[-1]}"
+
+
+def _vehicle_facts(m: dict) -> list[tuple[str, str]]:
+    """The vehicle file a campaign flew: its name, file and SHA-256 (none: the packaged
+    vehicle).  The name is the manifest's (``vehicle_name``); a campaign written before it
+    was recorded gets it from the file when that is still the one flown (same SHA-256)."""
+    spec = m.get("spec", {})
+    file, digest = spec.get("vehicle"), spec.get("vehicle_sha256")
+    if not file:
+        return [("vehicle", "the packaged vehicle (Gambone's, rcsim/models/vehicle/vehicle.xml)")]
+    name = m.get("vehicle_name")
+    if name is None:
+        import hashlib
+
+        from rcsim.models.errors import InputError
+        from rcsim.spacecraft.vehicle_file import load_vehicle, resolve_vehicle
+
+        try:
+            if hashlib.sha256(resolve_vehicle(file).read_bytes()).hexdigest() == digest:
+                name = load_vehicle(file).name
+        except (InputError, OSError):
+            name = None
+    label = f"{name!r}, " if name else ""
+    return [("vehicle", f"{label}file {file}, sha256 {digest}")]
+
+
+def _criterion(m) -> str:
+    t = m.get("thresholds", {})
+    if t.get("rate_error_deg_s") is None:
+        return "see the spec"
+    return runs_table.criterion_text(
+        float(t["rate_error_deg_s"]),
+        t.get("attitude_error_deg"),
+        vehicle_file=bool(m.get("spec", {}).get("vehicle")),
+    )
+
+
+def _imbalance_text(res) -> str:
+    """What imbalance_* is, or why there is none (factors.py: pairs only)."""
+    if any(f.startswith("imbalance_") for f in res.runset.derived_inputs):
+        return (
+            "imbalance_* (a group of exactly two jets, the paper's pairs, only) the thrust of "
+            "the pair's first jet minus its second, what the other axes feel when it fires; "
+        )
+    return (
+        "no imbalance_* factor: none of the vehicle's jet groups is a pair (a larger group's "
+        "jets do not fire as one set, so no difference of two of them means anything); "
+    )
+
+
+def method(res) -> Section:
+    st = res.settings
+    bw = res.singles.bandwidth_ if res.singles is not None else float("nan")
+    return Section(
+        "How to read this report",
+        [
+            text_block(
+                "Each input is compared between failed and successful runs on its rank scale "
+                "(units and skew do not matter). The densities of both groups are kernel estimates "
+                f"(Gaussian kernel, bandwidth {bw:.3f} on the 0-1 rank scale: half Scott's "
+                f"rule for "
+                "the smaller group). The score is the total-variation distance between the two "
+                "densities (0: the same, 1: no overlap) minus the distance expected with no effect "
+                "at all (measured by shuffling the failure labels within each case).",
+                f"p-values come from {st.n_permutations} label shuffles ({st.pair_b} for pairs) "
+                "and are corrected for the "
+                "number of inputs by the max-T "
+                "method: a "
+                f"factor with p < {st.alpha} is a driver with family-wise error below {st.alpha}. "
+                f"The smallest reachable p is 1/{st.n_permutations + 1} (pairs: "
+                f"1/{st.pair_b + 1}).",
+                "The failure region of an input is where the failure probability is at least twice "
+                "the base rate; 'region_fail_share' is the share of all failed runs inside it, "
+                "'P(fail in region)' the share of the runs inside it that fail. "
+                "'stability' is the share of random half-campaigns in which the factor ranks at "
+                "least as high as here. A pair is 'significant' (kind 'interaction') only "
+                "when it adds to its two inputs' separate effects within the same runs of the "
+                "same case: no-interaction (additive log-odds) is tested per case on "
+                "median-split cells (Zelen's exact conditional test), "
+                "max-T corrected over all pairs (p_joint, the pair's own permutation test, "
+                "only says the pair differs at all). 'gain' of a pair is its score "
+                "beyond its better input. 'second_opinion' compares with a "
+                "random-forest permutation importance (another method family).",
+                "Physics-aware factors: authority_<axis>_<pos|neg|fire>_rad_s2 is the angular "
+                "acceleration the jet group gives (torque about the dispersed CG over the "
+                "inertia); "
+                "thrust_* the group's total thrust; "
+                + _imbalance_text(res)
+                + "pointing_loss_* the share of torque lost to jet misalignment; 'fire' is the "
+                "group firing toward each case's commanded rate.",
+                "Failure probabilities (overall, per case, per failure region, per outcome) are "
+                "shares of runs; each carries the Clopper-Pearson exact 95 % interval (its "
+                "coverage is at least 95 % for every true probability). 'runs to bound' answers "
+                f"how many runs, at the failure rate observed, make the one-sided exact 95 % "
+                f"upper bound fall below {100 * st.bound_p:g} % (--bound-p); with no failure "
+                "that is the rule of three, about 3 / P. 'not at this rate' means the observed "
+                "rate is already at or above that probability.",
+            )
+        ],
+        "method",
+    )
+
+
+def drivers(res, top: int = 25) -> Section:
+    d = res.drivers
+    blocks = [
+        figure_block(
+            figures.report_pngs(res)["ranking.png"],
+            mechanism.strongest(res)
+            + "Top inputs by score. Labels give the corrected p-value and the share "
+            "of half-campaigns keeping the rank.",
+        )
+    ]
+    sig = d[d["significant"]]
+    blocks.append(
+        text_block(
+            f"{len(sig)} of {len(d)} inputs are significant drivers"
+            + (
+                f": {', '.join(sig['factor'].head(12))}" + (" ..." if len(sig) > 12 else "")
+                if len(sig)
+                else "."
+            )
+        )
+    )
+    show = list((sig if len(sig) else d)["factor"].head(4))
+    if show:
+        blocks.append(
+            figure_block(
+                png_bytes(figures.failure_regions(res.singles, res.runset.X, show)),
+                mechanism.regions_caption(res, show)
+                + "Failure probability against the value of the leading inputs (smoothed); the "
+                "shaded part is the failure region (at least twice the base rate, dashed).",
+            )
+        )
+    shown = _present(d, _DRIVER_COLS).copy()
+    at = list(shown.columns).index("region_fail_share") + 1 if "region_fail_share" in shown else 0
+    shown.insert(at or len(shown.columns), "P(fail in region)", probs.region_column(d))
+    blocks.append(table_block(shown, "Driver ranking (drivers.csv)", max_rows=top))
+    return Section("Driver ranking", blocks, "drivers")
+
+
+def pairs(res, top: int = 15) -> Section:
+    if res.pair_table is None:
+        return Section("Pairs", [text_block("Only one input: no pairs.")], "pairs")
+    pt = res.pair_table
+    blocks = [
+        table_block(
+            _present(pt, _PAIR_COLS),
+            "Pairs: interactions, then other pairs by score (pairs.csv)",
+            top,
+        )
+    ]
+    gain = pt[pt["significant"]].sort_values("gain", ascending=False).head(5)
+    if len(gain):
+        blocks.append(
+            table_block(
+                _present(gain, _PAIR_COLS),
+                "Interactions (calibrated test), largest gain over their better input first",
+            )
+        )
+    if res.unmapped_cases:
+        blocks.append(
+            text_block(
+                "No map for "
+                + ", ".join(f"case {c} ({n} failed runs)" for c, n in res.unmapped_cases)
+                + ": no significant driver in this case (family-wise over every case and "
+                "input), so a map would show noise."
+            )
+        )
+    reasons = res.map_reasons or [""] * len(res.maps)
+    for (case, fmap), name, why in zip(res.maps, figures.map_png_names(res), reasons):
+        title = figures.map_title(case)
+        blocks.append(
+            figure_block(
+                figures.report_pngs(res)[name],
+                f"{title}: {fmap.feature_names_in_[0]} against {fmap.feature_names_in_[1]}"
+                + (f" ({why})" if why else "")
+                + ". "
+                "Shading: failure probability of the k nearest runs (k by cross-validation); "
+                "blank cells hold no runs. Red dots failed, blue succeeded (as Gambone Fig. 15). "
+                "Right: the uncertainty of the shading.",
+            )
+        )
+    return Section("Pairs and failure maps", blocks, "pairs")
+
+
+def cases(res) -> Section:
+    rows = []
+    nf = max(int(res.runset.y.sum()), 1)
+    for c in res.cases:
+        row = {
+            "case": c.case,
+            "runs": c.runs,
+            "failed": c.failed,
+            "share_of_all_failures": c.failed / nf,
+        }
+        if c.singles is not None and c.p_family is not None:
+            order = np.argsort(c.singles.rank_, kind="stable")
+            for k in range(3):
+                if k < order.size:
+                    j = order[k]
+                    row[f"driver_{k + 1}"] = (
+                        f"{c.singles.feature_names_in_[j]} (p={c.p_family[j]:.3g})"
+                        if c.p_family[j] < res.settings.alpha
+                        else ""
+                    )
+        rows.append(row)
+    df = probs.with_case_columns(pd.DataFrame(rows), res)
+    df = df.sort_values("failed", ascending=False, kind="stable")
+    blocks = [
+        text_block(
+            f"Each case with at least {res.settings.min_case_failures} failed and successful runs "
+            "is analysed on its own; listed are its significant drivers, family-wise over "
+            "every case and input together (max-T: p < alpha means no case and no input is "
+            "flagged by chance with probability above alpha). cases.csv also lists the inputs "
+            "with a Benjamini-Hochberg q-value below alpha (false-discovery rate over the same "
+            "tests); its 'significant' column is the family-wise call. Cases are sorted by "
+            "failures."
+        )
+    ]
+    blocks.append(table_block(df.fillna(""), "Drivers per case (cases.csv)", max_rows=60))
+    return Section("Per case", blocks, "cases")
+
+
+def histograms(res, n_cases: int = 3) -> Section:
+    rs = res.runset
+    if not all(f"final_rate_err_{a}_deg_s" in rs.runs.columns for a in figures.AXES):
+        return Section(
+            "Rate errors", [text_block("The runs carry no final rate errors.")], "rate-errors"
+        )
+    thr = (rs.manifest or {}).get("thresholds", {}).get("rate_error_deg_s")
+    blocks = []
+    for c in sorted(res.cases, key=lambda c: -c.failed)[:n_cases]:
+        if c.failed == 0:
+            continue
+        rows = np.ones(rs.y.size, bool) if rs.strata is None else rs.strata == c.case
+        blocks.append(
+            figure_block(
+                png_bytes(
+                    figures.rate_error_histogram(rs.runs[rows], rs.y[rows], thr, f"case {c.case}")
+                ),
+                f"Case {c.case}: final rate errors binned, failed runs red, successful blue "
+                "(as Gambone Fig. 16).",
+            )
+        )
+    return Section("Rate errors", blocks, "rate-errors")
+
+
+def second_opinion(res) -> Section:
+    d = res.drivers
+    if res.forest is None or "second_opinion" not in d:
+        return Section(
+            "Second opinion", [text_block("Not computed (too few failures).")], "second-opinion"
+        )
+    dis = d[d["second_opinion"].isin(["KDE only", "forest only"])]
+    blocks = [
+        text_block(
+            f"A random forest (held-out AUC {res.forest.test_auc_:.3f}) ranks the inputs by how "
+            "much its held-out AUC drops when one is shuffled. Disagreements with the KDE ranking "
+            "are listed: 'KDE only' is often an input whose information the forest takes from a "
+            "correlated one (a derived factor and its raw parts); 'forest only' an input that "
+            "acts jointly with others."
+        )
+    ]
+    blocks.append(
+        table_block(
+            _present(
+                dis,
+                ["factor", "rank", "p_value", "forest_rank", "forest_importance", "second_opinion"],
+            ),
+            "Disagreements",
+            max_rows=30,
+        )
+        if len(dis)
+        else text_block("No disagreements.")
+    )
+    return Section("Second opinion", blocks, "second-opinion")
+
+
+def failed_runs(res, max_rows: int = 100) -> Section:
+    rs = res.runset
+    runs = rs.runs[rs.y]
+    cols = [
+        c
+        for c in (
+            "run_id",
+            "case",
+            "reason",
+            "final_rate_err_roll_deg_s",
+            "final_rate_err_pitch_deg_s",
+            "final_rate_err_yaw_deg_s",
+        )
+        if c in runs
+    ]
+    df = runs[cols].copy()
+    if rs.kind == "campaign" and "run_id" in df:
+        where = shlex.quote(str(rs.source))
+        df["replay"] = [f"rcsim campaign replay {where} {int(r)}" for r in df["run_id"]]
+    blocks = [
+        text_block(
+            f"{len(df)} failed runs"
+            + (
+                "; the replay command re-flies one alone and writes its history and plots."
+                if "replay" in df
+                else "."
+            )
+        )
+    ]
+    blocks.append(table_block(df, "Failed runs", max_rows=max_rows))
+    return Section("Failed runs", blocks, "failed-runs")
+
+
+def notes(res) -> Section:
+    rs = res.runset
+    items = list(rs.notes)
+    if res.timings_s:
+        items.append(
+            "analysis time: " + ", ".join(f"{k} {v:.1f} s" for k, v in res.timings_s.items())
+        )
+    return Section("Notes", [text_block(*items) if items else text_block("None.")], "notes")
+
+
+def no_failures(res) -> Section:
+    rs = res.runset
+    what = "failed" if not rs.y.any() else "successful"
+    return Section(
+        "No failures to analyse",
+        [
+            text_block(
+                f"None of the {rs.y.size} runs is {what} (outcome column '{rs.outcome}'), so "
+                f"there is "
+                "nothing to compare: no input can be a driver. drivers.csv and pairs.csv hold "
+                "no rows."
+            )
+        ],
+        "no-failures",
+    )
+
+
+def driver_sections(res) -> list:
+    """Every section of the analysis, in reading order."""
+    if not res.has_failures:
+        return [summary(res), no_failures(res), notes(res)]
+    return [
+        summary(res),
+        method(res),
+        drivers(res),
+        mechanism.section(res),
+        pairs(res),
+        report_boxes.section(res),
+        cases(res),
+        probs.outcomes(res),
+        histograms(res),
+        second_opinion(res),
+        failed_runs(res),
+        notes(res),
+    ]

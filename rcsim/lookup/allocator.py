@@ -1,0 +1,183 @@
+"""Minimum-propellant jet selection: a small LP per run, solved for a whole batch at once.
+
+Problem, per run (homogeneous in the command ``b``, the rate change wanted [rad/s])::
+
+    min   sum_j mdot_j t_j  +  w_v |dv|_1  +  w_r |r|_1
+    s.t.  D t + r = b          rate change per second of firing (3 rows)
+          G t - dv = 0         CG velocity change per second of firing (3 rows, optional)
+          t >= 0               total on-time of each available jet [s]
+
+``t`` has no upper bound: a plan longer than a control cycle is flown over several cycles
+(:class:`rcsim.lookup.allocator_controller.AllocatorController`).  The elastic residual ``r``,
+priced ``w_r`` times the dearest jet's cost of the same rate change, makes every command feasible:
+an unreachable direction returns the best partial answer and its residual.  ``w_v`` prices the
+translation a firing leaves (default: the propellant that would null it, ``m / (Isp g0)`` kg per
+m/s), so a coupled force is avoided when it is cheap to avoid.  Firing time and jet count are
+secondary: among plans of equal propellant the simplex returns a vertex (at most 6 jets).
+
+Batched solution
+----------------
+``b`` enters only the right-hand side and no variable has an upper bound, so an optimal basis
+``B`` stays optimal for every ``b`` with ``A_B^-1 [b; 0] >= 0``: its dual feasibility does not
+depend on ``b``.  The optimum is piecewise linear over finitely many cones.  The allocator keeps
+the optimal bases it has met (index set, the first three columns of ``A_B^-1``, and which
+columns have a negative reduced cost); a batch is solved by evaluating every cached basis for
+every run at once (one ``einsum``, ``(n_runs, K, m)``) and keeping, per run, the cheapest
+primal-feasible basis whose columns the run may use and none of whose negative-reduced-cost
+columns it may use.  Runs no cached basis covers are solved by HiGHS
+(:func:`scipy.optimize.linprog`) one at a time and their basis joins the cache; one miss's
+basis usually covers other misses, and in a campaign the misses stop within the first cycles.
+Failed jets (per-run availability) use the same cache.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import linprog
+
+from rcsim.models.errors import InputError
+
+
+class Allocator:
+    """Batched minimum-propellant allocator (module docstring).
+
+    Parameters
+    ----------
+    D : ndarray, (3, n_jets)
+        Body-rate change per second of each jet's firing [rad/s per s] (the controller's model).
+    mdot_kg_s : ndarray, (n_jets,)
+        Propellant flow of each jet [kg/s].
+    G : ndarray, (3, n_jets), optional
+        CG velocity change per second of firing [m/s per s]; None: translation not priced.
+    w_v : float
+        Price of translation [kg per m/s of |dv|_1].
+    w_r : float
+        Price of the residual, relative to the dearest jet's cost of the same rate change.
+    """
+
+    def __init__(self, D, mdot_kg_s, G=None, w_v: float = 0.0, w_r: float = 1e3):
+        self.D = np.asarray(D, float)
+        self.n = n = self.D.shape[1]
+        self.mdot = np.asarray(mdot_kg_s, float).reshape(n)
+        if not (np.isfinite(self.D).all() and np.abs(self.D).max() > 0):
+            raise InputError("jets give no rate change", parameter="D")
+        if not (np.isfinite(self.mdot).all() and (self.mdot > 0).all()):
+            raise InputError("must be finite and > 0", parameter="mdot_kg_s")
+        # HiGHS' tolerances are absolute (~1e-7): scale rows to unit size, costs to max 1.
+        cost_scale = self.mdot.max()
+        self.sD = 1.0 / np.abs(self.D).max()
+        Ds = self.D * self.sD
+        wr = w_r * np.max((self.mdot / cost_scale) / np.maximum(np.linalg.norm(Ds, axis=0), 1e-300))
+        rows = [np.hstack([Ds, np.eye(3), -np.eye(3)])]
+        cost = [self.mdot / cost_scale, np.full(6, wr)]
+        if G is not None:
+            G = np.asarray(G, float)
+            sG = 1.0 / max(np.abs(G).max(), 1e-300)
+            rows[0] = np.hstack([rows[0], np.zeros((3, 6))])
+            rows.append(np.hstack([G * sG, np.zeros((3, 6)), -np.eye(3), np.eye(3)]))
+            cost.append(np.full(6, w_v / sG / cost_scale))
+        self.A = np.vstack(rows)
+        self.c = np.concatenate(cost)
+        self.m, self.ncol = self.A.shape
+        self.bases = np.zeros((0, self.m), int)
+        self.inv3 = np.zeros((0, self.m, 3))  # first 3 columns of A_B^-1 (b has no force rows)
+        self.negative = np.zeros((0, self.ncol), bool)  # columns with negative reduced cost
+        self.n_lp = 0  # HiGHS solves so far (cache misses)
+
+    def allocate(self, b, available=None) -> tuple[np.ndarray, np.ndarray]:
+        """On-times and residuals for commands ``b``.
+
+        Parameters
+        ----------
+        b : ndarray, (n_runs, 3)
+            Rate change wanted [rad/s].
+        available : ndarray of bool, (n_runs, n_jets), optional
+            The jets each run may use; default all.
+
+        Returns
+        -------
+        t : ndarray, (n_runs, n_jets)
+            Total on-time of each jet [s].
+        residual : ndarray, (n_runs, 3)
+            Rate change the jets cannot give [rad/s] (zero when ``b`` is reachable).
+        """
+        b = np.atleast_2d(np.asarray(b, float))
+        n_runs = b.shape[0]
+        if available is None:
+            available = np.ones((n_runs, self.n), bool)
+        available = np.asarray(available, bool)
+        t = np.zeros((n_runs, self.n))
+        residual = np.zeros((n_runs, 3))
+        todo = np.flatnonzero(np.any(b != 0, axis=1))
+        while todo.size:
+            chosen, x_basis = self._from_cache(b[todo], available[todo])
+            hit = chosen >= 0
+            self._scatter(t, residual, todo[hit], chosen[hit], x_basis[hit])
+            todo = todo[~hit]
+            if todo.size == 0:
+                break
+            i = todo[0]
+            cached = self.bases.shape[0]
+            x = self._solve(b[i], available[i])
+            if self.bases.shape[0] == cached:  # basis not cacheable (degenerate): use the LP's
+                t[i] = x[: self.n]
+                residual[i] = b[i] - self.D @ t[i]
+                todo = todo[1:]
+        return t, residual
+
+    def _solve(self, b, available) -> np.ndarray:
+        """One HiGHS solve; its optimal basis joins the cache when it is dual feasible."""
+        self.n_lp += 1
+        avail = np.concatenate([available, np.ones(self.ncol - self.n, bool)])
+        bounds = [(0, None if avail[j] else 0) for j in range(self.ncol)]
+        rhs = np.zeros(self.m)
+        rhs[:3] = b * self.sD
+        res = linprog(self.c, A_eq=self.A, b_eq=rhs, bounds=bounds, method="highs-ds")
+        if res.status != 0:  # pragma: no cover - the elastic residual keeps it feasible
+            raise RuntimeError(f"allocator LP failed: {res.message}")
+        x, y = res.x, res.eqlin.marginals
+        scale = np.maximum(np.abs(self.c), 1e-300)
+        reduced = self.c - self.A.T @ y
+        support = list(np.flatnonzero(x > 1e-12 * max(1.0, np.abs(x).max())))
+        zero = np.flatnonzero(avail & (np.abs(reduced) <= 1e-7 * scale))
+        basis = support
+        # Complete the support to a basis with zero-reduced-cost columns (A_B nonsingular).
+        for j in sorted(set(zero) - set(support), key=lambda j: -np.linalg.norm(self.A[:, j])):
+            if len(basis) == self.m:
+                break
+            if np.linalg.matrix_rank(self.A[:, basis + [j]], tol=1e-10) == len(basis) + 1:
+                basis = basis + [j]
+        if len(basis) == self.m and np.linalg.matrix_rank(self.A[:, basis], tol=1e-10) == self.m:
+            basis = sorted(basis)
+            a_b = self.A[:, basis]
+            y_b = np.linalg.solve(a_b.T, self.c[basis])
+            negative = (self.c - self.A.T @ y_b) < -1e-7 * scale
+            known = (self.bases == basis).all(axis=1) & (self.negative == negative).all(axis=1)
+            if not (negative & avail).any() and not known.any():
+                self.bases = np.vstack([self.bases, basis])
+                self.inv3 = np.concatenate([self.inv3, np.linalg.inv(a_b)[None, :, :3]])
+                self.negative = np.vstack([self.negative, negative])
+        return x
+
+    def _from_cache(self, b, available) -> tuple[np.ndarray, np.ndarray]:
+        """Per run the cheapest cached basis that is optimal for it (-1: none), and its x_B."""
+        n_runs = b.shape[0]
+        if self.bases.shape[0] == 0:
+            return np.full(n_runs, -1), np.zeros((n_runs, self.m))
+        x = np.einsum("kij,nj->nki", self.inv3, b * self.sD)  # (n_runs, K, m)
+        scale = np.abs(x).max(axis=2, keepdims=True) + 1e-300
+        primal = (x >= -1e-9 * scale).all(axis=2)
+        avail = np.hstack([available, np.ones((n_runs, self.ncol - self.n), bool)])
+        in_basis = avail[:, self.bases].all(axis=2)
+        dual = (avail.astype(np.uint8) @ self.negative.T.astype(np.uint8)) == 0
+        ok = primal & in_basis & dual
+        cost = np.where(ok, np.einsum("nki,ki->nk", np.maximum(x, 0), self.c[self.bases]), np.inf)
+        k = np.argmin(cost, axis=1)
+        chosen = np.where(ok.any(axis=1), k, -1)
+        return chosen, x[np.arange(n_runs), np.maximum(k, 0)]
+
+    def _scatter(self, t, residual, rows, k, x_basis) -> None:
+        full = np.zeros((rows.size, self.ncol))
+        np.put_along_axis(full, self.bases[k], np.maximum(x_basis, 0.0), axis=1)
+        t[rows] = full[:, : self.n]
+        residual[rows] = (full[:, self.n : self.n + 3] - full[:, self.n + 3 : self.n + 6]) / self.sD

@@ -1,0 +1,358 @@
+"""Generate a channel lookup table for a vehicle whose jets torque several axes (sec. II, sec. IV).
+
+The paper's rule (:mod:`rcsim.lookup.table_generation`) carried over to the six axis channels of
+:mod:`rcsim.lookup.channels`: for each of the 26 rate cases (Table 3) the nominal vehicle of the
+file is flown from rest, and the table keeps, per commanded axis, the whole number of 40 ms cycles
+of its channel whose *measured* end rate is nearest the command.  No mass property enters the
+choice: the rates are read from the simulation (the recipes themselves come from the nominal
+jet model, as the allocator's do).
+
+Two steps, because shared jets stretch a firing over more cycles (:class:`ChannelMap` scales a
+cycle whose channels ask a jet for more than the cycle, and counts a channel down by the time
+it delivered):
+
+1. *Firing loop* (the paper's): every commanded channel fires each cycle until its axis's
+   measured rate reaches or passes the command.  The channel time delivered by the crossing,
+   and the cycle before, bracket the time that reaches the command; the whole cycles between
+   them (``floor`` of the one to ``ceil`` of the other: the paper's two candidates when nothing
+   is shared) are the axis's candidates.
+2. *Candidates flown*: every combination of the commanded axes' candidates is flown open loop
+   (each channel fires its time from t = 0 through the delivery, as the lookup controller
+   fires a table row) and watched for ``settle_window_s`` more; the combination whose final
+   rate error (all three axes, squared) is least is the row.  That flight is the table's
+   verification too (end rate error, settling time after the firing, translation).
+
+Rate damping (Figs 3-4) is checked the same way: from each case's rate with a zero command,
+the cycles found must be the command's on the opposing channels.
+
+Valve timing (the vehicle file's delays) is flown in both steps.  The firing loop's cycle-end
+rates then lag what a row delivers by the command delay plus the closing latency, less than a
+cycle (:mod:`rcsim.lookup.table_candidates`), so each axis's candidates gain the whole cycle below
+the bracket.
+
+Imports ``models``, ``spacecraft`` and ``lookup`` only.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+
+import numpy as np
+
+from rcsim.lookup.channels import ChannelMap, solve_recipe
+from rcsim.lookup.table_generation import (
+    SETTLE_TOL_RAD_S,
+    FiringSweep,
+    GeneratedTable,
+    settle_after_firing,
+)
+from rcsim.models.tables import (
+    CHANNEL_COLUMNS,
+    CHANNEL_MAP,
+    ChannelRecipe,
+    LookupTable,
+    RateCases,
+    check_consistency,
+    load_rate_cases,
+)
+from rcsim.spacecraft.navigation import Guidance, NavState
+from rcsim.spacecraft.simulation import History, simulate_batch
+from rcsim.spacecraft.vehicle import AXES, jet_geometry_B
+
+#: "A whole number of cycles" when bracketing delivered channel time [cycles].
+_CYCLE_EPS = 1e-9
+
+
+def channel_of(axis: int, sign: int) -> int:
+    """Column of the channel turning ``axis`` (0..2) the ``sign`` (+1/-1) way."""
+    return 2 * axis + (0 if sign > 0 else 1)
+
+
+class ChannelFiringLoop:
+    """Fire each commanded axis's channel every cycle until its rate reaches the command.
+
+    Per run and axis the direction is fixed at the first cycle, ``d = -sign(rate error)``; the
+    axis's channel of that sign fires (asks for a whole cycle, delivered through the recipe)
+    while ``d * rate_error < 0`` and stops for good at the first cycle that starts at or past
+    the command.  Axes whose channel is unserved (an empty recipe) do not fire.
+    """
+
+    def __init__(self, channel_map: ChannelMap, served: np.ndarray):
+        self.map = channel_map
+        self.served = np.asarray(served, bool)
+        self.cycle_s = channel_map.cycle_s
+
+    def initial_state(self, n_runs: int):
+        return {"direction": None, "done": np.zeros((n_runs, 3), bool), "valves": None}
+
+    def firing(self, direction: np.ndarray, done: np.ndarray) -> np.ndarray:
+        """(n, 6) channel on-request: a cycle on each firing channel (more than a cycle of
+        remaining time, so that the delivery treats it as continuing)."""
+        fire = np.where(done, 0, direction)
+        rem = np.zeros((fire.shape[0], len(CHANNEL_COLUMNS)))
+        rem[:, 0::2] = fire > 0
+        rem[:, 1::2] = fire < 0
+        return rem * self.served[None, :] * 2.0 * self.cycle_s
+
+    def step(self, nav: NavState, state):
+        err = nav.rate_err_B
+        direction = -np.sign(err) if state["direction"] is None else state["direction"]
+        valves = self.map.initial(err.shape[0]) if state["valves"] is None else state["valves"]
+        done = state["done"] | (direction * err >= 0)
+        on, _, valves = self.map.deliver(self.firing(direction, done), valves)
+        return on, {"direction": direction, "done": done, "valves": valves}
+
+
+class ChannelOpenLoop:
+    """Fire channel ``k`` of run ``i`` for ``total_s[i, k]`` seconds of channel time from
+    t = 0, through the delivery, no feedback (a table row as the lookup controller fires it
+    from rest)."""
+
+    def __init__(self, total_s: np.ndarray, channel_map: ChannelMap):
+        self.total_s = np.asarray(total_s, float)
+        self.map = channel_map
+        self.cycle_s = channel_map.cycle_s
+
+    def initial_state(self, n_runs: int):
+        return self.total_s.copy(), self.map.initial(n_runs)
+
+    def step(self, nav: NavState, state):
+        rem, valves = state
+        on, delivered, valves = self.map.deliver(rem, valves)
+        rem = rem - delivered
+        return on, (np.where(rem > 1e-9, rem, 0.0), valves)
+
+
+def _candidates(
+    hist: History,
+    channel_map: ChannelMap,
+    served: np.ndarray,
+    loop: ChannelFiringLoop,
+    delayed: bool = False,
+) -> tuple[list, np.ndarray]:
+    """Per run, per axis, the whole-cycle channel times bracketing the crossing (step 1);
+    ``delayed`` (the vehicle has valve timing): one cycle below the bracket too.
+
+    Returns ``(cands, direction)``: ``cands[i][a]`` a list of cycle counts (``[0]`` on an axis
+    that does not fire), ``direction`` (n, 3).
+    """
+    cyc = channel_map.cycle_s
+    err = np.concatenate([hist.rate_err_B, hist.final.rate_err_B[:, None]], axis=1)
+    n, k1, _ = err.shape
+    direction = -np.sign(err[:, 0]).astype(int)
+    reached = direction[:, None, :] * err >= 0  # (n, K+1, 3)
+    served_dir = np.stack(
+        [
+            np.where(direction[:, a] > 0, served[2 * a], served[2 * a + 1]) & (direction[:, a] != 0)
+            for a in range(3)
+        ],
+        axis=1,
+    )
+    never = served_dir & ~reached.any(axis=1)
+    if never.any():
+        run, axis = np.argwhere(never)[0]
+        raise ValueError(
+            f"run {run}: {AXES[axis]} rate not reached within the firing loop's "
+            f"{hist.t_s[-1] + cyc:g} s; raise max_fire_s"
+        )
+    k_cross = np.argmax(reached, axis=1)  # (n, 3)
+    # Replay the loop's requests and the delivery's scale: channel time delivered per cycle.
+    done = np.cumsum(reached, axis=1)[:, :-1] > 0  # (n, K, 3): done at the start of cycle k
+    delivered = np.zeros((n, k1 - 1, 3))
+    for k in range(k1 - 1):  # cycles of a short flight, post-processing
+        request = loop.firing(direction, done[:, k])
+        on = np.minimum(request, cyc)
+        peak = (on @ channel_map.fractions).max(axis=1)
+        scale = np.where(peak > cyc, cyc / np.where(peak > 0, peak, 1.0), 1.0)
+        ch = on * scale[:, None]
+        delivered[:, k] = ch[:, 0::2] + ch[:, 1::2]
+    total = np.concatenate([np.zeros((n, 1, 3)), np.cumsum(delivered, axis=1)], axis=1)
+    cands = []
+    for i in range(n):  # 26 cases
+        per_axis = []
+        for a in range(3):
+            if not served_dir[i, a]:
+                per_axis.append([0])
+                continue
+            kc = k_cross[i, a]
+            lo = int(np.floor(total[i, max(kc - 1, 0), a] / cyc + _CYCLE_EPS)) - int(delayed)
+            hi = int(np.ceil(total[i, kc, a] / cyc - _CYCLE_EPS))
+            per_axis.append(list(range(max(lo, 1), max(hi, 1) + 1)))
+        cands.append(per_axis)
+    return cands, direction
+
+
+def _choose(
+    cands: list,
+    direction: np.ndarray,
+    omega0: np.ndarray,
+    target: np.ndarray,
+    flying,
+    channel_map: ChannelMap,
+    settle_window_s: float,
+):
+    """Fly every combination of the candidates open loop (step 2); per run the best one.
+
+    Returns ``(cycles (n, 3), times (n, 6), flight of the chosen rows, chosen row indices)``.
+    """
+    cyc = channel_map.cycle_s
+    rows, owner, combos = [], [], []
+    for i, per_axis in enumerate(cands):
+        for combo in itertools.product(*per_axis):
+            t = np.zeros(len(CHANNEL_COLUMNS))
+            for a, c in enumerate(combo):
+                if c:
+                    t[channel_of(a, direction[i, a])] = c * cyc
+            rows.append(t)
+            owner.append(i)
+            combos.append(combo)
+    times = np.array(rows)
+    owner_arr = np.array(owner)
+    # A cycle delivers at least a third of a channel's share (three channels, fractions <= 1),
+    # so every row has ended by three times its longest channel.
+    duration = 3.0 * float(times.max()) + settle_window_s
+    duration = np.ceil(duration / cyc - _CYCLE_EPS) * cyc
+    batch = flying.nominal(1).take(np.zeros(len(rows), int))
+    hist = simulate_batch(
+        batch,
+        ChannelOpenLoop(times, channel_map),
+        Guidance.rate(target[owner_arr]),
+        float(duration),
+        omega0_B=omega0[owner_arr],
+        propulsion=flying.propulsion(),
+        model=flying.model,
+        timing=flying.timing(len(rows)),
+    )
+    score = (hist.final.rate_err_B**2).sum(axis=1)
+    n = len(cands)
+    best = np.array(
+        [np.flatnonzero(owner_arr == i)[np.argmin(score[owner_arr == i])] for i in range(n)]
+    )
+    cycles = np.array([combos[b] for b in best], int)
+    return cycles, times[best], hist, best
+
+
+def generate_channel_table(
+    vehicle: str | os.PathLike,
+    *,
+    jets_off=(),
+    rate_cases: RateCases | None = None,
+    settle_tol_rad_s: float = SETTLE_TOL_RAD_S,
+    settle_window_s: float = 2.0,
+    max_fire_s: float = 5.0,
+    recipe: ChannelRecipe | None = None,
+) -> GeneratedTable:
+    """Solve the recipes and generate, verify and damping-check a channel table.
+
+    Parameters
+    ----------
+    vehicle : str or path
+        A vehicle file or packaged name (``"canted16"``).
+    jets_off : sequence of int
+        Jets (1-based) the recipes may not use.
+    rate_cases : RateCases, optional
+        Default: Table 3, corrected.
+    settle_tol_rad_s, settle_window_s, max_fire_s
+        As :func:`rcsim.lookup.table_generation.generate_table`.
+    recipe : ChannelRecipe, optional
+        Recipes already solved (default: :func:`rcsim.lookup.channels.solve_recipe`).
+
+    Returns
+    -------
+    GeneratedTable
+        ``table`` has six channel columns and the recipe; ``command.cycles`` (26, 3) are the
+        channel cycles per axis.
+    """
+    from rcsim.spacecraft.vehicle_file import FlyingVehicle
+
+    flying = FlyingVehicle.load(vehicle)
+    if recipe is None:
+        recipe = solve_recipe(vehicle, jets_off=jets_off, flying=flying)
+    rate_cases = load_rate_cases() if rate_cases is None else rate_cases
+    rate = np.asarray(rate_cases.rate_cmd, float)
+    zero = np.zeros_like(rate)
+    propulsion = flying.propulsion()
+    cmap = ChannelMap(recipe.fractions, recipe.min_on_s, propulsion.cycle_s)
+    served = recipe.served
+
+    def sweep(target, omega0):
+        loop = ChannelFiringLoop(cmap, served)
+        batch = flying.nominal(1).take(np.zeros(len(rate), int))
+        hist = simulate_batch(
+            batch,
+            loop,
+            Guidance.rate(target),
+            max_fire_s,
+            omega0_B=omega0,
+            propulsion=propulsion,
+            model=flying.model,
+            timing=flying.timing(len(rate)),
+        )
+        cands, direction = _candidates(hist, cmap, served, loop, flying.definition.has_delays)
+        cycles, times, chosen, rows = _choose(
+            cands, direction, omega0, target, flying, cmap, settle_window_s
+        )
+        direction = np.where(cycles > 0, direction, 0)
+        err = chosen.final.rate_err_B[rows]
+        return FiringSweep(cycles, err, direction, hist), times, chosen, rows
+
+    command, times, verify, rows = sweep(rate, zero)
+    damping, damping_times, _, _ = sweep(zero, rate)
+    jmap = CHANNEL_MAP * served[:, None]
+    check_consistency(
+        rate_cases.case,
+        rate,
+        times,
+        jmap,
+        file="<generated channel table>",
+        cycle_s=propulsion.cycle_s,
+        columns=CHANNEL_COLUMNS,
+    )
+    off = f" without jets {', '.join(map(str, recipe.jets_off))}" if recipe.jets_off else ""
+    table = LookupTable(
+        case=rate_cases.case,
+        rate_cmd=rate,
+        firing_time_s=times,
+        source=f"generated by rcsim.lookup.channel_generation for {recipe.vehicle}{off}",
+        recipe=recipe,
+    )
+    # The chosen rows' flights: when each firing ended (its last jet off), how it settled.
+    on = verify.on_time_s[rows]  # (26, K, n_jets)
+    fired = on.max(axis=2) > 0
+    last = np.where(fired.any(axis=1), fired.shape[1] - 1 - np.argmax(fired[:, ::-1], axis=1), 0)
+    fire_end = verify.t_s[last] + on[np.arange(len(rows)), last].max(axis=1)
+    sub = _rows(verify, rows)
+    settle = settle_after_firing(sub, fire_end, settle_tol_rad_s)
+    sign = np.sign(rate).astype(int)
+    unreachable = np.stack(
+        [
+            (sign[:, a] != 0) & ~np.where(sign[:, a] > 0, served[2 * a], served[2 * a + 1])
+            for a in range(3)
+        ],
+        axis=1,
+    )
+    _, dir_B = jet_geometry_B(flying.model)
+    impulse_B = (verify.propulsion.impulse_ns[rows][:, :, None] * dir_B[None]).sum(axis=1)
+    mass = flying.nominal(1).mass_kg[0]
+    return GeneratedTable(
+        table=table,
+        command=command,
+        damping=damping,
+        damping_firing_time_s=damping_times,
+        verify_rate_err_rad_s=verify.final.rate_err_B[rows].copy(),
+        settle_after_firing_s=settle,
+        settle_tol_rad_s=float(settle_tol_rad_s),
+        jets_off=recipe.jets_off,
+        unreachable=unreachable,
+        dv_B_m_s=impulse_B / mass,
+    )
+
+
+def _rows(hist: History, rows: np.ndarray) -> History:
+    """A history holding only the flights ``rows`` (rate errors and times: what
+    :func:`~rcsim.lookup.table_generation.settle_after_firing` reads)."""
+    from dataclasses import replace
+
+    final = replace(hist.final, rate_err_B=hist.final.rate_err_B[rows])
+    return replace(hist, rate_err_B=hist.rate_err_B[rows], final=final)

@@ -1,0 +1,31 @@
+/* A clock that always reads zero, for MuJoCo's timer callback (rcsim/spacecraft/mujoco_timers.py).
+ *
+ * With no callback installed, MuJoCo 4 times every stage of every step with the system clock
+ * (about 90 clock reads per RK4 step, a fifth of this vehicle's step).  rcsim never reads those
+ * timers; a native function is needed because MuJoCo calls it from its own threads, without
+ * the interpreter.  Built as an optional extension: without a C compiler rcsim still installs
+ * and runs, with MuJoCo's default timers. */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+PyMODINIT_FUNC PyInit__zero_clock(void);
+
+double rcsim_zero_clock(void) { return 0.0; }
+
+static PyObject *address(PyObject *self, PyObject *unused) {
+    (void)self;
+    (void)unused;
+    return PyLong_FromVoidPtr((void *)&rcsim_zero_clock);
+}
+
+static PyMethodDef methods[] = {
+    {"address", address, METH_NOARGS, "Address of double rcsim_zero_clock(void)."},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "_zero_clock",
+    "A clock that reads zero, for mujoco.set_mjcb_time.", -1, methods,
+};
+
+PyMODINIT_FUNC PyInit__zero_clock(void) { return PyModule_Create(&module); }

@@ -1,0 +1,86 @@
+"""The per-cycle record of a batch of flights (:class:`History`).
+
+Imports ``rcsim.spacecraft.navigation``, ``rcsim.spacecraft.propulsion`` and
+``rcsim.spacecraft.vehicle`` only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rcsim.spacecraft.navigation import NavState
+from rcsim.spacecraft.propulsion import PropulsionState
+from rcsim.spacecraft.vehicle import VehicleParams
+
+
+@dataclass
+class History:
+    """Per-cycle record of a batch of runs (cycle k starts at ``t_s[k]``).
+
+    Attributes
+    ----------
+    cycle_s : float
+        The control cycle flown [s] (``PropulsionParams.cycle_s``): the one carrier of the
+        cycle downstream of a flight (outcomes, envelopes, manifests read it here).
+    t_s : ndarray, (n_cycles,)
+        Start of each cycle, ``k * cycle_s`` [s].
+    q_BN : ndarray, (n_runs, n_cycles, 4)
+    omega_B, att_err_B, rate_err_B : ndarray, (n_runs, n_cycles, 3)
+        Body rate, attitude error and rate error at the cycle's start [rad/s, rad, rad/s].
+    on_time_s : ndarray, (n_runs, n_cycles, n_jets)
+        On-time each of the vehicle's ``n_jets`` jets was commanded for the cycle, after the
+        valve limits [s] (from the cycle's start; what firing counts are made of).
+    final : NavState
+        State at the end of the last cycle.
+    propulsion : PropulsionState
+        Firings, on-time, impulse per jet over the run.
+    failed : ndarray of bool, (n_runs,)
+        The simulation itself failed (invalid parameters, MuJoCo warning -- the physics
+        diverged --, MuJoCo error, non-finite state).  A failed run is frozen from the cycle it
+        failed in; its later records are not a flight.
+    reason : list of str
+        Why, per run ('' when it did not fail).
+    flown_params : VehicleParams or None
+        The parameters each run was flown with, read back from MuJoCo's per-run model
+        (:meth:`BatchSimulation.flown_params`); None for a history not made by a simulation.
+    delivered_s : ndarray, (n_runs, n_cycles, n_jets), or None
+        Time each jet thrust during the cycle [s]: the command moved by valve timing
+        (:mod:`rcsim.spacecraft.valves`), plus stuck-on windows, minus failed time (with a thrust
+        profile, time with any thrust).  None when there is no valve timing, fault or profile:
+        then it is ``on_time_s``.
+    meas_att_err_B, meas_rate_err_B : ndarray, (n_runs, n_cycles, 3), or None
+        Attitude and rate errors the controller saw (from the measured state,
+        :mod:`rcsim.spacecraft.sensors`) [rad, rad/s]; None when the sensors are perfect (then the
+        controller saw ``att_err_B`` and ``rate_err_B``).  Outcomes use the true state.
+    propellant_exhausted_s : ndarray, (n_runs,), or None
+        When each run's propellant ran out [s] (inf: it did not); None when propellant is not
+        tracked (:class:`rcsim.spacecraft.propellant.PropellantTank`).
+    """
+
+    cycle_s: float
+    t_s: np.ndarray
+    q_BN: np.ndarray
+    omega_B: np.ndarray
+    att_err_B: np.ndarray
+    rate_err_B: np.ndarray
+    on_time_s: np.ndarray
+    final: NavState
+    propulsion: PropulsionState
+    failed: np.ndarray
+    reason: list[str] = field(default_factory=list)
+    flown_params: VehicleParams | None = None
+    delivered_s: np.ndarray | None = None
+    meas_att_err_B: np.ndarray | None = None
+    meas_rate_err_B: np.ndarray | None = None
+    propellant_exhausted_s: np.ndarray | None = None
+
+    @property
+    def n_runs(self) -> int:
+        return int(self.omega_B.shape[0])
+
+    @property
+    def n_jets(self) -> int:
+        """The flown vehicle's jet count (the width of ``on_time_s``)."""
+        return int(self.on_time_s.shape[2])
