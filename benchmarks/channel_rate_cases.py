@@ -28,10 +28,10 @@ from rcsim.lookup.pattern_recognition import LookupController  # noqa: E402
 from rcsim.lookup.registry import make_controller  # noqa: E402
 from rcsim.spacecraft.navigation import Guidance  # noqa: E402
 from rcsim.spacecraft.simulation import simulate_batch  # noqa: E402
-from rcsim.spacecraft.vehicle_file import FlyingVehicle  # noqa: E402
+from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
 
 
-def fly(vehicle: FlyingVehicle, controller, rate: np.ndarray) -> dict:
+def fly(vehicle: Vehicle, controller, rate: np.ndarray) -> dict:
     n = rate.shape[0]
     h = simulate_batch(
         vehicle.nominal(n), controller, Guidance.rate(rate), 20.0, model=vehicle.model,
@@ -54,7 +54,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--vehicle", default="canted16")
     args = parser.parse_args()
-    vehicle = FlyingVehicle.load(args.vehicle)
+    vehicle = Vehicle.load(args.vehicle)
     generated = generate_channel_table(args.vehicle)
     rate = np.asarray(generated.table.rate_cmd, float)
     res = {

@@ -11,9 +11,12 @@ and this module on top owns the version, ``python -m rcsim`` and the public Pyth
 The public API (``docs/api.md`` has a worked, tested example; ``help(rcsim.<name>)`` gives
 each one's docstring).  Names load on first use, so ``import rcsim`` is quick.
 
+The vehicle
+    Vehicle, vehicle_report                      -- a vehicle (packaged or a file) resolved once,
+                                                    with its flight-software profile; its check
 Flying
     Scenario, fly, history_frame, write_flight  -- one flight (a batch of one or many runs)
-    VehicleParams, make_controller               -- the vehicle's parameters, a controller by name
+    VehicleParams, make_controller               -- runs' parameters, a controller for a vehicle
 Campaigns
     parse_dict, load_spec, CampaignSpec, run_campaign -- a Monte Carlo dispersion campaign
     runs_table                                   -- the columns and files of its results
@@ -40,6 +43,8 @@ _API: dict[str, tuple[str, str]] = {
     "fly": ("rcsim.analysis.engine.flight", "fly"),
     "history_frame": ("rcsim.analysis.engine.flight", "history_frame"),
     "write_flight": ("rcsim.analysis.engine.flight", "write_flight"),
+    "Vehicle": ("rcsim.spacecraft.vehicle_file", "Vehicle"),
+    "vehicle_report": ("rcsim.spacecraft.vehicle_file.authority", "vehicle_report"),
     "VehicleParams": ("rcsim.spacecraft.vehicle", "VehicleParams"),
     "make_controller": ("rcsim.lookup.registry", "make_controller"),
     "parse_dict": ("rcsim.analysis.engine.campaign.spec", "parse_dict"),
@@ -52,7 +57,7 @@ _API: dict[str, tuple[str, str]] = {
     "DriverSettings": ("rcsim.analysis.results.drivers.pipeline", "Settings"),
     "write_analysis": ("rcsim.analysis.results.drivers.outputs", "write_analysis"),
     "load_lookup_table": ("rcsim.models.tables", "load_lookup_table"),
-    "generate_table": ("rcsim.lookup.table_generation", "generate_table"),
+    "generate_table": ("rcsim.lookup.generation", "generate_table"),
     "run_refinement": ("rcsim.analysis.apps.refinement.outputs", "run_refinement"),
     "LoopSettings": ("rcsim.analysis.apps.loop.run", "LoopSettings"),
     "run_loop": ("rcsim.analysis.apps.loop.run", "run_loop"),

@@ -18,8 +18,9 @@ import numpy as np
 import pytest
 from hypothesis import settings
 
-from rcsim.models.tables import load_mass_properties
+from rcsim.models.tables import PAPER_CYCLE_S, load_mass_properties
 from rcsim.spacecraft.vehicle import load_model
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 HYPOTHESIS_PROFILE = "rcsim-derandomized"
 settings.register_profile(HYPOTHESIS_PROFILE, derandomize=True, database=None)
@@ -28,8 +29,16 @@ settings.load_profile(HYPOTHESIS_PROFILE)
 
 @pytest.fixture(scope="module")
 def model() -> mujoco.MjModel:
-    """The packaged vehicle at its default physics settings."""
+    """The packaged vehicle MJCF at its default physics settings."""
     return load_model()
+
+
+@pytest.fixture(scope="session")
+def paper() -> Vehicle:
+    """The paper's vehicle (``paper.toml``, its profile: the paper's 40 ms cycle ...)."""
+    vehicle = Vehicle.load()
+    assert vehicle.control.cycle_s == PAPER_CYCLE_S  # the profile is the paper's
+    return vehicle
 
 
 @pytest.fixture(scope="module")

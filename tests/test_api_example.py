@@ -28,3 +28,21 @@ def test_every_python_block_of_the_api_page_runs(tmp_path, capsys):
         os.chdir(cwd)
     printed = capsys.readouterr().out
     assert "runs," in printed and (tmp_path / "drivers" / "report.html").is_file()
+
+
+def test_the_pages_driver_block_survives_a_campaign_without_failures(tmp_path):
+    """Issue 27 item 5: the documented drivers block on runs of which none failed: the result
+    says so (no ``singles``, ``has_failures`` false), the page's ``else`` branch is taken and
+    the report is still written.  Oracle: a runs table whose outcome column is all False."""
+    import numpy as np
+
+    import rcsim
+    from rcsim.analysis.results.drivers.synthetic import planted_campaign
+
+    X, _ = planted_campaign("one-sided", seed=3, n_runs=300, n_noise=4)
+    runs = X.assign(failed=np.zeros(len(X), bool))
+    result = rcsim.analyze(runs, rcsim.DriverSettings(n_permutations=19))
+    assert not result.has_failures and result.singles is None
+    assert any("no physics-aware factors" in note for note in result.runset.notes)
+    rcsim.write_analysis(result, tmp_path / "drivers")
+    assert (tmp_path / "drivers" / "report.html").is_file()

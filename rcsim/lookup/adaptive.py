@@ -93,7 +93,7 @@ class AdaptParams:
             and 0 < self.gain <= 1
             and 0 < self.scale_min <= 1 <= self.scale_max
             and self.settle_cycles >= 1
-            and (self.check_after_s == 0 or self.check_after_s > 0.04)
+            and self.check_after_s >= 0
         ):
             raise ValueError(f"invalid AdaptParams {self}")
 
@@ -132,8 +132,10 @@ class AdaptiveLookupController(LookupController):
     Parameters
     ----------
     table : LookupTable
-    params : LookupParams, optional
+    params : LookupParams
     adapt : AdaptParams, optional
+        Default: :class:`AdaptParams`' values.  Its ``check_after_s`` must exceed the control
+        cycle (the slope is measured from one cycle of on-time to it) or be 0.
     jets_off : sequence of int
         As :class:`LookupController`.
     """
@@ -143,13 +145,28 @@ class AdaptiveLookupController(LookupController):
     def __init__(
         self,
         table: LookupTable,
-        params: LookupParams | None = None,
+        params: LookupParams,
         adapt: AdaptParams | None = None,
         *,
         jets_off=(),
     ):
         super().__init__(table, params, jets_off=jets_off)
         self.adapt = AdaptParams() if adapt is None else adapt
+
+    @property
+    def adapt(self) -> AdaptParams:
+        """How the entries learn; a mid-course check must come after a cycle of on-time."""
+        return self._adapt
+
+    @adapt.setter
+    def adapt(self, value: AdaptParams) -> None:
+        check = value.check_after_s
+        if check != 0 and not check > self.params.cycle_s:
+            raise ValueError(
+                f"AdaptParams.check_after_s = {check} s must exceed the control cycle "
+                f"{self.params.cycle_s} s (or be 0: no mid-course check)"
+            )
+        self._adapt = value
 
     # The adaptive state extends the lookup state (learned scales, the firing watched); the
     # parent's step logic is reused through step_detail, never with the parent's state type.

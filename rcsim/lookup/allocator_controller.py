@@ -7,13 +7,18 @@ runs (no Python loop over runs):
 
 1. the rate change the logic acts on, ``need = -(omega - target)``, with the lookup
    controller's maneuver rule: above the maneuver limit the target is the commanded rate plus
-   the maneuver rate toward the commanded attitude (Table 4 values, as
-   :class:`rcsim.lookup.pattern_recognition.LookupParams`);
-2. dead band: no new plan while ``max |need| < deadband``;
+   the maneuver rate toward the commanded attitude (the vehicle's profile,
+   :class:`rcsim.spacecraft.vehicle_file.ControlProfile`; the paper's Table 4 values for the
+   paper's vehicle);
+2. dead band: no new plan while ``max |need| < deadband`` (the profile's
+   ``allocator.rate_deadband_deg_s``, 0.004 deg/s for the paper's vehicle: a tenth of the
+   0.04 deg/s success threshold of the rate cases, so a run settles well inside it);
 3. plan: the minimum-propellant on-times ``t`` for all of ``need`` from the allocator
    (:class:`rcsim.lookup.allocator.Allocator`, nominal jet model) over the available jets, rounded
-   so that every jet's total is 0 or at least the minimum on-time (all ``2^k`` roundings of the
-   ``k`` short jets scored by the rate error they leave);
+   so that every jet's total is 0 or at least the minimum on-time by the profile's minimum
+   pulse policy (``min_pulse``): ``accumulate``, all ``2^k`` roundings of the ``k`` short jets
+   scored by the rate error they leave; ``round-up``, every short total to the minimum;
+   ``drop``, every short total to 0;
 4. the plan is spread over ``L = ceil(max t / cycle)`` cycles, every cycle firing ``t / L`` of
    each jet, so the coupled torques cancel within every cycle, not only at the plan's end; a
    share below the minimum on-time is owed and fired as one pulse when it reaches it;
@@ -27,29 +32,30 @@ cycles left and which jets ended the last cycle on.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
 from rcsim.lookup.allocator import Allocator
 from rcsim.models.errors import InputError
-from rcsim.models.tables import CONTROL_CYCLE_S
+from rcsim.spacecraft.control_profile import MIN_PULSE_POLICIES
 from rcsim.spacecraft.propellant import full_inertia
 from rcsim.spacecraft.vehicle import BODY, G0_M_S2, VehicleParams, torque_per_jet_B
 
-#: Dead band on the rate error [rad/s] (0.004 deg/s: a tenth of the 0.04 deg/s success
-#: threshold of the rate cases, so a run settles well inside it).
-DEADBAND_RAD_S = np.radians(0.004)
+if TYPE_CHECKING:
+    from rcsim.spacecraft.vehicle_file import Vehicle
+
 #: Cycles to wait before re-planning when no rounding of a plan helps.
 GIVE_UP_CYCLES = 5
 
 
-def jet_model(model: mujoco.MjModel, isp_s: float = 280.0):
+def jet_model(model: mujoco.MjModel, isp_s: float):
     """The nominal jet model of a vehicle of ``n`` jets (the model's,
-    :func:`rcsim.spacecraft.vehicle.jet_count`): ``D`` (3, n) [rad/s per s], ``G`` (3, n) [m/s per
-    s], ``mdot`` (n,) [kg/s], mass [kg]; from the compiled model (full inertia, with its principal
-    frame ``body_iquat``)."""
-    params = VehicleParams.nominal(1, model)
+    :func:`rcsim.spacecraft.vehicle.jet_count`) whose jets have specific impulse ``isp_s`` [s]:
+    ``D`` (3, n) [rad/s per s], ``G`` (3, n) [m/s per s], ``mdot`` (n,) [kg/s], mass [kg]; from
+    the compiled model (full inertia, with its principal frame ``body_iquat``)."""
+    params = VehicleParams.nominal(1, model, isp_s=isp_s)
     torque = torque_per_jet_B(params, model)[0]  # (n, 3) about the CG [N m]
     inertia = full_inertia(params.inertia_B, model.body_iquat[model.body(BODY).id])[0]
     D = np.linalg.solve(inertia, torque.T)
@@ -92,9 +98,14 @@ class AllocatorController:
     min_on_s : float
         Shortest new pulse the valves make [s].
     maneuver_limit_rad, maneuver_rate_rad_s : float
-        The maneuver rule (Table 4 values by default).
+        The maneuver rule [rad, rad/s] (the vehicle's profile).
     deadband_rad_s : float
-        No new plan below this rate error on every axis [rad/s].
+        No new plan below this rate error on every axis [rad/s] (the profile's).
+    cycle_s : float
+        Control cycle [s] (the profile's).
+    min_pulse : str
+        The profile's minimum pulse policy: how a plan's totals below ``min_on_s`` are rounded
+        (module docstring, step 3).
     available : ndarray of bool, (n_jets,) or (n_runs, n_jets), optional
         The jets the controller may use (``--jets-off``); default all.
     """
@@ -103,12 +114,13 @@ class AllocatorController:
         self,
         allocator: Allocator,
         *,
-        min_on_s: float = 0.0,
-        maneuver_limit_rad: float = np.radians(0.6),
-        maneuver_rate_rad_s: float = np.radians(0.2),
-        deadband_rad_s: float = DEADBAND_RAD_S,
+        min_on_s: float,
+        maneuver_limit_rad: float,
+        maneuver_rate_rad_s: float,
+        deadband_rad_s: float,
+        cycle_s: float,
+        min_pulse: str,
         available=None,
-        cycle_s: float = CONTROL_CYCLE_S,
     ):
         self.allocator = allocator
         self.n = allocator.n
@@ -118,6 +130,11 @@ class AllocatorController:
         self.deadband_rad_s = deadband_rad_s
         self.available = None if available is None else np.asarray(available, bool)
         self.cycle_s = cycle_s
+        if min_pulse not in MIN_PULSE_POLICIES:
+            raise InputError(
+                f"min_pulse must be one of {', '.join(MIN_PULSE_POLICIES)}, got {min_pulse!r}"
+            )
+        self.min_pulse = min_pulse
 
     def initial_state(self, n_runs: int) -> AllocatorState:
         z = np.zeros((n_runs, self.n))
@@ -160,10 +177,13 @@ class AllocatorController:
         return u, AllocatorState(share, owed, left, u >= self.cycle_s * (1 - 1e-12))
 
     def _round(self, t: np.ndarray, target: np.ndarray) -> np.ndarray:
-        """Totals below the minimum on-time to 0 or the minimum: of all 2^k roundings of a
-        run's k short jets, the one leaving the least rate error (none when no rounding
-        improves on firing nothing by 10 %)."""
+        """Totals below the minimum on-time to 0 or the minimum by the minimum pulse policy;
+        ``accumulate``: of all 2^k roundings of a run's k short jets, the one leaving the least
+        rate error (none when no rounding improves on firing nothing by 10 %)."""
         small_all = (t > 0) & (t < self.min_on_s)
+        if self.min_pulse != "accumulate":
+            fired = self.min_on_s if self.min_pulse == "round-up" else 0.0
+            return np.where(small_all, fired, t)
         rows = np.flatnonzero(small_all.any(axis=1))
         if rows.size == 0:
             return t
@@ -188,25 +208,19 @@ class AllocatorController:
         return out
 
 
-def allocator_controller(
-    model: mujoco.MjModel,
-    *,
-    isp_s: float = 280.0,
-    min_on_s: float = 0.0,
-    jets_off=(),
-    **options,
-) -> AllocatorController:
-    """The allocator controller of a vehicle model (any number of jets, the model's): minimum
-    propellant, translation priced at the propellant that would null it (``m / (Isp g0)`` per
-    m/s), jets ``jets_off`` (1-based numbers) never used.
+def allocator_controller(vehicle: Vehicle, *, jets_off=()) -> AllocatorController:
+    """The allocator controller of ``vehicle`` (any number of jets): minimum propellant,
+    translation priced at the propellant that would null it (``m / (Isp g0)`` per m/s), jets
+    ``jets_off`` (1-based numbers) never used; the maneuver rule, deadband and cycle of the
+    vehicle's profile, its minimum on-time.
 
     Raises
     ------
     InputError
         A number in ``jets_off`` that is not a jet of the vehicle.
     """
-    D, G, mdot, mass = jet_model(model, isp_s)
-    allocator = Allocator(D, mdot, G=G, w_v=mass / (isp_s * G0_M_S2))
+    D, G, mdot, mass = jet_model(vehicle.model, vehicle.isp_s)
+    allocator = Allocator(D, mdot, G=G, w_v=mass / (vehicle.isp_s * G0_M_S2))
     available = None
     if len(jets_off):
         n_jets = D.shape[1]
@@ -219,4 +233,14 @@ def allocator_controller(
             )
         available = np.ones(n_jets, bool)
         available[np.asarray(jets_off, int) - 1] = False
-    return AllocatorController(allocator, min_on_s=min_on_s, available=available, **options)
+    control = vehicle.control
+    return AllocatorController(
+        allocator,
+        min_on_s=vehicle.min_on_s,
+        maneuver_limit_rad=control.maneuver_limit_rad,
+        maneuver_rate_rad_s=control.maneuver_rate_rad_s,
+        deadband_rad_s=control.allocator_rate_deadband_rad_s,
+        cycle_s=control.cycle_s,
+        min_pulse=control.min_pulse,
+        available=available,
+    )

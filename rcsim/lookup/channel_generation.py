@@ -37,12 +37,12 @@ from __future__ import annotations
 
 import itertools
 import os
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rcsim.lookup.channels import ChannelMap, solve_recipe
 from rcsim.lookup.table_generation import (
-    SETTLE_TOL_RAD_S,
     FiringSweep,
     GeneratedTable,
     settle_after_firing,
@@ -54,11 +54,14 @@ from rcsim.models.tables import (
     LookupTable,
     RateCases,
     check_consistency,
-    load_rate_cases,
+    rate_cases_at,
 )
 from rcsim.spacecraft.navigation import Guidance, NavState
 from rcsim.spacecraft.simulation import History, simulate_batch
 from rcsim.spacecraft.vehicle import AXES, jet_geometry_B
+
+if TYPE_CHECKING:
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
 #: "A whole number of cycles" when bracketing delivered channel time [cycles].
 _CYCLE_EPS = 1e-9
@@ -188,7 +191,7 @@ def _choose(
     direction: np.ndarray,
     omega0: np.ndarray,
     target: np.ndarray,
-    flying,
+    vehicle: Vehicle,
     channel_map: ChannelMap,
     settle_window_s: float,
 ):
@@ -213,16 +216,14 @@ def _choose(
     # so every row has ended by three times its longest channel.
     duration = 3.0 * float(times.max()) + settle_window_s
     duration = np.ceil(duration / cyc - _CYCLE_EPS) * cyc
-    batch = flying.nominal(1).take(np.zeros(len(rows), int))
+    batch = vehicle.nominal(1).take(np.zeros(len(rows), int))
     hist = simulate_batch(
         batch,
         ChannelOpenLoop(times, channel_map),
         Guidance.rate(target[owner_arr]),
         float(duration),
         omega0_B=omega0[owner_arr],
-        propulsion=flying.propulsion(),
-        model=flying.model,
-        timing=flying.timing(len(rows)),
+        vehicle=vehicle,
     )
     score = (hist.final.rate_err_B**2).sum(axis=1)
     n = len(cands)
@@ -234,11 +235,10 @@ def _choose(
 
 
 def generate_channel_table(
-    vehicle: str | os.PathLike,
+    vehicle: Vehicle | str | os.PathLike,
     *,
     jets_off=(),
     rate_cases: RateCases | None = None,
-    settle_tol_rad_s: float = SETTLE_TOL_RAD_S,
     settle_window_s: float = 2.0,
     max_fire_s: float = 5.0,
     recipe: ChannelRecipe | None = None,
@@ -247,14 +247,15 @@ def generate_channel_table(
 
     Parameters
     ----------
-    vehicle : str or path
-        A vehicle file or packaged name (``"canted16"``).
+    vehicle : Vehicle, str or path
+        The vehicle (``"canted16"``, a file: resolved once); its profile's cycle, rate-case
+        magnitude and rate deadband (the settling tolerance) as for a jet table.
     jets_off : sequence of int
         Jets (1-based) the recipes may not use.
     rate_cases : RateCases, optional
-        Default: Table 3, corrected.
-    settle_tol_rad_s, settle_window_s, max_fire_s
-        As :func:`rcsim.lookup.table_generation.generate_table`.
+        Default: the profile's (:func:`rcsim.models.tables.rate_cases_at`).
+    settle_window_s, max_fire_s
+        As :func:`rcsim.lookup.table_generation.generate_jet_table`.
     recipe : ChannelRecipe, optional
         Recipes already solved (default: :func:`rcsim.lookup.channels.solve_recipe`).
 
@@ -264,34 +265,35 @@ def generate_channel_table(
         ``table`` has six channel columns and the recipe; ``command.cycles`` (26, 3) are the
         channel cycles per axis.
     """
-    from rcsim.spacecraft.vehicle_file import FlyingVehicle
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
-    flying = FlyingVehicle.load(vehicle)
+    vehicle = Vehicle.load(vehicle)
+    control = vehicle.control
+    settle_tol_rad_s = control.rate_deadband_rad_s
     if recipe is None:
-        recipe = solve_recipe(vehicle, jets_off=jets_off, flying=flying)
-    rate_cases = load_rate_cases() if rate_cases is None else rate_cases
+        recipe = solve_recipe(vehicle, jets_off=jets_off)
+    rate_cases = rate_cases_at(control.rate_case_rad_s) if rate_cases is None else rate_cases
     rate = np.asarray(rate_cases.rate_cmd, float)
     zero = np.zeros_like(rate)
-    propulsion = flying.propulsion()
-    cmap = ChannelMap(recipe.fractions, recipe.min_on_s, propulsion.cycle_s)
+    cmap = ChannelMap(
+        recipe.fractions, recipe.min_on_s, control.cycle_s, min_pulse=control.min_pulse
+    )
     served = recipe.served
 
     def sweep(target, omega0):
         loop = ChannelFiringLoop(cmap, served)
-        batch = flying.nominal(1).take(np.zeros(len(rate), int))
+        batch = vehicle.nominal(1).take(np.zeros(len(rate), int))
         hist = simulate_batch(
             batch,
             loop,
             Guidance.rate(target),
             max_fire_s,
             omega0_B=omega0,
-            propulsion=propulsion,
-            model=flying.model,
-            timing=flying.timing(len(rate)),
+            vehicle=vehicle,
         )
-        cands, direction = _candidates(hist, cmap, served, loop, flying.definition.has_delays)
+        cands, direction = _candidates(hist, cmap, served, loop, vehicle.definition.has_delays)
         cycles, times, chosen, rows = _choose(
-            cands, direction, omega0, target, flying, cmap, settle_window_s
+            cands, direction, omega0, target, vehicle, cmap, settle_window_s
         )
         direction = np.where(cycles > 0, direction, 0)
         err = chosen.final.rate_err_B[rows]
@@ -306,7 +308,7 @@ def generate_channel_table(
         times,
         jmap,
         file="<generated channel table>",
-        cycle_s=propulsion.cycle_s,
+        cycle_s=control.cycle_s,
         columns=CHANNEL_COLUMNS,
     )
     off = f" without jets {', '.join(map(str, recipe.jets_off))}" if recipe.jets_off else ""
@@ -332,9 +334,9 @@ def generate_channel_table(
         ],
         axis=1,
     )
-    _, dir_B = jet_geometry_B(flying.model)
+    _, dir_B = jet_geometry_B(vehicle.model)
     impulse_B = (verify.propulsion.impulse_ns[rows][:, :, None] * dir_B[None]).sum(axis=1)
-    mass = flying.nominal(1).mass_kg[0]
+    mass = vehicle.nominal(1).mass_kg[0]
     return GeneratedTable(
         table=table,
         command=command,

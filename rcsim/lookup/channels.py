@@ -31,23 +31,28 @@ firing, so a firing's total rate change is its table time's, only spread over mo
 percent) are owed per jet and fired as one pulse of at least the minimum when they add up to
 it, folded into a longer pulse of the same jet when it fires anyway, or rounded (to the minimum when
 at least half of it is owed, else dropped) when no channel asks for the jet any more -- the
-allocator controller's rule.
+allocator controller's rule, and the profile's ``min_pulse = "accumulate"``; ``"round-up"``
+fires each short share at the minimum at once, ``"drop"`` does not fire it
+(:mod:`rcsim.spacecraft.control_profile`).
 
 Imports ``models``, ``spacecraft`` and the allocator only.
 """
 
 from __future__ import annotations
 
-import hashlib
 import os
 from dataclasses import dataclass
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rcsim.lookup.jet_numbers import jet_numbers
 from rcsim.models.errors import InputError
-from rcsim.models.tables import AXES, CHANNEL_MAP, CHANNELS, CONTROL_CYCLE_S, ChannelRecipe
+from rcsim.models.tables import AXES, CHANNEL_MAP, CHANNELS, ChannelRecipe
+from rcsim.spacecraft.control_profile import MIN_PULSE_POLICIES
+
+if TYPE_CHECKING:
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
 #: Size of the command the recipe LP is solved for [rad/s]: any positive value gives the same
 #: fractions (the LP is homogeneous); 0.01 rad/s keeps HiGHS' scaled rows near 1.
@@ -60,39 +65,18 @@ _RESIDUAL_RTOL = 1e-6
 _TIME_EPS_S = 1e-12
 
 
-def vehicle_reference(vehicle: str | os.PathLike) -> tuple[str, str]:
-    """How a recipe names a vehicle file, and the file's SHA-256.
-
-    Returns ``(ref, sha256)``: ``ref`` is the packaged name (``"canted16"``) or the file's
-    absolute path, so a recipe read from anywhere finds it again.
-    """
-    from rcsim.spacecraft.vehicle_file import PACKAGED_VEHICLES, resolve_vehicle
-
-    path = resolve_vehicle(vehicle)
-    if not Path(path).is_file():
-        raise InputError(f"{path}: vehicle file not found", parameter="vehicle", value=str(vehicle))
-    ref = str(vehicle) if str(vehicle) in PACKAGED_VEHICLES else str(Path(path).resolve())
-    return ref, hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
-def vehicle_sha256(vehicle: str | os.PathLike) -> str:
-    """SHA-256 of a vehicle file (or of the packaged vehicle a name stands for)."""
-    return vehicle_reference(vehicle)[1]
-
-
-def check_recipe_vehicle(recipe: ChannelRecipe, vehicle: str | os.PathLike, *, what: str) -> None:
-    """Refuse flying ``recipe`` on ``vehicle`` when the file is not the one it was solved for.
+def check_recipe_vehicle(recipe: ChannelRecipe, vehicle: Vehicle, *, what: str) -> None:
+    """Refuse flying ``recipe`` on ``vehicle`` when its file is not the one it was solved for.
 
     ``what`` names the table for the message.  The check is by content (SHA-256): a copy of
     the vehicle file elsewhere is the same vehicle; an edited file is not.
     """
-    sha = vehicle_sha256(vehicle)
-    if sha != recipe.vehicle_sha256:
+    if vehicle.sha256 != recipe.vehicle_sha256:
         raise InputError(
             f"{what}: a channel table solved for vehicle {recipe.vehicle} (sha256 "
-            f"{recipe.vehicle_sha256[:12]}...), but {vehicle} has sha256 {sha[:12]}... (another "
-            "vehicle, or the file changed since); regenerate it with `rcsim lookup generate "
-            f"--vehicle {vehicle}`"
+            f"{recipe.vehicle_sha256[:12]}...), but {vehicle.ref} has sha256 "
+            f"{vehicle.sha256[:12]}... (another vehicle, or the file changed since); regenerate "
+            f"it with `rcsim lookup generate --vehicle {vehicle.label}`"
         )
 
 
@@ -102,19 +86,15 @@ def check_channel_jets_off(recipe_jets: int, jets_off) -> tuple:
     return jet_numbers(jets_off, recipe_jets)
 
 
-def solve_recipe(
-    vehicle: str | os.PathLike, *, jets_off=(), flying=None, isp_s: float | None = None
-) -> ChannelRecipe:
-    """The six channel recipes of a vehicle file, without the jets ``jets_off`` (1-based).
+def solve_recipe(vehicle: Vehicle | str | os.PathLike, *, jets_off=()) -> ChannelRecipe:
+    """The six channel recipes of a vehicle, without the jets ``jets_off`` (1-based).
 
     Parameters
     ----------
-    vehicle : str or path
-        A packaged vehicle's name or a vehicle file.
+    vehicle : Vehicle, str or path
+        The vehicle (a packaged name or a vehicle file: resolved once).
     jets_off : sequence of int
         Jets the recipes may not use.
-    flying : rcsim.spacecraft.vehicle_file.FlyingVehicle, optional
-        The vehicle already loaded (default: load it).
 
     Raises
     ------
@@ -123,15 +103,12 @@ def solve_recipe(
         can control it).
     """
     from rcsim.lookup.allocator_controller import allocator_controller
-    from rcsim.spacecraft.vehicle_file import FlyingVehicle
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
-    ref, sha = vehicle_reference(vehicle)
-    flying = FlyingVehicle.load(vehicle) if flying is None else flying
-    d = flying.definition
+    vehicle = Vehicle.load(vehicle)  # a name or a file: resolved here, at the public edge
+    d = vehicle.definition
     jets_off = check_channel_jets_off(d.n_jets, jets_off)
-    ctl = allocator_controller(
-        flying.model, isp_s=d.isp_s if isp_s is None else isp_s, jets_off=jets_off
-    )
+    ctl = allocator_controller(vehicle, jets_off=jets_off)
     allocator = ctl.allocator
     command = CHANNEL_MAP * _RECIPE_COMMAND_RAD_S  # (6, 3)
     available = None
@@ -166,19 +143,19 @@ def solve_recipe(
         )
         if jets_off:
             raise InputError(
-                f"{','.join(map(str, jets_off))}: with these jets of {vehicle} off, {what}",
+                f"{','.join(map(str, jets_off))}: with these jets of {vehicle.label} off, {what}",
                 parameter="jets_off",
                 value=list(jets_off),
             )
-        raise InputError(f"{vehicle}: {what}", parameter="vehicle", value=str(vehicle))
+        raise InputError(f"{vehicle.label}: {what}", parameter="vehicle", value=vehicle.label)
     return ChannelRecipe(
         fractions=frac,
         accel_rad_s2=frac @ allocator.D.T,
-        vehicle=ref,
-        vehicle_sha256=sha,
+        vehicle=vehicle.ref,
+        vehicle_sha256=vehicle.sha256,
         jets_off=jets_off,
         min_on_s=d.min_on_s,
-        source=f"solved for {ref}",
+        source=f"solved for {vehicle.ref}",
     )
 
 
@@ -204,14 +181,22 @@ class ChannelMap:
         Shortest new pulse the valves make [s].
     cycle_s : float
         Control cycle [s].
+    min_pulse : str
+        What a share shorter than ``min_on_s`` becomes: ``"accumulate"``, ``"round-up"`` or
+        ``"drop"`` (the vehicle's profile, :mod:`rcsim.spacecraft.control_profile`).
     """
 
-    def __init__(self, fractions, min_on_s: float = 0.0, cycle_s: float = CONTROL_CYCLE_S):
+    def __init__(self, fractions, min_on_s: float, cycle_s: float, *, min_pulse: str):
         self.fractions = np.asarray(fractions, float)
         self.n_jets = self.fractions.shape[1]
         self._uses = (self.fractions > 0).astype(float)  # (6, n_jets)
         self.min_on_s = float(min_on_s)
         self.cycle_s = float(cycle_s)
+        if min_pulse not in MIN_PULSE_POLICIES:
+            raise InputError(
+                f"min_pulse must be one of {', '.join(MIN_PULSE_POLICIES)}, got {min_pulse!r}"
+            )
+        self.min_pulse = min_pulse
 
     def initial(self, n_runs: int) -> ValveState:
         return ValveState(
@@ -246,7 +231,13 @@ class ChannelMap:
         delivered = on * scale[:, None]
         u = np.minimum(u * scale[:, None], cyc)
         owed = valves.owed_s
-        if self.min_on_s > 0:
+        if self.min_on_s > 0 and self.min_pulse != "accumulate":
+            # (a share under _TIME_EPS_S is a scaled delivery's float crumb, not a pulse)
+            short = (u > _TIME_EPS_S) & (u < self.min_on_s) & ~valves.on_at_end
+            u = np.where(u > _TIME_EPS_S, u, 0.0)
+            fired = min(self.min_on_s, cyc) if self.min_pulse == "round-up" else 0.0
+            u = np.where(short, fired, u)
+        elif self.min_on_s > 0:
             left = (remaining_s - delivered) > _TIME_EPS_S  # (n, 6): the channel goes on
             asked_next = (left.astype(float) @ self._uses) > 0  # (n, J)
             short = (u > 0) & (u < self.min_on_s) & ~valves.on_at_end

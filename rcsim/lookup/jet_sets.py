@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -35,6 +36,9 @@ from rcsim.models.tables import (
     recipe_path,
 )
 from rcsim.spacecraft.vehicle import AXES, N_JETS
+
+if TYPE_CHECKING:
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
 
 def companion_path(table: str | os.PathLike) -> Path:
@@ -70,7 +74,9 @@ def jets_off_of(table: str | os.PathLike) -> tuple:
         ) from None
 
 
-def load_table_for_jets(table: str | os.PathLike, jets_off=None) -> tuple[LookupTable, tuple]:
+def load_table_for_jets(
+    table: str | os.PathLike, jets_off=None, *, cycle_s: float | None
+) -> tuple[LookupTable, tuple]:
     """Load a table CSV checked against the jets of the vehicle it was made for.
 
     Parameters
@@ -78,6 +84,9 @@ def load_table_for_jets(table: str | os.PathLike, jets_off=None) -> tuple[Lookup
     table : path
     jets_off : sequence of int, optional
         Default: what the companion file records.
+    cycle_s : float or None
+        The control cycle its firing times are whole multiples of [s]: the flying vehicle's
+        (None: not checked; :func:`rcsim.models.tables.load_lookup_table`).
 
     Returns
     -------
@@ -87,7 +96,7 @@ def load_table_for_jets(table: str | os.PathLike, jets_off=None) -> tuple[Lookup
     must equal them).
     """
     if is_channel_table(table):
-        tab = load_lookup_table(table)
+        tab = load_lookup_table(table, cycle_s=cycle_s)
         assert tab.recipe is not None
         if jets_off is not None and tuple(sorted(jets_off)) != tab.recipe.jets_off:
             raise InputError(
@@ -100,10 +109,11 @@ def load_table_for_jets(table: str | os.PathLike, jets_off=None) -> tuple[Lookup
     jets_off = jets_off_of(table) if jets_off is None else check_jets_off(jets_off)
     if not jets_off:
         try:
-            return load_lookup_table(table), ()
+            return load_lookup_table(table, cycle_s=cycle_s), ()
         except InputError as exc:
             raise _with_companion_hint(exc, table) from None
-    return load_lookup_table(table, jet_map=jet_map_without(load_jet_map(), jets_off)), jets_off
+    jet_map = jet_map_without(load_jet_map(), jets_off)
+    return load_lookup_table(table, jet_map=jet_map, cycle_s=cycle_s), jets_off
 
 
 def _with_companion_hint(exc: InputError, table) -> InputError:
@@ -161,18 +171,10 @@ def jet_map_without(jet_map: np.ndarray, jets_off) -> np.ndarray:
     return out
 
 
-def check_table_vehicle(table: LookupTable, vehicle) -> None:
-    """Refuse flying ``table`` on ``vehicle`` (a vehicle file, a packaged name, or None for the
-    packaged paper vehicle) when they do not belong together: a channel table only on the
-    vehicle file its recipe was solved for (same SHA-256), never on the packaged vehicle."""
+def check_table_vehicle(table: LookupTable, vehicle: Vehicle) -> None:
+    """Refuse flying ``table`` on ``vehicle`` when they do not belong together: a channel table
+    only on the vehicle file its recipe was solved for (same SHA-256)."""
     recipe = table.recipe
     if recipe is None:
         return
-    what = table.source or "<lookup table>"
-    if vehicle is None:
-        raise InputError(
-            f"{what}: a channel table solved for vehicle {recipe.vehicle}; fly it on that "
-            f'vehicle (a campaign spec\'s vehicle = "{recipe.vehicle}", `--vehicle '
-            f"{recipe.vehicle}`), not the packaged paper vehicle"
-        )
-    check_recipe_vehicle(recipe, vehicle, what=what)
+    check_recipe_vehicle(recipe, vehicle, what=table.source or "<lookup table>")

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from rcsim.models.tables import CONTROL_CYCLE_S
-
 
 class OpenLoopController:
     """Fire jet ``j`` of run ``i`` for ``total_s[i, j]`` seconds from t = 0; no feedback.
@@ -21,7 +19,8 @@ class OpenLoopController:
         Total on-time of each of the vehicle's ``n_jets`` jets [s]; a row is every run's.
         ``np.zeros(n_jets)`` coasts.  The simulation refuses a width other than its vehicle's.
     cycle_s : float
-        Control cycle [s]; the simulation refuses one that disagrees with its own.
+        Control cycle [s]: the flown vehicle's (``vehicle.control.cycle_s``); the simulation
+        refuses another.
 
     Notes
     -----
@@ -29,7 +28,7 @@ class OpenLoopController:
     ``clip(total_s - k cycle_s, 0, cycle_s)``, so a firing is one contiguous pulse from t = 0.
     """
 
-    def __init__(self, total_s, cycle_s: float = CONTROL_CYCLE_S):
+    def __init__(self, total_s, cycle_s: float):
         self.total_s = np.asarray(total_s, float)
         if self.total_s.ndim not in (1, 2) or self.total_s.shape[-1] < 1:
             raise ValueError(

@@ -61,13 +61,9 @@ from rcsim.lookup.channels import ChannelMap, ValveState
 from rcsim.lookup.jet_sets import load_table_for_jets
 from rcsim.lookup.step_kernel import kernel_available, kernel_step
 from rcsim.models.errors import InputError
-from rcsim.models.tables import (
-    CONTROL_CYCLE_S,
-    LookupTable,
-    load_lookup_inputs,
-    load_lookup_table,
-)
+from rcsim.models.tables import LookupTable, load_lookup_table
 from rcsim.models.tables.lookup_tables import PAPER_LOOKUP_TABLES
+from rcsim.spacecraft.control_profile import ControlProfile
 from rcsim.spacecraft.navigation import NavState
 
 N_AXES = 3
@@ -148,7 +144,8 @@ def learn_jets(
 
 @dataclass(frozen=True)
 class LookupParams:
-    """Inputs of the lookup logic (paper Table 4) plus the no-firing region; SI units.
+    """Inputs of the lookup logic (paper Table 4) plus the no-firing region; SI units.  A
+    vehicle's own are its profile's (:meth:`from_profile`; the paper's values in brackets).
 
     Attributes
     ----------
@@ -167,8 +164,11 @@ class LookupParams:
         Half-width of the no-firing region around the maneuver limit [rad] (0.1 deg,
         paper Figs 17-18); 0 disables it.
     cycle_s : float
-        Control cycle [s]; default :data:`rcsim.models.tables.CONTROL_CYCLE_S` (40 ms).  Must be the
-        simulation's (``PropulsionParams.cycle_s``); the simulation refuses a mismatch.
+        Control cycle [s] (40 ms): the vehicle's profile's, the simulation's.
+    min_pulse : str
+        What a channel table's share shorter than the vehicle's minimum on-time becomes
+        (``"accumulate"``; :mod:`rcsim.spacecraft.control_profile`).  A jet table fires its
+        entries as they are.
     """
 
     maneuver_limit_rad: float
@@ -176,8 +176,9 @@ class LookupParams:
     rate_error_limit_rad_s: float
     on_time_limit_s: float
     hold_time_s: float
-    no_fire_band_rad: float = np.radians(0.1)
-    cycle_s: float = CONTROL_CYCLE_S
+    no_fire_band_rad: float
+    cycle_s: float
+    min_pulse: str
 
     def __post_init__(self):
         for name in (
@@ -196,15 +197,18 @@ class LookupParams:
                 raise InputError(f"LookupParams.{name} must be >= 0, got {value}")
 
     @classmethod
-    def from_table4(cls, path: str | os.PathLike | None = None, **overrides) -> LookupParams:
-        """Table 4 inputs (packaged, or the CSV at ``path``) with keyword overrides."""
-        inputs = load_lookup_inputs(path)
+    def from_profile(cls, control: ControlProfile, **overrides) -> LookupParams:
+        """The lookup logic's inputs from a vehicle's flight-software profile, with keyword
+        overrides (a scenario's study of one value, e.g. ``no_fire_band_rad=0.0``)."""
         base = cls(
-            maneuver_limit_rad=inputs.maneuver_limit_rad,
-            maneuver_rate_rad_s=inputs.maneuver_rate_rad_s,
-            rate_error_limit_rad_s=inputs.rate_error_limit_rad_s,
-            on_time_limit_s=inputs.on_time_limit_s,
-            hold_time_s=inputs.hold_time_s,
+            maneuver_limit_rad=control.maneuver_limit_rad,
+            maneuver_rate_rad_s=control.maneuver_rate_rad_s,
+            rate_error_limit_rad_s=control.rate_deadband_rad_s,
+            on_time_limit_s=control.on_time_limit_s,
+            hold_time_s=control.hold_time_s,
+            no_fire_band_rad=control.maneuver_band_rad,
+            cycle_s=control.cycle_s,
+            min_pulse=control.min_pulse,
         )
         return replace(base, **overrides)
 
@@ -237,8 +241,8 @@ class LookupController:
     ----------
     table : LookupTable
         The firing-time table; the only vehicle knowledge the controller has.
-    params : LookupParams, optional
-        Default: Table 4 with the 0.1 deg no-firing region.
+    params : LookupParams
+        The logic's inputs (a vehicle's: :meth:`LookupParams.from_profile`).
     jets_off : sequence of int
         Jets (1..16) the table was made without (:mod:`rcsim.lookup.jet_sets`): an axis direction
         left without a jet is accepted and never fired.
@@ -252,9 +256,9 @@ class LookupController:
     #: for messages.
     NAME = "lookup"
 
-    def __init__(self, table: LookupTable, params: LookupParams | None = None, *, jets_off=()):
+    def __init__(self, table: LookupTable, params: LookupParams, *, jets_off=()):
         self.table = table
-        self.params = LookupParams.from_table4() if params is None else params
+        self.params = params
         self.jets_off = tuple(jets_off)
         recipe = table.recipe
         self._channels: ChannelMap | None = None
@@ -266,7 +270,12 @@ class LookupController:
                     f"{self.NAME!r} (it learns jet tables only): --controller lookup, or "
                     'controller.name = "lookup" in a campaign spec'
                 )
-            self._channels = ChannelMap(recipe.fractions, recipe.min_on_s, self.params.cycle_s)
+            self._channels = ChannelMap(
+                recipe.fractions,
+                recipe.min_on_s,
+                self.params.cycle_s,
+                min_pulse=self.params.min_pulse,
+            )
         self.jet_axis_, self.jet_sign_, self.opposing_ = learn_jets(
             table,
             allow_unserved=bool(self.jets_off) or (recipe is not None and not recipe.served.all()),
@@ -305,29 +314,26 @@ class LookupController:
 
     @classmethod
     def from_files(
-        cls,
-        table: str | os.PathLike | None = None,
-        inputs: str | os.PathLike | None = None,
-        **overrides,
+        cls, table: str | os.PathLike | None, control: ControlProfile, **overrides
     ) -> LookupController:
-        """Controller from a table CSV (rcsim or paper layout) and a Table 4 CSV.
+        """Controller from a table CSV (rcsim or paper layout) and a vehicle's profile.
 
         Parameters
         ----------
-        table : path, optional
+        table : path or None
             A table CSV, or anything else :func:`rcsim.models.tables.load_lookup_table` accepts;
-            default the packaged generated table (`rcsim/lookup/data/generated_table.csv`).  A table
-            generated without some jets is checked against the jets left, as its companion
-            file records (:mod:`rcsim.lookup.jet_sets`).
-        inputs : path, optional
-            Table 4 CSV; default the packaged one.
+            None: the packaged generated table (`rcsim/lookup/data/generated_table.csv`).  A
+            table generated without some jets is checked against the jets left, as its
+            companion file records (:mod:`rcsim.lookup.jet_sets`).
+        control : ControlProfile
+            The flown vehicle's profile (:attr:`rcsim.spacecraft.vehicle_file.Vehicle.control`).
         **overrides
             :class:`LookupParams` fields, e.g. ``no_fire_band_rad=0.0``.
 
         Raises
         ------
         InputError
-            The table or inputs do not load (a missing file is named by its path).
+            The table does not load (a missing file is named by its path).
         """
         # The table loader is the one place that refuses a missing file (InputError naming
         # the path) and knows what else ``table`` may name.
@@ -335,14 +341,16 @@ class LookupController:
         if table is None:
             tab = load_default_table()
         elif isinstance(table, (str, os.PathLike)) and str(table) not in PAPER_LOOKUP_TABLES:
-            tab, jets_off = load_table_for_jets(table)
+            # A user's table in whole cycles of the vehicle's profile (the paper's tables, of
+            # the paper's 40 ms, are checked as the paper's data).
+            tab, jets_off = load_table_for_jets(table, cycle_s=control.cycle_s)
         else:
             tab = load_lookup_table(table)
-        return cls(tab, LookupParams.from_table4(inputs, **overrides), jets_off=jets_off)
+        return cls(tab, LookupParams.from_profile(control, **overrides), jets_off=jets_off)
 
     @classmethod
     def for_runs(
-        cls, table: LookupTable, run_times_s: np.ndarray, params: LookupParams | None = None
+        cls, table: LookupTable, run_times_s: np.ndarray, params: LookupParams
     ) -> LookupController:
         """A controller in which every run flies its own firing times (candidate tables).
 
@@ -353,7 +361,7 @@ class LookupController:
             from it, so a candidate may change times but never which jets fire.
         run_times_s : ndarray, (n_runs, 26, 16)
             Firing times of run ``i``'s table [s].
-        params : LookupParams, optional
+        params : LookupParams
 
         Raises
         ------

@@ -11,73 +11,81 @@ Per axis, with attitude error ``e`` and rate error ``r = omega - omega_cmd``:
   crosses zero -- this hysteresis lands the attitude near the middle of the deadband instead of
   at its edge;
 * when the axis's jets are idle and ``|omega - target|`` exceeds the rate deadband, a firing of
-  ``|omega - target| / a`` seconds is commanded on the jets of Table 2 whose sign opposes the
-  rate error; it is delivered over as many control cycles as it needs.
+  ``|omega - target| / a`` seconds is commanded on the jets whose torque sign (the vehicle's
+  own Table 2, from its geometry) opposes the rate error; it is delivered over as many control
+  cycles as it needs.
 
 See ``docs/phase_plane.md`` for the diagram.  The controller knows the nominal mass properties
-and the jet map (unlike the lookup controller); the control acceleration comes from them.
+and the jet map (unlike the lookup controller); the control acceleration comes from them.  It
+flies a vehicle whose jets each turn one axis (the paper's; :func:`rcsim.lookup.registry.
+vehicle_problem` refuses a coupled layout).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import mujoco
 import numpy as np
 
-from rcsim.models.tables import CONTROL_CYCLE_S
 from rcsim.spacecraft.navigation import NavState
 from rcsim.spacecraft.propellant import inertia_tensor_B
-from rcsim.spacecraft.vehicle import VehicleParams, load_model, torque_per_jet_B
+from rcsim.spacecraft.vehicle import torque_per_jet_B
+
+if TYPE_CHECKING:
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
 
 @dataclass(frozen=True)
 class PhasePlaneParams:
-    """Phase-plane gains and the vehicle knowledge it needs.
+    """Phase-plane gains and the vehicle knowledge it needs (a vehicle's own:
+    :meth:`for_vehicle`; the paper vehicle's values in brackets).
 
     Attributes
     ----------
-    jet_map : ndarray of int, (16, 3)
-        Table 2: sign of each jet's torque about roll, pitch, yaw (0: not used).
+    jet_map : ndarray of int, (n_jets, 3)
+        Sign of each jet's torque about roll, pitch, yaw (0: not used): the vehicle's own
+        Table 2, from its geometry (:attr:`rcsim.spacecraft.vehicle_file.Vehicle.axis_signs`).
     accel_rad_s2 : ndarray, (3,)
-        Angular acceleration of one firing pair per axis [rad/s^2] (nominal vehicle).
+        Angular acceleration of one firing group per axis [rad/s^2] (nominal vehicle).
     att_deadband_rad : float
-        Attitude deadband half-width [rad].
+        Attitude deadband half-width [rad] (0.25 deg).
     rate_deadband_rad_s : float
-        Rate error below which no firing is commanded [rad/s].
+        Rate error below which no firing is commanded [rad/s] (0.03 deg/s).
     maneuver_rate_rad_s : float
-        Maneuver rate limit [rad/s].
+        Maneuver rate limit [rad/s] (0.2 deg/s).
     cycle_s : float
-        Control cycle [s] the firings are split into; default
-        :data:`rcsim.models.tables.CONTROL_CYCLE_S`.  Must be the simulation's
-        (``PropulsionParams.cycle_s``); the simulation refuses a mismatch.
+        Control cycle [s] the firings are split into (40 ms): the vehicle's profile's, the
+        simulation's.
     """
 
     jet_map: np.ndarray
     accel_rad_s2: np.ndarray
-    att_deadband_rad: float = np.radians(0.25)
-    rate_deadband_rad_s: float = np.radians(0.03)
-    maneuver_rate_rad_s: float = np.radians(0.2)
-    cycle_s: float = CONTROL_CYCLE_S
+    att_deadband_rad: float
+    rate_deadband_rad_s: float
+    maneuver_rate_rad_s: float
+    cycle_s: float
 
     @classmethod
-    def for_vehicle(
-        cls,
-        jet_map: np.ndarray,
-        params: VehicleParams | None = None,
-        model: mujoco.MjModel | None = None,
-        **gains,
-    ) -> PhasePlaneParams:
-        """Gains for the (nominal) vehicle: ``a`` = pair torque / inertia per axis (the
-        tensor's diagonal in B, :func:`rcsim.spacecraft.propellant.inertia_tensor_B`)."""
-        model = load_model() if model is None else model
-        params = VehicleParams.nominal(1, model) if params is None else params.take(slice(0, 1))
-        torque = torque_per_jet_B(params, model)[0]  # (16, 3)
-        jet_map = np.asarray(jet_map, int)
+    def for_vehicle(cls, vehicle: Vehicle, **gains) -> PhasePlaneParams:
+        """Gains for the vehicle's nominal parameters and its profile (``gains``: overrides
+        of the deadbands or the maneuver rate).  ``a`` = torque of the jets that turn the axis
+        the positive way / inertia (the tensor's diagonal in B,
+        :func:`rcsim.spacecraft.propellant.inertia_tensor_B`)."""
+        control = vehicle.control
+        params = vehicle.nominal(1)
+        torque = torque_per_jet_B(params, vehicle.model)[0]  # (n_jets, 3)
+        jet_map = vehicle.axis_signs
         # Torque of the positive jets of each axis (a firing pair) about that axis.
         pair = np.array([torque[jet_map[:, a] > 0, a].sum() for a in range(3)])
         axis_inertia = np.diagonal(inertia_tensor_B(params)[0])
-        return cls(jet_map=jet_map, accel_rad_s2=pair / axis_inertia, **gains)
+        base = {
+            "att_deadband_rad": control.phase_plane_att_deadband_rad,
+            "rate_deadband_rad_s": control.phase_plane_rate_deadband_rad_s,
+            "maneuver_rate_rad_s": control.maneuver_rate_rad_s,
+            "cycle_s": control.cycle_s,
+        }
+        return cls(jet_map=jet_map, accel_rad_s2=pair / axis_inertia, **{**base, **gains})
 
 
 @dataclass

@@ -11,10 +11,14 @@ scenarios do not exercise, so it is compared in campaigns (``docs/faults.md``) i
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING
 
-import mujoco
+import numpy as np
 
 from rcsim.spacecraft.simulation import Controller
+
+if TYPE_CHECKING:
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
 #: The paper's two controllers: what the scenario comparison flies (module docstring).
 CONTROLLERS = ("phase-plane", "lookup")
@@ -30,17 +34,19 @@ TABLE_CONTROLLERS = ("lookup", "adaptive")
 
 
 def vehicle_problem(
-    name: str, table, vehicle, *, table_option: str = "controller.table ="
+    name: str, table, vehicle: Vehicle, *, table_option: str = "controller.table ="
 ) -> tuple[str, str] | None:
-    """Why controller ``name`` (with lookup ``table``, None: the packaged one) cannot fly the
-    vehicle file ``vehicle`` (a :class:`rcsim.spacecraft.vehicle_file.VehicleDef`), or None.
+    """Why controller ``name`` (with lookup ``table``, None: the packaged one) cannot fly
+    ``vehicle``, or None.
 
-    The allocator flies any layout.  The phase-plane controller and the packaged lookup tables
-    (the default and the paper's Tables 6 and 7) assume the paper's jet map (Table 2: which
-    jet turns which axis which way); any jet table fires the paper's 16 jets.  A channel table
-    (:mod:`rcsim.lookup.channels`) fires the jets of the vehicle its recipe was solved for, whatever
-    their count (:func:`rcsim.lookup.jet_sets.check_table_vehicle` checks which).  Returns
-    ``(what, problem)``: ``what`` is ``"name"`` or ``"table"`` (the choice at fault),
+    The allocator flies any layout.  The phase-plane controller fires, per axis, the jets
+    whose torque turns that axis (the vehicle's own Table 2, from its geometry), so it needs
+    jets that each turn one axis, every axis both ways.  The packaged lookup tables (the
+    default and the paper's Tables 6 and 7) assume the paper's jet map (Table 2: which jet
+    turns which axis which way); any jet table fires the paper's 16 jets.  A channel table
+    (:mod:`rcsim.lookup.channels`) fires the jets of the vehicle its recipe was solved for,
+    whatever their count (:func:`rcsim.lookup.jet_sets.check_table_vehicle` checks which).
+    Returns ``(what, problem)``: ``what`` is ``"name"`` or ``"table"`` (the choice at fault),
     ``problem`` one sentence naming the first jet that differs or the jet counts, ending with
     the way out: the allocator, or a table generated for the vehicle (``rcsim lookup generate
     --vehicle``), given as ``table_option`` (how the caller sets the table: ``--table`` on the
@@ -51,6 +57,18 @@ def vehicle_problem(
 
     if name == "allocator":
         return None
+    generate = f"`rcsim lookup generate --vehicle {vehicle.label} --out T.csv`"
+    if name == "phase-plane":
+        problem = _coupled(vehicle)
+        if problem is None:
+            return None
+        return (
+            "name",
+            f"'phase-plane' fires, per axis, the jets that turn only that axis (Table 2's rule, "
+            f"read from the geometry), but of the {vehicle.n_jets} jets of {vehicle.label} "
+            f"{problem}; use the allocator controller, or the lookup controller with this "
+            f"vehicle's own table ({generate})",
+        )
     channels = (
         table is not None and str(table) not in PAPER_LOOKUP_TABLES and is_channel_table(table)
     )
@@ -59,20 +77,17 @@ def vehicle_problem(
     if table is not None and name in TABLE_CONTROLLERS and vehicle.n_jets != N_JETS:
         return (
             "table",
-            f"a lookup table fires the paper's {N_JETS} jets; {vehicle.source} has "
+            f"a lookup table fires the paper's {N_JETS} jets; {vehicle.label} has "
             f"{vehicle.n_jets} (got {str(table)!r}); use the allocator controller",
         )
     packaged = table is None or str(table) in PAPER_LOOKUP_TABLES  # made for Table 2's jets
-    if name != "phase-plane" and not packaged:
+    if not packaged:
         return None  # a user's table made for their vehicle (rcsim lookup generate --vehicle)
-    differs = jet_map_mismatch(vehicle, load_jet_map())
+    differs = jet_map_mismatch(vehicle.definition, load_jet_map())
     if differs:
-        what = ""
-        if name != "phase-plane":
-            what = " with the packaged table" if table is None else f" with the paper's {table}"
+        what = " with the packaged table" if table is None else f" with the paper's {table}"
         # A vehicle whose jets differ from Table 2's gets a channel table, which only the
         # lookup controller flies (`rcsim lookup generate --vehicle`: is_coupled).
-        generate = f"`rcsim lookup generate --vehicle {vehicle.source} --out T.csv`"
         own = (
             f"or generate this vehicle's own table ({generate}) and fly it with "
             f"{table_option} T.csv"
@@ -81,44 +96,60 @@ def vehicle_problem(
         )
         return (
             "name",
-            f"{name!r}{what} assumes the paper's jet map (Table 2), but in {vehicle.source} "
+            f"{name!r}{what} assumes the paper's jet map (Table 2), but in {vehicle.label} "
             f"{differs}; use the allocator controller, {own}",
         )
     return None
 
 
+def _coupled(vehicle: Vehicle) -> str | None:
+    """Why the vehicle's jets are not one axis each, both ways on every axis, or None."""
+    from rcsim.spacecraft.vehicle import AXES
+
+    signs = vehicle.axis_signs
+    for j, row in enumerate(signs):
+        if np.count_nonzero(row) > 1:
+            return (
+                f"{vehicle.jet_names[j]} turns {' and '.join(a for a, s in zip(AXES, row) if s)} "
+                f"together (torque signs {row.tolist()})"
+            )
+    for a, axis in enumerate(AXES):
+        for sign, way in ((1, "+"), (-1, "-")):
+            if not np.any(signs[:, a] == sign):
+                return f"no jet turns {way}{axis}"
+    return None
+
+
 def make_controller(
     name: str,
+    vehicle: Vehicle,
     *,
     table: str | os.PathLike | None = None,
-    model: mujoco.MjModel | None = None,
     lookup_options: dict | None = None,
     phase_plane_options: dict | None = None,
     adapt_options: dict | None = None,
-    vehicle=None,
     jets_off=(),
 ) -> Controller:
-    """Build a controller.
+    """Build a controller for ``vehicle``, tuned by its flight-software profile.
 
     Parameters
     ----------
     name : {"phase-plane", "lookup", "adaptive", "allocator"}
+    vehicle : rcsim.spacecraft.vehicle_file.Vehicle
+        The vehicle flown: its profile (cycle, maneuver rate and limit, deadbands) tunes every
+        controller; the phase plane's design uses its nominal mass properties and jet
+        geometry, the allocator its jet model, Isp and minimum on-time; a channel table must
+        have been solved for it (:func:`rcsim.lookup.jet_sets.check_table_vehicle`).
     table : path, optional
         Lookup table CSV (rcsim or paper layout) for ``"lookup"`` and ``"adaptive"``, or
-        whatever else
-        :func:`rcsim.models.tables.load_lookup_table` accepts; default the packaged table
-        ``rcsim/lookup/data/generated_table.csv``.
-    model : mujoco.MjModel, optional
-        Vehicle whose *nominal* properties the phase-plane design uses.
+        whatever else :func:`rcsim.models.tables.load_lookup_table` accepts; default the
+        packaged table ``rcsim/lookup/data/generated_table.csv``.
     lookup_options, phase_plane_options : dict, optional
         Overrides of :class:`rcsim.lookup.pattern_recognition.LookupParams` /
-        :class:`rcsim.lookup.phase_plane.PhasePlaneParams` fields for that controller.
+        :class:`rcsim.lookup.phase_plane.PhasePlaneParams` fields for that controller (a
+        scenario's study of one value; the profile is the place for a vehicle's tuning).
     adapt_options : dict, optional
         :class:`rcsim.lookup.adaptive.AdaptParams` fields for ``"adaptive"``.
-    vehicle : rcsim.spacecraft.vehicle_file.VehicleDef, optional
-        The vehicle file flown; the allocator takes its Isp and minimum on-time from it
-        (default: the packaged vehicle's 280 s and none); a channel table must have been
-        solved for it (:func:`rcsim.lookup.jet_sets.check_table_vehicle`).
     jets_off : sequence of int
         Jets (1-based) the allocator may not use.
 
@@ -126,10 +157,10 @@ def make_controller(
     ------
     InputError
         Unknown ``name``; ``table`` given for a controller other than ``"lookup"``; a table
-        that does not load (a missing file is named by its path).
+        that does not load (a missing file is named by its path); a channel table solved for
+        another vehicle.
     """
     from rcsim.models.errors import InputError
-    from rcsim.models.tables import load_jet_map
 
     if table is not None and name in ALL_CONTROLLERS and name not in TABLE_CONTROLLERS:
         raise InputError(
@@ -137,34 +168,29 @@ def make_controller(
             parameter="table",
             value=table,
         )
+    control = vehicle.control
     if name == "phase-plane":
         from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
 
         return PhasePlaneController(
-            PhasePlaneParams.for_vehicle(load_jet_map(), model=model, **(phase_plane_options or {}))
+            PhasePlaneParams.for_vehicle(vehicle, **(phase_plane_options or {}))
         )
     if name == "lookup":
         from rcsim.lookup.jet_sets import check_table_vehicle
         from rcsim.lookup.pattern_recognition import LookupController
 
-        ctl = LookupController.from_files(table, **(lookup_options or {}))
+        ctl = LookupController.from_files(table, control, **(lookup_options or {}))
         # A channel table flies only the vehicle file its recipe was solved for.
-        check_table_vehicle(ctl.table, None if vehicle is None else vehicle.source)
+        check_table_vehicle(ctl.table, vehicle)
         return ctl
     if name == "adaptive":
         from rcsim.lookup.adaptive import AdaptiveLookupController, AdaptParams
 
-        ctl = AdaptiveLookupController.from_files(table, **(lookup_options or {}))
+        ctl = AdaptiveLookupController.from_files(table, control, **(lookup_options or {}))
         ctl.adapt = AdaptParams(**(adapt_options or {}))  # type: ignore[attr-defined]
         return ctl
     if name == "allocator":
         from rcsim.lookup.allocator_controller import allocator_controller
-        from rcsim.spacecraft.vehicle import load_model
 
-        return allocator_controller(
-            load_model() if model is None else model,
-            isp_s=280.0 if vehicle is None else vehicle.isp_s,
-            min_on_s=0.0 if vehicle is None else vehicle.min_on_s,
-            jets_off=jets_off,
-        )
+        return allocator_controller(vehicle, jets_off=jets_off)
     raise InputError(f"unknown controller {name!r}; choose one of {', '.join(ALL_CONTROLLERS)}")

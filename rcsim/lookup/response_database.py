@@ -14,7 +14,7 @@ alone firing one pulse from t = 0, and the flight is read at the end of the puls
   attitude change during the pulse (below 0.1 deg for the longest pulse on the packaged
   vehicles).
 
-A vehicle with valve timing (:meth:`FlyingVehicle.timing`) is flown with it: the pulse commanded
+A vehicle with valve timing (:meth:`Vehicle.timing`) is flown with it: the pulse commanded
 over ``[0, t]`` thrusts over ``[d + d_o, d + t + d_c]`` (command delay, the jet's opening and
 closing latency), so the flight lasts until that thrust has ended, and the frame gains
 ``thrust_s``, the time the jet thrust (``max(0, t + d_c - d_o)``, as the simulation delivered
@@ -30,6 +30,8 @@ flights are one batched simulation.
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pandas as pd
 
@@ -40,7 +42,7 @@ from rcsim.spacecraft.flight_model import jet_wrench_B
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
 from rcsim.spacecraft.vehicle import AXES
-from rcsim.spacecraft.vehicle_file import FlyingVehicle
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 #: On-times fired [s]: from a 10 ms pulse to eight control cycles.
 ON_TIMES_S = (0.01, 0.02, 0.04, 0.08, 0.16, 0.32)
@@ -57,7 +59,7 @@ def flown_on_times(on_times_s, min_on_s: float) -> tuple[np.ndarray, np.ndarray]
 
 
 def response_database(
-    vehicle: FlyingVehicle,
+    vehicle: Vehicle | str | os.PathLike,
     *,
     n_vehicles: int = 64,
     seed: int = 1,
@@ -83,6 +85,7 @@ def response_database(
     on_times = np.asarray(on_times_s, float)
     if not (np.isfinite(on_times).all() and (on_times > 0).all() and (on_times <= 1).all()):
         raise InputError(f"must be in (0, 1] s, got {on_times.tolist()}", parameter="on_times_s")
+    vehicle = Vehicle.load(vehicle)  # a name or a file: resolved here, at the public edge
     d = vehicle.definition
     on_times, dropped = flown_on_times(on_times, d.min_on_s)
     if not on_times.size:
@@ -104,7 +107,7 @@ def response_database(
     params = dispersed.params.take(run)
     total = np.zeros((n, n_jets))
     total[np.arange(n), jet] = on_times[k]
-    cycle = vehicle.propulsion().cycle_s
+    cycle = vehicle.control.cycle_s
     timing = vehicle.timing(n)
     # Read after the thrust has ended: the command delay and the closing latency move it on.
     lag = 0.0 if timing is None else d.command_delay_s + float(d.close_delays_s().max())
@@ -114,9 +117,9 @@ def response_database(
         OpenLoopController(total, cycle),
         Guidance.rate(np.zeros((n, 3))),
         duration,
-        model=vehicle.model,
-        propulsion=vehicle.propulsion(),
+        vehicle=vehicle,
         timing=timing,
+        tank=None,  # every pulse from the wet vehicle (module docstring)
         nthread=nthread,
     )
     dw = history.final.omega_B

@@ -25,16 +25,18 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-import mujoco
 import numpy as np
 
 from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.spacecraft.navigation import Guidance
-from rcsim.spacecraft.propulsion import PropulsionParams
 from rcsim.spacecraft.simulation import simulate_batch
 from rcsim.spacecraft.valves import JetFaults, ValveTiming
 from rcsim.spacecraft.vehicle import VehicleParams
+
+if TYPE_CHECKING:
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
 
 def nearest_rows(
@@ -46,8 +48,7 @@ def nearest_rows(
     row_times: Callable[[np.ndarray, np.ndarray], np.ndarray],
     *,
     params: VehicleParams,
-    model: mujoco.MjModel,
-    propulsion: PropulsionParams,
+    vehicle: Vehicle,
     timing: ValveTiming,
     faults: JetFaults | None,
     settle_window_s: float,
@@ -68,7 +69,7 @@ def nearest_rows(
         ``(cycles (m, 3), direction (m, 3)) -> (m, 16)`` per-jet firing times [s] of rows
         (:func:`rcsim.lookup.table_generation.firing_times` on ``jet_map``).
     params : VehicleParams
-        The ``n`` vehicles.
+        The ``n`` vehicles, of ``vehicle``.
     timing : ValveTiming
         The ``n`` runs' delays; ``faults``: their jet faults (None: none).
 
@@ -79,7 +80,7 @@ def nearest_rows(
     end_rate_err_rad_s : ndarray, (n, 3)
         The chosen rows' rate errors ``settle_window_s`` after the longest candidate's firing.
     """
-    cyc = propulsion.cycle_s
+    cyc = vehicle.control.cycle_s
     jm = np.asarray(jet_map, int)
     served = (direction != 0) & np.stack(
         [(jm[None, :, a] == direction[:, a, None]).any(axis=1) for a in range(3)], axis=1
@@ -103,8 +104,7 @@ def nearest_rows(
         Guidance.rate(np.asarray(target_rad_s, float)[rows]),
         float(duration),
         omega0_B=np.asarray(omega0_rad_s, float)[rows],
-        propulsion=propulsion,
-        model=model,
+        vehicle=vehicle,
         timing=timing.take(rows),
         faults=None if faults is None else faults.take(rows),
     )

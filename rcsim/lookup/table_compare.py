@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from rcsim.lookup.pattern_recognition import learn_jets
-from rcsim.models.tables import CONTROL_CYCLE_S, LookupTable
+from rcsim.models.tables import LookupTable
 from rcsim.spacecraft.vehicle import AXES
 
 
@@ -29,9 +29,7 @@ def axis_times(table: LookupTable) -> tuple[np.ndarray, np.ndarray]:
     return time_s, ft > 0
 
 
-def compare_tables(
-    generated: LookupTable, paper: LookupTable, cycle_s: float = CONTROL_CYCLE_S
-) -> pd.DataFrame:
+def compare_tables(generated: LookupTable, paper: LookupTable, cycle_s: float) -> pd.DataFrame:
     """Case-by-case comparison of two lookup tables (e.g. generated vs paper Table 6).
 
     Returns

@@ -17,7 +17,7 @@ from dataclasses import replace
 import numpy as np
 
 from rcsim.lookup.pattern_recognition import learn_jets
-from rcsim.models.tables import AXES, CONTROL_CYCLE_S, LookupTable
+from rcsim.models.tables import AXES, LookupTable
 
 #: Tolerance for "a whole number of cycles" [cycles]; table times are read from decimal text.
 _CYCLE_ATOL = 1e-6
@@ -33,9 +33,7 @@ def jet_axes(table: LookupTable) -> np.ndarray:
     return learn_jets(table)[0]
 
 
-def axis_cycles(
-    firing_time_s: np.ndarray, jet_axis: np.ndarray, cycle_s: float = CONTROL_CYCLE_S
-) -> np.ndarray:
+def axis_cycles(firing_time_s: np.ndarray, jet_axis: np.ndarray, cycle_s: float) -> np.ndarray:
     """Firing time of each case's jets per axis, in control cycles (0: the axis does not fire).
 
     Parameters
@@ -66,7 +64,7 @@ def shift_axes(
     firing_time_s: np.ndarray,
     jet_axis: np.ndarray,
     shift_cycles: np.ndarray,
-    cycle_s: float = CONTROL_CYCLE_S,
+    cycle_s: float,
 ) -> np.ndarray:
     """Move every firing jet of an axis in a case by a whole number of cycles.
 

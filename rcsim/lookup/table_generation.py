@@ -1,8 +1,10 @@
 """Generate the pattern-recognition lookup table by simulation (Gambone sec. II, Tables 3, 6).
 
-For each of the 26 rate cases (Table 3) the nominal vehicle is flown from rest with the case's
+For each of the 26 rate cases (Table 3; at the vehicle profile's ``rate_case_deg_s``,
+:func:`rcsim.models.tables.rate_cases_at`) the nominal vehicle is flown from rest with the case's
 rate command and a *rate-command firing loop*: on every commanded axis the jets of the jet map
-whose torque points along the command fire for whole control cycles (40 ms) until the measured
+(the vehicle's own, from its geometry: Table 2 for the paper's) whose torque points along the
+command fire for whole control cycles (the profile's, 40 ms) until the measured
 rate reaches or passes the command on that axis (the paper: "the simulations were run until
 thrusters were fired to reach the desired rate").  The firing time of the axis is the whole
 number of cycles whose *measured* end rate is nearest the command -- the last cycle before the
@@ -21,9 +23,10 @@ the maneuver table's, on the opposing jets.
 Generation may use the jet map (it happens in simulation, where the vehicle is known); the
 controller that uses the table (:mod:`rcsim.lookup.pattern_recognition`) never does.
 
-Module size: about 470 lines, over the ~400 guideline: generation, its verification and the
-failed-jet variant share the firing loop and the result types; the comparison with the paper's
-tables is in :mod:`rcsim.lookup.table_compare`.
+A jet table has the paper's 16 columns: it is for a vehicle whose jets play Table 2's roles.
+Any other layout gets a channel table (:mod:`rcsim.lookup.channel_generation`);
+:func:`rcsim.lookup.generation.generate_table` picks the one that fits.  The comparison with the
+paper's tables is in :mod:`rcsim.lookup.table_compare`.
 
 Failed jets (issue 11): ``generate_table(jets_off=(13, 15))`` flies the vehicle with those jets
 failed off (:class:`rcsim.spacecraft.valves.JetFaults`) and fires only the jets left: a pair with
@@ -43,32 +46,29 @@ delivers, the rows are chosen among the loop's neighbours flown open loop
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import mujoco
 import numpy as np
 import pandas as pd
 
 from rcsim.lookup.jet_sets import check_jets_off, jet_map_without
 from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.lookup.table_candidates import nearest_rows
+from rcsim.models.errors import InputError
 from rcsim.models.tables import (
-    CONTROL_CYCLE_S,
     LookupTable,
     RateCases,
     check_consistency,
     load_jet_map,
-    load_rate_cases,
+    rate_cases_at,
 )
 from rcsim.spacecraft.navigation import Guidance, NavState
-from rcsim.spacecraft.propulsion import PropulsionParams
 from rcsim.spacecraft.simulation import History, simulate_batch
 from rcsim.spacecraft.valves import JetFaults, ValveTiming
-from rcsim.spacecraft.vehicle import AXES, N_JETS, VehicleParams, jet_geometry_B, load_model
+from rcsim.spacecraft.vehicle import AXES, N_JETS, VehicleParams, jet_geometry_B
 
-#: Default tolerance of the settling-time measurement [rad/s]: Table 4's rate error limit
-#: (0.06 deg/s), the rate error the lookup controller treats as "reached".
-SETTLE_TOL_RAD_S = np.radians(0.06)
+if TYPE_CHECKING:
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
 
 # ------------------------------------------------------------------------------------------
@@ -85,14 +85,14 @@ class RateFiringLoop:
     Parameters
     ----------
     jet_map : ndarray of int, (16, 3)
-        Paper Table 2.
+        The vehicle's own Table 2 (torque sign of each jet about each axis).
     cycle_s : float
-        Control cycle [s].
+        Control cycle [s] (the vehicle's profile's).
 
     State: ``direction`` (n_runs, 3) in {-1, 0, +1} and ``done`` (n_runs, 3) bool.
     """
 
-    def __init__(self, jet_map: np.ndarray, cycle_s: float = CONTROL_CYCLE_S):
+    def __init__(self, jet_map: np.ndarray, cycle_s: float):
         jm = np.asarray(jet_map, int)
         self._pos = (jm.T > 0).astype(float)  # (3, 16)
         self._neg = (jm.T < 0).astype(float)
@@ -220,10 +220,9 @@ def sweep(
     omega0_rad_s: np.ndarray,
     jet_map: np.ndarray,
     *,
-    params: VehicleParams | None = None,
-    model: mujoco.MjModel | None = None,
-    propulsion: PropulsionParams = PropulsionParams(),
-    max_fire_s: float = 3.0,
+    vehicle: Vehicle,
+    params: VehicleParams,
+    max_fire_s: float,
     faults: JetFaults | None = None,
     timing: ValveTiming | None = None,
 ) -> FiringSweep:
@@ -236,8 +235,10 @@ def sweep(
     omega0_rad_s : ndarray, (n, 3)
         Initial body rate per run [rad/s].
     jet_map : ndarray of int, (16, 3)
-    params : VehicleParams, optional
-        ``n`` vehicles (default: the nominal one repeated).
+    vehicle : Vehicle
+        The vehicle flown (model, cycle, valve limits).
+    params : VehicleParams
+        ``n`` vehicles (its nominal one repeated, for a table).
     max_fire_s : float
         Longest firing tried [s]; an axis that has not reached its command by then raises,
         unless no jet of ``jet_map`` serves its direction (then it fires 0 cycles).
@@ -245,25 +246,28 @@ def sweep(
         Jet faults to fly with (e.g. failed jets, whose rows ``jet_map`` should zero).
     timing : ValveTiming, optional
         The ``n`` runs' valve timing (the cycle-end rates then lag the thrust:
-        :mod:`rcsim.lookup.table_candidates`).
+        :mod:`rcsim.lookup.table_candidates`); None: the vehicle's nominal timing.
 
     Returns
     -------
     FiringSweep
+
+    Raises
+    ------
+    InputError
+        An axis short of its command after ``max_fire_s`` (the jets too weak for the rate
+        cases: a smaller ``rate_case_deg_s`` in the vehicle's ``[control]``).
     """
     target = np.atleast_2d(np.asarray(rate_target_rad_s, float))
     n = target.shape[0]
-    model = load_model() if model is None else model
-    params = VehicleParams.nominal(n, model) if params is None else params
-    loop = RateFiringLoop(jet_map, propulsion.cycle_s)
+    loop = RateFiringLoop(jet_map, vehicle.control.cycle_s)
     hist = simulate_batch(
         params,
         loop,
         Guidance.rate(target),
         max_fire_s,
         omega0_B=np.asarray(omega0_rad_s, float).reshape(n, 3),
-        propulsion=propulsion,
-        model=model,
+        vehicle=vehicle,
         faults=faults,
         timing=timing,
     )
@@ -281,9 +285,15 @@ def sweep(
     never = commanded & ~reached.any(axis=1)
     if never.any():
         run, axis = np.argwhere(never)[0]
-        raise ValueError(
-            f"run {run}: {AXES[axis]} rate not reached within max_fire_s={max_fire_s} s; "
-            "raise max_fire_s"
+        reached_rad_s = abs(float(target[run, axis] - err[run, -1, axis]))
+        raise InputError(
+            f"{vehicle.source}: {AXES[axis]} rate {np.degrees(abs(target[run, axis])):.4g} deg/s "
+            f"of a rate case not reached in {max_fire_s:g} s of firing (reached "
+            f"{np.degrees(reached_rad_s):.4g} deg/s): the jets are too weak for the profile's "
+            f"rate_case_deg_s = {np.degrees(vehicle.control.rate_case_rad_s):.4g}; give a "
+            "smaller one in the vehicle's [control] (or --control rate_case_deg_s=...)",
+            parameter="vehicle",
+            value=vehicle.ref,
         )
     rows = np.arange(n)[:, None]
     axes = np.arange(3)[None, :]
@@ -331,45 +341,33 @@ def settle_after_firing(verify: History, fire_end_s: np.ndarray, tol_rad_s: floa
     return settle_at - fire_end_s
 
 
-def generate_table(
+def generate_jet_table(
+    vehicle: Vehicle,
     *,
+    jets_off=(),
     rate_cases: RateCases | None = None,
-    jet_map: np.ndarray | None = None,
-    params: VehicleParams | None = None,
-    model: mujoco.MjModel | None = None,
-    propulsion: PropulsionParams = PropulsionParams(),
-    settle_tol_rad_s: float = SETTLE_TOL_RAD_S,
     settle_window_s: float = 2.0,
     max_fire_s: float = 3.0,
-    jets_off=(),
-    timing: ValveTiming | None = None,
 ) -> GeneratedTable:
-    """Generate, verify and damping-check the lookup table for one vehicle.
+    """Generate, verify and damping-check the lookup table of a vehicle whose jets play
+    Table 2's roles (the paper's 16-jet layout, any mass, arms and thrust).
 
     Parameters
     ----------
+    vehicle : Vehicle
+        The vehicle: its nominal parameters, jet geometry (its own Table 2), valve limits and
+        timing, and its profile's cycle (firing times are whole multiples of it), rate-case
+        magnitude and rate deadband (the settling tolerance: the rate error the lookup
+        controller treats as "reached").
+    jets_off : sequence of int
+        Jets (numbered 1..16) failed off: the vehicle is flown without them and the table
+        fires only the others (module docstring).
     rate_cases : RateCases, optional
-        The 26 rate commands (default: Table 3, corrected).
-    jet_map : ndarray of int, (16, 3), optional
-        Default: Table 2.
-    params : VehicleParams, optional
-        One vehicle (default: the nominal one); it is repeated for the 26 cases.
-    propulsion : PropulsionParams
-        Control cycle (firing times are whole multiples of it).
-    settle_tol_rad_s : float
-        Tolerance of the settling time [rad/s] (default 0.06 deg/s, Table 4).
+        The 26 rate commands (default: the profile's, :func:`rcsim.models.tables.rate_cases_at`).
     settle_window_s : float
         How long the verification flight continues after the longest firing [s].
     max_fire_s : float
         Longest firing the firing loop tries [s].
-    jets_off : sequence of int
-        Jets (numbered 1..16) failed off: the vehicle is flown without them and the table
-        fires only the others (module docstring).
-    timing : ValveTiming, optional
-        The vehicle's valve timing (its first run's delays; a vehicle file's
-        :meth:`~rcsim.spacecraft.vehicle_file.FlyingVehicle.timing`): every flight flies it, and
-        the rows are the loop's neighbours flown open loop whose rates end nearest the
-        commands (:mod:`rcsim.lookup.table_candidates`).  None or all zero: the paper's rule alone.
 
     Returns
     -------
@@ -378,25 +376,39 @@ def generate_table(
     Raises
     ------
     InputError
-        ``jets_off`` names a jet outside 1..16 or twice.
+        ``jets_off`` names a jet outside 1..16 or twice; the vehicle's jets do not play
+        Table 2's roles (:func:`rcsim.lookup.generation.generate_table` gives it a channel
+        table); a rate case the jets cannot reach.
     """
-    rate_cases = load_rate_cases() if rate_cases is None else rate_cases
-    full_map = load_jet_map() if jet_map is None else np.asarray(jet_map, int)
+    from rcsim.spacecraft.vehicle_file.authority import jet_map_mismatch
+
+    differs = jet_map_mismatch(vehicle.definition, load_jet_map())
+    if differs:
+        raise InputError(
+            f"{vehicle.source}: a jet table fires the paper's jet map (Table 2), but {differs}; "
+            "this vehicle gets a channel table (rcsim.generate_table, `rcsim lookup generate "
+            "--vehicle`)",
+            parameter="vehicle",
+            value=vehicle.ref,
+        )
+    control = vehicle.control
+    settle_tol_rad_s = control.rate_deadband_rad_s
+    timing = vehicle.timing(1)
+    rate_cases = rate_cases_at(control.rate_case_rad_s) if rate_cases is None else rate_cases
     jets_off = check_jets_off(jets_off)
-    jet_map = jet_map_without(full_map, jets_off)
-    model = load_model() if model is None else model
-    one = VehicleParams.nominal(1, model) if params is None else params.take(slice(0, 1))
+    jet_map = jet_map_without(vehicle.axis_signs, jets_off)
+    model = vehicle.model
     n = len(rate_cases.case)
-    batch = one.take(np.zeros(n, int))
+    batch = vehicle.nominal(1).take(np.zeros(n, int))
     rate = np.asarray(rate_cases.rate_cmd, float)
-    cyc = propulsion.cycle_s
+    cyc = control.cycle_s
     faults = None
     if jets_off:
         off = np.full((n, N_JETS), np.inf)
         off[:, np.asarray(jets_off) - 1] = 0.0
         faults = JetFaults.of(n, off_from_s=off)
     delays = None if timing is None or timing.is_zero() else timing.take(np.zeros(n, int))
-    flying: dict[str, Any] = dict(params=batch, model=model, propulsion=propulsion)
+    flying: dict[str, Any] = dict(params=batch, vehicle=vehicle)
 
     def loop(target: np.ndarray, omega0: np.ndarray) -> FiringSweep:
         found = sweep(
@@ -442,8 +454,7 @@ def generate_table(
         OpenLoopController(times, cyc),
         Guidance.rate(rate),
         float(fire_end.max()) + settle_window_s,
-        propulsion=propulsion,
-        model=model,
+        vehicle=vehicle,
         faults=faults,
         timing=delays,
     )

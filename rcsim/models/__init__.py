@@ -2,7 +2,7 @@
 
 Owns: ``rcsim/models/vehicle/vehicle.xml`` (the 16-jet spacecraft), ``rcsim/models/data/*.csv``
 (Gambone Tables 1-7 with their SOURCES note), the loaders that validate them and the paper's design
-constants such as ``CONTROL_CYCLE_S`` (:mod:`rcsim.models.tables`), the one user-error type
+constants such as ``PAPER_CYCLE_S`` (:mod:`rcsim.models.tables`), the one user-error type
 (:mod:`rcsim.models.errors`) and the atomic file writer (:mod:`rcsim.models.atomic`).
 Everything else builds on this layer.
 

@@ -8,8 +8,10 @@
   operating system's out-of-memory killer) after the set-up.
 * :func:`warning_reasons`: the failure reason of a run whose MuJoCo warning counters rose
   (see :mod:`rcsim.spacecraft.simulation`, "Failures").
+* :func:`invalid_runs`: per run, why its parameters cannot be flown (non-finite, non-physical,
+  a tensor no rigid body has); such runs are flown nominal and reported failed.
 
-Imports ``models`` only.
+Imports ``rcsim.models`` and :mod:`rcsim.spacecraft.vehicle`.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import mujoco
 import numpy as np
 
 from rcsim.models.errors import InputError
+from rcsim.spacecraft.vehicle import VehicleParams
 
 
 def history_bytes_per_run_cycle(n_jets: int) -> int:
@@ -30,19 +33,23 @@ def history_bytes_per_run_cycle(n_jets: int) -> int:
 
 
 def check_cycle(controller: object, cycle_s: float) -> None:
-    """Raise InputError if ``controller.cycle_s`` (when it has one) is not ``cycle_s`` [s].
+    """Raise InputError if ``controller.cycle_s`` is not ``cycle_s`` [s], the flown vehicle's.
 
-    Equal to a relative 1e-9: both come from the same constant or the same user number;
+    Every controller states its cycle (:class:`rcsim.spacecraft.simulation.Controller`).
+    Equal to a relative 1e-9: both come from the same profile or the same user number;
     anything else is a different clock, not rounding.
     """
     ctl_cycle = getattr(controller, "cycle_s", None)
     if ctl_cycle is None:
-        return
+        raise InputError(
+            f"{type(controller).__name__} has no cycle_s: a controller states the control "
+            "cycle it assumes (build it from the vehicle's profile, vehicle.control.cycle_s)"
+        )
     if not math.isclose(float(ctl_cycle), float(cycle_s), rel_tol=1e-9, abs_tol=0.0):
         raise InputError(
-            f"{type(controller).__name__}.cycle_s = {ctl_cycle} s differs from "
-            f"PropulsionParams.cycle_s = {cycle_s} s: give the controller and the propulsion the "
-            f"same control cycle (default rcsim.models.tables.CONTROL_CYCLE_S)"
+            f"{type(controller).__name__}.cycle_s = {ctl_cycle} s differs from the vehicle's "
+            f"control cycle {cycle_s} s: build the controller from the vehicle's profile "
+            "(vehicle.control.cycle_s)"
         )
 
 
@@ -152,4 +159,43 @@ def warning_reasons(
         reasons[int(i)] = (
             f"MuJoCo {mujoco.mjtWarning(kind).name} at {when}: {mujoco.mju_warningText(kind, info)}"
         )
+    return reasons
+
+
+def invalid_runs(params: VehicleParams) -> list[str]:
+    """Per run, why its parameters cannot be simulated ('' when they can)."""
+    reasons = [""] * params.n_runs
+    checks = (
+        ("mass_kg", params.mass_kg[:, None], lambda v: v > 0),
+        ("cg_B", params.cg_B, lambda v: np.ones_like(v, bool)),
+        ("inertia_B", params.inertia_B, lambda v: v > 0),
+        ("thrust_n", params.thrust_n, lambda v: v >= 0),
+        ("jet_dir_S", params.jet_dir_S.reshape(params.n_runs, -1), lambda v: np.ones_like(v, bool)),
+    )
+    for name, values, ok in checks:
+        with np.errstate(invalid="ignore"):
+            bad = ~(np.isfinite(values) & ok(values))
+        for i in np.flatnonzero(bad.any(axis=1)):
+            if not reasons[i]:
+                reasons[i] = f"invalid parameter {name}: {values[i].tolist()}"
+    if params.iquat is not None:
+        with np.errstate(invalid="ignore"):
+            unit = np.abs(np.linalg.norm(params.iquat, axis=1) - 1.0) <= 1e-9
+        for i in np.flatnonzero(~unit):
+            if not reasons[i]:
+                reasons[i] = (
+                    f"invalid parameter iquat: {params.iquat[i].tolist()} (not a unit quaternion)"
+                )
+    # Principal moments of a rigid body obey the triangle inequality (a + b >= c); positive
+    # moments that do not (a far tail draw of dispersed moments or products of inertia) are
+    # no body, and are not flown (rcsim.spacecraft.dispersions, "Physical tensors").
+    with np.errstate(invalid="ignore"):
+        m = np.sort(params.inertia_B, axis=1)
+        no_body = m[:, 0] + m[:, 1] < m[:, 2] * (1 - 1e-12)
+    for i in np.flatnonzero(no_body):
+        if not reasons[i]:
+            reasons[i] = (
+                f"invalid parameter inertia_B: {params.inertia_B[i].tolist()} (principal moments "
+                "violate the triangle inequality: no rigid body has them)"
+            )
     return reasons

@@ -84,3 +84,34 @@ class History:
     def n_jets(self) -> int:
         """The flown vehicle's jet count (the width of ``on_time_s``)."""
         return int(self.on_time_s.shape[2])
+
+    @property
+    def propellant_kg(self) -> np.ndarray:
+        """Propellant each run used [kg], (n_runs,): its impulse over the Isp it was flown
+        with (``flown_params.isp_s``, the vehicle file's) times g0."""
+        if self.flown_params is None:
+            raise ValueError("a history without flown_params has no Isp to convert impulse with")
+        return self.propulsion.propellant_kg(self.flown_params.isp_s)
+
+
+def history_buffers(
+    n_cycles: int, n_runs: int, n_jets: int, *, measured: bool, delivered: bool
+) -> dict:
+    """Cycle-major record buffers of a flight, (n_cycles, n_runs, k) each: every cycle writes
+    one contiguous block, and the flight returns them as (n_runs, n_cycles, k) views
+    (:attr:`History` fields; ``measured``: the sensors' errors, ``delivered``: the jets'
+    delivered on-times)."""
+    n = n_runs
+    rec = {
+        "q_BN": np.empty((n_cycles, n, 4)),
+        "omega_B": np.empty((n_cycles, n, 3)),
+        "att_err_B": np.empty((n_cycles, n, 3)),
+        "rate_err_B": np.empty((n_cycles, n, 3)),
+        "on_time_s": np.empty((n_cycles, n, n_jets)),
+    }
+    if delivered:
+        rec["delivered_s"] = np.empty((n_cycles, n, n_jets))
+    if measured:
+        rec["meas_att_err_B"] = np.empty((n_cycles, n, 3))
+        rec["meas_rate_err_B"] = np.empty((n_cycles, n, 3))
+    return rec

@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcsim.models.tables import CONTROL_CYCLE_S
 from rcsim.spacecraft.vehicle import G0_M_S2
 
 
@@ -31,15 +30,15 @@ class PropulsionParams:
     Attributes
     ----------
     cycle_s : float
-        Control cycle [s]; default :data:`rcsim.models.tables.CONTROL_CYCLE_S` (40 ms, paper
-        sec. II).
+        Control cycle [s]: the flown vehicle's profile's
+        (:meth:`rcsim.spacecraft.vehicle_file.Vehicle.propulsion`).
     min_pulse_s : float
         Shortest firing a valve can make [s].  A *new* firing commanded shorter than this is
         not made (the command is dropped and counted in ``dropped``); a firing continuing from
         the previous cycle is never cut.  0 disables the limit.
     """
 
-    cycle_s: float = CONTROL_CYCLE_S
+    cycle_s: float
     min_pulse_s: float = 0.0
 
     def __post_init__(self):

@@ -33,12 +33,20 @@ A MuJoCo error (:class:`mujoco.batch.SimulationError`) and a non-finite state (a
 run the same way.  The warning messages themselves go to the ``rcsim.mujoco`` logger
 (:func:`rcsim.spacecraft.vehicle.route_mujoco_warnings`), never to a ``MUJOCO_LOG.TXT``.
 
+The vehicle
+-----------
+A simulation flies one :class:`~rcsim.spacecraft.vehicle_file.Vehicle`: its compiled model, its
+profile's control cycle (the one owner of the cycle: controllers are built from the same
+profile), its valve limits, its nominal valve timing and its propellant tank, unless a flight
+gives per-run timing or a per-run tank.  ``params`` are the runs' (dispersed) parameters of
+that vehicle.
+
 Refusals
 --------
 :meth:`BatchSimulation.run` refuses, before allocating anything, a controller whose control
-cycle disagrees with the propulsion's, and a history that would not fit in memory
+cycle is not the vehicle's, and a history that would not fit in memory
 (:func:`rcsim.spacecraft.guards.memory_budget_bytes`).  The constructor refuses invalid sensor,
-timing and fault parameters (:class:`rcsim.models.errors.InputError`).
+timing, fault and thrust-profile parameters (:class:`rcsim.models.errors.InputError`).
 
 Compiled passes
 ---------------
@@ -47,43 +55,41 @@ no-switch test, the propulsion totals and the end of a cycle run as compiled pas
 (:mod:`rcsim.spacecraft.cycle_kernel`), bit for bit the numpy forms, which stay the reference
 (``RCSIM_NUMPY_CYCLE=1``); the choice is made once per :meth:`BatchSimulation.run`.
 
-Module size: about 800 lines with its docstrings, over the ~400 guideline: the cycle loop
-(sensors, controller, valves, the cut) and the piecewise stepping share the batch's bound
-arrays, per-run timesteps and failure bookkeeping; splitting them would pass those around for
-no gain in clarity.  The
-pure parts live in :mod:`rcsim.spacecraft.pieces`, :mod:`rcsim.spacecraft.valves`,
-:mod:`rcsim.spacecraft.sensors`, :mod:`rcsim.spacecraft.history` and
-:mod:`rcsim.spacecraft.flight_model`.
+MuJoCo's side (the batch, per-run parameters, piecewise stepping, failures, mass properties) is
+:class:`rcsim.spacecraft.batch_physics.BatchPhysics`; the pure parts are in
+:mod:`rcsim.spacecraft.pieces`, :mod:`~rcsim.spacecraft.valves`, :mod:`~rcsim.spacecraft.sensors`,
+:mod:`~rcsim.spacecraft.history`, :mod:`~rcsim.spacecraft.guards`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import replace
-from typing import Any, Protocol
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal
 
 import mujoco
 import numpy as np
-from mujoco.batch import Batch, SimulationError
 
 from rcsim.models.errors import InputError
 from rcsim.spacecraft import cycle_kernel
-from rcsim.spacecraft.flight_model import flight_model, jet_wrench_B
-from rcsim.spacecraft.guards import check_cycle, check_history_memory, warning_reasons
-from rcsim.spacecraft.history import History
+from rcsim.spacecraft.batch_physics import BatchPhysics
+from rcsim.spacecraft.controller import Controller
+from rcsim.spacecraft.guards import (
+    check_cycle,
+    check_history_memory,
+    invalid_runs,
+)
+from rcsim.spacecraft.history import History, history_buffers
 from rcsim.spacecraft.mujoco_timers import quiet_stage_timers
 from rcsim.spacecraft.navigation import CommandBlocks, Guidance, NavState, navigate
 from rcsim.spacecraft.pieces import Pieces, cycle_pieces, profile_pieces
 from rcsim.spacecraft.propellant import (
     PropellantTank,
     exhaustion_time_s,
-    full_inertia,
     mass_flow_kg_s,
-    mass_properties,
-    principal,
 )
-from rcsim.spacecraft.propulsion import PropulsionParams, PropulsionState, apply_valve_limits
+from rcsim.spacecraft.propulsion import PropulsionState, apply_valve_limits
 from rcsim.spacecraft.sensors import SensorNoise, SensorParams, SensorState, measure
 from rcsim.spacecraft.valves import (
     JetFaults,
@@ -95,72 +101,39 @@ from rcsim.spacecraft.valves import (
     end_cycle,
 )
 from rcsim.spacecraft.vehicle import (
-    BODY,
-    G0_M_S2,
-    IDENTITY_QUAT,
     VehicleParams,
     jet_count,
-    load_model,
     route_mujoco_warnings,
 )
 
+if TYPE_CHECKING:
+    from rcsim.spacecraft.vehicle_file.vehicle import Vehicle
+
 _CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
 
-__all__ = ["BatchSimulation", "Controller", "History", "invalid_runs", "simulate_batch"]
+__all__ = ["BatchSimulation", "Controller", "History", "simulate_batch"]
 
 
-class Controller(Protocol):
-    """A batched controller: explicit state in, jet on-times and new state out.
+@dataclass
+class _Flight:
+    """What one :meth:`BatchSimulation.run` carries from cycle to cycle (arrays per run)."""
 
-    A controller whose logic assumes a control cycle (timers, firings split into cycles) says
-    so with a ``cycle_s`` attribute [s]; :meth:`BatchSimulation.run` refuses it when it differs
-    from the propulsion's ``cycle_s``.  A controller without the attribute is cycle-agnostic.
-    """
-
-    def initial_state(self, n_runs: int) -> Any: ...
-
-    def step(self, nav: NavState, state: Any) -> tuple[np.ndarray, Any]:
-        """Return on-times this cycle [s], shape (n_runs, n_jets), and the next state
-        (``n_jets``: the flown vehicle's)."""
-
-
-def invalid_runs(params: VehicleParams) -> list[str]:
-    """Per run, why its parameters cannot be simulated ('' when they can)."""
-    reasons = [""] * params.n_runs
-    checks = (
-        ("mass_kg", params.mass_kg[:, None], lambda v: v > 0),
-        ("cg_B", params.cg_B, lambda v: np.ones_like(v, bool)),
-        ("inertia_B", params.inertia_B, lambda v: v > 0),
-        ("thrust_n", params.thrust_n, lambda v: v >= 0),
-        ("jet_dir_S", params.jet_dir_S.reshape(params.n_runs, -1), lambda v: np.ones_like(v, bool)),
-    )
-    for name, values, ok in checks:
-        with np.errstate(invalid="ignore"):
-            bad = ~(np.isfinite(values) & ok(values))
-        for i in np.flatnonzero(bad.any(axis=1)):
-            if not reasons[i]:
-                reasons[i] = f"invalid parameter {name}: {values[i].tolist()}"
-    if params.iquat is not None:
-        with np.errstate(invalid="ignore"):
-            unit = np.abs(np.linalg.norm(params.iquat, axis=1) - 1.0) <= 1e-9
-        for i in np.flatnonzero(~unit):
-            if not reasons[i]:
-                reasons[i] = (
-                    f"invalid parameter iquat: {params.iquat[i].tolist()} (not a unit quaternion)"
-                )
-    # Principal moments of a rigid body obey the triangle inequality (a + b >= c); positive
-    # moments that do not (a far tail draw of dispersed moments or products of inertia) are
-    # no body, and are not flown (rcsim.spacecraft.dispersions, "Physical tensors").
-    with np.errstate(invalid="ignore"):
-        m = np.sort(params.inertia_B, axis=1)
-        no_body = m[:, 0] + m[:, 1] < m[:, 2] * (1 - 1e-12)
-    for i in np.flatnonzero(no_body):
-        if not reasons[i]:
-            reasons[i] = (
-                f"invalid parameter inertia_B: {params.inertia_B[i].tolist()} (principal moments "
-                "violate the triangle inequality: no rigid body has them)"
-            )
-    return reasons
+    controller: Controller
+    guidance: Guidance
+    commands: CommandBlocks
+    disturbance_B: Any
+    n_cycles: int
+    state: Any
+    prop: PropulsionState
+    failed: np.ndarray
+    reason: list
+    rec: dict
+    valves: ValveState
+    thrust_n: np.ndarray
+    torque_B: np.ndarray
+    noise: SensorNoise | None
+    sensor_state: SensorState | None
+    delivered: bool
 
 
 class BatchSimulation:
@@ -169,61 +142,65 @@ class BatchSimulation:
     Parameters
     ----------
     params : VehicleParams
-        One entry per run.  Runs with non-finite or non-physical values are flown with the
-        nominal vehicle's values and reported failed ("invalid parameter ...").  Its per-jet
-        arrays must be as wide as ``model`` has jets (:func:`rcsim.spacecraft.vehicle.jet_count`);
-        every per-jet array of the flight is that wide.
-    propulsion : PropulsionParams
-        Control cycle and minimum pulse.
-    model : mujoco.MjModel, optional
-        Compiled vehicle (its ``opt.timestep`` and integrator are used); default the packaged one.
-        The timestep is the longest piece of a cycle (module docstring, "Exact in time").
+        One entry per run, of ``vehicle``.  Runs with non-finite or non-physical values are
+        flown with the nominal vehicle's values and reported failed ("invalid parameter ...").
+        Its per-jet arrays must be as wide as the vehicle has jets; every per-jet array of the
+        flight is that wide.
+    vehicle : rcsim.spacecraft.vehicle_file.Vehicle
+        The vehicle flown: its model (``opt.timestep``, integrator), its profile's control
+        cycle, its valve limits, its nominal valve timing and its tank.  The timestep is the
+        longest piece of a cycle (module docstring, "Exact in time").
     nthread : int
         MuJoCo worker threads (0: all CPUs).
     sensors : SensorParams, optional
         Sensor errors per run; default perfect sensors.
     sensor_streams : sequence of numpy.random.SeedSequence, optional
         One per run, the run's sensor-noise stream
-        (:func:`rcsim.spacecraft.effect_draws.effect_streams`); required when ``sensors`` has noise
-        or a random walk.
+        (:func:`rcsim.spacecraft.effect_draws.effect_streams`); required when ``sensors`` has
+        noise or a random walk.
     timing : ValveTiming, optional
         Command (sensor-to-actuator) delay and valve latencies per run (per jet, or one
-        column for every jet); default none.
+        column for every jet); default the vehicle's nominal timing (none when it has none).
     faults : JetFaults, optional
         Jet faults per run (per jet, or one column for every jet); default none.
     profile : ThrustProfile, optional
         Thrust transients at valve opening and closing; default none (instant thrust).
-    tank : PropellantTank, optional
+    tank : PropellantTank, None or "vehicle"
         Propellant tracked per run: the mass properties follow the propellant used and the
-        jets stop when it runs out (:mod:`rcsim.spacecraft.propellant`); default none (propellant is
-        accounted, the mass properties stay ``params``').
+        jets stop when it runs out (:mod:`rcsim.spacecraft.propellant`).  ``"vehicle"``
+        (default): the vehicle's (none when its file gives no propellant mass); None: not
+        tracked (accounted only, the mass properties stay ``params``': a jet-response
+        database's pulses from the wet vehicle).
 
     Raises
     ------
     InputError
         Invalid sensor, timing or fault parameters (per-jet values for another jet count
         among them); noisy sensors without streams; ``params`` for another jet count than
-        ``model``'s.
+        the vehicle's.
     """
 
     def __init__(
         self,
         params: VehicleParams,
+        vehicle: Vehicle,
         *,
-        propulsion: PropulsionParams = PropulsionParams(),
-        model: mujoco.MjModel | None = None,
         nthread: int = 0,
         sensors: SensorParams | None = None,
         sensor_streams=None,
         timing: ValveTiming | None = None,
         faults: JetFaults | None = None,
         profile: ThrustProfile | None = None,
-        tank: PropellantTank | None = None,
+        tank: PropellantTank | Literal["vehicle"] | None = "vehicle",
     ):
         route_mujoco_warnings()
         quiet_stage_timers()
         n = params.n_runs
-        self.model = load_model() if model is None else model
+        self.vehicle = vehicle
+        self.model = vehicle.model
+        self.propulsion = propulsion = vehicle.propulsion()
+        timing = vehicle.timing(n) if timing is None else timing
+        tank = vehicle.tank(n) if isinstance(tank, str) else tank
         # The vehicle's jet count, from its model: every per-jet array below is this wide.
         self.n_jets = jet_count(self.model)
         if params.n_jets != self.n_jets:
@@ -253,8 +230,15 @@ class BatchSimulation:
         self.timing = ValveTiming.of(n, n_jets=self.n_jets) if timing is None else timing
         self.faults = None if faults is None or faults.is_none() else faults
         self.profile = None if profile is None or profile.is_none() else profile
+        ramps = (0.0, 0.0) if self.profile is None else (self.profile.rise_s, self.profile.fall_s)
+        if max(ramps) >= propulsion.cycle_s:
+            raise InputError(
+                f"rise_s and fall_s must be shorter than the {propulsion.cycle_s:g} s control "
+                f"cycle, got {self.profile}",
+                parameter="profile",
+                value=None,
+            )
         self.params = params
-        self.propulsion = propulsion
         dt = float(self.model.opt.timestep)
         n_sub = int(round(propulsion.cycle_s / dt))
         if n_sub < 1 or abs(n_sub * dt - propulsion.cycle_s) > 1e-9 * propulsion.cycle_s:
@@ -263,22 +247,19 @@ class BatchSimulation:
             )
         self.dt_s, self.n_sub = dt, n_sub
         self.invalid = invalid_runs(params)
-        # MuJoCo integrates the wrench model; the jets are summed by a matrix per run
-        # (rcsim/spacecraft/flight_model.py: the same physics to rounding, ~40 % cheaper a step).
-        self._flight = flight_model(self.model)
-        self._batch = Batch(self._flight, params.n_runs, nthread)
-        self._write_params()
-        self._qpos = self._batch.bind("qpos")
-        self._qvel = self._batch.bind("qvel")
-        # Per-run physics step: the length of each run's current piece of a cycle.
-        self._timestep = self._batch.expand("opt.timestep")
-        self._stretched = False  # some run's timestep is not the model's
-        self._compiled = False  # the compiled per-cycle passes; decided by each run()
-        self._level = (
-            np.ones((n, self.n_jets)) if self.faults is None else self.faults.thrust_factor.copy()
+        self.physics = BatchPhysics(
+            self.model,
+            params,
+            self.invalid,
+            nthread=nthread,
+            level=(
+                np.ones((n, self.n_jets))
+                if self.faults is None
+                else self.faults.thrust_factor.copy()
+            ),
+            n_sub=n_sub,
+            flight=self.vehicle.flight_model,
         )
-        # Live (n_runs, mjNWARNING, 2) view of each simulation's MjData.warning (lastinfo, number).
-        self._warning = self._batch.warning
         self.tank = tank
         if tank is not None:
             if tank.initial_kg.shape != (n,):
@@ -286,110 +267,16 @@ class BatchSimulation:
                     f"needs one value per run ({n}), got {tank.initial_kg.shape}",
                     parameter="tank",
                 )
-            self._start_params = self.flown_params()  # the wet vehicle, read back before flying
-            # Principal frame of the wet vehicle: each run's own, or the model's for all.
-            frames = self._start_params.iquat
-            self._iquat0 = (
-                self._flight.body_iquat[self._flight.body(BODY).id].copy()
-                if frames is None
-                else frames
-            )
-            # The wet tensors in B, once: every cycle's update starts from them (computing
-            # them per cycle from moments and frames looped over the runs that fired).
-            self._inertia0_B = full_inertia(self._start_params.inertia_B, self._iquat0)
-            # Live per-run fields (expand() of an expanded field returns the same memory).
-            self._mass_fields = {
-                name: self._batch.expand(name)
-                for name in ("body_mass", "body_ipos", "body_inertia", "body_iquat")
-            }
-            self._used_kg = np.zeros(n)
-            self._exhausted_s = np.full(n, np.inf)
+            self.physics.track_propellant(tank)
 
     @property
     def n_runs(self) -> int:
         return self.params.n_runs
 
-    def _write_params(self) -> None:
-        """Per-run model fields; invalid runs keep the nominal values (they are reported failed)."""
-        b, m, p = self._batch, self.model, self.params
-        body = self._flight.body(BODY).id
-        ok = np.array([not r for r in self.invalid])
-        nominal = VehicleParams.nominal(1, m)
-
-        def pick(value: np.ndarray, nom: np.ndarray) -> np.ndarray:
-            return np.where(ok.reshape((-1,) + (1,) * (value.ndim - 1)), value, nom)
-
-        b.expand("body_mass")[:, body] = pick(p.mass_kg, nominal.mass_kg)
-        b.expand("body_ipos")[:, body] = pick(p.cg_B, nominal.cg_B)
-        b.expand("body_inertia")[:, body] = pick(p.inertia_B, nominal.inertia_B)
-        if p.iquat is not None:  # each run's principal frame (products of inertia)
-            b.expand("body_iquat")[:, body] = pick(p.iquat, self._flight.body_iquat[body][None])
-        # The jets as flown: thrust and direction per run, summed into the wrench matrix.
-        self._flown_thrust_n = pick(p.thrust_n, nominal.thrust_n)
-        self._flown_dir_S = pick(p.jet_dir_S, nominal.jet_dir_S)
-        self._wrench = jet_wrench_B(
-            replace(p, thrust_n=self._flown_thrust_n, jet_dir_S=self._flown_dir_S), m
-        )
-        # mass, CG and inertia feed constants (body_subtreemass, body_invweight0, dof_M0,
-        # actuator_acc0, ...) that MuJoCo only recomputes in mj_setConst; without it some
-        # changes are silently ignored.
-        b.set_const()
-
     def flown_params(self) -> VehicleParams:
-        """The parameters each run is flown with, read back from MuJoCo's per-run model.
-
-        Mass, CG and inertia are read from the batch's per-simulation fields after
-        ``mj_setConst`` (``body_mass``, ``body_ipos``, ``body_inertia``, and ``body_iquat``
-        when :attr:`params` gives each run its principal frame); the jets' thrust and
-        directions are the ones their wrench matrix was built from
-        (:func:`rcsim.spacecraft.flight_model.jet_wrench_B`).  They equal :attr:`params` bit for
-        bit, except for runs with invalid parameters, which are flown (and read back) with the
-        nominal values.  ``isp_s`` is not a MuJoCo quantity and is copied from :attr:`params`.
-
-        MuJoCo stores a body's inertia as principal moments ``body_inertia`` in the frame
-        ``body_iquat``.  Both are *inputs* of ``mj_setConst`` (mujoco 4.0:
-        ``MjModel._setconst_inputs``; its outputs are derived constants such as
-        ``body_subtreemass``), so neither is re-oriented or re-diagonalized after the write:
-        the moments read back are about the principal axes the run was given, as
-        :class:`VehicleParams` defines them (the body axes B for the packaged vehicle, whose
-        ``body_iquat`` is the identity).  ``iquat`` is each run's frame whenever it is not the
-        identity (the model's own for parameters without one), so the tensor in B
-        (:func:`rcsim.spacecraft.propellant.inertia_tensor_B`) can always be rebuilt from the
-        read-back.
-
-        Returns
-        -------
-        VehicleParams
-            ``n_runs`` entries.
-        """
-        b = self._batch
-        body = self._flight.body(BODY).id
-
-        def field_of(name: str) -> np.ndarray:
-            # expand() (done in _write_params) made these per-simulation; copy: the live
-            # arrays are the batch's own model memory.
-            values = b.expanded(name)
-            if values is None:  # pragma: no cover - _write_params always expands them
-                raise AssertionError(f"{name} is not per-simulation")
-            return np.array(values)
-
-        if getattr(self, "_start_params", None) is not None:
-            return self._start_params  # propellant tracked: the wet vehicle at t = 0
-        if self.params.iquat is not None:
-            iquat = field_of("body_iquat")[:, body]
-        elif np.array_equal(self._flight.body_iquat[body], IDENTITY_QUAT):
-            iquat = None  # principal axes along B, as VehicleParams.nominal says it
-        else:  # the model's own frame, every run (what iquat None flies)
-            iquat = np.repeat(self._flight.body_iquat[body][None], self.n_runs, axis=0)
-        return VehicleParams(
-            mass_kg=field_of("body_mass")[:, body],
-            cg_B=field_of("body_ipos")[:, body],
-            inertia_B=field_of("body_inertia")[:, body],
-            thrust_n=self._flown_thrust_n.copy(),
-            jet_dir_S=self._flown_dir_S.copy(),
-            isp_s=self.params.isp_s,
-            iquat=iquat,
-        )
+        """The parameters each run is flown with, read back from MuJoCo's per-run model
+        (:meth:`rcsim.spacecraft.batch_physics.BatchPhysics.flown_params`)."""
+        return self.physics.flown_params()
 
     def run(
         self,
@@ -425,10 +312,23 @@ class BatchSimulation:
         ------
         InputError
             ``duration_s`` not > 0; the controller's ``cycle_s`` differs from the
-            propulsion's; the history would not fit in memory
+            vehicle's; the history would not fit in memory
             (:func:`rcsim.spacecraft.guards.memory_budget_bytes`); the controller commands another
             number of jets than the vehicle has (at its first step).
         """
+        flight = self._start(
+            controller, guidance, duration_s, q0_BN, omega0_B, disturbance_B, ctrl_state
+        )
+        for k in range(flight.n_cycles):
+            self._cycle(k, flight)
+            if progress is not None:
+                progress(k + 1)
+        return self._finish(flight)
+
+    def _start(
+        self, controller, guidance, duration_s, q0_BN, omega0_B, disturbance_B, ctrl_state
+    ) -> _Flight:
+        """Checks, initial state and record buffers of a flight."""
         n, cycle = self.n_runs, self.propulsion.cycle_s
         if not np.isfinite(duration_s) or duration_s <= 0:
             raise InputError(
@@ -436,118 +336,158 @@ class BatchSimulation:
             )
         check_cycle(controller, cycle)
         n_cycles = int(math.ceil(duration_s / cycle - 1e-9))
+        delivered = not (self.timing.is_zero() and self.faults is None and self.profile is None)
         check_history_memory(
             n,
             n_cycles,
             duration_s,
             measured=self.sensors is not None,
-            delivered=not (self.timing.is_zero() and self.faults is None and self.profile is None),
+            delivered=delivered,
             n_jets=self.n_jets,
         )
-        self._reset(q0_BN, omega0_B)
+        physics = self.physics
+        physics.reset(q0_BN, omega0_B)
         if self.tank is not None:
-            self._used_kg[:] = 0.0
-            self._exhausted_s[:] = np.inf
-            self._write_mass_properties(np.arange(n))
-        state = controller.initial_state(n) if ctrl_state is None else ctrl_state
-        prop = PropulsionState.zeros(n, self.n_jets)
+            physics.used_kg[:] = 0.0
+            physics.exhausted_s[:] = np.inf
+            physics.write_mass_properties(np.arange(n))
         failed = np.array([bool(r) for r in self.invalid])
         reason = list(self.invalid)
-        self._check_warnings(failed, reason, 0.0, 0.0)  # the initial state itself
-
-        t_s = np.arange(n_cycles) * cycle
+        physics.check_warnings(failed, reason, 0.0, 0.0)  # the initial state itself
         sensors = self.sensors
-        effects = not (self.timing.is_zero() and self.faults is None and self.profile is None)
-        rec = self._history_buffers(n_cycles, measured=sensors is not None, delivered=effects)
-        if sensors is not None:
-            noise = SensorNoise(self.sensor_streams) if sensors.is_random() else None
-            sensor_state = SensorState(np.zeros((n, 3)))
-        valves = ValveState.closed(n, self.n_jets)
-        thrust = self.params.thrust_n * self._level
-        torque = np.zeros((n, 3))
         # The compiled per-cycle passes (rcsim/spacecraft/cycle_kernel.py), bit for bit the numpy
         # forms; decided once per flight.
-        self._compiled = cycle_kernel.kernel_available()
-        commands = CommandBlocks(guidance, cycle)
-        for k in range(n_cycles):
-            t0 = k * cycle  # integer tick count -> time: no accumulated float error
-            q, w = self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy()
-            nav = truth = self._navigate(t0, q, w, guidance, commands, k)
-            if sensors is not None:
-                q_m, w_m = measure(
-                    q,
-                    w,
-                    None if noise is None else noise.draw(k),
-                    sensors,
-                    sensor_state,
-                    cycle,
-                )
-                nav = self._navigate(t0, q_m, w_m, guidance, commands, k)
-                rec["meas_att_err_B"][k] = nav.att_err_B
-                rec["meas_rate_err_B"][k] = nav.rate_err_B
-            command, state = controller.step(nav, state)
-            if k == 0:
-                self._check_command(controller, command)
-            counted = None if self.tank is None else prop.firings.copy()
-            if self._compiled:
-                on = cycle_kernel.command_valves(
-                    command, failed, prop, self.propulsion, valves, self.timing
-                )
-            else:
-                command = np.where(failed[:, None], 0.0, command)
-                on = apply_valve_limits(
-                    command, prop, self.propulsion, self.params.thrust_n, account=False
-                )
-                command_valves(valves, on, self.timing, cycle)
-            pieces = self._pieces(valves, t0)
-            if counted is not None:
-                # A firing commanded at or after the propellant ran out is no firing: the jet
-                # delivers nothing (rcsim.spacecraft.propellant, "Exhaustion").  Commands start at
-                # the cycle's start, so a run whose exhaustion instant is <= t0 fired nothing.
-                dead = self._exhausted_s <= t0  # exhausted_before's rule, for this cycle
-                prop.firings[dead] = counted[dead]
-            if self._compiled and pieces.uniform and pieces.n_pieces == 1:
-                delivered = cycle_kernel.account(pieces.on[:, 0], cycle, thrust, prop)
-            else:
-                delivered = pieces.on_time_s()
-                prop.on_time_s += delivered
-                prop.impulse_ns += pieces.thrust_time_s() * thrust
-            rec["q_BN"][k] = truth.q_BN
-            rec["omega_B"][k] = truth.omega_B
-            rec["att_err_B"][k] = truth.att_err_B
-            rec["rate_err_B"][k] = truth.rate_err_B
-            rec["on_time_s"][k] = on
-            if effects:
-                rec["delivered_s"][k] = delivered
-            if disturbance_B is not None:
-                torque = np.asarray(
-                    disturbance_B(t0) if callable(disturbance_B) else disturbance_B, float
-                )
-            self._step(pieces, torque, failed, reason, t0, t0 + cycle)
-            if self.tank is not None:
-                self._use_propellant(pieces, thrust)
-            tail = 0.0 if self.profile is None else self.profile.fall_s
-            if self._compiled:
-                cycle_kernel.end_cycle(valves, cycle, tail)
-            else:
-                end_cycle(valves, cycle, tail)
-            if progress is not None:
-                progress(k + 1)
+        self._compiled = physics.compiled = cycle_kernel.kernel_available()
+        return _Flight(
+            controller=controller,
+            guidance=guidance,
+            commands=CommandBlocks(guidance, cycle),
+            disturbance_B=disturbance_B,
+            n_cycles=n_cycles,
+            state=controller.initial_state(n) if ctrl_state is None else ctrl_state,
+            prop=PropulsionState.zeros(n, self.n_jets),
+            failed=failed,
+            reason=reason,
+            rec=history_buffers(
+                n_cycles, n, self.n_jets, measured=sensors is not None, delivered=delivered
+            ),
+            valves=ValveState.closed(n, self.n_jets),
+            thrust_n=self.params.thrust_n * physics.level,
+            torque_B=np.zeros((n, 3)),
+            noise=(
+                SensorNoise(self.sensor_streams)
+                if sensors is not None and sensors.is_random()
+                else None
+            ),
+            sensor_state=None if sensors is None else SensorState(np.zeros((n, 3))),
+            delivered=delivered,
+        )
+
+    def _cycle(self, k: int, f: _Flight) -> None:
+        """Control cycle ``k``: sense, command, cut at the switch instants, integrate."""
+        cycle = self.propulsion.cycle_s
+        t0 = k * cycle  # integer tick count -> time: no accumulated float error
+        nav, truth = self._sense(k, t0, f)
+        # Firings so far: one commanded after the propellant ran out is taken back (_account).
+        counted = None if self.tank is None else f.prop.firings.copy()
+        on = self._command(k, nav, f)
+        pieces = self._pieces(f.valves, t0)
+        delivered = self._account(pieces, t0, f, counted)
+        rec = f.rec
+        rec["q_BN"][k] = truth.q_BN
+        rec["omega_B"][k] = truth.omega_B
+        rec["att_err_B"][k] = truth.att_err_B
+        rec["rate_err_B"][k] = truth.rate_err_B
+        rec["on_time_s"][k] = on
+        if f.delivered:
+            rec["delivered_s"][k] = delivered
+        if f.disturbance_B is not None:
+            d = f.disturbance_B
+            f.torque_B = np.asarray(d(t0) if callable(d) else d, float)
+        self.physics.step(pieces, f.torque_B, f.failed, f.reason, t0, t0 + cycle)
+        if self.tank is not None:
+            self.physics.use_propellant(pieces, f.thrust_n)
+        tail = 0.0 if self.profile is None else self.profile.fall_s
+        if self._compiled:
+            cycle_kernel.end_cycle(f.valves, cycle, tail)
+        else:
+            end_cycle(f.valves, cycle, tail)
+
+    def _sense(self, k: int, t0: float, f: _Flight) -> tuple[NavState, NavState]:
+        """What the controller sees in cycle ``k`` (through the sensors) and the truth."""
+        q, w = self.physics.qpos[:, 3:7].copy(), self.physics.qvel[:, 3:6].copy()
+        nav = truth = self._navigate(t0, q, w, f.guidance, f.commands, k)
+        if self.sensors is not None:
+            assert f.sensor_state is not None  # set up with the sensors
+            q_m, w_m = measure(
+                q,
+                w,
+                None if f.noise is None else f.noise.draw(k),
+                self.sensors,
+                f.sensor_state,
+                self.propulsion.cycle_s,
+            )
+            nav = self._navigate(t0, q_m, w_m, f.guidance, f.commands, k)
+            f.rec["meas_att_err_B"][k] = nav.att_err_B
+            f.rec["meas_rate_err_B"][k] = nav.rate_err_B
+        return nav, truth
+
+    def _command(self, k: int, nav: NavState, f: _Flight) -> np.ndarray:
+        """The controller's step, then the valve limits and the valves' commands: the
+        on-times the jets are commanded this cycle, (n_runs, n_jets) [s]."""
+        command, f.state = f.controller.step(nav, f.state)
+        if k == 0:
+            self._check_command(f.controller, command)
+        if self._compiled:
+            return cycle_kernel.command_valves(
+                command, f.failed, f.prop, self.propulsion, f.valves, self.timing
+            )
+        command = np.where(f.failed[:, None], 0.0, command)
+        on = apply_valve_limits(
+            command, f.prop, self.propulsion, self.params.thrust_n, account=False
+        )
+        command_valves(f.valves, on, self.timing, self.propulsion.cycle_s)
+        return on
+
+    def _account(
+        self, pieces: Pieces, t0: float, f: _Flight, counted: np.ndarray | None
+    ) -> np.ndarray:
+        """Firings, on-time and impulse of the cycle (a firing commanded after the propellant
+        ran out is none: ``counted``, the firings before the cycle's commands, stand); returns
+        the on-time each jet delivered, (n_runs, n_jets) [s]."""
+        prop = f.prop
+        if counted is not None:
+            # A firing commanded at or after the propellant ran out is no firing: the jet
+            # delivers nothing (rcsim.spacecraft.propellant, "Exhaustion").  Commands start at
+            # the cycle's start, so a run whose exhaustion instant is <= t0 fired nothing.
+            dead = self.physics.exhausted_s <= t0  # exhausted_before's rule, for this cycle
+            prop.firings[dead] = counted[dead]
+        if self._compiled and pieces.uniform and pieces.n_pieces == 1:
+            return cycle_kernel.account(pieces.on[:, 0], self.propulsion.cycle_s, f.thrust_n, prop)
+        delivered = pieces.on_time_s()
+        prop.on_time_s += delivered
+        prop.impulse_ns += pieces.thrust_time_s() * f.thrust_n
+        return delivered
+
+    def _finish(self, f: _Flight) -> History:
+        """The flight's history: the record as (n_runs, n_cycles, k) views, final errors."""
+        cycle = self.propulsion.cycle_s
+        physics = self.physics
         final = navigate(
-            n_cycles * cycle, self._qpos[:, 3:7].copy(), self._qvel[:, 3:6].copy(), guidance
+            f.n_cycles * cycle, physics.qpos[:, 3:7].copy(), physics.qvel[:, 3:6].copy(), f.guidance
         )
         # (n_runs, n_cycles, k) views of the cycle-major buffers: a copy would double the peak
         # memory of a large batch and cost a tenth of its wall time.
-        rec = {key: value.swapaxes(0, 1) for key, value in rec.items()}
+        rec = {key: value.swapaxes(0, 1) for key, value in f.rec.items()}
         return History(
             cycle_s=cycle,
-            t_s=t_s,
+            t_s=np.arange(f.n_cycles) * cycle,
             final=final,
-            propulsion=prop,
-            failed=failed,
-            reason=reason,
+            propulsion=f.prop,
+            failed=f.failed,
+            reason=f.reason,
             flown_params=self.flown_params(),
-            propellant_exhausted_s=None if self.tank is None else self._exhausted_s.copy(),
+            propellant_exhausted_s=None if self.tank is None else physics.exhausted_s.copy(),
             **rec,
         )
 
@@ -579,24 +519,6 @@ class BatchSimulation:
                 value=None,
             )
 
-    def _history_buffers(self, n_cycles: int, *, measured: bool, delivered: bool) -> dict:
-        """Cycle-major record buffers, (n_cycles, n_runs, k) each: every cycle writes one
-        contiguous block, and :meth:`run` returns them as (n_runs, n_cycles, k) views."""
-        n = self.n_runs
-        rec = {
-            "q_BN": np.empty((n_cycles, n, 4)),
-            "omega_B": np.empty((n_cycles, n, 3)),
-            "att_err_B": np.empty((n_cycles, n, 3)),
-            "rate_err_B": np.empty((n_cycles, n, 3)),
-            "on_time_s": np.empty((n_cycles, n, self.n_jets)),
-        }
-        if delivered:
-            rec["delivered_s"] = np.empty((n_cycles, n, self.n_jets))
-        if measured:
-            rec["meas_att_err_B"] = np.empty((n_cycles, n, 3))
-            rec["meas_rate_err_B"] = np.empty((n_cycles, n, 3))
-        return rec
-
     def _pieces(self, valves: ValveState, t0_s: float) -> Pieces:
         """The cycle starting at ``t0_s`` cut at every run's switch instants (and on the
         physics grid), with the thrust profile's rise and fall when there is one."""
@@ -605,17 +527,18 @@ class BatchSimulation:
         if self.tank is None:
             return pieces
         # Propellant running out in this cycle ends every jet's thrust at that instant.
-        thrust = self.params.thrust_n * self._level
+        physics = self.physics
+        thrust = self.params.thrust_n * physics.level
         level = pieces.on if pieces.level is None else pieces.level
-        left = np.maximum(self.tank.initial_kg - self._used_kg, 0.0)
+        left = np.maximum(self.tank.initial_kg - physics.used_kg, 0.0)
         t_out = exhaustion_time_s(
             pieces.length_s, level, mass_flow_kg_s(thrust, self.params.isp_s), left
         )
         t_out = np.where(left <= 0.0, 0.0, t_out)
         if not np.isfinite(t_out).any():
             return pieces
-        first = np.isfinite(t_out) & ~np.isfinite(self._exhausted_s)
-        self._exhausted_s[first] = t0_s + t_out[first]
+        first = np.isfinite(t_out) & ~np.isfinite(physics.exhausted_s)
+        physics.exhausted_s[first] = t0_s + t_out[first]
         start, end = intervals
         return self._cut(start, np.minimum(end, t_out[:, None, None]))
 
@@ -641,151 +564,20 @@ class BatchSimulation:
             start, end, cycle, grid, self.profile.rise_s, self.profile.fall_s, self.profile.segments
         )
 
-    def _use_propellant(self, pieces: Pieces, thrust_n: np.ndarray) -> None:
-        """Add the cycle's propellant to each run's total and move the mass properties of the
-        runs that fired (:mod:`rcsim.spacecraft.propellant`)."""
-        used = (pieces.thrust_time_s() * thrust_n).sum(axis=1) / (self.params.isp_s * G0_M_S2)
-        self._used_kg += used
-        fired = np.flatnonzero(used > 0)
-        if fired.size:
-            self._write_mass_properties(fired)
-
-    def _write_mass_properties(self, ids: np.ndarray) -> None:
-        """Mass, CG and inertia of runs ``ids`` after the propellant they used."""
-        start, tank = self._start_params, self.tank
-        assert tank is not None  # only called when propellant is tracked
-        m, c, inertia = mass_properties(
-            start.mass_kg[ids],
-            start.cg_B[ids],
-            self._inertia0_B[ids],
-            tank.position_B,
-            self._used_kg[ids],
-        )
-        moments, quat = principal(inertia)
-        body, fields = self._flight.body(BODY).id, self._mass_fields
-        fields["body_mass"][ids, body] = m
-        fields["body_ipos"][ids, body] = c
-        fields["body_inertia"][ids, body] = moments
-        fields["body_iquat"][ids, body] = quat
-        self._batch.set_const(ids)
-
-    def _reset(self, q0_BN, omega0_B) -> None:
-        n = self.n_runs
-        self._batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
-        if q0_BN is not None:
-            q0 = np.asarray(q0_BN, float).reshape(n, 4)
-            self._qpos[:, 3:7] = q0 / np.linalg.norm(q0, axis=1, keepdims=True)
-        if omega0_B is not None:
-            self._qvel[:, 3:6] = np.asarray(omega0_B, float).reshape(n, 3)
-        self._batch.forward()
-
-    def _check_warnings(
-        self, failed: np.ndarray, reason: list[str], t0_s: float, t1_s: float
-    ) -> None:
-        """Fail the runs whose MuJoCo warning counters rose in ``[t0_s, t1_s]``.
-
-        MuJoCo resets a diverged simulation and goes on; its warning counters (zeroed at
-        reset) are the only trace (module docstring, "Failures").
-        """
-        for i, why in warning_reasons(self._warning, ~failed, t0_s, t1_s).items():
-            failed[i] = True
-            reason[i] = why
-
-    def _step(
-        self,
-        pieces: Pieces,
-        torque: np.ndarray,
-        failed: np.ndarray,
-        reason: list[str],
-        t0_s: float,
-        t1_s: float,
-    ) -> None:
-        """Integrate cycle ``[t0_s, t1_s]`` of the runs still alive, piece by piece; newly
-        failed ones are frozen.
-
-        ``torque`` (n_runs, 3) [N m] is the disturbance held over the cycle.
-        """
-        alive = ~failed
-        if not alive.any():
-            return
-        if pieces.uniform:  # no switch inside any grid step: the model's own fixed steps
-            if self._stretched:
-                self._timestep[:] = self.dt_s
-                self._stretched = False
-            # Flight-model controls: each run's jet wrench matrix times its on-fractions.
-            control = np.einsum(
-                "nwj,nsj->nsw", self._wrench, pieces.control() * self._level[:, None, :]
-            )
-            if control.shape[1] != self.n_sub:  # one on-fraction for all the cycle's steps
-                control = np.repeat(control, self.n_sub, axis=1)
-            control[:, :, 3:6] += torque[:, None, :]
-            self._rollout(self.n_sub, control, alive, failed, reason)
-        else:
-            self._stretched = True
-            wrench = np.einsum(
-                "nwj,npj->npw", self._wrench, pieces.control() * self._level[:, None, :]
-            )
-            wrench[:, :, 3:6] += torque[:, None, :]
-            for p in range(pieces.n_pieces):
-                runs = alive & ~failed & (pieces.count > p)
-                self._timestep[runs] = pieces.length_s[runs, p]
-                self._rollout(1, wrench[:, p : p + 1], runs, failed, reason)
-        self._check_warnings(failed, reason, t0_s, t1_s)
-        if self._compiled and cycle_kernel.bounded_state(self._batch.state, self._qpos, self._qvel):
-            return  # every run's state is finite (the test below, without its numpy passes)
-        state_ok = np.isfinite(self._qvel.sum(axis=1) + self._qpos.sum(axis=1))
-        if state_ok.all():
-            return
-        for i in np.flatnonzero(~state_ok & ~failed):
-            failed[i] = True
-            reason[i] = "non-finite state (diverged)"
-        # Keep numbers finite so vectorized navigation/controllers stay warning-free.
-        self._qpos[~state_ok] = np.nan_to_num(self._qpos[~state_ok])
-        self._qvel[~state_ok] = 0.0
-
-    def _rollout(
-        self,
-        nstep: int,
-        control: np.ndarray,
-        runs: np.ndarray,
-        failed: np.ndarray,
-        reason: list[str],
-    ) -> None:
-        """``nstep`` physics steps of the runs ``runs`` (bool, (n_runs,)) with ``control``
-        (n_runs, nstep, nu); a MuJoCo error fails the run it names."""
-        ids = np.flatnonzero(runs)
-        if ids.size == 0:
-            return
-        everyone = ids.size == self.n_runs
-        try:
-            self._batch.rollout(
-                nstep,
-                control=control if everyone else control[ids],
-                control_spec=_CTRL,
-                record=(),
-                ids=None if everyone else ids,
-            )
-        except SimulationError as exc:
-            for i in exc.ids:
-                failed[i] = True
-                reason[i] = f"MuJoCo error: {self._batch.error(int(i))}"
-
 
 def simulate_batch(
     params: VehicleParams,
     controller: Controller,
     guidance: Guidance,
     duration_s: float,
+    *,
+    vehicle: Vehicle,
     **kwargs,
 ) -> History:
-    """One-call form of :class:`BatchSimulation` (``propulsion``, ``model``, ``nthread``,
-    ``sensors``, ``sensor_streams``, ``timing``, ``faults``, ``profile``, ``tank`` go to the
-    simulation,
-    the rest to
-    :meth:`BatchSimulation.run`)."""
+    """One-call form of :class:`BatchSimulation` (``vehicle``, ``nthread``, ``sensors``,
+    ``sensor_streams``, ``timing``, ``faults``, ``profile``, ``tank`` go to the simulation, the
+    rest to :meth:`BatchSimulation.run`)."""
     sim_keys = {
-        "propulsion",
-        "model",
         "nthread",
         "sensors",
         "sensor_streams",
@@ -795,4 +587,6 @@ def simulate_batch(
         "tank",
     }
     sim_kw = {k: kwargs.pop(k) for k in list(kwargs) if k in sim_keys}
-    return BatchSimulation(params, **sim_kw).run(controller, guidance, duration_s, **kwargs)
+    return BatchSimulation(params, vehicle, **sim_kw).run(
+        controller, guidance, duration_s, **kwargs
+    )

@@ -323,10 +323,10 @@ class ThrustProfile:
     segments: int = 4
 
     def __post_init__(self):
-        ok = all(np.isfinite(v) and 0 <= v < 0.04 for v in (self.rise_s, self.fall_s))
+        ok = all(np.isfinite(v) and 0 <= v for v in (self.rise_s, self.fall_s))
         if not ok or int(self.segments) != self.segments or self.segments < 1:
             raise InputError(
-                f"rise_s and fall_s must be in [0, 0.04) s and segments >= 1, got {self}",
+                f"rise_s and fall_s must be finite and >= 0 s and segments >= 1, got {self}",
                 parameter="profile",
                 value=None,
             )

@@ -125,8 +125,8 @@ class VehicleParams:
     jet_dir_S : ndarray, (n_runs, n_jets, 3)
         Unit direction of each jet's force in its site frame; nominal (0, 0, 1).
     isp_s : float
-        Specific impulse [s], for propellant accounting (an assumption: 280 s, typical of a
-        22 N bipropellant RCS thruster; the paper does not give one).
+        Specific impulse [s], for propellant accounting: the vehicle file's ``[propellant]
+        isp_s`` (:attr:`rcsim.spacecraft.vehicle_file.Vehicle.isp_s`).
     iquat : ndarray, (n_runs, 4), or None
         Principal frame of each run's inertia in B, as MuJoCo's ``body_iquat`` (w, x, y, z);
         None: the model's own frame, the identity for the packaged vehicle.  Set by
@@ -140,7 +140,7 @@ class VehicleParams:
     inertia_B: np.ndarray
     thrust_n: np.ndarray
     jet_dir_S: np.ndarray
-    isp_s: float = 280.0
+    isp_s: float
     iquat: np.ndarray | None = None
 
     @property
@@ -153,12 +153,12 @@ class VehicleParams:
         return int(self.thrust_n.shape[-1])
 
     @classmethod
-    def nominal(cls, n_runs: int = 1, model: mujoco.MjModel | None = None) -> VehicleParams:
-        """The vehicle of ``model`` (default the packaged one), repeated ``n_runs`` times; its
-        principal frame as ``iquat`` when that is not the identity."""
+    def nominal(cls, n_runs: int, model: mujoco.MjModel, *, isp_s: float) -> VehicleParams:
+        """The vehicle of ``model`` repeated ``n_runs`` times, with specific impulse ``isp_s``
+        [s]; its principal frame as ``iquat`` when that is not the identity.  A vehicle's own:
+        :meth:`rcsim.spacecraft.vehicle_file.Vehicle.nominal`."""
         if n_runs < 1:
             raise ValueError(f"n_runs must be >= 1, got {n_runs}")
-        model = load_model() if model is None else model
         body = model.body(BODY).id
         jets = jet_actuator_ids(model)
         rep = lambda a: np.repeat(np.asarray(a, float)[None], n_runs, axis=0)  # noqa: E731
@@ -169,6 +169,7 @@ class VehicleParams:
             inertia_B=rep(model.body_inertia[body]),
             thrust_n=rep(model.actuator_gainprm[jets, 0]),
             jet_dir_S=rep(model.actuator_gear[jets, 0:3]),
+            isp_s=isp_s,
             iquat=None if np.array_equal(frame, IDENTITY_QUAT) else rep(frame),
         )
 

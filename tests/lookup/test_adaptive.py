@@ -21,14 +21,20 @@ import numpy as np
 import pytest
 
 from rcsim.lookup.adaptive import AdaptiveLookupController, AdaptParams
-from rcsim.lookup.pattern_recognition import LookupController, load_default_table
+from rcsim.lookup.pattern_recognition import LookupController, LookupParams, load_default_table
 from rcsim.models.tables import load_rate_cases
 from rcsim.spacecraft.effect_draws import SENSOR_NOISE, effect_stream
 from rcsim.spacecraft.navigation import Guidance, NavState
 from rcsim.spacecraft.sensors import SensorParams
 from rcsim.spacecraft.simulation import BatchSimulation
 from rcsim.spacecraft.valves import JetFaults
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle_file import Vehicle
+
+#: The paper's vehicle (paper.toml).
+PAPER = Vehicle.load()
+
+#: The lookup logic's inputs from the paper vehicle's profile (paper.toml [control]).
+LOOKUP_PARAMS = LookupParams.from_profile(Vehicle.load().control)
 
 YAW_JETS = slice(12, 16)
 CYCLE_S = 0.04
@@ -53,25 +59,29 @@ class Keep:
         return on, self.last
 
 
-def damping(model, ctl, factor):
+def damping(paper, ctl, factor):
     rate = np.asarray(load_rate_cases().rate_cmd, float)
     n = rate.shape[0]
     f = np.ones((n, 16))
     f[:, YAW_JETS] = factor
     sim = BatchSimulation(
-        VehicleParams.nominal(n, model),
-        model=model,
+        paper.nominal(n),
+        vehicle=paper,
         nthread=1,
         faults=JetFaults.of(n, thrust_factor=f),
     )
     return sim.run(ctl, Guidance.rate(np.zeros((n, 3))), 3.0, omega0_B=rate)
 
 
-def test_midcourse_replan_removes_repeated_firings_under_thrust_loss(model, table):
-    nominal = damping(model, LookupController(table), 1.0).propulsion.firings.sum(axis=1)
-    static = damping(model, LookupController(table), 0.7).propulsion.firings.sum(axis=1)
-    keep = Keep(AdaptiveLookupController(table))
-    adaptive = damping(model, keep, 0.7)
+def test_midcourse_replan_removes_repeated_firings_under_thrust_loss(paper, table):
+    nominal = damping(paper, LookupController(table, LOOKUP_PARAMS), 1.0).propulsion.firings.sum(
+        axis=1
+    )
+    static = damping(paper, LookupController(table, LOOKUP_PARAMS), 0.7).propulsion.firings.sum(
+        axis=1
+    )
+    keep = Keep(AdaptiveLookupController(table, LOOKUP_PARAMS))
+    adaptive = damping(paper, keep, 0.7)
     assert (static > nominal).any()  # the loss does cause repeated firings
     np.testing.assert_array_equal(adaptive.propulsion.firings.sum(axis=1), nominal)
     yaw = np.asarray(load_rate_cases().rate_cmd)[:, 2] != 0
@@ -80,10 +90,10 @@ def test_midcourse_replan_removes_repeated_firings_under_thrust_loss(model, tabl
     assert np.degrees(np.abs(adaptive.final.rate_err_B)).max() < 0.06
 
 
-def test_nominal_vehicle_flies_as_the_static_table(model, table):
-    keep = Keep(AdaptiveLookupController(table))
-    adaptive = damping(model, keep, 1.0)
-    static = damping(model, LookupController(table), 1.0)
+def test_nominal_vehicle_flies_as_the_static_table(paper, table):
+    keep = Keep(AdaptiveLookupController(table, LOOKUP_PARAMS))
+    adaptive = damping(paper, keep, 1.0)
+    static = damping(paper, LookupController(table, LOOKUP_PARAMS), 1.0)
     np.testing.assert_array_equal(adaptive.on_time_s, static.on_time_s)
     assert keep.last.replans.sum() == 0 and keep.last.updates.sum() == 0
 
@@ -115,7 +125,7 @@ def test_entry_learns_from_two_agreeing_misses(table):
     """Fake plant: every firing of the entry achieves exactly f of its promise."""
     f = 0.7
     adapt = AdaptParams(check_after_s=0.0)  # learning across firings only
-    ctl = AdaptiveLookupController(table, adapt=adapt)
+    ctl = AdaptiveLookupController(table, LOOKUP_PARAMS, adapt=adapt)
     one, pure = fake_plant_episodes(ctl, table, f, 1)
     assert one.updates.sum() == 0 and one.evidence[0, pure, 2] == 1  # one miss: evidence only
     two, _ = fake_plant_episodes(ctl, table, f, 2)
@@ -127,13 +137,15 @@ def test_entry_learns_from_two_agreeing_misses(table):
     assert three.evidence[0, pure, 2] == 1 and three.updates[0, pure, 2] == 1
 
 
-def test_noise_alone_does_not_move_the_table(model, table):
+def test_noise_alone_does_not_move_the_table(paper, table):
     n, sigma = 6, np.radians(0.002)
     sensors = SensorParams.of(n, rate_noise_rad_s=sigma, att_noise_rad=np.radians(0.003))
-    keep = Keep(AdaptiveLookupController(table, adapt=AdaptParams(rate_noise_rad_s=sigma)))
+    keep = Keep(
+        AdaptiveLookupController(table, LOOKUP_PARAMS, adapt=AdaptParams(rate_noise_rad_s=sigma))
+    )
     BatchSimulation(
-        VehicleParams.nominal(n, model),
-        model=model,
+        paper.nominal(n),
+        vehicle=paper,
         nthread=1,
         sensors=sensors,
         sensor_streams=[effect_stream(2, i, SENSOR_NOISE) for i in range(n)],
@@ -152,5 +164,5 @@ def test_bad_adapt_params_are_refused():
 def test_registry_builds_the_adaptive_controller():
     from rcsim.lookup.registry import make_controller
 
-    ctl = make_controller("adaptive", adapt_options={"min_rel": 0.1})
+    ctl = make_controller("adaptive", PAPER, adapt_options={"min_rel": 0.1})
     assert isinstance(ctl, AdaptiveLookupController) and ctl.adapt.min_rel == 0.1

@@ -142,3 +142,24 @@ def test_batched_cache_matches_linprog_on_random_problems():
             np.testing.assert_allclose(D @ t[i] + residual[i], b[i], atol=1e-12)
         # the cache pays off: far fewer LP solves than runs
         assert alloc.n_lp < 40
+
+
+@pytest.mark.parametrize(
+    ("policy", "expected_s"), [("round-up", [0.01, 0.02, 0.01]), ("drop", [0.0, 0.02, 0.0])]
+)
+def test_the_controllers_minimum_pulse_policy_rounds_a_plan(policy, expected_s):
+    """A plan's totals below the vehicle's minimum on-time (canted16: 10 ms) become the
+    minimum (``round-up``) or zero (``drop``); totals at or above it are kept (the profile's
+    minimum pulse policy, rcsim/spacecraft/control_profile.py).  Exact: a rounding, no
+    arithmetic."""
+    from rcsim.lookup.allocator_controller import allocator_controller
+    from rcsim.spacecraft.vehicle_file import Vehicle
+
+    vehicle = Vehicle.load("canted16", control={"min_pulse": policy}, control_from="a test")
+    ctrl = allocator_controller(vehicle)
+    assert ctrl.min_on_s == 0.01 and ctrl.min_pulse == policy
+    t = np.zeros((1, vehicle.n_jets))
+    t[0, :3] = [0.004, 0.02, 0.0099]
+    out = ctrl._round(t, np.zeros((1, 3)))
+    np.testing.assert_array_equal(out[0, :3], expected_s)
+    assert not out[0, 3:].any()

@@ -30,20 +30,23 @@ from rcsim.models.tables import load_rate_cases
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
 from rcsim.spacecraft.valves import JetFaults
-from rcsim.spacecraft.vehicle_file import FlyingVehicle
+from rcsim.spacecraft.vehicle_file import Vehicle
 from rcsim.spacecraft.vehicle_file.authority import check_vehicle
 
+#: The paper's vehicle (paper.toml).
+PAPER = Vehicle.load()
 
-def _with_delays(vehicle: FlyingVehicle) -> FlyingVehicle:
+
+def _with_delays(vehicle: Vehicle) -> Vehicle:
     d = vehicle.definition
     jets = tuple(replace(j, open_delay_s=0.008, close_delay_s=0.005) for j in d.jets)
-    return FlyingVehicle(replace(d, jets=jets, command_delay_s=0.005), vehicle.model)
+    return vehicle.edited(replace(d, jets=jets, command_delay_s=0.005), "valve delays")
 
 
 @pytest.mark.parametrize("delays", [False, True], ids=["instant-valves", "valve-delays"])
 @pytest.mark.parametrize("name", ["canted16", "canted12", "paper"])
 def test_rate_cases_nominal_and_one_jet_off(name, delays):
-    vehicle = FlyingVehicle.load(name)
+    vehicle = Vehicle.load(name)
     vehicle = _with_delays(vehicle) if delays else vehicle
     assert not any(out.lost for out in check_vehicle(vehicle.definition, pairs=False).jet_out)
     rate = np.asarray(load_rate_cases().rate_cmd, float)
@@ -56,11 +59,11 @@ def test_rate_cases_nominal_and_one_jet_off(name, delays):
         block = slice(26 * (j + 1), 26 * (j + 2))
         off_from[block, j] = 0.0
         available[block, j] = False
-    controller = make_controller("allocator", model=vehicle.model, vehicle=vehicle.definition)
+    controller = make_controller("allocator", vehicle)
     controller.available = available  # per run: the jet each run has lost
     history = simulate_batch(
-        vehicle.nominal(n), controller, Guidance.rate(rates), 6.0, model=vehicle.model,
-        faults=JetFaults.of(n, off_from_s=off_from), nthread=1, **vehicle.flight_options(n),
+        vehicle.nominal(n), controller, Guidance.rate(rates), 6.0, vehicle=vehicle,
+        faults=JetFaults.of(n, off_from_s=off_from), nthread=1,
     )  # fmt: skip
     assert (vehicle.timing(n) is not None) == delays
     assert not history.failed.any()

@@ -27,25 +27,28 @@ import numpy as np
 import pytest
 
 from rcsim.lookup.channel_generation import generate_channel_table
-from rcsim.lookup.pattern_recognition import LookupController
-from rcsim.models.tables import CONTROL_CYCLE_S, load_lookup_table
+from rcsim.lookup.pattern_recognition import LookupController, LookupParams
+from rcsim.models.tables import PAPER_CYCLE_S, load_lookup_table
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
-from rcsim.spacecraft.vehicle_file import FlyingVehicle
+from rcsim.spacecraft.vehicle_file import Vehicle
+
+#: The lookup logic's inputs from the paper vehicle's profile (paper.toml [control]).
+LOOKUP_PARAMS = LookupParams.from_profile(Vehicle.load().control)
 
 
 @pytest.fixture(scope="module")
 def generated():
-    return generate_channel_table("canted16")
+    return generate_channel_table(Vehicle.load("canted16"))
 
 
 def test_table_flies_every_case_to_its_command(generated):
-    vehicle = FlyingVehicle.load("canted16")
+    vehicle = Vehicle.load("canted16")
     rate = np.asarray(generated.table.rate_cmd, float)
     n = rate.shape[0]
     history = simulate_batch(
-        vehicle.nominal(n), LookupController(generated.table), Guidance.rate(rate), 20.0,
-        model=vehicle.model, propulsion=vehicle.propulsion(), tank=vehicle.tank(n), nthread=1,
+        vehicle.nominal(n), LookupController(generated.table, LOOKUP_PARAMS),
+        Guidance.rate(rate), 20.0, vehicle=vehicle, nthread=1,
     )  # fmt: skip
     assert not history.failed.any()
     final = np.degrees(np.abs(history.final.rate_err_B))
@@ -62,8 +65,8 @@ def test_single_axis_cycles_are_the_nearest_whole_cycle(generated):
     for c in single:
         a = int(np.flatnonzero(table.rate_cmd[c])[0])
         k = 2 * a + (0 if table.rate_cmd[c, a] > 0 else 1)
-        exact = abs(table.rate_cmd[c, a]) / (accel[k, a] * CONTROL_CYCLE_S)
-        cycles = table.firing_time_s[c, k] / CONTROL_CYCLE_S
+        exact = abs(table.rate_cmd[c, a]) / (accel[k, a] * PAPER_CYCLE_S)
+        cycles = table.firing_time_s[c, k] / PAPER_CYCLE_S
         assert abs(cycles - exact) <= 0.5 + 0.02, (c, cycles, exact)
 
 

@@ -27,6 +27,7 @@ import numpy as np
 import pytest
 
 from rcsim.lookup.channels import ChannelMap, axis_jets_of, solve_recipe
+from rcsim.models.errors import InputError
 from rcsim.models.tables import CHANNEL_MAP, load_jet_map
 
 CYCLE = 0.04
@@ -109,8 +110,8 @@ def test_paper_vehicle_recipe_is_the_table2_pair_fully_on():
     assert np.array_equal(axis_jets_of(recipe), (jet_map != 0).T)
 
 
-def _map(fractions, min_on_s=0.0):
-    return ChannelMap(np.asarray(fractions, float), min_on_s, CYCLE)
+def _map(fractions, min_on_s=0.0, min_pulse="accumulate"):
+    return ChannelMap(np.asarray(fractions, float), min_on_s, CYCLE, min_pulse=min_pulse)
 
 
 def test_delivery_without_sharing_is_the_fractions():
@@ -171,3 +172,28 @@ def test_short_shares_are_owed_until_the_minimum_on_time(cycles, fired_ms):
     assert trim.sum() * 1e3 == pytest.approx(fired_ms, abs=1e-9)
     assert abs(trim.sum() - cycles * CYCLE * 0.05) <= 0.5 * 0.010 + 1e-15
     np.testing.assert_allclose(pulses[:cycles, 0], CYCLE)  # the main jet is never held back
+
+
+@pytest.mark.parametrize(("policy", "fired_ms"), [("round-up", 100.0), ("drop", 0.0)])
+def test_the_minimum_pulse_policy_rounds_up_or_drops_each_short_share(policy, fired_ms):
+    """The same trim jet (5 %: 2 ms a cycle under a 10 ms minimum) for 10 cycles: ``round-up``
+    fires the minimum every cycle (10 x 10 ms: five times the 20 ms asked for), ``drop``
+    never fires it; the main jet is never held back (profile docstring's rules)."""
+    frac = np.zeros((6, 2))
+    frac[0] = [1.0, 0.05]
+    cmap = _map(frac, min_on_s=0.010, min_pulse=policy)
+    rem = np.array([[10 * CYCLE, 0, 0, 0, 0, 0]])
+    valves = cmap.initial(1)
+    pulses = []
+    for _ in range(12):
+        on, delivered, valves = cmap.deliver(rem, valves)
+        rem = rem - delivered
+        pulses.append(on[0])
+    pulses = np.array(pulses)
+    assert pulses[:, 1].sum() * 1e3 == pytest.approx(fired_ms, abs=1e-9)
+    np.testing.assert_allclose(pulses[:10, 0], CYCLE)
+
+
+def test_an_unknown_minimum_pulse_policy_is_refused():
+    with pytest.raises(InputError, match=r"min_pulse must be one of .*'round'"):
+        _map(np.eye(6), min_on_s=0.01, min_pulse="round")

@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rcsim.analysis.engine.table_files import generate
 from rcsim.lookup.channel_generation import generate_channel_table
+from rcsim.lookup.generation import generate_table as generate
 from rcsim.models.tables import RateCases, load_jet_map, load_rate_cases
 from rcsim.spacecraft.vehicle_file import load_vehicle, resolve_vehicle
 

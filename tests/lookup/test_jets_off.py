@@ -18,14 +18,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from rcsim.lookup.generation import generate_table
 from rcsim.lookup.jet_sets import jets_off_of
 from rcsim.lookup.pattern_recognition import LookupController
-from rcsim.lookup.table_generation import generate_table
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
 from rcsim.spacecraft.valves import JetFaults
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle_file import Vehicle
+
+#: The paper's vehicle (paper.toml).
+PAPER = Vehicle.load()
 
 CYCLE_S = 0.04
 J13, J15 = 12, 14  # 0-based columns of jets 13, 15
@@ -72,21 +75,21 @@ def test_both_yaw_minus_jets_off_makes_yaw_minus_unreachable():
     assert gen.jets_off == (13, 15)
 
 
-def test_regenerated_table_loads_by_its_companion_and_flies(without_13, tmp_path, model):
+def test_regenerated_table_loads_by_its_companion_and_flies(without_13, tmp_path, paper):
     path = tmp_path / "t13.csv"
     without_13.table.to_csv(path)
     without_13.settling_frame().to_csv(tmp_path / "t13_settling.csv", index=False)
     assert jets_off_of(path) == (13,)
-    ctl = LookupController.from_files(path)
+    ctl = LookupController.from_files(path, PAPER.control)
     assert ctl.jets_off == (13,)
     off = np.full((1, 16), np.inf)
     off[0, J13] = 0.0
     hist = simulate_batch(
-        VehicleParams.nominal(1, model),
+        paper.nominal(1),
         ctl,
         Guidance.attitude(np.radians([[0.0, 0.0, -5.0]])),
         40.0,
-        model=model,
+        vehicle=paper,
         faults=JetFaults.of(1, off_from_s=off),
     )
     assert hist.propulsion.impulse_ns[0, J13] == 0.0
@@ -94,7 +97,7 @@ def test_regenerated_table_loads_by_its_companion_and_flies(without_13, tmp_path
     # Without its companion the same file is checked against Table 2, and refused.
     (tmp_path / "t13_settling.csv").unlink()
     with pytest.raises(InputError):
-        LookupController.from_files(path)
+        LookupController.from_files(path, PAPER.control)
 
 
 @pytest.mark.parametrize("bad", [(0,), (17,), (13, 13), ("x",)])

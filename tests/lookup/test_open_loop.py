@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.models.tables import PAPER_CYCLE_S
 from rcsim.spacecraft.navigation import NavState
 
 
@@ -20,7 +21,7 @@ def _nav(n):
 def test_pulses_sum_to_the_total_and_a_row_serves_every_run():
     total = np.zeros(16)
     total[0], total[5] = 0.017, 0.1  # a sub-cycle pulse and one of 2.5 cycles
-    ctl = OpenLoopController(total)
+    ctl = OpenLoopController(total, PAPER_CYCLE_S)
     k, on = ctl.initial_state(3), []
     for _ in range(4):
         step, k = ctl.step(_nav(3), k)
@@ -33,8 +34,8 @@ def test_pulses_sum_to_the_total_and_a_row_serves_every_run():
 
 def test_shapes_are_checked():
     with pytest.raises(ValueError, match="shape"):
-        OpenLoopController(np.zeros((2, 3, 16)))
+        OpenLoopController(np.zeros((2, 3, 16)), PAPER_CYCLE_S)
     with pytest.raises(ValueError, match="shape"):
-        OpenLoopController(np.zeros(0))
+        OpenLoopController(np.zeros(0), PAPER_CYCLE_S)
     with pytest.raises(ValueError, match="2 runs"):
-        OpenLoopController(np.zeros((2, 16))).initial_state(3)
+        OpenLoopController(np.zeros((2, 16)), PAPER_CYCLE_S).initial_state(3)

@@ -28,7 +28,13 @@ from rcsim.lookup.registry import make_controller
 from rcsim.models.errors import InputError
 from rcsim.models.tables import LookupTable, load_lookup_table
 from rcsim.spacecraft.navigation import NavState
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle_file import Vehicle
+
+#: The paper's vehicle (paper.toml).
+PAPER = Vehicle.load()
+
+#: The lookup logic's inputs from the paper vehicle's profile (paper.toml [control]).
+LOOKUP_PARAMS = LookupParams.from_profile(Vehicle.load().control)
 
 DEG = np.pi / 180.0
 CYCLE_S = 0.04
@@ -65,7 +71,7 @@ def nav(att_err_deg=(0, 0, 0), rate_err_deg_s=(0, 0, 0), omega_cmd_deg_s=(0, 0, 
 
 @pytest.fixture(scope="module")
 def ctl():
-    return LookupController(load_default_table())
+    return LookupController(load_default_table(), LOOKUP_PARAMS)
 
 
 @pytest.mark.parametrize("which", ["table6", "table7", "generated"])
@@ -84,11 +90,11 @@ def test_jet_on_two_axes_is_rejected():
     ft[21, 0] = 0.52  # jet 1 (roll -) also fires in case 22 (+,0,0)
     bad = LookupTable(case=t.case, rate_cmd=t.rate_cmd, firing_time_s=ft, source="bad.csv")
     with pytest.raises(InputError, match="bad.csv.*jet_01"):
-        LookupController(bad)
+        LookupController(bad, LOOKUP_PARAMS)
 
 
 def test_params_default_to_table4():
-    p = LookupParams.from_table4()
+    p = LOOKUP_PARAMS
     np.testing.assert_allclose(
         [
             p.maneuver_limit_rad / DEG,
@@ -248,7 +254,7 @@ def test_single_axis_ends_in_deadbands(single_axis):
     assert np.all(np.abs(final.rate_err_B) < 0.06 * DEG)
 
 
-def test_controller_needs_no_vehicle_knowledge(monkeypatch):
+def test_controller_needs_no_vehicle_knowledge(paper, monkeypatch):
     """The controller never reads mass properties or the jet map: it is built from a table with
     those loaders disabled, and flies a 5 deg three-axis maneuver to the hold region on
     vehicles with -25 %/+30 % inertia and -30 %/+20 % thrust, using the nominal table."""
@@ -263,12 +269,12 @@ def test_controller_needs_no_vehicle_knowledge(monkeypatch):
         (vehicle_mod, "torque_per_jet_B"),
     ):
         monkeypatch.setattr(mod, name, forbidden)
-    ctl = LookupController(table, LookupParams.from_table4())
+    ctl = LookupController(table, LOOKUP_PARAMS)
     monkeypatch.undo()  # the simulator itself may use the model
     # 90 s: the weakest vehicle (1.3 x inertia) flies at 0.2/1.3 deg/s, 8.66 deg in ~56 s.
     base = replace(get_scenario("three-axis-5deg").runs[0], duration_s=90.0)
     scn = PaperScenario("offnominal", "", "", (base,) * 4)
-    p = VehicleParams.nominal(4)
+    p = paper.nominal(4)
     p = replace(
         p,
         inertia_B=p.inertia_B * np.array([[0.75], [1.3], [1.0], [1.3]]),
@@ -300,9 +306,9 @@ def test_hold_band_fires_less():
 
 
 def test_registry_and_missing_table(tmp_path):
-    assert isinstance(make_controller("lookup"), LookupController)
+    assert isinstance(make_controller("lookup", PAPER), LookupController)
     with pytest.raises(InputError, match="nope.csv"):
-        make_controller("lookup", table=tmp_path / "nope.csv")
+        make_controller("lookup", PAPER, table=tmp_path / "nope.csv")
 
 
 def test_state_shapes(ctl):

@@ -8,29 +8,35 @@ import numpy as np
 import pytest
 
 from rcsim.analysis.engine.flight import Scenario, fly_batch
-from rcsim.lookup.pattern_recognition import LookupController
+from rcsim.lookup.pattern_recognition import LookupController, LookupParams
 from rcsim.lookup.table_edits import jet_axes, shift_axes, with_times
-from rcsim.models.tables import load_lookup_table
-from rcsim.spacecraft.vehicle import VehicleParams, load_model
+from rcsim.models.tables import PAPER_CYCLE_S, load_lookup_table
+from rcsim.spacecraft.vehicle import load_model
+from rcsim.spacecraft.vehicle_file import Vehicle
+
+#: The lookup logic's inputs from the paper vehicle's profile (paper.toml [control]).
+LOOKUP_PARAMS = LookupParams.from_profile(Vehicle.load().control)
 
 
-def test_batch_of_candidates_equals_each_table_alone():
-    model = load_model()
+def test_batch_of_candidates_equals_each_table_alone(paper):
+    load_model()
     table = load_lookup_table(which="table6")
     shift = np.zeros((26, 3), int)
     shift[25, 2] = -1  # case 26, yaw one cycle shorter
-    edited = shift_axes(table.firing_time_s, jet_axes(table), shift)
+    edited = shift_axes(table.firing_time_s, jet_axes(table), shift, PAPER_CYCLE_S)
     times = np.stack([table.firing_time_s, edited])
     rate = table.rate_cmd[25]  # case 26 of Table 3: from rest, the scale factor is exactly 1
     scn = Scenario("rate-26", 3.0, rate_cmd_rad_s=rate)
-    params = VehicleParams.nominal(2, model)
-    batch = fly_batch([scn, scn], params, LookupController.for_runs(table, times), model=model)
+    params = paper.nominal(2)
+    batch = fly_batch(
+        [scn, scn], params, LookupController.for_runs(table, times, LOOKUP_PARAMS), vehicle=paper
+    )
     for i, t in enumerate(times):
         alone = fly_batch(
             [scn],
-            VehicleParams.nominal(1, model),
-            LookupController(with_times(table, t, "candidate")),
-            model=model,
+            paper.nominal(1),
+            LookupController(with_times(table, t, "candidate"), LOOKUP_PARAMS),
+            vehicle=paper,
         )
         np.testing.assert_array_equal(batch.on_time_s[i], alone.on_time_s[0])
         np.testing.assert_array_equal(batch.omega_B[i], alone.omega_B[0])
@@ -47,4 +53,4 @@ def test_candidates_may_not_change_which_jets_fire():
     times = np.array(table.firing_time_s)[None].copy()
     times[0, 0, np.flatnonzero(times[0, 0] == 0)[0]] = 0.04
     with pytest.raises(ValueError, match="which jets fire"):
-        LookupController.for_runs(table, times)
+        LookupController.for_runs(table, times, LOOKUP_PARAMS)

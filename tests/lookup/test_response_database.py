@@ -22,12 +22,12 @@ import pytest
 
 from rcsim.analysis.engine.response_files import write_response_database
 from rcsim.lookup.response_database import RATE_COLUMNS, response_database, response_summary
-from rcsim.spacecraft.vehicle_file import FlyingVehicle
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 
 @pytest.mark.parametrize("delays", [False, True])
 def test_single_jet_response_is_euler_and_newton(delays):
-    flying = FlyingVehicle.load("paper")
+    flying = Vehicle.load("paper")
     d = replace(flying.definition, three_sigma={})
     lag = np.zeros(d.n_jets)
     if delays:  # per jet: closing latency minus opening latency from -7 to +8 ms
@@ -39,7 +39,7 @@ def test_single_jet_response_is_euler_and_newton(delays):
         )
         d = replace(d, jets=jets, command_delay_s=0.006)
         lag = closes - opens
-    flying = FlyingVehicle(d, flying.model)
+    flying = flying.edited(d, "no dispersions" + (", valve delays" if delays else ""))
     frame = response_database(flying, n_vehicles=2, on_times_s=(0.01, 0.04, 0.2), nthread=1)
     assert ("thrust_s" in frame) == delays
     ft = d.force_torque()

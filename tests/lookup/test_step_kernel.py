@@ -12,9 +12,18 @@ import numpy as np
 import pytest
 
 from rcsim.lookup import step_kernel
-from rcsim.lookup.pattern_recognition import LookupController, LookupState, load_default_table
+from rcsim.lookup.pattern_recognition import (
+    LookupController,
+    LookupParams,
+    LookupState,
+    load_default_table,
+)
 from rcsim.models.tables import load_lookup_table
 from rcsim.spacecraft.navigation import NavState
+from rcsim.spacecraft.vehicle_file import Vehicle
+
+#: The lookup logic's inputs from the paper vehicle's profile (paper.toml [control]).
+LOOKUP_PARAMS = LookupParams.from_profile(Vehicle.load().control)
 
 pytestmark = pytest.mark.skipif(
     step_kernel._step_kernel is None, reason="the optional extension was not built"
@@ -73,7 +82,7 @@ def _random_state(rng, n, n_jets, params):
 @pytest.mark.parametrize("table", ["default", "table6", "table7"])
 def test_random_states_give_the_numpy_cycle_bit_for_bit(monkeypatch, table):
     tab = load_default_table() if table == "default" else load_lookup_table(table)
-    controller = LookupController(tab)
+    controller = LookupController(tab, LOOKUP_PARAMS)
     rng = np.random.default_rng(20261126)
     for _ in range(20):
         nav, state = _random_state(rng, 500, 16, controller.params)
@@ -87,7 +96,7 @@ def test_per_run_tables_and_case_scales_give_the_numpy_cycle(monkeypatch):
     rng = np.random.default_rng(7)
     n = 300
     times = np.asarray(tab.firing_time_s)[None] * rng.choice([0.75, 1.0, 1.3], size=(n, 26, 16))
-    controller = LookupController.for_runs(tab, times)
+    controller = LookupController.for_runs(tab, times, LOOKUP_PARAMS)
     scale = rng.uniform(0.5, 1.5, (n, 26, 3))
     for _ in range(10):
         nav, state = _random_state(rng, n, 16, controller.params)

@@ -16,9 +16,9 @@ import pandas as pd
 import pytest
 
 from rcsim.analysis.apps.cli import main
+from rcsim.lookup.generation import generate_table
 from rcsim.lookup.table_compare import compare_tables
-from rcsim.lookup.table_generation import generate_table
-from rcsim.models.tables import load_lookup_table
+from rcsim.models.tables import PAPER_CYCLE_S, load_lookup_table
 
 CYCLE_S = 0.04  # paper sec. II: 40 ms control rate
 # Paper Table 2: jet -> (axis, sign); jets 5-8 unused.
@@ -98,7 +98,7 @@ YAW_3AX_T6 = {3, 7, 20, 24}
 
 
 def test_compare_with_table6(gen):
-    cmp_ = compare_tables(gen.table, load_lookup_table(which="table6"))
+    cmp_ = compare_tables(gen.table, load_lookup_table(which="table6"), PAPER_CYCLE_S)
     assert cmp_.jets_agree.all()
     assert cmp_.within_one_cycle.all()
     diff = cmp_[["roll_diff_cycles", "pitch_diff_cycles", "yaw_diff_cycles"]].to_numpy()
@@ -110,7 +110,7 @@ def test_compare_with_table6(gen):
 
 def test_compare_with_table7(gen):
     """Table 7's Monte-Carlo yaw updates are exactly what the simulation gives."""
-    cmp_ = compare_tables(gen.table, load_lookup_table(which="table7"))
+    cmp_ = compare_tables(gen.table, load_lookup_table(which="table7"), PAPER_CYCLE_S)
     differs = cmp_[["roll_diff_cycles", "pitch_diff_cycles", "yaw_diff_cycles"]].ne(0)
     assert set(cmp_.case[differs.any(axis=1)]) == PITCH_2AX
     assert not differs[["roll_diff_cycles", "yaw_diff_cycles"]].to_numpy().any()

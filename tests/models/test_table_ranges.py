@@ -162,7 +162,7 @@ def test_check_consistency_refuses_meaningless_limits():
 
 def test_shipped_tables_are_inside_the_ranges():
     # The packaged paper tables and rcsim/lookup/data/generated_table.csv must keep loading.
-    generated = ROOT / "lookup" / "data" / "generated_table.csv"
+    generated = ROOT / "rcsim" / "lookup" / "data" / "generated_table.csv"
     for lt in (
         tables.load_lookup_table("table6"),
         tables.load_lookup_table("table7"),
@@ -248,19 +248,20 @@ def test_vehicle_xml_from_a_zip_install_stays_valid(tmp_path, monkeypatch):
 # ------------------------------------------------------------------------- the package shape
 def test_table_modules_are_small():
     sizes = {
-        p.name: len(p.read_text().splitlines()) for p in (ROOT / "models" / "tables").glob("*.py")
+        p.name: len(p.read_text().splitlines())
+        for p in (ROOT / "rcsim" / "models" / "tables").glob("*.py")
     }
     assert {"constants.py", "schema.py", "consistency.py", "lookup_tables.py"} <= set(sizes)
-    assert not (ROOT / "models" / "tables.py").exists(), "the old monolith is gone"
+    assert not (ROOT / "rcsim" / "models" / "tables.py").exists(), "the old monolith is gone"
     big = {name: n for name, n in sizes.items() if n >= 400}
     assert not big, f"modules over the ~400-line guideline: {big}"
 
 
 def test_control_cycle_is_defined_once():
-    """CONTROL_CYCLE_S (paper section II: 40 ms) is assigned in exactly one module."""
+    """PAPER_CYCLE_S (paper section II: 40 ms) is assigned in exactly one module."""
     defs = []
     for layer in ("models", "spacecraft", "lookup", "analysis"):
-        for path in (ROOT / layer).rglob("*.py"):
+        for path in (ROOT / "rcsim" / layer).rglob("*.py"):
             for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
                 targets = (
                     node.targets
@@ -269,17 +270,17 @@ def test_control_cycle_is_defined_once():
                     if isinstance(node, ast.AnnAssign)
                     else []
                 )
-                if any(isinstance(t, ast.Name) and t.id == "CONTROL_CYCLE_S" for t in targets):
+                if any(isinstance(t, ast.Name) and t.id == "PAPER_CYCLE_S" for t in targets):
                     defs.append(str(path.relative_to(ROOT)))
     assert defs == ["rcsim/models/tables/constants.py"]
-    assert tables.CONTROL_CYCLE_S == 0.040
+    assert tables.PAPER_CYCLE_S == 0.040
 
 
 def test_public_names_are_re_exported():
     # Everything other packages and tests import from rcsim.models.tables (grep of the repo).
     for name in (
         "AXES",
-        "CONTROL_CYCLE_S",
+        "PAPER_CYCLE_S",
         "N_CASES",
         "N_JETS",
         "PAPER_TOTAL_RATE_DEG_S",

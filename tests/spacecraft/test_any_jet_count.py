@@ -27,6 +27,7 @@ import pytest
 
 from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.models.errors import InputError
+from rcsim.models.tables import PAPER_CYCLE_S
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs, run_streams
 from rcsim.spacecraft.effect_draws import (
     TIMING,
@@ -39,8 +40,8 @@ from rcsim.spacecraft.effect_draws import (
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
 from rcsim.spacecraft.valves import JetFaults, ValveTiming
-from rcsim.spacecraft.vehicle import VehicleParams, jet_count, load_model
-from rcsim.spacecraft.vehicle_file import FlyingVehicle
+from rcsim.spacecraft.vehicle import jet_count, load_model
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 VEHICLE = """
 [mass]
@@ -73,10 +74,10 @@ ON_S = 0.2  # five whole 40 ms cycles
 
 
 @pytest.fixture(scope="module")
-def five(tmp_path_factory) -> FlyingVehicle:
+def five(tmp_path_factory) -> Vehicle:
     path = tmp_path_factory.mktemp("vehicle") / "five.toml"
     path.write_text(VEHICLE)
-    return FlyingVehicle.load(path)
+    return Vehicle.load(path)
 
 
 def _fly_each_jet(five, **kw):
@@ -84,14 +85,14 @@ def _fly_each_jet(five, **kw):
     n = five.n_jets
     on = np.diag(np.full(n, ON_S))
     return simulate_batch(
-        five.nominal(n), OpenLoopController(on), Guidance.attitude(np.zeros((n, 3))), 2 * ON_S,
-        model=five.model, nthread=1, **kw,
+        five.nominal(n), OpenLoopController(on, five.control.cycle_s),
+        Guidance.attitude(np.zeros((n, 3))), 2 * ON_S, vehicle=five, nthread=1, **kw,
     )  # fmt: skip
 
 
 def test_jet_count_is_the_models():
     assert jet_count(load_model()) == 16  # Table 2's jets
-    vehicle = FlyingVehicle.load("canted12")
+    vehicle = Vehicle.load("canted12")
     assert vehicle.n_jets == jet_count(vehicle.model) == vehicle.definition.n_jets == 12
     assert vehicle.nominal(3).thrust_n.shape == (3, 12)
 
@@ -116,7 +117,7 @@ def test_faults_per_jet_or_for_every_jet(five):
     np.testing.assert_allclose(per_jet.final.omega_B, expect, rtol=1e-9, atol=1e-15)
 
 
-def test_arrays_of_another_jet_count_are_refused(five):
+def test_arrays_of_another_jet_count_are_refused(paper, five):
     n = 5
     with pytest.raises(InputError, match="per-jet values for 16 jets; the vehicle has 5"):
         _fly_each_jet(five, faults=JetFaults.of(n, thrust_factor=np.ones(16)))
@@ -124,13 +125,13 @@ def test_arrays_of_another_jet_count_are_refused(five):
         _fly_each_jet(five, timing=ValveTiming.of(n, open_delay_s=np.full(16, 0.005)))
     with pytest.raises(InputError, match="16 jets per run; the vehicle model has 5"):
         simulate_batch(
-            VehicleParams.nominal(n), OpenLoopController(np.zeros(5)),
-            Guidance.attitude(np.zeros((n, 3))), 0.04, model=five.model,
+            paper.nominal(n), OpenLoopController(np.zeros(5), PAPER_CYCLE_S),
+            Guidance.attitude(np.zeros((n, 3))), 0.04, vehicle=five,
         )  # fmt: skip
     with pytest.raises(InputError, match=r"shape \(5, 16\); the vehicle flies 5 run\(s\) of 5"):
         simulate_batch(
-            five.nominal(n), OpenLoopController(np.zeros(16)),
-            Guidance.attitude(np.zeros((n, 3))), 0.04, model=five.model,
+            five.nominal(n), OpenLoopController(np.zeros(16), PAPER_CYCLE_S),
+            Guidance.attitude(np.zeros((n, 3))), 0.04, vehicle=five,
         )  # fmt: skip
 
 

@@ -237,19 +237,18 @@ def test_a_campaign_flight_is_the_same_with_and_without_the_kernel(monkeypatch, 
     assert np.asarray(compiled.on_time_s).sum() > 0  # the controller fired
 
 
-def test_phase_plane_partial_pulses_are_the_same(monkeypatch):
+def test_phase_plane_partial_pulses_are_the_same(paper, monkeypatch):
     """The phase-plane controller fires pulses shorter than a cycle (cycles cut into pieces,
     the numpy cut) and the propellant of a vehicle file runs out in some runs."""
     from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
-    from rcsim.models.tables import load_jet_map
     from rcsim.spacecraft.propellant import PropellantTank
     from rcsim.spacecraft.simulation import simulate_batch
-    from rcsim.spacecraft.vehicle import VehicleParams, load_model
+    from rcsim.spacecraft.vehicle import load_model
 
-    model = load_model()
-    controller = PhasePlaneController(PhasePlaneParams.for_vehicle(load_jet_map(), model=model))
+    load_model()
+    controller = PhasePlaneController(PhasePlaneParams.for_vehicle(paper))
     n = 6
-    params = VehicleParams.nominal(n, model)
+    params = paper.nominal(n)
     att = np.radians([[5, 0, 0], [0, -5, 0], [3, 4, -5], [5, 5, 5], [-2, 1, 0], [0, 0, 8]])
     tank = PropellantTank.of(n, [1.0, 1.0, 0.02, 1.0, 0.005, 1.0], [1.0, 0.1, 0.0])
     histories = []
@@ -257,7 +256,9 @@ def test_phase_plane_partial_pulses_are_the_same(monkeypatch):
         if numpy_form:
             monkeypatch.setenv("RCSIM_NUMPY_CYCLE", "1")
         histories.append(
-            simulate_batch(params, controller, Guidance.attitude(att), 12.0, model=model, tank=tank)
+            simulate_batch(
+                params, controller, Guidance.attitude(att), 12.0, vehicle=paper, tank=tank
+            )
         )
     compiled, reference = histories
     for name in ("q_BN", "omega_B", "att_err_B", "rate_err_B", "on_time_s"):

@@ -24,8 +24,8 @@ K_SE = 4.0
 
 
 @pytest.fixture(scope="module")
-def nominal():
-    return VehicleParams.nominal(1)
+def nominal(paper):
+    return paper.nominal(1)
 
 
 @pytest.fixture(scope="module")

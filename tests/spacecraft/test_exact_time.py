@@ -25,12 +25,12 @@ from mujoco.batch import Batch
 from scipy.integrate import solve_ivp
 
 from rcsim.lookup.open_loop import OpenLoopController
-from rcsim.models.tables import load_jet_map
+from rcsim.models.tables import PAPER_CYCLE_S, load_jet_map
 from rcsim.spacecraft.flight_model import flight_model, jet_wrench_B
 from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat
 from rcsim.spacecraft.pieces import cycle_pieces
 from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import VehicleParams, torque_per_jet_B
+from rcsim.spacecraft.vehicle import torque_per_jet_B
 
 CYCLE_S = 0.04
 REL = 1e-9  # see the module docstring
@@ -40,9 +40,9 @@ def roll_plus_jets():
     return np.flatnonzero(load_jet_map()[:, 0] == 1)
 
 
-def roll_alpha(model):
-    params = VehicleParams.nominal(1, model)
-    tau = torque_per_jet_B(params, model)[0, roll_plus_jets(), 0].sum()
+def roll_alpha(paper):
+    params = paper.nominal(1)
+    tau = torque_per_jet_B(params, paper.model)[0, roll_plus_jets(), 0].sum()
     return tau / params.inertia_B[0, 0]
 
 
@@ -57,15 +57,15 @@ def boundaries_q(hist):
 PULSES_S = np.array([0.0012, 0.017, 0.0233, 0.04, 0.0433, 0.1234, 0.52])
 
 
-def test_single_axis_pulses_are_exact_in_attitude_and_rate(model):
+def test_single_axis_pulses_are_exact_in_attitude_and_rate(paper):
     """Seven pulse lengths in one batch, each run cut at its own switch instant."""
     n = PULSES_S.size
     on = np.zeros((n, 16))
     on[:, roll_plus_jets()] = PULSES_S[:, None]
-    hist = BatchSimulation(VehicleParams.nominal(n, model), model=model, nthread=1).run(
-        OpenLoopController(on), Guidance.attitude(np.zeros((n, 3))), 0.72
+    hist = BatchSimulation(paper.nominal(n), vehicle=paper, nthread=1).run(
+        OpenLoopController(on, PAPER_CYCLE_S), Guidance.attitude(np.zeros((n, 3))), 0.72
     )
-    alpha = roll_alpha(model)
+    alpha = roll_alpha(paper)
     t = np.arange(hist.t_s.size + 1) * CYCLE_S
     u = PULSES_S[:, None]
     tc = np.minimum(t[None], u)
@@ -77,10 +77,10 @@ def test_single_axis_pulses_are_exact_in_attitude_and_rate(model):
     np.testing.assert_allclose(w, alpha * tc, rtol=REL, atol=REL * alpha * u.max())
 
 
-def _reference(model, on_total, duration_s):
+def _reference(paper, on_total, duration_s):
     """DOP853 between the exact switch instants: attitude at every cycle boundary."""
-    params = VehicleParams.nominal(1, model)
-    tau_j = torque_per_jet_B(params, model)[0]
+    params = paper.nominal(1)
+    tau_j = torque_per_jet_B(params, paper.model)[0]
     inertia = params.inertia_B[0]
     x = np.array([1.0, 0, 0, 0, 0, 0, 0])
     out = [x[:4]]
@@ -101,38 +101,38 @@ def _reference(model, on_total, duration_s):
     return np.array(out)
 
 
-def test_three_axis_pulses_with_distinct_switch_times_match_dop853(model):
+def test_three_axis_pulses_with_distinct_switch_times_match_dop853(paper):
     """Roll, pitch and yaw pairs switching off at three different instants of one cycle."""
     jm = load_jet_map()
     on = np.zeros(16)
     for a, t in enumerate((0.011, 0.0634, 0.029)):
         on[jm[:, a] == (1 if a != 1 else -1)] = t
-    hist = BatchSimulation(VehicleParams.nominal(1, model), model=model, nthread=1).run(
-        OpenLoopController(on[None]), Guidance.attitude(np.zeros((1, 3))), 0.2
+    hist = BatchSimulation(paper.nominal(1), vehicle=paper, nthread=1).run(
+        OpenLoopController(on[None], PAPER_CYCLE_S), Guidance.attitude(np.zeros((1, 3))), 0.2
     )
-    ref = _reference(model, on, 0.2)
+    ref = _reference(paper, on, 0.2)
     dev = np.linalg.norm(rotvec_from_quat(quat_mul(quat_conj(ref), boundaries_q(hist)[0])), axis=1)
     # 1e-10 rad: DOP853 at rtol 1e-12 and RK4 on 11-40 ms pieces at these rates (<0.01 rad/s)
     # agree to ~1e-13 rad; a pulse spread over the cycle would be ~1e-6 rad off.
     assert dev.max() < 1e-10
 
 
-def test_whole_cycle_firings_are_the_fixed_step_rollout_bit_for_bit(model):
+def test_whole_cycle_firings_are_the_fixed_step_rollout_bit_for_bit(paper):
     """No switch inside a cycle: exactly the steps of a plain rollout of the flight model
     (jets 1 or 0, summed into its wrench controls the way the simulation sums them; that sum
     itself is checked against the jets' MJCF in tests/spacecraft/test_flight_model.py)."""
     on = np.zeros((1, 16))
     on[0, roll_plus_jets()] = 3 * CYCLE_S
-    params = VehicleParams.nominal(1, model)
-    hist = BatchSimulation(params, model=model, nthread=1).run(
-        OpenLoopController(on), Guidance.attitude(np.zeros((1, 3))), 5 * CYCLE_S
+    params = paper.nominal(1)
+    hist = BatchSimulation(params, vehicle=paper, nthread=1).run(
+        OpenLoopController(on, PAPER_CYCLE_S), Guidance.attitude(np.zeros((1, 3))), 5 * CYCLE_S
     )
-    batch = Batch(flight_model(model), 1, 1)
+    batch = Batch(flight_model(paper.model), 1, 1)
     batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
     batch.forward()
     duty = np.zeros((1, 5, 16))
     duty[0, :3, roll_plus_jets()] = 1.0
-    ctrl = np.einsum("nwj,nsj->nsw", jet_wrench_B(params, model), duty)
+    ctrl = np.einsum("nwj,nsj->nsw", jet_wrench_B(params, paper.model), duty)
     batch.rollout(5, control=ctrl, control_spec=int(mujoco.mjtState.mjSTATE_CTRL), record=())
     np.testing.assert_array_equal(hist.final.q_BN[0], batch.bind("qpos")[0, 3:7])
     np.testing.assert_array_equal(hist.final.omega_B[0], batch.bind("qvel")[0, 3:6])

@@ -27,6 +27,10 @@ from rcsim.spacecraft.vehicle import (
     jet_actuator_ids,
     load_model,
 )
+from rcsim.spacecraft.vehicle_file import Vehicle
+
+#: The paper's vehicle (paper.toml), for helpers outside the fixtures.
+PAPER = Vehicle.load()
 
 STATE_ATOL = 1e-12
 
@@ -35,7 +39,7 @@ def draw_dispersions(n: int, model: mujoco.MjModel, seed: int) -> VehicleParams:
     """``n`` Table 5 vehicles (at three times Table 5's spread, so that pointing errors and CG
     offsets are large enough for a frame or arm mistake to show)."""
     sigmas = DispersionSigmas.from_table(load_dispersions(), scale=3.0)
-    return draw_runs(VehicleParams.nominal(n, model), sigmas, seed, np.arange(n)).params
+    return draw_runs(PAPER.nominal(n), sigmas, seed, np.arange(n)).params
 
 
 def _write_vehicle(model: mujoco.MjModel, params: VehicleParams, run: int) -> None:
@@ -105,12 +109,12 @@ def test_a_vehicle_of_several_bodies_is_refused():
         flight_model(two)
 
 
-def test_batch_reads_back_what_it_flies():
+def test_batch_reads_back_what_it_flies(paper):
     """BatchSimulation's read-back: the jets' thrust and pointing it summed, the body values
     MuJoCo holds; bit for bit the dispersed parameters (invalid runs aside)."""
     model = load_model()
     params = draw_dispersions(4, model, seed=5)
-    sim = BatchSimulation(params, model=model, nthread=1)
+    sim = BatchSimulation(params, vehicle=paper, nthread=1)
     back = sim.flown_params()
     for name in ("mass_kg", "cg_B", "inertia_B", "thrust_n", "jet_dir_S"):
         np.testing.assert_array_equal(getattr(back, name), getattr(params, name))

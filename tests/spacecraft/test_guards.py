@@ -26,24 +26,23 @@ import mujoco
 import numpy as np
 import pytest
 
-from rcsim.lookup.open_loop import OpenLoopController
-from rcsim.lookup.pattern_recognition import LookupController, LookupParams, load_default_table
 from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
+from rcsim.lookup.registry import ALL_CONTROLLERS, make_controller
 from rcsim.lookup.table_generation import RateFiringLoop
 from rcsim.models.errors import InputError
-from rcsim.models.tables import CONTROL_CYCLE_S, load_jet_map
+from rcsim.models.tables import PAPER_CYCLE_S, load_jet_map
 from rcsim.spacecraft import guards
 from rcsim.spacecraft.navigation import Guidance
-from rcsim.spacecraft.propulsion import PropulsionParams
 from rcsim.spacecraft.simulation import BatchSimulation, simulate_batch
-from rcsim.spacecraft.vehicle import VehicleParams
+
+#: The paper's vehicle (paper.toml).
 
 HOLD_S = 2.0  # the 1e8 N m cases diverge within 0.4 s (MuJoCo's own warning times)
 
 
 @pytest.fixture(scope="module")
-def phase_plane(model):
-    return PhasePlaneController(PhasePlaneParams.for_vehicle(load_jet_map(), model=model))
+def phase_plane(paper):
+    return PhasePlaneController(PhasePlaneParams.for_vehicle(paper))
 
 
 def hold(n):
@@ -62,18 +61,18 @@ def default_warning_handler():
 
 @pytest.mark.parametrize("case", ["disturbance_1e8_n_m", "initial_rate_1e5_deg_s"])
 def test_diverged_run_is_failed_with_mujocos_reason(
-    case, model, phase_plane, tmp_path, monkeypatch, default_warning_handler
+    case, paper, phase_plane, tmp_path, monkeypatch, default_warning_handler
 ):
     """The two cases of issue 8, flown in a batch beside a healthy run, in an empty cwd."""
     monkeypatch.chdir(tmp_path)
-    params = VehicleParams.nominal(2, model)
+    params = paper.nominal(2)
     omega0 = np.zeros((2, 3))
     torque = np.zeros((2, 3))
     if case == "disturbance_1e8_n_m":
         torque[1, 0] = 1e8
     else:
         omega0[1, 0] = np.radians(1e5)
-    kw = dict(omega0_B=omega0, disturbance_B=torque, model=model, nthread=2)
+    kw = dict(omega0_B=omega0, disturbance_B=torque, vehicle=paper, nthread=2)
     hist = simulate_batch(params, phase_plane, hold(2), HOLD_S, **kw)
 
     assert hist.failed.tolist() == [False, True]
@@ -84,7 +83,7 @@ def test_diverged_run_is_failed_with_mujocos_reason(
     # Frozen from its failure: no jet fires after the cycle MuJoCo warned in.
     t_fail = float(why.split(" at t = ")[1].split(" .. ")[0])
     assert 0.0 < t_fail < HOLD_S
-    k_fail = int(round(t_fail / CONTROL_CYCLE_S))
+    k_fail = int(round(t_fail / PAPER_CYCLE_S))
     assert not hist.on_time_s[1, k_fail + 1 :].any()
     # The healthy run is untouched by its neighbour: equal to it flown alone, bit for bit.
     alone = simulate_batch(
@@ -94,7 +93,7 @@ def test_diverged_run_is_failed_with_mujocos_reason(
         HOLD_S,
         omega0_B=omega0[:1],
         disturbance_B=torque[:1],
-        model=model,
+        vehicle=paper,
         nthread=1,
     )
     np.testing.assert_array_equal(hist.q_BN[0], alone.q_BN[0])
@@ -104,7 +103,7 @@ def test_diverged_run_is_failed_with_mujocos_reason(
     assert list(tmp_path.iterdir()) == []
 
 
-def test_caller_warning_handler_is_kept(model, phase_plane, tmp_path, monkeypatch):
+def test_caller_warning_handler_is_kept(paper, phase_plane, tmp_path, monkeypatch):
     """A handler the caller installed gets MuJoCo's text (the same the run's reason quotes)."""
     monkeypatch.chdir(tmp_path)
     seen = []
@@ -112,12 +111,12 @@ def test_caller_warning_handler_is_kept(model, phase_plane, tmp_path, monkeypatc
     mujoco.set_mju_user_warning(seen.append)
     try:
         hist = simulate_batch(
-            VehicleParams.nominal(1, model),
+            paper.nominal(1),
             phase_plane,
             hold(1),
             HOLD_S,
             disturbance_B=np.array([[1e8, 0.0, 0.0]]),
-            model=model,
+            vehicle=paper,
         )
     finally:
         mujoco.set_mju_user_warning(previous)
@@ -127,16 +126,16 @@ def test_caller_warning_handler_is_kept(model, phase_plane, tmp_path, monkeypatc
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
 
 
-def test_nan_disturbance_is_mujocos_bad_ctrl(model, phase_plane):
+def test_nan_disturbance_is_mujocos_bad_ctrl(paper, phase_plane):
     """A NaN torque command: MuJoCo zeroes the controls with mjWARN_BADCTRL (and flies on
     without the disturbance); the run is failed, not flown undisturbed."""
     hist = simulate_batch(
-        VehicleParams.nominal(1, model),
+        paper.nominal(1),
         phase_plane,
         hold(1),
         0.2,
         disturbance_B=np.array([[np.nan, 0.0, 0.0]]),
-        model=model,
+        vehicle=paper,
     )
     assert hist.failed[0]
     assert hist.reason[0].startswith("MuJoCo mjWARN_BADCTRL at t = 0 .. 0.04 s: ")
@@ -145,43 +144,40 @@ def test_nan_disturbance_is_mujocos_bad_ctrl(model, phase_plane):
 # ------------------------------------------------------------------------------------------
 # One control cycle
 # ------------------------------------------------------------------------------------------
-def test_default_cycles_are_the_one_constant(phase_plane):
-    """Every default cycle in spacecraft/ and lookup/ is rcsim.models.tables.CONTROL_CYCLE_S."""
-    jet_map = load_jet_map()
-    lookup = LookupController(load_default_table())
-    cycles = {
-        "PropulsionParams": PropulsionParams().cycle_s,
-        "PhasePlaneController": phase_plane.cycle_s,
-        "LookupController": lookup.cycle_s,
-        "RateFiringLoop": RateFiringLoop(jet_map).cycle_s,
-        "OpenLoopController": OpenLoopController(np.zeros((1, 16))).cycle_s,
-    }
-    assert cycles == dict.fromkeys(cycles, CONTROL_CYCLE_S)
+def test_every_controller_takes_the_vehicles_cycle(paper):
+    """Issue 27: the cycle has one owner, the vehicle's profile: every controller built for a
+    vehicle, its valve limits and the flight loop take it (the paper's 40 ms, and 80 ms when
+    the profile says so).  Oracle: the profile's ``cycle_s``."""
+    for vehicle in (paper, paper.with_control({"cycle_s": 0.08}, "test")):
+        cycle = vehicle.control.cycle_s
+        cycles = {name: make_controller(name, vehicle).cycle_s for name in ALL_CONTROLLERS}
+        cycles["PropulsionParams"] = vehicle.propulsion().cycle_s
+        cycles["RateFiringLoop"] = RateFiringLoop(load_jet_map(), cycle).cycle_s
+        assert cycles == dict.fromkeys(cycles, cycle)
+    assert paper.control.cycle_s == PAPER_CYCLE_S  # paper.toml's profile: sec. II's 40 ms
 
 
 @pytest.mark.parametrize("which", ["lookup", "phase-plane"])
-def test_controller_on_another_cycle_is_refused(which, model, phase_plane):
-    """Issue 8: PropulsionParams(cycle_s=0.08) with a 40 ms controller raised nothing."""
-    ctl = LookupController(load_default_table()) if which == "lookup" else phase_plane
-    sim = BatchSimulation(
-        VehicleParams.nominal(1, model), model=model, propulsion=PropulsionParams(cycle_s=0.08)
-    )
+def test_controller_on_another_cycle_is_refused(which, paper):
+    """Issue 8: a controller on 40 ms flown on an 80 ms loop must be refused, not fly."""
+    slow = paper.with_control({"cycle_s": 0.08}, "test")
+    ctl = make_controller(which, paper)  # built for the 40 ms profile
+    sim = BatchSimulation(slow.nominal(1), slow)
     with pytest.raises(InputError) as err:
         sim.run(ctl, Guidance.attitude(np.radians([[0.0, 0.0, 5.0]])), 1.0)
     message = str(err.value)
-    assert "cycle_s = 0.04 s" in message and "cycle_s = 0.08 s" in message
+    assert "cycle_s = 0.04 s" in message and "cycle 0.08 s" in message
 
 
-def test_controller_on_the_same_cycle_flies(model):
+def test_controller_on_the_same_cycle_flies(paper):
     """The refusal is about disagreement: both at 80 ms is a valid (if coarser) loop."""
-    ctl = LookupController(load_default_table(), LookupParams.from_table4(cycle_s=0.08))
+    slow = paper.with_control({"cycle_s": 0.08}, "test")
     hist = simulate_batch(
-        VehicleParams.nominal(1, model),
-        ctl,
+        slow.nominal(1),
+        make_controller("lookup", slow),
         Guidance.attitude(np.radians([[0.0, 0.0, 5.0]])),
         0.8,
-        model=model,
-        propulsion=PropulsionParams(cycle_s=0.08),
+        vehicle=slow,
     )
     assert hist.t_s.size == 10 and not hist.failed[0]
     assert hist.propulsion.firings[0].sum() > 0
@@ -190,11 +186,11 @@ def test_controller_on_the_same_cycle_flies(model):
 # ------------------------------------------------------------------------------------------
 # Memory
 # ------------------------------------------------------------------------------------------
-def test_history_too_large_is_refused_up_front(model, phase_plane):
+def test_history_too_large_is_refused_up_front(paper, phase_plane):
     """Issue 8: --duration-s 1e12 tried to allocate 182 TiB.  Refused with InputError (not
     MemoryError: nothing of that size was attempted), naming the need and what to do."""
     with pytest.raises(InputError) as err:
-        simulate_batch(VehicleParams.nominal(1, model), phase_plane, hold(1), 1e12, model=model)
+        simulate_batch(paper.nominal(1), phase_plane, hold(1), 1e12, vehicle=paper)
     message = str(err.value)
     assert err.value.parameter == "duration_s" and message.startswith("duration_s = 1e+12 s")
     n_cycles = 25_000_000_000_000  # 1e12 s / 40 ms
@@ -203,13 +199,13 @@ def test_history_too_large_is_refused_up_front(model, phase_plane):
     assert "shorten the flight" in message and "smaller batches" in message
 
 
-def test_memory_budget_boundary(model, phase_plane, monkeypatch):
+def test_memory_budget_boundary(paper, phase_plane, monkeypatch):
     """Exactly the budget flies; one byte less is refused (2 runs, 1 s = 25 cycles)."""
-    params = VehicleParams.nominal(2, model)
+    params = paper.nominal(2)
     need = 25 * (2 * 232 + 8)
     assert guards.history_bytes(2, 25, n_jets=16) == need
     monkeypatch.setattr(guards, "memory_budget_bytes", lambda: need)
-    hist = simulate_batch(params, phase_plane, hold(2), 1.0, model=model)
+    hist = simulate_batch(params, phase_plane, hold(2), 1.0, vehicle=paper)
     assert hist.t_s.size == 25
     recorded = sum(
         getattr(hist, k).nbytes
@@ -218,7 +214,7 @@ def test_memory_budget_boundary(model, phase_plane, monkeypatch):
     assert recorded == need
     monkeypatch.setattr(guards, "memory_budget_bytes", lambda: need - 1)
     with pytest.raises(InputError, match="needs 11.5 KiB"):
-        simulate_batch(params, phase_plane, hold(2), 1.0, model=model)
+        simulate_batch(params, phase_plane, hold(2), 1.0, vehicle=paper)
 
 
 def test_memory_budget_is_half_the_physical_memory():

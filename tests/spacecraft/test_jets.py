@@ -27,12 +27,11 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from rcsim.lookup.open_loop import OpenLoopController
-from rcsim.models.tables import load_jet_map, load_lookup_table
+from rcsim.models.tables import PAPER_CYCLE_S, load_jet_map, load_lookup_table
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import BatchSimulation
 from rcsim.spacecraft.vehicle import (
     BODY,
-    VehicleParams,
     jet_actuator_ids,
     jet_geometry_B,
     torque_per_jet_B,
@@ -68,56 +67,56 @@ def pairs(jet_map):
     return out
 
 
-def fire(model, jets, duration_s: float):
+def fire(paper, jets, duration_s: float):
     """Fire ``jets`` (0-based) from rest at full duty for ``duration_s`` (a multiple of the step).
 
     Returns body-rate change (B frame) [rad/s], CG velocity change (world) [m/s], attitude q.
     """
-    d = mujoco.MjData(model)
-    mujoco.mj_forward(model, d)
-    body = model.body(BODY).id
-    mujoco.mj_subtreeVel(model, d)
+    d = mujoco.MjData(paper.model)
+    mujoco.mj_forward(paper.model, d)
+    body = paper.model.body(BODY).id
+    mujoco.mj_subtreeVel(paper.model, d)
     v0 = d.subtree_linvel[body].copy()
-    ids = jet_actuator_ids(model)[list(jets)]
-    n = duration_s / model.opt.timestep
+    ids = jet_actuator_ids(paper.model)[list(jets)]
+    n = duration_s / paper.model.opt.timestep
     assert abs(n - round(n)) < 1e-9
     d.ctrl[ids] = 1.0
     for _ in range(int(round(n))):
-        mujoco.mj_step(model, d)
+        mujoco.mj_step(paper.model, d)
     d.ctrl[:] = 0.0
-    mujoco.mj_forward(model, d)
-    mujoco.mj_subtreeVel(model, d)
+    mujoco.mj_forward(paper.model, d)
+    mujoco.mj_subtreeVel(paper.model, d)
     return d.qvel[3:6].copy(), d.subtree_linvel[body] - v0, d.qpos[3:7].copy()
 
 
 # ---------------------------------------------------------------------------------------------
 # Geometry (torque_per_jet_B on the nominal vehicle)
 # ---------------------------------------------------------------------------------------------
-def test_torque_signs_match_table2(model, jet_map):
-    tau = torque_per_jet_B(VehicleParams.nominal(1, model), model)[0]
+def test_torque_signs_match_table2(paper, jet_map):
+    tau = torque_per_jet_B(paper.nominal(1), paper.model)[0]
     scale = np.abs(tau).max()
     sign = np.where(np.abs(tau) > ZERO_RTOL * scale, np.sign(tau), 0).astype(int)
     np.testing.assert_array_equal(sign, jet_map)
 
 
-def test_rotation_jet_torque_is_thrust_times_design_arm(model, table1, jet_map):
-    tau = torque_per_jet_B(VehicleParams.nominal(1, model), model)[0]
+def test_rotation_jet_torque_is_thrust_times_design_arm(paper, table1, jet_map):
+    tau = torque_per_jet_B(paper.nominal(1), paper.model)[0]
     for j in range(16):
         for a in range(3):
             expected = jet_map[j, a] * table1.thrust_n * ARM_M[a]
             assert tau[j, a] == pytest.approx(expected, rel=1e-12, abs=1e-12), (j + 1, a)
 
 
-def test_translation_jets_have_zero_nominal_torque(model, table1):
-    tau = torque_per_jet_B(VehicleParams.nominal(1, model), model)[0]
+def test_translation_jets_have_zero_nominal_torque(paper, table1):
+    tau = torque_per_jet_B(paper.nominal(1), paper.model)[0]
     # Relative to the smallest rotation jet's torque F * 0.724 N m.
     np.testing.assert_allclose(
         tau[TRANSLATION_JETS], 0.0, atol=ZERO_RTOL * table1.thrust_n * ARM_M.min()
     )
 
 
-def test_pairs_are_pure_couples_in_geometry(model, jet_map, table1):
-    pos, dirs = jet_geometry_B(model)
+def test_pairs_are_pure_couples_in_geometry(paper, jet_map, table1):
+    pos, dirs = jet_geometry_B(paper.model)
     for a, s, jets in pairs(jet_map):
         force = table1.thrust_n * dirs[jets].sum(axis=0)
         np.testing.assert_allclose(force, 0.0, atol=ZERO_RTOL * table1.thrust_n)
@@ -128,14 +127,14 @@ def test_pairs_are_pure_couples_in_geometry(model, jet_map, table1):
         np.testing.assert_allclose(m_origin, expected, rtol=1e-12, atol=1e-12)
 
 
-def test_design_arms_reproduce_table6_pure_axis_times(model, table1, jet_map):
+def test_design_arms_reproduce_table6_pure_axis_times(paper, table1, jet_map):
     """t = I w / (2 F r), rounded up to whole 40 ms cycles, is Table 6's firing time.
 
     Table 6 (the paper's original lookup table) fires 0.52 s roll, 0.48 s pitch, 0.40 s yaw for
     the 0.3 deg/s single-axis cases; the arms come from the model's geometry here.
     """
     table6 = load_lookup_table(which="table6")
-    tau = torque_per_jet_B(VehicleParams.nominal(1, model), model)[0]
+    tau = torque_per_jet_B(paper.nominal(1), paper.model)[0]
     checked = 0
     for case, rate, times in zip(table6.case, table6.rate_cmd, table6.firing_time_s):
         axes = np.flatnonzero(rate)
@@ -154,8 +153,8 @@ def test_design_arms_reproduce_table6_pure_axis_times(model, table1, jet_map):
 # Simulation: MuJoCo applies the forces at the sites
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("jet", range(16))
-def test_single_jet_pulse_rate_change_matches_table2(model, table1, jet_map, jet):
-    dw, dv, _ = fire(model, [jet], CYCLE_S)
+def test_single_jet_pulse_rate_change_matches_table2(paper, table1, jet_map, jet):
+    dw, dv, _ = fire(paper, [jet], CYCLE_S)
     scale = table1.thrust_n * ARM_M.min() * CYCLE_S / table1.inertia_kgm2.max()
     sign = np.where(np.abs(dw) > ZERO_RTOL * scale, np.sign(dw), 0).astype(int)
     np.testing.assert_array_equal(sign, jet_map[jet])
@@ -164,9 +163,9 @@ def test_single_jet_pulse_rate_change_matches_table2(model, table1, jet_map, jet
 
 
 @pytest.mark.parametrize("jet", TRANSLATION_JETS)
-def test_translation_jet_pushes_cg_without_rotation(model, table1, jet):
-    dw, dv, _ = fire(model, [jet], CYCLE_S)
-    _, dirs = jet_geometry_B(model)
+def test_translation_jet_pushes_cg_without_rotation(paper, table1, jet):
+    dw, dv, _ = fire(paper, [jet], CYCLE_S)
+    _, dirs = jet_geometry_B(paper.model)
     expected = table1.thrust_n * CYCLE_S / table1.mass_kg * dirs[jet]  # attitude stays identity
     np.testing.assert_allclose(dv, expected, rtol=1e-12, atol=ZERO_RTOL * np.abs(expected).max())
     rot_scale = table1.thrust_n * ARM_M.min() * CYCLE_S / table1.inertia_kgm2.max()
@@ -174,11 +173,11 @@ def test_translation_jet_pushes_cg_without_rotation(model, table1, jet):
 
 
 @pytest.mark.parametrize("axis_sign", [(a, s) for a in range(3) for s in (-1, 1)])
-def test_pair_pulse_is_a_pure_couple_in_simulation(model, table1, jet_map, axis_sign):
+def test_pair_pulse_is_a_pure_couple_in_simulation(paper, table1, jet_map, axis_sign):
     a, s = axis_sign
     jets = np.flatnonzero(jet_map[:, a] == s)
     t = 0.2  # 5 cycles
-    dw, dv, _ = fire(model, jets, t)
+    dw, dv, _ = fire(paper, jets, t)
     expected = s * 2 * table1.thrust_n * ARM_M[a] * t / table1.inertia_kgm2[a]
     assert dw[a] == pytest.approx(expected, rel=PULSE_RTOL)
     others = np.delete(dw, a)
@@ -193,9 +192,9 @@ def test_pair_pulse_is_a_pure_couple_in_simulation(model, table1, jet_map, axis_
 
 
 @pytest.fixture(scope="module")
-def pair_sim(model):
+def pair_sim(paper):
     """One run per rotational pair, reused for every pulse length (run() resets the state)."""
-    return BatchSimulation(VehicleParams.nominal(6, model), model=model, nthread=1)
+    return BatchSimulation(paper.nominal(6), vehicle=paper, nthread=1)
 
 
 @settings(max_examples=25, deadline=None, derandomize=True)
@@ -211,7 +210,9 @@ def test_pair_pulse_of_any_length_gives_exact_rate_change(pair_sim, table1, jet_
     for i, (_, _, jets) in enumerate(pr):
         on[i, jets] = t
     duration = (math.ceil(t / CYCLE_S) + 1) * CYCLE_S  # the pulse has ended
-    hist = pair_sim.run(OpenLoopController(on), Guidance.attitude(np.zeros((6, 3))), duration)
+    hist = pair_sim.run(
+        OpenLoopController(on, PAPER_CYCLE_S), Guidance.attitude(np.zeros((6, 3))), duration
+    )
     assert not hist.failed.any()
     # Delivered on-time equals the command (no valve limit at min_pulse 0).
     np.testing.assert_allclose(hist.propulsion.on_time_s, on, rtol=1e-12)

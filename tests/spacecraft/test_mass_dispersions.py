@@ -27,7 +27,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from rcsim.lookup.open_loop import OpenLoopController
-from rcsim.models.tables import load_dispersions
+from rcsim.models.tables import PAPER_CYCLE_S, load_dispersions
 from rcsim.spacecraft.dispersions import (
     DispersionSigmas,
     draw_runs,
@@ -43,7 +43,7 @@ from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.propellant import full_inertia, principal
 from rcsim.spacecraft.simulation import BatchSimulation, invalid_runs
 from rcsim.spacecraft.vehicle import VehicleParams, jet_geometry_B
-from rcsim.spacecraft.vehicle_file import FlyingVehicle
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 N_RUNS = 3000
 K_SE = 4.0  # standard errors, as test_dispersions.py
@@ -51,8 +51,8 @@ CYCLE_S = 0.04
 
 
 @pytest.fixture(scope="module")
-def nominal(model):
-    return VehicleParams.nominal(1, model)
+def nominal(paper):
+    return paper.nominal(1)
 
 
 def _check_normal(samples, mean, sigma):
@@ -68,14 +68,14 @@ def _tensor(params: VehicleParams) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------ physics --
-def test_cg_offset_in_y_and_z_gives_the_torque_f_d(model, nominal):
+def test_cg_offset_in_y_and_z_gives_the_torque_f_d(paper, nominal):
     """Jet 5 pushes along +x from (0.41, 0, 0), through the nominal CG (1.41, 0, 0)
     (rcsim/models/vehicle/README.md).  A CG moved by d along y makes the arm (-1, -d, 0) and the
     torque (0, 0, F d); along z, the arm (-1, 0, -d) and the torque (0, -F d, 0).  One whole
     40 ms cycle of firing from rest: w_z = F d t / Izz and w_y = -F d t / Iyy.  Tolerance 1e-9
     relative: the physics is exact, the rest is rounding (1e-16); the other axes stay below
     1e-12 of it (the site frame leaves 2e-16 of the jet's force off x)."""
-    pos, direction = jet_geometry_B(model)
+    pos, direction = jet_geometry_B(paper.model)
     np.testing.assert_array_equal(pos[4], [0.41, 0.0, 0.0])
     np.testing.assert_allclose(direction[4], [1.0, 0.0, 0.0], rtol=0, atol=1e-15)
     d = 0.05
@@ -86,9 +86,9 @@ def test_cg_offset_in_y_and_z_gives_the_torque_f_d(model, nominal):
     params = replace(params, cg_B=cg)
     on = np.zeros(16)
     on[4] = CYCLE_S
-    sim = BatchSimulation(params, model=model, nthread=1)
+    sim = BatchSimulation(params, vehicle=paper, nthread=1)
     np.testing.assert_array_equal(sim.flown_params().cg_B, cg)  # body_ipos per run
-    hist = sim.run(OpenLoopController(on), Guidance.rate(np.zeros((3, 3))), CYCLE_S)
+    hist = sim.run(OpenLoopController(on, PAPER_CYCLE_S), Guidance.rate(np.zeros((3, 3))), CYCLE_S)
     w = hist.final.omega_B
     force = float(nominal.thrust_n[0, 4])
     ixx, iyy, izz = nominal.inertia_B[0]
@@ -109,7 +109,7 @@ def _with_products(nominal: VehicleParams, products) -> tuple[VehicleParams, np.
     return replace(nominal, inertia_B=moments, iquat=iquat), tensor
 
 
-def test_a_product_of_inertia_gives_eulers_cross_axis_acceleration(model, nominal):
+def test_a_product_of_inertia_gives_eulers_cross_axis_acceleration(paper, nominal):
     """Spin 0.5 rad/s about x, no torque, Ixy = 50, Ixz = -30, Iyz = 20 kg m^2 on the paper's
     moments: MuJoCo's angular acceleration at t = 0 (qacc of the free joint's rotational dofs,
     body frame) equals I^-1 (0, Ixz w0^2, -Ixy w0^2) to 1e-12 relative (two 3x3 solves of the
@@ -122,21 +122,24 @@ def test_a_product_of_inertia_gives_eulers_cross_axis_acceleration(model, nomina
     assert expect[1] == pytest.approx(-30.0 * w0**2 / tensor[1, 1], rel=0.02)
     assert expect[2] == pytest.approx(-50.0 * w0**2 / tensor[2, 2], rel=0.02)
     for p, want in ((params, expect), (nominal, np.zeros(3))):
-        sim = BatchSimulation(p, model=model, nthread=1)
-        qacc = sim._batch.bind("qacc")  # registered before the reset's forward pass fills it
-        sim._reset(None, np.array([[w0, 0.0, 0.0]]))
+        sim = BatchSimulation(p, vehicle=paper, nthread=1)
+        qacc = sim.physics.batch.bind("qacc")  # registered before the reset's forward pass fills it
+        sim.physics.reset(None, np.array([[w0, 0.0, 0.0]]))
         np.testing.assert_allclose(qacc[0, 3:6], want, rtol=0, atol=1e-12 * np.abs(expect).max())
 
 
-def test_a_flight_with_products_follows_eulers_equation(model, nominal):
+def test_a_flight_with_products_follows_eulers_equation(paper, nominal):
     """The per-run principal frame flies the tensor: 2 s of torque-free spin about x at
     0.3 rad/s against DOP853 (rtol 1e-12) on I w' = -w x I w.  Tolerance 1e-9 rad/s: RK4 at
     40 ms errs by (w h)^5 ~ 2e-10 relative a step here; a frame written transposed, or products
     lost, is off by ~1e-3 rad/s."""
     params, tensor = _with_products(nominal, (50.0, -30.0, 20.0))
     w0 = np.array([0.3, 0.0, 0.0])
-    hist = BatchSimulation(params, model=model, nthread=1).run(
-        OpenLoopController(np.zeros(16)), Guidance.rate(np.zeros((1, 3))), 2.0, omega0_B=w0[None]
+    hist = BatchSimulation(params, vehicle=paper, nthread=1).run(
+        OpenLoopController(np.zeros(16), PAPER_CYCLE_S),
+        Guidance.rate(np.zeros((1, 3))),
+        2.0,
+        omega0_B=w0[None],
     )
     ref = solve_ivp(
         lambda _t, w: np.linalg.solve(tensor, -np.cross(w, tensor @ w)),
@@ -276,7 +279,7 @@ def test_the_rules_standard_deviation_is_the_draws(nominal):
     _check_normal(s_xx, 1017.095, spread / 3)
 
 
-def test_a_run_that_is_no_rigid_body_is_not_flown(model, nominal):
+def test_a_run_that_is_no_rigid_body_is_not_flown(paper, nominal):
     """Positive moments that break the triangle inequality (1 + 1 < 5) are no body: the run is
     failed with that reason and flown with the nominal vehicle, as any invalid parameter;
     the moments of a real body (the nominal, and a body at the edge, 1 + 1 = 2) pass."""
@@ -288,8 +291,8 @@ def test_a_run_that_is_no_rigid_body_is_not_flown(model, nominal):
     reasons = invalid_runs(params)
     assert reasons[0] == "" and reasons[2] == ""
     assert "triangle inequality" in reasons[1] and "inertia_B" in reasons[1]
-    hist = BatchSimulation(params, model=model, nthread=1).run(
-        OpenLoopController(np.zeros(16)), Guidance.rate(np.zeros((3, 3))), CYCLE_S
+    hist = BatchSimulation(params, vehicle=paper, nthread=1).run(
+        OpenLoopController(np.zeros(16), PAPER_CYCLE_S), Guidance.rate(np.zeros((3, 3))), CYCLE_S
     )
     assert hist.failed.tolist() == [False, True, False]
     np.testing.assert_array_equal(hist.flown_params.inertia_B[1], nominal.inertia_B[0])
@@ -297,8 +300,8 @@ def test_a_run_that_is_no_rigid_body_is_not_flown(model, nominal):
 
 # ------------------------------------------------------------------------- inertia in B --
 @pytest.fixture(scope="module")
-def unsorted(unsorted_vehicle) -> tuple[FlyingVehicle, np.ndarray]:
-    return FlyingVehicle.load(unsorted_vehicle.path), unsorted_vehicle.tensor_B
+def unsorted(unsorted_vehicle) -> tuple[Vehicle, np.ndarray]:
+    return Vehicle.load(unsorted_vehicle.path), unsorted_vehicle.tensor_B
 
 
 def _inertia_normals(seed: int, run_ids, n_jets: int) -> np.ndarray:
@@ -373,11 +376,11 @@ def test_a_flight_follows_euler_with_the_files_tensor(unsorted):
         ),
     ):
         n = params.n_runs
-        sim = BatchSimulation(params, model=flying.model, nthread=1)
-        qacc, ctrl = sim._batch.bind("qacc"), sim._batch.bind("ctrl")
-        sim._reset(None, np.repeat(w0[None], n, axis=0))
+        sim = BatchSimulation(params, flying, nthread=1)
+        qacc, ctrl = sim.physics.batch.bind("qacc"), sim.physics.batch.bind("ctrl")
+        sim.physics.reset(None, np.repeat(w0[None], n, axis=0))
         ctrl[:, 3:6] = tau  # the flight model's body torques (rcsim.spacecraft.flight_model)
-        sim._batch.forward()
+        sim.physics.batch.forward()
         for k in range(n):
             i_b = tensors[k]
             expect = np.linalg.solve(i_b, tau - np.cross(w0, i_b @ w0))

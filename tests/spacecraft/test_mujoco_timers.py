@@ -63,11 +63,10 @@ def test_a_users_callback_is_kept(no_callback):
     assert mujoco.get_mjcb_time() is mine
 
 
-def test_simulations_install_it(no_callback):
+def test_simulations_install_it(paper, no_callback):
     """Building a batch simulation is enough: campaigns, scenarios and studies all do."""
     from rcsim.spacecraft.simulation import BatchSimulation
-    from rcsim.spacecraft.vehicle import VehicleParams
 
-    model = load_model()
-    BatchSimulation(VehicleParams.nominal(2, model), model=model, nthread=1)
+    load_model()
+    BatchSimulation(paper.nominal(2), vehicle=paper, nthread=1)
     assert mujoco.get_mjcb_time() is not None

@@ -31,7 +31,10 @@ from rcsim.spacecraft.propellant import (
 )
 from rcsim.spacecraft.simulation import BatchSimulation
 from rcsim.spacecraft.vehicle import G0_M_S2, VehicleParams
-from rcsim.spacecraft.vehicle_file import build_model, load_vehicle
+from rcsim.spacecraft.vehicle_file import Vehicle, build_model, load_vehicle
+
+#: The paper's vehicle (paper.toml), for helpers outside the fixtures.
+PAPER = Vehicle.load()
 
 
 class _Constant:
@@ -57,10 +60,10 @@ def canted():
 
 def _fly(vehicle, model, on, initial_kg, duration_s):
     n = on.shape[0]
-    params = VehicleParams.nominal(n, model)
+    params = PAPER.nominal(n)
     params = VehicleParams(**{**params.__dict__, "isp_s": vehicle.isp_s})
     tank = PropellantTank.of(n, initial_kg, vehicle.tank_position_m)
-    sim = BatchSimulation(params, model=model, nthread=1, tank=tank)
+    sim = BatchSimulation(params, vehicle=PAPER, nthread=1, tank=tank)
     history = sim.run(_Constant(on), Guidance.rate(np.zeros((n, 3))), duration_s)
     return sim, history
 
@@ -77,7 +80,7 @@ def test_constant_firing_uses_F_t_over_Isp_g0(canted):
     used = history.propulsion.propellant_kg(vehicle.isp_s)
     np.testing.assert_allclose(used, expected, rtol=1e-9, atol=0)
     # The mass MuJoCo flies at the end is the wet mass minus what was used.
-    flown_mass = sim._batch.expanded("body_mass")[:, 1]
+    flown_mass = sim.physics.batch.expanded("body_mass")[:, 1]
     np.testing.assert_allclose(vehicle.mass_kg - flown_mass, expected, rtol=1e-9, atol=0)
     assert np.isinf(history.propellant_exhausted_s).all()
 
@@ -108,7 +111,7 @@ def test_inertia_follows_the_point_mass_model(canted):
     np.testing.assert_allclose(rebuilt[0], inertia[0], atol=1e-9 * np.abs(i_exp).max())
 
 
-def test_each_runs_own_principal_frame_follows_the_propellant(canted):
+def test_each_runs_own_principal_frame_follows_the_propellant(paper, canted):
     """Issue 18: runs with dispersed products of inertia have their own wet tensors (their
     own principal frames).  After 2 s of one jet, the tensor MuJoCo flies in each run (its
     principal moments and frame, rebuilt) is that run's wet tensor moved by the point-mass
@@ -119,10 +122,10 @@ def test_each_runs_own_principal_frame_follows_the_propellant(canted):
     wet[0, 0, 1] = wet[0, 1, 0] = 60.0  # run 0: Ixy moved from -25 to 60 kg m^2
     wet[1, 1, 2] = wet[1, 2, 1] = -90.0  # run 1: Iyz from -15 to -90
     moments, iquat = principal(wet)
-    params = VehicleParams.nominal(2, model)
+    params = paper.nominal(2)
     params = replace(params, inertia_B=moments, iquat=iquat, isp_s=vehicle.isp_s)
     tank = PropellantTank.of(2, vehicle.propellant_kg, vehicle.tank_position_m)
-    sim = BatchSimulation(params, model=model, nthread=1, tank=tank)
+    sim = BatchSimulation(params, vehicle=paper, nthread=1, tank=tank)
     on = np.zeros((2, 16), bool)
     on[:, 2] = True
     history = sim.run(_Constant(on), Guidance.rate(np.zeros((2, 3))), 2.0)
@@ -136,7 +139,8 @@ def test_each_runs_own_principal_frame_follows_the_propellant(canted):
         used,
     )
     flown = full_inertia(
-        sim._batch.expanded("body_inertia")[:, 1], sim._batch.expanded("body_iquat")[:, 1]
+        sim.physics.batch.expanded("body_inertia")[:, 1],
+        sim.physics.batch.expanded("body_iquat")[:, 1],
     )
     np.testing.assert_allclose(flown, expect, rtol=0, atol=1e-9 * np.abs(expect).max())
     # The wet vehicle is what the history records as flown (the draw, read back).
@@ -173,7 +177,7 @@ class _Pulses:
         return np.where(self.on, self.pulse_s, 0.0), None
 
 
-def test_commands_after_exhaustion_are_no_firings(canted):
+def test_commands_after_exhaustion_are_no_firings(paper, canted):
     """Issue 18 review: a jet without propellant delivers nothing, so its commands are not
     counted as firings.  Oracle: jet_03 fires a 20 ms pulse at the start of every 40 ms cycle
     (each a new firing, mass flow ``mdot = F / (Isp g0)``); with ``L`` kg the propellant runs
@@ -186,10 +190,10 @@ def test_commands_after_exhaustion_are_no_firings(canted):
     n, pulse, cycle, duration = 2, 0.02, 0.04, 3.0
     mdot = vehicle.thrusts_n()[2] / (vehicle.isp_s * G0_M_S2)
     left = np.array([0.006, vehicle.propellant_kg])  # runs out in the 38th of 75 pulses
-    params = VehicleParams.nominal(n, model)
+    params = paper.nominal(n)
     params = VehicleParams(**{**params.__dict__, "isp_s": vehicle.isp_s})
     tank = PropellantTank.of(n, left, vehicle.tank_position_m)
-    sim = BatchSimulation(params, model=model, nthread=1, tank=tank)
+    sim = BatchSimulation(params, vehicle=paper, nthread=1, tank=tank)
     history = sim.run(_Pulses(on, pulse), Guidance.rate(np.zeros((n, 3))), duration)
     k = int(left[0] // (mdot * pulse))
     t_out = k * cycle + (left[0] - k * mdot * pulse) / mdot
@@ -213,18 +217,18 @@ def test_exhaustion_time_with_two_jets_in_pieces():
     assert np.isinf(exhaustion_time_s(length, on, mdot, np.array([1.0])))[0]
 
 
-def test_untracked_flight_unchanged_by_a_tank_of_zero_use():
+def test_untracked_flight_unchanged_by_a_tank_of_zero_use(paper):
     """A tank on a vehicle that never fires leaves every record identical (no set_const)."""
     vehicle = load_vehicle("paper")
-    model = build_model(vehicle)
-    params = VehicleParams.nominal(2, model)
+    build_model(vehicle)
+    params = paper.nominal(2)
     omega0 = np.array([[0.01, -0.02, 0.005], [0.0, 0.003, 0.0]])
     ctl = _Constant(np.zeros((2, 16), bool))
-    a = BatchSimulation(params, model=model, nthread=1).run(
+    a = BatchSimulation(params, vehicle=paper, nthread=1).run(
         ctl, Guidance.rate(np.zeros((2, 3))), 2.0, omega0_B=omega0
     )
     b = BatchSimulation(
-        params, model=model, nthread=1, tank=PropellantTank.of(2, 10.0, (1.0, 0, 0))
+        params, vehicle=paper, nthread=1, tank=PropellantTank.of(2, 10.0, (1.0, 0, 0))
     ).run(ctl, Guidance.rate(np.zeros((2, 3))), 2.0, omega0_B=omega0)
     assert np.array_equal(a.q_BN, b.q_BN) and np.array_equal(a.omega_B, b.omega_B)
 

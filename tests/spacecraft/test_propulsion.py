@@ -14,6 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from rcsim.models.tables import PAPER_CYCLE_S
 from rcsim.spacecraft.propulsion import (
     PropulsionParams,
     PropulsionState,
@@ -72,7 +73,7 @@ def _state(n=1):
 
 
 def test_valve_clips_commands_to_cycle_and_nonnegative():
-    p = PropulsionParams()
+    p = PropulsionParams(cycle_s=PAPER_CYCLE_S)
     st_ = _state()
     cmd = np.zeros((1, 16))
     cmd[0, :4] = [-0.01, 0.1, np.nan, 0.02]
@@ -81,7 +82,7 @@ def test_valve_clips_commands_to_cycle_and_nonnegative():
 
 
 def test_min_pulse_drops_new_short_firing_and_counts_it():
-    p = PropulsionParams(min_pulse_s=0.01)
+    p = PropulsionParams(cycle_s=PAPER_CYCLE_S, min_pulse_s=0.01)
     st_ = _state()
     cmd = np.zeros((1, 16))
     cmd[0, 0], cmd[0, 1], cmd[0, 2] = 0.005, 0.01, 0.02
@@ -94,7 +95,7 @@ def test_min_pulse_drops_new_short_firing_and_counts_it():
 
 def test_continuing_firing_is_never_cut_by_min_pulse():
     """A firing that filled the last cycle continues: its short tail is delivered, not dropped."""
-    p = PropulsionParams(min_pulse_s=0.01)
+    p = PropulsionParams(cycle_s=PAPER_CYCLE_S, min_pulse_s=0.01)
     st_ = _state()
     thrust = np.full((1, 16), 22.24)
     cmd = np.zeros((1, 16))
@@ -113,7 +114,7 @@ def test_continuing_firing_is_never_cut_by_min_pulse():
 
 def test_firing_counts_one_per_contiguous_firing():
     """A 0.52 s firing over 13 cycles is one firing; a gap starts a new one."""
-    p = PropulsionParams()
+    p = PropulsionParams(cycle_s=PAPER_CYCLE_S)
     st_ = _state()
     thrust = np.full((1, 16), 22.24)
     schedule = [CYCLE_S] * 12 + [0.0] + [0.0, 0.02, 0.0, CYCLE_S, 0.01]
@@ -129,7 +130,7 @@ def test_firing_counts_one_per_contiguous_firing():
 def test_partial_cycle_then_new_command_is_a_new_firing():
     # A firing shorter than the cycle closes the valve before the cycle ends; the next cycle's
     # command opens it again, so it counts as a second firing.
-    p = PropulsionParams()
+    p = PropulsionParams(cycle_s=PAPER_CYCLE_S)
     st_ = _state()
     thrust = np.full((1, 16), 22.24)
     for c in (0.03, 0.03):
@@ -148,7 +149,7 @@ def test_partial_cycle_then_new_command_is_a_new_firing():
     isp=st.floats(100.0, 450.0),
 )
 def test_impulse_and_propellant(cmds, thrust, isp):
-    p = PropulsionParams()
+    p = PropulsionParams(cycle_s=PAPER_CYCLE_S)
     st_ = _state()
     thrust_arr = np.full((1, 16), thrust)
     for row in cmds:
@@ -161,7 +162,7 @@ def test_impulse_and_propellant(cmds, thrust, isp):
 
 
 def test_runs_are_independent():
-    p = PropulsionParams(min_pulse_s=0.01)
+    p = PropulsionParams(cycle_s=PAPER_CYCLE_S, min_pulse_s=0.01)
     st_ = _state(2)
     cmd = np.zeros((2, 16))
     cmd[0, 0], cmd[1, 0] = 0.005, 0.02
@@ -173,7 +174,12 @@ def test_runs_are_independent():
 
 @pytest.mark.parametrize(
     "kwargs",
-    [dict(cycle_s=0.0), dict(cycle_s=-1.0), dict(min_pulse_s=-0.001), dict(min_pulse_s=0.04)],
+    [
+        dict(cycle_s=0.0),
+        dict(cycle_s=-1.0),
+        dict(cycle_s=PAPER_CYCLE_S, min_pulse_s=-0.001),
+        dict(cycle_s=PAPER_CYCLE_S, min_pulse_s=0.04),
+    ],
 )
 def test_invalid_params_rejected(kwargs):
     with pytest.raises(ValueError):

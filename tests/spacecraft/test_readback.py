@@ -22,7 +22,7 @@ import pytest
 
 from rcsim.analysis.engine.runs_table import PRODUCT_NAMES, input_frame
 from rcsim.lookup.open_loop import OpenLoopController
-from rcsim.models.tables import load_dispersions
+from rcsim.models.tables import PAPER_CYCLE_S, load_dispersions
 from rcsim.spacecraft.dispersions import (
     DispersionSigmas,
     draw_runs,
@@ -37,14 +37,14 @@ FIELDS = ("mass_kg", "cg_B", "inertia_B", "thrust_n", "jet_dir_S")
 
 
 @pytest.fixture(scope="module")
-def dispersed(model):
+def dispersed(paper):
     # 3x Table 5 (the stress campaigns of Figs 13-14): every field differs from nominal.
     sigmas = DispersionSigmas.from_table(load_dispersions(), scale=3.0)
-    return draw_runs(VehicleParams.nominal(1, model), sigmas, seed=2024, run_ids=np.arange(7, 19))
+    return draw_runs(paper.nominal(1), sigmas, seed=2024, run_ids=np.arange(7, 19))
 
 
-def test_flown_params_equal_the_draw_exactly(model, dispersed):
-    sim = BatchSimulation(dispersed.params, model=model, nthread=1)
+def test_flown_params_equal_the_draw_exactly(paper, dispersed):
+    sim = BatchSimulation(dispersed.params, vehicle=paper, nthread=1)
     flown = sim.flown_params()
     for name in FIELDS:
         np.testing.assert_array_equal(
@@ -55,12 +55,12 @@ def test_flown_params_equal_the_draw_exactly(model, dispersed):
     flown.mass_kg[:] = 0.0
     assert np.all(sim.flown_params().mass_kg > 0)
     # Principal axes stay the body axes: body_iquat is the identity in every run.
-    iquat = sim._batch.expanded("body_iquat")
-    iquat = model.body_iquat[None] if iquat is None else iquat
-    np.testing.assert_array_equal(iquat[:, model.body(BODY).id], [[1.0, 0.0, 0.0, 0.0]])
+    iquat = sim.physics.batch.expanded("body_iquat")
+    iquat = paper.model.body_iquat[None] if iquat is None else iquat
+    np.testing.assert_array_equal(iquat[:, paper.model.body(BODY).id], [[1.0, 0.0, 0.0, 0.0]])
 
 
-def test_history_carries_the_flown_params(model, dispersed):
+def test_history_carries_the_flown_params(paper, dispersed):
     """The history of a flight records what was flown; an invalid run reads back nominal."""
     params = dispersed.params.take(slice(0, 3))
     mass = params.mass_kg.copy()
@@ -71,12 +71,13 @@ def test_history_carries_the_flown_params(model, dispersed):
         inertia_B=params.inertia_B,
         thrust_n=params.thrust_n,
         jet_dir_S=params.jet_dir_S,
+        isp_s=params.isp_s,
     )
-    hist = BatchSimulation(params, model=model, nthread=1).run(
-        OpenLoopController(np.zeros(16)), Guidance.attitude(np.zeros((3, 3))), 0.2
+    hist = BatchSimulation(params, vehicle=paper, nthread=1).run(
+        OpenLoopController(np.zeros(16), PAPER_CYCLE_S), Guidance.attitude(np.zeros((3, 3))), 0.2
     )
     assert hist.failed.tolist() == [False, True, False]
-    nominal = VehicleParams.nominal(1, model)
+    nominal = paper.nominal(1)
     for name in FIELDS:
         got, drawn = getattr(hist.flown_params, name), getattr(params, name)
         np.testing.assert_array_equal(got[[0, 2]], drawn[[0, 2]], err_msg=name)
@@ -91,7 +92,7 @@ def test_run_generators_follow_the_seeding_rule():
             np.testing.assert_array_equal(got.random(4), np.random.default_rng(seq).random(4))
 
 
-def test_flown_cg_and_principal_frames_equal_the_draw_exactly(model):
+def test_flown_cg_and_principal_frames_equal_the_draw_exactly(paper):
     """Issue 18: with CG y/z and products of inertia dispersed, each run has its own CG
     (``body_ipos``) and principal frame (``body_iquat``, an input of mj_setConst like the
     moments): read back, they equal the draw exactly.  The recorded inputs
@@ -104,8 +105,8 @@ def test_flown_cg_and_principal_frames_equal_the_draw_exactly(model):
         cg_z_m=0.01,
         products_kg_m2=(20.0, 30.0, 40.0),
     )
-    drawn = draw_runs(VehicleParams.nominal(1, model), sigmas, seed=2024, run_ids=np.arange(7, 19))
-    sim = BatchSimulation(drawn.params, model=model, nthread=1)
+    drawn = draw_runs(paper.nominal(1), sigmas, seed=2024, run_ids=np.arange(7, 19))
+    sim = BatchSimulation(drawn.params, vehicle=paper, nthread=1)
     flown = sim.flown_params()
     for name in (*FIELDS, "iquat"):
         np.testing.assert_array_equal(
@@ -115,7 +116,7 @@ def test_flown_cg_and_principal_frames_equal_the_draw_exactly(model):
     # The drawn tensor, rebuilt independently: Table 5's moments on the diagonal (the paper's
     # principal axes are B) and the products off it, from the same standard normals.
     moments_only = draw_runs(
-        VehicleParams.nominal(1, model),
+        paper.nominal(1),
         DispersionSigmas(inertia_kg_m2=sigmas.inertia_kg_m2),
         seed=2024,
         run_ids=np.arange(7, 19),

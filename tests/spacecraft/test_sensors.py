@@ -42,7 +42,6 @@ from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.sensors import SensorParams
 from rcsim.spacecraft.simulation import BatchSimulation
 from rcsim.spacecraft.valves import ValveTiming
-from rcsim.spacecraft.vehicle import VehicleParams
 
 CYCLE_S = 0.04
 
@@ -60,10 +59,10 @@ class Recorder:
         return np.zeros((nav.n_runs, 16)), seen
 
 
-def fly_idle(model, n, duration_s, sensors, streams, w0=None):
+def fly_idle(paper, n, duration_s, sensors, streams, w0=None):
     sim = BatchSimulation(
-        VehicleParams.nominal(n, model),
-        model=model,
+        paper.nominal(n),
+        vehicle=paper,
         nthread=1,
         sensors=sensors,
         sensor_streams=streams,
@@ -76,7 +75,7 @@ def fly_idle(model, n, duration_s, sensors, streams, w0=None):
     return hist, np.stack(seen, axis=1)
 
 
-def test_measured_rate_is_truth_plus_bias_walk_and_the_streams_normals(model):
+def test_measured_rate_is_truth_plus_bias_walk_and_the_streams_normals(paper):
     n, cycles = 2, 300  # more than one block of drawn noise (256 cycles)
     sigma, bias, walk = 1e-4, np.array([2e-5, -1e-5, 0.0]), 3e-5
     sensors = SensorParams.of(
@@ -84,7 +83,7 @@ def test_measured_rate_is_truth_plus_bias_walk_and_the_streams_normals(model):
     )
     streams = [effect_stream(7, i, SENSOR_NOISE) for i in range(n)]
     w0 = np.array([[0.01, 0.0, -0.02], [0.0, 0.003, 0.0]])
-    hist, seen = fly_idle(model, n, cycles * CYCLE_S, sensors, streams, w0)
+    hist, seen = fly_idle(paper, n, cycles * CYCLE_S, sensors, streams, w0)
     np.testing.assert_array_equal(seen, hist.meas_rate_err_B)  # what the controller saw
     for i in range(n):
         z = np.random.default_rng(streams[i]).standard_normal((cycles, 9))
@@ -95,22 +94,30 @@ def test_measured_rate_is_truth_plus_bias_walk_and_the_streams_normals(model):
     assert np.abs(hist.meas_rate_err_B - hist.rate_err_B).max() > sigma  # not the truth
 
 
-def test_white_attitude_noise_has_its_sigma(model):
+def test_white_attitude_noise_has_its_sigma(paper):
     sigma = np.radians(0.01)
     sensors = SensorParams.of(4, att_noise_rad=sigma)
     hist, _ = fly_idle(
-        model, 4, 250 * CYCLE_S, sensors, [effect_stream(3, i, SENSOR_NOISE) for i in range(4)]
+        paper,
+        4,
+        250 * CYCLE_S,
+        sensors,
+        [effect_stream(3, i, SENSOR_NOISE) for i in range(4)],
     )
     err = (hist.meas_att_err_B - hist.att_err_B).reshape(-1, 3)  # 1000 samples per axis
     assert np.abs(err.std(axis=0) / sigma - 1).max() < 0.10
     np.testing.assert_array_equal(hist.att_err_B, 0.0)  # the truth stays at rest
 
 
-def test_rate_walk_grows_as_sqrt_time(model):
+def test_rate_walk_grows_as_sqrt_time(paper):
     n, cycles, walk = 400, 50, 1e-4
     sensors = SensorParams.of(n, rate_walk_rad_s_per_sqrt_s=walk)
     hist, _ = fly_idle(
-        model, n, cycles * CYCLE_S, sensors, [effect_stream(5, i, SENSOR_NOISE) for i in range(n)]
+        paper,
+        n,
+        cycles * CYCLE_S,
+        sensors,
+        [effect_stream(5, i, SENSOR_NOISE) for i in range(n)],
     )
     drift = (hist.meas_rate_err_B - hist.rate_err_B)[:, -1]  # walk after cycles-1 steps
     assert drift.std(axis=0) / (walk * np.sqrt((cycles - 1) * CYCLE_S)) == pytest.approx(
@@ -118,23 +125,23 @@ def test_rate_walk_grows_as_sqrt_time(model):
     )
 
 
-def test_noisy_sensors_need_streams_and_valid_sigmas(model):
+def test_noisy_sensors_need_streams_and_valid_sigmas(paper):
     with pytest.raises(InputError, match="sensor_streams"):
         BatchSimulation(
-            VehicleParams.nominal(1, model),
-            model=model,
+            paper.nominal(1),
+            vehicle=paper,
             sensors=SensorParams.of(1, att_noise_rad=1e-4),
         )
     with pytest.raises(InputError, match="rate_noise_rad_s"):
         BatchSimulation(
-            VehicleParams.nominal(1, model),
-            model=model,
+            paper.nominal(1),
+            vehicle=paper,
             sensors=SensorParams.of(1, rate_noise_rad_s=-1.0),
         )
 
 
-def test_effect_draws_leave_vehicles_alone_and_do_not_depend_on_the_batch(model):
-    nominal = VehicleParams.nominal(1, model)
+def test_effect_draws_leave_vehicles_alone_and_do_not_depend_on_the_batch(paper):
+    nominal = paper.nominal(1)
     sig = DispersionSigmas(mass_kg=10.0, thrust_n=0.5)
     before = draw_runs(nominal, sig, 11, [0, 1, 2]).params
     spec = SensorSpec(

@@ -24,9 +24,8 @@ from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
 from rcsim.models.tables import load_jet_map
 from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul
-from rcsim.spacecraft.propulsion import PropulsionParams
 from rcsim.spacecraft.simulation import BatchSimulation, simulate_batch
-from rcsim.spacecraft.vehicle import VehicleParams, load_model
+from rcsim.spacecraft.vehicle import VehicleParams
 
 CYCLE_S = 0.04
 MANEUVER_S = 40.0  # the 5 deg maneuvers finish by ~26 s at 0.2 deg/s; 14 s of margin
@@ -36,13 +35,8 @@ DH_RTOL = 1e-9
 
 
 @pytest.fixture(scope="module")
-def model():
-    return load_model()
-
-
-@pytest.fixture(scope="module")
-def controller(model):
-    return PhasePlaneController(PhasePlaneParams.for_vehicle(load_jet_map(), model=model))
+def controller(paper):
+    return PhasePlaneController(PhasePlaneParams.for_vehicle(paper))
 
 
 def inertial_h(q, w, inertia):
@@ -51,9 +45,9 @@ def inertial_h(q, w, inertia):
     return quat_mul(quat_mul(q, hb), quat_conj(q))[..., 1:]
 
 
-def test_torque_free_tumble_conserves_angular_momentum(model):
+def test_torque_free_tumble_conserves_angular_momentum(paper):
     """600 s tumbling about a non-principal axis: |H(t) - H(0)| / |H(0)| < 1e-9 at every cycle."""
-    params = VehicleParams.nominal(1, model)
+    params = paper.nominal(1)
     w0 = np.array([[0.03, 0.02, -0.04]])  # ~3 deg/s, not along any principal axis
     # A 1 s "control cycle" (the controller is idle anyway) samples H 600 times and keeps the
     # Python loop short; the physics still steps at the model's default step.
@@ -64,9 +58,8 @@ def test_torque_free_tumble_conserves_angular_momentum(model):
         Guidance.attitude(np.zeros((1, 3))),
         600.0,
         omega0_B=w0,
-        model=model,
+        vehicle=paper.with_control({"cycle_s": 1.0}, "test: one sample a second"),
         nthread=1,
-        propulsion=PropulsionParams(cycle_s=1.0),
     )
     inertia = params.inertia_B[0]
     h = inertial_h(hist.q_BN[0], hist.omega_B[0], inertia)
@@ -81,23 +74,25 @@ def test_torque_free_tumble_conserves_angular_momentum(model):
     assert np.abs(e - e[0]).max() / e[0] < DH_RTOL
 
 
-def four_runs(model):
+def four_runs(paper):
     """Four different runs: parameters, commands, initial rates and a disturbance all differ."""
-    p = VehicleParams.nominal(4, model)
+    p = paper.nominal(4)
     inertia = p.inertia_B.copy()
     inertia[1] *= [1.1, 0.9, 1.05]
     thrust = p.thrust_n.copy()
     thrust[2] *= 0.93
     cg = p.cg_B.copy()
     cg[3] += [0.02, -0.01, 0.015]
-    params = VehicleParams(p.mass_kg * [1, 1.02, 0.98, 1], cg, inertia, thrust, p.jet_dir_S)
+    params = VehicleParams(
+        p.mass_kg * [1, 1.02, 0.98, 1], cg, inertia, thrust, p.jet_dir_S, isp_s=p.isp_s
+    )
     att = np.radians([[5, 0, 0], [0, -5, 0], [3, 4, -5], [5, 5, 5]])
     w0 = np.radians([[0, 0, 0], [0.05, 0, 0], [0, 0, -0.1], [0.02, -0.03, 0.01]])
     dist = np.array([[0, 0, 0], [0, 0, 0], [0.01, 0, 0], [0, -0.02, 0.005]])
     return params, att, w0, dist
 
 
-def fly(model, controller, params, att, w0, dist, nthread=2, duration=30.0):
+def fly(paper, controller, params, att, w0, dist, nthread=2, duration=30.0):
     return simulate_batch(
         params,
         controller,
@@ -105,7 +100,7 @@ def fly(model, controller, params, att, w0, dist, nthread=2, duration=30.0):
         duration,
         omega0_B=w0,
         disturbance_B=dist,
-        model=model,
+        vehicle=paper,
         nthread=nthread,
     )
 
@@ -113,12 +108,12 @@ def fly(model, controller, params, att, w0, dist, nthread=2, duration=30.0):
 ARRAYS = ("q_BN", "omega_B", "att_err_B", "rate_err_B", "on_time_s")
 
 
-def test_batched_equals_each_run_alone(model, controller):
-    params, att, w0, dist = four_runs(model)
-    batch = fly(model, controller, params, att, w0, dist)
+def test_batched_equals_each_run_alone(paper, controller):
+    params, att, w0, dist = four_runs(paper)
+    batch = fly(paper, controller, params, att, w0, dist)
     assert batch.on_time_s.sum() > 0  # the runs do fire
     for i in range(4):
-        alone = fly(model, controller, params.take([i]), att[[i]], w0[[i]], dist[[i]], nthread=1)
+        alone = fly(paper, controller, params.take([i]), att[[i]], w0[[i]], dist[[i]], nthread=1)
         for name in ARRAYS:
             np.testing.assert_array_equal(getattr(batch, name)[i], getattr(alone, name)[0], name)
         np.testing.assert_array_equal(batch.final.q_BN[i], alone.final.q_BN[0])
@@ -128,21 +123,23 @@ def test_batched_equals_each_run_alone(model, controller):
         )
 
 
-def test_same_inputs_same_outputs(model, controller):
-    params, att, w0, dist = four_runs(model)
-    a = fly(model, controller, params, att, w0, dist, duration=10.0)
-    b = fly(model, controller, params, att, w0, dist, duration=10.0)
+def test_same_inputs_same_outputs(paper, controller):
+    params, att, w0, dist = four_runs(paper)
+    a = fly(paper, controller, params, att, w0, dist, duration=10.0)
+    b = fly(paper, controller, params, att, w0, dist, duration=10.0)
     for name in ARRAYS:
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), name)
     np.testing.assert_array_equal(a.final.q_BN, b.final.q_BN)
 
 
-def test_nan_inertia_run_fails_and_others_fly(model, controller):
-    params, att, w0, dist = four_runs(model)
+def test_nan_inertia_run_fails_and_others_fly(paper, controller):
+    params, att, w0, dist = four_runs(paper)
     inertia = params.inertia_B.copy()
     inertia[1, 2] = np.nan
-    bad = VehicleParams(params.mass_kg, params.cg_B, inertia, params.thrust_n, params.jet_dir_S)
-    hist = fly(model, controller, bad, att, w0, dist, duration=10.0)
+    bad = VehicleParams(
+        params.mass_kg, params.cg_B, inertia, params.thrust_n, params.jet_dir_S, params.isp_s
+    )
+    hist = fly(paper, controller, bad, att, w0, dist, duration=10.0)
     np.testing.assert_array_equal(hist.failed, [False, True, False, False])
     assert "inertia_B" in hist.reason[1]
     assert [r for i, r in enumerate(hist.reason) if i != 1] == ["", "", ""]
@@ -151,13 +148,13 @@ def test_nan_inertia_run_fails_and_others_fly(model, controller):
         assert np.isfinite(arr).all()
     # The other runs are exactly what they are without the bad one.
     good = [0, 2, 3]
-    ref = fly(model, controller, params.take(good), att[good], w0[good], dist[good], duration=10.0)
+    ref = fly(paper, controller, params.take(good), att[good], w0[good], dist[good], duration=10.0)
     for name in ARRAYS:
         np.testing.assert_array_equal(getattr(hist, name)[good], getattr(ref, name), name)
 
 
-def test_duration_must_be_positive(model, controller):
-    sim = BatchSimulation(VehicleParams.nominal(1, model), model=model)
+def test_duration_must_be_positive(paper, controller):
+    sim = BatchSimulation(paper.nominal(1), vehicle=paper)
     for bad in (0.0, -1.0, np.nan, np.inf):
         with pytest.raises(ValueError):
             sim.run(controller, Guidance.attitude(np.zeros((1, 3))), bad)
@@ -171,14 +168,14 @@ MANEUVERS = {"roll": [5, 0, 0], "pitch": [0, 5, 0], "yaw": [0, 0, 5], "all": [5,
 
 
 @pytest.fixture(scope="module")
-def maneuvers(model, controller):
+def maneuvers(paper, controller):
     att = np.radians(list(MANEUVERS.values()))
     hist = simulate_batch(
-        VehicleParams.nominal(len(att), model),
+        paper.nominal(len(att)),
         controller,
         Guidance.attitude(att),
         MANEUVER_S,
-        model=model,
+        vehicle=paper,
     )
     return att, hist
 

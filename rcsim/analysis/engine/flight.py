@@ -12,6 +12,7 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -19,9 +20,9 @@ import pandas as pd
 from rcsim.lookup.registry import make_controller
 from rcsim.spacecraft.navigation import Guidance, euler321_deg, quat_from_rotvec
 from rcsim.spacecraft.propellant import exhausted_text
-from rcsim.spacecraft.propulsion import PropulsionParams
 from rcsim.spacecraft.simulation import Controller, History, simulate_batch
-from rcsim.spacecraft.vehicle import AXES, VehicleParams, jet_name, load_model
+from rcsim.spacecraft.vehicle import AXES, VehicleParams, jet_name
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 #: What :func:`fly_batch` passes on to the simulation besides the vehicle and the scenarios.
 EFFECT_KEYS = ("sensors", "sensor_streams", "timing", "faults", "profile")
@@ -58,10 +59,9 @@ def fly_batch(
     params: VehicleParams,
     controller: Controller,
     *,
-    model=None,
-    propulsion: PropulsionParams = PropulsionParams(),
+    vehicle: Vehicle,
     nthread: int = 0,
-    tank=None,
+    tank: Any = "vehicle",
     **effects,
 ) -> History:
     """Fly one batch: run ``i`` flies ``scenarios[i]`` with vehicle ``params`` entry ``i``.
@@ -72,6 +72,12 @@ def fly_batch(
 
     Parameters
     ----------
+    vehicle : rcsim.spacecraft.vehicle_file.Vehicle
+        The vehicle flown (model, cycle, valve limits, nominal timing, tank): ``params`` are
+        its runs' parameters.
+    tank : rcsim.spacecraft.propellant.PropellantTank, None or "vehicle"
+        Propellant tracked per run (:class:`rcsim.spacecraft.simulation.BatchSimulation`);
+        default the vehicle's.
     **effects
         Sensors, timing and faults of the runs, passed to
         :class:`rcsim.spacecraft.simulation.BatchSimulation`: ``sensors``
@@ -79,10 +85,8 @@ def fly_batch(
         ``SeedSequence`` per run), ``timing`` (:class:`~rcsim.spacecraft.valves.ValveTiming`),
         ``faults`` (:class:`~rcsim.spacecraft.valves.JetFaults`), ``profile``
         (:class:`~rcsim.spacecraft.valves.ThrustProfile`); each entry ``(n_runs, ...)``.
-        Absent or None: perfect sensors, no delays, no faults, instant thrust.
-    tank : rcsim.spacecraft.propellant.PropellantTank, optional
-        Propellant tracked per run (a vehicle file with a propellant mass); None: accounted
-        only, constant mass properties.
+        Absent or None: perfect sensors, the vehicle's nominal timing, no faults, instant
+        thrust.
 
     Raises
     ------
@@ -109,8 +113,7 @@ def fly_batch(
         durations.pop(),
         omega0_B=stack("omega0_rad_s"),
         disturbance_B=disturbance if np.any(disturbance) else None,
-        propulsion=propulsion,
-        model=model,
+        vehicle=vehicle,
         nthread=nthread,
         tank=tank,
         **{k: v for k, v in effects.items() if v is not None},
@@ -121,37 +124,32 @@ def fly(
     scenario: Scenario,
     controller: str = "phase-plane",
     *,
+    vehicle: Vehicle | str | os.PathLike | None = None,
     table: str | os.PathLike | None = None,
     params: VehicleParams | None = None,
-    propulsion: PropulsionParams = PropulsionParams(),
-    controller_obj=None,
-    vehicle=None,
+    controller_obj: Controller | None = None,
 ) -> History:
     """Fly ``scenario`` for every run of ``params`` (default: one nominal vehicle).
 
-    ``vehicle`` (a :class:`rcsim.spacecraft.vehicle_file.FlyingVehicle`): fly that vehicle file, its
-    model, nominal parameters, valve limits, valve timing and propellant, with any jet count,
-    instead of the packaged vehicle (``propulsion`` is then the file's); the controller is
-    built for it.
+    Parameters
+    ----------
+    scenario : Scenario
+    controller : str
+        A controller by name (:func:`rcsim.lookup.registry.make_controller`), built for the
+        vehicle and tuned by its profile; ``controller_obj`` instead flies one already built.
+    vehicle : Vehicle, str, path or None
+        The vehicle flown: a :class:`~rcsim.spacecraft.vehicle_file.Vehicle`, a packaged
+        vehicle's name (``"paper"``, ``"canted16"``), a vehicle file, or None (the paper's):
+        its model, nominal parameters, valve limits, valve timing, propellant and profile.
+    table : path, optional
+        The lookup table (``"lookup"``, ``"adaptive"``).
+    params : VehicleParams, optional
+        The runs' parameters (of ``vehicle``); default one nominal run.
     """
-    if vehicle is None:
-        model = load_model()
-        params = VehicleParams.nominal(1, model) if params is None else params
-        ctl = controller_obj or make_controller(controller, table=table, model=model)
-        return fly_batch(
-            [scenario] * params.n_runs, params, ctl, model=model, propulsion=propulsion
-        )
+    vehicle = Vehicle.load(vehicle)
     params = vehicle.nominal(1) if params is None else params
-    ctl = controller_obj or make_controller(
-        controller, table=table, model=vehicle.model, vehicle=vehicle.definition
-    )
-    return fly_batch(
-        [scenario] * params.n_runs,
-        params,
-        ctl,
-        model=vehicle.model,
-        **vehicle.flight_options(params.n_runs),
-    )
+    ctl = controller_obj or make_controller(controller, vehicle, table=table)
+    return fly_batch([scenario] * params.n_runs, params, ctl, vehicle=vehicle)
 
 
 def history_frame(history: History, run: int = 0) -> pd.DataFrame:
@@ -225,20 +223,18 @@ def write_flight(
     out_dir: str | os.PathLike,
     *,
     title: str,
+    vehicle: Vehicle,
     run: int = 0,
-    isp_s: float = VehicleParams.isp_s,
     command: str | None = None,
     overwrite: bool = False,
-    jet_signs=None,
 ) -> dict[str, Path]:
     """Write ``history.parquet``, ``attitude_error.png``, ``rates_jets.png`` and
-    ``summary.json`` for one run into ``out_dir`` (atomically).
+    ``summary.json`` for one run of ``vehicle`` into ``out_dir`` (atomically).
 
     ``command`` (e.g. ``"maneuver"``) is recorded in the directory's marker, and ``overwrite``
     allows replacing an earlier output of that command
-    (:func:`rcsim.analysis.engine.output.atomic_dir`). ``jet_signs`` ``(n_jets, 3)``: the flown
-    vehicle's torque signs, which jets the plot draws on which axis
-    (:func:`rcsim.analysis.engine.campaign.outcomes.jet_signs`); default Table 2's.
+    (:func:`rcsim.analysis.engine.output.atomic_dir`).  The plot draws each axis's jets by the
+    vehicle's torque signs; the summary names the vehicle and the profile flown.
     """
     import json
 
@@ -247,12 +243,13 @@ def write_flight(
 
     frame = history_frame(history, run)
     summary = flight_summary(history, run)
-    summary["propellant_kg"] = float(history.propulsion.impulse_ns[run].sum() / (isp_s * 9.80665))
+    summary["propellant_kg"] = float(history.propellant_kg[run])
     summary["title"] = title
+    summary.update(vehicle.record())
     with atomic_dir(out_dir, command, overwrite=overwrite) as tmp:
         frame.to_parquet(tmp / "history.parquet", index=False)
         plot_attitude_error(frame, tmp / "attitude_error.png", title=title)
-        signed = None if jet_signs is None else signed_jets_of(jet_signs)
+        signed = signed_jets_of(vehicle.axis_signs)
         plot_rates_and_jets(frame, tmp / "rates_jets.png", title=title, signed=signed)
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     out = Path(out_dir)

@@ -17,7 +17,6 @@ one (``valve_timing``), and the code version.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 from dataclasses import dataclass
@@ -32,7 +31,7 @@ from rcsim.analysis.engine.plots import AXIS_COLORS, new_figure
 from rcsim.lookup.response_database import response_database, response_summary
 from rcsim.models.atomic import atomic_write
 from rcsim.spacecraft.vehicle import AXES
-from rcsim.spacecraft.vehicle_file import FlyingVehicle
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 
 @dataclass(frozen=True)
@@ -47,7 +46,7 @@ class ResponseFiles:
 
 
 def write_response_database(
-    vehicle: str | os.PathLike,
+    vehicle: Vehicle | str | os.PathLike,
     out: str | os.PathLike,
     *,
     n_vehicles: int = 64,
@@ -68,23 +67,23 @@ def write_response_database(
         database.with_name(f"{database.stem}_summary.csv"), overwrite=overwrite, parameter="out"
     )
     plot = check_out_file(database.with_suffix(".png"), overwrite=overwrite, parameter="out")
-    flying = FlyingVehicle.load(vehicle)
-    frame = response_database(flying, n_vehicles=n_vehicles, seed=seed, nthread=nthread)
+    vehicle = Vehicle.load(vehicle)  # a name or a file: resolved once, before the flights
+    frame = response_database(vehicle, n_vehicles=n_vehicles, seed=seed, nthread=nthread)
     table = response_summary(frame)
     meta: dict = {
-        "vehicle": flying.definition.source,
-        "vehicle_name": flying.definition.name,
-        "vehicle_sha256": hashlib.sha256(Path(flying.definition.source).read_bytes()).hexdigest(),
+        "vehicle": vehicle.definition.source,
+        "vehicle_name": vehicle.definition.name,
+        "vehicle_sha256": vehicle.sha256,
         "seed": seed,
         "n_vehicles": n_vehicles,
         "on_times_s": sorted(set(frame["on_time_s"].tolist())),
-        "min_on_s": flying.definition.min_on_s,
+        "min_on_s": vehicle.definition.min_on_s,
         "dropped_on_times_s": frame.attrs["dropped_on_times_s"],
         "code_version": code_version(),
     }
-    if flying.definition.has_delays:  # the valve timing flown (the file's), when it has one
-        meta["valve_timing"] = flying.definition.delay_record()
-    fig = _plot(flying, table, n_vehicles)
+    if vehicle.definition.has_delays:  # the valve timing flown (the file's), when it has one
+        meta["valve_timing"] = vehicle.definition.delay_record()
+    fig = _plot(vehicle, table, n_vehicles)
     created = make_parents(database)
     try:
         atomic_write(database, lambda tmp: _to_parquet(frame, tmp, meta))
@@ -107,7 +106,7 @@ def _to_parquet(frame: pd.DataFrame, path: str, meta: dict) -> None:
     pq.write_table(arrow.cast(schema), path)
 
 
-def _plot(flying: FlyingVehicle, table: pd.DataFrame, n_vehicles: int):
+def _plot(flying: Vehicle, table: pd.DataFrame, n_vehicles: int):
     """Rate change per second of firing of every jet, per axis, with 3-sigma bars."""
     fig, ax = new_figure(figsize=(10.0, 4.6))
     x = np.arange(len(table))

@@ -13,10 +13,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from rcsim.analysis.engine.output import check_out_file, make_parents, remove_parents
+from rcsim.lookup.generation import generate_table, is_coupled
 from rcsim.lookup.jet_sets import companion_path
-from rcsim.lookup.table_generation import GeneratedTable, generate_table
+from rcsim.lookup.table_generation import GeneratedTable
 from rcsim.models.atomic import atomic_write
 from rcsim.models.errors import InputError
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 
 @dataclass(frozen=True)
@@ -34,10 +36,10 @@ def generate_table_files(
     settling_out: str | os.PathLike | None = None,
     jets_off=(),
     overwrite: bool = False,
-    vehicle: str | os.PathLike | None = None,
+    vehicle: Vehicle,
 ) -> TableFiles:
-    """Generate the lookup table (:func:`rcsim.lookup.table_generation.generate_table`) and write
-    ``out`` and its companion (default ``<out stem>_settling.csv``).
+    """Generate ``vehicle``'s lookup table (:func:`rcsim.lookup.generation.generate_table`) and
+    write ``out`` and its companion (default ``<out stem>_settling.csv``).
 
     Raises
     ------
@@ -46,8 +48,8 @@ def generate_table_files(
         system refuses, the two paths equal, or ``settling_out`` with ``jets_off`` (the loader
         finds a table's jet set only in its companion beside it); about ``jets_off``: the
         library's jet-set rule (:func:`rcsim.lookup.jet_sets.check_jets_off`, or for a channel
-        table :func:`rcsim.lookup.channels.solve_recipe`'s); about ``vehicle``: an invalid vehicle
-        file.
+        table :func:`rcsim.lookup.channels.solve_recipe`'s); about ``vehicle``: rate cases its
+        jets cannot reach.
 
     A vehicle whose jets do not each turn one axis as Table 2's do gets a *channel table*
     (:mod:`rcsim.lookup.channel_generation`): six axis channels and the recipe that fires the jets,
@@ -70,12 +72,12 @@ def generate_table_files(
         raise InputError(
             f"{settling}: is the table itself (out)", parameter="settling_out", value=str(settling)
         )
-    channels = vehicle is not None and is_coupled(vehicle)
+    channels = is_coupled(vehicle)
     if channels:
         from rcsim.models.tables import recipe_path
 
         check_out_file(recipe_path(table), overwrite=overwrite, parameter="out")
-    gen = generate(vehicle, jets_off)
+    gen = generate_table(vehicle, jets_off=jets_off)
     frame = gen.settling_frame()
     created = make_parents(table) + make_parents(settling)
     try:
@@ -89,40 +91,3 @@ def generate_table_files(
         remove_parents(created)
         raise
     return TableFiles(gen, table, settling)
-
-
-def generate(vehicle: str | os.PathLike | None, jets_off=()) -> GeneratedTable:
-    """The lookup table of a vehicle (None: the packaged one), nothing written: a jet table
-    when its jets play Table 2's roles (:func:`rcsim.lookup.table_generation.generate_table`), else
-    a channel table (:func:`rcsim.lookup.channel_generation.generate_channel_table`)."""
-    if vehicle is not None and is_coupled(vehicle):
-        from rcsim.lookup.channel_generation import generate_channel_table
-
-        return generate_channel_table(vehicle, jets_off=jets_off)
-    flying = {} if vehicle is None else _vehicle_generation(vehicle)
-    return generate_table(jets_off=jets_off, **flying)
-
-
-def is_coupled(vehicle: str | os.PathLike) -> bool:
-    """Whether a vehicle file's jets do *not* each turn one axis as Table 2's do: its lookup
-    table is a channel table (:mod:`rcsim.lookup.channels`)."""
-    from rcsim.models.tables import load_jet_map
-    from rcsim.spacecraft.vehicle_file import load_vehicle
-    from rcsim.spacecraft.vehicle_file.authority import jet_map_mismatch
-
-    return jet_map_mismatch(load_vehicle(vehicle), load_jet_map()) is not None
-
-
-def _vehicle_generation(vehicle: str | os.PathLike) -> dict:
-    """The :func:`generate_table` arguments that fly a vehicle file (with Table 2's jet map)
-    instead of the packaged vehicle: its model, nominal parameters, valve limits and valve
-    timing (None when it has no delay: the paper's rule alone)."""
-    from rcsim.spacecraft.vehicle_file import FlyingVehicle
-
-    flying = FlyingVehicle.load(vehicle)
-    return {
-        "model": flying.model,
-        "params": flying.nominal(1),
-        "propulsion": flying.propulsion(),
-        "timing": flying.timing(1),
-    }

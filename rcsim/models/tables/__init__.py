@@ -1,8 +1,9 @@
 """The paper's reference tables as validated data (Gambone, *Pattern Recognition Control Design*).
 
 Owns the loaders of ``rcsim/models/data/*.csv`` (Tables 1-7 and ``corrections.csv``; provenance and
-every correction in ``rcsim/models/data/SOURCES.md``) and the paper's design constants, above all
-``CONTROL_CYCLE_S`` -- the one definition of the 40 ms control cycle.  It is the
+every correction in ``rcsim/models/data/SOURCES.md``) and the paper's design constants, such
+as ``PAPER_CYCLE_S``, the paper's 40 ms control cycle (a flight's cycle is its vehicle's
+profile's, ``rcsim.spacecraft.control_profile``).  It is the
 bottom layer: only ``rcsim.models.errors`` and ``rcsim.models.atomic`` besides numpy/pandas.
 
 Must not import: rcsim.spacecraft, rcsim.lookup, rcsim.analysis, rcsim.models.dai.
@@ -61,11 +62,11 @@ from rcsim.models.tables.channels import (
 from rcsim.models.tables.consistency import check_consistency
 from rcsim.models.tables.constants import (
     AXES,
-    CONTROL_CYCLE_S,
     JET_COLUMNS,
     MAX_FIRING_TIME_S,
     N_CASES,
     N_JETS,
+    PAPER_CYCLE_S,
     PAPER_TOTAL_RATE_DEG_S,
     RATE_COLUMNS,
     RATE_RTOL,
@@ -85,7 +86,7 @@ from rcsim.models.tables.lookup_tables import (
     lookup_table_source,
 )
 from rcsim.models.tables.mass_properties import MassProperties, load_mass_properties
-from rcsim.models.tables.rate_cases import RateCases, load_rate_cases, sign_patterns
+from rcsim.models.tables.rate_cases import RateCases, load_rate_cases, rate_cases_at, sign_patterns
 
 __all__ = [
     "AXES",
@@ -97,7 +98,7 @@ __all__ = [
     "is_channel_table",
     "load_recipe",
     "recipe_path",
-    "CONTROL_CYCLE_S",
+    "PAPER_CYCLE_S",
     "JET_COLUMNS",
     "MAX_FIRING_TIME_S",
     "N_CASES",
@@ -122,6 +123,7 @@ __all__ = [
     "load_lookup_table",
     "load_mass_properties",
     "load_rate_cases",
+    "rate_cases_at",
     "lookup_table_source",
     "paper_corrections",
     "sign_patterns",

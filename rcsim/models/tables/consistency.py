@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from rcsim.models.errors import InputError
-from rcsim.models.tables.constants import AXES, CONTROL_CYCLE_S, MAX_FIRING_TIME_S, TIME_ATOL_S
+from rcsim.models.tables.constants import AXES, MAX_FIRING_TIME_S, PAPER_CYCLE_S, TIME_ATOL_S
 from rcsim.models.tables.schema import cell_error
 
 
@@ -20,7 +20,7 @@ def check_consistency(
     *,
     file: str = "<lookup table>",
     rows: np.ndarray | None = None,
-    cycle_s: float | None = CONTROL_CYCLE_S,
+    cycle_s: float | None = PAPER_CYCLE_S,
     max_firing_time_s: float | None = MAX_FIRING_TIME_S,
     columns=None,
 ) -> None:
@@ -105,7 +105,7 @@ def check_consistency(
                     file,
                     f"firing time outside the physical range 0..{max_firing_time_s:g} s: a "
                     "table firing is one feedback pulse (the paper's longest is 0.52 s), this "
-                    f"one holds the jet on, open loop, for {t / (cycle_s or CONTROL_CYCLE_S):.4g} "
+                    f"one holds the jet on, open loop, for {t / (cycle_s or PAPER_CYCLE_S):.4g} "
                     "control cycles (a time in ms under an s header?)",
                     column=col,
                     value=t,

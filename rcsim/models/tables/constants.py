@@ -14,10 +14,11 @@ N_JETS = 16
 #: Paper section II: the 26 rate commands are "combinations of positive, negative and zero rate
 #: commands in roll, pitch, and yaw" -- every pattern in {-,0,+}^3 except the all-zero one.
 N_CASES = 3 ** len(AXES) - 1
-#: The control cycle, s.  Paper section II: "The control rate for the spacecraft model is set
-#: to 40 milliseconds."  THE one definition: the propulsion model, both controllers, table
-#: generation and the loaders' "whole control cycles" check all use this name.
-CONTROL_CYCLE_S = 0.040
+#: The paper's control cycle, s.  Paper section II: "The control rate for the spacecraft model
+#: is set to 40 milliseconds."  The paper's tables are whole cycles of it (the loaders' default
+#: check).  A flight's cycle is its vehicle's flight-software profile's (``[control]
+#: cycle_s``; ``paper.toml`` gives this value, a test checks they agree), never this constant.
+PAPER_CYCLE_S = 0.040
 #: Paper section II: "... for a 0.3 degrees per second total rate command for each run."
 PAPER_TOTAL_RATE_DEG_S = 0.3
 

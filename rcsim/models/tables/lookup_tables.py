@@ -28,11 +28,11 @@ from rcsim.models.tables.channels import (
 )
 from rcsim.models.tables.consistency import check_consistency
 from rcsim.models.tables.constants import (
-    CONTROL_CYCLE_S,
     JET_COLUMNS,
     MAX_FIRING_TIME_S,
     N_CASES,
     N_JETS,
+    PAPER_CYCLE_S,
     RATE_COLUMNS,
 )
 from rcsim.models.tables.jet_map import load_jet_map
@@ -195,7 +195,7 @@ def load_lookup_table(
     which: str = "table7",
     rate_cases: RateCases | None = None,
     jet_map: np.ndarray | None = None,
-    cycle_s: float | None = CONTROL_CYCLE_S,
+    cycle_s: float | None = PAPER_CYCLE_S,
     total_rate_deg_s: float | None = None,
     max_firing_time_s: float | None = MAX_FIRING_TIME_S,
 ) -> LookupTable:
@@ -231,7 +231,7 @@ def load_lookup_table(
     jet_map : array_like of int, shape (16, 3), optional
         Jet map for the cross-check.  Default: :func:`load_jet_map` ().
     cycle_s : float or None
-        Control cycle, s (default ``CONTROL_CYCLE_S`` = 0.040, paper section II); firing times
+        Control cycle, s (default ``PAPER_CYCLE_S`` = 0.040, paper section II); firing times
         must be whole multiples of it.  None skips that check.
     total_rate_deg_s : float or None
         rcsim layout only: required total rate per case, deg/s (None: one common total).

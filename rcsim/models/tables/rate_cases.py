@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rcsim.models.errors import InputError
 from rcsim.models.tables.constants import (
     AXES,
     N_CASES,
@@ -241,3 +242,21 @@ def load_rate_cases(
         equal_split=True,
     )
     return RateCases(case=case, rate_cmd=np.deg2rad(rate))
+
+
+def rate_cases_at(total_rad_s: float) -> RateCases:
+    """The 26 rate cases at total rate ``total_rad_s`` [rad/s] (a vehicle profile's
+    ``rate_case_deg_s``).
+
+    At the paper's 0.3 deg/s they are Table 3 as packaged (:func:`load_rate_cases`: the
+    printed, corrected values, rounded to 4 decimals, with which every packaged table was
+    made); at any other total the same sign patterns, split equally over their nonzero axes
+    (paper sec. II), scaled exactly: ``pattern / |pattern| * total``.
+    """
+    if total_rad_s == float(np.deg2rad(PAPER_TOTAL_RATE_DEG_S)):
+        return load_rate_cases()
+    if not (np.isfinite(total_rad_s) and total_rad_s > 0):
+        raise InputError(f"rate case total must be > 0 rad/s, got {total_rad_s}")
+    patterns = sign_patterns().astype(float)
+    rate = patterns / np.linalg.norm(patterns, axis=1, keepdims=True) * total_rad_s
+    return RateCases(case=np.arange(1, N_CASES + 1), rate_cmd=rate)

@@ -5,8 +5,10 @@
   jets with their valve delays, propellant, the Table 5-format dispersion table);
 * :mod:`~rcsim.spacecraft.vehicle_file.mjcf` -- the vehicle's MJCF text and compiled model, with the
   packaged vehicle's structure (jets as site actuators named ``jet_01``...);
-* :mod:`~rcsim.spacecraft.vehicle_file.flying` -- a file ready to fly (model, nominal parameters
-  with its Isp, minimum on-time, valve timing, propellant tank);
+* :mod:`~rcsim.spacecraft.control_profile` -- the flight-software profile (``[control]``:
+  cycle, maneuver rate and limit, deadbands, hold time) as data;
+* :mod:`~rcsim.spacecraft.vehicle_file.vehicle` -- :class:`Vehicle`, the vehicle flown, resolved
+  once (definition, cached model, jet geometry, Isp, valve limits, profile, tank, timing);
 * :mod:`~rcsim.spacecraft.vehicle_file.authority` -- what the jets can do: force/torque matrix,
   authority per axis and direction, unreachable directions, jet-out cases
   (``rcsim vehicle check``).
@@ -18,7 +20,7 @@ a four-quad layout with canted jets and ``canted12`` four canted triads (arithme
 wide as the vehicle's model has jets (:func:`rcsim.spacecraft.vehicle.jet_count`).
 """
 
-from rcsim.spacecraft.vehicle_file.flying import FlyingVehicle
+from rcsim.spacecraft.control_profile import ControlProfile
 from rcsim.spacecraft.vehicle_file.mjcf import build_model, to_mjcf
 from rcsim.spacecraft.vehicle_file.schema import (
     PACKAGED_VEHICLES,
@@ -27,10 +29,13 @@ from rcsim.spacecraft.vehicle_file.schema import (
     load_vehicle,
     resolve_vehicle,
 )
+from rcsim.spacecraft.vehicle_file.vehicle import DEFAULT_VEHICLE, Vehicle
 
 __all__ = [
+    "DEFAULT_VEHICLE",
     "PACKAGED_VEHICLES",
-    "FlyingVehicle",
+    "ControlProfile",
+    "Vehicle",
     "Jet",
     "VehicleDef",
     "build_model",

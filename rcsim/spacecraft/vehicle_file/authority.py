@@ -24,47 +24,13 @@ from itertools import combinations
 import numpy as np
 from scipy.optimize import linprog
 
-from rcsim.spacecraft.vehicle import AXES
+from rcsim.spacecraft.vehicle_file.axis_authority import (
+    DIRECTIONS,
+    direction_name,
+    pure_axis_authority,
+)
+from rcsim.spacecraft.vehicle_file.sanity import sanity_warnings
 from rcsim.spacecraft.vehicle_file.schema import VehicleDef
-
-#: The six axis directions in the order they are reported: +roll, -roll, +pitch, ...
-DIRECTIONS = tuple((a, s) for a in range(3) for s in (1, -1))
-
-
-def direction_name(axis: int, sign: int) -> str:
-    return f"{'+' if sign > 0 else '-'}{AXES[axis]}"
-
-
-def pure_axis_authority(
-    accel: np.ndarray, axis: int, sign: int, available: np.ndarray, force: np.ndarray | None = None
-) -> tuple[float, np.ndarray | None]:
-    """Largest ``sign * (accel u)[axis]`` with the other axes zero, ``0 <= u <= 1`` on the
-    available jets (and zero net force when ``force`` (3, n) is given).
-
-    Returns the authority [rad/s^2] and the duties (least total duty among the optimal ones),
-    or ``(0.0, None)`` when the direction cannot be reached.
-    """
-    n = accel.shape[1]
-    rows = accel[[b for b in range(3) if b != axis]]
-    if force is not None:
-        rows = np.vstack([rows, force])
-    bounds = [(0.0, 1.0 if available[j] else 0.0) for j in range(n)]
-    zero = np.zeros(rows.shape[0])
-    best = linprog(-sign * accel[axis], A_eq=rows, b_eq=zero, bounds=bounds, method="highs")
-    if best.status != 0 or -best.fun <= 1e-12 * np.abs(accel).max():
-        return 0.0, None
-    value = -best.fun
-    # the same authority with the least total duty: no idle pair in the answer
-    lean = linprog(
-        np.ones(n),
-        A_ub=-sign * accel[axis][None],
-        b_ub=[-value * (1 - 1e-9)],
-        A_eq=rows,
-        b_eq=zero,
-        bounds=bounds,
-        method="highs",
-    )
-    return value, lean.x if lean.status == 0 else best.x
 
 
 def propellant_per_rate(
@@ -201,6 +167,7 @@ def check_text(vehicle: VehicleDef, result: VehicleCheck) -> str:
             f"{ms(d.open_delays_s())} ms, close {ms(d.close_delays_s())} ms after their "
             "command edges"
         )
+    out.append(f"flight-software profile: {d.control.describe()}")
     out += [
         "",
         "Force [N] and torque about the CG [N m] of each jet at full thrust:",
@@ -269,6 +236,9 @@ def check_text(vehicle: VehicleDef, result: VehicleCheck) -> str:
         f"Two jets out: {len(pairs)} of {n_pairs} pairs lose an axis direction"
         + (f": {shown}" if pairs else "")
     )
+    warnings = sanity_warnings(d, np.array([ax.accel_rad_s2 for ax in result.axes]))
+    out += ["", "Warnings (physically odd but legal values):" if warnings else "Warnings: none"]
+    out += [f"  {w}" for w in warnings]
     return "\n".join(out) + "\n"
 
 
@@ -322,3 +292,14 @@ def jet_map_mismatch(vehicle: VehicleDef, jet_map: np.ndarray) -> str | None:
                 f"(the jet map: {np.asarray(jet_map[j]).tolist()})"
             )
     return None
+
+
+def vehicle_report(vehicle, *, pairs: bool = True) -> str:
+    """What ``rcsim vehicle check`` prints for ``vehicle`` (a
+    :class:`~rcsim.spacecraft.vehicle_file.Vehicle`, a packaged name or a vehicle file): the
+    force/torque matrix, the authority per axis, the unreachable directions, the jet-out
+    cases (and, with ``pairs``, the two-jets-out search), and the flight-software profile."""
+    from rcsim.spacecraft.vehicle_file.vehicle import Vehicle
+
+    definition = Vehicle.load(vehicle).definition
+    return check_text(definition, check_vehicle(definition, pairs=pairs))

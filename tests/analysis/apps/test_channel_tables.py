@@ -30,7 +30,7 @@ from rcsim.analysis.apps.loop.run import STAGES, LoopSettings, run_loop
 from rcsim.analysis.apps.refinement.outputs import refinement_spec
 from rcsim.analysis.apps.refinement.search import refine
 from rcsim.lookup.channel_generation import generate_channel_table
-from rcsim.models.tables import CONTROL_CYCLE_S, load_lookup_table
+from rcsim.models.tables import PAPER_CYCLE_S, load_lookup_table
 
 SECTIONS = ("summary", "before-after", "figs-9-10", "drivers", "changelog", "traceability")
 SMALL = LoopSettings(
@@ -47,8 +47,8 @@ def test_refinement_moves_a_misset_channel_cell_back(tmp_path):
     generated = generate_channel_table("canted16")
     times = generated.table.firing_time_s.copy()
     case, channel = 13, 4  # case 14 (0, 0, +), the +yaw channel
-    assert times[case, channel] == pytest.approx(4 * CONTROL_CYCLE_S)
-    times[case, channel] += CONTROL_CYCLE_S
+    assert times[case, channel] == pytest.approx(4 * PAPER_CYCLE_S)
+    times[case, channel] += PAPER_CYCLE_S
     replace(generated.table, firing_time_s=times).to_csv(tmp_path / "bad.csv")
     table = load_lookup_table(tmp_path / "bad.csv")
     spec = refinement_spec(
@@ -62,7 +62,7 @@ def test_refinement_moves_a_misset_channel_cell_back(tmp_path):
         spec, table, cases=[case], max_iterations=3, search_runs_per_case=20, confirm_seed=3,
         progress=False, threads=1,
     )  # fmt: skip
-    assert result.table.firing_time_s[case, channel] == pytest.approx(4 * CONTROL_CYCLE_S)
+    assert result.table.firing_time_s[case, channel] == pytest.approx(4 * PAPER_CYCLE_S)
     assert result.iterations[0]["changed"] == ["case 14: +yaw channel -1 cycle"]
     assert result.evidence["decision"].tolist() == ["changed (search; confirmed)"]
     assert int(result.before["failed"].sum() + result.before["repeated"].sum()) > 0
@@ -143,7 +143,7 @@ def test_cli_refines_a_channel_table_on_its_recipes_vehicle(tmp_path, capsys):
 
     generated = generate_channel_table("canted16")
     times = generated.table.firing_time_s.copy()
-    times[13, 4] += CONTROL_CYCLE_S
+    times[13, 4] += PAPER_CYCLE_S
     replace(generated.table, firing_time_s=times).to_csv(tmp_path / "bad.csv")
     argv = ["lookup", "refine", "--table", str(tmp_path / "bad.csv"), "--runs", "20",
             "--search-runs", "20", "--duration-s", "10", "--cases", "14", "--max-iterations", "2",
@@ -153,7 +153,7 @@ def test_cli_refines_a_channel_table_on_its_recipes_vehicle(tmp_path, capsys):
     assert "case 14: +yaw channel 0.20->0.16 s" in out
     refined = load_lookup_table(tmp_path / "R.csv")
     assert refined.is_channel and refined.recipe.vehicle == "canted16"
-    assert refined.firing_time_s[13, 4] == pytest.approx(4 * CONTROL_CYCLE_S)
+    assert refined.firing_time_s[13, 4] == pytest.approx(4 * PAPER_CYCLE_S)
     assert (tmp_path / "R_plots" / "case_14_before_after.png").is_file()
 
 

@@ -23,9 +23,10 @@ import pandas as pd
 import pytest
 
 from rcsim.analysis.apps.cli import main
+from rcsim.analysis.apps.refinement.evidence import changed_cells
 from rcsim.analysis.apps.refinement.outputs import refinement_spec, run_refinement
-from rcsim.analysis.apps.refinement.search import changed_cells, refine
-from rcsim.models.tables import load_lookup_table
+from rcsim.analysis.apps.refinement.search import refine
+from rcsim.models.tables import PAPER_CYCLE_S, load_lookup_table
 
 SMALL = dict(runs_per_case=30, seed=1, fresh_seed=2, duration_s=8.0, progress=False)
 CASES = [2, 23]  # table rows of rate cases 3 (-,-,+) and 24 (+,+,-)
@@ -37,7 +38,7 @@ def refined():
 
 
 def test_table6_moves_the_way_table7_did(refined):
-    cells = changed_cells(load_lookup_table(which="table6"), refined.table)
+    cells = changed_cells(load_lookup_table(which="table6"), refined.table, PAPER_CYCLE_S)
     expected = pd.DataFrame(
         {"case": [3, 24], "axis": ["yaw", "yaw"], "old_cycles": [7, 7], "new_cycles": [6, 6]}
     )
@@ -60,7 +61,7 @@ def test_a_robust_table_comes_back_unchanged(refined):
     spec = refinement_spec(runs_per_case=30, seed=1, duration_s=8.0)
     for table in (load_lookup_table(which="table7"), refined.table):
         again = refine(spec, table, CASES, progress=False)
-        assert changed_cells(table, again.table).empty
+        assert changed_cells(table, again.table, PAPER_CYCLE_S).empty
         np.testing.assert_array_equal(again.table.firing_time_s, table.firing_time_s)
 
 
@@ -212,7 +213,7 @@ def fake_evaluate(world):
 
     def evaluate(spec, table, trials, *, runs_per_case=None, **kw):
         n = spec.runs_per_case if runs_per_case is None else min(runs_per_case, spec.runs_per_case)
-        yaw = axis_cycles(trials.times_s, jet_axes(table))[
+        yaw = axis_cycles(trials.times_s, jet_axes(table), PAPER_CYCLE_S)[
             np.arange(trials.n_trials), trials.case, 2
         ]
         frames = []
@@ -247,7 +248,7 @@ def test_a_change_resting_on_one_failure_in_200_runs_is_refused(monkeypatch):
     0.5 on the paired runs); those gains did not hold on a fresh seed.  Now refused."""
     world = {(ROW3, 7, SEARCH_SEED): 1, (ROW3, 8, SEARCH_SEED): 5}  # yaw 6 fails none
     result = fake_refine(monkeypatch, world, cases=[ROW3])
-    assert changed_cells(load_lookup_table(which="table6"), result.table).empty
+    assert changed_cells(load_lookup_table(which="table6"), result.table, PAPER_CYCLE_S).empty
     decision = result.iterations[0]["decisions"][0]
     assert (decision["b"], decision["c"], decision["p"]) == (1, 0, 0.5)
     assert not decision["accepted"]
@@ -256,7 +257,7 @@ def test_a_change_resting_on_one_failure_in_200_runs_is_refused(monkeypatch):
     world[(ROW3, 7, SEARCH_SEED)] = 20
     world[(ROW3, 7, CONFIRM_SEED)] = 20
     result = fake_refine(monkeypatch, world, cases=[ROW3])
-    assert changed_cells(load_lookup_table(which="table6"), result.table)[
+    assert changed_cells(load_lookup_table(which="table6"), result.table, PAPER_CYCLE_S)[
         "new_cycles"
     ].tolist() == [6]
 
@@ -295,7 +296,7 @@ def test_a_confirmed_change_is_offered_to_the_mirror_case(monkeypatch):
         (ROW24, 7, CONFIRM_SEED): 10,
     }
     result = fake_refine(monkeypatch, world)
-    cells = changed_cells(load_lookup_table(which="table6"), result.table)
+    cells = changed_cells(load_lookup_table(which="table6"), result.table, PAPER_CYCLE_S)
     assert cells["case"].tolist() == [3, 24] and cells["new_cycles"].tolist() == [6, 6]
     ev = result.evidence.set_index("case_index")
     assert ev.loc[ROW24, "decision"] == "changed (mirror of case 3; confirmed)"
@@ -305,7 +306,7 @@ def test_a_confirmed_change_is_offered_to_the_mirror_case(monkeypatch):
 
     world[(ROW24, 7, CONFIRM_SEED)] = 0  # the mirror's gain does not hold
     result = fake_refine(monkeypatch, world)
-    cells = changed_cells(load_lookup_table(which="table6"), result.table)
+    cells = changed_cells(load_lookup_table(which="table6"), result.table, PAPER_CYCLE_S)
     assert cells["case"].tolist() == [3]
     ev = result.evidence.set_index("case_index")
     assert ev.loc[ROW24, "decision"].startswith("reverted (mirror of case 3")

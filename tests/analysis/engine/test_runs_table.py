@@ -20,13 +20,13 @@ from rcsim.analysis.engine.runs_table import (
 )
 from rcsim.models.tables import load_dispersions
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
-from rcsim.spacecraft.vehicle import VehicleParams, torque_per_jet_B
+from rcsim.spacecraft.vehicle import torque_per_jet_B
 
 
 @pytest.fixture(scope="module")
-def drawn(model):
+def drawn(paper):
     sigmas = DispersionSigmas.from_table(load_dispersions(), scale=3.0)
-    runs = draw_runs(VehicleParams.nominal(1, model), sigmas, seed=11, run_ids=np.arange(40))
+    runs = draw_runs(paper.nominal(1), sigmas, seed=11, run_ids=np.arange(40))
     return runs, input_frame(runs)
 
 
@@ -36,13 +36,13 @@ def test_input_columns_are_the_schemas(drawn):
     assert recorded_jets(drawn[1].columns) == 16
 
 
-def test_rebuilt_vehicles_give_the_simulators_torques(drawn, model):
+def test_rebuilt_vehicles_give_the_simulators_torques(drawn, paper):
     runs, frame = drawn
-    rebuilt, straight = vehicles_from_runs(frame, VehicleParams.nominal(1, model))
+    rebuilt, straight = vehicles_from_runs(frame, paper.nominal(1))
     np.testing.assert_allclose(rebuilt.jet_dir_S, runs.params.jet_dir_S, rtol=0, atol=1e-12)
     np.testing.assert_allclose(
-        torque_per_jet_B(rebuilt, model),
-        torque_per_jet_B(runs.params, model),
+        torque_per_jet_B(rebuilt, paper.model),
+        torque_per_jet_B(runs.params, paper.model),
         rtol=1e-9,
         atol=1e-12,
     )

@@ -16,7 +16,7 @@ from rcsim.models.tables import load_dispersions, load_rate_cases
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
-from rcsim.spacecraft.vehicle import VehicleParams, load_model
+from rcsim.spacecraft.vehicle import load_model
 from rcsim.spacecraft.vehicle_file import build_model, load_vehicle
 
 
@@ -42,29 +42,36 @@ def test_dispersion_table_is_table_5():
     assert sig_file == DispersionSigmas.from_table(table)
 
 
-def test_dispersed_lookup_flights_identical():
+def test_dispersed_lookup_flights_identical(paper, monkeypatch):
+    """The paper's vehicle flown on the packaged MJCF (vehicle.xml: what every earlier result
+    flew) and on the model its file builds: the same flights bit for bit."""
+    from rcsim.spacecraft.vehicle_file import vehicle as vehicle_module
+
     n = 26
     rate = np.asarray(load_rate_cases().rate_cmd, float)
     sig = DispersionSigmas.from_table(load_dispersions())
+    key = paper.model_key
     out = []
     for model in (load_model(), build_model(load_vehicle("paper"))):
-        runs = draw_runs(VehicleParams.nominal(1, model), sig, 7, np.arange(n))
+        monkeypatch.setitem(vehicle_module._MODELS, key, model)  # the model the vehicle flies
+        assert paper.model is model
+        runs = draw_runs(paper.nominal(1), sig, 7, np.arange(n))
         out.append(
             simulate_batch(
                 runs.params,
-                make_controller("lookup"),
+                make_controller("lookup", paper),
                 Guidance.rate(rate),
                 3.0,
-                model=model,
+                vehicle=paper,
                 nthread=1,
             )
         )
-    for key in ("q_BN", "omega_B", "on_time_s", "rate_err_B"):
-        assert np.array_equal(getattr(out[0], key), getattr(out[1], key)), key
+    for key_ in ("q_BN", "omega_B", "on_time_s", "rate_err_B"):
+        assert np.array_equal(getattr(out[0], key_), getattr(out[1], key_)), key_
     assert np.array_equal(out[0].propulsion.impulse_ns, out[1].propulsion.impulse_ns)
 
 
-def test_paper_draws_keep_their_layout():
+def test_paper_draws_keep_their_layout(paper):
     """The paper vehicle's runs must draw what they always drew (issue 18 sized every draw by
     the vehicle's jet count; results stay bit-identical only if 16 jets give the old layout).
     Oracle: the layout the modules document, rebuilt from the seed streams: dispersions 37
@@ -86,8 +93,7 @@ def test_paper_draws_keep_their_layout():
     )
     from rcsim.spacecraft.propellant import principal
 
-    model = build_model(load_vehicle("paper"))
-    nominal = VehicleParams.nominal(1, model)
+    nominal = paper.nominal(1)
     sig = DispersionSigmas.from_table(load_dispersions())
     runs = draw_runs(nominal, sig, 18, [0, 7])
     assert runs.params.iquat is None

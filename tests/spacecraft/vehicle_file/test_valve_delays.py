@@ -26,7 +26,7 @@ from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
-from rcsim.spacecraft.vehicle_file import PACKAGED_VEHICLES, FlyingVehicle, load_vehicle
+from rcsim.spacecraft.vehicle_file import PACKAGED_VEHICLES, Vehicle, load_vehicle
 
 CYCLE_S = 0.04
 COMMAND_S = 0.006
@@ -60,10 +60,10 @@ close_delay_s = {OWN_CLOSE_S}
 
 
 @pytest.fixture(scope="module")
-def delayed(tmp_path_factory) -> FlyingVehicle:
+def delayed(tmp_path_factory) -> Vehicle:
     path = tmp_path_factory.mktemp("delays") / "v.toml"
     path.write_text(VEHICLE)
-    return FlyingVehicle.load(path)
+    return Vehicle.load(path)
 
 
 def test_keys_default_override_and_record(delayed):
@@ -80,16 +80,15 @@ def test_keys_default_override_and_record(delayed):
     timing = delayed.timing(3)
     assert timing is not None and timing.open_delay_s.shape == (3, 2)
     np.testing.assert_array_equal(timing.close_delay_s[2], [CLOSE_S, OWN_CLOSE_S])
-    assert delayed.flight_options(3)["timing"] is not None
 
 
 @pytest.mark.parametrize("name", PACKAGED_VEHICLES)
 def test_a_vehicle_without_the_keys_flies_without_timing(name):
     """The packaged vehicles give no delay: no timing is passed to any flight, so they fly
     the code path they always flew (byte-identical results: docs/vehicles.md)."""
-    vehicle = FlyingVehicle.load(name)
+    vehicle = Vehicle.load(name)
     assert vehicle.definition.delay_keys == () and not vehicle.definition.has_delays
-    assert vehicle.timing(4) is None and vehicle.flight_options(4)["timing"] is None
+    assert vehicle.timing(4) is None
 
 
 def test_zero_delays_given_are_given_but_fly_as_none(tmp_path):
@@ -99,12 +98,12 @@ def test_zero_delays_given_are_given_but_fly_as_none(tmp_path):
     path.write_text(VEHICLE.replace(str(OWN_OPEN_S), "0.0").replace(str(OWN_CLOSE_S), "0.0")
                     .replace(str(OPEN_S), "0.0").replace(str(CLOSE_S), "0.0")
                     .replace(str(COMMAND_S), "0.0"))  # fmt: skip
-    vehicle = FlyingVehicle.load(path)
+    vehicle = Vehicle.load(path)
     assert vehicle.definition.delay_keys == ("command_delay_s", "open_delay_s", "close_delay_s")
     assert vehicle.timing(2) is None
 
 
-def _flight(vehicle: FlyingVehicle, jet: int, on_s: np.ndarray):
+def _flight(vehicle: Vehicle, jet: int, on_s: np.ndarray):
     n = on_s.size
     total = np.zeros((n, 2))
     total[:, jet] = on_s
@@ -113,9 +112,8 @@ def _flight(vehicle: FlyingVehicle, jet: int, on_s: np.ndarray):
         OpenLoopController(total, CYCLE_S),
         Guidance.rate(np.zeros((n, 3))),
         0.2,
-        model=vehicle.model,
+        vehicle=vehicle,
         nthread=1,
-        **vehicle.flight_options(n),
     )
 
 

@@ -49,6 +49,13 @@ def register(subparsers) -> None:
         help="binary outcome column, true/1 = failed (default: failed)",
     )
     parser.add_argument("--case", metavar="CASE", help="analyse only this case (e.g. rate-13)")
+    parser.add_argument(
+        "--vehicle",
+        metavar="FILE",
+        help="the vehicle the runs flew (a packaged name or a vehicle file), for the "
+        "physics-aware factors of a table file; a campaign directory's manifest names its own, "
+        "and a table without --vehicle gets no physics-aware factors (never a guessed vehicle)",
+    )
     # dest = the library's parameter names, so that its errors are shown under these flags.
     parser.add_argument(
         "--permutations",
@@ -130,7 +137,9 @@ def _run(args) -> int:
     from rcsim.analysis.results.drivers.outputs import COMMAND, write_analysis
 
     check_out_dir(args.out, COMMAND, overwrite=args.overwrite)  # before minutes of work
-    runset = load_runs(args.path, inputs=inputs, outcome=args.outcome, case=args.case)
+    runset = load_runs(
+        args.path, inputs=inputs, outcome=args.outcome, case=args.case, vehicle=args.vehicle
+    )
     res = analyze(runset, settings)
     report = write_analysis(res, args.out, overwrite=args.overwrite)
     n, nf = runset.y.size, int(runset.y.sum())

@@ -143,6 +143,9 @@ def _run(args) -> int:
     from rcsim.analysis.engine.campaign.spec import load_spec
 
     spec = load_spec(args.spec)
+    from rcsim.analysis.apps.cli.vehicle_args import warn_vehicle
+
+    warn_vehicle(spec.vehicle)
     if args.runs_per_case is not None:
         if args.runs_per_case < 1:
             raise InputError(f"--runs-per-case must be >= 1, got {args.runs_per_case}")

@@ -6,6 +6,12 @@ import argparse
 import os
 import shlex
 
+from rcsim.analysis.apps.cli.vehicle_args import (
+    add_vehicle_args,
+    control_overrides,
+    warn_vehicle,
+)
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -45,12 +51,11 @@ def register(sub) -> None:
         "case's N (the same draws); the refined table is then checked on all N "
         "runs of the held-out seed (default 200)",
     )
-    p.add_argument(
-        "--vehicle",
-        metavar="FILE",
-        help="fly your own vehicle (a vehicle TOML file or a packaged name; docs/vehicles.md) "
-        "instead of the paper's; a vehicle whose jets torque several axes (e.g. canted16) "
-        "gets its channel table generated first (stage generate)",
+    add_vehicle_args(
+        p,
+        vehicle_help="fly your own vehicle (a vehicle TOML file or a packaged name; "
+        "docs/vehicles.md) instead of the paper's; a vehicle whose jets torque several axes "
+        "(e.g. canted16) gets its channel table generated first (stage generate)",
     )
     p.add_argument(
         "--plots",
@@ -98,6 +103,7 @@ def run(args: argparse.Namespace) -> int:
         "search_runs_per_case": args.search_runs_per_case,
         "plots": args.plots,
         "vehicle": args.vehicle,
+        "control": control_overrides(args) or None,
     }
     given = {k: v for k, v in given.items() if v is not None}
     if "vehicle" in given and Path(given["vehicle"]).suffix:  # a file, not a packaged name
@@ -110,6 +116,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         settings = LoopSettings(**given)
     from rcsim.analysis.apps.estimates import confirm, flying_seconds
+
+    warn_vehicle(settings.flown_vehicle())
 
     # Two campaigns and the check at full size, the confirmation of the changed rows (about
     # half the cases, twice) and Table 7 on the held-out seed, the search (a few rounds) on

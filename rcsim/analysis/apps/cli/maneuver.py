@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from rcsim.analysis.apps.cli.vehicle_args import add_vehicle_args, flown_vehicle
 from rcsim.lookup.registry import ALL_CONTROLLERS
 from rcsim.models.errors import InputError
 
@@ -18,10 +19,11 @@ def register(sub) -> None:
     p = sub.add_parser(
         "maneuver",
         help="fly one rest-to-rest attitude maneuver (history.parquet + plots)",
-        description="Fly the nominal vehicle (the packaged one, or a vehicle file's with "
+        description="Fly the nominal vehicle (the paper's, or a vehicle file's with "
         "--vehicle) from rest to a commanded attitude and write "
-        "DIR/history.parquet (one row per 40 ms control cycle), DIR/attitude_error.png, "
-        "DIR/rates_jets.png and DIR/summary.json.",
+        "DIR/history.parquet (one row per control cycle of the vehicle's profile: 40 ms for "
+        "the paper's), DIR/attitude_error.png, DIR/rates_jets.png and DIR/summary.json (which "
+        "names the vehicle and the flight-software profile flown).",
     )
     p.add_argument(
         "--controller",
@@ -43,10 +45,9 @@ def register(sub) -> None:
     p.add_argument(
         "--table", help="lookup table CSV for --controller lookup or adaptive (default: packaged)"
     )
-    p.add_argument(
-        "--vehicle",
-        metavar="FILE",
-        help="vehicle file to fly instead of the packaged vehicle, any number of jets (a "
+    add_vehicle_args(
+        p,
+        vehicle_help="vehicle file to fly instead of the paper's vehicle, any number of jets (a "
         'packaged one by name: "paper", "canted16", "canted12"); a layout other than Table '
         "2's flies with --controller allocator, or --controller lookup --table T.csv with a "
         "table made by `rcsim lookup generate --vehicle FILE --out T.csv`",
@@ -74,26 +75,25 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from rcsim.analysis.engine.flight import Scenario, fly, write_flight
     from rcsim.analysis.engine.output import check_out_dir
-    from rcsim.models.tables import CONTROL_CYCLE_S
 
-    if not math.isfinite(args.duration_s) or args.duration_s < CONTROL_CYCLE_S:
-        raise InputError(
-            f"--duration-s must be at least one control cycle ({CONTROL_CYCLE_S:g} s), "
-            f"got {args.duration_s:g}"
-        )
     if not all(math.isfinite(a) for a in args.attitude_deg):
         raise InputError(f"--attitude-deg must be finite, got {args.attitude_deg}")
     if np.linalg.norm(args.attitude_deg) >= 180.0:
         raise InputError(f"--attitude-deg: rotation must be under 180 deg, got {args.attitude_deg}")
+    vehicle = _vehicle(args)  # after the command is known to be a rotation
+    cycle = vehicle.control.cycle_s
+    if not math.isfinite(args.duration_s) or args.duration_s < cycle:
+        raise InputError(
+            f"--duration-s must be at least one control cycle ({cycle:g} s), "
+            f"got {args.duration_s:g}"
+        )
     from rcsim.analysis.apps.estimates import confirm, flying_seconds
-    from rcsim.models.tables import CONTROL_CYCLE_S as CYCLE
     from rcsim.spacecraft.guards import check_history_memory
-    from rcsim.spacecraft.vehicle import jet_count, load_model
 
-    vehicle = None if args.vehicle is None else _vehicle(args)
-    n_jets = jet_count(load_model()) if vehicle is None else vehicle.n_jets
     # What cannot fit in memory is refused before what merely takes long.
-    check_history_memory(1, math.ceil(args.duration_s / CYCLE), args.duration_s, n_jets=n_jets)
+    check_history_memory(
+        1, math.ceil(args.duration_s / cycle), args.duration_s, n_jets=vehicle.n_jets
+    )
     confirm(
         "the maneuver (one run, no batching)",
         flying_seconds(args.duration_s, runs=1),
@@ -108,16 +108,10 @@ def run(args: argparse.Namespace) -> int:
     )
     history = fly(scenario, args.controller, table=args.table, vehicle=vehicle)
     title = f"{args.controller} maneuver ({r:g}, {p:g}, {y:g}) deg"
-    on = ""
-    flown = {}
-    if vehicle is not None:
-        from rcsim.spacecraft.vehicle_file.authority import torque_signs
-
-        on = f" on {vehicle.definition.name}"
-        flown = {"isp_s": vehicle.definition.isp_s, "jet_signs": torque_signs(vehicle.definition)}
-    title += on
+    if args.vehicle is not None:
+        title += f" on {vehicle.name}"
     paths = write_flight(
-        history, out, title=title, command=COMMAND, overwrite=args.overwrite, **flown
+        history, out, title=title, vehicle=vehicle, command=COMMAND, overwrite=args.overwrite
     )
     s = json.loads(paths["summary.json"].read_text())  # what the user's file says
     err = ", ".join(f"{v:.4f}" for v in s["final_att_err_deg"])
@@ -137,19 +131,18 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _vehicle(args: argparse.Namespace):
-    """The ``--vehicle`` file ready to fly, refused (one line) when the controller cannot fly
-    it (:func:`rcsim.lookup.registry.vehicle_problem`) or its jets cannot turn the vehicle toward
-    the commanded attitude (:func:`rcsim.spacecraft.vehicle_file.authority.unreachable_command`)."""
+    """The vehicle to fly (``--vehicle``, ``--control``), refused (one line) when the
+    controller cannot fly it (:func:`rcsim.lookup.registry.vehicle_problem`) or its jets cannot
+    turn the vehicle toward the commanded attitude
+    (:func:`rcsim.spacecraft.vehicle_file.authority.unreachable_command`)."""
     from rcsim.lookup.registry import vehicle_problem
-    from rcsim.spacecraft.vehicle_file import FlyingVehicle
     from rcsim.spacecraft.vehicle_file.authority import unreachable_command
 
-    vehicle = FlyingVehicle.load(args.vehicle)
-    problem = vehicle_problem(
-        args.controller, args.table, vehicle.definition, table_option="--table"
-    )
+    vehicle = flown_vehicle(args)
+    problem = vehicle_problem(args.controller, args.table, vehicle, table_option="--table")
     if problem is not None:
-        raise InputError(f"--controller {args.controller} --vehicle {args.vehicle}: {problem[1]}")
+        where = f" --vehicle {args.vehicle}" if args.vehicle is not None else ""
+        raise InputError(f"--controller {args.controller}{where}: {problem[1]}")
     why = unreachable_command(vehicle.definition, np.radians(args.attitude_deg))
     if why:
         raise InputError(

@@ -1,10 +1,14 @@
 """``rcsim scenario``: fly the paper's named scenarios and compare the two controllers.
 
 * ``rcsim scenario list``
-* ``rcsim scenario run NAME --controller lookup|phase-plane|adaptive [--table T.csv] --out DIR``
-* ``rcsim scenario compare --out DIR`` (every scenario, the paper's two controllers, lookup and
-  phase-plane: comparison.csv/.md; the adaptive controller is compared in campaigns,
-  ``docs/faults.md``)
+* ``rcsim scenario run NAME --controller lookup|phase-plane|adaptive|allocator [--table T.csv]
+  [--vehicle FILE] [--control KEY=VALUE] --out DIR``
+* ``rcsim scenario compare [--vehicle FILE] --out DIR`` (every scenario, the paper's two
+  controllers, lookup and phase-plane: comparison.csv/.md; the adaptive controller is compared
+  in campaigns, ``docs/faults.md``)
+
+The scenarios are the paper's; ``--vehicle`` flies them on another vehicle (its own profile,
+its own authority: a disturbance beyond its jets' torque is refused).
 * ``rcsim scenario figures --out DIR`` (the lookup figure set of docs/figures, lookup_*.png)
 """
 
@@ -13,6 +17,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from rcsim.analysis.apps.cli.vehicle_args import add_vehicle_args, flown_vehicle
 from rcsim.lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
 from rcsim.models.errors import InputError
 
@@ -53,6 +58,7 @@ def register(sub) -> None:
         metavar="DEG",
         help="lookup no-firing half-width [deg] (default: the scenario's; 0 = off)",
     )
+    add_vehicle_args(run)
     _add_out(run, "scenario run")
     run.set_defaults(func=run_run)
 
@@ -62,6 +68,7 @@ def register(sub) -> None:
     )
     cmp_.add_argument("--table", help="lookup table CSV (default: the packaged table)")
     cmp_.add_argument("--names", nargs="+", metavar="NAME", help="scenarios (default: all)")
+    add_vehicle_args(cmp_)
     _add_out(cmp_, "scenario compare")
     cmp_.set_defaults(func=run_compare)
 
@@ -97,6 +104,29 @@ def _check_table(table):
         raise InputError(
             f"--table {table}: file not found (a CSV path, or {' / '.join(PAPER_LOOKUP_TABLES)})"
         )
+
+
+def _controller_problem(args, vehicle, controllers, table) -> None:
+    """Refuse (one line) a controller that cannot fly ``vehicle``
+    (:func:`rcsim.lookup.registry.vehicle_problem`)."""
+    from rcsim.lookup.registry import vehicle_problem
+
+    for name in controllers:
+        problem = vehicle_problem(name, table if name in TABLE_CONTROLLERS else None, vehicle,
+                                  table_option="--table")  # fmt: skip
+        if problem is not None:
+            raise InputError(f"--vehicle {vehicle.label}: {name}: {problem[1]}")
+
+
+def _scenario_vehicle(args, scenario, controllers, table):
+    """The vehicle ``--vehicle`` / ``--control`` name (the paper's without them), checked
+    against the controllers and the scenario's disturbance before any flight."""
+    from rcsim.analysis.engine.scenarios.flying import check_scenario_vehicle
+
+    vehicle = flown_vehicle(args)
+    _controller_problem(args, vehicle, controllers, table)
+    check_scenario_vehicle(scenario, vehicle)
+    return vehicle
 
 
 def run_list(args: argparse.Namespace) -> int:
@@ -137,14 +167,21 @@ def run_run(args: argparse.Namespace) -> int:
         if not math.isfinite(args.no_fire_band_deg) or args.no_fire_band_deg < 0:
             raise InputError(f"--no-fire-band-deg must be >= 0, got {args.no_fire_band_deg}")
         overrides["no_fire_band_rad"] = float(np.radians(args.no_fire_band_deg))
+    vehicle = _scenario_vehicle(args, scn, (args.controller,), args.table)
     out = check_out_dir(args.out, "scenario run", overwrite=args.overwrite)  # before the work
-    hist = fly_scenario(scn, args.controller, table=args.table, **overrides)
+    hist = fly_scenario(scn, args.controller, table=args.table, vehicle=vehicle, **overrides)
     paths = write_scenario(
-        hist, scn, out, controller=args.controller, command="scenario run", overwrite=args.overwrite
+        hist,
+        scn,
+        out,
+        controller=args.controller,
+        command="scenario run",
+        overwrite=args.overwrite,
+        vehicle=vehicle,
     )
     from rcsim.analysis.engine.scenarios import scenario_metrics
 
-    s = summarize(scenario_metrics(hist, scn))
+    s = summarize(scenario_metrics(hist, scn, vehicle.control))
     t = s["att_rate_settled_time_s"]
     settle = "not settled" if math.isnan(t) else f"from {t:.2f} s"
     print(
@@ -157,10 +194,20 @@ def run_run(args: argparse.Namespace) -> int:
 
 
 def run_compare(args: argparse.Namespace) -> int:
+    from rcsim.analysis.engine.scenarios import get_scenario
+    from rcsim.analysis.engine.scenarios.flying import COMPARISON_ORDER
     from rcsim.analysis.engine.scenarios.outputs import write_comparison
 
     _check_table(args.table)
-    _, md = write_comparison(args.out, args.names, table=args.table, overwrite=args.overwrite)
+    vehicle = None
+    if args.vehicle is not None or args.control:
+        vehicle = flown_vehicle(args)
+        for name in args.names or ():
+            get_scenario(name)  # an unknown name before the vehicle's problems
+        _controller_problem(args, vehicle, COMPARISON_ORDER, args.table)
+    _, md = write_comparison(
+        args.out, args.names, table=args.table, overwrite=args.overwrite, vehicle=vehicle
+    )
     print(md, end="")
     print(f"outputs in {Path(args.out)}/: comparison.csv, comparison.md")
     return 0

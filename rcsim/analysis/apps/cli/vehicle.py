@@ -47,9 +47,7 @@ def register(subparsers) -> None:
 
 
 def _check(args: argparse.Namespace) -> int:
-    from rcsim.spacecraft.vehicle_file import load_vehicle
-    from rcsim.spacecraft.vehicle_file.authority import check_text, check_vehicle
+    from rcsim.spacecraft.vehicle_file.authority import vehicle_report
 
-    vehicle = load_vehicle(args.vehicle)
-    print(check_text(vehicle, check_vehicle(vehicle, pairs=not args.no_pairs)), end="")
+    print(vehicle_report(args.vehicle, pairs=not args.no_pairs), end="")
     return 0

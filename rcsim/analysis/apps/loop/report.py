@@ -16,8 +16,8 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.apps.loop.files import GENERATE, GENERATED_TABLE, table_file
-from rcsim.analysis.apps.refinement.outputs import most_improved_case
-from rcsim.analysis.apps.refinement.search import changed_cells
+from rcsim.analysis.apps.refinement.evidence import changed_cells
+from rcsim.analysis.apps.refinement.plots import most_improved_case
 from rcsim.analysis.engine import runs_table
 from rcsim.analysis.engine.campaign.spec import load_spec
 from rcsim.analysis.results.report.html import (
@@ -99,19 +99,11 @@ def _summary(
     fb, fa = int(before["failed"].sum()), int(after["failed"].sum())
     label = _table_label(out, settings)
     channels = "channels" in log
+    vehicle = spec.vehicle
     rows = [
         ("table refined", label),
-        *(
-            [
-                (
-                    "vehicle",
-                    f"{_vehicle_name(settings)!r}, file {spec.vehicle}, sha256 "
-                    f"{spec.resolved.get('vehicle_sha256')}",
-                )
-            ]
-            if settings.vehicle is not None
-            else []
-        ),
+        ("vehicle", f"{vehicle.name!r}, {vehicle.ref}, sha256 {vehicle.sha256}"),
+        ("flight-software profile", vehicle.control.describe()),
         ("runs per case", f"{s['runs_per_case']} (26 rate cases of Table 3, {dispersions})"),
         ("search seed", f"{s['seed']} (the 'before' campaign and the refinement search)"),
         ("fresh seed", f"{fresh} (held out: the refined table's campaign and check)"),
@@ -390,8 +382,9 @@ def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
     else:
         is_t6 = False  # a channel table: not the paper's jets
     if is_t6:
-        ours = changed_cells(t6, load_lookup_table(refined))
-        paper = changed_cells(t6, t7)
+        cycle_s = load_spec(refined.parent / "spec_before.toml").cycle_s
+        ours = changed_cells(t6, load_lookup_table(refined), cycle_s)
+        paper = changed_cells(t6, t7, cycle_s)
         both = ours.merge(
             paper, on=["case", "axis", "old_cycles"], how="outer", suffixes=("_rcsim", "_table7")
         )

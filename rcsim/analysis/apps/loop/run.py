@@ -24,12 +24,13 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.apps.loop.files import GENERATE, table_file
-from rcsim.analysis.apps.refinement.outputs import (
+from rcsim.analysis.apps.refinement.parameters import (
     check_parameters,
     held_out_seed,
     load_refinable_table,
     rate_cases_campaign,
     refinement_spec,
+    refinement_vehicle,
 )
 from rcsim.analysis.apps.refinement.search import SEARCH_RUNS_PER_CASE
 from rcsim.analysis.engine.campaign import results as campaign_results
@@ -41,6 +42,7 @@ from rcsim.analysis.results.scoring import SCORED_COLUMNS
 from rcsim.models.atomic import atomic_write
 from rcsim.models.errors import InputError
 from rcsim.models.tables import N_CASES, PAPER_LOOKUP_TABLES, load_lookup_table
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 COMMAND = "loop"
 STATE = "loop.json"
@@ -83,6 +85,9 @@ class LoopSettings:
         A vehicle file (absolute path) or packaged vehicle name the campaigns and the search
         fly; None: the paper's.  A paper table needs Table 2's jet roles; a channel table must
         have been solved for this vehicle file.
+    control : dict or None
+        Overrides of the vehicle's flight-software profile (``[control]`` keys:
+        ``--control KEY=VALUE``), written into every campaign spec of the loop.
     plots : bool
         The campaigns' per-case plots (about 4.5 s per campaign on 2 cores, whatever its
         size); without them the report's Figs 9-10 section says the figures were not made.
@@ -98,6 +103,11 @@ class LoopSettings:
     search_runs_per_case: int = SEARCH_RUNS_PER_CASE
     plots: bool = True
     vehicle: str | None = None
+    control: dict | None = None
+
+    def flown_vehicle(self) -> Vehicle:
+        """The vehicle the loop flies, resolved from its settings (the file, the overrides)."""
+        return Vehicle.load(self.vehicle, control=self.control, control_from="the loop's --control")
 
     def __post_init__(self):
         # The refinement's and the driver analysis's own checks: one rule for each.
@@ -112,14 +122,13 @@ class LoopSettings:
             search_runs_per_case=self.search_runs_per_case,
         )
         Settings(n_permutations=self.permutations, random_state=self.seed)
-        coupled = False
-        if self.vehicle is not None:
-            from rcsim.analysis.engine.table_files import is_coupled
+        from rcsim.lookup.generation import is_coupled
 
-            try:
-                coupled = is_coupled(self.vehicle)
-            except InputError as exc:
-                raise InputError(str(exc), parameter="vehicle", value=self.vehicle) from None
+        try:
+            vehicle = self.flown_vehicle()
+        except InputError as exc:
+            raise InputError(str(exc), parameter="vehicle", value=self.vehicle) from None
+        coupled = is_coupled(vehicle)
         if self.table is None:
             object.__setattr__(self, "table", GENERATE if coupled else "table6")
         if coupled and self.table in PAPER_LOOKUP_TABLES:
@@ -130,7 +139,11 @@ class LoopSettings:
                 parameter="table",
                 value=self.table,
             )
-        if self.vehicle is not None or self.table not in (*PAPER_LOOKUP_TABLES, GENERATE):
+        if (
+            self.vehicle is not None
+            or self.control is not None
+            or self.table not in (*PAPER_LOOKUP_TABLES, GENERATE)
+        ):
             # The campaigns' own checks on the vehicle and the table (a file that loads, jets
             # that play the table's roles, a channel table solved for this vehicle file),
             # before any directory is made.  A table still to generate is checked when made.
@@ -140,7 +153,7 @@ class LoopSettings:
                     runs_per_case=1,
                     seed=0,
                     duration_s=self.duration_s,
-                    vehicle=self.vehicle,
+                    vehicle=vehicle,
                     source=str(self.vehicle or self.table),
                     # A table still to generate: the vehicle alone (the allocator flies any).
                     table=table if table != GENERATE else "default",
@@ -179,10 +192,12 @@ def spec_text(
     seed: int,
     duration_s: float,
     plots: bool = True,
-    vehicle: str | None = None,
+    vehicle: Vehicle | None = None,
+    name_vehicle: bool = False,
 ) -> str:
     """The refinement's rate-case campaign (:func:`rate_cases_campaign`) as a TOML spec, with
-    failure histories and (unless ``plots`` is false) plots kept: a user reads these."""
+    failure histories and (unless ``plots`` is false) plots kept: a user reads these.
+    ``name_vehicle``: the user named the vehicle (``--vehicle paper`` is written too)."""
     data = rate_cases_campaign(
         runs_per_case=runs_per_case,
         seed=seed,
@@ -191,20 +206,27 @@ def spec_text(
         histories="failures",
         plots=plots,
         vehicle=vehicle,
+        name_vehicle=name_vehicle,
     )
-    disp = "the vehicle file's [dispersions]" if vehicle is not None else "Table 5 dispersions"
+    named = vehicle is not None and vehicle.ref != "paper"
+    disp = "the vehicle file's [dispersions]" if named else "Table 5 dispersions"
     lines = [f"# Written by `rcsim loop`: the 26 Table 3 rate cases, {disp}."]
     scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
     lines += [f"{k} = {_toml(v)}" for k, v in scalars.items()]
     for name, table_ in data.items():
         if isinstance(table_, dict):
-            lines += ["", f"[{name}]"] + [f"{k} = {_toml(v)}" for k, v in table_.items()]
+            lines += ["", f"[{name}]"] + [f"{_key(k)} = {_toml(v)}" for k, v in table_.items()]
     return "\n".join(lines) + "\n"
 
 
 def _toml(value) -> str:
     """A TOML scalar: JSON's spelling is TOML's for strings, numbers and booleans."""
     return json.dumps(value)
+
+
+def _key(name: str) -> str:
+    """A TOML key: dotted keys (``phase_plane.rate_deadband_deg_s``) as written."""
+    return name
 
 
 class _State:
@@ -392,6 +414,8 @@ class _Stages:
     ):
         self.out, self.settings, self._table = out, settings, table
         self.state, self.progress = state, progress
+        # The vehicle, resolved once for every stage (its model compiled once per process).
+        self.vehicle = settings.flown_vehicle()
         self.cases = np.arange(N_CASES)
         # How the campaigns name the table refined: the paper's by name, a file by its path
         # (the generated one in DIR).
@@ -415,9 +439,9 @@ class _Stages:
 
     def generate(self) -> dict:
         """The vehicle's table: a channel table (and its recipe) for coupled jets."""
-        from rcsim.analysis.engine.table_files import generate
+        from rcsim.lookup.generation import generate_table
 
-        gen = generate(self.settings.vehicle)
+        gen = generate_table(self.vehicle)
         path = Path(self.table_file)
         # Written whole (atomic, a channel table's recipe first), the companion after.
         frame = gen.settling_frame()
@@ -439,7 +463,8 @@ class _Stages:
                 seed=seed,
                 duration_s=s.duration_s,
                 plots=s.plots if plots is None else plots,
-                vehicle=s.vehicle,
+                vehicle=self.vehicle,
+                name_vehicle=s.vehicle is not None,
             )
             atomic_write(spec_file, lambda tmp: Path(tmp).write_text(text))
         report = run_campaign(
@@ -481,12 +506,8 @@ class _Stages:
         return {"significant": ", ".join(top) or "none"}
 
     def refine(self) -> dict:
-        from rcsim.analysis.apps.refinement.outputs import (
-            confirmation_seed,
-            refinement_spec,
-            save_search,
-            table_vehicle,
-        )
+        from rcsim.analysis.apps.refinement.outputs import save_search
+        from rcsim.analysis.apps.refinement.parameters import confirmation_seed
         from rcsim.analysis.apps.refinement.search import refine
 
         s = self.settings
@@ -495,8 +516,8 @@ class _Stages:
             runs_per_case=s.runs_per_case,
             seed=s.seed,
             duration_s=s.duration_s,
-            vehicle=s.vehicle,
-            table=table_vehicle(self.table)[1],
+            vehicle=self.vehicle,
+            table=refinement_vehicle(self.table, self.vehicle)[1],
         )
         result = refine(
             spec,
@@ -529,7 +550,6 @@ class _Stages:
         from rcsim.analysis.apps.refinement.outputs import (
             held_out_check,
             load_search,
-            table_vehicle,
             write_refinement,
         )
 
@@ -549,8 +569,8 @@ class _Stages:
             fresh_after_runs=self._campaign_runs("campaign_after"),
             fresh_before_runs=self._campaign_runs("campaign_check"),
             progress=self.progress,
-            vehicle=s.vehicle,
-            table_file=table_vehicle(self.table)[1],
+            vehicle=self.vehicle,
+            table_file=refinement_vehicle(self.table, self.vehicle)[1],
         )
         write_refinement(ref, self.paths["refined"], overwrite=True, writer=COMMAND)
         log = ref.changelog

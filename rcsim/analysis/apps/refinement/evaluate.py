@@ -34,7 +34,7 @@ from rcsim.analysis.results.scoring import trial_frame
 from rcsim.lookup.pattern_recognition import LookupController, LookupParams
 from rcsim.models.tables import LookupTable
 from rcsim.spacecraft.dispersions import draw_runs
-from rcsim.spacecraft.vehicle import VehicleParams, load_model
+from rcsim.spacecraft.vehicle import VehicleParams
 
 #: Chunks submitted per worker process at a time (one flying, one waiting, so that a worker
 #: never waits for this process to hand it the next).
@@ -75,18 +75,11 @@ def _fly_chunk(
 ) -> pd.DataFrame:
     """Fly one chunk: run ``i`` flies case ``cases[i]`` with vehicle ``params.take(i)`` and
     table ``run_times[i]``; return its outcome columns.  Runs in a worker process.  The
-    spec's vehicle file, if it has one, is flown as a campaign flies it (its model,
-    propulsion, valve timing and tank)."""
-    from rcsim.analysis.engine.campaign.chunk import spec_vehicle
-
+    spec's vehicle is flown as a campaign flies it (its model, profile, valve limits, valve
+    timing and tank)."""
     controller = LookupController.for_runs(table, run_times, lookup_params)
-    vehicle = spec_vehicle(spec)
-    model = load_model() if vehicle is None else vehicle.model
-    flying: dict = {}
-    if vehicle is not None:
-        flying = vehicle.flight_options(len(cases))
     history = fly_batch(
-        [spec.cases[c] for c in cases], params, controller, model=model, nthread=nthread, **flying
+        [spec.cases[c] for c in cases], params, controller, vehicle=spec.vehicle, nthread=nthread
     )
     return outcomes(history, spec)
 
@@ -113,7 +106,7 @@ def evaluate(
         The table the candidates edit (jet roles are learned from it).
     trials : Trials
     lookup_params : LookupParams, optional
-        Default: Table 4.
+        Default: the spec's vehicle's profile (:meth:`LookupParams.from_profile`).
     threads : int, optional
         Chunks in flight, each in its own worker process (default: CPU count; 1: in this
         process, on MuJoCo's threads).
@@ -134,16 +127,14 @@ def evaluate(
 
     stride = spec.runs_per_case
     n = stride if runs_per_case is None else min(int(runs_per_case), stride)
-    lookup_params = LookupParams.from_table4() if lookup_params is None else lookup_params
-    from rcsim.analysis.engine.campaign.chunk import nominal_of, spec_vehicle
-
-    vehicle = spec_vehicle(spec)
-    model = load_model() if vehicle is None else vehicle.model
+    vehicle = spec.vehicle
+    if lookup_params is None:
+        lookup_params = LookupParams.from_profile(vehicle.control)
     # Draw each involved case's runs once; every candidate of that case reuses them (about the
     # nominal vehicle the campaign disperses: the same draws as its runs).
     involved = np.unique(trials.case)
     run_ids = (involved[:, None] * stride + np.arange(n)[None, :]).ravel()
-    params_all = draw_runs(nominal_of(spec, model), spec.sigmas, spec.seed, run_ids).params
+    params_all = draw_runs(vehicle.nominal(1), spec.sigmas, spec.seed, run_ids).params
     first_row = {int(c): i * n for i, c in enumerate(involved)}
 
     trial_of_run = np.repeat(np.arange(trials.n_trials), n)

@@ -18,169 +18,37 @@ figures).
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from rcsim.analysis.apps.refinement.evaluate import Trials, evaluate
+from rcsim.analysis.apps.refinement.parameters import (
+    check_parameters,
+    confirmation_seed,
+    held_out_seed,
+    refinement_spec,
+    refinement_vehicle,
+)
+from rcsim.analysis.apps.refinement.plots import (
+    most_improved_case,
+    plot_case_before_after,
+    plot_failures_by_case,
+)
+from rcsim.analysis.apps.refinement.result import Refinement
 from rcsim.analysis.apps.refinement.search import (
     SEARCH_RUNS_PER_CASE,
     RefineResult,
-    changed_cells,
     refine,
 )
-from rcsim.analysis.engine.campaign.outcomes import outcomes
-from rcsim.analysis.engine.campaign.spec import parse_dict
-from rcsim.analysis.engine.flight import fly_batch
 from rcsim.analysis.engine.output import atomic_dir, check_out_dir, check_out_file
-from rcsim.analysis.engine.plots import AXIS_COLORS, new_figure
 from rcsim.analysis.results.proportions import clopper_pearson
 from rcsim.analysis.results.scoring import trial_scores
-from rcsim.lookup.pattern_recognition import LookupController
 from rcsim.lookup.table_edits import axis_cycles, jet_axes
 from rcsim.models.atomic import atomic_write
-from rcsim.models.errors import InputError
-from rcsim.models.tables import AXES, CONTROL_CYCLE_S, LookupTable
-from rcsim.spacecraft.dispersions import MAX_SEED, draw_runs
-from rcsim.spacecraft.vehicle import load_model
-
-DPI = 90
-#: Most runs drawn in the before/after plot of one case.
-PLOT_RUNS = 200
-
-
-def rate_cases_campaign(
-    *,
-    runs_per_case: int,
-    seed: int,
-    duration_s: float = 20.0,
-    table: str = "default",
-    histories: str = "none",
-    plots: bool = False,
-    vehicle: str | None = None,
-    controller: str = "lookup",
-) -> dict:
-    """The campaign a refinement flies, as a spec dict: all 26 Table 3 cases from rest, Table 5
-    dispersions, the campaign's default failure threshold.
-
-    The one definition: ``rcsim loop`` writes it as the TOML of its campaigns, and uses the
-    "before" campaign's runs as the search's baseline -- the same runs only if both come
-    from here.  ``controller``: another than the lookup controller only to check a vehicle
-    before its table exists (the loop's ``generate``).
-    """
-    spec: dict = {
-        "seed": seed,
-        "runs_per_case": runs_per_case,
-        "scenario": {
-            "kind": "rate-cases",
-            "cases": "all",
-            "mode": "command",
-            "duration_s": float(duration_s),
-        },
-        "controller": {"name": "lookup", "table": table}
-        if controller == "lookup"
-        else {"name": controller},
-        "dispersions": {"table": "default", "scale": 1.0},
-        "output": {"histories": histories, "plots": plots},
-    }
-    if vehicle is not None:  # a vehicle file (or packaged name): the campaign flies it
-        spec["vehicle"] = vehicle
-    return spec
-
-
-def refinement_spec(
-    *,
-    runs_per_case: int,
-    seed: int,
-    duration_s: float = 20.0,
-    source: str = "lookup refine",
-    vehicle: str | None = None,
-    table: str = "default",
-    controller: str = "lookup",
-):
-    """:func:`rate_cases_campaign` validated (a :class:`CampaignSpec`).
-
-    ``table``: the table file the campaign names (the refinement flies its candidates
-    itself); a channel table's file, so that it is checked against ``vehicle``."""
-    return parse_dict(
-        rate_cases_campaign(
-            runs_per_case=runs_per_case,
-            seed=seed,
-            duration_s=duration_s,
-            vehicle=vehicle,
-            table=table,
-            controller=controller,
-        ),
-        source=source,
-        base_dir=None,
-    )
-
-
-def table_vehicle(table: LookupTable) -> tuple[str | None, str]:
-    """What a refinement of ``table`` flies: ``(vehicle, table file)``.
-
-    A jet table flies the packaged vehicle (None) and names no file ("default"); a channel
-    table flies the vehicle file its recipe was solved for, and is named by its own file
-    (the one it was loaded from: its recipe is beside it).
-    """
-    if table.recipe is None:
-        return None, "default"
-    source = Path(table.source)
-    if not source.is_file():
-        raise InputError(
-            f"{table.source or '<lookup table>'}: a channel table is refined from its file "
-            "(its recipe beside it); save it with LookupTable.to_csv and load it",
-            parameter="table",
-            value=table.source,
-        )
-    return table.recipe.vehicle, str(source.absolute())
-
-
-@dataclass
-class Refinement:
-    """A refinement with its held-out check.
-
-    Attributes
-    ----------
-    original : LookupTable
-        The table refined.
-    result : RefineResult
-    fresh_before, fresh_after : DataFrame
-        Per searched case on the fresh seed: ``failed, repeated, runs``.
-    changelog : DataFrame
-    seed, fresh_seed, runs_per_case : int
-    duration_s : float
-        Simulated time of every run [s].
-    comparison : DataFrame, optional
-        The held-out seed per table (the original, the refined and, when the original is the
-        packaged Table 6, the paper's Table 7): :func:`comparison_frame`.
-    confirm_seed : int, optional
-        The confirmation seed (None: the search gate alone).
-    vehicle : str, optional
-        The vehicle file flown (None: the packaged vehicle).
-    table_file : str
-        The original table's file as the campaigns name it (a channel table's), or "default".
-    """
-
-    original: LookupTable
-    result: RefineResult
-    fresh_before: pd.DataFrame
-    fresh_after: pd.DataFrame
-    changelog: pd.DataFrame
-    seed: int
-    fresh_seed: int
-    runs_per_case: int
-    duration_s: float
-    comparison: pd.DataFrame | None = None
-    confirm_seed: int | None = None
-    vehicle: str | None = None
-    table_file: str = "default"
-
-    @property
-    def table(self) -> LookupTable:
-        return self.result.table
+from rcsim.models.tables import AXES, LookupTable
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 
 def run_refinement(
@@ -198,6 +66,7 @@ def run_refinement(
     checkpoint: str | Path | None = None,
     confirm_seed: int | None = None,
     compare_table7: bool | None = None,
+    vehicle: Vehicle | str | None = None,
 ) -> Refinement:
     """Refine ``table`` on ``seed`` and fly the old and new tables on ``fresh_seed``.
 
@@ -223,6 +92,10 @@ def run_refinement(
         The confirmation seed (the second gate); default :func:`confirmation_seed`.
     compare_table7 : bool, optional
         Fly the paper's Table 7 on the held-out seed too; default: when ``table`` is Table 6.
+    vehicle : Vehicle, str or path, optional
+        The vehicle flown; default the paper's for a jet table, the one a channel table's
+        recipe was solved for (:func:`~rcsim.analysis.apps.refinement.parameters.
+        refinement_vehicle`).
 
     Raises
     ------
@@ -231,6 +104,7 @@ def run_refinement(
     """
     fresh_seed = held_out_seed(seed) if fresh_seed is None else fresh_seed
     confirm_seed = confirmation_seed(seed, fresh_seed) if confirm_seed is None else confirm_seed
+    flown, table_file = refinement_vehicle(table, vehicle)
     check_parameters(
         runs_per_case=runs_per_case,
         seed=seed,
@@ -239,14 +113,13 @@ def run_refinement(
         max_iterations=max_iterations,
         search_runs_per_case=search_runs_per_case,
         confirm_seed=confirm_seed,
+        vehicle=flown,
     )
-    # A channel table flies the vehicle its recipe was solved for; a jet table the packaged one.
-    vehicle, table_file = table_vehicle(table)
     spec = refinement_spec(
         runs_per_case=runs_per_case,
         seed=seed,
         duration_s=duration_s,
-        vehicle=vehicle,
+        vehicle=flown,
         table=table_file,
     )
     result = refine(
@@ -271,7 +144,7 @@ def run_refinement(
         progress=progress,
         compare_table7=compare_table7,
         confirm_seed=confirm_seed,
-        vehicle=vehicle,
+        vehicle=flown,
         table_file=table_file,
     )
 
@@ -290,7 +163,7 @@ def held_out_check(
     fresh_before_runs: pd.DataFrame | None = None,
     compare_table7: bool | None = None,
     confirm_seed: int | None = None,
-    vehicle: str | None = None,
+    vehicle: Vehicle,
     table_file: str = "default",
 ) -> Refinement:
     """Fly the old and the refined table on ``fresh_seed`` (the seed no decision used).
@@ -300,7 +173,8 @@ def held_out_check(
     (:func:`~rcsim.analysis.apps.refinement.evaluate.runs_from_campaign`); only the others are
     flown. ``compare_table7``: fly the paper's Table 7 on those runs too (default: when ``table`` is
     the packaged Table 6, the table the paper refined by hand).  ``vehicle`` and
-    ``table_file``: what the refinement flew (:func:`table_vehicle`).
+    ``table_file``: what the refinement flew
+    (:func:`~rcsim.analysis.apps.refinement.parameters.refinement_vehicle`).
     """
     from rcsim.models.tables import load_lookup_table
 
@@ -340,7 +214,7 @@ def held_out_check(
             part = scores.iloc[i * searched.size : (i + 1) * searched.size]
             scores_of[k] = part.reset_index(drop=True)
     fresh_before, fresh_after = scores_of["before"], scores_of["after"]
-    log = changelog(table, result, fresh_before, fresh_after)
+    log = changelog(table, result, fresh_before, fresh_after, vehicle.control.cycle_s)
     names = {"before": "Table 6 (paper)" if is_table6(table) else "original", "after": "refined"}
     if compare_table7:
         names["table7"] = "Table 7 (paper)"
@@ -355,9 +229,9 @@ def held_out_check(
         fresh_seed,
         runs_per_case,
         duration_s,
+        vehicle=vehicle,
         comparison=comparison,
         confirm_seed=confirm_seed,
-        vehicle=vehicle,
         table_file=table_file,
     )
 
@@ -421,120 +295,25 @@ def load_search(path: str | Path, table: LookupTable) -> RefineResult:
     )
 
 
-#: Most runs per case a refinement accepts: 26 cases x 100,000 runs is 65 days of a 2-core
-#: machine's flying; a larger number is a typo, refused before any work.
-MAX_RUNS_PER_CASE = 100_000
-
-
-def load_refinable_table(table) -> LookupTable:
-    """The table to refine (a CSV path or ``table6`` / ``table7``).
-
-    Refinement flies the 16-jet vehicle; a table generated for failed jets (its companion file
-    records them, :mod:`rcsim.lookup.jet_sets`) is refused with that reason rather than with
-    the jet-map mismatch the plain loader would report.
-    """
-    from rcsim.lookup.jet_sets import jets_off_of
-    from rcsim.models.tables import PAPER_LOOKUP_TABLES, load_lookup_table
-
-    if str(table) not in PAPER_LOOKUP_TABLES and Path(table).is_file():
-        off = jets_off_of(table)
-        if off:
-            raise InputError(
-                f"{table}: a table for jets {','.join(map(str, off))} off; "
-                "refinement flies the full 16-jet vehicle (fly this table with "
-                "`rcsim campaign run` and its spec's controller.table)",
-                parameter="table",
-                value=str(table),
-            )
-    return load_lookup_table(table)
-
-
-def held_out_seed(seed: int) -> int:
-    """The default held-out seed of a search on ``seed``: ``seed + 1``.
-
-    Any other seed is as unseen (each seed's streams are independent); one rule keeps
-    ``rcsim lookup refine`` and ``rcsim loop`` on the same default.
-    """
-    return seed + 1
-
-
-def confirmation_seed(seed: int, fresh_seed: int) -> int:
-    """The default confirmation seed (the refinement's second gate): one past the larger of
-    the search and held-out seeds, so that it is neither (seeds 1 and 2: 3)."""
-    return max(seed, fresh_seed) + 1
-
-
-def check_parameters(
-    *,
-    runs_per_case,
-    seed,
-    fresh_seed,
-    duration_s,
-    max_iterations,
-    search_runs_per_case=SEARCH_RUNS_PER_CASE,
-    confirm_seed=None,
-) -> None:
-    """Raise :class:`InputError` naming the first out-of-range refinement parameter."""
-
-    def bad(name, value, problem):
-        return InputError(f"{problem}, got {value!r}", parameter=name, value=value)
-
-    for name, value, lo, hi in (
-        ("runs_per_case", runs_per_case, 1, MAX_RUNS_PER_CASE),
-        ("seed", seed, 0, MAX_SEED),
-        ("fresh_seed", fresh_seed, 0, MAX_SEED),
-        ("max_iterations", max_iterations, 1, 1000),
-        ("search_runs_per_case", search_runs_per_case, 1, MAX_RUNS_PER_CASE),
-        *((("confirm_seed", confirm_seed, 0, MAX_SEED),) if confirm_seed is not None else ()),
-    ):
-        if (
-            not isinstance(value, (int, np.integer))
-            or isinstance(value, bool)
-            or value < lo
-            or (hi is not None and value > hi)
-        ):
-            raise bad(name, value, f"must be an integer in {lo}..{hi if hi else 'inf'}")
-    if fresh_seed == seed:
-        raise bad(
-            "fresh_seed", fresh_seed, "must differ from the search seed (it is the held-out check)"
-        )
-    if confirm_seed is not None and confirm_seed in (seed, fresh_seed):
-        raise bad(
-            "confirm_seed",
-            confirm_seed,
-            "must differ from the search and held-out seeds (it is the second gate)",
-        )
-    from rcsim.analysis.engine.campaign.limits import max_duration_s
-
-    longest = max_duration_s()
-    # At least a second: the longest table firing (0.52 s), the 0.16 s hold and a correction.
-    if not (
-        isinstance(duration_s, (int, float))
-        and np.isfinite(duration_s)
-        and 1.0 <= duration_s <= longest
-    ):
-        raise bad(
-            "duration_s",
-            duration_s,
-            f"must be a time in 1..{longest:.0f} s (a firing, "
-            "its hold and a correction; at most what one campaign chunk holds)",
-        )
-
-
 def changelog(
-    old: LookupTable, result: RefineResult, fresh_before: pd.DataFrame, fresh_after: pd.DataFrame
+    old: LookupTable,
+    result: RefineResult,
+    fresh_before: pd.DataFrame,
+    fresh_after: pd.DataFrame,
+    cycle_s: float,
 ) -> pd.DataFrame:
-    """One row per searched case: times per axis before/after, outcomes on both seeds."""
+    """One row per searched case: times per axis before/after (whole ``cycle_s`` cycles, the
+    flown vehicle's), outcomes on both seeds."""
     jet_axis = jet_axes(old)
     searched = result.before["case_index"].to_numpy()
-    c_old = axis_cycles(old.firing_time_s, jet_axis)[searched]
-    c_new = axis_cycles(result.table.firing_time_s, jet_axis)[searched]
+    c_old = axis_cycles(old.firing_time_s, jet_axis, cycle_s)[searched]
+    c_new = axis_cycles(result.table.firing_time_s, jet_axis, cycle_s)[searched]
     cols: dict = {"case": old.case[searched]}
     if old.recipe is not None:  # a channel table: which channel each axis's time is
         cols["channels"] = [", ".join(case_channels(old.rate_cmd[c])) for c in searched]
     for a, axis in enumerate(AXES):
-        cols[f"{axis}_old_s"] = c_old[:, a] * CONTROL_CYCLE_S
-        cols[f"{axis}_new_s"] = c_new[:, a] * CONTROL_CYCLE_S
+        cols[f"{axis}_old_s"] = c_old[:, a] * cycle_s
+        cols[f"{axis}_new_s"] = c_new[:, a] * cycle_s
         cols[f"{axis}_change_cycles"] = c_new[:, a] - c_old[:, a]
     frame = pd.DataFrame(cols)
     frame["changed"] = (c_new != c_old).any(axis=1)
@@ -665,113 +444,9 @@ def write_refinement(
     return written
 
 
-def most_improved_case(log: pd.DataFrame):
-    """The changelog row of the changed case with the largest drop in failures (then in
-    repeated firings) on the search seed; None if no case changed."""
-    changed = log[log["changed"]]
-    if changed.empty:
-        return None
-    gain = (changed["failed_search_before"] - changed["failed_search_after"]) * 10_000 + (
-        changed["repeated_search_before"] - changed["repeated_search_after"]
-    )
-    return changed.loc[gain.idxmax()]
-
-
-def plot_failures_by_case(log: pd.DataFrame, path: Path, *, title: str) -> None:
-    """Failed and repeated-firing runs per case, before and after, on both seeds."""
-    fig, axes = new_figure(2, 2, figsize=(12, 6.5), sharex=True, sharey="row")
-    x = np.arange(len(log))
-    for col, seed in enumerate(("search", "fresh")):
-        for row, what in enumerate(("failed", "repeated")):
-            ax = axes[row, col]
-            ax.bar(x - 0.2, log[f"{what}_{seed}_before"], 0.4, color="tab:red", label="before")
-            ax.bar(x + 0.2, log[f"{what}_{seed}_after"], 0.4, color="tab:blue", label="after")
-            ax.set_ylabel(f"{what} runs" if col == 0 else "")
-            ax.grid(alpha=0.3, axis="y")
-            ax.set_title(
-                f"{what} runs per case, {seed} seed "
-                f"({int(log[f'{what}_{seed}_before'].sum())} -> "
-                f"{int(log[f'{what}_{seed}_after'].sum())})",
-                fontsize=10,
-            )
-            ax.legend(fontsize=8)
-        axes[1, col].set_xticks(
-            x,
-            [str(int(c)) + ("*" if ch else "") for c, ch in zip(log["case"], log["changed"])],
-            fontsize=7,
-        )
-        axes[1, col].set_xlabel("rate case (* = firing time changed)")
-    fig.suptitle(
-        f"Lookup-table refinement: {title}; repeated = needed more than one firing "
-        "to reach the commanded rate"
-    )
-    fig.savefig(path, dpi=DPI)
-
-
-def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
-    """Figs 9-10 style: the changed axis's body rate of every search-seed run of ``case``,
-    with the old table (left) and the refined one (right); failed runs in red."""
-    log = ref.changelog.set_index("case").loc[case]
-    axis = max(AXES, key=lambda a: abs(int(log[f"{a}_change_cycles"])))
-    a = AXES.index(axis)
-    from rcsim.analysis.engine.campaign.chunk import nominal_of, spec_vehicle
-
-    spec = refinement_spec(
-        runs_per_case=ref.runs_per_case,
-        seed=ref.seed,
-        duration_s=ref.duration_s,
-        vehicle=ref.vehicle,
-        table=ref.table_file,
-    )
-    row = case - 1
-    vehicle = spec_vehicle(spec)  # the refinement's vehicle, flown as its campaigns fly it
-    model = load_model() if vehicle is None else vehicle.model
-    # At most PLOT_RUNS runs: enough to see the spread, and a fixed cost however many runs
-    # the search flew (the whole history of every run is kept for the plot).
-    shown = min(ref.runs_per_case, PLOT_RUNS)
-    ids = row * ref.runs_per_case + np.arange(shown)
-    params = draw_runs(nominal_of(spec, model), spec.sigmas, spec.seed, ids).params
-    flying: dict = {}
-    if vehicle is not None:
-        flying = vehicle.flight_options(shown)
-    thr = np.degrees(spec.rate_threshold_rad_s)
-    fig, axes = new_figure(1, 2, figsize=(12, 4.5), sharey=True)
-    cmd = np.degrees(spec.cases[row].rate_cmd_rad_s[a])
-    for ax, (label, table, old_new) in zip(
-        axes, (("old table", ref.original, "old"), ("refined table", ref.table, "new"))
-    ):
-        history = fly_batch(
-            [spec.cases[row]] * shown, params, LookupController(table), model=model, **flying
-        )
-        rate = np.degrees(history.omega_B[:, :, a])
-        failed = outcomes(history, spec)["failed"].to_numpy(bool)
-        for fail, color in ((False, AXIS_COLORS["roll"]), (True, "tab:red")):
-            sel = failed == fail
-            if sel.any():
-                ax.plot(history.t_s, rate[sel].T, color=color, lw=0.6, alpha=0.5)
-        ax.axhspan(cmd - thr, cmd + thr, color="0.8", alpha=0.6, label=f"command +-{thr:g} deg/s")
-        ax.set_title(
-            f"{label}: {axis} {log[f'{axis}_{old_new}_s']:.2f} s; "
-            f"{int(failed.sum())} of {shown} runs fail (red)",
-            fontsize=10,
-        )
-        ax.set_xlabel("time [s]")
-        ax.grid(alpha=0.3)
-        ax.legend(loc="lower right", fontsize=8)
-    axes[0].set_ylabel(f"{axis} rate [deg/s]")
-    fig.suptitle(
-        f"Rate case {case}: {axis} rate of every dispersed run, before and after "
-        "refinement (search seed)"
-    )
-    fig.savefig(path, dpi=DPI)
-
-
 __all__ = [
     "Refinement",
-    "changed_cells",
     "held_out_check",
-    "rate_cases_campaign",
-    "refinement_spec",
     "run_refinement",
     "write_refinement",
 ]

@@ -30,9 +30,9 @@ from rcsim.analysis.engine.runs_table import (
 )
 from rcsim.spacecraft import cycle_kernel
 from rcsim.spacecraft.dispersions import DispersedRuns, draw_runs
-from rcsim.spacecraft.guards import history_bytes
-from rcsim.spacecraft.simulation import History, invalid_runs
-from rcsim.spacecraft.vehicle import AXES, VehicleParams, load_model
+from rcsim.spacecraft.guards import history_bytes, invalid_runs
+from rcsim.spacecraft.simulation import History
+from rcsim.spacecraft.vehicle import AXES, VehicleParams
 
 if TYPE_CHECKING:
     from rcsim.analysis.engine.campaign.spec import CampaignSpec
@@ -54,15 +54,16 @@ class Chunk:
         return f"{self.first:07d}-{self.stop - 1:07d}"
 
 
-def warm_up() -> None:
-    """Import what a chunk needs and compile the model once (run on each Dask worker before the
-    campaign's clock starts, so start-up is not billed to the first chunk)."""
+def warm_up(spec: CampaignSpec | None = None) -> None:
+    """Import what a chunk needs, and compile the campaign's vehicle model once when given
+    (run on each worker before the campaign's clock starts, so start-up is not billed to the
+    first chunk)."""
     import importlib
 
     for module in ("rcsim.lookup.pattern_recognition", "rcsim.lookup.phase_plane"):
         importlib.import_module(module)
-
-    load_model()
+    if spec is not None:
+        spec.vehicle.model  # noqa: B018 - compiled once per process, cached by SHA-256
 
 
 # Chunk counts are rounded up to a multiple of this, so that 1, 2 or 4 workers get equal shares
@@ -174,7 +175,6 @@ def fly_runs(
     run_ids: np.ndarray,
     *,
     nthread: int = 1,
-    model=None,
     cancel: threading.Event | None = None,
 ) -> tuple[History, DispersedRuns]:
     """Draw and fly campaign runs ``run_ids`` (cases of equal duration) as one batch.
@@ -188,48 +188,23 @@ def fly_runs(
     from rcsim.analysis.engine.flight import fly_batch
     from rcsim.lookup.registry import make_controller
 
-    vehicle = spec_vehicle(spec)
-    if model is None:
-        model = load_model() if vehicle is None else vehicle.model
+    vehicle = spec.vehicle
     run_ids = np.asarray(run_ids, dtype=np.int64)
-    dispersed = draw_runs(nominal_of(spec, model), spec.sigmas, spec.seed, run_ids)
+    dispersed = draw_runs(vehicle.nominal(1), spec.sigmas, spec.seed, run_ids)
     scenarios = [spec.cases[c] for c in run_ids // spec.runs_per_case]
     effects = draw_effects(spec.effects, spec.seed, run_ids, spec.n_jets)[0]
     options = (
         {"adapt_options": adapt_options(spec.effects)} if spec.controller == "adaptive" else {}
     )
-    if vehicle is not None:
-        options["vehicle"] = vehicle.definition
-    controller = make_controller(spec.controller, table=spec.table, model=model, **options)
+    controller = make_controller(spec.controller, vehicle, table=spec.table, **options)
     if cancel is not None:
         controller = _Cancellable(controller, cancel)
-    flying: dict = {}
-    if vehicle is not None:
-        # Its valve timing comes with the effects: the spec's [dispersions.timing] disperses
-        # about it (rcsim.analysis.engine.campaign.effects).
-        flying = {"propulsion": vehicle.propulsion(), "tank": vehicle.tank(run_ids.size)}
+    # The vehicle's valve timing comes with the effects: the spec's [dispersions.timing]
+    # disperses about it (rcsim.analysis.engine.campaign.effects).
     history = fly_batch(
-        scenarios, dispersed.params, controller, model=model, nthread=nthread, **flying, **effects
+        scenarios, dispersed.params, controller, vehicle=vehicle, nthread=nthread, **effects
     )
     return history, dispersed
-
-
-def spec_vehicle(spec: CampaignSpec):
-    """The campaign's :class:`rcsim.spacecraft.vehicle_file.FlyingVehicle`, None for the packaged
-    vehicle (a campaign without the ``vehicle`` key)."""
-    if spec.vehicle is None:
-        return None
-    from rcsim.spacecraft.vehicle_file import FlyingVehicle
-
-    return FlyingVehicle.load(spec.vehicle)
-
-
-def nominal_of(spec: CampaignSpec, model) -> VehicleParams:
-    """The nominal vehicle the runs are dispersed about (the vehicle file's Isp, if any)."""
-    nominal = VehicleParams.nominal(1, model)
-    if spec.vehicle is None:
-        return nominal
-    return replace(nominal, isp_s=spec_vehicle(spec).definition.isp_s)
 
 
 def envelope(
@@ -392,10 +367,10 @@ def tabulate(spec: CampaignSpec, history: History, dispersed: DispersedRuns) -> 
     return run_rows(spec, flown_inputs(dispersed, history.flown_params), out)
 
 
-def _raised(spec: CampaignSpec, run_ids: np.ndarray, exc: BaseException, model) -> pd.DataFrame:
+def _raised(spec: CampaignSpec, run_ids: np.ndarray, exc: BaseException) -> pd.DataFrame:
     """Rows for runs whose flight raised: inputs (the draws) recorded, outcomes NaN, failed
     with the exception as the reason."""
-    dispersed = draw_runs(nominal_of(spec, model), spec.sigmas, spec.seed, run_ids)
+    dispersed = draw_runs(spec.vehicle.nominal(1), spec.sigmas, spec.seed, run_ids)
     reason = f"exception: {type(exc).__name__}: {exc}".replace("\n", " ")
     return run_rows(spec, dispersed, missing_outcomes(run_ids.size, reason, spec.n_jets))
 
@@ -410,15 +385,11 @@ def simulate_chunk(
     ``cancel`` (local mode only; an Event does not travel to Dask workers): when set, the
     chunk is abandoned with :class:`Cancelled`.
     """
-    vehicle = spec_vehicle(spec)
-    model = load_model() if vehicle is None else vehicle.model
     try:
-        history, dispersed = fly_runs(
-            spec, chunk.run_ids, nthread=nthread, model=model, cancel=cancel
-        )
+        history, dispersed = fly_runs(spec, chunk.run_ids, nthread=nthread, cancel=cancel)
     except Exception as exc:  # noqa: BLE001 - recorded as the failure reason of its runs
         if chunk.stop - chunk.first == 1:
-            return ChunkResult(chunk, _raised(spec, chunk.run_ids, exc, model), pd.DataFrame(), {})
+            return ChunkResult(chunk, _raised(spec, chunk.run_ids, exc), pd.DataFrame(), {})
         parts = [
             simulate_chunk(spec, Chunk(i, i + 1), nthread, cancel)
             for i in range(chunk.first, chunk.stop)

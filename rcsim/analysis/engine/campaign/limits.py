@@ -9,15 +9,26 @@ the range computed here and its reason, before anything is flown.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rcsim.models.errors import InputError
+from rcsim.models.tables import PAPER_CYCLE_S
 
-# Largest initial body rate of a hold [deg/s] (norm): docs/convergence.md validates the 40 ms
-# RK4 physics step with a torque-free tumble at ~3 deg/s, 10x the paper's largest commanded
-# rate (0.3 deg/s, Table 3); beyond it the step's accuracy is not established.
+if TYPE_CHECKING:
+    from rcsim.spacecraft.vehicle_file import Vehicle
+
+# Largest initial body rate of a hold [deg/s] (norm) at the validated physics step:
+# docs/convergence.md validates the 40 ms RK4 step with a torque-free tumble at ~3 deg/s, 10x
+# the paper's largest commanded rate (0.3 deg/s, Table 3); beyond it the step's accuracy is
+# not established.  What is validated is the rotation per step (3 deg/s x 40 ms = 0.12 deg),
+# so a vehicle with another physics step gets the rate that turns it as far per step
+# (:func:`vehicle_limits`).
 MAX_INITIAL_RATE_DEG_S = 3.0
+#: The physics step the convergence study validated [s]: the paper's vehicle's (paper.toml
+#: ``timestep_s``, equal to its 40 ms control cycle).
+VALIDATED_STEP_S = PAPER_CYCLE_S
 
 # A chunk's simulation records every cycle of every run (rcsim.spacecraft.simulation.History,
 # sized by rcsim.spacecraft.guards.history_bytes).  Long runs get smaller chunks so that one
@@ -27,53 +38,39 @@ HISTORY_BUDGET_BYTES = 192 * 2**20
 
 
 def max_duration_s(
-    measured: bool = False, delivered: bool = False, *, n_jets: int | None = None
+    measured: bool = False, delivered: bool = False, *, n_jets: int, cycle_s: float
 ) -> float:
     """Longest run a campaign flies [s]: one run's per-cycle record, for a vehicle of
-    ``n_jets`` jets (default the packaged vehicle's), within a chunk's budget (``measured``,
-    ``delivered``: with the records of imperfect sensors and of valve timing or faults,
-    :func:`rcsim.spacecraft.guards.history_bytes`)."""
-    from rcsim.models.tables import CONTROL_CYCLE_S
+    ``n_jets`` jets on a control cycle of ``cycle_s`` [s], within a chunk's budget
+    (``measured``, ``delivered``: with the records of imperfect sensors and of valve timing or
+    faults, :func:`rcsim.spacecraft.guards.history_bytes`)."""
     from rcsim.spacecraft.guards import history_bytes
 
-    if n_jets is None:
-        from rcsim.spacecraft.vehicle import jet_count, load_model
-
-        n_jets = jet_count(load_model())
-
-    # history_bytes(1, 1): one run's record of one cycle, with its share of the time column;
-    # campaigns fly the paper's cycle (CampaignSpec.cycle_s).
+    # history_bytes(1, 1): one run's record of one cycle, with its share of the time column.
     one = history_bytes(1, 1, measured, delivered, n_jets=n_jets)
-    return (HISTORY_BUDGET_BYTES // one) * CONTROL_CYCLE_S
+    return (HISTORY_BUDGET_BYTES // one) * cycle_s
 
 
-_LIMITS: dict = {}
-
-
-def vehicle_limits(model) -> dict:
-    """Ranges the nominal vehicle of ``model`` gives (a vehicle file's compiled model, or the
-    packaged one).
+def vehicle_limits(vehicle: Vehicle) -> dict:
+    """Ranges the nominal ``vehicle`` gives: computed from the vehicle flown, never another's.
 
     Returns
     -------
     dict
         ``torque_n_m``: (3,) largest torque the jets give about each body axis (all jets of
-        one sign on the axis firing, nominal thrust) [N m].  ``three_sigma``: dispersion name
-        -> (upper bound of its 3-sigma in SI, reason)
+        one sign on the axis firing, nominal thrust; the smaller of the two senses) [N m].
+        ``three_sigma``: dispersion name -> (upper bound of its 3-sigma in SI, reason)
         (:func:`rcsim.spacecraft.dispersions.three_sigma_bounds`).  ``inertia_B``: (3, 3) the
         nominal inertia tensor about the CG in B [kg m^2], which limits the inertia 3-sigma
         values as a whole (:func:`rcsim.spacecraft.dispersions.inertia_scale_limit`).
     """
     from rcsim.spacecraft.dispersions import three_sigma_bounds
     from rcsim.spacecraft.propellant import full_inertia
-    from rcsim.spacecraft.vehicle import BODY, VehicleParams, jet_geometry_B, torque_per_jet_B
+    from rcsim.spacecraft.vehicle import BODY, jet_geometry_B
 
-    nom = VehicleParams.nominal(1, model)
-    torque = torque_per_jet_B(nom, model)[0]  # (n_jets, 3)
-    authority = np.minimum(
-        np.where(torque > 0, torque, 0).sum(axis=0),
-        -np.where(torque < 0, torque, 0).sum(axis=0),
-    )
+    model = vehicle.model
+    nom = vehicle.nominal(1)
+    authority = vehicle.axis_torque_n_m()
     pos_B, _ = jet_geometry_B(model)
     tensor = full_inertia(nom.inertia_B, model.body_iquat[model.body(BODY).id])[0]
     return {
@@ -82,20 +79,13 @@ def vehicle_limits(model) -> dict:
             nom.mass_kg[0], np.diag(tensor), nom.thrust_n[0], nom.cg_B[0], pos_B
         ),
         "inertia_B": tensor,
+        "initial_rate_deg_s": MAX_INITIAL_RATE_DEG_S
+        * (VALIDATED_STEP_S / vehicle.definition.timestep_s),
     }
 
 
-def physical_limits() -> dict:
-    """:func:`vehicle_limits` of the packaged vehicle (computed once)."""
-    if not _LIMITS:
-        from rcsim.spacecraft.vehicle import load_model
-
-        _LIMITS.update(vehicle_limits(load_model()))
-    return _LIMITS
-
-
 def check_three_sigma(
-    frame, scale: float, overrides: dict, source: str, sigma_keys: dict, limits: dict | None = None
+    frame, scale: float, overrides: dict, source: str, sigma_keys: dict, limits: dict
 ) -> None:
     """Every 3-sigma times ``scale`` must be below its physical bound, and the inertia 3-sigma
     values together must keep the dispersed tensor a rigid body's
@@ -115,8 +105,8 @@ def check_three_sigma(
         The spec file, for the message.
     sigma_keys : dict
         Spec key -> (dispersion name, factor from the key's unit to SI).
-    limits : dict, optional
-        :func:`vehicle_limits` of the vehicle flown; default the packaged vehicle's.
+    limits : dict
+        :func:`vehicle_limits` of the vehicle flown.
     """
     from rcsim.spacecraft.dispersions import (
         INERTIA_ENTRIES,
@@ -126,7 +116,6 @@ def check_three_sigma(
         second_moment_slack,
     )
 
-    limits = physical_limits() if limits is None else limits
     bounds = limits["three_sigma"]
     keys = {row: key for key, (row, _) in sigma_keys.items()}
     entries = [

@@ -34,32 +34,14 @@ def _channel_table(spec: CampaignSpec | None) -> bool:
     return table is not None and table not in PAPER_LOOKUP_TABLES and is_channel_table(table)
 
 
-def jet_signs(vehicle: str | None = None) -> np.ndarray:
-    """(n_jets, 3) in {-1, 0, 1}: the sign of each jet's torque about roll, pitch, yaw.
-
-    ``vehicle``: a campaign's vehicle file (its spec's ``vehicle``), whose own nominal torque
-    signs say it (:func:`rcsim.spacecraft.vehicle_file.authority.torque_signs`: for the paper's
-    vehicle file Table 2 exactly; a canted jet has a sign on every axis it torques); None, the
-    packaged vehicle: Table 2.
-    """
-    if vehicle is None:
-        from rcsim.models.tables import load_jet_map
-
-        return np.asarray(load_jet_map())
-    from rcsim.spacecraft.vehicle_file import load_vehicle
-    from rcsim.spacecraft.vehicle_file.authority import torque_signs
-
-    return torque_signs(load_vehicle(vehicle))
-
-
-def axis_jets(spec: CampaignSpec | None = None) -> np.ndarray:
+def axis_jets(spec: CampaignSpec) -> np.ndarray:
     """(3, n_jets) bool: the jets that count as roll, pitch, yaw jets for a campaign.
 
-    The jets that torque each axis (:func:`jet_signs` of the spec's vehicle nonzero; Table 2
-    for the packaged vehicle); for a campaign flying a channel table, the jets its channels of
-    each axis fire (:func:`rcsim.lookup.channels.axis_jets_of`: on a coupled layout every jet
-    torques several axes, so the torque signs alone say little about which firing serves which
-    axis).
+    The jets that torque each axis (the spec's vehicle's torque signs nonzero,
+    :attr:`rcsim.spacecraft.vehicle_file.Vehicle.axis_signs`: Table 2 for the paper's); for a
+    campaign flying a channel table, the jets its channels of each axis fire
+    (:func:`rcsim.lookup.channels.axis_jets_of`: on a coupled layout every jet torques several
+    axes, so the torque signs alone say little about which firing serves which axis).
     """
     table = getattr(spec, "table", None)
     if table is not None and _channel_table(spec):
@@ -67,7 +49,7 @@ def axis_jets(spec: CampaignSpec | None = None) -> np.ndarray:
         from rcsim.models.tables import load_recipe, recipe_path
 
         return axis_jets_of(load_recipe(recipe_path(table)))
-    return (jet_signs(getattr(spec, "vehicle", None)) != 0).T
+    return (spec.vehicle.axis_signs != 0).T
 
 
 def firing_starts(on_time_s: np.ndarray, cycle_s: float) -> np.ndarray:

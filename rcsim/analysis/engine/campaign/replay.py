@@ -14,7 +14,6 @@ import pandas as pd
 from rcsim.analysis.engine import runs_table
 from rcsim.analysis.engine.campaign import results as R
 from rcsim.analysis.engine.campaign.chunk import fly_runs, tabulate
-from rcsim.analysis.engine.campaign.outcomes import jet_signs
 from rcsim.analysis.engine.campaign.spec import parse_dict
 from rcsim.analysis.engine.output import check_out_dir
 from rcsim.models.errors import InputError
@@ -80,10 +79,9 @@ def replay(
         history,
         out,
         title=title,
-        isp_s=dispersed.params.isp_s,
+        vehicle=spec.vehicle,
         command=COMMAND,
         overwrite=overwrite,
-        jet_signs=jet_signs(spec.vehicle),
     )
     matches = None
     if stored is not None and len(stored) == 1:

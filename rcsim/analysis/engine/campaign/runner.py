@@ -301,10 +301,12 @@ def _run(
     # In words, beside the spec (whose resolved form stays as it was: its digest is what a
     # resume compares): which table "default" meant, and the vehicle file's own name.
     manifest["dispersions_source"] = runs_table.dispersions_source(spec.resolved)
-    if spec.vehicle is not None:
-        from rcsim.spacecraft.vehicle_file import load_vehicle
-
-        manifest["vehicle_name"] = load_vehicle(spec.vehicle).name
+    # The vehicle flown and its flight-software profile, named (the spec resolves the vehicle
+    # file and its sha256 only when it names one; the profile is what every controller flew).
+    manifest["vehicle_name"] = spec.vehicle.name
+    manifest["vehicle_ref"] = spec.vehicle.ref
+    manifest["vehicle_sha256"] = spec.vehicle.sha256
+    manifest["control_profile"] = spec.vehicle.control.record()
     if resume and manifest.get("status") == "running":
         manifest.setdefault("resumed_utc", []).append(R.now_utc())
     R.write_json(manifest, out / runs_table.MANIFEST)

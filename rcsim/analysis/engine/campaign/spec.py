@@ -39,16 +39,22 @@ from rcsim.analysis.engine.campaign.limits import (
     MAX_INITIAL_RATE_DEG_S,
     check_three_sigma,
     max_duration_s,
-    physical_limits,
     vehicle_limits,
 )
 from rcsim.analysis.engine.campaign.reader import Reader, file_digest, file_key
+from rcsim.analysis.engine.campaign.spec_vehicle import (
+    check_channel_table,
+    check_jet_map,
+    check_reachable,
+    spec_vehicle,
+)
 from rcsim.analysis.engine.flight import Scenario
 from rcsim.lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
 from rcsim.models.errors import InputError
-from rcsim.models.tables import CONTROL_CYCLE_S, PAPER_LOOKUP_TABLES
+from rcsim.models.tables import PAPER_LOOKUP_TABLES
 from rcsim.spacecraft.dispersions import MAX_SEED, DispersionSigmas
 from rcsim.spacecraft.dispersions import THREE_SIGMA_KEYS as _SIGMA_KEYS
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 #: The commented example spec ``rcsim campaign example`` prints: every key, its default and
 #: what it means (a data file beside this module, ``example_spec.toml``; a test loads it).
@@ -87,11 +93,13 @@ class CampaignSpec:
     resolved : dict
         The spec with defaults filled in and paths made absolute (JSON-able); what the
         manifest records, what ``--resume`` compares and what ``replay`` rebuilds from.
-    n_jets : int
-        The flown vehicle's jet count, read from its compiled model when the spec is read
-        (:func:`rcsim.spacecraft.vehicle.jet_count`; 16 for the packaged vehicle): the width of
-        every per-jet draw, record and column of the campaign.  Not in ``resolved``: the
-        vehicle is (its file and SHA-256).
+    vehicle : rcsim.spacecraft.vehicle_file.Vehicle
+        The vehicle flown, resolved once when the spec is read (the ``vehicle`` key, or the
+        paper's; with the spec's ``[control]`` overrides of its profile): its model, jets,
+        profile, valve limits, timing and tank.  It pickles small (its model is compiled once
+        per process, cached by SHA-256), so a spec travels to workers as it is.  In
+        ``resolved``: its file and SHA-256 when the spec names one, and ``[control]`` when the
+        spec gives it (other specs resolve as before).
     effects : Effects
         Sensors, valve timing and jet faults (:mod:`~rcsim.analysis.engine.campaign.effects`);
         each ``is_none()`` when the spec has no such table.
@@ -100,9 +108,6 @@ class CampaignSpec:
         None: no gate.
         Not in ``resolved``: it judges results and changes nothing that is flown, so a
         campaign can be resumed under another limit.
-    vehicle : str or None
-        The vehicle file flown (absolute path, or a packaged vehicle's name such as
-        ``"paper"``); None: the packaged ``vehicle.xml``.
     """
 
     source: str
@@ -119,10 +124,9 @@ class CampaignSpec:
     first_k: int
     plots: bool
     resolved: dict
-    n_jets: int
+    vehicle: Vehicle
     max_failed_pct: float | None = None
     effects: Effects = Effects()
-    vehicle: str | None = None
 
     @property
     def sensor(self):
@@ -144,12 +148,18 @@ class CampaignSpec:
         return len(self.cases)
 
     @property
+    def n_jets(self) -> int:
+        """The flown vehicle's jet count: the width of every per-jet draw, record and column
+        of the campaign."""
+        return self.vehicle.definition.n_jets
+
+    @property
     def cycle_s(self) -> float:
-        """The control cycle the campaign flies [s]: every controller and valve model it builds
-        takes :data:`rcsim.models.tables.CONTROL_CYCLE_S`, so its plans (chunk sizes, delay limits,
+        """The control cycle the campaign flies [s]: the vehicle profile's, which every
+        controller and valve model it builds takes, so its plans (chunk sizes, delay limits,
         disk estimates) use it before any flight; each flight's
         :class:`rcsim.spacecraft.history.History` then carries the cycle it flew."""
-        return CONTROL_CYCLE_S
+        return self.vehicle.control.cycle_s
 
     @property
     def n_runs(self) -> int:
@@ -183,11 +193,13 @@ class CampaignSpec:
 # ----------------------------------------------------------------------------------------------
 # Reading (the key-by-key reader is rcsim.analysis.engine.campaign.reader)
 # ----------------------------------------------------------------------------------------------
-def _scenarios(raw, source: str, resolved: list, n_jets: int) -> list[Scenario]:
-    """``[scenario]`` (or ``[[scenario]]``): the cases, for a vehicle of ``n_jets`` jets (a
-    run's per-cycle record, hence the longest run, depends on it)."""
+def _scenarios(raw, source: str, resolved: list, vehicle: Vehicle) -> list[Scenario]:
+    """``[scenario]`` (or ``[[scenario]]``): the cases, for ``vehicle`` (its jet count and
+    cycle size a run's per-cycle record, hence the longest run; its jets' torque bounds a
+    hold's disturbance)."""
     from rcsim.models.tables import load_rate_cases
 
+    n_jets, cycle_s = vehicle.definition.n_jets, vehicle.control.cycle_s
     blocks = raw if isinstance(raw, list) else [raw]
     if not blocks:
         raise InputError(f"{source}: scenario: the list is empty")
@@ -196,10 +208,11 @@ def _scenarios(raw, source: str, resolved: list, n_jets: int) -> list[Scenario]:
         r = Reader(block, "scenario" if not isinstance(raw, list) else f"scenario[{b}]", source)
         kind = r.choice("kind", "rate-cases", SCENARIO_KINDS)
         duration = r.number("duration_s", 20.0, minimum=0.0, strict=True)
-        if duration > max_duration_s(n_jets=n_jets):
+        longest = max_duration_s(n_jets=n_jets, cycle_s=cycle_s)
+        if duration > longest:
             raise r.error(
                 "duration_s",
-                f"must be <= {max_duration_s(n_jets=n_jets):.0f} s: one run's "
+                f"must be <= {longest:.0f} s: one run's "
                 "per-cycle record must fit a chunk's memory budget (analysis."
                 "engine.campaign.limits.HISTORY_BUDGET_BYTES)",
                 duration,
@@ -249,26 +262,27 @@ def _scenarios(raw, source: str, resolved: list, n_jets: int) -> list[Scenario]:
                 out.update(name=name, attitude_deg=att)
             else:
                 dist = r.vector3("disturbance_n_m", [0.0, 0.0, 0.0])
-                torque = physical_limits()["torque_n_m"]
+                limits = vehicle_limits(vehicle)
+                torque = limits["torque_n_m"]
                 over = [a for a in range(3) if abs(dist[a]) > torque[a]]
                 if over:
                     raise r.error(
                         "disturbance_n_m",
-                        "each component must be within the jets' "
-                        "largest torque about that axis, +-["
-                        + ", ".join(f"{t:.4g}" for t in torque)
-                        + "] N m (nominal vehicle, "
-                        "all jets of one sign firing): beyond it no controller can "
-                        "hold attitude",
+                        f"each component must be within the jets' largest torque about that "
+                        f"axis, +-[{', '.join(f'{t:.4g}' for t in torque)}] N m ({vehicle.ref}'s "
+                        "nominal vehicle, all jets of one sign firing): beyond it no "
+                        "controller can hold attitude",
                         dist,
                     )
                 w0 = r.vector3("initial_rate_deg_s", [0.0, 0.0, 0.0])
-                if np.linalg.norm(w0) > MAX_INITIAL_RATE_DEG_S:
+                if np.linalg.norm(w0) > limits["initial_rate_deg_s"]:
                     raise r.error(
                         "initial_rate_deg_s",
-                        f"magnitude must be <= "
-                        f"{MAX_INITIAL_RATE_DEG_S:g} deg/s, the largest rate the 40 ms "
-                        "physics step is validated for (docs/convergence.md)",
+                        f"magnitude must be <= {limits['initial_rate_deg_s']:.4g} deg/s, the "
+                        f"largest rate {vehicle.ref}'s "
+                        f"{vehicle.definition.timestep_s * 1e3:g} ms physics step is validated "
+                        f"for ({MAX_INITIAL_RATE_DEG_S:g} deg/s at 40 ms, docs/convergence.md: "
+                        "the same rotation per step)",
                         w0,
                     )
                 cases.append(
@@ -319,21 +333,23 @@ def parse_dict(
         raise InputError(f"{source}: scenario: missing; see `rcsim campaign example`")
     raw_scen = top.raw("scenario")
     # The vehicle first: its jet count sizes every per-jet record (the longest run, the
-    # jets a fault may name).
-    vehicle, vehicle_resolved, n_jets = _vehicle(top, base_dir)
+    # jets a fault may name), its profile's cycle every plan, its jets' torque the limits.
+    vehicle, vehicle_resolved, named = spec_vehicle(top, base_dir, source)
     scen_resolved: list = []
-    cases = _scenarios(raw_scen, source, scen_resolved, n_jets)
+    cases = _scenarios(raw_scen, source, scen_resolved, vehicle)
     resolved["scenario"] = scen_resolved if isinstance(raw_scen, list) else scen_resolved[0]
-    if vehicle is not None:  # recorded only when given: other specs resolve as before
-        resolved.update(vehicle_resolved)
-        _check_reachable(vehicle, cases, source)
-    name, table, resolved["controller"] = _controller(top.table_("controller"), base_dir)
-    if vehicle is not None:
-        _check_jet_map(vehicle, name, table, source)
+    # Recorded only when given: other specs resolve as before.
+    resolved.update(vehicle_resolved)
+    if named:
+        check_reachable(vehicle, cases, source)
+    name, table, resolved["controller"] = _controller(
+        top.table_("controller"), base_dir, vehicle.control.cycle_s
+    )
+    check_jet_map(vehicle, name, table, source)
     if table is not None and table not in PAPER_LOOKUP_TABLES:
-        _check_channel_table(name, table, vehicle, source)
+        check_channel_table(name, table, vehicle, source)
     sigmas, effects, resolved["dispersions"] = _dispersions(
-        top.table_("dispersions"), base_dir, cases, source, vehicle, n_jets
+        top.table_("dispersions"), base_dir, cases, source, vehicle, named
     )
     rate_thr, att_thr, max_failed, resolved["failure"] = _failure(top.table_("failure"))
     histories, first_k, plots, resolved["output"] = _output(top.table_("output"))
@@ -353,123 +369,15 @@ def parse_dict(
         first_k=first_k,
         plots=plots,
         resolved=resolved,
-        n_jets=n_jets,
+        vehicle=vehicle,
         max_failed_pct=max_failed,
         effects=effects,
-        vehicle=vehicle,
     )
 
 
-def _check_jet_map(vehicle: str, controller: str, table: str | None, source: str) -> None:
-    """Refuse a controller that cannot fly the vehicle
-    (:func:`rcsim.lookup.registry.vehicle_problem`: the phase-plane controller and the packaged
-    lookup tables on a vehicle whose jets torque otherwise than Table 2's, any lookup table on
-    a vehicle without 16 jets), naming the key."""
-    from rcsim.lookup.registry import vehicle_problem
-    from rcsim.spacecraft.vehicle_file import load_vehicle
-
-    problem = vehicle_problem(controller, table, load_vehicle(vehicle))
-    if problem is not None:
-        raise InputError(f"{source}: controller.{problem[0]}: {problem[1]}")
-
-
-def _check_channel_table(controller: str, table: str, vehicle: str | None, source: str) -> None:
-    """A channel table (six axis channels and a recipe, for a vehicle whose jets torque several
-    axes) flies only with the lookup controller, on the vehicle file its recipe was solved for
-    (same SHA-256)."""
-    from rcsim.lookup.jet_sets import check_table_vehicle
-    from rcsim.models.tables import is_channel_table, load_lookup_table
-
-    if not is_channel_table(table):
-        return
-    tab = load_lookup_table(table)
-    try:
-        if controller != "lookup":
-            raise InputError(
-                f"{table}: a channel table flies with the lookup controller, not {controller!r}"
-            )
-        check_table_vehicle(tab, vehicle)
-    except InputError as exc:
-        raise InputError(f"{source}: controller.table: {exc}") from None
-
-
-def _check_reachable(vehicle: str, cases: list[Scenario], source: str) -> None:
-    """Refuse a case whose rate change or attitude step the vehicle's jets cannot give,
-    naming the case and the axis direction."""
-    from rcsim.spacecraft.vehicle_file import load_vehicle
-    from rcsim.spacecraft.vehicle_file.authority import unreachable_command
-
-    definition = load_vehicle(vehicle)
-    for case in cases:
-        for what, need in (
-            ("rate change", case.rate_cmd_rad_s - case.omega0_rad_s),
-            ("attitude step", case.att_cmd_rad),
-        ):
-            why = unreachable_command(definition, need)
-            if why:
-                raise InputError(
-                    f"{source}: vehicle: {definition.source} cannot fly case {case.name!r}: "
-                    f"{why} (its {what} is {np.degrees(need).round(4).tolist()} deg"
-                    f"{'/s' if what == 'rate change' else ''})"
-                )
-
-
-def _vehicle(top: Reader, base_dir: Path) -> tuple[str | None, dict, int]:
-    """``vehicle``: a packaged vehicle's name or a vehicle file (relative to the spec), checked
-    by loading it; with its sha256 in ``resolved`` (a resume or replay refuses a changed file)
-    and its jet count (the packaged vehicle's without the key).  A file that gives valve
-    timing has it in ``resolved`` too (``vehicle_timing``: the nominal delays every run flies,
-    about which ``[dispersions.timing]`` disperses; recorded only then, so other specs resolve
-    as before)."""
-    from rcsim.spacecraft.vehicle import jet_count, load_model
-    from rcsim.spacecraft.vehicle_file import PACKAGED_VEHICLES, FlyingVehicle, resolve_vehicle
-
-    if not top.has("vehicle"):
-        return None, {}, jet_count(load_model())
-    stored = top.raw("vehicle_sha256") if top.has("vehicle_sha256") else None
-    stored_timing = top.raw("vehicle_timing") if top.has("vehicle_timing") else None
-    value = top.raw("vehicle")
-    if not isinstance(value, str) or not value:
-        names = ", ".join(f'"{n}"' for n in PACKAGED_VEHICLES)
-        raise top.error("vehicle", f"must be a packaged vehicle ({names}) or a file path", value)
-    local = base_dir / value
-    if value in PACKAGED_VEHICLES and local.exists():
-        raise top.error(
-            "vehicle",
-            f"ambiguous: both the packaged vehicle {value!r} and the file {local}; "
-            f'write "./{value}"',
-            value,
-        )
-    if value in PACKAGED_VEHICLES:
-        path = str(resolve_vehicle(value))
-    else:
-        file = Path(value).expanduser()
-        file = file if file.is_absolute() else base_dir / file
-        if not file.is_file():
-            raise top.error("vehicle", "file not found", str(file))
-        path = str(file.resolve())
-    flying = FlyingVehicle.load(path)  # InputError naming the vehicle file, the key and the value
-    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    if stored is not None and stored != digest:
-        raise top.error("vehicle", "file changed since the campaign ran (sha256 differs)", value)
-    name = value if value in PACKAGED_VEHICLES else path
-    resolved: dict = {"vehicle": name, "vehicle_sha256": digest}
-    definition = flying.definition
-    timing = definition.delay_record() if definition.delay_keys else None
-    if stored_timing is not None and stored_timing != timing:
-        raise top.error(
-            "vehicle_timing",
-            f"is not the valve timing of {definition.source} "
-            f"({'it gives none' if timing is None else timing})",
-            stored_timing,
-        )
-    if timing is not None:
-        resolved["vehicle_timing"] = timing
-    return name, resolved, flying.n_jets
-
-
-def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
-    """``[controller]``: name, table (absolute path, paper table name or None), resolved."""
+def _controller(c: Reader, base_dir: Path, cycle_s: float) -> tuple[str, str | None, dict]:
+    """``[controller]``: name, table (absolute path, paper table name or None; a table file
+    in whole cycles of the vehicle's ``cycle_s``), resolved."""
     from rcsim.lookup.jet_sets import load_table_for_jets
     from rcsim.models.tables import load_lookup_table
 
@@ -482,7 +390,7 @@ def _controller(c: Reader, base_dir: Path) -> tuple[str, str | None, dict]:
         load_lookup_table(table)  # InputError naming the file, row and column
     elif table is not None:
         # Checked against the jets of the vehicle it was made for (its companion file).
-        jets_off = load_table_for_jets(table)[1]
+        jets_off = load_table_for_jets(table, cycle_s=cycle_s)[1]
     c.unlisted.add("jets_off")  # a manifest's record, not a key to offer a user
     if c.has("jets_off"):  # a manifest's: the companion must still name the same jets
         expect = c.raw("jets_off")
@@ -534,27 +442,24 @@ def _dispersions(
     base_dir: Path,
     cases: list[Scenario],
     source: str,
-    vehicle: str | None,
-    n_jets: int,
+    vehicle: Vehicle,
+    named: bool,
 ) -> tuple[DispersionSigmas, Effects, dict]:
     """``[dispersions]``: Table 5 (file, scale, 3-sigma overrides, converted to SI one-sigmas
-    here) and the sensor / timing / fault tables (a fault's jets among the vehicle's
-    ``n_jets``).  With a ``vehicle`` and ``table = "default"``, the table is the vehicle
-    file's ``[dispersions]`` (a row it leaves out is not dispersed)."""
+    here, each bounded by ``vehicle``'s ranges) and the sensor / timing / fault tables (a
+    fault's jets among the vehicle's).  With a vehicle the spec ``named`` and ``table =
+    "default"``, the table is the vehicle file's ``[dispersions]`` (a row it leaves out is not
+    dispersed); without, Table 5."""
     from rcsim.models.tables import load_dispersions
 
+    n_jets = vehicle.definition.n_jets
     disp_table = file_key(d, "table", base_dir)
     frame = load_dispersions(disp_table)
-    limits = None  # the packaged vehicle's ranges
-    definition = None
-    if vehicle is not None:
-        from rcsim.spacecraft.vehicle_file import FlyingVehicle
-
-        flying = FlyingVehicle.load(vehicle)
-        definition = flying.definition
-        limits = vehicle_limits(flying.model)
+    limits = vehicle_limits(vehicle)
+    definition = vehicle.definition if named else None
+    if named:
         if disp_table is None:
-            own = flying.definition.three_sigma
+            own = vehicle.definition.three_sigma
             frame["three_sigma"] = [float(own.get(name, 0.0)) for name in frame["name"]]
             for name in own:  # rows beyond Table 5 (CG y and z, products of inertia)
                 if name not in set(frame["name"]):
@@ -580,15 +485,15 @@ def _dispersions(
     effects, effects_resolved = parse_effects(
         d.table,
         source=source,
-        cycle_s=CONTROL_CYCLE_S,
+        cycle_s=vehicle.control.cycle_s,
         longest_s=max(case.duration_s for case in cases),
         n_jets=n_jets,
-        vehicle="the packaged vehicle" if vehicle is None else f"vehicle {vehicle}",
+        vehicle=f"vehicle {vehicle.ref}" if named else "the paper's vehicle",
         definition=definition,
     )
     d.done()
     records = effects.records()
-    longest = max_duration_s(**records, n_jets=n_jets)
+    longest = max_duration_s(**records, n_jets=n_jets, cycle_s=vehicle.control.cycle_s)
     if any(records.values()) and any(case.duration_s > longest for case in cases):
         what = [f"[dispersions.{'/'.join(effects.groups)}]"] if effects.groups else []
         what += ["the vehicle's valve timing"] if effects.vehicle_timing is not None else []

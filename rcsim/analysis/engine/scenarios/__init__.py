@@ -25,6 +25,7 @@ from rcsim.analysis.engine.scenarios.flying import (
     comparison_markdown,
     fly_scenario,
     scenario_metrics,
+    settle_tolerances,
     settled_time,
     summarize,
 )
@@ -39,6 +40,7 @@ __all__ = [
     "comparison_markdown",
     "fly_scenario",
     "scenario_metrics",
+    "settle_tolerances",
     "settled_time",
     "summarize",
     "write_scenario",

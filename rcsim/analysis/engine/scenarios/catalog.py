@@ -16,13 +16,6 @@ import numpy as np
 from rcsim.analysis.engine.flight import Scenario
 from rcsim.models.errors import InputError
 
-#: Settling tolerances shared by both controllers in the comparison.  Attitude: 0.7 deg, the
-#: edge of the lookup controller's hold region (maneuver limit 0.6 deg + no-firing band
-#: 0.1 deg, Table 4 and Figs 17-18); it also contains the phase plane's 0.25 deg deadband.
-#: Rate: 0.06 deg/s, Table 4's rate error limit.
-SETTLE_ATT_RAD = np.radians(0.7)
-SETTLE_RATE_RAD_S = np.radians(0.06)
-
 #: Disturbance torque of the attitude-hold scenarios [N m] (yaw).  The paper gives no value;
 #: 2 N m is 6 % of a yaw jet pair's torque (2 x 22.24 N x 0.724 m = 32.2 N m); it drifts the
 #: attitude to the maneuver limit in about 18 s (measured), so the hold logic at the limit is

@@ -6,7 +6,6 @@ named scenarios with the lookup controller.
 
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 
@@ -17,12 +16,14 @@ from rcsim.analysis.engine.plots import plot_attitude_error, plot_axes_jets
 from rcsim.analysis.engine.scenarios.catalog import get_scenario
 from rcsim.analysis.engine.scenarios.flying import fly_scenario
 from rcsim.analysis.engine.scenarios.plots import (
+    hold_lines,
     plot_hold,
     plot_runs_rates,
     plot_sweep_case,
     plot_table_heatmap,
 )
-from rcsim.lookup.table_generation import generate_table
+from rcsim.lookup.generation import generate_table
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 #: The docs figure set: file name -> (scenario, plot kind).  Kinds: "att" attitude error,
 #: "jets" rates with jet commands per axis, "hold" the attitude-hold view.
@@ -94,17 +95,16 @@ def write_figure_set(out_dir, *, table=None, progress: bool | None = None) -> li
                 frame, out_dir / name, title=title, axes=axes, windows=firing_windows(frame)
             )
         else:
-            options = get_scenario(scn_name).lookup_options or {}
-            raw = options.get("no_fire_band_rad")
-            band = math.radians(0.1) if raw is None else float(raw)
-            plot_hold(frame, out_dir / name, title=title, band_deg=math.degrees(band))
+            lines = hold_lines(get_scenario(scn_name), Vehicle.load().control)  # the paper's
+            plot_hold(frame, out_dir / name, title=title, **lines)
         names.append(name)
     return names
 
 
 def _write_table_figures(out_dir: Path, table, bar) -> list[str]:
     """Figs 3-4 from a fresh table generation, and the rate damping of the 26 rates."""
-    gen = generate_table()
+    paper = Vehicle.load()  # the paper's vehicle: its Figs 3-4
+    gen = generate_table(paper)
     bar.update(1)
     rate = np.asarray(gen.table.rate_cmd)
     names = [
@@ -117,12 +117,14 @@ def _write_table_figures(out_dir: Path, table, bar) -> list[str]:
         gen.table.firing_time_s,
         out_dir / names[0],
         rate_cmd_rad_s=rate,
+        cycle_s=paper.control.cycle_s,
         title="Fig 3: firing time from rest to each rate command (generated)",
     )
     plot_table_heatmap(
         gen.damping_firing_time_s,
         out_dir / names[1],
         rate_cmd_rad_s=rate,
+        cycle_s=paper.control.cycle_s,
         title="Fig 4: firing time to damp each rate to zero; equal times on "
         f"opposing jets in {int(gen.damping_equal.sum())}/26 cases",
     )

@@ -16,24 +16,19 @@ import pandas as pd
 from rcsim.analysis.engine.flight import fly_batch
 from rcsim.analysis.engine.scenarios.catalog import PaperScenario, all_scenarios, get_scenario
 from rcsim.lookup.registry import CONTROLLERS, make_controller
+from rcsim.models.errors import InputError
 from rcsim.spacecraft.simulation import History
-from rcsim.spacecraft.vehicle import VehicleParams, load_model
-
-#: Settling tolerances shared by both controllers in the comparison.  Attitude: 0.7 deg, the
-#: edge of the lookup controller's hold region (maneuver limit 0.6 deg + no-firing band
-#: 0.1 deg, Table 4 and Figs 17-18); it also contains the phase plane's 0.25 deg deadband.
-#: Rate: 0.06 deg/s, Table 4's rate error limit.
-SETTLE_ATT_RAD = np.radians(0.7)
-SETTLE_RATE_RAD_S = np.radians(0.06)
+from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle_file import ControlProfile, Vehicle
 
 #: Rows of the comparison: the paper's controller first, then the phase-plane baseline.
 COMPARISON_ORDER = tuple(sorted(CONTROLLERS, key=lambda name: name != "lookup"))
 
 
 def build_controller(
-    scenario: PaperScenario, controller: str, *, table=None, model=None, **lookup_overrides
+    scenario: PaperScenario, controller: str, vehicle: Vehicle, *, table=None, **lookup_overrides
 ):
-    """The controller for ``scenario`` with the scenario's options applied.
+    """The controller for ``scenario`` on ``vehicle`` with the scenario's options applied.
 
     Parameters
     ----------
@@ -45,11 +40,28 @@ def build_controller(
     """
     return make_controller(
         controller,
+        vehicle,
         table=table,
-        model=model,
         lookup_options={**scenario.lookup_options, **lookup_overrides},
         phase_plane_options=scenario.phase_plane_options,
     )
+
+
+def check_scenario_vehicle(scenario: PaperScenario, vehicle: Vehicle) -> None:
+    """Refuse to fly ``scenario`` on ``vehicle`` when a run's disturbance torque exceeds the
+    jets' largest torque about an axis (the campaign rule, computed from the vehicle flown:
+    :meth:`Vehicle.axis_torque_n_m`): no controller could hold
+    it, and the flight would only show that."""
+    torque = vehicle.axis_torque_n_m()
+    for run in scenario.runs:
+        dist = np.asarray(run.disturbance_n_m, float)
+        if (np.abs(dist) > torque).any():
+            raise InputError(
+                f"scenario {scenario.name}: its disturbance {dist.tolist()} N m exceeds "
+                f"{vehicle.label}'s largest torque about an axis, +-"
+                f"[{', '.join(f'{t:.4g}' for t in torque)}] N m (all jets of one sign firing): "
+                "no controller can hold attitude against it"
+            )
 
 
 def fly_scenario(
@@ -57,6 +69,7 @@ def fly_scenario(
     controller: str = "lookup",
     *,
     table=None,
+    vehicle: Vehicle | None = None,
     params: VehicleParams | None = None,
     controller_obj=None,
     **lookup_overrides,
@@ -65,25 +78,31 @@ def fly_scenario(
 
     Parameters
     ----------
+    vehicle : Vehicle, optional
+        The vehicle flown; default the paper's (the scenarios are the paper's).
     params : VehicleParams, optional
         One vehicle per run (``scenario.n_runs``), e.g. an off-nominal one.
     controller_obj : Controller, optional
         Use this controller instead of building one.
     """
-    model = load_model()
-    params = VehicleParams.nominal(scenario.n_runs, model) if params is None else params
+    vehicle = Vehicle.load(vehicle)
+    params = vehicle.nominal(scenario.n_runs) if params is None else params
     ctl = controller_obj or build_controller(
-        scenario, controller, table=table, model=model, **lookup_overrides
+        scenario, controller, vehicle, table=table, **lookup_overrides
     )
-    return fly_batch(scenario.runs, params, ctl, model=model)
+    return fly_batch(scenario.runs, params, ctl, vehicle=vehicle)
 
 
-def settled_time(
-    history: History,
-    *,
-    att_tol_rad: float = SETTLE_ATT_RAD,
-    rate_tol_rad_s: float = SETTLE_RATE_RAD_S,
-) -> np.ndarray:
+def settle_tolerances(control: ControlProfile) -> tuple[float, float]:
+    """Settling tolerances shared by both controllers in the comparison, from the vehicle's
+    profile: attitude [rad], the edge of the lookup controller's hold region (maneuver limit +
+    no-firing band: 0.6 + 0.1 deg, Table 4 and Figs 17-18, for the paper's vehicle; it also
+    contains the phase plane's 0.25 deg deadband), and rate [rad/s], the lookup controller's
+    rate deadband (0.06 deg/s, Table 4's rate error limit)."""
+    return control.maneuver_limit_rad + control.maneuver_band_rad, control.rate_deadband_rad_s
+
+
+def settled_time(history: History, *, att_tol_rad: float, rate_tol_rad_s: float) -> np.ndarray:
     """Per run, the time from which the total attitude error stays within ``att_tol_rad``
     *and* every axis's rate error within ``rate_tol_rad_s`` to the end [s]; NaN if the run
     ends outside.  Shape (n_runs,).
@@ -105,9 +124,11 @@ def settled_time(
 
 
 def scenario_metrics(
-    history: History, scenario: PaperScenario, isp_s: float = VehicleParams.isp_s
+    history: History, scenario: PaperScenario, control: ControlProfile
 ) -> pd.DataFrame:
-    """Per run: final errors, firings, propellant, settled time (degrees at this boundary).
+    """Per run: final errors, firings, propellant, settled time (degrees at this boundary),
+    the settling tolerances from the flown vehicle's profile ``control``
+    (:func:`settle_tolerances`).
 
     Columns: ``run``, ``label``, ``final_att_err_deg`` (total angle), ``final_rate_err_deg_s``
     (largest axis), ``firings`` (jet firings started), ``on_time_s``, ``propellant_kg``,
@@ -116,6 +137,7 @@ def scenario_metrics(
     """
     final = history.final
     prop = history.propulsion
+    att_tol, rate_tol = settle_tolerances(control)
     return pd.DataFrame(
         {
             "run": np.arange(history.n_runs),
@@ -124,8 +146,10 @@ def scenario_metrics(
             "final_rate_err_deg_s": np.degrees(np.abs(final.rate_err_B).max(axis=1)),
             "firings": prop.firings.sum(axis=1),
             "on_time_s": prop.on_time_s.sum(axis=1),
-            "propellant_kg": prop.propellant_kg(isp_s),
-            "att_rate_settled_time_s": settled_time(history),
+            "propellant_kg": history.propellant_kg,
+            "att_rate_settled_time_s": settled_time(
+                history, att_tol_rad=att_tol, rate_tol_rad_s=rate_tol
+            ),
             "failed": history.failed,
             "reason": list(history.reason),
         }
@@ -146,11 +170,15 @@ def summarize(metrics: pd.DataFrame) -> dict:
     }
 
 
-def compare_controllers(names=None, *, table=None, progress: bool | None = None) -> pd.DataFrame:
+def compare_controllers(
+    names=None, *, table=None, progress: bool | None = None, vehicle: Vehicle | None = None
+) -> pd.DataFrame:
     """Fly each scenario with both controllers; one row per (scenario, controller).
 
     Parameters
     ----------
+    vehicle : Vehicle, optional
+        The vehicle flown; default the paper's (the scenarios are the paper's).
     names : sequence of str, optional
         Scenario names (default: all).
     table : path, optional
@@ -163,6 +191,7 @@ def compare_controllers(names=None, *, table=None, progress: bool | None = None)
 
     names = list(names or all_scenarios())
     scenarios = [get_scenario(name) for name in names]  # unknown names fail before any flight
+    vehicle = Vehicle.load(vehicle)
     rows = []
     with tqdm(
         total=len(scenarios) * len(COMPARISON_ORDER),
@@ -175,20 +204,23 @@ def compare_controllers(names=None, *, table=None, progress: bool | None = None)
         for scn in scenarios:
             for ctl in COMPARISON_ORDER:
                 bar.set_postfix_str(f"{scn.name} / {ctl}")
-                hist = fly_scenario(scn, ctl, table=table if ctl == "lookup" else None)
+                hist = fly_scenario(
+                    scn, ctl, table=table if ctl == "lookup" else None, vehicle=vehicle
+                )
                 rows.append(
                     {
                         "scenario": scn.name,
                         "controller": ctl,
-                        **summarize(scenario_metrics(hist, scn)),
+                        **summarize(scenario_metrics(hist, scn, vehicle.control)),
                     }
                 )
                 bar.update(1)
     return pd.DataFrame(rows)
 
 
-def comparison_markdown(frame: pd.DataFrame) -> str:
-    """The comparison as a markdown table (deg, deg/s, kg, s)."""
+def comparison_markdown(frame: pd.DataFrame, control: ControlProfile) -> str:
+    """The comparison as a markdown table (deg, deg/s, kg, s); ``control``: the flown
+    vehicle's profile, whose settling tolerances the note states."""
     head = (
         "| scenario | controller | final att. err [deg] | final rate err [deg/s] | "
         "firings | propellant [kg] | settled from [s] |\n|---|---|---|---|---|---|---|\n"
@@ -201,10 +233,11 @@ def comparison_markdown(frame: pd.DataFrame) -> str:
             f"| {r.scenario} | {r.controller} | {r.final_att_err_deg:.3f} | "
             f"{r.final_rate_err_deg_s:.4f} | {r.firings} | {r.propellant_kg:.4f} | {settle} |"
         )
+    att_tol, rate_tol = settle_tolerances(control)
     note = (
         f"\nSettled from: the time after which the total attitude error stays within "
-        f"{np.degrees(SETTLE_ATT_RAD):g} deg and every axis's rate error within "
-        f"{np.degrees(SETTLE_RATE_RAD_S):g} deg/s to the end of the flight "
+        f"{np.degrees(att_tol):.4g} deg and every axis's rate error within "
+        f"{np.degrees(rate_tol):.4g} deg/s to the end of the flight "
         "(column `att_rate_settled_time_s` of comparison.csv).\n"
     )
     return head + "\n".join(lines) + "\n" + note

@@ -22,13 +22,13 @@ from rcsim.analysis.engine.plots import (
     plot_rates_and_jets,
     signed_jets,
 )
-from rcsim.models.tables import CONTROL_CYCLE_S
 
 DPI = 100
 
 
-def plot_scenario(history, scenario, out_dir, *, title: str) -> list[Path]:
-    """The plots of one scenario flight into ``out_dir``; returns their paths."""
+def plot_scenario(history, scenario, out_dir, *, title: str, control) -> list[Path]:
+    """The plots of one scenario flight into ``out_dir``; returns their paths (``control``:
+    the flown vehicle's profile, whose maneuver limit and band the hold view draws)."""
     out_dir = Path(out_dir)
     paths = []
     if history.n_runs > 1:
@@ -41,9 +41,18 @@ def plot_scenario(history, scenario, out_dir, *, title: str) -> list[Path]:
     plot_rates_and_jets(frame, paths[1], title=title)
     if scenario.name.startswith("attitude-hold"):
         paths.append(out_dir / "hold.png")
-        band = scenario.lookup_options.get("no_fire_band_rad", np.radians(0.1))
-        plot_hold(frame, paths[-1], title=title, band_deg=float(np.degrees(band)))
+        plot_hold(frame, paths[-1], title=title, **hold_lines(scenario, control))
     return paths
+
+
+def hold_lines(scenario, control) -> dict:
+    """The maneuver limit and no-firing band the hold view draws [deg]: the flown profile's,
+    the band as the scenario sets it when it does (``no_fire_band_rad``)."""
+    band = scenario.lookup_options.get("no_fire_band_rad", control.maneuver_band_rad)
+    return {
+        "maneuver_limit_deg": float(np.degrees(control.maneuver_limit_rad)),
+        "band_deg": float(np.degrees(band)),
+    }
 
 
 def plot_runs_rates(history, path, *, title: str, labels=None) -> None:
@@ -60,9 +69,7 @@ def plot_runs_rates(history, path, *, title: str, labels=None) -> None:
     fig.savefig(path, dpi=DPI)
 
 
-def plot_hold(
-    frame, path, *, title: str, maneuver_limit_deg: float = 0.6, band_deg: float = 0.1
-) -> None:
+def plot_hold(frame, path, *, title: str, maneuver_limit_deg: float, band_deg: float) -> None:
     """Total attitude error with the maneuver limit and no-firing region (shaded when on),
     yaw rate, and signed yaw jet commands (Figs 17-18)."""
     fig, (ax0, ax1, ax2) = new_figure(3, 1, figsize=(8, 7), sharex=True)
@@ -98,13 +105,15 @@ def plot_hold(
 
 
 def plot_table_heatmap(
-    firing_time_s, path, *, title: str, cycle_s: float = CONTROL_CYCLE_S, rate_cmd_rad_s=None
+    firing_time_s, path, *, title: str, cycle_s: float, rate_cmd_rad_s=None
 ) -> None:
     """Firing time per case and jet as a heat map annotated in control cycles.
 
     Parameters
     ----------
     firing_time_s : ndarray, (26, 16)
+    cycle_s : float
+        The control cycle the annotations count [s] (the generating vehicle's).
     rate_cmd_rad_s : ndarray, (26, 3), optional
         Adds the sign pattern to each case label.
     """

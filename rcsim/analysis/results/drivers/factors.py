@@ -47,36 +47,17 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.engine.runs_table import axis_inertia, input_names, vehicles_from_runs
-from rcsim.spacecraft.vehicle import AXES, VehicleParams, load_model, torque_per_jet_B
+from rcsim.spacecraft.vehicle import AXES, torque_per_jet_B
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 _DIRS = ((1, "pos"), (-1, "neg"))
 
 
-def factor_vehicle(vehicle: str | None = None):
-    """The vehicle a campaign's factors are computed with: ``(model, nominal, jet_map)``.
-
-    ``vehicle``: the campaign's vehicle file (a packaged name or a path), whose model, nominal
-    parameters (its Isp) and own torque signs
-    (:func:`rcsim.spacecraft.vehicle_file.authority.torque_signs`, ``(n_jets, 3)``) it gives; None:
-    the packaged vehicle and Table 2.
-    """
-    if vehicle is not None:
-        from rcsim.spacecraft.vehicle_file import FlyingVehicle
-        from rcsim.spacecraft.vehicle_file.authority import torque_signs
-
-        flying = FlyingVehicle.load(vehicle)
-        return flying.model, flying.nominal(1), torque_signs(flying.definition)
-    from rcsim.models.tables import load_jet_map
-
-    model = load_model()
-    return model, VehicleParams.nominal(1, model), load_jet_map()
-
-
 def physics_factors(
     runs: pd.DataFrame,
+    vehicle: Vehicle,
     fire_sign: np.ndarray | None = None,
     jet_map: np.ndarray | None = None,
-    vehicle: str | None = None,
 ) -> pd.DataFrame:
     """Derived factors of every run (see the module docstring).
 
@@ -85,22 +66,21 @@ def physics_factors(
     runs : DataFrame
         Holds the recorded inputs (:func:`rcsim.analysis.engine.runs_table.input_names` of the
         vehicle's jets).
+    vehicle : rcsim.spacecraft.vehicle_file.Vehicle
+        The vehicle the runs flew: its model, nominal parameters and torque signs.
     fire_sign : ndarray of int (n, 3), optional
         Per run and axis, the sign of the commanded rate change (0: none); adds the
         firing-direction factors.
     jet_map : ndarray of int (n_jets, 3), optional
-        Torque signs per jet and axis; default the packaged Table 2, or the vehicle's own
-        torque signs (:func:`factor_vehicle`).
-    vehicle : str, optional
-        The vehicle file the campaign flew (a packaged name or a path); default the packaged
-        vehicle.
+        Torque signs per jet and axis; default the vehicle's own
+        (:attr:`rcsim.spacecraft.vehicle_file.Vehicle.axis_signs`).
 
     Returns
     -------
     DataFrame, one row per run, index aligned with ``runs``.
     """
-    model, nominal, own_map = factor_vehicle(vehicle)
-    jet_map = own_map if jet_map is None else jet_map
+    model, nominal = vehicle.model, vehicle.nominal(1)
+    jet_map = vehicle.axis_signs if jet_map is None else jet_map
     missing = [c for c in input_names(nominal.n_jets) if c not in runs.columns]
     if missing:
         raise ValueError(

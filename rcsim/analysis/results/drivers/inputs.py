@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.engine import runs_table
-from rcsim.analysis.results.drivers.factors import factor_vehicle, fire_signs, physics_factors
+from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
 from rcsim.models.errors import InputError
 
 #: Fewest runs an analysis accepts (a distribution needs more than a handful of points).
@@ -80,7 +80,12 @@ class RunSet:
 
 
 def load_runs(
-    path, inputs=None, outcome: str = "failed", case: str | None = None, derived: bool = True
+    path,
+    inputs=None,
+    outcome: str = "failed",
+    case: str | None = None,
+    derived: bool = True,
+    vehicle=None,
 ) -> RunSet:
     """Read and validate runs for :func:`rcsim.analysis.results.drivers.pipeline.analyze`.
 
@@ -97,6 +102,11 @@ def load_runs(
         Keep only the runs of this case (column ``case``).
     derived : bool
         Add the physics-aware factors when the recorded inputs are present.
+    vehicle : Vehicle, str, path, optional
+        The vehicle the runs flew, for the physics-aware factors.  Default: the one a campaign
+        directory's manifest names (its spec's ``vehicle``; the paper's when the spec names
+        none); a table or DataFrame names none, and then no physics-aware factor is derived
+        (a note says so): a vehicle is never guessed.
 
     Raises
     ------
@@ -137,22 +147,25 @@ def load_runs(
     raw_cols = list(runs_table.input_names(jets))
     has_raw = jets > 0 and all(c in runs.columns for c in raw_cols)
     factors = pd.DataFrame(index=runs.index)
-    if derived and has_raw:
-        flown = ((manifest or {}).get("spec") or {}).get("vehicle")  # a vehicle file's campaign
-        _, nominal, _ = factor_vehicle(flown)
-        if nominal.n_jets != jets:  # e.g. a bare table of a vehicle file's campaign
-            vehicle = f"its vehicle {flown}" if flown else "the packaged vehicle"
+    flown = factor_vehicle(vehicle, manifest) if derived and has_raw else None
+    if derived and has_raw and flown is None:
+        notes.append(
+            f"no vehicle named for {where}: no physics-aware factors derived (give the vehicle "
+            "it flew: vehicle= in analyze/load_runs, --vehicle on the command line)"
+        )
+    elif derived and has_raw and flown is not None:
+        if flown.n_jets != jets:  # a table of another vehicle's campaign
             notes.append(
-                f"the table records {jets} jets and {vehicle} has {nominal.n_jets}: no "
-                "physics-aware factors (analyse the campaign directory: its manifest names "
-                "the vehicle)"
+                f"the table records {jets} jets and vehicle {flown.ref} has {flown.n_jets}: no "
+                "physics-aware factors (give the vehicle the runs flew)"
             )
         else:
             signs = fire_signs(runs["case"]) if "case" in runs.columns else None
             if signs is None:
                 notes.append("cases are not rate cases: firing-direction factors not derived")
             _check_numeric(runs, raw_cols, where)
-            factors = physics_factors(runs, signs, vehicle=flown)
+            factors = physics_factors(runs, flown, signs)
+            notes.append(f"physics-aware factors from vehicle {flown.ref} ({flown.name})")
     elif derived:
         notes.append("the table lacks the recorded vehicle inputs: no physics-aware factors")
 
@@ -338,3 +351,17 @@ def _check_numeric(runs: pd.DataFrame, cols, where) -> None:
                 f"{where}: input column {c!r} has {int(bad.sum())} NaN or "
                 f"infinite value(s), first at {label}"
             )
+
+
+def factor_vehicle(vehicle, manifest: dict | None):
+    """The vehicle a run set's physics-aware factors are computed with: ``vehicle`` when given
+    (a :class:`~rcsim.spacecraft.vehicle_file.Vehicle`, a packaged name or a file), else the
+    one a campaign's manifest names (its spec's ``vehicle``, the paper's when the spec has
+    none: a campaign without the key flew the paper's), else None."""
+    from rcsim.spacecraft.vehicle_file import Vehicle
+
+    if vehicle is not None:
+        return Vehicle.load(vehicle)
+    if manifest is None:
+        return None
+    return Vehicle.load((manifest.get("spec") or {}).get("vehicle"))

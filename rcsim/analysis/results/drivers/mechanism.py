@@ -36,7 +36,7 @@ from rcsim.analysis.engine import runs_table
 from rcsim.analysis.results.report.html import Section, text_block
 from rcsim.lookup.table_edits import axis_cycles, jet_axes
 from rcsim.models.errors import InputError
-from rcsim.models.tables import CONTROL_CYCLE_S, load_lookup_table
+from rcsim.models.tables import PAPER_CYCLE_S, load_lookup_table
 
 #: Two significant factors whose Spearman correlation over the runs reaches this are one family.
 FAMILY_CORRELATION = 0.5
@@ -342,7 +342,9 @@ def _table_firing(mech: Mechanism, manifest: dict | None, cases) -> None:
         return
     try:
         table = load_lookup_table(ctrl["table"])
-        cycles = axis_cycles(table.firing_time_s, jet_axes(table))
+        # The cycle the campaign flew (its manifest's; the paper's for one written before).
+        cycle_s = float((manifest or {}).get("control_cycle_s", PAPER_CYCLE_S))
+        cycles = axis_cycles(table.firing_time_s, jet_axes(table), cycle_s)
     except (InputError, OSError, ValueError):  # a table file no longer where it was
         return
     a = _AXES.index(mech.axis)
@@ -350,7 +352,7 @@ def _table_firing(mech: Mechanism, manifest: dict | None, cases) -> None:
         kind, _, num = str(case).partition("-")
         if kind == "rate" and num.isdigit() and int(num) in table.case:
             row = int(np.flatnonzero(table.case == int(num))[0])
-            mech.table_firing[str(case)] = float(cycles[row, a] * CONTROL_CYCLE_S)
+            mech.table_firing[str(case)] = float(cycles[row, a] * cycle_s)
     mech.table = str(ctrl["table"]).replace("\\", "/").split("/")[-1]
 
 

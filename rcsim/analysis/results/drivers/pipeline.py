@@ -203,7 +203,7 @@ class DriverResults:
         return self.singles is not None
 
 
-def analyze(runset, settings: Settings = Settings()) -> DriverResults:
+def analyze(runset, settings: Settings = Settings(), *, vehicle=None) -> DriverResults:
     """Run the analysis (see the module docstring); returns :class:`DriverResults`.
 
     Parameters
@@ -213,12 +213,16 @@ def analyze(runset, settings: Settings = Settings()) -> DriverResults:
         (a campaign directory, a table file, a DataFrame of runs), loaded with its defaults
         (outcome ``failed``, the recorded inputs and the physics-aware factors).
     settings : Settings
+    vehicle : Vehicle, str or path, optional
+        The vehicle the runs flew, for the physics-aware factors of a table or DataFrame (a
+        campaign directory's manifest names its own); without one, none are derived
+        (:func:`~rcsim.analysis.results.drivers.inputs.load_runs`).
 
     With no failed (or no successful) runs there is nothing to compare: the result holds the
     run set only and :attr:`DriverResults.has_failures` is False.
     """
     if not isinstance(runset, RunSet):
-        runset = load_runs(runset)
+        runset = load_runs(runset, vehicle=vehicle)
     runset = _bounded(runset, settings.random_state)
     res = DriverResults(runset=runset, settings=settings)
     X, y, strata = runset.X, runset.y, runset.strata

@@ -307,7 +307,7 @@ def test_lookup_controller_campaign(tmp_path):
     assert len(runs) == 10 and not runs["sim_failed"].any()
 
 
-def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
+def test_firings_to_rate_ignores_a_mid_firing_zero_crossing(paper):
     """Synthetic yaw history: a firing over cycles 0-3 overshoots the command (its error sweeps
     through 0 at sample 3, mid-firing), ends at +0.1 deg/s; an opposite pulse in cycle 5 brings
     it to 0.02 deg/s at sample 6.  The rate is reached at sample 6 after 2 firing events, not
@@ -318,7 +318,6 @@ def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
     from rcsim.spacecraft.navigation import NavState
     from rcsim.spacecraft.propulsion import PropulsionState
     from rcsim.spacecraft.simulation import History
-    from rcsim.spacecraft.vehicle import VehicleParams
 
     cycle, K = 0.04, 8
     yaw_err = np.radians([-0.3, -0.2, -0.1, 0.0, 0.1, 0.1, 0.02, 0.02])
@@ -343,11 +342,11 @@ def test_firings_to_rate_ignores_a_mid_firing_zero_crossing():
         propulsion=PropulsionState.zeros(1, 16),
         failed=np.zeros(1, bool),
         reason=[""],
-        flown_params=VehicleParams.nominal(1),
+        flown_params=paper.nominal(1),
     )
     spec = SimpleNamespace(
-        rate_threshold_rad_s=np.radians(0.04), attitude_threshold_rad=None, vehicle=None
-    )  # the packaged vehicle: Table 2's axis jets
+        rate_threshold_rad_s=np.radians(0.04), attitude_threshold_rad=None, vehicle=paper
+    )  # the paper's vehicle: Table 2's axis jets
     row = outcomes(hist, spec).iloc[0]
     assert row["firings_to_rate_yaw"] == 2
     assert row["time_to_rate_yaw_s"] == pytest.approx(6 * cycle)

@@ -212,7 +212,7 @@ BAD = [
     (
         "fault jet 17",
         MINIMAL + "[dispersions.fault]\nmode = 'off'\njets = [13, 17]\n",
-        "[dispersions.fault]: jets: no jet 17: the packaged vehicle has 16 jets, numbered "
+        "[dispersions.fault]: jets: no jet 17: the paper's vehicle has 16 jets, numbered "
         "1..16 (got [13, 17])",
     ),
     (
@@ -417,3 +417,39 @@ def test_runner_errors_name_its_own_parameters():
     with pytest.raises(InputError) as err:
         connect(0, None)
     assert err.value.parameter == "workers" and str(err.value) == "workers must be >= 1, got 0"
+
+
+def test_hold_limits_come_from_the_vehicle_flown(tmp_path):
+    """Issue 27: a hold's disturbance limit is the flown vehicle's own largest torque about each
+    axis (the sum of its jets' torques of one sign at nominal thrust: 4 quads x 2 jets x 440 N
+    x 2 m = 3,520 N m for docs/examples/service16.toml), never the paper's 36 N m; and the
+    initial-rate limit keeps the validated rotation per physics step (3 deg/s x 40 ms,
+    docs/convergence.md) for the vehicle's own step."""
+    from rcsim.spacecraft.vehicle_file import resolve_vehicle
+
+    examples = resolve_vehicle("paper").parents[3] / "docs" / "examples"
+    hold = MINIMAL.replace("cases = [13]", "kind = 'hold'\ndisturbance_n_m = [0, 0, {d}]")
+    hold = hold.replace('name = "phase-plane"', 'name = "allocator"')  # flies any layout
+
+    def spec(vehicle: str, d: float, extra: str = ""):
+        text = f'vehicle = "{vehicle}"\n' + hold.format(d=d).replace(
+            "duration_s", extra + "duration_s"
+        )
+        return load_spec(_write(tmp_path, text))
+
+    service = str(examples / "service16.toml")
+    assert spec(service, 100.0).cases[0].disturbance_n_m[2] == 100.0  # the paper's would refuse
+    with pytest.raises(InputError, match=r"\+-\[3520, 3520, 3520\] N m"):
+        spec(service, 3600.0)
+    with pytest.raises(InputError, match=r"disturbance_n_m: .*\+-\[0.1035, 0.3087, 0.3087\] N m"):
+        spec(str(examples / "smallsat8.toml"), 1.0)  # the paper's 36 N m would accept it
+    fine = tmp_path / "fine_step.toml"
+    fine.write_text(
+        resolve_vehicle("paper").read_text().replace("timestep_s = 0.04 ", "timestep_s = 0.02 ")
+    )
+    rate = "initial_rate_deg_s = [0, 0, {w}]\n"
+    assert spec(str(fine), 1.0, rate.format(w=6.0)).cases[0].omega0_rad_s[2] == pytest.approx(
+        math.radians(6.0)
+    )
+    with pytest.raises(InputError, match=r"must be <= 6 deg/s, .* 20 ms physics step"):
+        spec(str(fine), 1.0, rate.format(w=6.1))

@@ -185,7 +185,7 @@ def test_docs_carry_the_schema_table():
     assert schema.markdown_table() in docs.read_text()
 
 
-def test_recorded_inputs_are_the_flown_values(tmp_path, monkeypatch):
+def test_recorded_inputs_are_the_flown_values(paper, tmp_path, monkeypatch):
     """runs.parquet records the vehicle read back from MuJoCo's per-run model (issue 9).
 
     1. Unpatched, the read-back equals the draw bit for bit (rcsim.spacecraft.simulation
@@ -198,11 +198,10 @@ def test_recorded_inputs_are_the_flown_values(tmp_path, monkeypatch):
        angle from atan2 of float64 cross and dot products is accurate to ~1e-16).
     """
     from rcsim.spacecraft.dispersions import draw_runs
-    from rcsim.spacecraft.vehicle import VehicleParams
 
     spec = _spec(tmp_path, runs=3, chunk=8, duration=0.2)
     ids = np.arange(spec.n_runs)
-    drawn = draw_runs(VehicleParams.nominal(1), spec.sigmas, spec.seed, ids).params
+    drawn = draw_runs(paper.nominal(1), spec.sigmas, spec.seed, ids).params
     real = chunk_mod.fly_runs
     seen = {}
 
@@ -223,7 +222,7 @@ def test_recorded_inputs_are_the_flown_values(tmp_path, monkeypatch):
     # 3: the flown jet direction is tilted from the nominal one by |recorded tilt|.
     flown_dir = np.stack([seen[i] for i in runs["run_id"]])  # (n, 16, 3)
     tilt = np.radians(runs[[f"jet_{j:02d}_tilt_deg" for j in range(1, 17)]].to_numpy())
-    nominal_dir = VehicleParams.nominal(1).jet_dir_S  # (1, 16, 3)
+    nominal_dir = paper.nominal(1).jet_dir_S  # (1, 16, 3)
     cos = (flown_dir * nominal_dir).sum(-1)
     sin = np.linalg.norm(np.cross(flown_dir, nominal_dir), axis=-1)
     np.testing.assert_allclose(np.arctan2(sin, cos), np.abs(tilt), rtol=0, atol=1e-12)

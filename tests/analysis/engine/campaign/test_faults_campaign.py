@@ -184,9 +184,9 @@ def test_adaptive_controller_is_told_the_rate_noise(tmp_path, monkeypatch):
     seen = {}
     real = registry.make_controller
 
-    def spy(name, **kw):
+    def spy(name, vehicle, **kw):
         seen.update(name=name, **kw)
-        return real(name, **kw)
+        return real(name, vehicle, **kw)
 
     monkeypatch.setattr(registry, "make_controller", spy)
     spec = load_spec(

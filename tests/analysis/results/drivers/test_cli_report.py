@@ -11,6 +11,10 @@ import pytest
 
 from rcsim.analysis.apps.cli import main
 from rcsim.analysis.results.drivers.synthetic import planted_campaign
+from rcsim.spacecraft.vehicle_file import Vehicle
+
+#: The paper's vehicle (paper.toml).
+PAPER = Vehicle.load()
 
 SECTIONS = (
     "summary",
@@ -28,7 +32,7 @@ SECTIONS = (
 
 
 @pytest.fixture(scope="module")
-def campaign(tmp_path_factory, model):
+def campaign(paper, tmp_path_factory, model):
     """A campaign directory in the layout ``rcsim campaign run`` writes, with the inputs of
     two yaw cases drawn by the simulator's dispersion code (3x Table 5) and a planted outcome:
     a run fails when the yaw authority of its firing group is in the top 15 % (over-rotation
@@ -40,15 +44,14 @@ def campaign(tmp_path_factory, model):
     from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
     from rcsim.models.tables import load_dispersions
     from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
-    from rcsim.spacecraft.vehicle import VehicleParams
 
     root = tmp_path_factory.mktemp("campaign") / "camp"
     root.mkdir()
     n = 150
     sigmas = DispersionSigmas.from_table(load_dispersions(), scale=3.0)
-    frame = input_frame(draw_runs(VehicleParams.nominal(1, model), sigmas, 3, np.arange(2 * n)))
+    frame = input_frame(draw_runs(paper.nominal(1), sigmas, 3, np.arange(2 * n)))
     case = np.repeat(["rate-13", "rate-14"], n)
-    auth = physics_factors(frame, fire_signs(case))["authority_yaw_fire_rad_s2"].to_numpy()
+    auth = physics_factors(frame, PAPER, fire_signs(case))["authority_yaw_fire_rad_s2"].to_numpy()
     failed = np.zeros(2 * n, bool)
     for c in ("rate-13", "rate-14"):
         rows = case == c

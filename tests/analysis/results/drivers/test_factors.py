@@ -14,20 +14,24 @@ from rcsim.analysis.engine.runs_table import input_frame
 from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
 from rcsim.models.tables import load_dispersions, load_jet_map
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
-from rcsim.spacecraft.vehicle import VehicleParams, torque_per_jet_B
+from rcsim.spacecraft.vehicle import torque_per_jet_B
+from rcsim.spacecraft.vehicle_file import Vehicle
+
+#: The paper's vehicle (paper.toml).
+PAPER = Vehicle.load()
 
 
 @pytest.fixture(scope="module")
-def drawn(model):
+def drawn(paper):
     sigmas = DispersionSigmas.from_table(load_dispersions(), scale=3.0)
-    runs = draw_runs(VehicleParams.nominal(1, model), sigmas, seed=11, run_ids=np.arange(40))
+    runs = draw_runs(paper.nominal(1), sigmas, seed=11, run_ids=np.arange(40))
     return runs, input_frame(runs)
 
 
-def test_authority_is_group_torque_over_inertia(drawn, model):
+def test_authority_is_group_torque_over_inertia(drawn, paper):
     runs, frame = drawn
-    f = physics_factors(frame)
-    torque = torque_per_jet_B(runs.params, model)
+    f = physics_factors(frame, PAPER)
+    torque = torque_per_jet_B(runs.params, paper.model)
     jet_map = load_jet_map()
     for a, axis in enumerate(("roll", "pitch", "yaw")):
         jets = np.flatnonzero(jet_map[:, a] == -1)
@@ -42,7 +46,7 @@ def test_authority_is_group_torque_over_inertia(drawn, model):
 def test_pointing_loss_is_zero_without_tilt(drawn):
     frame = drawn[1].copy()
     frame[[c for c in frame if c.endswith("_tilt_deg")]] = 0.0
-    f = physics_factors(frame)
+    f = physics_factors(frame, PAPER)
     losses = f[[c for c in f if c.startswith("pointing_loss")]].to_numpy()
     np.testing.assert_allclose(losses, 0.0, atol=1e-12)
 
@@ -57,7 +61,7 @@ def test_fire_signs_follow_table3():
 def test_fire_factors_pick_the_firing_group(drawn):
     frame = drawn[1]
     signs = fire_signs(["rate-13"] * len(frame))
-    f = physics_factors(frame, signs)
+    f = physics_factors(frame, PAPER, signs)
     np.testing.assert_array_equal(f["authority_yaw_fire_rad_s2"], f["authority_yaw_neg_rad_s2"])
     # Roll not commanded in case 13: the mean of both groups.
     np.testing.assert_allclose(

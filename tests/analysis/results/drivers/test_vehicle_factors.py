@@ -17,7 +17,10 @@ from rcsim.analysis.engine.runs_table import input_frame
 from rcsim.analysis.results.drivers.factors import physics_factors
 from rcsim.models.tables import load_dispersions
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
-from rcsim.spacecraft.vehicle_file import FlyingVehicle
+from rcsim.spacecraft.vehicle_file import Vehicle
+
+#: The paper's vehicle (paper.toml).
+PAPER = Vehicle.load()
 
 
 def _runs(flying, sigmas, n=8):
@@ -26,15 +29,17 @@ def _runs(flying, sigmas, n=8):
 
 def test_paper_vehicle_file_gives_the_packaged_factors():
     sig = DispersionSigmas.from_table(load_dispersions())
-    runs = _runs(FlyingVehicle.load("paper"), sig)
-    pd.testing.assert_frame_equal(physics_factors(runs), physics_factors(runs, vehicle="paper"))
+    runs = _runs(Vehicle.load("paper"), sig)
+    pd.testing.assert_frame_equal(
+        physics_factors(runs, PAPER), physics_factors(runs, Vehicle.load("paper"))
+    )
 
 
 @pytest.mark.parametrize("name", ["canted16", "canted12"])
 def test_canted_authority_from_the_jet_matrix(name):
-    flying = FlyingVehicle.load(name)
+    flying = Vehicle.load(name)
     runs = _runs(flying, DispersionSigmas(), n=2)
-    factors = physics_factors(runs, vehicle=name)
+    factors = physics_factors(runs, Vehicle.load(name))
     torque = flying.definition.force_torque()[3:]  # (3, n_jets) about the CG [N m]
     roll = torque[0]
     # Ixx: the file's tensor entry about body x (not MuJoCo's first principal moment, about
@@ -54,8 +59,8 @@ def test_imbalance_only_for_pairs():
     from rcsim.models.tables import load_jet_map
 
     sig = DispersionSigmas.from_table(load_dispersions())
-    runs = _runs(FlyingVehicle.load("paper"), sig)
-    factors = physics_factors(runs, vehicle="paper")
+    runs = _runs(Vehicle.load("paper"), sig)
+    factors = physics_factors(runs, Vehicle.load("paper"))
     jet_map = load_jet_map()
     for a, axis in enumerate(("roll", "pitch", "yaw")):
         for sign, d in ((1, "pos"), (-1, "neg")):
@@ -63,8 +68,8 @@ def test_imbalance_only_for_pairs():
             expect = runs[f"jet_{first + 1:02d}_thrust_n"] - runs[f"jet_{second + 1:02d}_thrust_n"]
             np.testing.assert_array_equal(factors[f"imbalance_{axis}_{d}_n"], expect)
     for name in ("canted16", "canted12"):
-        flying = FlyingVehicle.load(name)
-        canted = physics_factors(_runs(flying, DispersionSigmas(), n=2), vehicle=name)
+        flying = Vehicle.load(name)
+        canted = physics_factors(_runs(flying, DispersionSigmas(), n=2), Vehicle.load(name))
         assert "authority_roll_pos_rad_s2" in canted
         assert not [c for c in canted if c.startswith("imbalance_")]
 

@@ -1,0 +1,122 @@
+"""The refinement's before/after plots (Figs 9-10 style): failures and repeated firings per
+case on both seeds, and the most improved case's runs flown with the old and the refined
+table."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rcsim.analysis.apps.refinement.parameters import refinement_spec
+from rcsim.analysis.apps.refinement.result import Refinement
+from rcsim.analysis.engine.campaign.outcomes import outcomes
+from rcsim.analysis.engine.flight import fly_batch
+from rcsim.analysis.engine.plots import AXIS_COLORS, new_figure
+from rcsim.lookup.pattern_recognition import LookupController, LookupParams
+from rcsim.models.tables import AXES
+from rcsim.spacecraft.dispersions import draw_runs
+
+DPI = 90
+#: Most runs drawn in the before/after plot of one case.
+PLOT_RUNS = 200
+
+
+def most_improved_case(log: pd.DataFrame):
+    """The changelog row of the changed case with the largest drop in failures (then in
+    repeated firings) on the search seed; None if no case changed."""
+    changed = log[log["changed"]]
+    if changed.empty:
+        return None
+    gain = (changed["failed_search_before"] - changed["failed_search_after"]) * 10_000 + (
+        changed["repeated_search_before"] - changed["repeated_search_after"]
+    )
+    return changed.loc[gain.idxmax()]
+
+
+def plot_failures_by_case(log: pd.DataFrame, path: Path, *, title: str) -> None:
+    """Failed and repeated-firing runs per case, before and after, on both seeds."""
+    fig, axes = new_figure(2, 2, figsize=(12, 6.5), sharex=True, sharey="row")
+    x = np.arange(len(log))
+    for col, seed in enumerate(("search", "fresh")):
+        for row, what in enumerate(("failed", "repeated")):
+            ax = axes[row, col]
+            ax.bar(x - 0.2, log[f"{what}_{seed}_before"], 0.4, color="tab:red", label="before")
+            ax.bar(x + 0.2, log[f"{what}_{seed}_after"], 0.4, color="tab:blue", label="after")
+            ax.set_ylabel(f"{what} runs" if col == 0 else "")
+            ax.grid(alpha=0.3, axis="y")
+            ax.set_title(
+                f"{what} runs per case, {seed} seed "
+                f"({int(log[f'{what}_{seed}_before'].sum())} -> "
+                f"{int(log[f'{what}_{seed}_after'].sum())})",
+                fontsize=10,
+            )
+            ax.legend(fontsize=8)
+        axes[1, col].set_xticks(
+            x,
+            [str(int(c)) + ("*" if ch else "") for c, ch in zip(log["case"], log["changed"])],
+            fontsize=7,
+        )
+        axes[1, col].set_xlabel("rate case (* = firing time changed)")
+    fig.suptitle(
+        f"Lookup-table refinement: {title}; repeated = needed more than one firing "
+        "to reach the commanded rate"
+    )
+    fig.savefig(path, dpi=DPI)
+
+
+def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
+    """Figs 9-10 style: the changed axis's body rate of every search-seed run of ``case``,
+    with the old table (left) and the refined one (right); failed runs in red."""
+    log = ref.changelog.set_index("case").loc[case]
+    axis = max(AXES, key=lambda a: abs(int(log[f"{a}_change_cycles"])))
+    a = AXES.index(axis)
+    spec = refinement_spec(
+        runs_per_case=ref.runs_per_case,
+        seed=ref.seed,
+        duration_s=ref.duration_s,
+        vehicle=ref.vehicle,
+        table=ref.table_file,
+    )
+    row = case - 1
+    vehicle = spec.vehicle  # the refinement's vehicle, flown as its campaigns fly it
+    # At most PLOT_RUNS runs: enough to see the spread, and a fixed cost however many runs
+    # the search flew (the whole history of every run is kept for the plot).
+    shown = min(ref.runs_per_case, PLOT_RUNS)
+    ids = row * ref.runs_per_case + np.arange(shown)
+    params = draw_runs(vehicle.nominal(1), spec.sigmas, spec.seed, ids).params
+    lookup_params = LookupParams.from_profile(vehicle.control)
+    thr = np.degrees(spec.rate_threshold_rad_s)
+    fig, axes = new_figure(1, 2, figsize=(12, 4.5), sharey=True)
+    cmd = np.degrees(spec.cases[row].rate_cmd_rad_s[a])
+    for ax, (label, table, old_new) in zip(
+        axes, (("old table", ref.original, "old"), ("refined table", ref.table, "new"))
+    ):
+        history = fly_batch(
+            [spec.cases[row]] * shown,
+            params,
+            LookupController(table, lookup_params),
+            vehicle=vehicle,
+        )
+        rate = np.degrees(history.omega_B[:, :, a])
+        failed = outcomes(history, spec)["failed"].to_numpy(bool)
+        for fail, color in ((False, AXIS_COLORS["roll"]), (True, "tab:red")):
+            sel = failed == fail
+            if sel.any():
+                ax.plot(history.t_s, rate[sel].T, color=color, lw=0.6, alpha=0.5)
+        ax.axhspan(cmd - thr, cmd + thr, color="0.8", alpha=0.6, label=f"command +-{thr:g} deg/s")
+        ax.set_title(
+            f"{label}: {axis} {log[f'{axis}_{old_new}_s']:.2f} s; "
+            f"{int(failed.sum())} of {shown} runs fail (red)",
+            fontsize=10,
+        )
+        ax.set_xlabel("time [s]")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="lower right", fontsize=8)
+    axes[0].set_ylabel(f"{axis} rate [deg/s]")
+    fig.suptitle(
+        f"Rate case {case}: {axis} rate of every dispersed run, before and after "
+        "refinement (search seed)"
+    )
+    fig.savefig(path, dpi=DPI)

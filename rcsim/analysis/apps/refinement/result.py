@@ -1,0 +1,57 @@
+"""A refinement with its held-out check: what :func:`~rcsim.analysis.apps.refinement.outputs.
+run_refinement` returns, what the outputs and plots are written from."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pandas as pd
+
+from rcsim.analysis.apps.refinement.search import RefineResult
+from rcsim.models.tables import LookupTable
+from rcsim.spacecraft.vehicle_file import Vehicle
+
+
+@dataclass
+class Refinement:
+    """A refinement with its held-out check.
+
+    Attributes
+    ----------
+    original : LookupTable
+        The table refined.
+    result : RefineResult
+    fresh_before, fresh_after : DataFrame
+        Per searched case on the fresh seed: ``failed, repeated, runs``.
+    changelog : DataFrame
+    seed, fresh_seed, runs_per_case : int
+    duration_s : float
+        Simulated time of every run [s].
+    comparison : DataFrame, optional
+        The held-out seed per table (the original, the refined and, when the original is the
+        packaged Table 6, the paper's Table 7): :func:`comparison_frame`.
+    confirm_seed : int, optional
+        The confirmation seed (None: the search gate alone).
+    vehicle : Vehicle
+        The vehicle flown (:func:`~rcsim.analysis.apps.refinement.parameters.refinement_vehicle`).
+    table_file : str
+        The original table's file as the campaigns name it (a channel table's), or "default".
+    """
+
+    original: LookupTable
+    result: RefineResult
+    fresh_before: pd.DataFrame
+    fresh_after: pd.DataFrame
+    changelog: pd.DataFrame
+    seed: int
+    fresh_seed: int
+    runs_per_case: int
+    duration_s: float
+    vehicle: Vehicle
+    comparison: pd.DataFrame | None = None
+    confirm_seed: int | None = None
+    table_file: str = "default"
+
+    @property
+    def table(self) -> LookupTable:
+        return self.result.table

@@ -1,0 +1,44 @@
+"""A vehicle's lookup table, whatever its jet layout: the one path the API and the CLI take.
+
+:func:`generate_table` generates the table the lookup controller flies on ``vehicle``: a jet
+table (the paper's 16 columns, :func:`rcsim.lookup.table_generation.generate_jet_table`) when
+its jets play Table 2's roles, else a channel table (six axis channels and the recipe that fires
+the jets, :func:`rcsim.lookup.channel_generation.generate_channel_table`).
+``rcsim lookup generate`` writes its result (:mod:`rcsim.analysis.engine.table_files`).
+"""
+
+from __future__ import annotations
+
+import os
+
+from rcsim.lookup.channel_generation import generate_channel_table
+from rcsim.lookup.table_generation import GeneratedTable, generate_jet_table
+from rcsim.models.tables import load_jet_map
+from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle_file.authority import jet_map_mismatch
+
+
+def is_coupled(vehicle: Vehicle) -> bool:
+    """Whether the vehicle's jets do *not* each turn one axis as Table 2's do: its lookup table
+    is a channel table (:mod:`rcsim.lookup.channels`)."""
+    return jet_map_mismatch(vehicle.definition, load_jet_map()) is not None
+
+
+def generate_table(
+    vehicle: Vehicle | str | os.PathLike | None = None, *, jets_off=()
+) -> GeneratedTable:
+    """Generate, verify and damping-check the lookup table of ``vehicle`` (a
+    :class:`~rcsim.spacecraft.vehicle_file.Vehicle`, a packaged name, a vehicle file; None:
+    the paper's), without the jets ``jets_off`` (1-based): a jet table or a channel table
+    (module docstring), at the vehicle profile's rate-case magnitude and cycle.
+
+    Raises
+    ------
+    InputError
+        An invalid vehicle file, a bad jet set, or rate cases the jets cannot reach (the
+        profile's ``rate_case_deg_s`` named).
+    """
+    vehicle = Vehicle.load(vehicle)
+    if is_coupled(vehicle):
+        return generate_channel_table(vehicle, jets_off=jets_off)
+    return generate_jet_table(vehicle, jets_off=jets_off)

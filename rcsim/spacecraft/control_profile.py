@@ -1,0 +1,317 @@
+"""The flight-software profile: a vehicle file's ``[control]`` section, as data.
+
+Every tuning value a controller, the flight loop or table generation uses is here, once, with
+its unit in its key (degrees and deg/s in files, SI inside): the control cycle, the maneuver
+rate, the maneuver attitude limit and the no-firing band around it, the rate and attitude
+deadbands, the hold time, the on-time limit, what a pulse shorter than the jets' minimum
+on-time becomes (the minimum pulse policy), and the total rate of the 26 rate cases a lookup
+table is generated for.  Basilisk takes these as module parameters; rcsim takes them from the
+vehicle flown, so a practitioner retunes a vehicle in its file, per campaign spec
+(``[control]``) or on the command line (``--control KEY=VALUE``), and a manifest or report names
+the profile that flew (:meth:`ControlProfile.record`).
+
+The paper's values are ``paper.toml``'s ``[control]`` (Gambone sec. II and Table 4, the
+phase-plane and allocator deadbands rcsim's controllers always used), and a vehicle file that
+leaves a key out takes the paper's value for it; :attr:`ControlProfile.source` says which keys
+came from where.
+
+========================================  ======================================  ============
+key (``[control]``)                       what                                    paper
+========================================  ======================================  ============
+``cycle_s``                               control cycle (flight loop, every       0.04 s
+                                          controller, valve limits)
+``maneuver_rate_deg_s``                   total maneuver rate (every controller)  0.2 deg/s
+``maneuver_limit_deg``                    total attitude error above which the    0.6 deg
+                                          maneuver rate is flown (lookup,
+                                          allocator)
+``maneuver_band_deg``                     half-width of the no-firing band        0.1 deg
+                                          around the limit (lookup; Figs 17-18)
+``rate_deadband_deg_s``                   per-axis rate-error deadband (lookup:   0.06 deg/s
+                                          Table 4's rate error limit)
+``on_time_limit_s``                       a jet gets a new firing only below      0.03 s
+                                          this remaining on-time (lookup)
+``hold_time_s``                           settling wait after a firing (lookup)   0.16 s
+``rate_case_deg_s``                       total rate of the 26 rate cases a       0.3 deg/s
+                                          lookup table is generated for
+``phase_plane.attitude_deadband_deg``     phase plane's attitude deadband         0.25 deg
+``phase_plane.rate_deadband_deg_s``       phase plane's rate deadband             0.03 deg/s
+``allocator.rate_deadband_deg_s``         allocator: no new plan below this       0.004 deg/s
+``min_pulse``                             a computed pulse shorter than the       accumulate
+                                          minimum on-time (channel tables, the
+                                          allocator): ``accumulate``,
+                                          ``round-up`` or ``drop``
+========================================  ======================================  ============
+
+The minimum pulse policy applies to pulses a controller *computes* -- a channel table's
+per-cycle jet shares (:class:`rcsim.lookup.channels.ChannelMap`) and the allocator's plans
+(:mod:`rcsim.lookup.allocator_controller`); a jet table's entries are what it fires.
+
+* ``accumulate``: a short pulse is owed, and fired at the minimum on-time once what is owed
+  reaches it (or half of it when the firing ends); the allocator first rounds each plan's
+  short totals to zero or the minimum, whichever leaves the smaller rate error.  The impulse
+  asked for is delivered, late by up to the firing's length.
+* ``round-up``: a short pulse fires at the minimum on-time at once (no delay; more
+  propellant and a larger rate change than asked for).
+* ``drop``: a short pulse is not fired (rate errors smaller than a minimum pulse's stay).
+
+With a minimum on-time of zero (the paper's vehicle) the three are the same.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+
+from rcsim.models.errors import InputError
+from rcsim.models.toml_reader import Reader
+
+#: Longest control cycle a profile may give [s]: an attitude-control loop slower than 1 Hz is
+#: no reaction-control loop (a cycle in ms written under an ``_s`` key is over).
+MAX_CYCLE_S = 1.0
+#: Shortest [s]: 1 ms, 40 times faster than the paper's; below it the valves (ms latencies)
+#: could not follow, and the physics would need sub-ms steps.
+MIN_CYCLE_S = 1e-3
+
+#: (file key, field, unit factor to SI, rule) in file order; rule: "pos" > 0, "nonneg" >= 0.
+#: Sub-table keys are written ``table.key``.
+_KEYS: tuple[tuple[str, str, float, str], ...] = (
+    ("cycle_s", "cycle_s", 1.0, "pos"),
+    ("maneuver_rate_deg_s", "maneuver_rate_rad_s", math.pi / 180, "pos"),
+    ("maneuver_limit_deg", "maneuver_limit_rad", math.pi / 180, "pos"),
+    ("maneuver_band_deg", "maneuver_band_rad", math.pi / 180, "nonneg"),
+    ("rate_deadband_deg_s", "rate_deadband_rad_s", math.pi / 180, "pos"),
+    ("on_time_limit_s", "on_time_limit_s", 1.0, "pos"),
+    ("hold_time_s", "hold_time_s", 1.0, "nonneg"),
+    ("rate_case_deg_s", "rate_case_rad_s", math.pi / 180, "pos"),
+    ("phase_plane.attitude_deadband_deg", "phase_plane_att_deadband_rad", math.pi / 180, "pos"),
+    ("phase_plane.rate_deadband_deg_s", "phase_plane_rate_deadband_rad_s", math.pi / 180, "pos"),
+    ("allocator.rate_deadband_deg_s", "allocator_rate_deadband_rad_s", math.pi / 180, "pos"),
+)
+#: What a pulse shorter than the minimum on-time becomes (module docstring).
+MIN_PULSE_POLICIES = ("accumulate", "round-up", "drop")
+#: Keys whose value is a word, with the words each takes.
+_CHOICE_KEYS: dict[str, tuple[str, ...]] = {"min_pulse": MIN_PULSE_POLICIES}
+#: Every key a ``[control]`` section (or ``--control KEY=VALUE``) takes.
+CONTROL_KEYS = tuple(key for key, _, _, _ in _KEYS) + tuple(_CHOICE_KEYS)
+
+
+@dataclass(frozen=True)
+class ControlProfile:
+    """A vehicle's flight-software profile, SI (module docstring: keys, meanings, paper values).
+
+    Attributes
+    ----------
+    cycle_s : float
+        Control cycle [s]: the flight loop's and every controller's (one owner).
+    maneuver_rate_rad_s, maneuver_limit_rad, maneuver_band_rad : float
+        Maneuver rate [rad/s], the total attitude error above which it is flown [rad] and the
+        half-width of the no-firing band around that limit [rad].
+    rate_deadband_rad_s : float
+        The lookup controller's per-axis rate-error deadband [rad/s].
+    on_time_limit_s, hold_time_s : float
+        The lookup controller's on-time limit and hold time [s].
+    rate_case_rad_s : float
+        Total rate of the 26 rate cases a lookup table is generated for [rad/s].
+    phase_plane_att_deadband_rad, phase_plane_rate_deadband_rad_s : float
+        The phase-plane controller's attitude [rad] and rate [rad/s] deadbands.
+    allocator_rate_deadband_rad_s : float
+        The allocator controller plans no new firing below this rate error [rad/s].
+    min_pulse : str
+        The minimum pulse policy, one of :data:`MIN_PULSE_POLICIES` (module docstring).
+    source : str
+        Where the values came from: the vehicle file, the keys it left to the paper's
+        profile, and any overrides (a spec's ``[control]``, the command line).
+    """
+
+    cycle_s: float
+    maneuver_rate_rad_s: float
+    maneuver_limit_rad: float
+    maneuver_band_rad: float
+    rate_deadband_rad_s: float
+    on_time_limit_s: float
+    hold_time_s: float
+    rate_case_rad_s: float
+    phase_plane_att_deadband_rad: float
+    phase_plane_rate_deadband_rad_s: float
+    allocator_rate_deadband_rad_s: float
+    min_pulse: str
+    source: str = ""
+
+    def record(self) -> dict:
+        """The profile as a manifest records it: file keys (degrees, seconds) -> values, and
+        ``source``.  :func:`read_control` of the record (without ``source``) gives it back."""
+        out: dict = {}
+        for key, name, factor, _ in _KEYS:
+            out[key] = _round_trip(getattr(self, name) / factor)
+        for key in _CHOICE_KEYS:
+            out[key] = getattr(self, key)
+        out["source"] = self.source
+        return out
+
+    def values(self) -> dict:
+        """File key -> value (degrees, seconds), without ``source``: what a spec's
+        ``[control]`` or ``--control`` overrides."""
+        rec = self.record()
+        rec.pop("source")
+        return rec
+
+    def describe(self) -> str:
+        """One line a report or a manifest shows: every value with its unit, and the source."""
+        parts = [
+            f"{key} = {value:g}" if isinstance(value, float) else f"{key} = {value}"
+            for key, value in self.values().items()
+        ]
+        return f"{'; '.join(parts)} ({self.source})"
+
+
+def _round_trip(value: float) -> float:
+    """A converted value as the shortest decimal that reads back to the same degrees (0.2
+    deg/s converted to rad/s and back is 0.20000000000000004)."""
+    return float(f"{value:.12g}")
+
+
+def read_control(
+    raw: dict, base: ControlProfile | None, *, where: str, path: str = "control"
+) -> ControlProfile:
+    """A profile from a ``[control]`` table ``raw`` (file keys, units in their names), each key
+    it leaves out taken from ``base``; with ``base`` None every key is required.
+
+    Parameters
+    ----------
+    raw : dict
+        The table as parsed TOML (sub-tables ``phase_plane`` and ``allocator`` nested), or
+        a flat dict with dotted keys (``"phase_plane.rate_deadband_deg_s"``).
+    where : str
+        The file or flag the table came from, for messages and :attr:`ControlProfile.source`.
+    path : str
+        The table's key path in messages (``control``).
+
+    Raises
+    ------
+    InputError
+        An unknown key (the closest known one named), a value that is not a finite number or
+        breaks its rule, a band not below the limit.  One line naming ``where``, the key and
+        the value.
+    """
+    flat = flatten_control(raw, where, path)
+    reader = Reader(flat, path, where)
+    values: dict[str, float | str] = {}
+    given: list[str] = []
+    for key, name, factor, rule in _KEYS:
+        if reader.has(key):
+            value = reader.number(key, None, minimum=0.0, strict=rule == "pos")
+            values[name] = value * factor
+            given.append(key)
+        elif base is not None:
+            values[name] = getattr(base, name)
+        else:
+            raise reader.error(key, "is required")
+    for key, words in _CHOICE_KEYS.items():
+        if reader.has(key):
+            values[key] = reader.choice(key, None, words)
+            given.append(key)
+        elif base is not None:
+            values[key] = getattr(base, key)
+        else:
+            raise reader.error(key, f"is required; one of {', '.join(words)}")
+    reader.done()
+    if base is None:
+        source = where
+    elif given:
+        source = f"{base.source}; {', '.join(given)} from {where}"
+    else:
+        source = base.source
+    profile = ControlProfile(**values, source=source)  # type: ignore[arg-type]
+    file_key = {name: key for key, name, _, _ in _KEYS} | {key: key for key in _CHOICE_KEYS}
+    _check(profile, where=where, key_of=lambda name: f"{path}.{file_key[name]}")
+    return profile
+
+
+def flatten_control(raw: dict, where: str = "control", path: str = "control") -> dict:
+    """Sub-tables ``phase_plane`` / ``allocator`` as dotted keys (unknown sub-tables are left
+    as they are, for the reader to refuse by name)."""
+    if not isinstance(raw, dict):
+        raise InputError(f"{where}: {path}: expected a table, got {raw!r}")
+    flat: dict = {}
+    for key, value in raw.items():
+        if isinstance(value, dict) and key in ("phase_plane", "allocator"):
+            for sub, v in value.items():
+                flat[f"{key}.{sub}"] = v
+        else:
+            flat[key] = value
+    return flat
+
+
+def parse_assignments(items: list[str] | tuple[str, ...], *, flag: str = "--control") -> dict:
+    """``KEY=VALUE`` strings from the command line as a flat dict of numbers (of words for
+    a key that takes one, e.g. ``min_pulse=drop``; the profile checks the word).
+
+    Raises
+    ------
+    InputError
+        An item without ``=`` or whose value is not a number, naming the flag and the item.
+    """
+    out: dict = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        key, text = key.strip(), text.strip()
+        if not sep or not key:
+            raise InputError(
+                f"{flag}: expected KEY=VALUE, e.g. maneuver_limit_deg=0.8 (got {item!r})"
+            )
+        if key in _CHOICE_KEYS:
+            out[key] = text
+            continue
+        try:
+            value = float(text)
+        except ValueError:
+            raise InputError(f"{flag}: {key}: must be a number (got {text!r})") from None
+        out[key] = value
+    return out
+
+
+def with_values(profile: ControlProfile, **si_values: float | str) -> ControlProfile:
+    """``profile`` with fields replaced by SI values (code that retunes a profile for a
+    study, e.g. ``with_values(p, maneuver_band_rad=0.0)``), checked as a file's values are;
+    the source says which fields the code set."""
+    names = {f.name for f in fields(ControlProfile)} - {"source"}
+    unknown = sorted(set(si_values) - names)
+    if unknown:
+        raise InputError(f"ControlProfile has no field {unknown[0]!r}; fields: {sorted(names)}")
+    if not si_values:
+        return profile
+    new = replace(
+        profile,
+        **si_values,  # type: ignore[arg-type]  # each field's type is _check's to refuse
+        source=f"{profile.source}; {', '.join(si_values)} set in code",
+    )
+    _check(new, where="code", key_of=lambda name: name)
+    return new
+
+
+def _check(profile: ControlProfile, *, where: str, key_of) -> None:
+    """The rules every profile keeps, however made; ``key_of(field)`` names a field in the
+    message (a file key, or the field itself for code)."""
+    for key, words in _CHOICE_KEYS.items():
+        if getattr(profile, key) not in words:
+            raise InputError(
+                f"{where}: {key_of(key)}: must be one of {', '.join(words)} "
+                f"(got {getattr(profile, key)!r})"
+            )
+    for _, name, _, rule in _KEYS:
+        value = getattr(profile, name)
+        ok = math.isfinite(value) and (value > 0 if rule == "pos" else value >= 0)
+        if not ok:
+            sign = ">" if rule == "pos" else ">="
+            raise InputError(f"{where}: {key_of(name)}: must be {sign} 0 (got {value!r})")
+    if not MIN_CYCLE_S <= profile.cycle_s <= MAX_CYCLE_S:
+        raise InputError(
+            f"{where}: {key_of('cycle_s')}: must be within {MIN_CYCLE_S:g} to {MAX_CYCLE_S:g} s "
+            f"(a cycle in ms?) (got {profile.cycle_s!r})"
+        )
+    if profile.maneuver_band_rad >= profile.maneuver_limit_rad:
+        raise InputError(
+            f"{where}: {key_of('maneuver_band_rad')}: must be below the maneuver limit "
+            f"{math.degrees(profile.maneuver_limit_rad):g} deg (the band lies on both sides of "
+            f"the limit) (got {math.degrees(profile.maneuver_band_rad):g} deg)"
+        )
