@@ -69,7 +69,7 @@ def test_two_failure_regions_intervals_cover_the_truth():
         limit_states.linear(10, 1e-5),
         limit_states.linear(86, 1e-5),
         limit_states.series(10, 1e-6),
-        limit_states.parabolic(10, 3.5, -0.2),
+        limit_states.parabolic(10, 4.5, -0.05),
     ],
     ids=lambda limit: limit.name,
 )
