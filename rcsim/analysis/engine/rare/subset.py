@@ -46,6 +46,7 @@ simulation", Probabilistic Engineering Mechanics 41, 89-103.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 from collections.abc import Callable
@@ -199,6 +200,9 @@ def _next_level(
         inside = np.sort(rng.choice(inside, size=n_c, replace=False))
     current, current_g = state.u[inside].copy(), state.margins[inside].copy()
     spread = current.std(axis=0, ddof=1) if n_c > 1 else np.ones(current.shape[1])
+    # A coordinate all seeds share (copies of one state) would never move: give it the
+    # prior's spread instead.
+    spread = np.where(spread > 0.0, spread, 1.0)
     d = current.shape[1]
     u_all = np.empty((n_s, n_c, d))
     g_all = np.empty((n_s, n_c))
@@ -255,7 +259,8 @@ def subset_simulation(
         Called with each finished level's :class:`~.state.LevelRecord`.
     u0 : ndarray, (n_per_level, dim), optional
         Level 0's points, if the caller already has independent standard-normal draws (a
-        campaign's seeded runs); by default drawn from level 0's stream.
+        campaign's seeded runs); by default drawn from level 0's stream.  Part of the state's
+        fingerprint (its SHA-256): resuming needs the same points.
     label : str
         Names the limit state in the state file's fingerprint (a state of another is refused).
 
@@ -271,7 +276,7 @@ def subset_simulation(
         "seed_entropy": str(root.entropy),
         "seed_spawn_key": list(root.spawn_key),
         "label": label,
-        "u0": u0 is not None,
+        "u0": None if u0 is None else hashlib.sha256(np.asarray(u0, float).tobytes()).hexdigest(),
     }
     path = None if state_path is None else Path(state_path)
     if path is not None and path.exists():

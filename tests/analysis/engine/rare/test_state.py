@@ -111,6 +111,14 @@ def test_a_state_of_another_estimation_is_refused_naming_what_differs(tmp_path, 
         subset_simulation(LIMIT, 10, config, state_path=path, **kwargs)
 
 
+def test_a_state_begun_from_other_level_zero_points_is_refused(tmp_path):
+    path = tmp_path / "s.npz"
+    u0 = np.random.default_rng(np.random.SeedSequence(5)).standard_normal((500, 10))
+    subset_simulation(LIMIT, 10, CONFIG, seed=21, state_path=path, u0=u0)
+    with pytest.raises(InputError, match=r"another estimation \(u0:"):
+        subset_simulation(LIMIT, 10, CONFIG, seed=21, state_path=path, u0=u0[::-1])
+
+
 def test_a_file_that_is_not_a_state_is_refused(tmp_path):
     path = tmp_path / "s.npz"
     path.write_text("not a state")
