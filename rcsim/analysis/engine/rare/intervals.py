@@ -7,18 +7,18 @@ Subset simulation
 Level ``j`` of a subset simulation holds ``N`` samples: ``n_c`` Markov chains of ``n_s`` states
 each (``N = n_c n_s``; level 0 is ``N`` independent draws, ``n_s = 1``).  The fraction ``p_j`` of
 them inside the next region (or, at the last level, inside the failure region) estimates the
-level's conditional probability with the squared coefficient of variation of Au & Beck (2001),
-eqs. (27)-(29):
+level's conditional probability with the squared coefficient of variation of Au & Beck (2001)
+(also Papaioannou et al., 2015, whose notation this follows):
 
     delta_j^2 = (1 - p_j) / (N p_j) * (1 + gamma_j),
     gamma_j   = 2 sum_{k=1}^{n_s - 1} (1 - k / n_s) rho_j(k),
 
 where ``rho_j(k) = R_j(k) / R_j(0)`` is the lag-``k`` autocorrelation of the region's indicator
-along the chains, estimated from all chains (their eq. 29):
+along the chains, estimated from all chains at once:
 ``R_j(k) = 1 / (N - k n_c) sum_chains sum_{l < n_s - k} I_l I_{l+k} - p_j^2``.  ``gamma_j`` is
 the price of the chains' correlation (0 for independent samples).  The estimate
 ``P = prod_j p_j`` then has ``delta^2 = sum_j delta_j^2`` when the level estimates are taken as
-uncorrelated (their eq. 30, the formula implementations usually report), and at most
+uncorrelated (the formula implementations usually report), and at most
 ``delta = sum_j delta_j`` when they are fully correlated (the bound of the same section).
 
 Which one the estimators report was decided by measurement (``benchmarks/rare_event.py``,
@@ -97,7 +97,7 @@ def level_cov2(p: float, n: int, gamma: float) -> float:
 
 def combined_cov(level_cov2s, correlated: bool = False) -> float:
     """Coefficient of variation of a product of level estimates: ``sqrt(sum delta_j^2)``
-    (levels uncorrelated, Au & Beck's eq. 30) or ``sum delta_j`` (fully correlated: the upper
+    (levels uncorrelated, Au & Beck's usual formula) or ``sum delta_j`` (fully correlated: the upper
     bound)."""
     values = np.asarray(list(level_cov2s), dtype=float)
     if correlated:

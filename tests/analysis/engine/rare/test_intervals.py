@@ -1,6 +1,6 @@
 """The intervals of rare-event estimates (rcsim.analysis.engine.rare.intervals).
 
-Oracles: Au & Beck (2001) eqs. (27)-(30) written out by hand for small cases; the exact
+Oracles: Au & Beck's (2001) CoV formulas written out by hand for small cases; the exact
 binomial formulas of rcsim.analysis.results.proportions (the results layer's, which the engine
 package may not import, so it keeps its own copy: the two must agree).
 """
@@ -16,14 +16,14 @@ from rcsim.analysis.results import proportions
 
 def test_gamma_of_chains_that_never_move_is_chain_length_minus_one():
     # A chain that repeats its seed has rho(k) = 1 for every lag, so
-    # gamma = 2 sum_{k=1}^{n_s-1} (1 - k/n_s) = n_s - 1 exactly (Au & Beck eq. 28).
+    # gamma = 2 sum_{k=1}^{n_s-1} (1 - k/n_s) = n_s - 1 exactly (the definition of gamma).
     seeds = np.array([True, False, False, True, False, True, False, False, False, False])
     ind = np.tile(seeds, (10, 1))  # (n_s, n_c): every state equals its chain's seed
     assert intervals.chain_gamma(ind) == pytest.approx(9.0, rel=1e-12)
 
 
 def test_gamma_written_out_for_a_small_chain_set():
-    # Two chains of three states, hand-computed from eq. (29): p = 3/6,
+    # Two chains of three states, hand-computed from the definition of R(k): p = 3/6,
     # R(1) = (I0 I1 + I1 I2 summed over chains) / 4 - p^2 = (1 + 1) / 4 - 1/4 = 1/4,
     # R(2) = (I0 I2 summed) / 2 - p^2 = 1/2 - 1/4 = 1/4, R(0) = 1/4:
     # gamma = 2 (2/3 * 1 + 1/3 * 1) = 2.

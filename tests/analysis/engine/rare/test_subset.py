@@ -333,3 +333,16 @@ def test_reported_interval_is_the_lognormal_one_on_the_correlated_cov():
     assert res.cov == pytest.approx(cov, rel=1e-12)
     assert res.cov_uncorrelated == pytest.approx(math.sqrt(sum(r.cov2 for r in levels)), rel=1e-12)
     assert res.interval == pytest.approx(lognormal_interval(res.probability, cov), rel=1e-12)
+
+
+def test_the_closest_failure_names_its_largest_coordinates():
+    # A half-space along u_3 alone: the failure's largest coordinate is u_3, beyond beta.
+    a = np.zeros(6)
+    a[3] = 1.0
+    limit = limit_states.linear(6, 1e-4, direction=a)
+    res = subset_simulation(limit, 6, SubsetConfig(n_per_level=500), seed=2)
+    names = ["mass", "cg_x", "ixx", "thrust_01", "tilt_01", "azimuth_01"]
+    top = res.closest_failure.largest(names, count=2)
+    assert top[0][0] == "thrust_01" and top[0][1] > limit.beta
+    assert abs(top[1][1]) <= abs(top[0][1])
+    assert res.closest_failure.largest(count=1)[0][0] == "u3"
