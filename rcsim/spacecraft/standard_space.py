@@ -164,7 +164,9 @@ def uniform_of_normal(w) -> np.ndarray:
 
 def normal_score(uniform) -> np.ndarray:
     """The normal scores of uniforms on the 53-bit grid: the float nearest ``Phi^-1`` of each
-    cell's midpoint (never 0, never infinite), which :func:`uniform_of_normal` maps back to the
+    cell's midpoint (one Newton step from scipy's ``ndtri`` with ``Phi`` in double-double:
+    nearest up to the step's own rounding, and within an ulp in any case, which the exactness
+    argument allows), never 0, never infinite; :func:`uniform_of_normal` maps it back to the
     uniform exactly (module docstring).
 
     Raises
