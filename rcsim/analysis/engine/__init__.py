@@ -4,6 +4,8 @@
 * :mod:`~rcsim.analysis.engine.scenarios` -- the paper's named scenarios;
 * :mod:`~rcsim.analysis.engine.campaign` -- Monte Carlo dispersion campaigns (spec, chunks, runner,
   Dask, resume, replay);
+* :mod:`~rcsim.analysis.engine.rare` -- rare-event estimation (subset simulation) of a margin
+  evaluated in batches, generic numpy (a campaign adapter flies the batches);
 * :mod:`~rcsim.analysis.engine.runs_table` -- ``runs.parquet`` and the campaign directory's file
   names: the one owner of the data contract between the engine and the results layer;
 * :mod:`~rcsim.analysis.engine.output` -- output directories and files (markers, atomic writes);
