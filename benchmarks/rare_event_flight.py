@@ -33,7 +33,6 @@ from rcsim.analysis.engine.rare import SubsetConfig, subset_simulation
 from rcsim.analysis.engine.rare.intervals import clopper_pearson, plain_mc_runs
 from rcsim.lookup.registry import make_controller
 from rcsim.spacecraft import standard_space
-from rcsim.spacecraft.vehicle import VehicleParams, load_model
 
 #: Runs flown per fly_batch call (level 0 and plain Monte Carlo are split into these).
 BATCH = 500
@@ -44,9 +43,9 @@ class CaseMargin:
 
     def __init__(self, spec):
         self.spec = spec
-        self.model = load_model()
-        self.nominal = VehicleParams.nominal(1, self.model)
-        self.controller = make_controller(spec.controller, table=spec.table, model=self.model)
+        self.vehicle = spec.vehicle
+        self.nominal = self.vehicle.nominal(1)
+        self.controller = make_controller(spec.controller, self.vehicle, table=spec.table)
         self.case = spec.cases[0]
         self.runs = 0
 
@@ -60,7 +59,7 @@ class CaseMargin:
             part = u[lo : lo + BATCH]
             runs = standard_space.vehicles_from_standard(self.nominal, self.spec.sigmas, part)
             history = fly_batch(
-                [self.case] * part.shape[0], runs.params, self.controller, model=self.model
+                [self.case] * part.shape[0], runs.params, self.controller, vehicle=self.vehicle
             )
             worst = np.max(np.abs(history.final.rate_err_B), axis=1)
             thr = self.spec.rate_threshold_rad_s

@@ -17,7 +17,7 @@ from scipy.special import ndtr
 from rcsim.models.tables import load_dispersions
 from rcsim.spacecraft import standard_space as ss
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs, n_normals
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle_file import Vehicle
 
 GRID = 2.0**53
 
@@ -111,7 +111,7 @@ def _same_vehicles(a, b):
 
 @pytest.mark.parametrize("extras", [False, True], ids=["Table 5 x3", "with CG y, z and products"])
 def test_runs_flown_from_their_u_are_their_seeded_runs_bit_for_bit(extras):
-    nominal = VehicleParams.nominal(1)
+    nominal = Vehicle.load().nominal(1)  # the paper's
     sigmas = DispersionSigmas.from_table(load_dispersions(), scale=3.0)
     if extras:
         sigmas = DispersionSigmas(
