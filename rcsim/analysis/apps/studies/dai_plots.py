@@ -17,6 +17,7 @@ METHOD_LABELS = {
     "ffd+fb": "FFD + FB",
     "ffd+fb+dai": "FFD + FB + DAI (learns the feedback correction)",
     "ffd+fb+dai-total": "FFD + FB + DAI (learns the total torque)",
+    "ffd+fb+dai-integral": "FFD + FB + DAI (integrates the feedback, Theta_dot)",
 }
 # Floor of the log error axis [deg]: below it the errors are round-off of the attitude.
 ERROR_FLOOR_DEG = 1e-12
