@@ -10,7 +10,7 @@ Every step ``k`` (time ``t_k``, torque held over ``[t_k, t_k + dt]``):
 * FB: the PDI of 001 Eq. (3), ``u_fb = Kp (theta_d - theta_hat) + Kd (theta_d' - omega_hat)
   + Ki int(theta_d - theta_hat) dt + w_hat x J w_hat`` per Euler angle (the decoupling term's
   sign is lost in the transcription; + cancels the gyroscopic term of Eq. 1, SOURCES.md);
-* DAI (hybrid only), two readings of the papers (``docs/dai.md`` compares them):
+* DAI (hybrid only), three readings of the papers (``docs/dai.md`` compares them):
 
   - ``ffd+fb+dai``, the papers' (default): Smeresky & Rizzo Eqs. (9), (13),
     ``Theta_hat = (Phi^T Phi)^-1 Phi^T delta_u`` with ``delta_u`` the *feedback correction*,
@@ -25,7 +25,19 @@ Every step ``k`` (time ``t_k``, torque held over ``[t_k, t_k + dt]``):
     Physically: the inertia that explains everything the actuators did, feedback torque
     that is not inertia (noise, disturbances, ringing) included.
 
-  Both solve their statements over every step so far, weighted by ``exp(-age / memory)``:
+  - ``ffd+fb+dai-integral``, 001 App. B's ``Theta_dot`` signal: integral learning
+    ``dTheta_hat/dt = g Phi_d^T u_fb`` (one explicit Euler step per control step, after the
+    step's torque is computed), with the feedforward flying ``J = J_model + Theta_hat``
+    (001 App. A.2, "Learn [J]", adds ``Theta_hat`` to the model's entries).  ``g`` is
+    :attr:`ControllerConfig.dai_gain_s3` [s^3].  Physically: a gradient adaptation of the
+    feedforward's inertia -- the feedback torque that correlates with the desired
+    acceleration (what an inertia error makes the feedback supply) is integrated into the
+    estimate, at the rate ``g |Phi_d|^2``; feedback that does not correlate with it (noise,
+    ringing) averages out instead of being fitted, no feedback learns nothing, and with no
+    desired acceleration (a coast, the quiescent period) the estimate holds.
+
+  The first two solve their statements over every step so far, weighted by
+  ``exp(-age / memory)``:
   ``dTheta = W^+ r`` with ``W = sum lam^(k-j) Phi_j^T Phi_j`` and ``r = sum lam^(k-j)
   Phi_j^T y_j`` (``y`` the feedback correction, or ``u - Phi Theta_model``) -- the
   Moore-Penrose solution of the stacked, weighted statements (``(A^T A)^+ A^T = A^+`` for any
@@ -54,12 +66,18 @@ from rcsim.lookup.continuous.trajectory import SinusoidalTrajectory
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.continuous.kinematics import body_rate_from_euler
 
-METHODS = ("ffd", "fb", "ffd+fb", "ffd+fb+dai", "ffd+fb+dai-total")
+METHODS = ("ffd", "fb", "ffd+fb", "ffd+fb+dai", "ffd+fb+dai-total", "ffd+fb+dai-integral")
 #: The DAI methods and the learning law each reads from the papers (module docstring).
 DAI_LAWS = {
     "ffd+fb+dai": "feedback correction, added to the command (the papers')",
     "ffd+fb+dai-total": "total torque, into the feedforward's inertia",
+    "ffd+fb+dai-integral": (
+        "integral of the feedback correction, dTheta/dt = g Phi_d^T u_fb, into the "
+        "feedforward's inertia (001 App. B Theta_dot)"
+    ),
 }
+#: The DAI method that learns by integration (needs :attr:`ControllerConfig.dai_gain_s3`).
+INTEGRAL_LAW = "ffd+fb+dai-integral"
 # Relative cut-off of the pseudo-inverse: singular values of W below it (unexcited inertia
 # directions; exactly zero for a single-axis trajectory) are dropped.
 PINV_RCOND = 1e-10
@@ -104,6 +122,35 @@ def dai_update(
     return info, rhs, d_theta
 
 
+def integral_update(
+    d_theta: np.ndarray, phi_d: np.ndarray, u_fb: np.ndarray, gain_s3: float, dt_s: float
+) -> np.ndarray:
+    """One explicit Euler step of ``dTheta_hat/dt = g Phi_d^T u_fb`` (001 App. B ``Theta_dot``).
+
+    Parameters
+    ----------
+    d_theta : ndarray, (n_runs, 6)
+        Learned inertia change so far [kg m^2].
+    phi_d : ndarray, (3, 6) or (n_runs, 3, 6)
+        Regression matrix of the desired rates [rad/s^2].
+    u_fb : ndarray, (n_runs, 3)
+        Feedback torque of this step [N m].
+    gain_s3 : float
+        Learning gain ``g`` [s^3] (kg m^2 / s per (rad/s^2 * N m)).
+    dt_s : float
+        Step [s].
+
+    Returns
+    -------
+    ndarray, (n_runs, 6)
+        ``d_theta + g dt Phi_d^T u_fb`` [kg m^2].  With the feedback supplying an inertia error
+        exactly, ``u_fb = Phi_d (dTheta_true - d_theta)``, the error decays by the factor
+        ``1 - g dt Phi_d^T Phi_d`` a step: ``exp(-g |Phi_d|^2 t)`` as ``dt -> 0``.
+    """
+    phi_b = np.broadcast_to(phi_d, (u_fb.shape[0],) + np.shape(phi_d)[-2:])
+    return d_theta + (gain_s3 * dt_s) * np.einsum("nki,nk->ni", phi_b, u_fb)
+
+
 @dataclass(frozen=True)
 class ControllerConfig:
     """Parameters of :class:`ContinuousController` (SI).
@@ -119,7 +166,11 @@ class ControllerConfig:
     dt_s : float
         Control (= physics) step [s].
     dai_memory_s : float
-        Forgetting time constant of the DAI regression [s].
+        Forgetting time constant of the DAI regression [s] (the first two readings).
+    dai_gain_s3 : float or None
+        Learning gain ``g`` of the integral reading [s^3] (:func:`integral_update`);
+        required by ``ffd+fb+dai-integral`` (``rcsim/models/dai/parameters.csv``,
+        ``dai.learning_gain``), unused by the other methods.
     """
 
     method: str
@@ -128,6 +179,7 @@ class ControllerConfig:
     observer_gains: np.ndarray
     dt_s: float
     dai_memory_s: float = 5.0
+    dai_gain_s3: float | None = None
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -138,6 +190,14 @@ class ControllerConfig:
             )
         if not (math.isfinite(self.dt_s) and self.dt_s > 0):
             raise InputError(f"must be > 0, got {self.dt_s}", parameter="dt_s", value=self.dt_s)
+        if self.method == INTEGRAL_LAW:
+            g = self.dai_gain_s3
+            if g is None or isinstance(g, bool) or not (math.isfinite(g) and g > 0):
+                raise InputError(
+                    f"must be a number > 0 [s^3] for {INTEGRAL_LAW}, got {g!r}",
+                    parameter="dai_gain_s3",
+                    value=g,
+                )
 
 
 @dataclass
@@ -189,6 +249,8 @@ class ContinuousController:
         self._fb = config.method != "ffd"
         self._dai = config.method in DAI_LAWS
         self._learn_total = config.method == "ffd+fb+dai-total"
+        self._learn_integral = config.method == INTEGRAL_LAW
+        self._gain_s3 = 0.0 if config.dai_gain_s3 is None else float(config.dai_gain_s3)
 
     def initial_state(self, n_runs: int) -> ControllerState:
         z3 = np.zeros((n_runs, 3))
@@ -237,10 +299,14 @@ class ContinuousController:
             _, w_d, wdot_d = self.trajectory.body(t_s + 0.5 * cfg.dt_s)
             phi_d = regressor(w_d, wdot_d)  # (3, 6), the same for every run
             # Model feedforward plus the learned term Phi_d dTheta: inside the feedforward's
-            # inertia (total-torque reading) or as an added input (the papers'); the same sum.
+            # inertia (total-torque and integral readings) or as an added input (the
+            # papers'); the same sum.
             u = u + (self.theta_model + d_theta) @ phi_d.T
             if self._dai and np.any(phi_d):
-                if self._learn_total:
+                if self._learn_integral:
+                    # After the torque: this step's feedback teaches the next steps.
+                    d_theta = integral_update(d_theta, phi_d, u_fb, self._gain_s3, cfg.dt_s)
+                elif self._learn_total:
                     info, rhs, d_theta = dai_update(
                         info, rhs, phi_d, u, self.theta_model, self._lam
                     )

@@ -54,6 +54,7 @@ _UNITS = {
     "N*m*s/rad": 1.0,
     "N*m/(rad*s)": 1.0,
     "N*m*s": 1.0,
+    "s^3": 1.0,
 }
 _COLUMNS = ("group", "name", "value", "unit", "source")
 _DISPERSION_COLUMNS = ("name", "distribution", "nominal", "bound", "unit", "source")
@@ -170,6 +171,8 @@ class PaperSetup:
         The paper's fixed step [s].
     dai_memory_s : float
         Forgetting time constant of the DAI regression [s] (chosen; SOURCES.md).
+    dai_gain_s3 : float
+        Learning gain ``g`` of the integral reading [s^3] (issue 31; SOURCES.md).
     """
 
     paper: str
@@ -182,6 +185,7 @@ class PaperSetup:
     observation_s: float
     timestep_s: float
     dai_memory_s: float
+    dai_gain_s3: float
 
     @property
     def duration_s(self) -> float:
@@ -234,6 +238,9 @@ def load_setup(paper: str, path: str | os.PathLike | None = None) -> PaperSetup:
         observation_s=periods["observation"],
         timestep_s=periods["timestep"],
         dai_memory_s=_check_positive(_get(p, "dai", "memory", path), "dai", "memory", path),
+        dai_gain_s3=_check_positive(
+            _get(p, "dai", "learning_gain", path), "dai", "learning_gain", path
+        ),
     )
 
 

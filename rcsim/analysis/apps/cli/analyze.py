@@ -27,7 +27,9 @@ def register(subparsers) -> None:
             "region, per box) carry exact (Clopper-Pearson) 95 % intervals; the per-axis "
             "outcomes and a second threshold are analysed beside the pooled one.  Writes "
             "drivers.csv, pairs.csv, cases.csv, summary.csv, outcomes.csv, boxes.csv, "
-            "box_limits.csv, trajectory.csv, driver_regions.csv, figures/ and report.html."
+            "box_limits.csv, trajectory.csv, driver_regions.csv, figures/ and report.html.  "
+            "Beyond 250,000 runs (after --case) it reads and analyses a uniform random "
+            "subsample of 250,000 drawn with --seed, and says so."
         ),
     )
     parser.add_argument(
@@ -71,7 +73,8 @@ def register(subparsers) -> None:
         type=int,
         default=0,
         metavar="S",
-        help="seed of the permutations and resamples, >= 0 (default 0)",
+        help="seed of the permutations, resamples and of the subsample of a table of more "
+        "than 250,000 runs, >= 0 (default 0)",
     )
     parser.add_argument(
         "--bound-p",
@@ -102,6 +105,11 @@ def register(subparsers) -> None:
         "--overwrite",
         action="store_true",
         help="replace DIR if an earlier `rcsim analyze` wrote it",
+    )
+    parser.add_argument(
+        "--yes",
+        action="store_true",
+        help="start even if the memory estimate is over half of this machine's memory",
     )
     parser.set_defaults(func=_run)
 
@@ -138,12 +146,25 @@ def _run(args) -> int:
 
     check_out_dir(args.out, COMMAND, overwrite=args.overwrite)  # before minutes of work
     runset = load_runs(
-        args.path, inputs=inputs, outcome=args.outcome, case=args.case, vehicle=args.vehicle
+        args.path,
+        inputs=inputs,
+        outcome=args.outcome,
+        case=args.case,
+        vehicle=args.vehicle,
+        seed=args.random_state,
+        yes=args.yes,
     )
     res = analyze(runset, settings)
     report = write_analysis(res, args.out, overwrite=args.overwrite)
     n, nf = runset.y.size, int(runset.y.sum())
-    print(f"{n} runs, {nf} failed; {len(runset.X.columns)} inputs analysed")
+    if runset.subsampled:
+        print(
+            f"{n:,} of {runset.total_runs:,} runs analysed (a seeded uniform subsample), "
+            f"{nf:,} failed of them ({runset.total_failed:,} of all); "
+            f"{len(runset.X.columns)} inputs analysed"
+        )
+    else:
+        print(f"{n} runs, {nf} failed; {len(runset.X.columns)} inputs analysed")
     print(f"failure probability {_probability(res)}")
     for note in res.runset.notes:  # the analysis may add one (a subsample)
         print(f"note: {note}")

@@ -496,7 +496,8 @@ class _Stages:
 
         s = self.settings
         res = analyze(
-            load_runs(self.paths["campaign_before"]),
+            # A campaign of more than 250,000 runs: the analysis' own seed draws the subsample.
+            load_runs(self.paths["campaign_before"], seed=s.seed),
             Settings(n_permutations=s.permutations, random_state=s.seed),
         )
         write_analysis(res, self.paths["drivers"], overwrite=True)

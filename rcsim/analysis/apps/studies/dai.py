@@ -36,7 +36,12 @@ import pandas as pd
 
 from rcsim.analysis.apps.studies.dai_plots import plot_scenario, plot_theta_hat, plot_timestep
 from rcsim.analysis.engine.output import atomic_dir, check_out_dir
-from rcsim.lookup.continuous.controllers import DAI_LAWS, ContinuousController, ControllerConfig
+from rcsim.lookup.continuous.controllers import (
+    DAI_LAWS,
+    INTEGRAL_LAW,
+    ContinuousController,
+    ControllerConfig,
+)
 from rcsim.lookup.continuous.trajectory import SinusoidalTrajectory
 from rcsim.models.dai import (
     PaperSetup,
@@ -178,6 +183,7 @@ def run_method(
         setup.observer_gains,
         setup.timestep_s,
         setup.dai_memory_s,
+        setup.dai_gain_s3,
     )
     plant = ContinuousPlant(true_j, timestep_s=setup.timestep_s)
     dist = Disturbances(load_environment()) if scn.disturbances else None
@@ -250,6 +256,15 @@ IMPROVEMENT_COLUMNS = (
 )
 
 
+def learning_law(method: str) -> str:
+    """What a DAI reading learns and where it goes, with its gain or memory as flown
+    (``rcsim/models/dai/parameters.csv``)."""
+    setup = load_setup("wilt2022")
+    if method == INTEGRAL_LAW:
+        return f"{DAI_LAWS[method]}, g = {setup.dai_gain_s3:g} s^3"
+    return f"{DAI_LAWS[method]}, memory {setup.dai_memory_s:g} s"
+
+
 def _pct(base: float, other: float) -> float:
     base, other = abs(base), abs(other)
     return 100.0 * (base - other) / base if base > 0 else np.nan
@@ -286,7 +301,7 @@ def improvement_table(summary: pd.DataFrame, paper=None) -> pd.DataFrame:
         base = by.loc["ffd+fb"]
         for method in (m for m in DAI_LAWS if m in by.index):
             dai = by.loc[method]
-            row = {"scenario": scn, "method": method, "learning_law": DAI_LAWS[method]}
+            row = {"scenario": scn, "method": method, "learning_law": learning_law(method)}
             for col, key in (
                 ("mean_tracking_error_pct", "mean_tracking_error_deg"),
                 ("tracking_error_std_pct", "tracking_error_std_deg"),

@@ -17,6 +17,7 @@ METHOD_LABELS = {
     "ffd+fb": "FFD + FB",
     "ffd+fb+dai": "FFD + FB + DAI (learns the feedback correction)",
     "ffd+fb+dai-total": "FFD + FB + DAI (learns the total torque)",
+    "ffd+fb+dai-integral": "FFD + FB + DAI (integrates the feedback, Theta_dot)",
 }
 # Floor of the log error axis [deg]: below it the errors are round-off of the attitude.
 ERROR_FLOOR_DEG = 1e-12
@@ -67,7 +68,8 @@ def plot_theta_hat(name: str, results: list, path) -> None:
     for i, ax in enumerate(axes.ravel()):
         ax.set_title(f"Theta_hat {labels[i]} [kg m^2]", fontsize=9)
         ax.grid(True, alpha=0.3)
-    axes[0, 0].legend(fontsize=7, loc="best")
+    # In the Jxy panel: a yaw maneuver leaves it flat, so the legend hides no curve.
+    axes[0, 1].legend(fontsize=7, loc="lower center")
     for ax in axes[1]:
         ax.set_xlabel("time [s]")
     fig.suptitle(f"{name}: DAI self-awareness estimate (nominal run)")

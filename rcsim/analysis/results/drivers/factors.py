@@ -86,6 +86,30 @@ def physics_factors(
         raise ValueError(
             f"runs lack the recorded inputs {missing[:3]}{' ...' if len(missing) > 3 else ''}"
         )
+    if fire_sign is not None:
+        fire_sign = np.asarray(fire_sign)
+    # Blocks of runs: the vehicles' per-jet arrays and the pointing's temporaries are ~3 KB a
+    # run (~700 MB for 250,000 runs at once); each run's arithmetic is its own, so the blocks
+    # change no value.
+    parts = [
+        _block_factors(
+            runs.iloc[i : i + FACTOR_BLOCK_RUNS],
+            None if fire_sign is None else fire_sign[i : i + FACTOR_BLOCK_RUNS],
+            model,
+            nominal,
+            jet_map,
+        )
+        for i in range(0, max(len(runs), 1), FACTOR_BLOCK_RUNS)
+    ]
+    return parts[0] if len(parts) == 1 else pd.concat(parts)
+
+
+#: Runs whose factors are computed at once (:func:`physics_factors`).
+FACTOR_BLOCK_RUNS = 16_384
+
+
+def _block_factors(runs, fire_sign, model, nominal, jet_map) -> pd.DataFrame:
+    """:func:`physics_factors` of one block of runs (index aligned with ``runs``)."""
     dispersed, straight = vehicles_from_runs(runs, nominal)
     torque = torque_per_jet_B(dispersed, model)  # (n, n_jets, 3) [N m]
     torque_nom = torque_per_jet_B(straight, model)
@@ -110,7 +134,6 @@ def physics_factors(
             cols[f"pointing_loss_{axis}_{dname}"] = loss
             per_group[(a, sign)] = (auth, group_thrust, loss)
     if fire_sign is not None:
-        fire_sign = np.asarray(fire_sign)
         for a, axis in enumerate(AXES):
             if (a, 1) not in per_group or (a, -1) not in per_group:
                 continue
@@ -141,12 +164,15 @@ def fire_signs(case_names) -> np.ndarray | None:
 
     table = load_rate_cases()
     numbers = {int(c): k for k, c in enumerate(table.case)}
-    names = pd.Series(np.asarray(case_names, dtype=object))
-    signs = {}
-    for name in names.unique():
+    codes, names = pd.factorize(
+        pd.Series(np.asarray(case_names, dtype=object)), use_na_sentinel=False
+    )
+    signs = []
+    for name in names:
         kind, _, num = str(name).partition("-")
         if kind not in ("rate", "damp") or not num.isdigit() or int(num) not in numbers:
             return None
         sign = np.sign(np.asarray(table.rate_cmd[numbers[int(num)]])).astype(int)
-        signs[name] = sign if kind == "rate" else -sign
-    return np.stack([signs[c] for c in names])
+        signs.append(sign if kind == "rate" else -sign)
+    # One row per distinct case, taken per run (a list of 10^6 small arrays was ~1 GB).
+    return np.stack(signs)[codes] if signs else np.zeros((0, 3), int)

@@ -10,6 +10,12 @@ numeric column other than the outcome and identifiers.  Physics-aware factors
 (:mod:`rcsim.analysis.results.drivers.factors`) are added when the recorded inputs are
 present. Every problem a user can fix raises
 :class:`rcsim.models.errors.InputError` naming the file, the column and the value.
+
+A table of more than :data:`~rcsim.analysis.results.drivers.reading.MAX_ANALYSED_RUNS` runs
+(after a case filter) is not read whole: its outcome column (and ``case`` column) are read for
+every run, then every column of a seeded uniform subsample of that many runs only
+(:mod:`rcsim.analysis.results.drivers.reading`); the physics-aware factors are derived for
+those runs alone, and the :class:`RunSet` says how many runs there were and how many failed.
 """
 
 from __future__ import annotations
@@ -22,7 +28,16 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.engine import runs_table
+from rcsim.analysis.results.drivers import reading
 from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
+from rcsim.analysis.results.drivers.reading import (
+    FrameReader,
+    ParquetReader,
+    TableReader,
+    check_memory,
+    reader_for,
+    subsample_note,
+)
 from rcsim.models.errors import InputError
 
 #: Fewest runs an analysis accepts (a distribution needs more than a handful of points).
@@ -63,7 +78,11 @@ class RunSet:
         Case of every run (None: one group).
     manifest : dict or None
     notes : list of str
-        Things the reader must know (inputs dropped as constant, factors not derived).
+        Things the reader must know (inputs dropped as constant, factors not derived, a
+        subsample analysed).
+    total_runs, total_failed : int or None
+        When only a subsample of the runs was analysed: how many runs the source had (after a
+        ``case`` filter) and how many of them failed; None when every run was analysed.
     """
 
     source: Path
@@ -77,6 +96,13 @@ class RunSet:
     strata: np.ndarray | None
     manifest: dict | None = None
     notes: list = field(default_factory=list)
+    total_runs: int | None = None
+    total_failed: int | None = None
+
+    @property
+    def subsampled(self) -> bool:
+        """Only some of the source's runs were analysed."""
+        return self.total_runs is not None and self.total_runs > self.y.size
 
 
 def load_runs(
@@ -86,6 +112,9 @@ def load_runs(
     case: str | None = None,
     derived: bool = True,
     vehicle=None,
+    *,
+    seed: int = 0,
+    yes: bool = False,
 ) -> RunSet:
     """Read and validate runs for :func:`rcsim.analysis.results.drivers.pipeline.analyze`.
 
@@ -107,12 +136,20 @@ def load_runs(
         directory's manifest names (its spec's ``vehicle``; the paper's when the spec names
         none); a table or DataFrame names none, and then no physics-aware factor is derived
         (a note says so): a vehicle is never guessed.
+    seed : int
+        Seed of the subsample of a table of more than
+        :data:`~rcsim.analysis.results.drivers.reading.MAX_ANALYSED_RUNS` runs (``rcsim
+        analyze`` passes its ``--seed``; the same seed gives the same runs).
+    yes : bool
+        Read a table whose analysis the memory estimate puts above half of this machine's
+        memory (:func:`~rcsim.analysis.results.drivers.reading.check_memory`) anyway.
 
     Raises
     ------
     InputError
         Missing path or column, unreadable file, non-binary outcome, too few runs, NaN or
-        non-numeric inputs, unknown case.
+        non-numeric inputs, unknown case; a table too large for memory without ``yes``.
+        Outcome and case are checked over every run; the inputs over the runs analysed.
     """
     if inputs is not None:  # a question about the arguments: before reading anything
         names = [str(c) for c in inputs]
@@ -123,24 +160,10 @@ def load_runs(
                 parameter="inputs",
                 value=twice[0],
             )
-    source, runs, where, kind, manifest = _read_source(path)
-
-    if case is not None:
-        if "case" not in runs.columns:
-            raise InputError(
-                f"{case!r}: {where} has no 'case' column", parameter="case", value=case
-            )
-        names = [str(c) for c in pd.unique(runs["case"])]
-        if str(case) not in names:
-            raise InputError(
-                f"{case!r} is not a case of {where}; cases: {', '.join(names[:30])}",
-                parameter="case",
-                value=case,
-            )
-        runs = runs[runs["case"].astype(str) == str(case)].reset_index(drop=True)
-    if len(runs) < MIN_RUNS:
-        raise InputError(f"{where}: {len(runs)} run(s); the analysis needs at least {MIN_RUNS}")
-    y = _outcome(runs, outcome, where)
+    source, reader, kind, manifest = _open_source(path)
+    where = reader.where
+    check_memory(where, reader.n_rows, len(reader.columns), yes=yes)
+    runs, y, whole = _read_runs(reader, outcome, case, seed)
 
     notes: list[str] = []
     jets = runs_table.recorded_jets(runs.columns)
@@ -235,6 +258,10 @@ def load_runs(
     if X.shape[1] == 0:
         raise InputError(f"{where}: every input is constant; nothing can drive the outcome")
     strata = runs["case"].astype(str).to_numpy() if "case" in runs.columns else None
+    total_runs = total_failed = None
+    if whole is not None:  # a subsample: say so with both counts (the last note, as always)
+        total_runs, total_failed = whole
+        notes.append(subsample_note(y.size, total_runs, int(y.sum()), total_failed, seed))
     return RunSet(
         source=source,
         kind=kind,
@@ -247,14 +274,16 @@ def load_runs(
         strata=strata,
         manifest=manifest,
         notes=notes,
+        total_runs=total_runs,
+        total_failed=total_failed,
     )
 
 
-def _read_source(path) -> tuple[Path, pd.DataFrame, object, str, dict | None]:
-    """``(source, runs, where, kind, manifest)`` of a campaign directory, a table file or a
-    DataFrame (``where`` names it in messages)."""
+def _open_source(path) -> tuple[Path, TableReader, str, dict | None]:
+    """``(source, reader, kind, manifest)`` of a campaign directory, a table file or a
+    DataFrame (``reader.where`` names it in messages); nothing of the runs is read yet."""
     if isinstance(path, pd.DataFrame):
-        return Path("<DataFrame>"), path.reset_index(drop=True), "the DataFrame", "table", None
+        return Path("<DataFrame>"), FrameReader(path), "table", None
     source = Path(path)
     if source.is_dir():
         manifest_path, runs_path = source / runs_table.MANIFEST, source / runs_table.RUNS
@@ -269,29 +298,69 @@ def _read_source(path) -> tuple[Path, pd.DataFrame, object, str, dict | None]:
             manifest = json.loads(manifest_path.read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise InputError(f"{manifest_path}: cannot read the manifest ({exc})") from None
-        return source, _read_table(runs_path), runs_path, "campaign", manifest
+        return source, ParquetReader(runs_path), "campaign", manifest
     if source.is_file():
-        return source, _read_table(source), source, "table", None
+        return source, reader_for(source), "table", None
     raise InputError(
         f"{source}: no such campaign directory or table file", parameter="path", value=str(source)
     )
 
 
-def _read_table(path: Path) -> pd.DataFrame:
-    suffix = path.suffix.lower()
-    try:
-        if suffix == ".parquet":
-            return pd.read_parquet(path)
-        if suffix == ".csv":
-            return pd.read_csv(path)
-    except (OSError, ValueError, ImportError) as exc:
-        raise InputError(f"{path}: cannot read the table ({str(exc).splitlines()[0]})") from None
-    except Exception as exc:  # pyarrow raises its own types for corrupt files
+def _read_runs(
+    reader: TableReader, outcome: str, case: str | None, seed: int
+) -> tuple[pd.DataFrame, np.ndarray, tuple[int, int] | None]:
+    """``(runs, y, whole)``: the runs analysed (after the ``case`` filter), their outcome, and
+    ``(runs, failed)`` of all of them when only a subsample is analysed (else None).
+
+    A table that fits is read whole, as always.  A larger one is read in two passes: the
+    ``case`` and outcome columns of every run (checked there), then the runs analysed.
+    """
+    where = reader.where
+    if reader.n_rows <= reading.MAX_ANALYSED_RUNS:
+        runs = reader.read_all()
+        if case is not None:
+            runs = runs[_case_mask(runs, case, where)].reset_index(drop=True)
+        _check_count(len(runs), where)
+        return runs, _outcome(runs, outcome, where), None
+    # Positions of the case's runs (None: every run); no array of every position is made.
+    positions = None
+    if case is not None:
+        has_case = "case" in reader.columns
+        cases = reader.read_columns(["case"]) if has_case else pd.DataFrame()
+        positions = np.flatnonzero(_case_mask(cases, case, where))
+        del cases
+    n = reader.n_rows if positions is None else positions.size
+    _check_count(n, where)
+    column = reader.read_columns([outcome]) if outcome in reader.columns else pd.DataFrame()
+    if positions is not None:
+        column = column.iloc[positions]
+    y_all = _outcome(column, outcome, where)  # every run's, checked
+    del column
+    keep = reading.analysed_rows(n, seed)
+    if keep is None:  # the case's runs fit
+        assert positions is not None  # else n = n_rows > MAX_ANALYSED_RUNS: a subsample
+        return reader.read_rows(positions), y_all, None
+    rows = keep if positions is None else positions[keep]
+    return reader.read_rows(rows), y_all[keep], (int(n), int(y_all.sum()))
+
+
+def _case_mask(runs: pd.DataFrame, case: str, where) -> np.ndarray:
+    """The rows of ``case``; an InputError naming the cases when it is not one of them."""
+    if "case" not in runs.columns:
+        raise InputError(f"{case!r}: {where} has no 'case' column", parameter="case", value=case)
+    names = [str(c) for c in pd.unique(runs["case"])]
+    if str(case) not in names:
         raise InputError(
-            f"{path}: cannot read the table ({type(exc).__name__}: "
-            f"{str(exc).splitlines()[0] if str(exc) else ''})"
-        ) from None
-    raise InputError(f"{path}: unknown table format {suffix!r}; use .parquet or .csv")
+            f"{case!r} is not a case of {where}; cases: {', '.join(names[:30])}",
+            parameter="case",
+            value=case,
+        )
+    return (runs["case"].astype(str) == str(case)).to_numpy()
+
+
+def _check_count(n: int, where) -> None:
+    if n < MIN_RUNS:
+        raise InputError(f"{where}: {n} run(s); the analysis needs at least {MIN_RUNS}")
 
 
 def _outcome(runs: pd.DataFrame, outcome: str, where) -> np.ndarray:

@@ -21,6 +21,7 @@ from rcsim.analysis.results.drivers.maps import KNNFailureMap
 from rcsim.analysis.results.drivers.outcomes import OutcomeResults, analyze_outcomes
 from rcsim.analysis.results.drivers.pairs import PairKDE
 from rcsim.analysis.results.drivers.probabilities import add_to_results as add_probabilities
+from rcsim.analysis.results.drivers.reading import analysed_rows, subsample_note
 from rcsim.analysis.results.drivers.second_opinion import ForestImportance, compare
 from rcsim.analysis.results.drivers.single import SingleFactorKDE
 from rcsim.analysis.results.drivers.stability import HalfSampleStability
@@ -211,7 +212,9 @@ def analyze(runset, settings: Settings = Settings(), *, vehicle=None) -> DriverR
     runset : RunSet, pandas.DataFrame, str or Path
         Runs prepared by :func:`~rcsim.analysis.results.drivers.inputs.load_runs`, or what it reads
         (a campaign directory, a table file, a DataFrame of runs), loaded with its defaults
-        (outcome ``failed``, the recorded inputs and the physics-aware factors).
+        (outcome ``failed``, the recorded inputs and the physics-aware factors; a table of more
+        than :data:`~rcsim.analysis.results.drivers.reading.MAX_ANALYSED_RUNS` runs read as the
+        subsample of ``settings.random_state``).
     settings : Settings
     vehicle : Vehicle, str or path, optional
         The vehicle the runs flew, for the physics-aware factors of a table or DataFrame (a
@@ -222,7 +225,7 @@ def analyze(runset, settings: Settings = Settings(), *, vehicle=None) -> DriverR
     run set only and :attr:`DriverResults.has_failures` is False.
     """
     if not isinstance(runset, RunSet):
-        runset = load_runs(runset, vehicle=vehicle)
+        runset = load_runs(runset, vehicle=vehicle, seed=settings.random_state)
     runset = _bounded(runset, settings.random_state)
     res = DriverResults(runset=runset, settings=settings)
     X, y, strata = runset.X, runset.y, runset.strata
@@ -298,25 +301,18 @@ def _extras(res: DriverResults, lap) -> None:
         lap("outcomes")
 
 
-#: Most runs the analysis reads at once.  Beyond, it analyses a uniform random subsample of
-#: this size (the failure fraction and every case's share kept in expectation) and says so:
-#: 250,000 runs keep a million-run table within 4 GB and 5 minutes on 2 cores, and are ten
-#: times the paper's 26,000-run campaign, so power is not what limits the result.
-MAX_ANALYSED_RUNS = 250_000
-
-
 def _bounded(runset: RunSet, seed: int) -> RunSet:
-    """``runset``, or a seeded uniform subsample of :data:`MAX_ANALYSED_RUNS` of its runs."""
+    """``runset``, or the seeded uniform subsample of it
+    (:func:`~rcsim.analysis.results.drivers.reading.analysed_rows`) when it holds more runs than
+    the analysis reads at once: a run set built by hand.  :func:`load_runs` already reads a
+    large table as that subsample (the same runs for the same seed), so its run sets pass
+    through unchanged."""
     n = runset.y.size
-    if n <= MAX_ANALYSED_RUNS:
+    keep = analysed_rows(n, seed)
+    if keep is None:
         return runset
-    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x5AB5]))
-    keep = np.sort(rng.choice(n, MAX_ANALYSED_RUNS, replace=False))
-    note = (
-        f"analysed a uniform random subsample of {MAX_ANALYSED_RUNS:,} of the {n:,} runs "
-        f"(seed {seed}): {int(runset.y[keep].sum()):,} failed in it, {int(runset.y.sum()):,} "
-        "in all; rankings, p-values and regions are the subsample's"
-    )
+    failed = int(runset.y.sum())
+    note = subsample_note(keep.size, n, int(runset.y[keep].sum()), failed, seed)
     return replace(
         runset,
         runs=runset.runs.iloc[keep].reset_index(drop=True),
@@ -324,6 +320,8 @@ def _bounded(runset: RunSet, seed: int) -> RunSet:
         y=runset.y[keep],
         strata=None if runset.strata is None else runset.strata[keep],
         notes=[*runset.notes, note],
+        total_runs=n,
+        total_failed=failed,
     )
 
 

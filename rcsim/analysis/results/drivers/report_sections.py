@@ -55,10 +55,20 @@ def summary(res) -> Section:
     rs = res.runset
     blocks = []
     n, nf = int(rs.y.size), int(rs.y.sum())
+    counts = [("runs", n), ("failed runs", f"{nf} ({100.0 * nf / n:.2f} %)")]
+    if getattr(rs, "subsampled", False):  # say how many were analysed out of how many
+        N, NF = int(rs.total_runs), int(rs.total_failed)
+        counts = [
+            ("runs", f"{n:,} analysed of {N:,} (a seeded uniform subsample; Notes)"),
+            (
+                "failed runs",
+                f"{nf:,} ({100.0 * nf / n:.2f} %) of those analysed; "
+                f"{NF:,} ({100.0 * NF / N:.2f} %) of all",
+            ),
+        ]
     facts = [
         ("source", f"{rs.kind} {rs.source.name}"),
-        ("runs", n),
-        ("failed runs", f"{nf} ({100.0 * nf / n:.2f} %)"),
+        *counts,
         *probs.overall_facts(res),
         ("outcome column", rs.outcome),
         (

@@ -27,7 +27,13 @@ def test_smoke_study_writes_every_output(tmp_path):
         out, scenarios=("wilt_yaw30", "smeresky_yaw30_coarse"), runs=2, period_scale=0.1
     )
     assert tuple(summary.columns) == SUMMARY_COLUMNS
-    assert list(summary["method"]) == ["ffd+fb", "ffd+fb+dai", "ffd+fb+dai-total", "ffd+fb"]
+    assert list(summary["method"]) == [
+        "ffd+fb",
+        "ffd+fb+dai",
+        "ffd+fb+dai-total",
+        "ffd+fb+dai-integral",
+        "ffd+fb",
+    ]
     assert (summary["mc_runs"] == 2).all()
     for name in (
         "summary.csv",
@@ -40,9 +46,14 @@ def test_smoke_study_writes_every_output(tmp_path):
         assert (out / name).stat().st_size > 0, name
     on_disk = pd.read_csv(out / "summary.csv")
     assert list(on_disk["scenario"]) == list(summary["scenario"])
-    assert len(pd.read_csv(out / "montecarlo.csv")) == 4 * 3  # nominal + 2 runs per method
+    assert len(pd.read_csv(out / "montecarlo.csv")) == 5 * 3  # nominal + 2 runs per method
     improvement = pd.read_csv(out / "improvement.csv")
-    assert list(improvement["method"]) == ["ffd+fb+dai", "ffd+fb+dai-total"]
+    assert list(improvement["method"]) == ["ffd+fb+dai", "ffd+fb+dai-total", "ffd+fb+dai-integral"]
+    # Each reading states what it learns and its gain or memory, as flown (parameters.csv).
+    laws = improvement.set_index("method")["learning_law"]
+    assert laws["ffd+fb+dai-integral"].endswith("g = 100 s^3")
+    assert "Theta_dot" in laws["ffd+fb+dai-integral"]
+    assert laws["ffd+fb+dai"].endswith("memory 5 s")
     # wilt_yaw30 is the floor scenario itself: its baseline is the floor, so both rows are
     # marked and say why.
     assert improvement["baseline_at_noise_floor"].all()

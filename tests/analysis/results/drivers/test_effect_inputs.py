@@ -51,9 +51,9 @@ def test_a_table_beyond_the_ceiling_is_subsampled_and_says_so(monkeypatch):
     """Issue 17: 10^6 runs needed 8 GB.  Beyond MAX_ANALYSED_RUNS the analysis reads a seeded
     uniform subsample of that size and adds a note naming both counts; the same seed gives the
     same subsample (the result is reproducible)."""
-    from rcsim.analysis.results.drivers import pipeline
+    from rcsim.analysis.results.drivers import reading
 
-    monkeypatch.setattr(pipeline, "MAX_ANALYSED_RUNS", 300)
+    monkeypatch.setattr(reading, "MAX_ANALYSED_RUNS", 300)
     runs = _fault_runs(n=400)
     a = analyze(load_runs(runs, derived=False), Settings(n_permutations=19))
     b = analyze(load_runs(runs, derived=False), Settings(n_permutations=19))
