@@ -73,9 +73,10 @@ def _planted_outcomes(frame, case_names, rng, nominal: float, spread: float):
     import pandas as pd
 
     from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
     signs = fire_signs(case_names)
-    auth = physics_factors(frame, signs)["authority_yaw_fire_rad_s2"].to_numpy()
+    auth = physics_factors(frame, Vehicle.load(), signs)["authority_yaw_fire_rad_s2"].to_numpy()
     n = len(frame)
     yaw_cmd = signs[:, 2] != 0
     z = (auth / nominal - 1.0) / spread
@@ -118,20 +119,20 @@ def campaign_dir(n_runs: int, folder: Path, seed: int = 7) -> Path:
     from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
     from rcsim.models.tables import load_dispersions
     from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
-    from rcsim.spacecraft.vehicle import VehicleParams, load_model
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
     per_case = -(-n_runs // N_CASES)
     total = per_case * N_CASES
     folder.mkdir(parents=True, exist_ok=True)
-    model = load_model()
-    nominal = VehicleParams.nominal(1, model)
+    paper = Vehicle.load()  # the campaign's (its manifest names none: the paper's)
+    nominal = paper.nominal(1)
     sigmas = DispersionSigmas.from_table(load_dispersions(), scale=1.0)
     # The nominal yaw authority of each firing direction, and the spread of its ratio on the
     # first block: the planted threshold's scale (fixed for the whole campaign).
     straight = input_frame(
         draw_runs(nominal, DispersionSigmas.from_table(load_dispersions(), 0.0), 0, [0])
     )
-    yaw_nom = physics_factors(straight, fire_signs(["rate-01"]))["authority_yaw_fire_rad_s2"]
+    yaw_nom = physics_factors(straight, paper, fire_signs(["rate-01"]))["authority_yaw_fire_rad_s2"]
     nominal_yaw = float(yaw_nom.iloc[0])
     names = [f"rate-{c + 1:02d}" for c in range(N_CASES)]
     writer = None
@@ -143,7 +144,7 @@ def campaign_dir(n_runs: int, folder: Path, seed: int = 7) -> Path:
             index = ids // per_case
             case = np.asarray(names, dtype=object)[index]
             if spread is None:
-                auth = physics_factors(frame, fire_signs(case))["authority_yaw_fire_rad_s2"]
+                auth = physics_factors(frame, paper, fire_signs(case))["authority_yaw_fire_rad_s2"]
                 spread = float(np.std(auth.to_numpy() / nominal_yaw))
             rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(b,)))
             runs = pd.concat(
