@@ -44,7 +44,8 @@ def test_a_users_modules_named_like_the_layers_change_nothing(tmp_path):
         [
             sys.executable,
             "-c",
-            "import rcsim, rcsim.models.tables as t; rcsim.fly; print(len(t.load_rate_cases().case))",
+            "import rcsim, rcsim.models.tables as t; rcsim.fly; "
+            "print(len(t.load_rate_cases().case))",
         ],
         capture_output=True,
         text=True,

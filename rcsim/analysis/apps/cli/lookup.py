@@ -513,7 +513,12 @@ def run_refine(args: argparse.Namespace) -> int:
     table = load_refinable_table(args.table)
     # OUT.csv, OUT_changelog.csv and OUT_plots/ are checked before any flight; --overwrite
     # replaces all three.
-    paths = check_outputs(args.out, overwrite=args.overwrite, channels=table.is_channel)
+    paths = check_outputs(
+        args.out,
+        overwrite=args.overwrite,
+        channels=table.is_channel,
+        inputs={"--table": args.table},
+    )
     out, checkpoint = paths["table"], paths["checkpoint"]
     if not args.resume:
         checkpoint.unlink(missing_ok=True)  # a fresh search; a stopped one's rounds go

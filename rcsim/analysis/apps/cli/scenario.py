@@ -137,7 +137,9 @@ def run_run(args: argparse.Namespace) -> int:
         if not math.isfinite(args.no_fire_band_deg) or args.no_fire_band_deg < 0:
             raise InputError(f"--no-fire-band-deg must be >= 0, got {args.no_fire_band_deg}")
         overrides["no_fire_band_rad"] = float(np.radians(args.no_fire_band_deg))
-    out = check_out_dir(args.out, "scenario run", overwrite=args.overwrite)  # before the work
+    out = check_out_dir(  # before the work
+        args.out, "scenario run", overwrite=args.overwrite, inputs={"--table": args.table}
+    )
     hist = fly_scenario(scn, args.controller, table=args.table, **overrides)
     paths = write_scenario(
         hist, scn, out, controller=args.controller, command="scenario run", overwrite=args.overwrite

@@ -220,26 +220,12 @@ def test_replay_reproduces_a_run_alone(tmp_path, capsys):
     assert "use --overwrite" in capsys.readouterr().err
     assert main(["campaign", "replay", str(out), "6", "--overwrite"]) == 0
     assert directory_owner(replayed) == "campaign replay"
-    assert (
-        main(
-            [
-                "maneuver",
-                "--controller",
-                "phase-plane",
-                "--attitude-deg",
-                "0",
-                "0",
-                "1",
-                "--duration-s",
-                "1",
-                "--out",
-                str(replayed),
-                "--overwrite",
-            ]
-        )
-        == 2
-    )
+    maneuver = ["maneuver", "--attitude-deg", "0", "0", "1", "--duration-s", "1", "--overwrite"]
+    assert main([*maneuver, "--out", str(tmp_path / "r5")]) == 2
     assert "holds the outputs of `rcsim campaign replay`" in capsys.readouterr().err
+    # Inside the campaign only a replay writes (its replays/ folder): issue 31.
+    assert main([*maneuver, "--out", str(replayed)]) == 2
+    assert "inside a campaign directory" in capsys.readouterr().err
 
 
 def test_firing_starts_counts_new_firings_only():
