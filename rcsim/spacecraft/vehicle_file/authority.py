@@ -45,15 +45,11 @@ def pure_axis_authority(
     or ``(0.0, None)`` when the direction cannot be reached.
     """
     n = accel.shape[1]
-    rows = accel[[b for b in range(3) if b != axis]]
-    if force is not None:
-        rows = np.vstack([rows, force])
-    bounds = [(0.0, 1.0 if available[j] else 0.0) for j in range(n)]
-    zero = np.zeros(rows.shape[0])
-    best = linprog(-sign * accel[axis], A_eq=rows, b_eq=zero, bounds=bounds, method="highs")
+    rows, bounds, best = _authority_lp(accel, axis, sign, available, force)
     if best.status != 0 or -best.fun <= 1e-12 * np.abs(accel).max():
         return 0.0, None
     value = -best.fun
+    zero = np.zeros(rows.shape[0])
     # the same authority with the least total duty: no idle pair in the answer
     lean = linprog(
         np.ones(n),
@@ -65,6 +61,35 @@ def pure_axis_authority(
         method="highs",
     )
     return value, lean.x if lean.status == 0 else best.x
+
+
+def _authority_lp(accel, axis, sign, available, force=None):
+    """The LP of :func:`pure_axis_authority`: its equality rows, bounds and optimum."""
+    rows = accel[[b for b in range(3) if b != axis]]
+    if force is not None:
+        rows = np.vstack([rows, force])
+    bounds = [(0.0, 1.0 if available[j] else 0.0) for j in range(accel.shape[1])]
+    zero = np.zeros(rows.shape[0])
+    best = linprog(-sign * accel[axis], A_eq=rows, b_eq=zero, bounds=bounds, method="highs")
+    return rows, bounds, best
+
+
+def reachable(accel: np.ndarray, axis: int, sign: int, available: np.ndarray) -> bool:
+    """Whether ``sign * axis`` can be reached with the available jets: the first LP of
+    :func:`pure_axis_authority` alone (its value positive), not the second (the duties)."""
+    best = _authority_lp(accel, axis, sign, available)[2]
+    return best.status == 0 and -best.fun > 1e-12 * np.abs(accel).max()
+
+
+def lp_count(n_jets: int, *, pairs: bool) -> int:
+    """Linear programs :func:`check_vehicle` solves at most for ``n_jets`` jets (without the
+    unreachable-direction sample): the six directions' authority, pure couple (two LPs each)
+    and propellant; per jet out, authority and couple again; per pair out, one per direction.
+    The cost of ``rcsim vehicle check`` grows with it: n^2 with the pairs."""
+    count = 6 * 5 + n_jets * 6 * 4
+    if pairs:
+        count += n_jets * (n_jets - 1) // 2 * 6
+    return count
 
 
 def propellant_per_rate(
@@ -110,11 +135,16 @@ class VehicleCheck:
     unreachable: tuple  # direction names
     unreachable_fraction: float  # of sampled directions (0 when every axis is reachable)
     jet_out: tuple  # JetOut per jet
-    pairs_losing_an_axis: tuple  # (jet, jet) names
+    pairs_losing_an_axis: tuple | None  # (jet, jet) names; None: the pairs were not searched
 
 
-def check_vehicle(vehicle: VehicleDef, *, pairs: bool = True) -> VehicleCheck:
-    """Run every analysis of the module docstring on ``vehicle``."""
+def check_vehicle(vehicle: VehicleDef, *, pairs: bool = True, step=None) -> VehicleCheck:
+    """Run every analysis of the module docstring on ``vehicle``.
+
+    ``pairs``: search the two-jets-out cases (n (n - 1) / 2 of them); without it
+    ``pairs_losing_an_axis`` is None.  ``step``: called with no argument after each jet-out
+    and each pair case (a progress bar's update).
+    """
     ft = vehicle.force_torque()
     accel = np.linalg.solve(vehicle.inertia_kg_m2, ft[3:])
     force = ft[:3]
@@ -169,16 +199,18 @@ def check_vehicle(vehicle: VehicleDef, *, pairs: bool = True) -> VehicleCheck:
             if pure_axis_authority(accel, a, s, avail, force)[0] <= 0:
                 no_couple.append(direction_name(a, s))
         outs.append(JetOut(vehicle.jets[j].name, tuple(lost), float(worst), tuple(no_couple)))
+        if step is not None:
+            step()
+    if not pairs:
+        return VehicleCheck(ft, tuple(axes), unreachable, fraction, tuple(outs), None)
     lost_pairs = []
-    if pairs:
-        for j, k in combinations(range(n), 2):
-            avail = every.copy()
-            avail[[j, k]] = False
-            if any(
-                pure_axis_authority(accel, a, s, avail)[0] <= 0 < full[(a, s)]
-                for a, s in DIRECTIONS
-            ):
-                lost_pairs.append((vehicle.jets[j].name, vehicle.jets[k].name))
+    for j, k in combinations(range(n), 2):
+        avail = every.copy()
+        avail[[j, k]] = False
+        if any(full[(a, s)] > 0 and not reachable(accel, a, s, avail) for a, s in DIRECTIONS):
+            lost_pairs.append((vehicle.jets[j].name, vehicle.jets[k].name))
+        if step is not None:
+            step()
     return VehicleCheck(ft, tuple(axes), unreachable, fraction, tuple(outs), tuple(lost_pairs))
 
 
@@ -264,6 +296,9 @@ def check_text(vehicle: VehicleDef, result: VehicleCheck) -> str:
     )
     pairs = result.pairs_losing_an_axis
     n_pairs = d.n_jets * (d.n_jets - 1) // 2
+    if pairs is None:  # skipped: say so, not "0 of N" about a search that was not made
+        out.append(f"Two jets out: not searched (the {n_pairs} pairs were skipped)")
+        return "\n".join(out) + "\n"
     shown = ", ".join(f"{a}+{b}" for a, b in pairs[:12]) + (" ..." if len(pairs) > 12 else "")
     out.append(
         f"Two jets out: {len(pairs)} of {n_pairs} pairs lose an axis direction"
