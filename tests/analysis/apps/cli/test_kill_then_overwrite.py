@@ -159,3 +159,23 @@ def test_campaign_killed_then_overwritten_by_others_and_resumed(
         runs = pd.read_parquet(tmp_path / out / "runs.parquet")
         assert sorted(runs["run_id"]) == list(range(6))  # every run once
         assert len(os.listdir(tmp_path / out / "histories")) == 6
+
+
+def test_a_campaign_killed_before_its_manifest_starts_again(tmp_path, capsys, monkeypatch):
+    # Killed between its marker (written first) and its manifest: nothing was flown, so the
+    # directory is taken up again, with or without --resume; any chunk in it and it is not.
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "spec.toml").write_text(SPEC.replace("runs_per_case = 6", "runs_per_case = 2"))
+    out = tmp_path / "C"
+    (out / "chunks").mkdir(parents=True)
+    (out / "histories").mkdir()
+    (out / ".rcsim-output").write_text("written by rcsim campaign run\n")
+    (out / ".manifest.json.x1y2.tmp").write_text("{")  # its atomic write, cut short
+    assert main(["campaign", "run", "spec.toml", "--out", "C", "--no-progress"]) == 0
+    capsys.readouterr()
+    assert len(pd.read_parquet(out / "runs.parquet")) == 2
+    other = tmp_path / "D"
+    (other / "chunks").mkdir(parents=True)
+    (other / "chunks" / "runs-0000000.parquet").write_text("PAR1")
+    (other / ".rcsim-output").write_text("written by rcsim campaign run\n")
+    _refused_unchanged(["campaign", "run", "spec.toml", "--out", "D", "--resume"], other, capsys)
