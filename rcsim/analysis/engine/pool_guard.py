@@ -7,11 +7,11 @@ worker traceback after the one line.
 
 * :func:`die_with_parent` asks Linux to SIGKILL the calling process when its parent dies
   (``prctl(PR_SET_PDEATHSIG)``; elsewhere nothing).  A chain: the fork server dies with rcsim,
-  each worker with the fork server (:func:`rcsim.analysis.engine.campaign.local.worker_pool`),
-  each Dask worker with rcsim (:func:`dask_setup`, a worker preload); the resource tracker
-  ends by itself once every process holding its pipe is gone.  A parent that died before the
-  request took effect is caught by comparing ``os.getppid()`` with the parent's pid, passed in
-  :data:`PARENT_ENV`.
+  each worker with the fork server (:func:`rcsim.analysis.engine.campaign.local.worker_pool`);
+  the resource tracker ends by itself once every process holding its pipe is gone.  A parent
+  that died before the request took effect is caught by comparing ``os.getppid()`` with the
+  parent's pid, passed in :data:`PARENT_ENV`.  (A local Dask cluster's workers already ended
+  with rcsim: none outlived a ``kill -9``.)
 * Imported as the fork server's first preload module, this module arms the fork server
   (:data:`PARENT_ENV` names the rcsim process that starts it) and installs
   :func:`_quiet_orphan_hook`: a worker the fork server forked for a pool that was torn down
@@ -64,11 +64,6 @@ def parent_from_env() -> int | None:
 def worker_started() -> None:
     """In a pool worker: die with the process that forked it (the fork server, whose pid the
     fork server left in :data:`PARENT_ENV`, or rcsim itself)."""
-    die_with_parent(parent_from_env())
-
-
-def dask_setup(worker=None) -> None:
-    """Dask's worker preload hook: the worker dies with rcsim, which started its nanny."""
     die_with_parent(parent_from_env())
 
 
