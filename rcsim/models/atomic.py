@@ -58,8 +58,9 @@ def mode_under_umask(mode: int = 0o666) -> int:
 def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Path:
     """Call ``write(tmp_path)``, then rename ``tmp_path`` over ``path``.
 
-    On any exception the temporary file is removed and ``path`` is left as it was.  The final
-    file has mode ``0o666`` under the umask (:func:`mode_under_umask`).
+    On any exception the temporary file is removed and ``path`` is left as it was; an
+    ``OSError`` of the write names ``path`` (:func:`named_os_error`).  The final file has mode
+    ``0o666`` under the umask (:func:`mode_under_umask`).
 
     Returns
     -------
@@ -70,7 +71,10 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Pat
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     os.close(fd)
     try:
-        write(tmp)
+        try:
+            write(tmp)
+        except OSError as exc:  # a full disk: name the file asked for, not the temporary
+            raise named_os_error(exc, target) from exc
         os.chmod(tmp, mode_under_umask(0o666))
         os.replace(tmp, target)
     except BaseException:
@@ -80,6 +84,17 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Pat
             pass
         raise
     return target
+
+
+def named_os_error(exc: OSError, path: str | os.PathLike) -> OSError:
+    """``exc`` naming ``path`` -- the file the user asked for -- instead of no file or a hidden
+    temporary, with the same errno (a full disk still reads "No space left on device")."""
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    if exc.errno is not None:
+        return OSError(exc.errno, reason, str(path))
+    error = OSError(reason)
+    error.strerror, error.filename = reason, str(path)
+    return error
 
 
 def remove_temporaries(directory: str | os.PathLike) -> list[Path]:

@@ -8,7 +8,12 @@
   evaluated in batches, generic numpy (a campaign adapter flies the batches);
 * :mod:`~rcsim.analysis.engine.runs_table` -- ``runs.parquet`` and the campaign directory's file
   names: the one owner of the data contract between the engine and the results layer;
-* :mod:`~rcsim.analysis.engine.output` -- output directories and files (markers, atomic writes);
+* :mod:`~rcsim.analysis.engine.output` -- output directories and files (markers, atomic writes),
+  with the record of what a command wrote (:mod:`~rcsim.analysis.engine.output_records`),
+  where an output may go (:mod:`~rcsim.analysis.engine.output_places`), one lock per real
+  output path (:mod:`~rcsim.analysis.engine.locks`) and files committed together
+  (:mod:`~rcsim.analysis.engine.commit`);
+* :mod:`~rcsim.analysis.engine.pool_guard` -- worker processes that die with rcsim;
 * :mod:`~rcsim.analysis.engine.plots` -- plotting helpers without pyplot.
 
 Must not import: rcsim.analysis.results, rcsim.analysis.apps.

@@ -2,30 +2,37 @@
 
 Directories.  Everything goes into a hidden temporary directory beside the target, which
 replaces the target only once it is complete (``os.replace`` of a directory is atomic on
-POSIX when the target does not exist; an existing target is moved aside first and removed
-after).  Each output directory holds a marker file, :data:`MARKER`, whose first line says which
-command wrote it: ``written by rcsim <command>`` (e.g. ``written by rcsim maneuver``,
-``written by rcsim campaign run``).  An existing directory is replaced only when
+POSIX when the target does not exist; an existing target is moved aside first, and then only
+what its record lists is removed from it).  Each output directory holds a marker file,
+:data:`MARKER`, whose first line says which command wrote it (``written by rcsim maneuver``)
+and whose second lists every file and folder the command wrote there
+(:mod:`rcsim.analysis.engine.output_records`).  An existing directory is replaced only when
 
 * it is empty, or
-* its marker names the same command *and* the caller asked for it (``overwrite=True``).
+* its marker names the same command, the caller asked for it (``overwrite=True``) *and*
+  everything in it is listed in its record: a directory holding anything else -- a file the
+  user added, a marker without a list (an older rcsim's), a campaign's files under a marker
+  that names another command -- is refused with the entry that stops it.
 
 A non-empty directory without a marker (``--out ~``) or written by another command (a
-campaign given to ``rcsim maneuver --out``) is never replaced.  Markers of older rcsim
-versions (``written by rcsim; ...``) name no command: only ``overwrite=True`` replaces them.
+campaign given to ``rcsim maneuver --out``) is never replaced.
 
 Files (:func:`check_out_file`).  An existing file is replaced only with ``overwrite=True``.
 
 Campaign and loop directories (:data:`RESUMABLE`) are never replaced, by any command and
 whatever state their marker is in: they are recognised by their marker *or* by their own state
-file (``manifest.json``, ``loop.json``), and no file inside one is replaced by another
-command.  Their markers are written atomically.
+file (``manifest.json``, ``loop.json``).  Their markers are written atomically.
 
-Locks (:func:`output_lock`).  A command that writes a directory holds an advisory lock on it
-(``fcntl.flock`` on a hidden lock file beside it) for as long as it writes; a second writer is
-refused with the process that holds it.
+Places (:mod:`rcsim.analysis.engine.output_places`).  No output goes inside another command's
+output directory, and none is, or holds, one of the command's own inputs; ``overwrite`` does
+not lift either.
 
-Both checks run *before* any work: they also try to create (and remove) a hidden directory in
+Locks (:mod:`rcsim.analysis.engine.locks`).  A command that writes an output holds an advisory
+lock on its real path (symbolic links resolved) for as long as it writes -- under the command
+line, from the check before the work to the end; a second writer is refused with the process
+that holds it.
+
+The checks run *before* any work: they also try to create (and remove) a hidden directory in
 the nearest existing ancestor of the target, so a read-only filesystem, a permission refusal
 or a pseudo-filesystem (``/proc``) is reported before minutes of simulation, whoever runs it.
 
@@ -36,21 +43,47 @@ shows them as ``--out`` (:class:`rcsim.models.errors.InputError`).
 from __future__ import annotations
 
 import contextlib
-import errno
-import fcntl
 import os
 import secrets
-import shutil
+import sys
 import tempfile
 from pathlib import Path
 
+from rcsim.analysis.engine.locks import OutputLocked, claim, output_lock
+from rcsim.analysis.engine.locks import as_out_path as _as_path
+from rcsim.analysis.engine.output_places import (
+    RESUMABLE,
+    refuse_nested,
+    refuse_own_inputs,
+    resumable_owner,
+)
+from rcsim.analysis.engine.output_places import marker_owner as directory_owner
+from rcsim.analysis.engine.output_records import (
+    MARKER,
+    marker_text,
+    remove_listed,
+    unlisted_entry,
+    write_marker,
+    write_record,
+)
 from rcsim.models.errors import InputError
 
-MARKER = ".rcsim-output"
-_MARKER_PREFIX = "written by rcsim"
-#: Commands whose directories are written in place and resumed: never replaced, and
-#: recognised by their state file when the marker is missing, empty or unreadable.
-RESUMABLE = {"campaign run": "manifest.json", "loop": "loop.json"}
+__all__ = [
+    "MARKER",
+    "RESUMABLE",
+    "OutputExists",
+    "OutputLocked",
+    "atomic_dir",
+    "check_out_dir",
+    "check_out_file",
+    "directory_owner",
+    "make_parents",
+    "marker_text",
+    "output_lock",
+    "remove_parents",
+    "resumable_owner",
+    "write_marker",
+]
 
 
 class OutputExists(InputError):
@@ -75,81 +108,6 @@ class OutputExists(InputError):
             parameter=parameter,
             value=str(path),
         )
-
-
-def marker_text(command: str) -> str:
-    """Content of :data:`MARKER` for a directory written by ``rcsim <command>``."""
-    return f"{_MARKER_PREFIX} {command}\n"
-
-
-def write_marker(directory: str | os.PathLike, command: str) -> None:
-    """Write the marker of ``rcsim <command>`` into ``directory`` (for in-place writers).
-
-    ``rcsim campaign run`` writes its directory in place (it is resumable), not through
-    :func:`atomic_dir`; it calls this so that other commands recognise the directory.  Written
-    beside and renamed over the old one: a kill mid-write never leaves an empty marker.
-    """
-    marker = Path(directory) / MARKER
-    tmp = marker.with_name(f"{MARKER}.tmp-{secrets.token_hex(4)}")
-    try:
-        tmp.write_text(marker_text(command))
-        os.replace(tmp, marker)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
-def resumable_owner(path: str | os.PathLike) -> str | None:
-    """The resumable command (:data:`RESUMABLE`) whose directory ``path`` is, or None.
-
-    By the marker first; then, whatever the marker says (missing, empty, damaged), by the
-    command's own state file in the directory.
-    """
-    path = Path(path)
-    owner = directory_owner(path)
-    if owner in RESUMABLE:
-        return owner
-    for command, state_file in RESUMABLE.items():
-        if (path / state_file).is_file():
-            return command
-    return None
-
-
-def directory_owner(path: str | os.PathLike) -> str | None:
-    """The command that wrote directory ``path``, from its marker.
-
-    Returns
-    -------
-    str or None
-        ``None`` if there is no marker; ``""`` if the marker names no command (older rcsim,
-        or unreadable); else the command, e.g. ``"campaign run"``.
-    """
-    marker = Path(path) / MARKER
-    if not marker.is_file():
-        return None
-    try:
-        first = marker.read_text(errors="replace").splitlines()[:1]
-    except OSError:
-        return ""
-    line = first[0].strip() if first else ""
-    if not line.startswith(_MARKER_PREFIX):
-        return ""
-    rest = line[len(_MARKER_PREFIX) :]
-    # Older markers read "written by rcsim; this directory is replaced by the next run".
-    return rest.strip() if rest.startswith(" ") else ""
-
-
-def _as_path(out, parameter: str) -> Path:
-    text = os.fspath(out)
-    if isinstance(text, bytes):
-        text = os.fsdecode(text)
-    if not text.strip():
-        raise InputError(f"must be a path, got {text!r}", parameter=parameter, value=text)
-    if "\0" in text:
-        raise InputError(
-            f"{text!r}: a path cannot contain a NUL character", parameter=parameter, value=text
-        )
-    # abspath, not resolve: normalises "a/.." without following a symlink the user named.
-    return Path(os.path.abspath(text))
 
 
 def _refuse_dangling(path: Path, parameter: str) -> None:
@@ -186,9 +144,13 @@ def _check_creatable(path: Path, parameter: str) -> None:
 
 
 def check_out_dir(
-    out: str | os.PathLike, command: str | None = None, *, overwrite: bool = False
+    out: str | os.PathLike,
+    command: str | None = None,
+    *,
+    overwrite: bool = False,
+    inputs: dict | None = None,
 ) -> Path:
-    """Validate an output directory before any work.
+    """Validate an output directory before any work, and claim it.
 
     Parameters
     ----------
@@ -200,7 +162,11 @@ def check_out_dir(
         (callers that predate markers naming commands), any directory with a marker except a
         campaign's is accepted.
     overwrite : bool
-        Accept a directory written earlier by ``command`` (or by an older rcsim).
+        Accept a directory written earlier by ``command`` -- when its record lists everything
+        in it (:mod:`rcsim.analysis.engine.output_records`).
+    inputs : dict, optional
+        The command's inputs, ``{what: path}``: ``out`` may not be one, nor hold one
+        (:func:`rcsim.analysis.engine.output_places.refuse_own_inputs`).
 
     Returns
     -------
@@ -211,52 +177,66 @@ def check_out_dir(
     ------
     InputError
         Naming ``out``; :class:`OutputExists` when only ``overwrite`` is missing.
+
+    Inside the command line's claim scope the directory is locked from here until the command
+    ends (:func:`rcsim.analysis.engine.locks.claim`).
     """
     path = _as_path(out, "out")
     _refuse_dangling(path, "out")
     if path.exists() and not path.is_dir():
         raise InputError(f"{path}: exists and is not a directory", parameter="out", value=str(path))
+    refuse_nested(path, command)
+    refuse_own_inputs([path], inputs or {})
     if path.is_dir() and any(path.iterdir()):
-        owner = directory_owner(path)
-        resumable = resumable_owner(path)
-        if resumable is not None and resumable != command:
-            raise InputError(
-                f"{path}: is a {_describe(resumable)}, "
-                "which no other command replaces; choose another directory",
-                parameter="out",
-                value=str(path),
-            )
-        if resumable is not None:
-            owner = resumable
-        if owner is None:
-            raise InputError(
-                f"{path}: exists and holds files rcsim did not write; choose another directory",
-                parameter="out",
-                value=str(path),
-            )
-        if command is None:
-            if owner == "campaign run":  # written in place, never by atomic_dir
-                raise InputError(
-                    f"{path}: is a campaign directory; choose another directory",
-                    parameter="out",
-                    value=str(path),
-                )
-        elif owner and owner != command:
-            raise InputError(
-                f"{path}: holds the outputs of `rcsim {owner}`, which "
-                f"`rcsim {command}` does not replace; choose another directory",
-                parameter="out",
-                value=str(path),
-            )
-        elif not overwrite:
-            what = (
-                f"holds the outputs of an earlier `rcsim {command}`"
-                if owner
-                else "holds the outputs of an earlier rcsim command"
-            )
-            raise OutputExists(path, command, what)
+        _check_replaceable(path, command, overwrite)
     _check_creatable(path, "out")
+    claim(path, command or "output")
     return path
+
+
+def _check_replaceable(path: Path, command: str | None, overwrite: bool) -> None:
+    """Refuse a non-empty directory ``command`` may not replace (module docstring)."""
+    owner = directory_owner(path)
+    resumable = resumable_owner(path)
+    if resumable is not None and resumable != command:
+        raise InputError(
+            f"{path}: is a {_describe(resumable)}, "
+            "which no other command replaces; choose another directory",
+            parameter="out",
+            value=str(path),
+        )
+    if resumable is not None:
+        owner = resumable
+    if owner is None:
+        raise InputError(
+            f"{path}: exists and holds files rcsim did not write; choose another directory",
+            parameter="out",
+            value=str(path),
+        )
+    if command is not None and owner and owner != command:
+        raise InputError(
+            f"{path}: holds the outputs of `rcsim {owner}`, which "
+            f"`rcsim {command}` does not replace; choose another directory",
+            parameter="out",
+            value=str(path),
+        )
+    if command in RESUMABLE and overwrite:
+        return  # written in place, never replaced: it refuses what it cannot resume itself
+    if not overwrite:
+        what = (
+            f"holds the outputs of an earlier `rcsim {owner}`"
+            if owner
+            else "holds the outputs of an earlier rcsim command"
+        )
+        raise OutputExists(path, command or "", what)
+    why = unlisted_entry(path)
+    if why is not None:
+        raise InputError(
+            f"{path}: is not replaced: {why}; --overwrite removes only what rcsim recorded "
+            "writing there -- move the rest away, or choose another directory",
+            parameter="out",
+            value=str(path),
+        )
 
 
 def _describe(command: str) -> str:
@@ -270,8 +250,10 @@ def check_out_file(
     overwrite: bool = False,
     parameter: str = "out",
     writer: str | None = None,
+    inputs: dict | None = None,
 ) -> Path:
-    """Validate an output file before any work: not a directory, replaced only on request.
+    """Validate an output file before any work, and claim it: not a directory, not inside
+    another command's output directory, not one of ``inputs``, replaced only on request.
 
     Parameters
     ----------
@@ -282,8 +264,9 @@ def check_out_file(
     parameter : str
         The caller's name for ``out``, used in errors.
     writer : str, optional
-        The resumable command writing inside its own directory (the loop's refined table);
-        any other writer is refused a file that exists inside a campaign or loop directory.
+        The resumable command writing inside its own directory (the loop's refined table).
+    inputs : dict, optional
+        ``{what: path}``: the command's inputs, which ``out`` may not be.
 
     Returns
     -------
@@ -295,16 +278,13 @@ def check_out_file(
     if path.is_dir():
         raise InputError(f"{path}: is a directory", parameter=parameter, value=str(path))
     inside = resumable_owner(path.parent) if path.parent.is_dir() else None
-    if path.exists() and inside is not None and inside != writer:
-        raise InputError(
-            f"{path}: is inside a {_describe(inside)}, whose files no other command "
-            "replaces; choose a path outside it",
-            parameter=parameter,
-            value=str(path),
-        )
+    if not (writer is not None and inside == writer):
+        refuse_nested(path, None, parameter=parameter)
+    refuse_own_inputs([path], inputs or {}, parameter=parameter)
     if path.exists() and not overwrite:
         raise OutputExists(path, "", "exists", parameter)
     _check_creatable(path, parameter)
+    claim(path, writer or "output", parameter=parameter)
     return path
 
 
@@ -352,15 +332,16 @@ def atomic_dir(out: str | os.PathLike, command: str | None = None, *, overwrite:
     """Yield a temporary directory that becomes ``out`` when the block succeeds.
 
     ``out`` is checked first (:func:`check_out_dir` with ``command`` and ``overwrite``), and
-    the marker of ``rcsim <command>`` is written last.  On an exception the temporary
-    directory is removed and ``out`` is left as it was.
+    the marker of ``rcsim <command>``, listing everything the block wrote, is written last.
+    On an exception the temporary directory is removed and ``out`` is left as it was.  An
+    earlier ``out`` being replaced loses only what its own record lists.
     """
     out = check_out_dir(out, command, overwrite=overwrite)
     with output_lock(out, command or "output"):
-        yield from _write_atomically(out, command)
+        yield from _write_atomically(out, command, overwrite)
 
 
-def _write_atomically(out: Path, command: str | None):
+def _write_atomically(out: Path, command: str | None, overwrite: bool):
     created = make_parents(out)
     try:
         tmp = _make_temp_dir(out.parent, out.name)
@@ -369,13 +350,12 @@ def _write_atomically(out: Path, command: str | None):
         raise
     try:
         yield tmp
-        (tmp / MARKER).write_text(
-            marker_text(command)
-            if command
-            else f"{_MARKER_PREFIX}; this directory is replaced by the next run\n"
-        )
+        write_record(tmp, command or "")
+        if out.exists() and any(out.iterdir()):
+            # Checked again under the lock, just before: what got in since is not removed.
+            _check_replaceable(out, command, overwrite)
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        _remove_tree(tmp)
         remove_parents(created)
         raise
     old = None
@@ -384,72 +364,19 @@ def _write_atomically(out: Path, command: str | None):
         os.replace(out, old)
     os.replace(tmp, out)
     if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+        left = remove_listed(old)
+        if left:  # never expected (checked above, under the lock), but never deleted either
+            kept = out.with_name(f"{out.name}.kept-{secrets.token_hex(4)}")
+            os.replace(old, kept)
+            print(
+                f"rcsim: warning: {kept} keeps what the earlier {out} held beyond its record "
+                f"of outputs: {', '.join(left[:5])}",
+                file=sys.stderr,
+            )
 
 
-class OutputLocked(InputError):
-    """Another process is writing the same output; ``holder`` says which."""
+def _remove_tree(tmp: Path) -> None:
+    """Remove a temporary directory this process made (and alone wrote)."""
+    import shutil
 
-
-def _lock_path(path: Path) -> Path:
-    return path.with_name(f".{path.name}.rcsim-lock")
-
-
-@contextlib.contextmanager
-def output_lock(out: str | os.PathLike, command: str, *, parameter: str = "out"):
-    """Hold an advisory lock on output ``out`` while the block writes it.
-
-    The lock is ``fcntl.flock`` on a hidden file beside ``out`` (``.NAME.rcsim-lock``, so a
-    directory that does not exist yet can be locked), holding the writer's pid and command.  A
-    second writer raises :class:`OutputLocked` naming them, before any work.  The file is
-    removed when the block ends; a writer that finds the file replaced between opening and
-    locking it (the holder just finished) locks the new one.
-    """
-    path = _as_path(out, parameter)
-    lock = _lock_path(path)
-    created = make_parents(lock)
-    while True:
-        try:
-            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
-        except OSError as exc:
-            remove_parents(created)
-            raise InputError(
-                f"{path}: cannot lock it ({exc.strerror or exc})",
-                parameter=parameter,
-                value=str(path),
-            ) from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError as exc:
-            holder = ""
-            with contextlib.suppress(OSError):
-                holder = os.pread(fd, 200, 0).decode(errors="replace").strip()
-            os.close(fd)
-            remove_parents(created)
-            if exc.errno not in (errno.EAGAIN, errno.EACCES, errno.EWOULDBLOCK):
-                raise
-            raise OutputLocked(
-                f"{path}: is being written by another rcsim process ({holder or 'unknown'}); "
-                "wait for it to finish or stop it",
-                parameter=parameter,
-                value=str(path),
-            ) from None
-        try:
-            same = os.fstat(fd).st_ino == os.stat(lock).st_ino
-        except FileNotFoundError:
-            same = False
-        if same:
-            break
-        os.close(fd)  # the previous holder removed the file after we opened it: start again
-    ok = False
-    try:
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"pid {os.getpid()}, rcsim {command}\n".encode(), 0)
-        yield path
-        ok = True
-    finally:
-        with contextlib.suppress(OSError):
-            os.unlink(lock)
-        os.close(fd)
-        if not ok:
-            remove_parents(created)
+    shutil.rmtree(tmp, ignore_errors=True)

@@ -2,7 +2,8 @@
 
 :func:`write_response_database` checks the three outputs before any flight (an existing file is
 replaced only with ``overwrite``), flies the database
-(:func:`rcsim.lookup.response_database.response_database`) and writes, each by an atomic rename:
+(:func:`rcsim.lookup.response_database.response_database`) and writes, as one commit (all three
+or none, :func:`rcsim.analysis.engine.commit.commit_files`):
 
 * ``DB`` (Parquet): one row per jet, on-time and dispersed vehicle;
 * ``<DB stem>_summary.csv``: per jet, rate and velocity change per second of firing and their
@@ -26,10 +27,10 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.engine.campaign.results import code_version
+from rcsim.analysis.engine.commit import commit_files
 from rcsim.analysis.engine.output import check_out_file, make_parents, remove_parents
 from rcsim.analysis.engine.plots import AXIS_COLORS, new_figure
 from rcsim.lookup.response_database import response_database, response_summary
-from rcsim.models.atomic import atomic_write
 from rcsim.spacecraft.vehicle import AXES
 from rcsim.spacecraft.vehicle_file import Vehicle
 
@@ -62,7 +63,9 @@ def write_response_database(
         An invalid vehicle file; an output that exists without ``overwrite`` or that the
         system refuses; ``n_vehicles`` < 1.
     """
-    database = check_out_file(out, overwrite=overwrite, parameter="out")
+    database = check_out_file(
+        out, overwrite=overwrite, parameter="out", inputs={"vehicle": vehicle}
+    )
     summary = check_out_file(
         database.with_name(f"{database.stem}_summary.csv"), overwrite=overwrite, parameter="out"
     )
@@ -86,9 +89,14 @@ def write_response_database(
     fig = _plot(vehicle, table, n_vehicles)
     created = make_parents(database)
     try:
-        atomic_write(database, lambda tmp: _to_parquet(frame, tmp, meta))
-        atomic_write(summary, lambda tmp: table.to_csv(tmp, index=False))
-        atomic_write(plot, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
+        # One commit, the database last: all three files or none, also on a full disk.
+        commit_files(
+            [
+                (summary, lambda tmp: table.to_csv(tmp, index=False)),
+                (plot, lambda tmp: fig.savefig(tmp, dpi=110, format="png")),
+                (database, lambda tmp: _to_parquet(frame, tmp, meta)),
+            ]
+        )
     except BaseException:
         remove_parents(created)
         raise

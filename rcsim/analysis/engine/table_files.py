@@ -3,20 +3,23 @@
 ``rcsim lookup generate`` is this module's :func:`generate_table_files` behind a parser: both
 outputs (and a channel table's recipe) are checked before the 26 flights (an existing file is
 replaced only with ``overwrite``), missing parent directories are created and removed again if
-the writing fails, and each file appears by an atomic rename, never half written.
+the writing fails, and the files are committed together (:func:`write_table_files`): all of
+them or none, never one half written.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from rcsim.analysis.engine.commit import commit_files
 from rcsim.analysis.engine.output import check_out_file, make_parents, remove_parents
+from rcsim.analysis.engine.output_places import refuse_own_inputs
 from rcsim.lookup.generation import generate_table, is_coupled
 from rcsim.lookup.jet_sets import companion_path
 from rcsim.lookup.table_generation import GeneratedTable
-from rcsim.models.atomic import atomic_write
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.vehicle_file import Vehicle
 
@@ -68,6 +71,7 @@ def generate_table_files(
     settling = check_out_file(
         settling_out or companion_path(table), overwrite=overwrite, parameter="settling_out"
     )
+    refuse_own_inputs([table, settling], {"vehicle": vehicle.source})
     if settling == table:
         raise InputError(
             f"{settling}: is the table itself (out)", parameter="settling_out", value=str(settling)
@@ -78,16 +82,26 @@ def generate_table_files(
 
         check_out_file(recipe_path(table), overwrite=overwrite, parameter="out")
     gen = generate_table(vehicle, jets_off=jets_off)
-    frame = gen.settling_frame()
     created = make_parents(table) + make_parents(settling)
     try:
-        if channels:
-            # Both atomic, the recipe first: a table on disk never lacks its recipe.
-            gen.table.to_csv(table)
-        else:
-            atomic_write(table, lambda tmp: gen.table.to_csv(tmp))
-        atomic_write(settling, lambda tmp: frame.to_csv(tmp, index=False))
+        write_table_files(gen, table, settling)
     except BaseException:
         remove_parents(created)
         raise
     return TableFiles(gen, table, settling)
+
+
+def write_table_files(gen: GeneratedTable, table: Path, settling: Path) -> None:
+    """Write a generated table, its companion and (a channel table) its recipe as one commit
+    (:func:`rcsim.analysis.engine.commit.commit_files`): all or none, also on a full disk.
+    The table goes last: on disk it never lacks the companion (its jet set) or the recipe."""
+    from rcsim.models.tables import recipe_path
+
+    frame = gen.settling_frame()
+    recipe = gen.table.recipe
+    parts: list[tuple[Path, Callable[[str], object]]] = []
+    if recipe is not None:
+        parts.append((recipe_path(table), recipe.to_csv))
+    parts.append((settling, lambda tmp: frame.to_csv(tmp, index=False)))
+    parts.append((table, lambda tmp: gen.table.to_csv(tmp, with_recipe=False)))
+    commit_files(parts)

@@ -111,7 +111,7 @@ class LookupTable:
         """A channel table (six axis channels and a recipe), not a jet table."""
         return self.recipe is not None
 
-    def to_csv(self, path: PathLike) -> Path:
+    def to_csv(self, path: PathLike, *, with_recipe: bool = True) -> Path:
         """Write the table in the rcsim layout, atomically.
 
         Columns: ``case, roll_deg_s, pitch_deg_s, yaw_deg_s, jet_01 ... jet_16`` (rates in
@@ -128,6 +128,9 @@ class LookupTable:
         ----------
         path : str or os.PathLike
             Destination file.
+        with_recipe : bool
+            Write a channel table's recipe too (False: the caller writes it, e.g. with the
+            table in one commit, :func:`rcsim.analysis.engine.commit.commit_files`).
 
         Returns
         -------
@@ -151,7 +154,7 @@ class LookupTable:
                 fh.flush()
                 os.fsync(fh.fileno())
 
-        if self.recipe is not None:
+        if self.recipe is not None and with_recipe:
             self.recipe.to_csv(recipe_path(path))
         return atomic_write(Path(path), write)
 

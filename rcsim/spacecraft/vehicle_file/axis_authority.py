@@ -32,15 +32,11 @@ def pure_axis_authority(
     or ``(0.0, None)`` when the direction cannot be reached.
     """
     n = accel.shape[1]
-    rows = accel[[b for b in range(3) if b != axis]]
-    if force is not None:
-        rows = np.vstack([rows, force])
-    bounds = [(0.0, 1.0 if available[j] else 0.0) for j in range(n)]
-    zero = np.zeros(rows.shape[0])
-    best = linprog(-sign * accel[axis], A_eq=rows, b_eq=zero, bounds=bounds, method="highs")
+    rows, bounds, best = _authority_lp(accel, axis, sign, available, force)
     if best.status != 0 or -best.fun <= 1e-12 * np.abs(accel).max():
         return 0.0, None
     value = -best.fun
+    zero = np.zeros(rows.shape[0])
     # the same authority with the least total duty: no idle pair in the answer
     lean = linprog(
         np.ones(n),
@@ -52,6 +48,24 @@ def pure_axis_authority(
         method="highs",
     )
     return value, lean.x if lean.status == 0 else best.x
+
+
+def _authority_lp(accel, axis, sign, available, force=None):
+    """The LP of :func:`pure_axis_authority`: its equality rows, bounds and optimum."""
+    rows = accel[[b for b in range(3) if b != axis]]
+    if force is not None:
+        rows = np.vstack([rows, force])
+    bounds = [(0.0, 1.0 if available[j] else 0.0) for j in range(accel.shape[1])]
+    zero = np.zeros(rows.shape[0])
+    best = linprog(-sign * accel[axis], A_eq=rows, b_eq=zero, bounds=bounds, method="highs")
+    return rows, bounds, best
+
+
+def reachable(accel: np.ndarray, axis: int, sign: int, available: np.ndarray) -> bool:
+    """Whether ``sign * axis`` can be reached with the available jets: the first LP of
+    :func:`pure_axis_authority` alone (its value positive), not the second (the duties)."""
+    best = _authority_lp(accel, axis, sign, available)[2]
+    return best.status == 0 and -best.fun > 1e-12 * np.abs(accel).max()
 
 
 def axis_authorities(vehicle: VehicleDef) -> np.ndarray:

@@ -10,10 +10,10 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 import pandas as pd
-import pytest
 
 from rcsim.analysis.engine.output import OutputLocked, output_lock
 
@@ -87,9 +87,24 @@ def test_the_lock_names_its_holder_and_is_free_after_the_block(tmp_path):
         held = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
         assert held.stdout.startswith("REFUSED"), held.stdout + held.stderr
         assert f"pid {os.getpid()}, rcsim maneuver" in held.stdout
-        with pytest.raises(OutputLocked):  # also within one process: a second descriptor
-            with output_lock(target, "again"):
-                pass
+        # Within one process: the same thread re-enters its own lock (a command claims its
+        # output before the work, then writes it), another thread is refused.
+        with output_lock(target, "again"):
+            pass
+        assert (tmp_path / ".out.rcsim-lock").exists()  # still held by the outer block
+        refused = []
+
+        def other_thread():
+            try:
+                with output_lock(target, "again"):
+                    pass
+            except OutputLocked as exc:
+                refused.append(exc)
+
+        thread = threading.Thread(target=other_thread)
+        thread.start()
+        thread.join()
+        assert len(refused) == 1
     free = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
     assert free.stdout.startswith("GOT IT"), free.stdout + free.stderr
     assert list(tmp_path.iterdir()) == []  # no lock file, no directory left behind

@@ -146,14 +146,17 @@ def main(argv: list[str] | None = None) -> int:
         Terminated,
         sigterm_interrupts,
     )
+    from rcsim.analysis.engine.locks import claim_scope
 
     parser = build_parser()
     args = None
     try:
         # SIGTERM stops every command as Ctrl-C does (cleanly, resumably), told apart by the
-        # exit status: 143 against 130.
-        with sigterm_interrupts():
+        # exit status: 143 against 130.  Every output a command checks is locked from that
+        # check, before its work, to its end (rcsim.analysis.engine.locks).
+        with sigterm_interrupts(), claim_scope() as claims:
             args = parser.parse_args(argv)
+            claims.command = args._parser.prog.partition(" ")[2]  # "lookup refine"
             _use_file_backend()
             return int(args.func(args) or 0)
     except (InputError, OSError) as exc:

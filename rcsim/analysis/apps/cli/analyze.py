@@ -144,7 +144,8 @@ def _run(args) -> int:
     from rcsim.analysis.results.drivers.inputs import load_runs
     from rcsim.analysis.results.drivers.outputs import COMMAND, write_analysis
 
-    check_out_dir(args.out, COMMAND, overwrite=args.overwrite)  # before minutes of work
+    # Before minutes of work; never over its own input (issue 31).
+    check_out_dir(args.out, COMMAND, overwrite=args.overwrite, inputs={"PATH": args.path})
     runset = load_runs(
         args.path,
         inputs=inputs,

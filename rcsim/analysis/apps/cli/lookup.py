@@ -114,6 +114,7 @@ def register(sub) -> None:
     )
     db.add_argument("--seed", type=int, default=1, metavar="S", help="dispersion seed (default 1)")
     db.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    db.add_argument("--yes", action="store_true", help="start even if estimated over 30 minutes")
     db.set_defaults(func=run_database)
 
     cmp_ = cmds.add_parser(
@@ -439,6 +440,9 @@ def run_database(args: argparse.Namespace) -> int:
 
     if not 0 <= args.seed <= MAX_SEED:
         raise InputError(f"--seed must be in 0..2^63 - 1, got {args.seed}")
+    from rcsim.analysis.apps.estimates import check_database_cost
+
+    check_database_cost(args.vehicle, args.n_vehicles, yes=args.yes)  # memory, then time
     files = write_response_database(
         args.vehicle, args.out, n_vehicles=args.n_vehicles, seed=args.seed,
         overwrite=args.overwrite,
@@ -526,7 +530,12 @@ def run_refine(args: argparse.Namespace) -> int:
     vehicle = None if args.vehicle is None and not args.control else flown_vehicle(args)
     # OUT.csv, OUT_changelog.csv and OUT_plots/ are checked before any flight; --overwrite
     # replaces all three.
-    paths = check_outputs(args.out, overwrite=args.overwrite, channels=table.is_channel)
+    paths = check_outputs(
+        args.out,
+        overwrite=args.overwrite,
+        channels=table.is_channel,
+        inputs={"--table": args.table},
+    )
     out, checkpoint = paths["table"], paths["checkpoint"]
     if not args.resume:
         checkpoint.unlink(missing_ok=True)  # a fresh search; a stopped one's rounds go
@@ -551,11 +560,16 @@ def run_refine(args: argparse.Namespace) -> int:
         confirm_seed=confirm_seed,
         vehicle=vehicle,
     )
-    from rcsim.analysis.apps.estimates import confirm, flying_seconds
+    from rcsim.analysis.apps.estimates import REFINE_BYTES_PER_RUN as PER_RUN
+    from rcsim.analysis.apps.estimates import check_memory, confirm, flying_seconds
 
     # The search (a few rounds) on its subset, the confirmation of the changed rows, then the
-    # old and new tables (and Table 7) at full size.
+    # old and new tables (and Table 7) at full size; what cannot fit is refused first.
     n_cases = len(table.case) if cases is None else len(cases)
+    check_memory(
+        "the refinement", PER_RUN * n_cases * args.runs_per_case, parameter="runs_per_case",
+        value=args.runs_per_case, advice="fewer runs per case",
+    )  # fmt: skip
     search = min(args.search_runs_per_case, args.runs_per_case)
     simulated = args.duration_s * n_cases * (3 * search + 4 * args.runs_per_case)
     confirm(

@@ -101,7 +101,10 @@ def run(args: argparse.Namespace) -> int:
         parameter="duration_s",
         value=args.duration_s,
     )
-    out = check_out_dir(args.out, COMMAND, overwrite=args.overwrite)  # before the work
+    out = check_out_dir(  # before the work
+        args.out, COMMAND, overwrite=args.overwrite,
+        inputs={"--table": args.table, "--vehicle": args.vehicle},
+    )  # fmt: skip
     r, p, y = args.attitude_deg
     scenario = Scenario(
         name="maneuver", duration_s=args.duration_s, att_cmd_rad=np.radians(args.attitude_deg)

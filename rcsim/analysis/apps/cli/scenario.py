@@ -168,7 +168,9 @@ def run_run(args: argparse.Namespace) -> int:
             raise InputError(f"--no-fire-band-deg must be >= 0, got {args.no_fire_band_deg}")
         overrides["no_fire_band_rad"] = float(np.radians(args.no_fire_band_deg))
     vehicle = _scenario_vehicle(args, scn, (args.controller,), args.table)
-    out = check_out_dir(args.out, "scenario run", overwrite=args.overwrite)  # before the work
+    out = check_out_dir(  # before the work
+        args.out, "scenario run", overwrite=args.overwrite, inputs={"--table": args.table}
+    )
     hist = fly_scenario(scn, args.controller, table=args.table, vehicle=vehicle, **overrides)
     paths = write_scenario(
         hist,

@@ -43,11 +43,31 @@ def register(subparsers) -> None:
         action="store_true",
         help="skip the two-jets-out search (n (n - 1) / 2 cases)",
     )
+    check.add_argument(
+        "--yes",
+        action="store_true",
+        help="start even if the estimate is over 30 minutes (the estimate is printed first)",
+    )
     check.set_defaults(func=_check)
 
 
 def _check(args: argparse.Namespace) -> int:
-    from rcsim.spacecraft.vehicle_file.authority import vehicle_report
+    import sys
 
-    print(vehicle_report(args.vehicle, pairs=not args.no_pairs), end="")
+    from tqdm import tqdm
+
+    from rcsim.analysis.apps.estimates import check_vehicle_cost
+    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle_file.authority import check_text, check_vehicle
+
+    vehicle = Vehicle.load(args.vehicle).definition
+    pairs = not args.no_pairs
+    # Its cost grows with the jets (n^2 with the pairs): estimated before the work.
+    check_vehicle_cost(vehicle, pairs=pairs, yes=args.yes, source=args.vehicle)
+    cases = vehicle.n_jets + (vehicle.n_jets * (vehicle.n_jets - 1) // 2 if pairs else 0)
+    with tqdm(
+        total=cases, unit="case", desc="jets out", file=sys.stderr, disable=not sys.stderr.isatty()
+    ) as bar:
+        result = check_vehicle(vehicle, pairs=pairs, step=bar.update)
+    print(check_text(vehicle, result), end="")
     return 0

@@ -38,6 +38,7 @@ from rcsim.analysis.engine.campaign.runner import run_campaign
 from rcsim.analysis.engine.campaign.spec import load_spec
 from rcsim.analysis.engine.memory import give_back_free_memory
 from rcsim.analysis.engine.output import check_out_dir, directory_owner, output_lock, write_marker
+from rcsim.analysis.engine.output_places import writing_inside
 from rcsim.analysis.results.scoring import SCORED_COLUMNS
 from rcsim.models.atomic import atomic_write
 from rcsim.models.errors import InputError
@@ -375,7 +376,9 @@ def run_loop(
     if settings.table != GENERATE:  # a table that does not load: before any work
         table = load_refinable_table(settings.table)
     out = check_loop_dir(out, resume=resume, overwrite=False)
-    with output_lock(out, COMMAND):
+    # Its stages write inside it (campaigns, the driver analysis, the refined table): the one
+    # place outputs nest on purpose (rcsim.analysis.engine.output_places).
+    with output_lock(out, COMMAND), writing_inside(out):
         return _run_stages(table, settings, out, resume, progress, echo)
 
 
@@ -439,15 +442,13 @@ class _Stages:
 
     def generate(self) -> dict:
         """The vehicle's table: a channel table (and its recipe) for coupled jets."""
+        from rcsim.analysis.engine.table_files import write_table_files
         from rcsim.lookup.generation import generate_table
 
         gen = generate_table(self.vehicle)
         path = Path(self.table_file)
-        # Written whole (atomic, a channel table's recipe first), the companion after.
-        frame = gen.settling_frame()
-        gen.table.to_csv(path)
-        settling = path.with_name(f"{path.stem}_settling.csv")
-        atomic_write(settling, lambda tmp: frame.to_csv(tmp, index=False))
+        # One commit: the table, its recipe and companion, all or none.
+        write_table_files(gen, path, path.with_name(f"{path.stem}_settling.csv"))
         kind = "jet table" if gen.table.recipe is None else "channel table (six axis channels)"
         return {"table": kind, "open_loop_max_err_deg_s": round(
             float(np.degrees(np.abs(gen.verify_rate_err_rad_s)).max()), 4

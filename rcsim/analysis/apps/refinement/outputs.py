@@ -42,7 +42,9 @@ from rcsim.analysis.apps.refinement.search import (
     RefineResult,
     refine,
 )
+from rcsim.analysis.engine.commit import commit_files
 from rcsim.analysis.engine.output import atomic_dir, check_out_dir, check_out_file
+from rcsim.analysis.engine.output_places import refuse_own_inputs
 from rcsim.analysis.results.proportions import clopper_pearson
 from rcsim.analysis.results.scoring import trial_scores
 from rcsim.lookup.table_edits import axis_cycles, jet_axes
@@ -386,11 +388,14 @@ def check_outputs(
     overwrite: bool = False,
     writer: str | None = None,
     channels: bool = False,
+    inputs: dict | None = None,
 ) -> dict[str, Path]:
     """Check all the outputs before any flight (existing ones need ``overwrite``;
     ``writer``: the loop writing into its own directory, see :func:`check_out_file`;
-    ``channels``: a channel table, whose recipe is written beside it)."""
+    ``channels``: a channel table, whose recipe is written beside it; ``inputs``, ``{what:
+    path}``: none of the outputs may be one, e.g. the table refined)."""
     paths = output_paths(out_csv)
+    refuse_own_inputs([p for k, p in paths.items() if k != "checkpoint"], inputs or {})
     check_out_file(paths["table"], overwrite=overwrite, parameter="out", writer=writer)
     if channels:
         check_out_file(paths["recipe"], overwrite=overwrite, parameter="out", writer=writer)
@@ -406,9 +411,10 @@ def write_refinement(
     """Write ``OUT.csv``, ``OUT_changelog.csv``, ``OUT_heldout.csv`` (the held-out seed per
     table, :func:`comparison_frame`) and ``OUT_plots/*.png``; returns the paths.
 
-    Each output is complete or absent: the plots folder is built aside and renamed into place,
-    the two CSV files are renamed into place, the table last, so a table on disk always has
-    its changelog beside it.
+    All are committed together: the plots folder is built aside, the files are written to
+    temporaries and renamed into place (a channel table's recipe first, the table last,
+    :func:`rcsim.analysis.engine.commit.commit_files`), and the folder is renamed last -- a
+    failed write (a full disk) leaves none of them; a table on disk always has its changelog.
     """
     channels = ref.table.recipe is not None
     paths = check_outputs(out_csv, overwrite=overwrite, writer=writer, channels=channels)
@@ -427,19 +433,17 @@ def write_refinement(
             name = f"case_{int(worst['case']):02d}_before_after.png"
             plot_case_before_after(ref, int(worst["case"]), tmp / name)
             written["case_plot"] = paths["plots"] / name
-    atomic_write(
-        paths["changelog"], lambda tmp: ref.changelog.to_csv(tmp, index=False, float_format="%.6g")
-    )
-    if ref.comparison is not None:
-        comparison = ref.comparison.assign(seed=ref.fresh_seed)
-        atomic_write(
-            paths["heldout"],
-            lambda tmp: comparison.to_csv(tmp, index=False, float_format="%.6g"),
-        )
-    else:
-        del written["heldout"]
-    # Last: the table appears only when the rest is written (a channel table's recipe first).
-    ref.table.to_csv(paths["table"])
+        csv = {"index": False, "float_format": "%.6g"}
+        parts: list = [(paths["changelog"], lambda t: ref.changelog.to_csv(t, **csv))]
+        if ref.comparison is not None:
+            comparison = ref.comparison.assign(seed=ref.fresh_seed)
+            parts.append((paths["heldout"], lambda t: comparison.to_csv(t, **csv)))
+        else:
+            del written["heldout"]
+        if ref.table.recipe is not None:
+            parts.append((paths["recipe"], ref.table.recipe.to_csv))
+        parts.append((paths["table"], lambda t: ref.table.to_csv(t, with_recipe=False)))
+        commit_files(parts)  # inside the block: the plots folder only once the files are in
     del written["plots"], written["checkpoint"]
     return written
 

@@ -108,7 +108,14 @@ def connect(workers: int | None, scheduler: str | None):
             raise InputError(f"must be >= 1, got {workers}", parameter="workers", value=workers)
         with _children_ignore_sigint():
             cluster = LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+                n_workers=workers,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                # No dashboard, but the scheduler still serves its health routes over HTTP, on
+                # port 8787 unless told otherwise: a second campaign found it taken and warned
+                # in four lines (issue 31).  Any free port on this machine only.
+                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
             )
         client = Client(cluster)
     else:

@@ -12,7 +12,9 @@ Workers are started by a fork server with the chunk machinery preloaded (no per-
 cost, and no fork of a process that runs MuJoCo threads), ignore SIGINT (a terminal's Ctrl-C
 reaches the whole process group; it is this process that stops them) and are killed, not
 waited for, when the campaign is interrupted: a chunk abandoned mid-flight is redone on
-``--resume`` (chunks commit in this process only).
+``--resume`` (chunks commit in this process only).  The fork server dies with this process
+and each worker with the fork server, also after a ``kill -9``
+(:mod:`rcsim.analysis.engine.pool_guard`).
 """
 
 from __future__ import annotations
@@ -29,17 +31,21 @@ from itertools import islice
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from rcsim.analysis.engine import pool_guard
 from rcsim.analysis.engine.campaign.chunk import Chunk, ChunkResult, simulate_chunk, warm_up
 
 if TYPE_CHECKING:
     from rcsim.analysis.engine.campaign.spec import CampaignSpec
 
-#: Modules the fork server imports once, so that every worker starts with them loaded.
-_PRELOAD = ["rcsim.analysis.engine.campaign.chunk"]
+#: Modules the fork server imports once, so that every worker starts with them loaded; the
+#: first arms the fork server to die with this process (rcsim.analysis.engine.pool_guard).
+_PRELOAD = ["rcsim.analysis.engine.pool_guard", "rcsim.analysis.engine.campaign.chunk"]
 
 
 def _worker_init() -> None:
-    """Run in each worker: Ctrl-C is the parent's to handle; load what chunks need."""
+    """Run in each worker: die with the fork server (which dies with this process), leave
+    Ctrl-C to the parent, load what chunks need."""
+    pool_guard.worker_started()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     warm_up()
@@ -65,6 +71,9 @@ def _start_fork_server() -> None:
     interpreter reads when it starts, and only for that start -- unless that tree is an
     installed one (a site-packages folder), which the fork server finds anyway and which put
     before the standard library could shadow it with a stray backport.
+
+    The fork server, and through it every worker, dies with this process
+    (:mod:`rcsim.analysis.engine.pool_guard`): a ``kill -9`` of rcsim leaves no pool behind.
     """
     import site
     from multiprocessing import forkserver
@@ -72,18 +81,31 @@ def _start_fork_server() -> None:
     tree = str(Path(__file__).resolve().parents[4])  # the folder holding rcsim/
     installed = {str(Path(p).resolve()) for p in site.getsitepackages()}
     installed.add(str(Path(site.getusersitepackages()).resolve()))
-    if tree in installed:
+    env = {}
+    if tree not in installed:
+        before = os.environ.get("PYTHONPATH")
+        env["PYTHONPATH"] = os.pathsep.join([tree] + ([before] if before else []))
+    # The fork server dies with this process (pool_guard), unless started from a thread that
+    # may end before the process does (Linux ties the request to the starting thread).
+    if threading.current_thread() is threading.main_thread():
+        env[pool_guard.PARENT_ENV] = str(os.getpid())
+    with environment(env):
         forkserver.ensure_running()
-        return
-    before = os.environ.get("PYTHONPATH")
-    os.environ["PYTHONPATH"] = os.pathsep.join([tree] + ([before] if before else []))
+
+
+@contextmanager
+def environment(values: dict):
+    """``os.environ`` with ``values`` set inside the block, as it was after it."""
+    before = {key: os.environ.get(key) for key in values}
+    os.environ.update(values)
     try:
-        forkserver.ensure_running()
+        yield
     finally:
-        if before is None:
-            del os.environ["PYTHONPATH"]
-        else:
-            os.environ["PYTHONPATH"] = before
+        for key, value in before.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
 
 
 @contextmanager

@@ -130,7 +130,7 @@ def _prepare_dir(spec: CampaignSpec, out: Path, resume: bool) -> tuple[dict | No
     # overwrite=True lets an earlier campaign's directory through; it is resumed or refused
     # below, never replaced.
     check_out_dir(out, COMMAND, overwrite=True)
-    if not out.exists() or not any(out.iterdir()):
+    if not out.exists() or not any(out.iterdir()) or _killed_before_its_manifest(out):
         check_fits(spec, out)
         return None, False
     manifest = R.read_manifest(out)
@@ -158,6 +158,24 @@ def _prepare_dir(spec: CampaignSpec, out: Path, resume: bool) -> tuple[dict | No
             value=str(out),
         )
     return manifest, manifest.get("status") == "complete"
+
+
+def _killed_before_its_manifest(out: Path) -> bool:
+    """A campaign stopped before its manifest: its marker and empty folders, nothing flown
+    (the manifest is written before the first chunk): it starts again from nothing."""
+    from rcsim.analysis.engine.output import MARKER, directory_owner
+    from rcsim.models.atomic import TEMP_GLOB
+
+    if directory_owner(out) != COMMAND or (out / runs_table.MANIFEST).exists():
+        return False
+    temporaries = set(out.glob(TEMP_GLOB))
+    for entry in out.iterdir():
+        if entry.name in (runs_table.CHUNKS, runs_table.HISTORIES) and entry.is_dir():
+            if any(entry.iterdir()):
+                return False
+        elif entry.name != MARKER and entry not in temporaries:
+            return False
+    return True
 
 
 def _first_difference(stored, current, path: str = "") -> str:
@@ -287,12 +305,14 @@ def _run(
     spec_file,
 ) -> CampaignReport:
     t0 = time.perf_counter()
+    # The marker first, before anything else is in the directory: killed at any later point,
+    # it is a campaign's, which no other command replaces (rcsim.analysis.engine.output).
+    out.mkdir(parents=True, exist_ok=True)
+    write_marker(out, COMMAND)
     for sub in (runs_table.CHUNKS, runs_table.HISTORIES):
-        (out / sub).mkdir(parents=True, exist_ok=True)
+        (out / sub).mkdir(exist_ok=True)
     # A campaign killed mid-write (SIGKILL) left its temporaries: this process owns them now.
     R.remove_temporaries_in(out)
-    # rcsim.analysis.engine.output recognises (and never replaces) the directory by its marker.
-    write_marker(out, COMMAND)
     manifest = manifest or _new_manifest(spec, spec_file)
     manifest["code_version"] = R.code_version()
     manifest["control_cycle_s"] = spec.cycle_s  # the cycle every chunk's History flies

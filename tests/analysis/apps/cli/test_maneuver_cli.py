@@ -10,6 +10,7 @@ the installed ``rcsim`` executable to prove the entry point.
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -229,7 +230,10 @@ def test_out_dir_of_an_earlier_maneuver_is_replaced_only_with_overwrite(tmp_path
     )
     assert (out / "summary.json").read_text() != before
     assert sorted(os.listdir(tmp_path)) == ["again"]  # no temporary or old copies left
-    assert (out / ".rcsim-output").read_text() == "written by rcsim maneuver\n"
+    marker = (out / ".rcsim-output").read_text().splitlines()
+    assert marker[0] == "written by rcsim maneuver"
+    # Issue 31: the record lists what the command wrote, and nothing else is there.
+    assert json.loads(marker[1])["files"] == sorted(p for p in os.listdir(out) if p[0] != ".")
 
 
 @pytest.mark.parametrize("overwrite", [[], ["--overwrite"]], ids=["plain", "overwrite"])
@@ -294,8 +298,9 @@ def test_os_error_while_writing_is_one_line_naming_the_path(tmp_path, capsys, mo
     assert list(tmp_path.iterdir()) == []
 
 
-def test_marker_of_an_older_rcsim_is_replaced_only_with_overwrite(tmp_path, capsys):
-    # Directories written before markers named their command: rcsim's, command unknown.
+def test_marker_of_an_older_rcsim_is_never_replaced(tmp_path, capsys):
+    # Issue 31: a marker without a record of outputs (an older rcsim's) proves nothing about
+    # what the directory holds: --overwrite refuses it, naming why, and deletes nothing.
     out = tmp_path / "old"
     out.mkdir()
     (out / ".rcsim-output").write_text(
@@ -304,8 +309,10 @@ def test_marker_of_an_older_rcsim_is_replaced_only_with_overwrite(tmp_path, caps
     (out / "summary.json").write_text("{}\n")
     assert main([*MANEUVER, "--out", str(out)]) == 2
     assert "--overwrite" in capsys.readouterr().err
-    assert main([*MANEUVER, "--out", str(out), "--overwrite"]) == 0
-    assert (out / ".rcsim-output").read_text() == "written by rcsim maneuver\n"
+    assert main([*MANEUVER, "--out", str(out), "--overwrite"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "lists no outputs" in err
+    assert sorted(os.listdir(out)) == [".rcsim-output", "summary.json"]
 
 
 def test_lookup_generate_creates_parents_and_replaces_only_with_overwrite(tmp_path, capsys):

@@ -11,6 +11,7 @@ couple at arm r = 0.812 m: authority 2 F r / Ixx = 2 x 22.24 x 0.812 / 3583.09 r
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from rcsim.analysis.apps.cli import main
 
@@ -91,3 +92,40 @@ def test_long_jet_names_keep_the_columns_and_couples_are_said_once(capsys):
     assert len(said) == 1 and "+roll, -roll, +pitch, -pitch, +yaw, -yaw" in said[0]
     jet_out = [line for line in lines if " loses: " in line]
     assert len(jet_out) == 10 and not any("+roll" in line for line in jet_out)
+
+
+def test_no_pairs_says_the_pairs_were_not_searched(capsys):
+    # Issue 31: --no-pairs printed "0 of 66 pairs lose an axis direction" about a search it
+    # skipped.
+    assert main(["vehicle", "check", "canted12", "--no-pairs"]) == 0
+    out = capsys.readouterr().out
+    assert "Two jets out: not searched (the 66 pairs were skipped)" in out
+    assert "pairs lose" not in out
+
+
+def test_many_jets_are_estimated_and_refused_before_the_work(tmp_path, capsys, monkeypatch):
+    # Issue 31: 1,000 jets (499,500 pair LPs) ran with no estimate.  The estimate is the LP
+    # count (rcsim.spacecraft.vehicle_file.authority.lp_count) times a rate timed on the
+    # vehicle; 60 jets with pairs are 30 + 60 x 24 + 1,770 x 6 = 12,090 LPs.  A rate of 1 s
+    # per LP (patched: the clock of the machine is not the test's) puts it over 30 minutes.
+    import rcsim.analysis.apps.estimates as estimates
+    import rcsim.spacecraft.vehicle_file.authority as authority
+
+    assert authority.lp_count(60, pairs=True) == 12_090
+    assert authority.lp_count(60, pairs=False) == 1_470
+    jets = "".join(
+        f"[[jet]]\nposition_m = [1.0, {np.cos(a):.4f}, {np.sin(a):.4f}]\n"
+        f"direction = [0, {-np.sin(a) * s:.4f}, {np.cos(a) * s:.4f}]\n"
+        for a, s in zip(np.linspace(0, 2 * np.pi, 60, endpoint=False), [1, -1] * 30)
+    )
+    (tmp_path / "v.toml").write_text(
+        "[mass]\nmass_kg = 100.0\ncg_m = [0.0, 0.0, 0.0]\ninertia_kg_m2 = [10.0, 10.0, 10.0]\n"
+        "[jet_defaults]\nthrust_n = 1.0\n" + jets
+    )
+    clock = iter(range(0, 30_000, 3))  # three LPs timed between two calls: 1 s per LP
+    monkeypatch.setattr(estimates.time, "perf_counter", lambda: float(next(clock)))
+    monkeypatch.setattr(authority, "check_vehicle", lambda *a, **k: pytest.fail("checked"))
+    assert main(["vehicle", "check", str(tmp_path / "v.toml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "60 jets" in err and "1,770 two-jets-out pairs" in err
+    assert "3.4 h" in err and "--yes" in err and "--no-pairs" in err  # 12,090 s

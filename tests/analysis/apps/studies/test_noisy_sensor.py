@@ -330,7 +330,9 @@ def test_cli_never_replaces_another_commands_directory(tmp_path, capsys):
 def test_library_writer_records_the_study_in_the_marker(tmp_path):
     out = tmp_path / "study"
     assert main(["study", "noisy-sensor", "--runs", "3", "--out", str(out)]) == 0
-    assert (out / ".rcsim-output").read_text() == "written by rcsim study noisy-sensor\n"
+    marker = (out / ".rcsim-output").read_text().splitlines()
+    assert marker[0] == "written by rcsim study noisy-sensor"
+    assert "summary.csv" in marker[1]  # the record of outputs (issue 31)
 
 
 @pytest.mark.parametrize(
