@@ -11,19 +11,20 @@ the reference and runs whenever the extension was not built (no C compiler at in
 
 from __future__ import annotations
 
-import os
+from typing import Any
 
 import numpy as np
 
-try:
-    from rcsim.lookup import _step_kernel  # type: ignore[attr-defined]
-except ImportError:  # built without a C compiler: the numpy form runs
-    _step_kernel = None
+from rcsim.spacecraft.optional_kernel import optional_kernel
+
+_KERNEL = optional_kernel("rcsim.lookup._step_kernel", "RCSIM_NUMPY_CONTROLLER")
+#: The compiled module (None when built without a C compiler: the numpy form runs).
+_step_kernel: Any = _KERNEL.module  # its functions are called only when available()
 
 
 def kernel_available() -> bool:
     """Whether the compiled cycle is built and not switched off by ``RCSIM_NUMPY_CONTROLLER``."""
-    return _step_kernel is not None and os.environ.get("RCSIM_NUMPY_CONTROLLER", "") != "1"
+    return _KERNEL.available()
 
 
 def _f64(a: np.ndarray) -> np.ndarray:

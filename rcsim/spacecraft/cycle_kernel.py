@@ -20,23 +20,23 @@ under the same switch.
 
 from __future__ import annotations
 
-import os
+from typing import Any
 
 import numpy as np
 
 from rcsim.spacecraft.navigation import NavState
+from rcsim.spacecraft.optional_kernel import optional_kernel
 from rcsim.spacecraft.propulsion import PropulsionParams, PropulsionState
 from rcsim.spacecraft.valves import ValveState, ValveTiming
 
-try:
-    from rcsim.spacecraft import _cycle_kernel  # type: ignore[attr-defined]
-except ImportError:  # built without a C compiler: the numpy forms run
-    _cycle_kernel = None
+_KERNEL = optional_kernel("rcsim.spacecraft._cycle_kernel", "RCSIM_NUMPY_CYCLE")
+#: The compiled module (None when built without a C compiler: the numpy forms run).
+_cycle_kernel: Any = _KERNEL.module  # its functions are called only when available()
 
 
 def kernel_available() -> bool:
     """Whether the compiled passes are built and not switched off by ``RCSIM_NUMPY_CYCLE``."""
-    return _cycle_kernel is not None and os.environ.get("RCSIM_NUMPY_CYCLE", "") != "1"
+    return _KERNEL.available()
 
 
 def _f64(a: np.ndarray) -> np.ndarray:

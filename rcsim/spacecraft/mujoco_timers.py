@@ -18,18 +18,19 @@ import ctypes
 
 import mujoco
 
+from rcsim.spacecraft.optional_kernel import optional_kernel
+
 _ZeroClock = ctypes.CFUNCTYPE(ctypes.c_double)
 #: The installed callback object, kept alive for as long as MuJoCo may call it.
 _callback: object | None = None
 
 
+_KERNEL = optional_kernel("rcsim.spacecraft._zero_clock")
+
+
 def zero_clock_available() -> bool:
     """Whether the optional native zero clock was built with this install."""
-    try:
-        from rcsim.spacecraft import _zero_clock  # type: ignore[attr-defined]  # noqa: F401
-    except ImportError:
-        return False
-    return True
+    return _KERNEL.available()
 
 
 def quiet_stage_timers() -> bool:
@@ -45,10 +46,8 @@ def quiet_stage_timers() -> bool:
     current = mujoco.get_mjcb_time()
     if _callback is not None and current is not None:
         return True
-    if current is not None or not zero_clock_available():
+    if current is not None or _KERNEL.module is None:
         return False
-    from rcsim.spacecraft import _zero_clock  # type: ignore[attr-defined]
-
-    _callback = _ZeroClock(_zero_clock.address())
+    _callback = _ZeroClock(_KERNEL.module.address())
     mujoco.set_mjcb_time(_callback)
     return True

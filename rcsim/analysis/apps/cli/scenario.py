@@ -41,7 +41,8 @@ def register(sub) -> None:
         "run",
         help="fly one scenario: history.parquet, metrics.csv, summary.json, plots",
         description="Fly one named scenario and write DIR/history.parquet (one row per run and "
-        "40 ms cycle), DIR/metrics.csv, DIR/summary.json and the paper-style plots.",
+        "control cycle: 40 ms for the paper's profile), DIR/metrics.csv, DIR/summary.json and the "
+        "paper-style plots; with --vehicle on that vehicle, with its profile.",
     )
     run.add_argument("name", help="scenario name (see `rcsim scenario list`)")
     run.add_argument(
