@@ -22,12 +22,14 @@ def register(subparsers) -> None:
             "Failure-driver analysis (TRAM-like): rank-scale kernel density comparison of "
             "failed and successful runs for every input and every pair, permutation p-values "
             "corrected for the number of tests, failure regions, half-sample stability, kNN "
-            "failure maps and a random-forest second opinion, per case and across cases; "
+            "failure maps and a random-forest ranking for comparison, per case and across cases; "
             "PRIM scenario boxes.  Failure probabilities (overall, per case, per failure "
             "region, per box) carry exact (Clopper-Pearson) 95 % intervals; the per-axis "
-            "outcomes and a second threshold are analysed beside the pooled one.  Writes "
-            "drivers.csv, pairs.csv, cases.csv, summary.csv, outcomes.csv, boxes.csv, "
-            "box_limits.csv, trajectory.csv, driver_regions.csv, figures/ and report.html."
+            "outcomes and a second threshold are analysed beside the pooled one.  One "
+            "false-flag budget (5 %) covers every flag the report shows; the command prints "
+            "them all.  Writes drivers.csv, pairs.csv, cases.csv, summary.csv, outcomes.csv, "
+            "findings.csv, boxes.csv, box_limits.csv, trajectory.csv, driver_regions.csv, "
+            "figures/ and report.html."
         ),
     )
     parser.add_argument(
@@ -110,6 +112,7 @@ def _probability(res) -> str:
 
 
 def _run(args) -> int:
+    from rcsim.analysis.results.drivers.findings import findings, summary_lines
     from rcsim.analysis.results.drivers.pipeline import Settings, analyze
     from rcsim.models.errors import InputError
 
@@ -139,10 +142,10 @@ def _run(args) -> int:
     for note in res.runset.notes:  # the analysis may add one (a subsample)
         print(f"note: {note}")
     if res.has_failures and res.drivers is not None:
-        significant = res.drivers[res.drivers["significant"]]
-        top = significant.head(5)
-        head = f"{len(significant)} significant" + (", top 5" if len(significant) > 5 else "")
-        print(f"{head}: " + (", ".join(top["factor"]) if len(top) else "none"))
+        # Every flag the report shows, family by family (the same list as findings.csv and
+        # the report's summary): none left out without saying how many.
+        for line in summary_lines(findings(res), settings.alpha):
+            print(line)
     elif nf == n:
         print(
             "every run failed: no successful run to compare with, so no input can be a "

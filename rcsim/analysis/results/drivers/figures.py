@@ -58,7 +58,7 @@ def ranking(drivers: pd.DataFrame, top: int = 20) -> Figure:
     ]
     ax.set_yticks(range(len(d)), labels, fontsize=8)
     ax.set_xlabel("score: TV distance failed vs successful, minus its no-effect mean")
-    ax.set_title("Single-factor drivers (red: significant after correction for all inputs)")
+    ax.set_title("Single-factor drivers (red: flagged, within the report's false-flag budget)")
     ax.axvline(0, color="k", lw=0.8)
     ax.grid(axis="x", alpha=0.3)
     return fig
