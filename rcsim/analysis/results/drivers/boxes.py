@@ -32,10 +32,11 @@ inside the limits than of its runs, one-sided hypergeometric p <= :data:`SEPARAT
 box without input limits, the density alone).  A case left out keeps its runs for the next
 box; the limits are pruned again on the cases kept, until both rules agree.
 
-Minimum box size: peeling stops at ``min(5 %, half the share of runs that failed among those
-searched)`` of all runs -- the smallest box that can hold half the failures left to explain
-(the choice rule) at density 1 -- so a rare tail (3 % of runs) can get a box of its own size,
-where a fixed 5 % floor padded it with successful runs (density 0.51 against a true 0.9).
+Minimum box size: peeling stops at ``min(5 %, half the share of runs that failed)`` of all
+runs -- the smallest box that can hold half of all failures at density 1 -- so a rare tail
+(3 % of runs) can get a box of its own size, where a fixed 5 % floor padded it with successful
+runs (density 0.51 against a true 0.9).  The floor is the same for every search: a later box
+smaller than that would be a sliver of an earlier one.
 """
 
 from __future__ import annotations
@@ -406,7 +407,7 @@ def find_boxes(
         left_failed = int(y[remaining].sum())
         if left_failed < MIN_BOX_FAILURES:
             break
-        floor = min(MAX_MIN_SUPPORT, 0.5 * left_failed / n) if min_support is None else min_support
+        floor = min(MAX_MIN_SUPPORT, 0.5 * base) if min_support is None else min_support
         t = peel(
             M,
             y,

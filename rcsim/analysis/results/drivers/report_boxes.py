@@ -145,7 +145,7 @@ def section(res) -> Section:
             "pairs of them (so that a driver acting through a ratio gets a band)"
             + (" and the case" if b.case_names else "")
             + ", peeling 5 % of the box's runs at a time down to the smallest box that could "
-            "hold half the failures left (at most 5 % of all runs). A box describes where the "
+            "hold half of all failures (at most 5 % of all runs). A box describes where the "
             "flagged drivers act; it is not a test of its own. "
             "Coverage is the share of all failed runs inside a box, density the failure "
             "probability inside, support the share of runs inside. The box reported is "
