@@ -125,7 +125,7 @@ def outcomes(res) -> Section:
             blocks.append(
                 text_block(
                     f"Runs failing the rate criterion by axis: {parts} "
-                    + (f"({100.0 * single / nf:.0f} % fail on one axis only)." if nf else "")
+                    + (f"({P.share_text(single, nf)} fail on one axis only)." if nf else "")
                 )
             )
     t = outcome_table(res)

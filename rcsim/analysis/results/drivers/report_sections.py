@@ -16,6 +16,7 @@ from rcsim.analysis.engine import runs_table
 from rcsim.analysis.results.drivers import figures, findings, report_boxes
 from rcsim.analysis.results.drivers import mechanism_text as mechanism
 from rcsim.analysis.results.drivers import report_outcomes as probs
+from rcsim.analysis.results.drivers.probabilities import share_text
 from rcsim.analysis.results.report.html import (
     Section,
     figure_block,
@@ -59,7 +60,7 @@ def summary(res) -> Section:
     facts = [
         ("source", f"{rs.kind} {rs.source.name}"),
         ("runs", n),
-        ("failed runs", f"{nf} ({100.0 * nf / n:.2f} %)"),
+        ("failed runs", share_text(nf, n)),
         *probs.overall_facts(res),
         ("outcome column", rs.outcome),
         (
@@ -112,11 +113,11 @@ def summary(res) -> Section:
         carry = carry[carry["failed"] > 0]
         top = carry.head(5)
         if len(top):
-            share = top["share_of_all_failures"].sum()
             blocks.append(
                 text_block(
                     f"{len(carry)} of {len(cases)} cases have failures; the {len(top)} with the "
-                    f"most ({', '.join(top['case'])}) carry {100 * share:.0f} % of all failures."
+                    f"most ({', '.join(top['case'])}) carry "
+                    f"{share_text(int(top['failed'].sum()), nf)} of all failures."
                 )
             )
         blocks.append(table_block(cases, "Failures per case", max_rows=60))
