@@ -1,4 +1,4 @@
-"""Scenario-discovery boxes: PRIM (Friedman & Fisher 1999) on the significant inputs, their
+"""Scenario-discovery boxes: PRIM (Friedman & Fisher 1999) on the flagged inputs, their
 ratios and the rate case.
 
 A box is a conjunction of limits ``lo <= x_j <= hi`` on a few inputs (and a set of cases) where
@@ -67,9 +67,9 @@ MIN_LIFT = 2.0
 MIN_BOX_FAILURES = 5
 #: Restrictions with a quasi-p-value above this are dropped from a chosen box.
 QP_MAX = 0.05
-#: Inputs (most significant first) whose pairwise ratios are offered to PRIM.
+#: Inputs (the first flagged) whose pairwise ratios are offered to PRIM.
 MAX_RATIO_INPUTS = 8
-#: Most significant inputs PRIM sees (by rank).
+#: Most flagged inputs PRIM sees (best first).
 MAX_INPUTS = 30
 #: Most runs the boxes are searched on; beyond, a seeded uniform subsample of this size (four
 #: times the paper's campaign; a 250,000-run table would otherwise cost ~15 s of CPU).

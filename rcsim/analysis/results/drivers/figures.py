@@ -45,7 +45,7 @@ def failures_per_case(cases) -> Figure:
 
 
 def ranking(drivers: pd.DataFrame, top: int = 20) -> Figure:
-    """Horizontal bars of the top single-factor scores; significant ones red."""
+    """Horizontal bars of the top single-factor scores; flagged ones red."""
     d = drivers.head(top).iloc[::-1]
     fig, ax = new_figure(figsize=(8.0, 0.28 * len(d) + 1.2))
     colors = [FAIL if s else "#999999" for s in d["significant"]]

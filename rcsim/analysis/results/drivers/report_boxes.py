@@ -3,7 +3,7 @@
 
 Files written into the analysis directory: ``boxes.csv`` (one row per box), ``box_limits.csv``
 (one row per restriction, with its quasi-p-value), ``trajectory.csv`` (every peeling step),
-``driver_regions.csv`` (a 1-D region or the reason there is none, per significant driver) and
+``driver_regions.csv`` (a 1-D region or the reason there is none, per flagged driver) and
 ``figures/prim_trajectory.png`` (the same bytes as the report's figure).
 """
 
@@ -183,7 +183,7 @@ def section(res) -> Section:
         if len(missing):
             blocks.append(
                 text_block(
-                    f"{len(missing)} significant inputs have no 1-D failure region (their "
+                    f"{len(missing)} flagged inputs have no 1-D failure region (their "
                     f"P(fail | x) never reaches {MIN_LIFT:g}x the base rate). Each gets its best "
                     "1-D range (PRIM on that input alone, same rule) and the reason: it acts "
                     "jointly (it is a limit of a box) or weakly over all runs."
@@ -201,7 +201,7 @@ def section(res) -> Section:
                             "region_note",
                         ]
                     ],
-                    "Significant inputs without a 1-D region (driver_regions.csv)",
+                    "Flagged inputs without a 1-D region (driver_regions.csv)",
                     max_rows=40,
                 )
             )
