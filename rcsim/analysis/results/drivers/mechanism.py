@@ -9,8 +9,11 @@ by name in :attr:`Mechanism.figures` so that a test can count it again:
   (the driver table's, in the input's units) read as its high side, low side or a middle band;
   the runs and failed runs inside and outside it.  A driver the per-case analysis flags in some
   of the cases analysed alone but not in the others is *confined* to those cases
-  (:attr:`Mechanism.scope`): its figures are counted within them, and the other cases' are
-  counted apart, so that a driver of one case is never described as if it acted everywhere;
+  (:attr:`Mechanism.scope`) unless its region fails more often in the other cases too
+  (one-sided Fisher exact test, p <= :data:`ELSEWHERE_P`: then the other cases lacked the power
+  to flag it, and it is described over all runs with the flagged cases named); confined, its
+  figures are counted within those cases and the other cases' apart, so that a driver of one
+  case is never described as if it acted everywhere;
 * **which axis fails** -- per axis, how many of the region's failed runs end with that axis's
   rate error at or past the failure threshold, against the failed runs outside the region (the
   successful runs are no contrast: below the threshold on every axis by definition);
@@ -47,6 +50,9 @@ FAMILY_CORRELATION = 0.5
 MAX_FAMILIES = 4
 #: Cases named where the region's failed runs come from.
 TOP_CASES = 3
+#: One-sided Fisher exact p-value at or below which a driver flagged in some cases still acts
+#: in the others (its region fails more often there too): it is then not confined.
+ELSEWHERE_P = 0.05
 
 AXES = ("roll", "pitch", "yaw")
 _DIRS = {"fire": "firing-direction", "pos": "positive", "neg": "negative"}
@@ -79,7 +85,12 @@ class Mechanism:
     unit : str
     scope : list of str
         The cases the driver is confined to (flagged per case there and not in the other cases
-        analysed alone); empty: it is described over all runs.
+        analysed alone, and its region shows no excess of failures in those other cases);
+        empty: it is described over all runs.
+    flagged_cases : list of str
+        The cases it is flagged in per case, when that is some but not all of the cases
+        analysed alone and yet its region fails more often in the others too (so it is
+        described over all runs, with these cases named).
     analysed_cases : int
         Cases analysed alone (the per-case family).
     figures : dict
@@ -92,7 +103,7 @@ class Mechanism:
         firings ``firings_failed, firings_ok, late_failed, late_ok, never_failed,
         never_outside, time_failed_s, time_ok_s`` where the columns exist.
     axis : str or None
-        The axis off in most of the region's failed runs.
+        The axis off in more than half of the region's failed runs (None: no one axis is).
     table_firing : dict
         The lookup table's firing time on ``axis`` [s] in the cases the region's failed runs
         come from (most failures first), when the campaign flew a lookup table.
@@ -116,6 +127,7 @@ class Mechanism:
     region: str
     unit: str
     scope: list = field(default_factory=list)
+    flagged_cases: list = field(default_factory=list)
     analysed_cases: int = 0
     figures: dict = field(default_factory=dict)
     axis: str | None = None
@@ -317,7 +329,8 @@ def _axis(mech: Mechanism, runs, focus, outside, ok) -> None:
     if mech.threshold is None:
         mech.threshold_rule = "above the successful runs' 95th percentile"
     offs = {a: fig[f"off_{a}"] for a in AXES if f"off_{a}" in fig}
-    if offs and max(offs.values()) > 0:
+    # "It is the yaw rate that is off" only when that axis is off in most of these failures.
+    if offs and 2 * max(offs.values()) > int(focus.sum()):
         mech.axis = max(offs, key=lambda a: offs[a])
 
 
@@ -386,3 +399,18 @@ def confined_to(res, family: list) -> tuple[list, int]:
     if flagged and len(flagged) < len(analysed):
         return flagged, len(analysed)
     return [], len(analysed)
+
+
+def acts_elsewhere(m: Mechanism) -> bool:
+    """Whether the region of a confined mechanism fails more often than the rest in the cases
+    outside its scope too (one-sided Fisher exact test, p <= :data:`ELSEWHERE_P`)."""
+    from scipy.stats import fisher_exact
+
+    f = m.figures
+    if not m.scope or f.get("other_region_runs", 0) == 0 or f.get("other_out_runs", 0) == 0:
+        return False
+    table = [
+        [f["other_region_failed"], f["other_region_runs"] - f["other_region_failed"]],
+        [f["other_out_failed"], f["other_out_runs"] - f["other_out_failed"]],
+    ]
+    return bool(fisher_exact(table, alternative="greater")[1] <= ELSEWHERE_P)

@@ -25,6 +25,7 @@ import numpy as np
 from rcsim.analysis.results.drivers.mechanism import (
     MAX_FAMILIES,
     Mechanism,
+    acts_elsewhere,
     confined_to,
     explain,
     families,
@@ -95,6 +96,15 @@ def _region_sentences(m: Mechanism) -> list[str]:
         f"({f['out_failed']:,} of {f['out_runs']:,}); the region holds "
         f"{share_text(f['region_failed'], f['failed'])} of all failures."
     )
+    if m.flagged_cases:
+        n = len(m.flagged_cases)
+        out.append(
+            f"Per case it is a flagged driver in {_cases_words(m.flagged_cases)} ({n} of the "
+            f"{m.analysed_cases} cases analysed alone), but in the other cases too runs in "
+            f"this range fail at {rate_text(f['other_region_failed'], f['other_region_runs'])} "
+            f"against {rate_text(f['other_out_failed'], f['other_out_runs'])} outside it, so "
+            "it is described over all runs."
+        )
     cases = f.get("region_cases", [])
     if cases and f.get("region_case_count", 0) > 0:
         named = ", ".join(f"{c} ({k:,})" for c, k in cases)
@@ -108,9 +118,16 @@ def _region_sentences(m: Mechanism) -> list[str]:
 
 def _axis_sentences(m: Mechanism) -> list[str]:
     f, a = m.figures, m.axis
-    if a is None:
-        return []
     limit = f">= {m.threshold:g} deg/s" if m.threshold is not None else m.threshold_rule
+    if a is None:
+        axes = [x for x in ("roll", "pitch", "yaw") if f"off_{x}" in f]
+        if not axes or not f["region_failed"]:
+            return []
+        return [
+            "No one axis is off in most of these failed runs: "
+            + ", ".join(f"{x} {share_text(f[f'off_{x}'], f['region_failed'])}" for x in axes)
+            + f" end with |rate error| {limit} on that axis."
+        ]
     k, n = f[f"off_{a}"], f["region_failed"]
     s = (
         f"It is the {a} rate that is off: {share_text(k, n)} of these failed runs end with "
@@ -266,17 +283,12 @@ def mechanisms(res, max_families: int = MAX_FAMILIES) -> list[Mechanism]:
         rows = d.set_index("factor")
         for fam in families(d, rs.X)[:max_families]:
             scope, analysed = confined_to(res, fam)
-            m = explain(
-                fam[0],
-                rows.loc[fam[0], "failure_region"],
-                rs.X[fam[0]].to_numpy(),
-                rs.y,
-                rs.runs,
-                threshold_of(rs),
-                strata=rs.strata,
-                manifest=rs.manifest,
-                scope=scope,
-            )
+            m = _counted(res, fam[0], rows.loc[fam[0], "failure_region"], scope)
+            if acts_elsewhere(m):  # flagged in some cases, but not confined to them
+                other = {k: v for k, v in m.figures.items() if k.startswith("other_")}
+                m = _counted(res, fam[0], rows.loc[fam[0], "failure_region"], [])
+                m.flagged_cases = scope
+                m.figures.update(other)
             m.analysed_cases = analysed
             m.members = fam[1:]
             if m.side == "none":
@@ -285,6 +297,22 @@ def mechanisms(res, max_families: int = MAX_FAMILIES) -> list[Mechanism]:
             out.append(m)
     res._mechanisms = out
     return out
+
+
+def _counted(res, factor: str, region, scope: list) -> Mechanism:
+    """The figures of ``factor`` over the runs of ``res`` (within ``scope`` when given)."""
+    rs = res.runset
+    return explain(
+        factor,
+        region,
+        rs.X[factor].to_numpy(),
+        rs.y,
+        rs.runs,
+        threshold_of(rs),
+        strata=rs.strata,
+        manifest=rs.manifest,
+        scope=scope,
+    )
 
 
 def strongest(res) -> str:

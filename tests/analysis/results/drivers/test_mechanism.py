@@ -260,3 +260,33 @@ def test_describe_and_units():
     assert mechanism.unit_of("authority_yaw_fire_rad_s2") == "rad/s^2"
     assert mechanism.unit_of("izz_kg_m2") == "kg m^2"
     assert mechanism.describe("izz_kg_m2") == "the moment of inertia about z (Izz)"
+
+
+def test_a_driver_of_every_case_flagged_in_a_few_is_not_confined_to_them():
+    """A tail of ``a`` fails runs in every case (stratified ``tail``, 26 x 200 runs): per case
+    only a few cases have the power to flag it.  Its region fails more often in the other cases
+    too, so the paragraph describes it over all runs and names the flagged cases, with the
+    other cases' counts (recounted); the failing axis is drawn at random (synthetic.axis_errors),
+    so no one axis is said to be off."""
+    from rcsim.analysis.results.drivers.synthetic import axis_errors
+
+    X, failed, case = stratified_campaign(
+        "tail", 0, runs_per_case=200, n_noise=10, failure_rate=0.01
+    )
+    df = pd.concat([X, axis_errors(failed, 0)], axis=1).assign(case=case, failed=failed)
+    res = analysed(df, inputs=list(X.columns), permutations=199)
+    m = text.mechanisms(res)[0]
+    assert m.factor == "a" and m.scope == [] and 0 < len(m.flagged_cases) < m.analysed_cases
+    r, other = inside(X["a"].to_numpy(), m.region), ~np.isin(case, m.flagged_cases)
+    k_in, n_in = int((r & other & failed).sum()), int((r & other).sum())
+    k_out, n_out = int((~r & other & failed).sum()), int((~r & other).sum())
+    t = clean(m.text)
+    for words in (
+        "Runs fail when a (a) is high",
+        f"({len(m.flagged_cases)} of the {m.analysed_cases} cases analysed alone), but in the "
+        f"other cases too runs in this range fail at {rate(k_in, n_in)} against "
+        f"{rate(k_out, n_out)} outside it, so it is described over all runs",
+        "No one axis is off in most of these failed runs",
+    ):
+        assert words in t, (words, t)
+    assert "It is the" not in t and "only within" not in t
