@@ -218,7 +218,7 @@ def test_loop_json_lists_every_finding(loop_dir):
     if found.empty:
         assert line.startswith("no finding: nothing is flagged")
     else:
-        assert line.startswith(f"{len(found)} findings")
+        assert line.startswith(f"{len(found)} finding")
         for _, group in found.groupby("family", sort=False):
             for finding in group["finding"].head(LISTED):
                 assert finding in line

@@ -179,8 +179,9 @@ def summary_lines(found: list[Finding], alpha: float, listed: int = LISTED) -> l
     if not found:
         return [f"no finding: nothing is flagged (report-wise false-flag rate {rate})"]
     counts = {f: sum(x.family == f for x in found) for f in FAMILY_WEIGHTS}
-    parts = ", ".join(f"{n} {FAMILY_WORDS[f]}" for f, n in counts.items() if n)
-    lines = [f"{len(found)} findings (report-wise false-flag rate {rate}): {parts}"]
+    parts = ", ".join(f"{n} {_words(f, n)}" for f, n in counts.items() if n)
+    head = f"{len(found)} finding{'s' if len(found) > 1 else ''}"
+    lines = [f"{head} (report-wise false-flag rate {rate}): {parts}"]
     for fam, n in counts.items():
         if not n:
             continue
@@ -188,6 +189,12 @@ def summary_lines(found: list[Finding], alpha: float, listed: int = LISTED) -> l
         more = f" and {n - listed} more (findings.csv)" if n > listed else ""
         lines.append(f"  {FAMILY_WORDS[fam]}: {', '.join(labels[:listed])}{more}")
     return lines
+
+
+def _words(family: str, n: int) -> str:
+    """The family's name, singular for one finding ("1 single driver")."""
+    words = FAMILY_WORDS[family]
+    return words if n != 1 else words[:-1]
 
 
 def summary_text(found: list[Finding], alpha: float, listed: int = LISTED) -> str:

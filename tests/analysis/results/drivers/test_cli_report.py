@@ -120,8 +120,8 @@ def test_cli_lists_every_finding_the_report_shows(campaign, tmp_path, capsys):
     lines = capsys.readouterr().out.splitlines()
     found = pd.read_csv(out / "findings.csv", keep_default_na=False)
     assert len(found) > 0
-    head = next(s for s in lines if "findings (report-wise false-flag rate 5 %)" in s)
-    assert head.startswith(f"{len(found)} findings")
+    head = next(s for s in lines if "(report-wise false-flag rate 5 %)" in s)
+    assert head.startswith(f"{len(found)} finding")
     listed = " ".join(lines)
     for _, group in found.groupby("family", sort=False):
         for finding in group["finding"].head(LISTED):
@@ -155,7 +155,7 @@ def test_summary_lines_name_every_finding_or_say_how_many_more():
     found.append(Finding("per_case", "a", 0.005, 0.01, case="rate-05"))
     lines = summary_lines(found, 0.05, listed=8)
     assert lines[0] == (
-        "12 findings (report-wise false-flag rate 5 %): 11 single drivers, 1 per-case drivers"
+        "12 findings (report-wise false-flag rate 5 %): 11 single drivers, 1 per-case driver"
     )
     assert lines[1] == "  single drivers: " + ", ".join(f"x{k}" for k in range(8)) + (
         " and 3 more (findings.csv)"
