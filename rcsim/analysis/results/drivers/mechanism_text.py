@@ -50,6 +50,15 @@ def _cases_words(cases: list) -> str:
     return cases[0] if len(cases) == 1 else ", ".join(cases[:-1]) + " and " + cases[-1]
 
 
+def _named(m: Mechanism, capital: bool = False) -> str:
+    """The driver in words and by name ("the moment of inertia about z (Izz) (izz_kg_m2)");
+    by name alone when there are no other words for it (a column of a table file)."""
+    if m.description == m.factor:
+        return m.factor
+    words = f"{m.description[:1].upper()}{m.description[1:]}" if capital else m.description
+    return f"{words} ({m.factor})"
+
+
 def _where(m: Mechanism) -> str:
     f, unit = m.figures, f" {m.unit}" if m.unit else ""
     of = "of these cases' runs" if m.scope else "of runs"
@@ -65,12 +74,12 @@ def _where(m: Mechanism) -> str:
 
 def _region_sentences(m: Mechanism) -> list[str]:
     f = m.figures
-    name = f"{m.description} ({m.factor})"
+    name = _named(m)
     out = []
     if m.scope:
         those = _cases_words(m.scope)
         out.append(
-            f"{name[:1].upper()}{name[1:]} is a flagged driver only within {those} "
+            f"{_named(m, capital=True)} is a flagged driver only within {those} "
             f"({len(m.scope)} of the {m.analysed_cases} cases analysed alone; family-wise over "
             "every case and input)."
         )
@@ -214,7 +223,7 @@ def paragraph(m: Mechanism) -> str:
     if m.side == "none":
         base = rate_text(m.figures["failed"], m.figures["runs"])
         out = [
-            f"{m.description[:1].upper()}{m.description[1:]} ({m.factor}) is a flagged driver, "
+            f"{_named(m, capital=True)} is a flagged driver, "
             "but no range of it alone reaches twice the base failure rate "
             f"({base}).",
             *(m.context or ["No scenario box and no flagged interaction bounds it."]),
@@ -323,7 +332,7 @@ def strongest(res) -> str:
         return ""
     m = mechs[0]
     f = m.figures
-    name = f"{m.description[:1].upper()}{m.description[1:]} ({m.factor})"
+    name = _named(m, capital=True)
     if m.side == "none":
         return f"{name} is the strongest driver; no range of it alone reaches twice the base rate. "
     scope = f" within {_cases_words(m.scope)}" if m.scope else ""

@@ -282,7 +282,7 @@ def test_a_driver_of_every_case_flagged_in_a_few_is_not_confined_to_them():
     k_out, n_out = int((~r & other & failed).sum()), int((~r & other).sum())
     t = clean(m.text)
     for words in (
-        "Runs fail when a (a) is high",
+        "Runs fail when a is high",
         f"({len(m.flagged_cases)} of the {m.analysed_cases} cases analysed alone), but in the "
         f"other cases too runs in this range fail at {rate(k_in, n_in)} against "
         f"{rate(k_out, n_out)} outside it, so it is described over all runs",
