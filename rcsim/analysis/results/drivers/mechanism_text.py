@@ -224,8 +224,7 @@ def paragraph(m: Mechanism) -> str:
         base = rate_text(m.figures["failed"], m.figures["runs"])
         out = [
             f"{_named(m, capital=True)} is a flagged driver, "
-            "but no range of it alone reaches twice the base failure rate "
-            f"({base}).",
+            f"but no range of it alone reaches twice the base failure rate, {base}.",
             *(m.context or ["No scenario box and no flagged interaction bounds it."]),
         ]
     else:
