@@ -26,7 +26,9 @@ from rcsim.analysis.results.drivers.mechanism import (
     MAX_FAMILIES,
     Mechanism,
     acts_elsewhere,
+    case_region,
     confined_to,
+    elsewhere_counts,
     explain,
     families,
     threshold_of,
@@ -61,7 +63,9 @@ def _named(m: Mechanism, capital: bool = False) -> str:
 
 def _where(m: Mechanism) -> str:
     f, unit = m.figures, f" {m.unit}" if m.unit else ""
-    of = "of these cases' runs" if m.scope else "of runs"
+    of = "of runs"
+    if m.scope:
+        of = "of that case's runs" if len(m.scope) == 1 else "of these cases' runs"
     share = _p(f["region_runs"], f["runs"])
     return {
         "high": f"high (its top {share} {of}, {m.region}{unit})",
@@ -105,15 +109,7 @@ def _region_sentences(m: Mechanism) -> list[str]:
         f"({f['out_failed']:,} of {f['out_runs']:,}); the region holds "
         f"{share_text(f['region_failed'], f['failed'])} of all failures."
     )
-    if m.flagged_cases:
-        n = len(m.flagged_cases)
-        out.append(
-            f"Per case it is a flagged driver in {_cases_words(m.flagged_cases)} ({n} of the "
-            f"{m.analysed_cases} cases analysed alone), but in the other cases too runs in "
-            f"this range fail at {rate_text(f['other_region_failed'], f['other_region_runs'])} "
-            f"against {rate_text(f['other_out_failed'], f['other_out_runs'])} outside it, so "
-            "it is described over all runs."
-        )
+    out += _flagged_cases_sentence(m)
     cases = f.get("region_cases", [])
     if cases and f.get("region_case_count", 0) > 0:
         named = ", ".join(f"{c} ({k:,})" for c, k in cases)
@@ -123,6 +119,30 @@ def _region_sentences(m: Mechanism) -> list[str]:
             + (f", most from {named}." if f["region_case_count"] > 1 else f": {named}.")
         )
     return out
+
+
+def _flagged_cases_sentence(m: Mechanism) -> list[str]:
+    """For a driver flagged in some cases that acts in the others too (not confined)."""
+    if not m.flagged_cases:
+        return []
+    f, n = m.figures, len(m.flagged_cases)
+    head = (
+        f"Per case it is a flagged driver in {_cases_words(m.flagged_cases)} ({n} of the "
+        f"{m.analysed_cases} cases analysed alone), but it acts in the other cases too: "
+    )
+    shown = []
+    if f.get("other_cases"):
+        shown.append(
+            f"in {f['other_cases_shown']} of the {f['other_cases']} other cases analysed alone it "
+            "differs between failed and successful runs at p < 0.05 (uncorrected)"
+        )
+    if f.get("other_region_runs") and f.get("other_out_runs"):
+        shown.append(
+            "runs in this range fail at "
+            f"{rate_text(f['other_region_failed'], f['other_region_runs'])} against "
+            f"{rate_text(f['other_out_failed'], f['other_out_runs'])} outside it"
+        )
+    return [head + "; ".join(shown) + "; so it is described over all runs."]
 
 
 def _axis_sentences(m: Mechanism) -> list[str]:
@@ -222,9 +242,22 @@ def paragraph(m: Mechanism) -> str:
     """The paragraph of one :class:`~.mechanism.Mechanism` (module docstring)."""
     if m.side == "none":
         base = rate_text(m.figures["failed"], m.figures["runs"])
+        if m.scope:
+            those = "that case's" if len(m.scope) == 1 else "those cases'"
+            head = (
+                f"{_named(m, capital=True)} is a flagged driver only within "
+                f"{_cases_words(m.scope)} ({len(m.scope)} of the {m.analysed_cases} cases "
+                "analysed alone; family-wise over every case and input), but no range of it "
+                f"alone reaches twice {those} failure rate, {base}."
+            )
+        else:
+            head = (
+                f"{_named(m, capital=True)} is a flagged driver, but no range of it alone "
+                f"reaches twice the base failure rate, {base}."
+            )
         out = [
-            f"{_named(m, capital=True)} is a flagged driver, "
-            f"but no range of it alone reaches twice the base failure rate, {base}.",
+            head,
+            *_flagged_cases_sentence(m),
             *(m.context or ["No scenario box and no flagged interaction bounds it."]),
         ]
     else:
@@ -291,16 +324,29 @@ def mechanisms(res, max_families: int = MAX_FAMILIES) -> list[Mechanism]:
         rows = d.set_index("factor")
         for fam in families(d, rs.X)[:max_families]:
             scope, analysed = confined_to(res, fam)
-            m = _counted(res, fam[0], rows.loc[fam[0], "failure_region"], scope)
+            factor, region = fam[0], rows.loc[fam[0], "failure_region"]
+            if scope:  # a driver of some cases: its region as their own fit has it
+                factor, region = case_region(res, fam, scope) or (factor, region)
+            m = _counted(res, factor, region, scope)
+            counts = {}
+            if scope:
+                shown, others = elsewhere_counts(res, fam, scope)
+                counts = {"other_cases_shown": shown, "other_cases": others}
+                m.figures.update(counts)
             if acts_elsewhere(m):  # flagged in some cases, but not confined to them
-                other = {k: v for k, v in m.figures.items() if k.startswith("other_")}
-                m = _counted(res, fam[0], rows.loc[fam[0], "failure_region"], [])
+                pooled = rows.loc[fam[0], "failure_region"]
+                # The other cases' figures again, in the pooled region the paragraph states.
+                scoped = _counted(res, fam[0], pooled, scope)
+                m = _counted(res, fam[0], pooled, [])
                 m.flagged_cases = scope
-                m.figures.update(other)
+                m.figures.update(
+                    {k: v for k, v in scoped.figures.items() if k.startswith("other_")}
+                )
+                m.figures.update(counts)
             m.analysed_cases = analysed
-            m.members = fam[1:]
+            m.members = [f for f in fam if f != m.factor]
             if m.side == "none":
-                m.context = joint_context(res, fam[0])
+                m.context = joint_context(res, m.factor)
             m.text = paragraph(m)
             out.append(m)
     res._mechanisms = out
