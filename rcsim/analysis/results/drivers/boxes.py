@@ -25,12 +25,13 @@ test of the box's failures against the failure rate of the box without it, > ``Q
 removed, the least significant first.
 
 A box holds only what fails (issue 29: a box padded with four cases that never failed, and a
-threshold that did nothing in one of its two cases).  :data:`CASE_RULE`: a case stays in a box
-only when, among that case's runs searched, the box's input limits hold failures at least
+threshold that did nothing in one of its two cases).  :data:`CASE_RULE`: a case is in a box
+exactly when, among that case's runs searched, the box's input limits hold failures at least
 ``MIN_LIFT`` times the overall failure rate *and* separate them -- more of the case's failures
 inside the limits than of its runs, one-sided hypergeometric p <= :data:`SEPARATION_P` (for a
-box without input limits, the density alone).  A case left out keeps its runs for the next
-box; the limits are pruned again on the cases kept, until both rules agree.
+box without input limits, the density alone).  Every case is judged, also those the peeling
+dropped.  A case left out keeps its runs for the next box; the limits are pruned again on the
+cases kept, until both rules agree.
 
 Minimum box size: peeling stops at ``min(5 %, half the share of runs that failed)`` of all
 runs -- the smallest box that can hold half of all failures at density 1 -- so a rare tail
@@ -78,7 +79,7 @@ MAX_BOX_RUNS = 100_000
 CASE = "case"
 #: The rule that keeps a case in a box (module docstring).
 CASE_RULE = (
-    "a case stays in a box only when the box's limits hold its failures at least "
+    "a case is in a box exactly when the box's limits hold its failures at least "
     f"{MIN_LIFT:g}x the overall failure rate and separate them (more of the case's failures "
     "inside than of its runs, one-sided hypergeometric p <= 0.05)"
 )
@@ -172,18 +173,21 @@ def case_rule(X, y, codes, lo, hi, cats, rows, base: float) -> np.ndarray:
 
 
 def settle(X, y, codes, lo, hi, cats, rows, base: float, rounds: int = 5):
-    """The pruned box with :func:`case_rule` applied: cases out, limits pruned again on the
-    cases kept, until the two agree (``cats`` all False: no case holds the box)."""
+    """The pruned box with its cases set by :func:`case_rule` over *every* case (those the
+    peeling dropped too: peeling for density drops cases that happen to hold fewer failures,
+    and a tail that acts in every case lost 8 of 26 to it), limits pruned again on the cases
+    kept, until the two agree (``cats`` all False: no case holds the box)."""
     lo, hi, cats = prune(X, y, codes, lo, hi, cats, rows)
     if codes is None or cats.size < 2:
         return lo, hi, cats
+    every = np.ones_like(cats)
     for _ in range(rounds):
-        kept = case_rule(X, y, codes, lo, hi, cats, rows, base)
+        kept = case_rule(X, y, codes, lo, hi, every, rows, base)
         if np.array_equal(kept, cats) or not kept.any():
             return lo, hi, kept
         cats = kept
         lo, hi, _ = prune(X, y, codes, lo, hi, cats, rows, cases=False)
-    return lo, hi, case_rule(X, y, codes, lo, hi, cats, rows, base)
+    return lo, hi, case_rule(X, y, codes, lo, hi, every, rows, base)
 
 
 @dataclass
