@@ -208,6 +208,26 @@ def smallest_p(n_permutations: int) -> float:
     return 1.0 / (int(n_permutations) + 1.0)
 
 
+def blind_families(res) -> list[str]:
+    """The families that can flag nothing with the analysis's permutations (their smallest
+    p-value, ``1 / (B + 1)``, not below their share; interactions: their joint test's gate),
+    each with that smallest p-value in words."""
+    st = res.settings
+    levels = getattr(res, "levels", {}) or {}
+    out = [
+        f"{FAMILY_WORDS[f]} (smallest p with {st.n_permutations} permutations: "
+        f"1/{st.n_permutations + 1})"
+        for f in ("singles", "per_case", "outcomes")
+        if f in levels and smallest_p(st.n_permutations) >= levels[f]
+    ]
+    if "interactions" in levels and smallest_p(st.pair_b) >= float(st.alpha):
+        out.append(
+            f"interactions (the joint test's smallest p with {st.pair_b} permutations: "
+            f"1/{st.pair_b + 1})"
+        )
+    return out
+
+
 def method_text(res) -> str:
     """The budget as the report's method section states it."""
     st = res.settings
@@ -216,16 +236,7 @@ def method_text(res) -> str:
     shares = "; ".join(
         f"{FAMILY_WORDS[f]} {_level(lv)}" for f, lv in levels.items() if f in FAMILY_WORDS
     )
-    resolution = {
-        "singles": st.n_permutations,
-        "per_case": st.n_permutations,
-        "outcomes": st.n_permutations,
-    }
-    blind = [
-        f"{FAMILY_WORDS[f]} (smallest p with {b} permutations: 1/{b + 1})"
-        for f, b in resolution.items()
-        if f in levels and smallest_p(b) >= levels[f]
-    ]
+    blind = blind_families(res)
     text = (
         f"One false-flag budget for the whole report: the chance that any flag it shows is "
         f"false is at most {_level(alpha)}. It is split over the families of flags by weight "

@@ -181,3 +181,26 @@ def test_sum_distribution_is_the_convolution_of_the_cases():
             for s in range(4):
                 want = np.convolve(want, prob[p, s])
             np.testing.assert_allclose(got[p], want, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "permutations, blind",
+    [
+        # 1/(B + 1) against the shares 2 %, 1 %, 1 %, 1 % and the joint gate's 5 % (pairs:
+        # B // 2 permutations, at least 19).
+        (39, {"single drivers", "per-case drivers", "outcome drivers", "interactions"}),
+        (99, {"per-case drivers", "outcome drivers"}),
+        (199, set()),
+    ],
+)
+def test_the_report_says_which_family_its_permutations_leave_blind(permutations, blind):
+    from types import SimpleNamespace
+
+    from rcsim.analysis.results.drivers.findings import blind_families, family_levels
+    from rcsim.analysis.results.drivers.pipeline import Settings
+
+    res = SimpleNamespace(
+        settings=Settings(n_permutations=permutations),
+        levels=family_levels(0.05, ["singles", "interactions", "per_case", "outcomes"]),
+    )
+    assert {b.split(" (")[0] for b in blind_families(res)} == blind
