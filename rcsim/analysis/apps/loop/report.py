@@ -293,7 +293,7 @@ def _drivers(out: Path) -> Section:
                 d / "figures" / "ranking.png",
                 _strongest(table, pd.read_csv(d / "summary.csv"))
                 + "Single-factor drivers: score, corrected p-value and stability; red "
-                "bars are significant.",
+                "bars are flagged (within the report's 5 % false-flag budget).",
             )
         )
         blocks.append(table_block(table[cols], "Driver ranking (drivers/drivers.csv)", max_rows=12))
