@@ -400,12 +400,12 @@ def regions_caption(res, factors) -> str:
         side, _ = parse_region(region)
         if side == "none":
             continue
-        k = int((in_region(res.runset.X[f].to_numpy(), region) & y).sum())
-        count = share_text(k, int(y.sum()))
+        k, kf = int((in_region(res.runset.X[f].to_numpy(), region) & y).sum()), int(y.sum())
+        count = f"{k:,} of {kf:,} failures, {pct(k / kf)} %"
         if side in ("high", "low"):
-            said.append(f"{side} {f} ({count} of the failures)")
+            said.append(f"{side} {f} ({count})")
         else:
-            said.append(f"{f} in {region} ({count} of the failures)")
+            said.append(f"{f} in {region} ({count})")
     return f"Failures concentrate at {'; '.join(said)}. " if said else ""
 
 

@@ -39,7 +39,7 @@ def trajectory_figure(b: BoxResults) -> Figure:
         if reported:
             box = b.boxes[k]
             # The step chosen on the trajectory (ring) and the box reported (star): the same
-            # box less the limits that did not matter, so a little more coverage.
+            # box less the limits that did not matter, its cases set by the case rule.
             ax.plot(
                 100 * t.coverage[step],
                 100 * t.density[step],
@@ -74,7 +74,8 @@ def trajectory_figure(b: BoxResults) -> Figure:
     ax.set_ylabel("density: failure probability inside the box [%]")
     ax.set_title(
         "PRIM peeling trajectories: each point is a box\n"
-        "(ring: box chosen on the trajectory; star: the same box less limits that do not matter)",
+        "(ring: box chosen on the trajectory; star: the box reported -- limits that do not "
+        "matter dropped, cases by the case rule)",
         fontsize=10,
     )
     ax.set_xlim(0, 102)

@@ -246,7 +246,7 @@ def test_captions_and_section_conclude(high):
     )
     assert f"{k:,} of {kf:,} ({pct(k / kf)} %) of the failures" in clean(text.strongest(res))
     assert clean(text.regions_caption(res, ["jet_14_thrust_n"])).startswith(
-        f"Failures concentrate at high jet_14_thrust_n ({k:,} of {kf:,}"
+        f"Failures concentrate at high jet_14_thrust_n ({k:,} of {kf:,} failures, {pct(k / kf)} %)"
     )
     section = text.section(res)
     assert section.anchor == "mechanism"
