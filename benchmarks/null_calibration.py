@@ -82,7 +82,9 @@ def main() -> None:
     ap.add_argument("--summarise", nargs="+", type=Path, default=None, help="only count CSVs")
     args = ap.parse_args()
     if args.summarise:
-        summarise(pd.concat([pd.read_csv(p) for p in args.summarise], ignore_index=True))
+        # keep_default_na=False: pandas reads the scenario name "null" as a missing value.
+        frames = [pd.read_csv(p, keep_default_na=False, na_values=[""]) for p in args.summarise]
+        summarise(pd.concat(frames, ignore_index=True))
         return
     settings = calibration_settings(n_permutations=args.permutations)
     rows = []
