@@ -103,21 +103,31 @@ def campaign(tmp_path_factory, model):
 
 
 @pytest.fixture(scope="module")
-def analysed(campaign, tmp_path_factory):
+def analysed_with_output(campaign, tmp_path_factory):
+    """The analysis directory and what the command printed (one run for the module)."""
+    import contextlib
+    import io
+
     out = tmp_path_factory.mktemp("an") / "drivers"
+    printed = io.StringIO()
     # 199 permutations: every family's share of the 5 % budget (1 % for the per-case and outcome
     # families) is reachable (p >= 1/(B + 1)).
-    assert main(["analyze", str(campaign), "--permutations", "199", "--out", str(out)]) == 0
-    return out
+    with contextlib.redirect_stdout(printed):
+        assert main(["analyze", str(campaign), "--permutations", "199", "--out", str(out)]) == 0
+    return out, printed.getvalue()
 
 
-def test_cli_lists_every_finding_the_report_shows(campaign, tmp_path, capsys):
+@pytest.fixture(scope="module")
+def analysed(analysed_with_output):
+    return analysed_with_output[0]
+
+
+def test_cli_lists_every_finding_the_report_shows(analysed_with_output):
     """Issue 16: the CLI printed 5 of 18 significant drivers without saying so; issue 29: it
     printed "0 significant: none" beside a per-case flag.  The CLI prints every flag of every
     family (findings.csv's rows, the report's list), or says how many more."""
-    out = tmp_path / "o"
-    assert main(["analyze", str(campaign), "--permutations", "199", "--out", str(out)]) == 0
-    lines = capsys.readouterr().out.splitlines()
+    out, printed = analysed_with_output
+    lines = printed.splitlines()
     found = pd.read_csv(out / "findings.csv", keep_default_na=False)
     assert len(found) > 0
     head = next(s for s in lines if "(report-wise false-flag rate 5 %)" in s)
