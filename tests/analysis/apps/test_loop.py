@@ -173,3 +173,54 @@ def test_vehicle_refusal_names_the_file_once(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("fourjets.toml") == 1 and "vehicle: " not in err
     assert "cannot fly case 'rate-01'" in err and "together" in err
+
+
+def test_headline_compares_the_same_fresh_seed_with_intervals(loop_dir):
+    """Issue 29: the headline set the refined table's failures on the fresh seed against the
+    original's on the search seed (different runs).  It now states both tables' failures on
+    the same fresh seed -- the original table's campaign_check and the refined table's
+    campaign_after, counted again here from their runs -- each with its Clopper-Pearson 95 %
+    interval (scipy's Beta quantiles)."""
+    import html
+
+    from scipy import stats
+
+    from rcsim.analysis.results.drivers.probabilities import pct
+
+    def rate(k, n):
+        lo = stats.beta.ppf(0.025, k, n - k + 1) if k > 0 else 0.0
+        hi = stats.beta.ppf(0.975, k + 1, n - k) if k < n else 1.0
+        return f"{pct(k / n)} % (95 % CI {pct(lo)}-{pct(hi)} %)"
+
+    old = pd.read_parquet(loop_dir / "campaign_check" / "runs.parquet")
+    new = pd.read_parquet(loop_dir / "campaign_after" / "runs.parquet")
+    n = len(old)
+    assert len(new) == n
+    kb, ka = int(old["failed"].sum()), int(new["failed"].sum())
+    want = (
+        f"{kb:,} of {n:,} runs failed with the original table, {rate(kb, n)}; "
+        f"{ka:,} of {n:,} with the refined table, {rate(ka, n)}"
+    )
+    report = html.unescape((loop_dir / "report.html").read_text())
+    assert f"On a seed no decision used (fresh seed {SMALL.held_out_seed}" in report
+    assert want in report
+    state = json.loads((loop_dir / "loop.json").read_text())
+    assert state["done"]["check"]["failed_fresh"] == want
+
+
+def test_loop_json_lists_every_finding(loop_dir):
+    """Issue 29: loop.json said "significant A, B, C" for 3 of 8 drivers.  Its drivers line is
+    the analysis's full list (drivers/findings.csv), each family named or "N more"."""
+    from rcsim.analysis.results.drivers.findings import LISTED
+
+    found = pd.read_csv(loop_dir / "drivers" / "findings.csv", keep_default_na=False)
+    line = json.loads((loop_dir / "loop.json").read_text())["done"]["drivers"]["findings"]
+    if found.empty:
+        assert line.startswith("no finding: nothing is flagged")
+    else:
+        assert line.startswith(f"{len(found)} finding")
+        for _, group in found.groupby("family", sort=False):
+            for finding in group["finding"].head(LISTED):
+                assert finding in line
+            if len(group) > LISTED:
+                assert f"and {len(group) - LISTED} more" in line

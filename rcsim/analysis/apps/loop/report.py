@@ -20,6 +20,8 @@ from rcsim.analysis.apps.refinement.evidence import changed_cells
 from rcsim.analysis.apps.refinement.plots import most_improved_case
 from rcsim.analysis.engine import runs_table
 from rcsim.analysis.engine.campaign.spec import load_spec
+from rcsim.analysis.results.drivers.findings import Finding, summary_lines
+from rcsim.analysis.results.drivers.probabilities import pct, rate_text, share_text
 from rcsim.analysis.results.report.html import (
     Section,
     figure_block,
@@ -80,6 +82,18 @@ def _side_by_side(*blocks: str) -> str:
     )
 
 
+def fresh_seed_change(log: pd.DataFrame) -> str:
+    """The loop's headline figures: failed runs on the fresh seed, the table before refinement
+    against the refined table -- the same dispersed runs, so the one contrast that could only
+    differ by the table -- each with its Clopper-Pearson 95 % interval."""
+    n = int(log["fresh_runs"].sum())
+    before, after = int(log["failed_fresh_before"].sum()), int(log["failed_fresh_after"].sum())
+    return (
+        f"{before:,} of {n:,} runs failed with the original table, {rate_text(before, n)}; "
+        f"{after:,} of {n:,} with the refined table, {rate_text(after, n)}"
+    )
+
+
 def _counts(campaign: Path) -> pd.DataFrame:
     cases = pd.read_csv(campaign / "cases.csv")
     return cases[["case", "runs", "failed", "one_firing_pct", "firings_per_run_mean"]]
@@ -97,6 +111,7 @@ def _summary(
         dispersions = "Table 5 dispersions"
     n_changed = int(log["changed"].sum())
     fb, fa = int(before["failed"].sum()), int(after["failed"].sum())
+    fb_fresh, n_fresh = int(log["failed_fresh_before"].sum()), int(log["fresh_runs"].sum())
     label = _table_label(out, settings)
     channels = "channels" in log
     vehicle = spec.vehicle
@@ -112,8 +127,15 @@ def _summary(
             f"any axis ends with |rate error| >= {threshold:g} deg/s, or the "
             "simulation fails (Gambone sec. III)",
         ),
-        ("failed runs, before (search seed)", f"{fb} of {int(before['runs'].sum())}"),
-        ("failed runs, after (fresh seed)", f"{fa} of {int(after['runs'].sum())}"),
+        ("failed runs, search seed (original table)", f"{fb:,} of {int(before['runs'].sum()):,}"),
+        (
+            "failed runs, fresh seed (original table)",
+            f"{fb_fresh:,} of {n_fresh:,}, {rate_text(fb_fresh, n_fresh)}",
+        ),
+        (
+            "failed runs, fresh seed (refined table)",
+            f"{fa:,} of {n_fresh:,}, {rate_text(fa, n_fresh)}",
+        ),
         (
             "repeated-firing runs (search seed)",
             f"{int(log['repeated_search_before'].sum())} -> "
@@ -139,10 +161,10 @@ def _summary(
     )
     blocks = [
         text_block(
-            f"{name[0].upper()}{name[1:]} was flown over {s['runs_per_case']} dispersed runs "
-            f"of each of the 26 rate cases; {fb} runs failed. The refinement changed "
-            f"{n_changed} cases; flown again on a seed the search never saw, the refined table "
-            f"failed {fa} runs."
+            f"On a seed no decision used (fresh seed {fresh}, {s['runs_per_case']} dispersed "
+            f"runs of each of the 26 rate cases), {fresh_seed_change(log)}. The refinement "
+            f"changed {n_changed} of {len(log)} cases; it searched {name} on seed {s['seed']}, "
+            f"where {fb:,} of {int(before['runs'].sum()):,} runs failed."
         ),
         table_block(pd.DataFrame(rows, columns=["", "value"]), "The loop"),
         text_block(
@@ -173,9 +195,8 @@ def _before_after(
     blocks = [
         _img(
             plots / "failures_by_case.png",
-            f"Refined, the table fails {int(after['failed'].sum())} runs on the fresh seed "
-            f"against {int(before['failed'].sum())} before on the search seed"
-            f" ({int(log['changed'].sum())} cases changed). "
+            f"On the fresh seed, {fresh_seed_change(log)} ({int(log['changed'].sum())} cases "
+            "changed). "
             "Failed runs (top) and runs that needed more than one firing to reach the "
             "commanded rate (bottom), per rate case, before (red) and after (blue) refinement, "
             "on the search seed (left) and on the held-out fresh seed (right). * marks the "
@@ -244,6 +265,7 @@ def _drivers(out: Path) -> Section:
     drivers_csv = d / "drivers.csv"
     if drivers_csv.is_file() and len(pd.read_csv(drivers_csv)):
         table = pd.read_csv(drivers_csv)
+        blocks.append(text_block(*_findings_lines(d)))
         cols = [
             c
             for c in (
@@ -254,16 +276,16 @@ def _drivers(out: Path) -> Section:
                 "failure_region",
                 "region_fail_share",
                 "stability",
-                "second_opinion",
+                "forest_rank",
             )
             if c in table
         ]
         blocks.append(
             _img(
                 d / "figures" / "ranking.png",
-                _strongest(table)
+                _strongest(table, pd.read_csv(d / "summary.csv"))
                 + "Single-factor drivers: score, corrected p-value and stability; red "
-                "bars are significant.",
+                "bars are flagged (within the report's 5 % false-flag budget).",
             )
         )
         blocks.append(table_block(table[cols], "Driver ranking (drivers/drivers.csv)", max_rows=12))
@@ -288,19 +310,48 @@ def _drivers(out: Path) -> Section:
     return Section("Failure drivers", blocks, "drivers")
 
 
-def _strongest(table: pd.DataFrame) -> str:
-    """The caption's conclusion: the best significant driver and its failure region."""
+def _strongest(table: pd.DataFrame, summary: pd.DataFrame) -> str:
+    """The caption's conclusion: the best flagged driver and the failures in its region, as the
+    analysis counted them on its runs (``region_failed``, ``region_runs`` of drivers.csv; the
+    totals of summary.csv)."""
     sig = table[table["significant"].astype(bool)] if "significant" in table else table[:0]
     if not len(sig):
-        return "No input is a significant driver. "
+        return "No input is a flagged driver. "
     row = sig.iloc[0]
     region = row.get("failure_region")
-    where = (
-        f" (failure region {region}, {100 * row['region_fail_share']:.0f} % of failures)"
-        if isinstance(region, str) and region
-        else ""
+    if not (isinstance(region, str) and region) or "region_failed" not in row:
+        return f"{row['factor']} is the strongest driver (no 1-D failure region). "
+    runs, failed = int(summary["runs"].iloc[0]), int(summary["failed"].iloc[0])
+    return (
+        f"{row['factor']} is the strongest driver: its failure region {region} holds "
+        f"{share_text(int(row['region_failed']), failed)} of the failed runs in "
+        f"{pct(int(row['region_runs']) / runs)} % of the runs. "
     )
-    return f"{row['factor']} is the strongest driver{where}. "
+
+
+def _findings_lines(d: Path) -> list[str]:
+    """Every flag of the driver analysis (drivers/findings.csv), or how many more."""
+    path = d / "findings.csv"
+    if not path.is_file():
+        return ["(findings.csv not written)"]
+    frame = pd.read_csv(path, keep_default_na=False)
+    found = [
+        Finding(
+            str(r["family"]),
+            str(r["factor"]),
+            float(r["p_value"]),
+            float(r["level"]),
+            factor_b=str(r["factor_b"]),
+            case=str(r["case"]),
+            outcome=str(r["outcome"]),
+        )
+        for _, r in frame.iterrows()
+    ]
+    from rcsim.analysis.results.drivers.pipeline import Settings
+
+    alpha = float(Settings().alpha)  # the loop's analysis runs at the default budget
+    lines = summary_lines(found, alpha)
+    return [f"{lines[0][:1].upper()}{lines[0][1:]}.", *(x.strip() + "." for x in lines[1:])]
 
 
 def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:

@@ -491,6 +491,7 @@ class _Stages:
         return self._campaign("campaign_before", self.table_file, self.settings.seed)
 
     def drivers(self) -> dict:
+        from rcsim.analysis.results.drivers.findings import findings, summary_text
         from rcsim.analysis.results.drivers.inputs import load_runs
         from rcsim.analysis.results.drivers.outputs import write_analysis
         from rcsim.analysis.results.drivers.pipeline import Settings, analyze
@@ -502,10 +503,8 @@ class _Stages:
             Settings(n_permutations=s.permutations, random_state=s.seed),
         )
         write_analysis(res, self.paths["drivers"], overwrite=True)
-        top = []
-        if res.has_failures and res.drivers is not None:
-            top = res.drivers[res.drivers["significant"]]["factor"].head(3).tolist()
-        return {"significant": ", ".join(top) or "none"}
+        # Every flag of the analysis, or how many more (drivers/findings.csv lists them all).
+        return {"findings": summary_text(findings(res), res.settings.alpha)}
 
     def refine(self) -> dict:
         from rcsim.analysis.apps.refinement.outputs import save_search
@@ -576,10 +575,10 @@ class _Stages:
         )
         write_refinement(ref, self.paths["refined"], overwrite=True, writer=COMMAND)
         log = ref.changelog
-        return {
-            "failed_fresh": f"{int(log['failed_fresh_before'].sum())} -> "
-            f"{int(log['failed_fresh_after'].sum())}"
-        }
+        from rcsim.analysis.apps.loop.report import fresh_seed_change
+
+        # The same fresh seed flown with the table before and after refinement: one contrast.
+        return {"failed_fresh": fresh_seed_change(log)}
 
     def report(self) -> dict:
         from rcsim.analysis.apps.loop.report import write_loop_report

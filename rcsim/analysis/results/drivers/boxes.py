@@ -1,4 +1,4 @@
-"""Scenario-discovery boxes: PRIM (Friedman & Fisher 1999) on the significant inputs, their
+"""Scenario-discovery boxes: PRIM (Friedman & Fisher 1999) on the flagged inputs, their
 ratios and the rate case.
 
 A box is a conjunction of limits ``lo <= x_j <= hi`` on a few inputs (and a set of cases) where
@@ -23,6 +23,21 @@ Restrictions that do not matter are dropped from the chosen box: a restriction w
 does not lower the box's failure rate significantly (EMA's quasi-p-value: one-sided binomial
 test of the box's failures against the failure rate of the box without it, > ``QP_MAX``) is
 removed, the least significant first.
+
+A box holds only what fails (issue 29: a box padded with four cases that never failed, and a
+threshold that did nothing in one of its two cases).  :data:`CASE_RULE`: a case is in a box
+exactly when, among that case's runs searched, the box's input limits hold failures at least
+``MIN_LIFT`` times the overall failure rate *and* separate them -- more of the case's failures
+inside the limits than of its runs, one-sided hypergeometric p <= :data:`SEPARATION_P` (for a
+box without input limits, the density alone).  Every case is judged, also those the peeling
+dropped.  A case left out keeps its runs for the next box; the limits are pruned again on the
+cases kept, until both rules agree.
+
+Minimum box size: peeling stops at ``min(5 %, half the share of runs that failed)`` of all
+runs -- the smallest box that can hold half of all failures at density 1 -- so a rare tail
+(3 % of runs) can get a box of its own size, where a fixed 5 % floor padded it with successful
+runs (density 0.51 against a true 0.9).  The floor is the same for every search: a later box
+smaller than that would be a sliver of an earlier one.
 """
 
 from __future__ import annotations
@@ -34,7 +49,10 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from rcsim.analysis.results.drivers.prim import Trajectory, _ema_quantiles, peel
 from rcsim.analysis.results.proportions import clopper_pearson
+
+__all__ = ["Trajectory", "_ema_quantiles", "peel"]  # the peeling, re-exported for callers
 
 #: How the reported box is chosen on the peeling trajectory.
 CHOICE_RULE = (
@@ -50,188 +68,25 @@ MIN_LIFT = 2.0
 MIN_BOX_FAILURES = 5
 #: Restrictions with a quasi-p-value above this are dropped from a chosen box.
 QP_MAX = 0.05
-#: Inputs (most significant first) whose pairwise ratios are offered to PRIM.
+#: Inputs (the first flagged) whose pairwise ratios are offered to PRIM.
 MAX_RATIO_INPUTS = 8
-#: Most significant inputs PRIM sees (by rank).
+#: Most flagged inputs PRIM sees (best first).
 MAX_INPUTS = 30
 #: Most runs the boxes are searched on; beyond, a seeded uniform subsample of this size (four
 #: times the paper's campaign; a 250,000-run table would otherwise cost ~15 s of CPU).
 MAX_BOX_RUNS = 100_000
 #: The categorical dimension's name.
 CASE = "case"
-
-
-def _ema_quantiles(XbT: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per row of ``XbT`` (inputs x runs), EMA Workbench's ``get_quantile`` at ``alpha`` and
-    ``1 - alpha``.
-
-    Lower: the midpoint between the sorted value at ``floor((m - 1) alpha)`` and the next larger
-    distinct value; upper: between the value at ``ceil((m - 1)(1 - alpha))`` and the next smaller
-    distinct value (each the value itself when there is none).
-    """
-    m = XbT.shape[1]
-    k = int(np.floor((m - 1) * alpha))
-    c = int(np.ceil((m - 1) * (1.0 - alpha)))
-    # Rows are contiguous: partitioning along them is several times faster than down columns.
-    part = np.partition(XbT, sorted({k, c}), axis=1)
-    dk, dc = part[:, k : k + 1], part[:, c : c + 1]
-    nxt = np.where(XbT > dk, XbT, np.inf).min(axis=1)
-    prv = np.where(XbT < dc, XbT, -np.inf).max(axis=1)
-    dk, dc = dk[:, 0], dc[:, 0]
-    nxt = np.where(np.isfinite(nxt), nxt, dk)
-    prv = np.where(np.isfinite(prv), prv, dc)
-    return (dk + nxt) / 2.0, (prv + dc) / 2.0
-
-
-def _objective(kind: str, m: int, f: int, n_new: np.ndarray, f_new: np.ndarray) -> np.ndarray:
-    """EMA's objectives of the candidate boxes (``n_new`` runs, ``f_new`` failed) of a box of
-    ``m`` runs with ``f`` failed."""
-    n_new = n_new.astype(float)
-    mean_old = f / m
-    mean_new = np.divide(f_new, n_new, out=np.zeros_like(n_new), where=n_new > 0)
-    if kind == "original":
-        return np.where(n_new > 0, mean_new, -1.0)
-    dn = np.abs(m - n_new)
-    change = mean_new - mean_old
-    if kind == "lenient1":
-        out = np.divide(change, dn, out=np.zeros_like(n_new), where=dn > 0)
-    elif kind == "lenient2":
-        out = np.divide(n_new * change, dn, out=np.zeros_like(n_new), where=dn > 0)
-    else:
-        raise ValueError(f"objective must be lenient1, lenient2 or original, got {kind!r}")
-    return np.where(mean_new != mean_old, out, 0.0)
-
-
-@dataclass
-class Trajectory:
-    """The boxes of one peeling sequence, step 0 = all runs searched.
-
-    ``lo``/``hi`` (steps, p) are the limits (``-inf``/``inf``: unrestricted), ``cats`` (steps, K)
-    the cases allowed, ``runs``/``failed`` (steps,) the runs and failures inside (among the
-    runs searched), ``total_failed`` all failures of the run set, ``total_runs`` all its runs.
-    """
-
-    lo: np.ndarray
-    hi: np.ndarray
-    cats: np.ndarray
-    runs: np.ndarray
-    failed: np.ndarray
-    total_runs: int
-    total_failed: int
-
-    @property
-    def coverage(self) -> np.ndarray:
-        return self.failed / max(self.total_failed, 1)
-
-    @property
-    def density(self) -> np.ndarray:
-        return self.failed / np.maximum(self.runs, 1)
-
-    @property
-    def support(self) -> np.ndarray:
-        return self.runs / self.total_runs
-
-    def n_restricted(self) -> np.ndarray:
-        dims = (np.isfinite(self.lo) | np.isfinite(self.hi)).sum(axis=1)
-        return dims + (~self.cats.all(axis=1)).astype(int)
-
-
-def peel(
-    X: np.ndarray,
-    y: np.ndarray,
-    codes: np.ndarray | None = None,
-    n_cats: int = 0,
-    rows: np.ndarray | None = None,
-    *,
-    peel_alpha: float = 0.05,
-    min_support: float = 0.05,
-    objective: str = "lenient1",
-) -> Trajectory:
-    """One PRIM peeling sequence (no pasting) on the runs ``rows`` (default: all).
-
-    Parameters
-    ----------
-    X : ndarray float (n, p)
-        Continuous inputs.
-    y : ndarray bool (n,)
-    codes : ndarray int (n,), optional
-        The case of each run, ``0 .. n_cats - 1`` (a categorical dimension peeled one case at
-        a time).
-    rows : ndarray int, optional
-        The runs searched (the others belong to earlier boxes); support is over all ``n`` runs.
-    peel_alpha, min_support, objective
-        As EMA Workbench's ``peel_alpha``, ``mass_min`` and ``obj_function``.
-    """
-    X = np.asarray(X, float)
-    y = np.asarray(y, bool)
-    n, p = X.shape
-    rows = np.arange(n) if rows is None else np.asarray(rows)
-    has_cat = codes is not None and n_cats > 1
-    kodes = np.zeros(n, np.int64) if codes is None else np.asarray(codes)
-    lo, hi = np.full(p, -np.inf), np.full(p, np.inf)
-    cats = np.ones(max(n_cats, 1), bool)
-    yi = y.astype(np.int64)
-    traj: dict[str, list] = {"lo": [], "hi": [], "cats": [], "runs": [], "failed": []}
-
-    def record(idx):
-        traj["lo"].append(lo.copy())
-        traj["hi"].append(hi.copy())
-        traj["cats"].append(cats.copy())
-        traj["runs"].append(idx.size)
-        traj["failed"].append(int(yi[idx].sum()))
-
-    XT = np.ascontiguousarray(X.T)  # inputs x runs
-    idx = rows
-    record(idx)
-    while idx.size >= 2:
-        XbT, yb = XT[:, idx], yi[idx]
-        m, f = idx.size, int(yb.sum())
-        v_lo, v_hi = _ema_quantiles(XbT, peel_alpha)
-        keep_hi, keep_lo = XbT <= v_hi[:, None], XbT >= v_lo[:, None]
-        # Candidates in EMA's order: per input its upper then its lower peel, then the cases.
-        n_new = np.stack([keep_hi.sum(axis=1), keep_lo.sum(axis=1)], axis=1).ravel()
-        f_new = np.stack([keep_hi @ yb, keep_lo @ yb], axis=1).ravel()
-        restricted = np.isfinite(lo) | np.isfinite(hi)
-        base_r = int(restricted.sum()) + int(has_cat and not cats.all())
-        nres = np.repeat(base_r + (~restricted).astype(int), 2)
-        if has_cat and cats.sum() > 1:
-            cb = kodes[idx]
-            cnt = np.bincount(cb, minlength=n_cats)
-            fcnt = np.bincount(cb, weights=yb, minlength=n_cats).astype(np.int64)
-            allowed = np.flatnonzero(cats)
-            n_new = np.concatenate([n_new, m - cnt[allowed]])
-            f_new = np.concatenate([f_new, f - fcnt[allowed]])
-            nres = np.concatenate([nres, np.full(allowed.size, base_r + int(cats.all()))])
-        if not n_new.size:  # no input and a single case left: nothing to peel
-            break
-        obj = _objective(objective, m, f, n_new, f_new)
-        # Best objective; ties: fewer restricted dimensions, then the first candidate.
-        order = np.lexsort((np.arange(obj.size), nres, -obj))
-        best = int(order[0])
-        if not (n_new[best] / X.shape[0] >= min_support and n_new[best] < m and obj[best] > 0):
-            break
-        if best < 2 * p:
-            j, side = divmod(best, 2)
-            if side == 0:
-                hi[j] = v_hi[j]
-                idx = idx[keep_hi[j]]
-            else:
-                lo[j] = v_lo[j]
-                idx = idx[keep_lo[j]]
-        else:
-            c = int(allowed[best - 2 * p])
-            cats[c] = False
-            idx = idx[kodes[idx] != c]
-        record(idx)
-    return Trajectory(
-        lo=np.array(traj["lo"]),
-        hi=np.array(traj["hi"]),
-        cats=np.array(traj["cats"]),
-        runs=np.array(traj["runs"]),
-        failed=np.array(traj["failed"]),
-        total_runs=int(n),
-        total_failed=int(y.sum()),
-    )
+#: The rule that keeps a case in a box (module docstring).
+CASE_RULE = (
+    "a case is in a box exactly when the box's limits hold its failures at least "
+    f"{MIN_LIFT:g}x the overall failure rate and separate them (more of the case's failures "
+    "inside than of its runs, one-sided hypergeometric p <= 0.05)"
+)
+#: One-sided hypergeometric p-value at or below which a box's limits separate a case's failures.
+SEPARATION_P = 0.05
+#: Largest peeling floor [share of all runs] (EMA Workbench's ``mass_min`` default).
+MAX_MIN_SUPPORT = 0.05
 
 
 def in_box(X, codes, lo, hi, cats) -> np.ndarray:
@@ -279,12 +134,15 @@ def quasi_p(X, y, codes, lo, hi, cats, rows) -> dict:
     return out
 
 
-def prune(X, y, codes, lo, hi, cats, rows, qp_max: float = QP_MAX):
-    """Drop the restrictions that do not matter, least significant first (see module doc)."""
+def prune(X, y, codes, lo, hi, cats, rows, qp_max: float = QP_MAX, cases: bool = True):
+    """Drop the restrictions that do not matter, least significant first (see module doc);
+    ``cases=False`` leaves the case restriction as it is (only input limits may go)."""
     lo, hi, cats = lo.copy(), hi.copy(), cats.copy()
     while True:
         qp = quasi_p(X, y, codes, lo, hi, cats, rows)
-        if len(qp) <= 1:
+        if not cases:
+            qp.pop(-1, None)
+        if len(qp) <= (1 if cases else 0):
             return lo, hi, cats
         j, worst = max(qp.items(), key=lambda kv: kv[1])
         if worst <= qp_max:
@@ -293,6 +151,43 @@ def prune(X, y, codes, lo, hi, cats, rows, qp_max: float = QP_MAX):
             cats[:] = True
         else:
             lo[j], hi[j] = -np.inf, np.inf
+
+
+def case_rule(X, y, codes, lo, hi, cats, rows, base: float) -> np.ndarray:
+    """The cases of ``cats`` whose failures the box concentrates (:data:`CASE_RULE`): among
+    the runs ``rows``, each case's failures inside the input limits are at least ``MIN_LIFT x
+    base`` of its runs inside and, when the box limits an input, over-represented there
+    (one-sided hypergeometric p <= :data:`SEPARATION_P`)."""
+    K = cats.size
+    c, yr = codes[rows], y[rows].astype(float)
+    inside = ((X[rows] >= lo) & (X[rows] <= hi)).all(axis=1)
+    n_case = np.bincount(c, minlength=K)
+    f_case = np.bincount(c, weights=yr, minlength=K)
+    n_in = np.bincount(c[inside], minlength=K)
+    f_in = np.bincount(c[inside], weights=yr[inside], minlength=K)
+    keep = cats & (f_in >= 1) & (f_in >= MIN_LIFT * base * n_in)
+    if np.isfinite(lo).any() or np.isfinite(hi).any():
+        p = stats.hypergeom.sf(f_in - 1, n_case, f_case, n_in)
+        keep &= p <= SEPARATION_P
+    return keep
+
+
+def settle(X, y, codes, lo, hi, cats, rows, base: float, rounds: int = 5):
+    """The pruned box with its cases set by :func:`case_rule` over *every* case (those the
+    peeling dropped too: peeling for density drops cases that happen to hold fewer failures,
+    and a tail that acts in every case lost 8 of 26 to it), limits pruned again on the cases
+    kept, until the two agree (``cats`` all False: no case holds the box)."""
+    lo, hi, cats = prune(X, y, codes, lo, hi, cats, rows)
+    if codes is None or cats.size < 2:
+        return lo, hi, cats
+    every = np.ones_like(cats)
+    for _ in range(rounds):
+        kept = case_rule(X, y, codes, lo, hi, every, rows, base)
+        if np.array_equal(kept, cats) or not kept.any():
+            return lo, hi, kept
+        cats = kept
+        lo, hi, _ = prune(X, y, codes, lo, hi, cats, rows, cases=False)
+    return lo, hi, case_rule(X, y, codes, lo, hi, every, rows, base)
 
 
 @dataclass
@@ -480,7 +375,7 @@ def find_boxes(
     max_boxes: int = 3,
     ratios: bool = True,
     peel_alpha: float = 0.05,
-    min_support: float = 0.05,
+    min_support: float | None = None,
 ) -> BoxResults:
     """PRIM boxes on ``factors`` (columns of ``X``), their pairwise ratios and the case.
 
@@ -491,7 +386,9 @@ def find_boxes(
     strata : ndarray (n,) or None
         The rate case of each run (a restrictable dimension when there are several).
     factors : list of str
-        The inputs searched (the significant drivers, best first).
+        The inputs searched (the flagged drivers, best first).
+    min_support : float, optional
+        Peeling floor [share of all runs]; default adaptive (module docstring).
     """
     y = np.asarray(y, bool)
     factors = list(factors)[:MAX_INPUTS]
@@ -514,6 +411,7 @@ def find_boxes(
         left_failed = int(y[remaining].sum())
         if left_failed < MIN_BOX_FAILURES:
             break
+        floor = min(MAX_MIN_SUPPORT, 0.5 * base) if min_support is None else min_support
         t = peel(
             M,
             y,
@@ -521,12 +419,14 @@ def find_boxes(
             len(case_names),
             remaining,
             peel_alpha=peel_alpha,
-            min_support=min_support,
+            min_support=floor,
         )
         step = choose(t, left_failed)
         res.trajectories.append(t)
         res.chosen.append(step)
-        lo, hi, cats = prune(M, y, codes, t.lo[step], t.hi[step], t.cats[step], remaining)
+        lo, hi, cats = settle(M, y, codes, t.lo[step], t.hi[step], t.cats[step], remaining, base)
+        if not cats.any():  # no case holds what the box was chosen for
+            break
         inside = in_box(M[remaining], None if codes is None else codes[remaining], lo, hi, cats)
         runs, failed = int(inside.sum()), int(y[remaining][inside].sum())
         density = failed / max(runs, 1)
@@ -566,94 +466,3 @@ def _case_codes(strata) -> tuple[np.ndarray | None, list]:
     if len(names) < 2:
         return None, []
     return np.searchsorted(names, np.asarray(strata).astype(str)), names
-
-
-def regions_1d(X: pd.DataFrame, y: np.ndarray, drivers: pd.DataFrame, res: BoxResults):
-    """A 1-D PRIM region (that input alone, all runs) for each significant driver, and, for one
-    without a KDE failure region, why it has none: it acts jointly (it is a limit of box N) or
-    its effect over all runs is weak (it may still matter within cases: the per-case analysis).
-
-    The case is not offered here: with it, the best 1-D "region" of a weak input is the cases
-    that fail most, which says nothing about the input.
-
-    Returns a DataFrame ``factor, rank, region_1d, region_1d_density, region_1d_coverage,
-    region_1d_lift, region_note``.
-    """
-    y = np.asarray(y, bool)
-    base = res.base_rate
-    rows = []
-    sig = drivers[drivers["significant"].astype(bool)]
-    for _, r in sig.iterrows():
-        f = r["factor"]
-        has_region = bool(str(r.get("failure_region", "") or "").strip())
-        x = X[f].to_numpy(float)[:, None]
-        t = peel(x, y)
-        step = choose(t, int(y.sum()))
-        lo, hi = t.lo[step, 0], t.hi[step, 0]
-        if np.isfinite(lo) and np.isfinite(hi):
-            text = f"{lo:.4g} .. {hi:.4g}"
-        elif np.isfinite(lo):
-            text = f">= {lo:.4g}"
-        elif np.isfinite(hi):
-            text = f"<= {hi:.4g}"
-        else:
-            text = ""
-        dens, cov = float(t.density[step]), float(t.coverage[step])
-        in_boxes = res.dims_of(f)
-        where = ", ".join(f"box {b}" for b in in_boxes)
-        lift = dens / base if base > 0 else np.nan
-        if has_region:
-            note = "1-D failure region" + (f"; also a limit of {where}" if where else "")
-        elif in_boxes:
-            note = f"no 1-D region: acts jointly, a limit of {where}"
-        elif text:
-            note = (
-                f"no 1-D region and in no box: weak alone (its best range raises P(fail) "
-                f"{lift:.2g}x); see Per case"
-            )
-        else:
-            note = "no 1-D region and in no box: no range of it alone raises P(fail); see Per case"
-        rows.append(
-            {
-                "factor": f,
-                "rank": int(r["rank"]),
-                "region_1d": text,
-                "region_1d_density": dens,
-                "region_1d_coverage": cov,
-                "region_1d_lift": lift,
-                "region_note": note,
-            }
-        )
-    cols = [
-        "factor",
-        "rank",
-        "region_1d",
-        "region_1d_density",
-        "region_1d_coverage",
-        "region_1d_lift",
-        "region_note",
-    ]
-    return pd.DataFrame(rows, columns=cols)
-
-
-def analyze_boxes(res) -> BoxResults | None:
-    """Boxes of a :class:`~rcsim.analysis.results.drivers.pipeline.DriverResults` (its significant
-    drivers, their ratios and the case), with the 1-D regions of its significant drivers."""
-    if not res.has_failures or res.drivers is None:
-        return None
-    rs = res.runset
-    X, y, strata = rs.X, rs.y, rs.strata
-    n = y.size
-    if n > MAX_BOX_RUNS:
-        # Seeded apart from the analysis' SeedSequence children: no other result changes.
-        rng = np.random.default_rng(np.random.SeedSequence([res.settings.random_state, 0xB0C5]))
-        keep = np.sort(rng.choice(n, MAX_BOX_RUNS, replace=False))
-        X = X.iloc[keep].reset_index(drop=True)
-        y = y[keep]
-        strata = None if strata is None else strata[keep]
-    sig = res.drivers[res.drivers["significant"].astype(bool)]
-    factors = [f for f in sig["factor"] if X[f].nunique() > 1]
-    out = find_boxes(X, y, strata, factors)
-    out.regions_1d = regions_1d(X, y, res.drivers, out)
-    out.subsample_of = n if n > MAX_BOX_RUNS else None
-    return out

@@ -45,7 +45,7 @@ def failures_per_case(cases) -> Figure:
 
 
 def ranking(drivers: pd.DataFrame, top: int = 20) -> Figure:
-    """Horizontal bars of the top single-factor scores; significant ones red."""
+    """Horizontal bars of the top single-factor scores; flagged ones red."""
     d = drivers.head(top).iloc[::-1]
     fig, ax = new_figure(figsize=(8.0, 0.28 * len(d) + 1.2))
     colors = [FAIL if s else "#999999" for s in d["significant"]]
@@ -58,7 +58,7 @@ def ranking(drivers: pd.DataFrame, top: int = 20) -> Figure:
     ]
     ax.set_yticks(range(len(d)), labels, fontsize=8)
     ax.set_xlabel("score: TV distance failed vs successful, minus its no-effect mean")
-    ax.set_title("Single-factor drivers (red: significant after correction for all inputs)")
+    ax.set_title("Single-factor drivers (red: flagged, within the report's false-flag budget)")
     ax.axvline(0, color="k", lw=0.8)
     ax.grid(axis="x", alpha=0.3)
     return fig

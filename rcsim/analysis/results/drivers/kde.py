@@ -143,6 +143,43 @@ class Strata:
         return np.concatenate(parts) if parts else np.empty(0, dtype=np.intp)
 
 
+@dataclass
+class JointStrata:
+    """Row layout for permuting *several* label vectors by the same permutation within strata.
+
+    :class:`Strata` draws each test's permuted smaller class on its own.  Analyses of several
+    outcomes over the same runs (per axis, a second threshold) need one family-wise correction
+    over all of them, and a max-T over them is exact only when every outcome sees the *same*
+    permutation of the runs: then the observed statistics of every outcome and each permuted
+    copy stay jointly exchangeable.  A draw here is a permutation ``pi`` of the rows within
+    each stratum, given by the ``keys`` of one ``rng.random(n)`` call (the rows of a stratum in
+    ascending key order are the images of its rows in ascending index order); the permuted
+    smaller class is ``pi^-1`` of this outcome's smaller class.  Fits of several outcomes that
+    each draw from a Generator with the same seed therefore see the same ``pi``.  For one
+    outcome alone a draw is, like :class:`Strata`'s, a uniformly random subset of each
+    stratum with its count kept.
+    """
+
+    labels: np.ndarray
+    blocks: list  # rows of each stratum, ascending
+    mask_sorted: np.ndarray  # the smaller class, rows laid out stratum after stratum
+
+    @classmethod
+    def build(cls, strata: np.ndarray, minority: np.ndarray) -> JointStrata:
+        _, inverse = np.unique(strata, return_inverse=True)
+        by_stratum = np.argsort(inverse, kind="stable")
+        sizes = np.bincount(inverse)
+        starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        blocks = [by_stratum[a : a + n] for a, n in zip(starts, sizes)]
+        return cls(labels=inverse, blocks=blocks, mask_sorted=np.asarray(minority)[by_stratum])
+
+    def draw(self, rng: np.random.Generator) -> np.ndarray:
+        """Rows of this outcome's smaller class under one permutation within strata."""
+        keys = rng.random(self.labels.size)
+        order = np.concatenate([r[np.argsort(keys[r], kind="stable")] for r in self.blocks])
+        return order[self.mask_sorted]
+
+
 #: Bytes of flat cell indices one bincount pass of :class:`BinnedTV` may hold.
 COUNT_PASS_BYTES = 16 * 2**20
 
@@ -242,7 +279,7 @@ class PermutationResult:
 def permutation_test(
     engine: BinnedTV,
     minority: np.ndarray,
-    strata: Strata,
+    strata: Strata | JointStrata,
     n_permutations: int,
     rng: np.random.Generator,
 ) -> PermutationResult:

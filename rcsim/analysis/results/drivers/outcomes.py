@@ -14,9 +14,15 @@ first where pooled it ranks 11th).  Beside the pooled outcome this module analys
   ``thr`` (default 0.06 against 0.04 deg/s, the paper's pair): runs that failed for another
   reason (simulation, attitude, propellant; read from ``reason``) still fail.
 
-Each outcome is scored by :class:`~rcsim.analysis.results.drivers.single.SingleFactorKDE` with the
-same max-T permutations as the pooled singles, labels permuted within cases.  Pairs are not
-run per outcome (they cost ~40x the singles).  Per-axis outcomes need the per-axis
+Each outcome is scored by :class:`~rcsim.analysis.results.drivers.single.SingleFactorKDE` with
+as many permutations as the pooled singles, labels permuted within cases.  The outcomes are one
+family of flags (:mod:`rcsim.analysis.results.drivers.findings`): every outcome's fit draws
+the *same* permutations of the runs (``joint=True`` and one seed), so the largest standardised
+null score over every outcome and input at each permutation is the exact max-T null of all of
+them together, and an outcome's driver is flagged when that family-wise p-value is below the
+family's share of the report-wise level.  (Until issue 29 each outcome was corrected on its
+own at 0.05: five outcomes, five chances of a false flag.)  Pairs are not run per outcome
+(they cost ~40x the singles).  Per-axis outcomes need the per-axis
 ``final_rate_err_*`` columns and the campaign's threshold; without them they are skipped with
 a note.
 """
@@ -29,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.engine import runs_table
-from rcsim.analysis.results.drivers.kde import N_BINS_1D, bin_codes, rank_scale
+from rcsim.analysis.results.drivers.kde import N_BINS_1D, bin_codes, maxt_p, rank_scale
 from rcsim.analysis.results.drivers.probabilities import probability_frame
 from rcsim.analysis.results.drivers.single import SingleFactorKDE
 
@@ -51,6 +57,10 @@ class Outcome:
     criterion: str
     y: np.ndarray
     singles: SingleFactorKDE | None = None
+    #: Max-T p-value over every outcome and input (aligned with ``singles.feature_names_in_``).
+    p_family: np.ndarray | None = None
+    #: ``p_family`` below the outcome family's share of the budget: a flag the report shows.
+    significant: np.ndarray | None = None
 
     @property
     def runs(self) -> int:
@@ -159,19 +169,29 @@ def build_outcomes(runset, second_threshold: float = DEFAULT_SECOND_THRESHOLD) -
 def analyze_outcomes(res, rng: np.random.Generator) -> OutcomeResults:
     """Fit the single factors of every extra outcome of ``res`` (a
     :class:`~rcsim.analysis.results.drivers.pipeline.DriverResults` whose pooled singles are
-    fitted).
+    fitted), all on the same permutations, and flag their drivers family-wise over every
+    outcome and input (module docstring) at ``res.levels["outcomes"]``.
     """
     rs, st = res.runset, res.settings
     out = build_outcomes(rs, getattr(st, "second_threshold", DEFAULT_SECOND_THRESHOLD))
     codes = None  # the inputs' rank-scale bins: the same for every outcome, computed once
+    seed = int(rng.integers(2**63))  # every outcome's permutations from this one seed
+    fitted = []
     for o in out.outcomes:
         if o.y.all() or not o.y.any():
             continue
         if codes is None:
             codes = bin_codes(rank_scale(rs.X.to_numpy(float)), N_BINS_1D)
-        o.singles = SingleFactorKDE(n_permutations=st.n_permutations, random_state=rng).fit(
-            rs.X, o.y, rs.strata, codes=codes
-        )
+        o.singles = SingleFactorKDE(
+            n_permutations=st.n_permutations, random_state=np.random.default_rng(seed)
+        ).fit(rs.X, o.y, rs.strata, codes=codes, joint=True)
+        fitted.append(o)
+    if fitted:
+        max_null = np.max([o.singles.null_max_z_ for o in fitted], axis=0)
+        level = (getattr(res, "levels", None) or {}).get("outcomes", st.alpha)
+        for o in fitted:
+            o.p_family = maxt_p(o.singles.z_, max_null)
+            o.significant = o.p_family < level
     return out
 
 
@@ -189,6 +209,8 @@ def outcome_table(res, top: int = TOP_DRIVERS) -> pd.DataFrame:
     """``outcomes.csv``: per outcome (the pooled one first) its counts, failure probability
     with its Clopper-Pearson 95 % interval and runs to the bound, and its top drivers (one row
     each: rank, factor, score, p-value, significant, the factor's rank on the pooled outcome).
+    ``p_value`` and ``significant`` are the report's: for the pooled outcome the single
+    drivers' family, for the others the outcome family over every outcome and input.
     """
     rs, st = res.runset, res.settings
     bound_p = float(getattr(st, "bound_p", 0.01))
@@ -214,6 +236,7 @@ def outcome_table(res, top: int = TOP_DRIVERS) -> pd.DataFrame:
             rows.append({**base, "rank": 0, "factor": ""})
             continue
         t = o.singles.table().head(top)
+        p_of, flag_of = _family_calls(o, res)
         for _, r in t.iterrows():
             rows.append(
                 {
@@ -221,10 +244,27 @@ def outcome_table(res, top: int = TOP_DRIVERS) -> pd.DataFrame:
                     "rank": int(r["rank"]),
                     "factor": r["factor"],
                     "score": r["score"],
-                    "p_value": r["p_value"],
-                    "significant": bool(r["p_value"] < st.alpha),
+                    "p_value": p_of[r["factor"]],
+                    "significant": flag_of[r["factor"]],
                     "pooled_rank": pooled_rank.get(r["factor"], np.nan),
                     "failure_region": r["failure_region"],
                 }
             )
     return pd.DataFrame(rows)
+
+
+def _family_calls(o: Outcome, res) -> tuple[dict, dict]:
+    """Per factor, the p-value and the flag the report shows for outcome ``o``: the pooled
+    outcome's are the single drivers' (``res.drivers``), the others' the outcome family's."""
+    assert o.singles is not None  # called for fitted outcomes only
+    names = list(o.singles.feature_names_in_)
+    if o.p_family is None or o.significant is None:  # the pooled outcome
+        d = res.drivers.set_index("factor")
+        return (
+            {f: float(d.loc[f, "p_value"]) for f in names},
+            {f: bool(d.loc[f, "significant"]) for f in names},
+        )
+    return (
+        dict(zip(names, map(float, o.p_family))),
+        dict(zip(names, map(bool, o.significant))),
+    )

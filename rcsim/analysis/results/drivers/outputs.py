@@ -1,5 +1,5 @@
 """Writing an analysis: ``drivers.csv``, ``pairs.csv``, ``cases.csv``, ``summary.csv``,
-``outcomes.csv``, figures, ``report.html``.
+``outcomes.csv``, ``findings.csv`` (every flag the report shows), figures, ``report.html``.
 
 Everything is written into a temporary directory that replaces the output directory only when
 complete (:func:`rcsim.analysis.engine.output.atomic_dir`): a failure never leaves half-written
@@ -16,6 +16,7 @@ import pandas as pd
 from rcsim.analysis.engine.output import atomic_dir
 from rcsim.analysis.results.drivers import report_boxes
 from rcsim.analysis.results.drivers import report_sections as sections
+from rcsim.analysis.results.drivers.findings import findings, findings_frame
 from rcsim.analysis.results.drivers.outcomes import outcome_table
 from rcsim.analysis.results.drivers.pipeline import DriverResults
 from rcsim.analysis.results.drivers.probabilities import overall_table, with_case_probabilities
@@ -31,7 +32,7 @@ DRIVER_COLUMNS = [
     "region_run_share",
     "significant",
     "stability",
-    "second_opinion",
+    "forest_rank",
 ]
 PAIR_COLUMNS = [
     "factor_a",
@@ -46,24 +47,23 @@ PAIR_COLUMNS = [
 
 
 def case_table(res: DriverResults) -> pd.DataFrame:
-    """Per case: runs, failures, share of all failures, and each per-case driver.
+    """Per case: runs, failures, share of all failures, and each per-case driver it flags.
 
-    Listed are the inputs with a Benjamini-Hochberg q-value below alpha; ``p_value`` is the
-    family-wise p-value over every (case, input) test and ``significant`` is ``p_value < alpha``
-    (:func:`rcsim.analysis.results.drivers.pipeline.case_family`).  A case with none has one row
-    with an empty factor.
+    Listed are exactly the per-case drivers the report shows: ``p_value`` is the family-wise
+    p-value over every (case, input) test (:func:`~.pipeline.case_family`) and ``significant``
+    the report's flag, ``p_value`` below the per-case family's share of the
+    report-wise level (``level``).  A case with none has one row with an empty factor.
     """
     rows = []
     nf = max(int(res.runset.y.sum()), 1)
-    alpha = res.settings.alpha
+    level = (res.levels or {}).get("per_case", float("nan"))
     empty = {
         "factor": "",
         "score": float("nan"),
         "p_value": float("nan"),
         "rank": 0,
         "significant": False,
-        "q_value": float("nan"),
-        "p_case": float("nan"),
+        "level": level,
     }
     for c in res.cases:
         base = {
@@ -72,11 +72,11 @@ def case_table(res: DriverResults) -> pd.DataFrame:
             "failed": c.failed,
             "share_of_all_failures": c.failed / nf,
         }
-        if c.singles is None or c.p_family is None or c.q_value is None:
+        if c.singles is None or c.significant is None:
             rows.append({**base, **empty})
             continue
         s = c.singles
-        keep = np.flatnonzero((c.q_value < alpha) | (c.p_family < alpha))
+        keep = np.flatnonzero(c.significant)
         keep = keep[np.argsort(s.rank_[keep], kind="stable")]
         if not keep.size:
             rows.append({**base, **empty})
@@ -88,9 +88,8 @@ def case_table(res: DriverResults) -> pd.DataFrame:
                     "score": s.score_[j],
                     "p_value": c.p_family[j],
                     "rank": int(s.rank_[j]),
-                    "significant": bool(c.p_family[j] < alpha),
-                    "q_value": c.q_value[j],
-                    "p_case": s.p_value_[j],
+                    "significant": True,
+                    "level": level,
                 }
             )
     return pd.DataFrame(rows)
@@ -128,6 +127,7 @@ def write_analysis(res: DriverResults, out, *, overwrite: bool = False) -> Path:
             pd.DataFrame(columns=DRIVER_COLUMNS[:5]).to_csv(tmp / "drivers.csv", index=False)
             pd.DataFrame(columns=PAIR_COLUMNS[:6]).to_csv(tmp / "pairs.csv", index=False)
         with_case_probabilities(case_table(res), res).to_csv(tmp / "cases.csv", index=False)
+        findings_frame(findings(res)).to_csv(tmp / "findings.csv", index=False)
         _write_probabilities(res, tmp)
         _write_figures(res, tmp / "figures")
         report_boxes.write_files(res, tmp)

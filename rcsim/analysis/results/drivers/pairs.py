@@ -10,7 +10,12 @@ Two tests per pair:
 * **interaction** (``p_value_``, ``significant_``): does the pair add anything beyond the
   separate effects of its two inputs within the same runs of the same case
   (:mod:`rcsim.analysis.results.drivers.interaction`)?  Every pair is tested with an exact
-  conditional p-value, Holm-adjusted over all pairs.  (Testing only the pairs that pass the
+  conditional p-value, Holm-adjusted over all pairs.  A pair is flagged as an interaction only
+  when its joint test also holds (``p_joint_ < joint_level``): a pair whose failed runs do not
+  differ at all adds nothing to see (issue 29: three false interactions in 16 full-size null
+  tables all had ``p_joint = 1``).  The gate only removes flags, so the interaction family's
+  error stays at most ``alpha``; a pair that passes the joint test alone is not flagged (it
+  holds a driver, which the single-factor ranking shows).  (Testing only the pairs that pass the
   joint test was tried: the screen then selects pairs for chance joint patterns when a driver
   is weak pooled, and flagged 4 of 20 tables with two drivers in two different cases.)  Two
   inputs that act in different cases are not an interaction.
@@ -48,8 +53,10 @@ class PairKDE:
     n_permutations : int
         Label permutations of the joint test (default 200; the interaction test is exact).
     alpha : float
-        Family-wise level of both tests: a pair is an interaction when its interaction p-value
-        is below it, "joint" when only its joint p-value is.
+        Family-wise level of the interaction test (Holm over all pairs).
+    joint_level : float or None
+        Level of the joint test's gate (default ``alpha``): an interaction needs
+        ``p_joint_ < joint_level`` too.
     random_state : int or numpy.random.Generator
 
     Attributes
@@ -69,14 +76,13 @@ class PairKDE:
     p_value_ : ndarray (P,)
         ``p_interaction_``.
     significant_ : ndarray of bool (P,)
-        ``p_value_ < alpha``: a calibrated interaction.
+        ``p_value_ < alpha`` and ``p_joint_ < joint_level``: a flagged interaction.
     kind_ : ndarray of str (P,)
-        "interaction", "joint" (passes the joint test only: it carries a driver) or "".
+        "interaction" (``significant_``) or "".
     gain_ : ndarray (P,)
         ``score_`` minus the better single score of the two inputs.
     rank_ : ndarray of int (P,)
-        Interactions first, then the other jointly significant pairs, then the rest; by score
-        within each group.
+        Interactions first, then the other pairs; by joint score within each group.
     score_rank_ : ndarray of int (P,)
         Rank by joint score alone.
     bandwidth_ : float
@@ -84,11 +90,14 @@ class PairKDE:
         The single scores the gains were taken against.
     """
 
-    def __init__(self, n_bins=N_BINS_2D, n_permutations=200, alpha=0.05, random_state=0):
+    def __init__(
+        self, n_bins=N_BINS_2D, n_permutations=200, alpha=0.05, random_state=0, joint_level=None
+    ):
         self.n_bins = n_bins
         self.n_permutations = n_permutations
         self.alpha = alpha
         self.random_state = random_state
+        self.joint_level = joint_level
 
     def fit(self, X, y, strata=None, single_score=None):
         """Score every pair of columns of ``X`` against ``y`` (True = failed).
@@ -145,11 +154,11 @@ class PairKDE:
         self.p_interaction_ = it.p_holm
         self.interaction_excess_ = it.excess
         self.p_value_ = it.p_holm
-        self.significant_ = self.p_value_ < self.alpha
-        joint = self.p_joint_ < self.alpha
-        self.kind_ = np.where(self.significant_, "interaction", np.where(joint, "joint", ""))
+        gate = self.alpha if self.joint_level is None else self.joint_level
+        self.significant_ = (self.p_value_ < self.alpha) & (self.p_joint_ < gate)
+        self.kind_ = np.where(self.significant_, "interaction", "")
         self.score_rank_ = _ranks(self.score_)
-        group = np.where(self.significant_, 0, np.where(joint, 1, 2))
+        group = np.where(self.significant_, 0, 1)
         order = np.lexsort((self.score_rank_, group))
         self.rank_ = np.empty(P, dtype=int)
         self.rank_[order] = np.arange(1, P + 1)

@@ -14,11 +14,16 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
-from rcsim.analysis.results.drivers.boxes import analyze_boxes
+from rcsim.analysis.results.drivers.box_analysis import analyze_boxes
+from rcsim.analysis.results.drivers.findings import family_levels
 from rcsim.analysis.results.drivers.inputs import RunSet, load_runs
 from rcsim.analysis.results.drivers.kde import maxt_p
 from rcsim.analysis.results.drivers.maps import KNNFailureMap
-from rcsim.analysis.results.drivers.outcomes import OutcomeResults, analyze_outcomes
+from rcsim.analysis.results.drivers.outcomes import (
+    OutcomeResults,
+    analyze_outcomes,
+    build_outcomes,
+)
 from rcsim.analysis.results.drivers.pairs import PairKDE
 from rcsim.analysis.results.drivers.probabilities import add_to_results as add_probabilities
 from rcsim.analysis.results.drivers.reading import analysed_rows, subsample_note
@@ -55,9 +60,10 @@ class Settings:
     n_splits : int
         Half-sample splits for stability (2 halves each).
     alpha : float
-        Family-wise level at which a factor, a pair (interaction) or a per-case driver (over
-        every case and input) is called significant; also the per-case FDR level of the
-        listed q-values.
+        Report-wise level: the most probability that the report shows any false flag.  It is
+        split over the families of flags (single drivers, interactions, per-case drivers,
+        outcome drivers) by :func:`~rcsim.analysis.results.drivers.findings.family_levels`;
+        ``DriverResults.levels`` holds each family's share.
     min_case_failures : int
         A case is analysed on its own when it has at least this many failed and successful
         runs.
@@ -159,9 +165,8 @@ def _check_extras(st: Settings) -> None:
 class CaseResult:
     """One case's counts and, when analysed on its own, its drivers.
 
-    ``p_family`` and ``q_value`` (aligned with ``singles.feature_names_in_``) are corrected over
-    the family of every (analysed case, input) test: max-T across all of them, and
-    Benjamini-Hochberg over the same tests' raw p-values.
+    ``p_family`` (aligned with ``singles.feature_names_in_``) is corrected over the family of
+    every (analysed case, input) test by max-T across all of them.
     """
 
     case: str
@@ -170,7 +175,8 @@ class CaseResult:
     singles: SingleFactorKDE | None = None
     pairs: PairKDE | None = None
     p_family: np.ndarray | None = None
-    q_value: np.ndarray | None = None
+    #: ``p_family`` below the per-case family's share of the budget (a flag the report shows).
+    significant: np.ndarray | None = None
 
 
 @dataclass
@@ -198,6 +204,8 @@ class DriverResults:
     outcomes: OutcomeResults | None = None
     # PRIM scenario-discovery boxes (rcsim.analysis.results.drivers.boxes.BoxResults).
     boxes: object = None
+    # Each family's share of the report-wise level (rcsim.analysis.results.drivers.findings).
+    levels: dict = field(default_factory=dict)
 
     @property
     def has_failures(self) -> bool:
@@ -232,6 +240,7 @@ def analyze(runset, settings: Settings = Settings(), *, vehicle=None) -> DriverR
     res.cases = _case_counts(runset)
     if y.all() or not y.any():
         return res
+    res.levels = family_levels(settings.alpha, _families(res))
     seeds = np.random.SeedSequence(settings.random_state).spawn(6)
     clock = time.perf_counter()
 
@@ -249,7 +258,10 @@ def analyze(runset, settings: Settings = Settings(), *, vehicle=None) -> DriverR
     lap("singles")
     if X.shape[1] >= 2:
         res.pairs = PairKDE(
-            n_permutations=B2, alpha=settings.alpha, random_state=np.random.default_rng(seeds[1])
+            n_permutations=B2,
+            alpha=res.levels["interactions"],
+            joint_level=settings.alpha,
+            random_state=np.random.default_rng(seeds[1]),
         ).fit(X, y, strata, single_score=res.singles.score_)
         lap("pairs")
     minority = min(int(y.sum()), int((~y).sum()))
@@ -266,9 +278,9 @@ def analyze(runset, settings: Settings = Settings(), *, vehicle=None) -> DriverR
         res.forest = ForestImportance(
             random_state=int(seeds[3].generate_state(1)[0] >> 1), n_jobs=2
         ).fit(X, y)
-        drivers = compare(drivers, res.forest, alpha=settings.alpha)
+        drivers = compare(drivers, res.forest)
         lap("forest")
-    drivers.insert(3, "significant", drivers["p_value"] < settings.alpha)
+    drivers.insert(3, "significant", drivers["p_value"] < res.levels["singles"])
     res.drivers = drivers
     if res.pairs is not None:
         pt = res.pairs.table()
@@ -325,6 +337,28 @@ def _bounded(runset: RunSet, seed: int) -> RunSet:
     )
 
 
+def _families(res: DriverResults) -> list[str]:
+    """The families of flags this analysis can show (its share of the budget goes to each):
+    decided from the table's shape and its failure counts, never from the inputs' relation to
+    failure (so the split is fixed before any test is looked at)."""
+    rs, st = res.runset, res.settings
+    out = ["singles"]
+    if rs.X.shape[1] >= 2:
+        out.append("interactions")
+    if rs.strata is not None and len(res.cases) >= 2 and any(_analysed(c, st) for c in res.cases):
+        out.append("per_case")
+    if st.outcomes:
+        extra = build_outcomes(rs, st.second_threshold).outcomes
+        if any(o.y.any() and not o.y.all() for o in extra):
+            out.append("outcomes")
+    return out
+
+
+def _analysed(c: CaseResult, st: Settings) -> bool:
+    """A case is analysed on its own when it has enough failed and successful runs."""
+    return c.failed >= st.min_case_failures and c.runs - c.failed >= st.min_case_failures
+
+
 def _case_counts(runset: RunSet) -> list[CaseResult]:
     if runset.strata is None:
         return [CaseResult("all", int(runset.y.size), int(runset.y.sum()))]
@@ -340,7 +374,7 @@ def _per_case(res: DriverResults, rng: np.random.Generator) -> None:
     by_fail = sorted(res.cases, key=lambda c: -c.failed)
     pair_cases = {c.case for c in by_fail[: st.case_pairs]}
     for c in res.cases:
-        if c.failed < st.min_case_failures or c.runs - c.failed < st.min_case_failures:
+        if not _analysed(c, st):
             continue
         rows = rs.strata == c.case
         X, y = rs.X[rows], rs.y[rows]
@@ -348,62 +382,43 @@ def _per_case(res: DriverResults, rng: np.random.Generator) -> None:
         X = X.loc[:, (X.nunique() > 1) & ~X.T.duplicated().to_numpy()]
         c.singles = SingleFactorKDE(n_permutations=st.n_permutations, random_state=rng).fit(X, y)
         if c.case in pair_cases and X.shape[1] >= 2:
-            c.pairs = PairKDE(n_permutations=st.pair_b, alpha=st.alpha, random_state=rng).fit(
-                X, y, single_score=c.singles.score_
-            )
-    case_family(res.cases)
+            c.pairs = PairKDE(
+                n_permutations=st.pair_b,
+                alpha=res.levels.get("interactions", st.alpha),
+                joint_level=st.alpha,
+                random_state=rng,
+            ).fit(X, y, single_score=c.singles.score_)
+    case_family(res.cases, res.levels.get("per_case", st.alpha))
 
 
-def case_family(cases: list) -> None:
+def case_family(cases: list, level: float) -> None:
     """Correct the per-case single tests over every (case, input) test at once.
 
     Each case's labels were permuted on their own, so permutation ``b`` of all cases together
     is one draw of the labels permuted within cases: the largest standardised null score over
     every case and input at draw ``b`` is the max-T null of the whole family, exact like the
-    single-family one.  The q-values are Benjamini-Hochberg over the same tests, on p-values
-    from the pooled standardised null (every case, input and permutation: ``B x`` the tests
-    values) -- a test's own ``B`` permutations resolve p only to ``1/(B + 1)``, too coarse for
-    BH over thousands of tests.
+    single-family one.  ``significant`` is ``p_family < level`` (the per-case family's share of
+    the report-wise budget): the flags the report shows.  (Benjamini-Hochberg q-values over the
+    same tests were listed in ``cases.csv`` beside the family-wise call until issue 29: a second
+    significance column that meant something else than the report's.)
     """
     done = [c for c in cases if c.singles is not None]
     if not done:
         return
     max_null = np.max([c.singles.null_max_z_ for c in done], axis=0)
-    pooled = np.sort(np.concatenate([c.singles.null_z().ravel() for c in done]))
-    z = np.concatenate([c.singles.z_ for c in done])
-    exceed = pooled.size - np.searchsorted(pooled, z - 1e-12, side="left")
-    q = bh_qvalues((1.0 + exceed) / (1.0 + pooled.size))
-    k = 0
     for c in done:
         c.p_family = maxt_p(c.singles.z_, max_null)
-        c.q_value = q[k : k + c.singles.p_raw_.size]
-        k += c.singles.p_raw_.size
-
-
-def bh_qvalues(p) -> np.ndarray:
-    """Benjamini-Hochberg q-values (step-up adjusted p-values, capped at 1)."""
-    p = np.asarray(p, dtype=float)
-    m = p.size
-    if m == 0:
-        return p.copy()
-    order = np.argsort(p, kind="stable")
-    adj = p[order] * m / np.arange(1, m + 1)
-    adj = np.minimum.accumulate(adj[::-1])[::-1]
-    q = np.empty(m)
-    q[order] = np.minimum(adj, 1.0)
-    return q
+        c.significant = c.p_family < level
 
 
 #: Pairs whose rank correlation exceeds this are not mapped (two views of one quantity).
 MAP_MAX_CORRELATION = 0.5
 
 
-def _distinct_top(table: pd.DataFrame, X: pd.DataFrame, seen: set, only_significant: bool):
+def _distinct_top(table: pd.DataFrame, X: pd.DataFrame, seen: set):
     """The best pair of ``table`` whose inputs are not two views of one quantity."""
     for _, row in table.iterrows():
         a, b = row["factor_a"], row["factor_b"]
-        if only_significant and not row["kind"]:  # neither interaction nor joint
-            return None
         if frozenset((a, b)) in seen:
             continue
         if abs(X[a].corr(X[b], method="spearman")) <= MAP_MAX_CORRELATION:
@@ -419,13 +434,14 @@ FIG15_PAIR = ("izz_kg_m2", "thrust_yaw_fire_n")
 def _maps(res: DriverResults, seed: int) -> None:
     """kNN maps of the pairs with the strongest evidence, and the paper's Fig. 15 pair.
 
-    Per case (most failures first, at most half of ``n_maps``): only a case with a significant
+    Per case (most failures first, at most half of ``n_maps``): only a case with a flagged
     per-case driver gets a map, of its best pair that holds such a driver; a case without one
-    is listed in ``unmapped_cases`` ("no significant driver in this case").  Pooled: the pairs
-    with most evidence, interactions first, then jointly significant pairs by score.  Then
-    :data:`FIG15_PAIR` when both inputs are analysed.  Pairs of strongly rank-correlated inputs
-    (e.g. a group's authority and its firing-direction copy) are skipped: their map is a line,
-    not a picture of two drivers.
+    is listed in ``unmapped_cases`` ("no flagged driver in this case").  Pooled: the flagged
+    interactions, then the best-scoring pairs of two flagged single drivers (a map of a flag,
+    never of a pair only the joint test picks: that test is no flag, ``findings``).  Then
+    :data:`FIG15_PAIR` when both inputs are analysed, labelled as the paper's comparison.
+    Pairs of strongly rank-correlated inputs (e.g. a group's authority and its
+    firing-direction copy) are skipped: their map is a line, not a picture of two drivers.
     """
     rs, st = res.runset, res.settings
     chosen: list = []
@@ -437,8 +453,8 @@ def _maps(res: DriverResults, seed: int) -> None:
                 break
             drivers = (
                 set()
-                if c.singles is None or c.p_family is None
-                else {c.singles.feature_names_in_[j] for j in np.flatnonzero(c.p_family < st.alpha)}
+                if c.singles is None or c.significant is None
+                else {c.singles.feature_names_in_[j] for j in np.flatnonzero(c.significant)}
             )
             per_case += 1
             if not drivers:
@@ -448,24 +464,28 @@ def _maps(res: DriverResults, seed: int) -> None:
                 continue
             t = c.pairs.table()
             t = t[t["factor_a"].isin(drivers) | t["factor_b"].isin(drivers)]
-            top = _distinct_top(t, rs.X[rs.strata == c.case], seen, False)
+            top = _distinct_top(t, rs.X[rs.strata == c.case], seen)
             if top is not None:
-                chosen.append((c.case, *top, "the case's best pair holding a significant driver"))
+                chosen.append((c.case, *top, "the case's best pair holding a flagged driver"))
                 seen.add(frozenset(top))
-        kinds = dict(
-            zip(zip(res.pair_table["factor_a"], res.pair_table["factor_b"]), res.pair_table["kind"])
+        pt, d = res.pair_table, res.drivers
+        assert d is not None  # fitted before the maps
+        flagged = set(d.loc[d["significant"], "factor"])
+        both = pt["factor_a"].isin(flagged) & pt["factor_b"].isin(flagged)
+        candidates = (
+            (pt[pt["significant"]], "a flagged interaction"),
+            (
+                pt[~pt["significant"] & both],
+                "the best-scoring pair of two flagged single drivers, not an interaction",
+            ),
         )
-        while len(chosen) < st.n_maps:
-            top = _distinct_top(res.pair_table, rs.X, seen, True)
-            if top is None:
-                break
-            why = (
-                "a calibrated interaction"
-                if kinds.get(top) == "interaction"
-                else "among the pairs with most evidence: joint test, no interaction"
-            )
-            chosen.append((None, *top, why))
-            seen.add(frozenset(top))
+        for table, why in candidates:
+            while len(chosen) < st.n_maps:
+                top = _distinct_top(table, rs.X, seen)
+                if top is None:
+                    break
+                chosen.append((None, *top, why))
+                seen.add(frozenset(top))
         a, b = FIG15_PAIR
         if a in rs.X.columns and b in rs.X.columns and frozenset(FIG15_PAIR) not in seen:
             chosen.append((None, a, b, "the pair of Gambone Fig. 15, for comparison"))

@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from rcsim.analysis.results.drivers.single import in_region
 from rcsim.analysis.results.proportions import CONFIDENCE, clopper_pearson, runs_to_bound
 
 #: Default ``bound_p``: "how many runs bound this failure probability below 1 %?".
@@ -81,29 +82,38 @@ def with_case_probabilities(table: pd.DataFrame, res) -> pd.DataFrame:
     return merged
 
 
-def region_counts(singles, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def region_counts(singles, X, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Runs inside each input's failure region and failed runs among them (in the order of
-    ``singles.feature_names_in_``), from the fitted shares (exact integers up to round-off)."""
-    n, nf = int(y.size), int(np.sum(y))
-    runs_in = np.rint(np.asarray(singles.region_run_share_) * n).astype(int)
-    failed_in = np.rint(np.asarray(singles.region_fail_share_) * max(nf, 1)).astype(int)
-    return np.minimum(failed_in, runs_in), runs_in
+    ``singles.feature_names_in_``), counted on the runs ``X`` (DataFrame) with the region as
+    its text gives it -- the text the report shows, so every count said of a region is the
+    same count (:func:`~.single.in_region`)."""
+    y = np.asarray(y, bool)
+    runs_in, failed_in = [], []
+    for name, region in zip(singles.feature_names_in_, singles.regions_):
+        inside = in_region(X[name].to_numpy(float), region)
+        runs_in.append(int(inside.sum()))
+        failed_in.append(int((inside & y).sum()))
+    return np.array(failed_in, dtype=int), np.array(runs_in, dtype=int)
 
 
-def add_region_columns(drivers: pd.DataFrame, singles, y, bound_p: float) -> pd.DataFrame:
+def add_region_columns(drivers: pd.DataFrame, singles, X, y, bound_p: float) -> pd.DataFrame:
     """``drivers`` (one row per factor) with ``region_runs``, ``region_failed``,
     ``region_failure_probability`` and its ``region_cp95_low`` / ``region_cp95_high``: the
-    share of the runs inside the factor's failure region that failed.  Factors with no
-    region get NaN."""
-    failed_in, runs_in = region_counts(singles, y)
+    share of the runs inside the factor's failure region that failed; ``region_fail_share``
+    and ``region_run_share`` recounted the same way.  Factors with no region get NaN (and
+    shares 0)."""
+    failed_in, runs_in = region_counts(singles, X, y)
     probs = probability_frame(failed_in, runs_in, bound_p)
     has = runs_in > 0
+    n, nf = len(y), max(int(np.sum(y)), 1)
 
     def only_with_region(col: str) -> np.ndarray:
         return np.where(has, probs[col].to_numpy(), np.nan)
 
     by_name = pd.DataFrame(
         {
+            "region_fail_share": failed_in / nf,
+            "region_run_share": runs_in / n,
             "region_runs": runs_in,
             "region_failed": np.where(has, failed_in, 0),
             "region_failure_probability": only_with_region("failure_probability"),
@@ -122,7 +132,8 @@ def add_to_results(res) -> None:
     """Add the failure-region probability columns to ``res.drivers`` (``drivers.csv``)."""
     if res.drivers is None or res.singles is None:
         return
-    res.drivers = add_region_columns(res.drivers, res.singles, res.runset.y, _bound_p(res))
+    rs = res.runset
+    res.drivers = add_region_columns(res.drivers, res.singles, rs.X, rs.y, _bound_p(res))
 
 
 def _bound_p(res) -> float:
@@ -131,17 +142,39 @@ def _bound_p(res) -> float:
 
 # --------------------------------------------------------------------------------- words --
 def pct(p: float) -> str:
-    """A probability as a percentage with sensible digits (12.5, 2.1, 0.62, 0.031, 0)."""
+    """A probability as a percentage with sensible digits (12.5, 2.1, 0.62, 0.031, 0, 100).
+
+    Never rounds a non-zero probability to "0" nor one below 1 to "100" (0.9996 is "99.96"):
+    a rounding that turns "rare" into "never" is a false sentence.
+    """
     if not np.isfinite(p):
         return "-"
     v = 100.0 * p
-    if v == 0:
-        return "0"
+    if v == 0 or v == 100:
+        return f"{v:.0f}"
     if v >= 1:
-        return f"{v:.1f}"
+        text, digits = f"{v:.1f}", 1
+        while float(text) >= 100.0 and digits < 12:  # 99.96 % must not read 100 %
+            digits += 1
+            text = f"{v:.{digits}f}"
+        return text
     if v >= 0.1:
         return f"{v:.2f}"
     return f"{v:.2g}"
+
+
+def rate_text(k: int, n: int) -> str:
+    """``"41.3 % (95 % CI 38.2-44.5 %)"``: ``k`` of ``n`` runs with its Clopper-Pearson
+    interval ("-" when ``n`` is 0)."""
+    if n <= 0:
+        return "-"
+    lo, hi = clopper_pearson(k, n, CONFIDENCE)
+    return f"{pct(k / n)} % (95 % CI {pct(float(lo))}-{pct(float(hi))} %)"
+
+
+def share_text(k: int, n: int) -> str:
+    """``"1,234 of 2,458 (50.2 %)"``: a count and its share, never "0 %" for ``k > 0``."""
+    return f"{int(k):,} of {int(n):,} ({pct(k / n) if n > 0 else '-'} %)"
 
 
 def p_with_ci(p: float, lo: float, hi: float) -> str:

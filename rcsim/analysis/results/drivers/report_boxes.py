@@ -3,7 +3,7 @@
 
 Files written into the analysis directory: ``boxes.csv`` (one row per box), ``box_limits.csv``
 (one row per restriction, with its quasi-p-value), ``trajectory.csv`` (every peeling step),
-``driver_regions.csv`` (a 1-D region or the reason there is none, per significant driver) and
+``driver_regions.csv`` (a 1-D region or the reason there is none, per flagged driver) and
 ``figures/prim_trajectory.png`` (the same bytes as the report's figure).
 """
 
@@ -14,7 +14,8 @@ from pathlib import Path
 from matplotlib.figure import Figure
 
 from rcsim.analysis.engine.plots import new_figure
-from rcsim.analysis.results.drivers.boxes import CHOICE_RULE, MIN_LIFT, BoxResults
+from rcsim.analysis.results.drivers.boxes import CASE_RULE, CHOICE_RULE, MIN_LIFT, BoxResults
+from rcsim.analysis.results.drivers.probabilities import pct, rate_text, share_text
 from rcsim.analysis.results.report.html import (
     Section,
     figure_block,
@@ -38,7 +39,7 @@ def trajectory_figure(b: BoxResults) -> Figure:
         if reported:
             box = b.boxes[k]
             # The step chosen on the trajectory (ring) and the box reported (star): the same
-            # box less the limits that did not matter, so a little more coverage.
+            # box less the limits that did not matter, its cases set by the case rule.
             ax.plot(
                 100 * t.coverage[step],
                 100 * t.density[step],
@@ -58,9 +59,8 @@ def trajectory_figure(b: BoxResults) -> Figure:
                 zorder=6,
             )
             ax.annotate(
-                f"box {box.number}: {100 * box.coverage:.0f} % of failures,\n"
-                f"P(fail) {100 * box.density:.0f} % "
-                f"({100 * box.p_lo:.0f}-{100 * box.p_hi:.0f} %)",
+                f"box {box.number}: {pct(box.coverage)} % of failures,\n"
+                f"P(fail) {pct(box.density)} % ({pct(box.p_lo)}-{pct(box.p_hi)} %)",
                 (100 * box.coverage, 100 * box.density),
                 xytext=(10, 10),
                 textcoords="offset points",
@@ -74,7 +74,8 @@ def trajectory_figure(b: BoxResults) -> Figure:
     ax.set_ylabel("density: failure probability inside the box [%]")
     ax.set_title(
         "PRIM peeling trajectories: each point is a box\n"
-        "(ring: box chosen on the trajectory; star: the same box less limits that do not matter)",
+        "(ring: box chosen on the trajectory; star: the box reported -- limits that do not "
+        "matter dropped, cases by the case rule)",
         fontsize=10,
     )
     ax.set_xlim(0, 102)
@@ -93,25 +94,32 @@ def trajectory_png(b: BoxResults) -> bytes:
     return png
 
 
+def box_sentence(b: BoxResults, box) -> str:
+    """One box in words, every number from the box's counts (``box.runs``, ``box.failed``
+    among the runs searched, ``b.total_runs``, ``b.total_failed``): what a test counts again
+    by applying the box's limits to the runs."""
+    where = b.limits_text(box) or "no input limit"
+    cases = b.cases_text(box)
+    if cases != "all":
+        where += f"; case in {{{cases}}}"
+    earlier = " and ".join(str(k) for k in range(1, box.number))
+    after = f", among the runs outside box{'es' if box.number > 2 else ''} {earlier}"
+    return (
+        f"Box {box.number} ({where}) holds {share_text(box.failed, b.total_failed)} of all "
+        f"failed runs in {box.runs:,} runs ({pct(box.runs / b.total_runs)} % of all runs"
+        f"{after if box.number > 1 else ''}): a run in it fails at "
+        f"{rate_text(box.failed, box.runs)}, {box.density / b.base_rate:.3g}x the overall "
+        f"{rate_text(b.total_failed, b.total_runs)}."
+    )
+
+
 def _conclusion(b: BoxResults) -> str:
     if not b.boxes:
         return (
             f"No box reaches {MIN_LIFT:g}x the overall failure rate with at least half of the "
             "failures: the failures are not concentrated in a box of these inputs."
         )
-    parts = []
-    for box in b.boxes:
-        where = b.limits_text(box) or "no input limit"
-        cases = b.cases_text(box)
-        if cases != "all":
-            where += f"; case in {{{cases}}}"
-        parts.append(
-            f"Box {box.number} ({where}) holds {100 * box.coverage:.0f} % of the failed runs in "
-            f"{100 * box.support:.1f} % of the runs: a run in it fails with probability "
-            f"{100 * box.density:.1f} % (95 % CI {100 * box.p_lo:.1f}-{100 * box.p_hi:.1f} %), "
-            f"{box.density / b.base_rate:.1f}x the overall {100 * b.base_rate:.2f} %."
-        )
-    return " ".join(parts)
+    return " ".join(box_sentence(b, box) for box in b.boxes)
 
 
 def section(res) -> Section:
@@ -119,7 +127,14 @@ def section(res) -> Section:
     b = res.boxes
     if b is None or not b.trajectories:
         return Section(
-            "Scenario boxes", [text_block("No significant input and one case: no box.")], "boxes"
+            "Scenario boxes",
+            [
+                text_block(
+                    "No input is flagged, so no box is searched: a box describes where flagged "
+                    "drivers make runs fail, and is no finding of its own."
+                )
+            ],
+            "boxes",
         )
     dims = len(b.names)
     n_ratio = len(b.ratio_parts)
@@ -127,15 +142,18 @@ def section(res) -> Section:
         text_block(
             "PRIM (Friedman and Fisher 1999) searches for boxes -- limits on a few inputs at "
             "once, and a set of cases -- where runs fail much more often than overall. It "
-            f"searched {dims - n_ratio} significant inputs, {n_ratio} ratios of pairs of them "
-            "(so that a driver acting through a ratio gets a band)"
+            f"searched {dims - n_ratio} flagged inputs (pooled or per case), {n_ratio} ratios of "
+            "pairs of them (so that a driver acting through a ratio gets a band)"
             + (" and the case" if b.case_names else "")
-            + ", peeling 5 % of the box's runs at a time until 5 % of all runs were left. "
+            + ", peeling 5 % of the box's runs at a time down to the smallest box that could "
+            "hold half of all failures (at most 5 % of all runs). A box describes where the "
+            "flagged drivers act; it is not a test of its own. "
             "Coverage is the share of all failed runs inside a box, density the failure "
             "probability inside, support the share of runs inside. The box reported is "
             f"{CHOICE_RULE}; limits that do not raise its failure probability significantly "
             "(quasi-p > 0.05) are dropped. Boxes 2 and 3 are searched among the runs outside "
-            f"the earlier boxes, and reported while at least {MIN_LIFT:g}x the overall rate."
+            f"the earlier boxes, and reported while at least {MIN_LIFT:g}x the overall rate. "
+            f"Cases: {CASE_RULE}; a case left out keeps its runs for the next box."
             + (
                 f" Searched on a seeded uniform random subsample of {b.total_runs:,} of the "
                 f"{b.subsample_of:,} runs; the counts are the subsample's."
@@ -166,7 +184,7 @@ def section(res) -> Section:
         if len(missing):
             blocks.append(
                 text_block(
-                    f"{len(missing)} significant inputs have no 1-D failure region (their "
+                    f"{len(missing)} flagged inputs have no 1-D failure region (their "
                     f"P(fail | x) never reaches {MIN_LIFT:g}x the base rate). Each gets its best "
                     "1-D range (PRIM on that input alone, same rule) and the reason: it acts "
                     "jointly (it is a limit of a box) or weakly over all runs."
@@ -184,7 +202,7 @@ def section(res) -> Section:
                             "region_note",
                         ]
                     ],
-                    "Significant inputs without a 1-D region (driver_regions.csv)",
+                    "Flagged inputs without a 1-D region (driver_regions.csv)",
                     max_rows=40,
                 )
             )

@@ -107,8 +107,11 @@ def outcomes(res) -> Section:
             text_block(
                 "The pooled outcome mixes failures of different axes; an input that drives one "
                 "axis's failures is diluted by the others. Each outcome below is analysed on its "
-                "own with the same single-factor method (same permutations, labels shuffled "
-                f"within cases; pairs are not repeated per outcome). Per axis: the run ends with "
+                "own with the same single-factor method (labels shuffled within cases, every "
+                "outcome by the same shuffles; pairs are not repeated per outcome). An outcome's "
+                "driver is flagged family-wise over every outcome and input together (max-T), at "
+                f"p < {100 * res.levels.get('outcomes', res.settings.alpha):.3g} %, this family's "
+                "share of the report's budget. Per axis: the run ends with "
                 f"|rate error| >= {o.threshold:g} deg/s on that axis (the campaign's threshold). "
                 f"'failed at {o.second_threshold:g}': the campaign's criterion with "
                 f"{o.second_threshold:g} deg/s instead of {o.threshold:g} deg/s. 'rank on the "
@@ -122,7 +125,7 @@ def outcomes(res) -> Section:
             blocks.append(
                 text_block(
                     f"Runs failing the rate criterion by axis: {parts} "
-                    + (f"({100.0 * single / nf:.0f} % fail on one axis only)." if nf else "")
+                    + (f"({P.share_text(single, nf)} fail on one axis only)." if nf else "")
                 )
             )
     t = outcome_table(res)
@@ -137,7 +140,8 @@ def outcomes(res) -> Section:
         table_block(
             _top(t, TOP_SHOWN),
             f"Top {TOP_SHOWN} drivers of each outcome (outcomes.csv has {TOP_DRIVERS}); "
-            "p_value corrected (max-T) within the outcome",
+            "p_value family-wise over every outcome and input (the pooled outcome: over its "
+            "inputs, the single drivers' family)",
             max_rows=10 * TOP_SHOWN,
         )
     )

@@ -13,8 +13,10 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.engine import runs_table
-from rcsim.analysis.results.drivers import figures, mechanism, report_boxes
+from rcsim.analysis.results.drivers import figures, findings, report_boxes
+from rcsim.analysis.results.drivers import mechanism_text as mechanism
 from rcsim.analysis.results.drivers import report_outcomes as probs
+from rcsim.analysis.results.drivers.probabilities import share_text
 from rcsim.analysis.results.report.html import (
     Section,
     figure_block,
@@ -31,7 +33,7 @@ _DRIVER_COLS = [
     "failure_region",
     "region_fail_share",
     "stability",
-    "second_opinion",
+    "forest_rank",
 ]
 _PAIR_COLS = [
     "rank",
@@ -55,15 +57,14 @@ def summary(res) -> Section:
     rs = res.runset
     blocks = []
     n, nf = int(rs.y.size), int(rs.y.sum())
-    counts = [("runs", n), ("failed runs", f"{nf} ({100.0 * nf / n:.2f} %)")]
+    counts = [("runs", n), ("failed runs", share_text(nf, n))]
     if getattr(rs, "subsampled", False):  # say how many were analysed out of how many
         N, NF = int(rs.total_runs), int(rs.total_failed)
         counts = [
             ("runs", f"{n:,} analysed of {N:,} (a seeded uniform subsample; Notes)"),
             (
                 "failed runs",
-                f"{nf:,} ({100.0 * nf / n:.2f} %) of those analysed; "
-                f"{NF:,} ({100.0 * NF / N:.2f} %) of all",
+                f"{share_text(nf, n)} of those analysed; {share_text(NF, N)} of all",
             ),
         ]
     facts = [
@@ -94,6 +95,8 @@ def summary(res) -> Section:
             ("code version", ", ".join(f"{k} {v}" for k, v in m.get("code_version", {}).items())),
         ]
     blocks.append(table_block(pd.DataFrame(facts, columns=["", "value"]), "Campaign"))
+    if res.has_failures:
+        blocks += _findings_blocks(res)
     cases = pd.DataFrame(
         [
             {
@@ -119,15 +122,39 @@ def summary(res) -> Section:
         carry = carry[carry["failed"] > 0]
         top = carry.head(5)
         if len(top):
-            share = top["share_of_all_failures"].sum()
             blocks.append(
                 text_block(
                     f"{len(carry)} of {len(cases)} cases have failures; the {len(top)} with the "
-                    f"most ({', '.join(top['case'])}) carry {100 * share:.0f} % of all failures."
+                    f"most ({', '.join(top['case'])}) carry "
+                    f"{share_text(int(top['failed'].sum()), nf)} of all failures."
                 )
             )
         blocks.append(table_block(cases, "Failures per case", max_rows=60))
     return Section("Summary", blocks, "summary")
+
+
+def _findings_blocks(res) -> list[str]:
+    """Every flag the report shows, in one list (the same as findings.csv and the CLI's)."""
+    found = findings.findings(res)
+    lines = findings.summary_lines(found, res.settings.alpha)
+    blocks = [
+        text_block(
+            f"{lines[0][:1].upper()}{lines[0][1:]}. Every flag below is counted against one "
+            "budget for the whole report (How to read this report); nothing else in the report "
+            "is a finding."
+        )
+    ]
+    if found:
+        frame = findings.findings_frame(found)
+        frame.insert(0, "what", frame["family"].map(findings.FAMILY_WORDS))
+        blocks.append(
+            table_block(
+                frame[["what", "finding", "p_value", "level"]],
+                "Findings (findings.csv): every flag in this report",
+                max_rows=40,
+            )
+        )
+    return blocks
 
 
 def _controller_text(ctrl: dict) -> str:
@@ -203,25 +230,25 @@ def method(res) -> Section:
                 "the smaller group). The score is the total-variation distance between the two "
                 "densities (0: the same, 1: no overlap) minus the distance expected with no effect "
                 "at all (measured by shuffling the failure labels within each case).",
-                f"p-values come from {st.n_permutations} label shuffles ({st.pair_b} for pairs) "
-                "and are corrected for the "
-                "number of inputs by the max-T "
-                "method: a "
-                f"factor with p < {st.alpha} is a driver with family-wise error below {st.alpha}. "
-                f"The smallest reachable p is 1/{st.n_permutations + 1} (pairs: "
-                f"1/{st.pair_b + 1}).",
+                f"p-values come from {st.n_permutations} label shuffles ({st.pair_b} for the "
+                "pairs' joint test) and are corrected for the number of inputs by the max-T "
+                "method (per case: over every case and input; outcomes: over every outcome and "
+                f"input). The smallest reachable p is 1/{st.n_permutations + 1} (pairs' joint "
+                f"test: 1/{st.pair_b + 1}).",
+                findings.method_text(res),
                 "The failure region of an input is where the failure probability is at least twice "
                 "the base rate; 'region_fail_share' is the share of all failed runs inside it, "
                 "'P(fail in region)' the share of the runs inside it that fail. "
                 "'stability' is the share of random half-campaigns in which the factor ranks at "
-                "least as high as here. A pair is 'significant' (kind 'interaction') only "
+                "least as high as here. A pair is an interaction (kind 'interaction') only "
                 "when it adds to its two inputs' separate effects within the same runs of the "
                 "same case: no-interaction (additive log-odds) is tested per case on "
-                "median-split cells (Zelen's exact conditional test), "
-                "max-T corrected over all pairs (p_joint, the pair's own permutation test, "
-                "only says the pair differs at all). 'gain' of a pair is its score "
-                "beyond its better input. 'second_opinion' compares with a "
-                "random-forest permutation importance (another method family).",
+                "median-split cells (Zelen's exact conditional test, exact p-values), "
+                "Holm-adjusted over all pairs (p_value), and its joint test holds too "
+                "(p_joint: the pair's own permutation test, max-T over all pairs, which only "
+                "says the pair differs at all). 'gain' of a pair is its score beyond its better "
+                "input. 'forest_rank' is a random forest's ranking of the same inputs, for "
+                "comparison (another method family; not a test).",
                 "Physics-aware factors: authority_<axis>_<pos|neg|fire>_rad_s2 is the angular "
                 "acceleration the jet group gives (torque about the dispersed CG over the "
                 "inertia); "
@@ -253,11 +280,14 @@ def drivers(res, top: int = 25) -> Section:
         )
     ]
     sig = d[d["significant"]]
+    level = res.levels.get("singles", res.settings.alpha)
     blocks.append(
         text_block(
-            f"{len(sig)} of {len(d)} inputs are significant drivers"
+            f"{len(sig)} of {len(d)} inputs are flagged single drivers (p < {100 * level:.3g} %, "
+            "their family's share of the report's budget)"
             + (
-                f": {', '.join(sig['factor'].head(12))}" + (" ..." if len(sig) > 12 else "")
+                f": {', '.join(sig['factor'].head(12))}"
+                + (f" and {len(sig) - 12} more (drivers.csv)." if len(sig) > 12 else ".")
                 if len(sig)
                 else "."
             )
@@ -276,7 +306,18 @@ def drivers(res, top: int = 25) -> Section:
     shown = _present(d, _DRIVER_COLS).copy()
     at = list(shown.columns).index("region_fail_share") + 1 if "region_fail_share" in shown else 0
     shown.insert(at or len(shown.columns), "P(fail in region)", probs.region_column(d))
-    blocks.append(table_block(shown, "Driver ranking (drivers.csv)", max_rows=top))
+    # A failure region is a claim about where an input makes runs fail: shown only for the
+    # flagged drivers (drivers.csv keeps every input's).
+    for col in ("failure_region", "region_fail_share", "P(fail in region)"):
+        if col in shown:
+            shown[col] = shown[col].astype(object).where(d["significant"], "")
+    blocks.append(
+        table_block(
+            shown,
+            "Driver ranking (drivers.csv; failure regions of the flagged drivers only)",
+            max_rows=top,
+        )
+    )
     return Section("Driver ranking", blocks, "drivers")
 
 
@@ -296,7 +337,8 @@ def pairs(res, top: int = 15) -> Section:
         blocks.append(
             table_block(
                 _present(gain, _PAIR_COLS),
-                "Interactions (calibrated test), largest gain over their better input first",
+                "Interactions (exact test, Holm over all pairs, joint test holding), largest "
+                "gain over their better input first",
             )
         )
     if res.unmapped_cases:
@@ -304,7 +346,7 @@ def pairs(res, top: int = 15) -> Section:
             text_block(
                 "No map for "
                 + ", ".join(f"case {c} ({n} failed runs)" for c, n in res.unmapped_cases)
-                + ": no significant driver in this case (family-wise over every case and "
+                + ": no flagged driver in this case (family-wise over every case and "
                 "input), so a map would show noise."
             )
         )
@@ -328,6 +370,7 @@ def pairs(res, top: int = 15) -> Section:
 def cases(res) -> Section:
     rows = []
     nf = max(int(res.runset.y.sum()), 1)
+    level = res.levels.get("per_case", res.settings.alpha)
     for c in res.cases:
         row = {
             "case": c.case,
@@ -335,28 +378,27 @@ def cases(res) -> Section:
             "failed": c.failed,
             "share_of_all_failures": c.failed / nf,
         }
-        if c.singles is not None and c.p_family is not None:
-            order = np.argsort(c.singles.rank_, kind="stable")
+        if c.singles is not None and c.significant is not None:
+            flagged = np.flatnonzero(c.significant)
+            flagged = flagged[np.argsort(c.singles.rank_[flagged], kind="stable")]
             for k in range(3):
-                if k < order.size:
-                    j = order[k]
-                    row[f"driver_{k + 1}"] = (
-                        f"{c.singles.feature_names_in_[j]} (p={c.p_family[j]:.3g})"
-                        if c.p_family[j] < res.settings.alpha
-                        else ""
-                    )
+                row[f"driver_{k + 1}"] = (
+                    f"{c.singles.feature_names_in_[flagged[k]]} (p={c.p_family[flagged[k]]:.3g})"
+                    if k < flagged.size
+                    else ""
+                )
+            if flagged.size > 3:
+                row["more"] = f"{flagged.size - 3} more (cases.csv)"
         rows.append(row)
     df = probs.with_case_columns(pd.DataFrame(rows), res)
     df = df.sort_values("failed", ascending=False, kind="stable")
     blocks = [
         text_block(
             f"Each case with at least {res.settings.min_case_failures} failed and successful runs "
-            "is analysed on its own; listed are its significant drivers, family-wise over "
-            "every case and input together (max-T: p < alpha means no case and no input is "
-            "flagged by chance with probability above alpha). cases.csv also lists the inputs "
-            "with a Benjamini-Hochberg q-value below alpha (false-discovery rate over the same "
-            "tests); its 'significant' column is the family-wise call. Cases are sorted by "
-            "failures."
+            "is analysed on its own; listed are the drivers it flags, family-wise over every "
+            f"case and input together (max-T: p < {100 * level:.3g} %, this family's share of "
+            "the report's budget). cases.csv lists the same drivers; its 'significant' column "
+            "is this flag. Cases are sorted by failures."
         )
     ]
     blocks.append(table_block(df.fillna(""), "Drivers per case (cases.csv)", max_rows=60))
@@ -389,32 +431,27 @@ def histograms(res, n_cases: int = 3) -> Section:
 
 def second_opinion(res) -> Section:
     d = res.drivers
-    if res.forest is None or "second_opinion" not in d:
+    if res.forest is None or "forest_rank" not in d:
         return Section(
             "Second opinion", [text_block("Not computed (too few failures).")], "second-opinion"
         )
-    dis = d[d["second_opinion"].isin(["KDE only", "forest only"])]
+    top = d.sort_values("forest_rank", kind="stable").head(15)
     blocks = [
         text_block(
             f"A random forest (held-out AUC {res.forest.test_auc_:.3f}) ranks the inputs by how "
-            "much its held-out AUC drops when one is shuffled. Disagreements with the KDE ranking "
-            "are listed: 'KDE only' is often an input whose information the forest takes from a "
-            "correlated one (a derived factor and its raw parts); 'forest only' an input that "
-            "acts jointly with others."
-        )
-    ]
-    blocks.append(
+            "much its held-out AUC drops when one is shuffled. Its ranking is shown beside the "
+            "kernel-density ranking for comparison only: it is not a test and flags nothing. "
+            "The two rankings can differ where inputs are correlated (the forest may take an "
+            "input's information from another) and where inputs act together."
+        ),
         table_block(
-            _present(
-                dis,
-                ["factor", "rank", "p_value", "forest_rank", "forest_importance", "second_opinion"],
+            _present(top, ["forest_rank", "factor", "rank", "forest_importance"]).rename(
+                columns={"rank": "kernel-density rank", "forest_importance": "AUC drop"}
             ),
-            "Disagreements",
-            max_rows=30,
-        )
-        if len(dis)
-        else text_block("No disagreements.")
-    )
+            "The forest's 15 highest-ranked inputs, with their kernel-density rank",
+            max_rows=15,
+        ),
+    ]
     return Section("Second opinion", blocks, "second-opinion")
 
 

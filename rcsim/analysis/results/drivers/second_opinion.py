@@ -4,9 +4,12 @@ The KDE ranking looks at one input (or pair) at a time; a random forest looks at
 once and can pick up what a marginal view misses (or show that a KDE driver is only a proxy
 for a correlated one).  Importance is the drop in held-out ROC AUC when one input is shuffled
 (as scikit-learn's ``permutation_importance``, the shuffled copies predicted in a few blocks),
-mean and sd over ``n_repeats`` shuffles; an input is "important" to the forest when
-``mean - 2 sd > 0``.  Rows beyond ``max_rows`` are subsampled (stratified by outcome) to
-bound the cost.
+mean and sd over ``n_repeats`` shuffles.  Rows beyond ``max_rows`` are subsampled (stratified
+by outcome) to bound the cost.
+
+The forest's ranking is shown beside the KDE's for comparison, never as a flag: no rule on it
+is a calibrated test (issue 29: "mean - 2 sd > 0", with no correction, marked 3-8 inputs of
+every one of 16 full-size null tables as "forest only").
 """
 
 from __future__ import annotations
@@ -46,8 +49,6 @@ class ForestImportance:
     feature_names_in_ : list of str
     importance_mean_, importance_sd_ : ndarray (p,)
         Held-out AUC drop.
-    important_ : ndarray of bool (p,)
-        ``mean - 2 sd > 0``.
     rank_ : ndarray of int (p,)
     test_auc_ : float
     """
@@ -99,7 +100,6 @@ class ForestImportance:
             self.test_auc_ = float(roc_auc_score(y[te], forest.predict_proba(X[te])[:, 1]))
             drops = self._auc_drops(forest, X[te], y[te])
             self.importance_mean_, self.importance_sd_ = drops.mean(axis=1), drops.std(axis=1)
-        self.important_ = np.nan_to_num(self.importance_mean_ - 2 * self.importance_sd_) > 0
         self.rank_ = _ranks(np.nan_to_num(self.importance_mean_, nan=-np.inf))
         return self
 
@@ -136,20 +136,13 @@ class ForestImportance:
         return self.test_auc_ - auc
 
 
-def compare(
-    kde_table: pd.DataFrame, forest: ForestImportance, alpha: float = 0.05, top: int = 10
-) -> pd.DataFrame:
-    """Forest columns beside a KDE ``drivers`` table, with disagreements flagged.
-
-    A disagreement is a KDE-significant input (``p_value < alpha``) the forest finds no
-    importance for, or an input the forest finds important and ranks in its ``top`` while the
-    KDE does not call it significant.
+def compare(kde_table: pd.DataFrame, forest: ForestImportance) -> pd.DataFrame:
+    """The forest's ranking beside a KDE ``drivers`` table (no flag: module docstring).
 
     Returns
     -------
     DataFrame
-        ``kde_table`` plus ``forest_importance, forest_importance_sd, forest_rank,
-        second_opinion`` (``agrees``, ``KDE only``, ``forest only`` or ``neither``).
+        ``kde_table`` plus ``forest_importance, forest_importance_sd, forest_rank``.
     """
     f = pd.DataFrame(
         {
@@ -157,16 +150,6 @@ def compare(
             "forest_importance": forest.importance_mean_,
             "forest_importance_sd": forest.importance_sd_,
             "forest_rank": forest.rank_,
-            "_important": forest.important_,
         }
     )
-    out = kde_table.merge(f, on="factor", how="left")
-    kde_sig = out["p_value"] < alpha
-    forest_sig = out["_important"].fillna(False).astype(bool)
-    forest_top = forest_sig & (out["forest_rank"] <= top)
-    out["second_opinion"] = np.select(
-        [kde_sig & forest_sig, kde_sig & ~forest_sig, ~kde_sig & forest_top],
-        ["agrees", "KDE only", "forest only"],
-        default="neither",
-    )
-    return out.drop(columns="_important")
+    return kde_table.merge(f, on="factor", how="left")

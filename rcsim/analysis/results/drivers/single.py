@@ -17,6 +17,7 @@ from rcsim.analysis.results.drivers.base import as_rng, check_xy, minority_of
 from rcsim.analysis.results.drivers.kde import (
     N_BINS_1D,
     BinnedTV,
+    JointStrata,
     Strata,
     bandwidth,
     bin_codes,
@@ -77,7 +78,7 @@ class SingleFactorKDE:
         self.region_factor = region_factor
         self.random_state = random_state
 
-    def fit(self, X, y, strata=None, *, codes=None):
+    def fit(self, X, y, strata=None, *, codes=None, joint=False):
         """Score every column of ``X`` against the binary outcome ``y`` (True = failed).
 
         Parameters
@@ -89,6 +90,11 @@ class SingleFactorKDE:
         codes : ndarray of int32, (n, p), optional
             ``bin_codes(rank_scale(X), n_bins)`` when already computed: fits of several
             outcomes over the same inputs share it (the ranking is a third of a fit's time).
+        joint : bool
+            Draw the permutations as :class:`~rcsim.analysis.results.drivers.kde.JointStrata`
+            does: fits of several outcomes whose ``random_state`` is a Generator of the same
+            seed then see the same permutations of the runs, so that their null maxima combine
+            into one exact max-T family (:mod:`rcsim.analysis.results.drivers.outcomes`).
 
         Returns
         -------
@@ -104,9 +110,10 @@ class SingleFactorKDE:
         elif np.shape(codes) != X.shape:
             raise ValueError(f"codes must have shape {X.shape}, got {np.shape(codes)}")
         self.bandwidth_ = bandwidth(int(minority.sum()), 1)
+        draws = JointStrata if joint else Strata
         self.engine_ = BinnedTV(codes, self.n_bins, h=self.bandwidth_)
         res = permutation_test(
-            self.engine_, minority, Strata.build(strata, minority), int(self.n_permutations), rng
+            self.engine_, minority, draws.build(strata, minority), int(self.n_permutations), rng
         )
         self.feature_names_in_ = names
         self.n_features_in_ = len(names)
@@ -187,3 +194,41 @@ def _format_region(mask: np.ndarray, edges: np.ndarray) -> str:
         else:
             parts.append(f"{a:.6g} .. {b:.6g}")
     return " or ".join(parts)
+
+
+def parse_region(region) -> tuple[str, list]:
+    """``(side, [(lo, hi), ...])`` of a driver table's failure region text."""
+    if not isinstance(region, str) or not region.strip():
+        return "none", []
+    parts = []
+    for part in region.split(" or "):
+        part = part.strip()
+        if part == "everywhere":
+            parts.append((-np.inf, np.inf))
+        elif part.startswith("<="):
+            parts.append((-np.inf, float(part[2:])))
+        elif part.startswith(">="):
+            parts.append((float(part[2:]), np.inf))
+        else:
+            lo, _, hi = part.partition("..")
+            parts.append((float(lo), float(hi)))
+    if len(parts) > 1:
+        side = "several"
+    elif np.isinf(parts[0][0]) and np.isinf(parts[0][1]):
+        side = "none"
+    elif np.isinf(parts[0][1]):
+        side = "high"
+    elif np.isinf(parts[0][0]):
+        side = "low"
+    else:
+        side = "middle"
+    return side, parts
+
+
+def in_region(x: np.ndarray, region) -> np.ndarray:
+    """Which values of ``x`` lie in the failure region ``region`` (its text), bool (n,)."""
+    x = np.asarray(x, float)
+    inside = np.zeros(x.size, bool)
+    for lo, hi in parse_region(region)[1]:
+        inside |= (x >= lo) & (x <= hi)
+    return inside

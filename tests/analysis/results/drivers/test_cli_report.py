@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 
 from rcsim.analysis.apps.cli import main
+from rcsim.analysis.results.drivers.findings import LISTED
 from rcsim.analysis.results.drivers.synthetic import planted_campaign
 from rcsim.spacecraft.vehicle_file import Vehicle
 
@@ -105,20 +106,78 @@ def campaign(paper, tmp_path_factory, model):
 
 
 @pytest.fixture(scope="module")
-def analysed(campaign, tmp_path_factory):
+def analysed_with_output(campaign, tmp_path_factory):
+    """The analysis directory and what the command printed (one run for the module)."""
+    import contextlib
+    import io
+
     out = tmp_path_factory.mktemp("an") / "drivers"
-    assert main(["analyze", str(campaign), "--permutations", "39", "--out", str(out)]) == 0
-    return out
+    printed = io.StringIO()
+    # 199 permutations: every family's share of the 5 % budget (1 % for the per-case and outcome
+    # families) is reachable (p >= 1/(B + 1)).
+    with contextlib.redirect_stdout(printed):
+        assert main(["analyze", str(campaign), "--permutations", "199", "--out", str(out)]) == 0
+    return out, printed.getvalue()
 
 
-def test_cli_says_how_many_are_significant(campaign, tmp_path, capsys):
-    """Issue 16: the CLI printed 5 of 18 significant drivers without saying it was the top 5."""
-    assert (
-        main(["analyze", str(campaign), "--permutations", "39", "--out", str(tmp_path / "o")]) == 0
+@pytest.fixture(scope="module")
+def analysed(analysed_with_output):
+    return analysed_with_output[0]
+
+
+def test_cli_lists_every_finding_the_report_shows(analysed_with_output):
+    """Issue 16: the CLI printed 5 of 18 significant drivers without saying so; issue 29: it
+    printed "0 significant: none" beside a per-case flag.  The CLI prints every flag of every
+    family (findings.csv's rows, the report's list), or says how many more."""
+    out, printed = analysed_with_output
+    lines = printed.splitlines()
+    found = pd.read_csv(out / "findings.csv", keep_default_na=False)
+    assert len(found) > 0
+    head = next(s for s in lines if "(report-wise false-flag rate 5 %)" in s)
+    assert head.startswith(f"{len(found)} finding")
+    listed = " ".join(lines)
+    for _, group in found.groupby("family", sort=False):
+        for finding in group["finding"].head(LISTED):
+            assert finding in listed, finding
+        if len(group) > LISTED:
+            assert f"and {len(group) - LISTED} more (findings.csv)" in listed
+    # The same flags as each table's own column: drivers, pairs, cases, outcomes.
+    d = pd.read_csv(out / "drivers.csv")
+    p = pd.read_csv(out / "pairs.csv")
+    c = pd.read_csv(out / "cases.csv", keep_default_na=False)
+    o = pd.read_csv(out / "outcomes.csv", keep_default_na=False)
+    by = found.groupby("family")["finding"].apply(set).to_dict()
+    assert by.get("singles", set()) == set(d.loc[d["significant"], "factor"])
+    assert by.get("interactions", set()) == {
+        f"{a} x {b}" for a, b in p.loc[p["significant"], ["factor_a", "factor_b"]].to_numpy()
+    }
+    assert by.get("per_case", set()) == {
+        f"{f} in {k}"
+        for f, k in c.loc[c["significant"] == True, ["factor", "case"]].to_numpy()  # noqa: E712
+    }
+    flagged_o = o[(o["outcome"] != "failed") & (o["significant"] == True)]  # noqa: E712
+    assert {f"{f} ({k})" for f, k in flagged_o[["factor", "outcome"]].to_numpy()} <= by.get(
+        "outcomes", set()
     )
-    line = next(s for s in capsys.readouterr().out.splitlines() if "significant" in s)
-    n = len(pd.read_csv(tmp_path / "o" / "drivers.csv").query("significant"))
-    assert line.startswith(f"{n} significant" + (", top 5:" if n > 5 else ":")), line
+
+
+def test_summary_lines_name_every_finding_or_say_how_many_more():
+    from rcsim.analysis.results.drivers.findings import Finding, summary_lines, summary_text
+
+    found = [Finding("singles", f"x{k}", 0.005, 0.02) for k in range(11)]
+    found.append(Finding("per_case", "a", 0.005, 0.01, case="rate-05"))
+    lines = summary_lines(found, 0.05, listed=8)
+    assert lines[0] == (
+        "12 findings (report-wise false-flag rate 5 %): 11 single drivers, 1 per-case driver"
+    )
+    assert lines[1] == "  single drivers: " + ", ".join(f"x{k}" for k in range(8)) + (
+        " and 3 more (findings.csv)"
+    )
+    assert lines[2] == "  per-case drivers: a in rate-05"
+    assert summary_lines([], 0.05) == [
+        "no finding: nothing is flagged (report-wise false-flag rate 5 %)"
+    ]
+    assert summary_text(found, 0.05, listed=8).count("and 3 more") == 1
 
 
 def test_outputs_and_columns(analysed):
@@ -132,6 +191,10 @@ def test_outputs_and_columns(analysed):
     assert d["factor"][0] == "authority_yaw_fire_rad_s2" and d["p_value"][0] < 0.05
     cases = pd.read_csv(analysed / "cases.csv")
     assert set(cases["case"]) == {"rate-13", "rate-14"}
+    # Issue 29: one significance column, the report's flag; no second call (q-values) beside.
+    assert "q_value" not in cases and "p_case" not in cases
+    listed = cases[cases["factor"].notna()]
+    assert listed["significant"].all() and (listed["p_value"] < listed["level"]).all()
     # Issue 16 item 2: each case's failure probability with its exact interval and the runs
     # that bound it, added after the columns cases.csv always had.
     assert list(cases.columns[:4]) == ["case", "runs", "failed", "share_of_all_failures"]

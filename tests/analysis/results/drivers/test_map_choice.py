@@ -1,7 +1,7 @@
 """Issue 16, item 5: the kNN maps show what the evidence supports.
 
-A case with many failures but no significant per-case driver gets no map (the report says
-"no significant driver in this case"); a case whose failures one input drives gets a map of a
+A case with many failures but no flagged per-case driver gets no map (the report says
+"no flagged driver in this case"); a case whose failures one input drives gets a map of a
 pair holding that input; the paper's Fig. 15 pair (Izz against yaw firing thrust) is mapped
 beside the data's own pairs whenever both inputs are analysed.
 """
@@ -48,4 +48,4 @@ def test_maps_follow_the_evidence_and_include_the_fig15_pair():
     assert any("Fig. 15" in why for why in res.map_reasons)
     assert len(res.map_reasons) == len(res.maps)
     html = "".join(str(b) for b in pairs_section(res).blocks)
-    assert "no significant driver in this case" in html
+    assert "no flagged driver in this case" in html

@@ -260,7 +260,7 @@ def test_cli_and_report_say_how_many_runs_were_analysed_of_how_many(
     assert f"{int(rs.y.sum())} failed of them ({rs.total_failed} of all)" in printed
     html = (out / "report.html").read_text()
     assert f"200 analysed of {total}" in html
-    assert f"{rs.total_failed} (" in html and "of all" in html
+    assert f"{rs.total_failed} of {total} (" in html and "of all" in html
 
 
 def test_cli_help_names_the_ceiling():
