@@ -12,4 +12,6 @@ gains are data (``rcsim.models.dai``).  Imports ``models`` and ``spacecraft``.
 
 Must not import: rcsim.lookup.pattern_recognition, rcsim.lookup.phase_plane, rcsim.lookup.registry,
 rcsim.analysis.
+
+Only imported by: rcsim.analysis.apps.studies.
 """

@@ -13,6 +13,9 @@ Papers: 001 = Wilt & Sands, "Microsatellite Uncertainty Control Using Determinis
 Intelligence", Sensors 22 (2022) 8723 (group ``wilt2022``); 002 = Smeresky & Rizzo, "Modern
 Control System Learning", in *Deterministic Artificial Intelligence*, IntechOpen (2020)
 (group ``smeresky2020``).
+
+Only imported by: rcsim.spacecraft.continuous, rcsim.lookup.continuous,
+rcsim.analysis.apps.studies.
 """
 
 from __future__ import annotations

@@ -8,4 +8,6 @@ the 3-2-1 Euler-angle / quaternion kinematics shared with the controllers (:mod:
 Imports ``models`` only.
 
 Must not import: rcsim.spacecraft.simulation, rcsim.lookup, rcsim.analysis.
+
+Only imported by: rcsim.lookup.continuous, rcsim.analysis.apps.studies.
 """

@@ -130,8 +130,8 @@ class LoopSettings:
         except InputError as exc:
             raise InputError(str(exc), parameter="vehicle", value=self.vehicle) from None
         coupled = is_coupled(vehicle)
-        if self.table is None:
-            object.__setattr__(self, "table", GENERATE if coupled else "table6")
+        table_name = self.table if self.table is not None else (GENERATE if coupled else "table6")
+        object.__setattr__(self, "table", table_name)
         if coupled and self.table in PAPER_LOOKUP_TABLES:
             raise InputError(
                 f"{self.table!r} is the paper's table, for its jet map (Table 2), but the jets "
@@ -148,7 +148,7 @@ class LoopSettings:
             # The campaigns' own checks on the vehicle and the table (a file that loads, jets
             # that play the table's roles, a channel table solved for this vehicle file),
             # before any directory is made.  A table still to generate is checked when made.
-            table = "default" if self.table in PAPER_LOOKUP_TABLES else self.table
+            table = "default" if table_name in PAPER_LOOKUP_TABLES else table_name
             try:
                 refinement_spec(
                     runs_per_case=1,

@@ -8,4 +8,6 @@ control under noisy sensors) and its Figure 4
 
 Must not import: rcsim.analysis.engine.campaign, rcsim.analysis.results, rcsim.analysis.apps.loop,
 rcsim.analysis.apps.refinement.
+
+Only imported by: rcsim.analysis.apps.cli.
 """

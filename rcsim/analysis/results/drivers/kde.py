@@ -208,7 +208,7 @@ class BinnedTV:
         self.codes_T = np.ascontiguousarray(np.asarray(codes, dtype=np.int32).T)
         self.m = int(n_bins)
         self.pairs = None if pairs is None else np.asarray(pairs, dtype=np.intp)
-        self.n_tests = self.codes_T.shape[0] if pairs is None else self.pairs.shape[0]
+        self.n_tests = self.codes_T.shape[0] if self.pairs is None else self.pairs.shape[0]
         self.cells = self.m if pairs is None else self.m * self.m
         self.K = smoothing_matrix(self.m, h)
         if chunk_rows is None:

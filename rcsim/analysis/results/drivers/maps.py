@@ -83,7 +83,7 @@ class KNNFailureMap:
             neigh = idx[~own].reshape(rows.size, kmax)
             fails[:, rows] = np.cumsum(y[neigh], axis=1)[:, at_k].T
         self.cv_brier_ = {k: float(np.mean((fails[i] / k - y) ** 2)) for i, k in enumerate(ks)}
-        self.k_ = min(self.cv_brier_, key=self.cv_brier_.get)
+        self.k_ = min(self.cv_brier_, key=lambda k: self.cv_brier_[k])
         model = KNeighborsClassifier(self.k_).fit(R, y)
         g = int(self.n_grid)
         self.edges_a_ = np.linspace(X[:, 0].min(), X[:, 0].max(), g + 1)

@@ -284,7 +284,7 @@ def analyze(runset, settings: Settings = Settings(), *, vehicle=None) -> DriverR
     res.drivers = drivers
     if res.pairs is not None:
         pt = res.pairs.table()
-        if res.stability is not None:
+        if res.stability is not None and res.stability.pair_stability_ is not None:
             key = list(zip(pt["factor_a"], pt["factor_b"]))
             names = res.pairs.feature_names_in_
             stab = {

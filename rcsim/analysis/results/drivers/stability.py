@@ -87,12 +87,15 @@ class HalfSampleStability:
                         continue
                     tv = engine.tv(rows_min, pooled=pooled_h, n=n_h)
                     ranks.append(_ranks(tv - np.sqrt(2.0) * est.null_mean_))
-            ranks = np.array(ranks)
+            half_ranks = np.array(ranks)
             # Halves are ranked by score: compare with the full campaign's rank by score.
             full_rank = getattr(est, "score_rank_", est.rank_)
-            out.append((ranks, (ranks <= full_rank[None]).mean(axis=0)))
+            out.append((half_ranks, (half_ranks <= full_rank[None]).mean(axis=0)))
         self.single_half_rank_, self.single_stability_ = out[0]
-        self.pair_half_rank_, self.pair_stability_ = out[1] if pairs is not None else (None, None)
+        self.pair_half_rank_: np.ndarray | None = None
+        self.pair_stability_: np.ndarray | None = None
+        if pairs is not None:
+            self.pair_half_rank_, self.pair_stability_ = out[1]
         return self
 
     @staticmethod

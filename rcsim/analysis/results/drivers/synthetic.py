@@ -25,6 +25,8 @@ from ``SeedSequence(seed)``.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 
@@ -266,7 +268,7 @@ def calibration_settings(**overrides):
     split (no flag either), which only cost time here."""
     from rcsim.analysis.results.drivers.pipeline import Settings
 
-    kw = {"forest": False, "n_splits": 1, "n_maps": 0, "case_pairs": 0}
+    kw: dict[str, Any] = {"forest": False, "n_splits": 1, "n_maps": 0, "case_pairs": 0}
     kw.update(overrides)
     return Settings(**kw)
 
