@@ -261,6 +261,11 @@ def test_cli_and_report_say_how_many_runs_were_analysed_of_how_many(
     html = (out / "report.html").read_text()
     assert f"200 analysed of {total}" in html
     assert f"{rs.total_failed} of {total} (" in html and "of all" in html
+    # The "all runs" probability counts every run of the table, not the subsample (the
+    # reading counted them all): summary.csv's row is the whole table's count.
+    row = pd.read_csv(out / "summary.csv").iloc[0]
+    assert row["scope"] == "all runs"
+    assert (int(row["runs"]), int(row["failed"])) == (total, rs.total_failed)
 
 
 def test_cli_help_names_the_ceiling():
