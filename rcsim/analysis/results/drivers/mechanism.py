@@ -222,6 +222,33 @@ def families(drivers: pd.DataFrame, X: pd.DataFrame) -> list[list[str]]:
     return out
 
 
+def per_case_families(res, pooled: list[list[str]]) -> list[list[str]]:
+    """The factors flagged only per case -- in no pooled family, by name or up to the jet-group
+    direction -- as families of their own, best per-case p-value first.  A driver of one case is
+    often too diluted by the other cases for the pooled test; it is a finding all the same and
+    gets its paragraph (described within its cases, :func:`confined_to`)."""
+    known = {f for fam in pooled for f in fam}
+    keys = {family_key(f) for f in known}
+    best: dict[str, float] = {}
+    for c in res.cases:
+        if c.singles is None or c.significant is None:
+            continue
+        names = [str(n) for n in c.singles.feature_names_in_]
+        for j in np.flatnonzero(c.significant):
+            n = names[j]
+            if n in known or family_key(n) in keys or n not in res.runset.X:
+                continue
+            best[n] = min(best.get(n, np.inf), float(c.p_family[j]))
+    out: list[list[str]] = []
+    for n in sorted(best, key=lambda n: (best[n], n)):
+        fam = next((f for f in out if family_key(f[0]) == family_key(n)), None)
+        if fam is None:
+            out.append([n])
+        else:
+            fam.append(n)
+    return out
+
+
 def explain(
     factor: str,
     region: str,

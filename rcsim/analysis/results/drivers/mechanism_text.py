@@ -31,6 +31,7 @@ from rcsim.analysis.results.drivers.mechanism import (
     elsewhere_counts,
     explain,
     families,
+    per_case_families,
     threshold_of,
 )
 from rcsim.analysis.results.drivers.probabilities import pct, rate_text, share_text
@@ -322,9 +323,10 @@ def mechanisms(res, max_families: int = MAX_FAMILIES) -> list[Mechanism]:
     out: list[Mechanism] = []
     if d is not None and len(d):
         rows = d.set_index("factor")
-        for fam in families(d, rs.X)[:max_families]:
+        pooled = families(d, rs.X)
+        for fam in (pooled + per_case_families(res, pooled))[:max_families]:
             scope, analysed = confined_to(res, fam)
-            factor, region = fam[0], rows.loc[fam[0], "failure_region"]
+            factor, region = fam[0], rows["failure_region"].get(fam[0], "")
             if scope:  # a driver of some cases: its region as their own fit has it
                 factor, region = case_region(res, fam, scope) or (factor, region)
             m = _counted(res, factor, region, scope)
@@ -334,10 +336,10 @@ def mechanisms(res, max_families: int = MAX_FAMILIES) -> list[Mechanism]:
                 counts = {"other_cases_shown": shown, "other_cases": others}
                 m.figures.update(counts)
             if acts_elsewhere(m):  # flagged in some cases, but not confined to them
-                pooled = rows.loc[fam[0], "failure_region"]
+                region = rows["failure_region"].get(fam[0], "")
                 # The other cases' figures again, in the pooled region the paragraph states.
-                scoped = _counted(res, fam[0], pooled, scope)
-                m = _counted(res, fam[0], pooled, [])
+                scoped = _counted(res, fam[0], region, scope)
+                m = _counted(res, fam[0], region, [])
                 m.flagged_cases = scope
                 m.figures.update(
                     {k: v for k, v in scoped.figures.items() if k.startswith("other_")}

@@ -294,3 +294,24 @@ def test_a_driver_of_every_case_flagged_in_a_few_is_not_confined_to_them():
     ):
         assert words in t, (words, t)
     assert "It is the" not in t and "only within" not in t
+
+
+def test_a_driver_flagged_only_per_case_gets_its_paragraph():
+    """Every flagged driver is described: on the two-drivers-in-two-cases design at 200 runs a
+    case (``a`` fails case-05 from its top, ``b`` case-19; ``stratified_campaign``), neither is
+    flagged pooled -- one case's signal is diluted by 25 others -- but each is flagged in its
+    case.  The section described only pooled families and read "No input is a flagged
+    driver", beside two per-case findings.  Now each gets a paragraph confined to its case."""
+    from rcsim.analysis.results.drivers.findings import findings
+
+    X, failed, case = stratified_campaign("two-cases", 0, runs_per_case=200, n_noise=10)
+    df = X.assign(case=case, failed=failed)
+    res = analysed(df, inputs=list(X.columns), manifest=None, permutations=199)
+    found = {(f.factor, f.case) for f in findings(res) if f.family in ("singles", "per_case")}
+    assert {("a", "case-05"), ("b", "case-19")} <= found
+    assert not res.drivers["significant"].astype(bool).any()  # the path under test: none pooled
+    described = {m.factor: m for m in text.mechanisms(res)}
+    assert described["a"].scope == ["case-05"] and described["b"].scope == ["case-19"]
+    section = clean(" ".join(text.section(res).blocks))
+    assert "No input is a flagged driver" not in section
+    assert "b is a flagged driver only within case-19" in section
