@@ -243,8 +243,13 @@ def stratified_campaign(
 #: Upper 3 % point of a standard normal (the ``tail`` scenario's edge).
 TAIL_Z = 1.8808
 
+#: The synthetic campaigns' rate-error failure threshold [deg/s] (the campaigns' default one).
+SYNTHETIC_THRESHOLD_DEG_S = 0.04
 
-def axis_errors(failed: np.ndarray, seed: int, threshold: float = 0.04) -> pd.DataFrame:
+
+def axis_errors(
+    failed: np.ndarray, seed: int, threshold: float = SYNTHETIC_THRESHOLD_DEG_S
+) -> pd.DataFrame:
     """Final rate errors per axis for a synthetic campaign, so that the per-axis outcomes and
     the second threshold are analysed as on a real campaign: a failed run ends with one axis
     (roll, pitch or yaw at random) at ``|error|`` in ``[threshold, 2 threshold)``, its other
@@ -304,7 +309,7 @@ def flags(scenario: str, seed: int, settings=None, **campaign) -> dict:
     truth = STRATIFIED_TRUTH[scenario]
     table = pd.concat([X, axis_errors(failed, seed)], axis=1).assign(case=case, failed=failed)
     rs = load_runs(table, inputs=list(X.columns), derived=False)
-    rs = replace(rs, manifest={"thresholds": {"rate_error_deg_s": 0.04}})
+    rs = replace(rs, manifest={"thresholds": {"rate_error_deg_s": SYNTHETIC_THRESHOLD_DEG_S}})
     res = analyze(rs, settings)
     out: dict = {"false_single": False, "false_pair": False, "false_case": False}
     out.update({"false_outcome": False, "false_any": False, "flags": 0})
