@@ -1,11 +1,24 @@
-"""Minimum-propellant jet selection: a small LP per run, solved for a whole batch at once.
+"""Jet selection: a small LP per run, solved for a whole batch at once, and a mixed-integer
+solve where a jet's minimum on-time binds.
 
 Problem, per run (homogeneous in the command ``b``, the rate change wanted [rad/s])::
 
     min   sum_j mdot_j t_j  +  w_v |dv|_1  +  w_r |r|_1
     s.t.  D t + r = b          rate change per second of firing (3 rows)
           G t - dv = 0         CG velocity change per second of firing (3 rows, optional)
-          t >= 0               total on-time of each available jet [s]
+          t_j = 0  or  t_j >= t_min_j     total on-time of each available jet [s]
+
+What it minimises is the profile's ``allocation`` (:func:`allocation_prices`): ``propellant``
+(``w_v`` a tie-break only), ``propellant+translation`` (``w_v = m / (Isp g0)``) or
+``translation-first`` (1000 times that).
+
+Minimum on-time.  The LP relaxation (``t >= 0``) is solved first, batched as below.  When its
+optimum has no total in ``(0, t_min)`` it is also the mixed-integer optimum (the relaxation's
+optimum is feasible).  Runs whose LP optimum has a short total are solved as the MILP above
+(:func:`scipy.optimize.milp`, one binary per jet, ``t_min_j z_j <= t_j <= M_j z_j`` with ``M_j``
+the cost of a feasible plan over ``mdot_j``, so no optimum is cut off), each distinct command
+once (a dictionary keyed on the command's and the jet set's bytes): no share is dropped or
+deferred after solving.
 
 ``t`` has no upper bound: a plan longer than a control cycle is flown over several cycles
 (:class:`rcsim.lookup.allocator_controller.AllocatorController`).  The elastic residual ``r``,
@@ -33,13 +46,36 @@ Failed jets (per-run availability) use the same cache.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog
+from scipy.optimize import Bounds, LinearConstraint, linprog, milp
 
 from rcsim.models.errors import InputError
 
+#: ``translation-first`` prices translation this many times ``m / (Isp g0)``.
+TRANSLATION_FIRST_FACTOR = 1e3
+#: ``propellant`` breaks ties between plans of equal propellant toward less translation, at
+#: this fraction of ``m / (Isp g0)`` (a plan costs at most this relative extra propellant).
+TIE_BREAK_FACTOR = 1e-6
+#: Distinct MILP answers kept per allocator (oldest dropped first).
+MILP_CACHE_SIZE = 100_000
+
+
+def allocation_prices(mode: str, mass_kg: float, isp_s: float, g0_m_s2: float) -> float:
+    """The translation price ``w_v`` [kg per m/s of ``|dv|_1``] of allocation ``mode``
+    (:data:`rcsim.spacecraft.control_profile.ALLOCATION_MODES`) for a vehicle of ``mass_kg``
+    and specific impulse ``isp_s`` [s]: ``m / (Isp g0)`` is the propellant that nulls 1 m/s."""
+    null_kg = mass_kg / (isp_s * g0_m_s2)
+    factors = {
+        "propellant": TIE_BREAK_FACTOR,
+        "propellant+translation": 1.0,
+        "translation-first": TRANSLATION_FIRST_FACTOR,
+    }
+    if mode not in factors:
+        raise InputError(f"allocation must be one of {', '.join(factors)}, got {mode!r}")
+    return factors[mode] * null_kg
+
 
 class Allocator:
-    """Batched minimum-propellant allocator (module docstring).
+    """Batched allocator (module docstring).
 
     Parameters
     ----------
@@ -53,9 +89,12 @@ class Allocator:
         Price of translation [kg per m/s of |dv|_1].
     w_r : float
         Price of the residual, relative to the dearest jet's cost of the same rate change.
+    t_min_s : ndarray, (n_jets,), optional
+        Shortest total on-time of a jet that fires [s] (its minimum delivered pulse); default
+        none (the LP alone).
     """
 
-    def __init__(self, D, mdot_kg_s, G=None, w_v: float = 0.0, w_r: float = 1e3):
+    def __init__(self, D, mdot_kg_s, G=None, w_v: float = 0.0, w_r: float = 1e3, t_min_s=None):
         self.D = np.asarray(D, float)
         self.n = n = self.D.shape[1]
         self.mdot = np.asarray(mdot_kg_s, float).reshape(n)
@@ -83,6 +122,11 @@ class Allocator:
         self.inv3 = np.zeros((0, self.m, 3))  # first 3 columns of A_B^-1 (b has no force rows)
         self.negative = np.zeros((0, self.ncol), bool)  # columns with negative reduced cost
         self.n_lp = 0  # HiGHS solves so far (cache misses)
+        self.t_min = np.zeros(n) if t_min_s is None else np.broadcast_to(t_min_s, (n,)) * 1.0
+        if not (np.isfinite(self.t_min).all() and (self.t_min >= 0).all()):
+            raise InputError("must be finite and >= 0", parameter="t_min_s")
+        self._milp_cache: dict[bytes, np.ndarray] = {}
+        self.n_milp = 0  # MILP solves so far (distinct commands with a binding minimum)
 
     def allocate(self, b, available=None) -> tuple[np.ndarray, np.ndarray]:
         """On-times and residuals for commands ``b``.
@@ -97,10 +141,25 @@ class Allocator:
         Returns
         -------
         t : ndarray, (n_runs, n_jets)
-            Total on-time of each jet [s].
+            Total on-time of each jet [s], each 0 or at least its ``t_min_s``.
         residual : ndarray, (n_runs, 3)
             Rate change the jets cannot give [rad/s] (zero when ``b`` is reachable).
         """
+        b = np.atleast_2d(np.asarray(b, float))
+        t, residual = self.allocate_relaxed(b, available)
+        if not self.t_min.any():
+            return t, residual
+        short = (t > 0) & (t < self.t_min * (1 - 1e-9))
+        if available is None:
+            available = np.ones(t.shape, bool)
+        available = np.broadcast_to(np.asarray(available, bool), t.shape)
+        for i in np.flatnonzero(short.any(axis=1)):  # runs whose minimum binds, each once
+            t[i] = self._solve_milp(b[i], available[i], t[i])
+            residual[i] = b[i] - self.D @ t[i]
+        return t, residual
+
+    def allocate_relaxed(self, b, available=None) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`allocate` without the minimum on-time (the LP relaxation), batched."""
         b = np.atleast_2d(np.asarray(b, float))
         n_runs = b.shape[0]
         if available is None:
@@ -181,3 +240,62 @@ class Allocator:
         np.put_along_axis(full, self.bases[k], np.maximum(x_basis, 0.0), axis=1)
         t[rows] = full[:, : self.n]
         residual[rows] = (full[:, self.n : self.n + 3] - full[:, self.n + 3 : self.n + 6]) / self.sD
+
+    def _solve_milp(self, b, available, t_lp) -> np.ndarray:
+        """On-times ``(n_jets,)`` [s] of the mixed-integer problem (module docstring) for one
+        command; each distinct (command, jet set) solved once."""
+        key = b.tobytes() + np.packbits(available).tobytes()
+        hit = self._milp_cache.get(key)
+        if hit is not None:
+            return hit.copy()
+        self.n_milp += 1
+        n, ncol = self.n, self.ncol
+        rhs = np.zeros(self.m)
+        rhs[:3] = b * self.sD
+        # A feasible plan: the LP's short totals raised to their minimum, its residual elastic.
+        feasible = np.where((t_lp > 0) & (t_lp < self.t_min), self.t_min, t_lp)
+        bound = self._cost(feasible, b)
+        big = bound / self.c[:n]  # no optimal plan fires a jet longer: its propellant alone
+        cost = np.concatenate([self.c, np.zeros(n)])
+        a_link = np.zeros((2 * n, ncol + n))
+        a_link[:n, :n] = np.eye(n)
+        a_link[:n, ncol:] = -np.diag(big)  # t - M z <= 0
+        a_link[n:, :n] = np.eye(n)
+        a_link[n:, ncol:] = -np.diag(self.t_min)  # t - t_min z >= 0
+        constraints = [
+            LinearConstraint(np.hstack([self.A, np.zeros((self.m, n))]), rhs, rhs),
+            LinearConstraint(
+                a_link,
+                np.r_[np.full(n, -np.inf), np.zeros(n)],
+                np.r_[np.zeros(n), np.full(n, np.inf)],
+            ),
+        ]
+        upper = np.r_[np.full(ncol, np.inf), available.astype(float)]
+        res = milp(
+            cost,
+            constraints=constraints,
+            integrality=np.r_[np.zeros(ncol), np.ones(n)],
+            bounds=Bounds(np.zeros(ncol + n), upper),
+            options={"mip_rel_gap": 1e-9, "presolve": False},
+        )
+        if res.status != 0 or res.x is None:  # pragma: no cover - z = 0 is always feasible
+            raise RuntimeError(f"allocator MILP failed: {res.message}")
+        t = res.x[:n].copy()
+        # HiGHS' integrality tolerance: a jet it turned off is off, one it fires is at least
+        # its minimum (the solve's primal tolerance, ~1e-9 s, rounded away).
+        z = res.x[ncol:] > 0.5
+        t = np.where(z & available, np.maximum(t, self.t_min), 0.0)
+        if len(self._milp_cache) >= MILP_CACHE_SIZE:
+            self._milp_cache.pop(next(iter(self._milp_cache)))
+        self._milp_cache[key] = t
+        return t.copy()
+
+    def _cost(self, t, b) -> float:
+        """The (scaled) objective of on-times ``t`` for command ``b``: propellant, the
+        residual and, when priced, the translation left."""
+        resid = (b - self.D @ t) * self.sD
+        cost = float(self.c[: self.n] @ t + self.c[self.n] * np.abs(resid).sum())
+        if self.m > 3:
+            dv = self.A[3:, : self.n] @ t
+            cost += float(self.c[self.n + 6] * np.abs(dv).sum())
+        return cost

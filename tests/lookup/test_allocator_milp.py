@@ -1,0 +1,83 @@
+"""The allocator in ``propellant`` mode against an independent mixed-integer optimum.
+
+Oracle: scipy's ``milp`` (HiGHS branch and bound) on the problem written here from the
+vehicle's jet model alone, in SI units and without the allocator's scaling, elastic residual,
+tie-break or LP warm start::
+
+    min  mdot . t   s.t.  D t = b,   t_min z <= t <= T z,   z in {0, 1}^n
+
+(``T`` = 10 s: no command below bounds a jet longer; the rate cases need < 1 s; the cost is
+solved in seconds of the dearest jet, as HiGHS' absolute gap is 1e-6).  Commands:
+the 26 rate cases of Table 3 at the profile's ``rate_case_deg_s`` and the 3 single-axis
+maneuver starts at the maneuver rate, on canted12, canted16 (packaged), service16 (15 t) and
+smallsat8 (30 kg; docs/examples).  Tolerance 1 % (the issue's acceptance figure); the two
+solves differ only by the MILP gap (1e-9 here, HiGHS' default 1e-4 there) and the tie-break
+(10^-6 relative), so 1 % is loose -- the measured worst is printed by
+``benchmarks/allocator.py --milp``.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from scipy.optimize import Bounds, LinearConstraint, milp
+
+from rcsim.lookup.allocator_controller import allocator_controller, jet_model
+from rcsim.spacecraft.vehicle_file import Vehicle
+
+VEHICLES = ["canted12", "canted16", "docs/examples/service16.toml", "docs/examples/smallsat8.toml"]
+
+
+def commands(vehicle: Vehicle) -> np.ndarray:
+    """(29, 3) rate changes [rad/s]: the 26 rate cases and 3 maneuver starts."""
+    signs = np.array([s for s in itertools.product((-1, 0, 1), repeat=3) if any(s)], float)
+    cases = signs / np.linalg.norm(signs, axis=1, keepdims=True) * vehicle.control.rate_case_rad_s
+    return np.vstack([cases, np.eye(3) * vehicle.control.maneuver_rate_rad_s])
+
+
+def independent_optimum(D, mdot, t_min, b) -> float:
+    """Least propellant [kg] of an exact plan for ``b`` (module docstring)."""
+    n = D.shape[1]
+    big = 10.0
+    link = np.zeros((2 * n, 2 * n))
+    link[:n, :n], link[:n, n:] = np.eye(n), -big * np.eye(n)
+    link[n:, :n], link[n:, n:] = np.eye(n), -np.diag(t_min)
+    # Cost in seconds of the dearest jet: HiGHS' absolute MIP gap (1e-6) on an objective in kg
+    # (~1e-5) would stop it 10 % from the optimum.
+    res = milp(
+        np.r_[mdot / mdot.max(), np.zeros(n)],
+        constraints=[
+            LinearConstraint(np.hstack([D, np.zeros((3, n))]), b, b),
+            LinearConstraint(
+                link,
+                np.r_[np.full(n, -np.inf), np.zeros(n)],
+                np.r_[np.zeros(n), np.full(n, np.inf)],
+            ),
+        ],
+        integrality=np.r_[np.zeros(n), np.ones(n)],
+        bounds=Bounds(0, np.r_[np.full(n, np.inf), np.ones(n)]),
+        options={"mip_rel_gap": 1e-9},
+    )
+    assert res.status == 0, res.message
+    return float(res.fun) * mdot.max()
+
+
+@pytest.mark.parametrize("name", VEHICLES)
+def test_propellant_mode_is_within_one_percent_of_the_milp_optimum(name):
+    vehicle = Vehicle.load(name)
+    assert vehicle.control.allocation == "propellant"  # the default mode
+    ctrl = allocator_controller(vehicle)
+    D, _, mdot, _ = jet_model(vehicle.model, vehicle.isp_s)
+    t_min = ctrl.allocator.t_min
+    assert vehicle.min_on_s > 0 and (t_min > 0).all()  # the minimum binds on all four
+    b = commands(vehicle)
+    t, residual = ctrl.allocator.allocate(b)
+    fired = t > 0
+    assert (t[fired] >= np.broadcast_to(t_min, t.shape)[fired] * (1 - 1e-9)).all()
+    assert np.abs(residual).max() <= 1e-6 * np.abs(b).max()
+    ours = t @ mdot
+    best = np.array([independent_optimum(D, mdot, t_min, row) for row in b])
+    assert (ours <= best * 1.01).all(), np.max(ours / best)
+    assert (ours >= best * (1 - 1e-6)).all()  # nothing beats the optimum: the oracle is sound
