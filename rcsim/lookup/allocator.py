@@ -14,11 +14,14 @@ What it minimises is the profile's ``allocation`` (:func:`allocation_prices`): `
 
 Minimum on-time.  The LP relaxation (``t >= 0``) is solved first, batched as below.  When its
 optimum has no total in ``(0, t_min)`` it is also the mixed-integer optimum (the relaxation's
-optimum is feasible).  Runs whose LP optimum has a short total are solved as the MILP above
-(:func:`scipy.optimize.milp`, one binary per jet, ``t_min_j z_j <= t_j <= M_j z_j`` with ``M_j``
-the cost of a feasible plan over ``mdot_j``, so no optimum is cut off), each distinct command
-once (a dictionary keyed on the command's and the jet set's bytes): no share is dropped or
-deferred after solving.
+optimum is feasible).  For a run whose LP optimum has a short total, two feasible plans are
+made from it (the short jets held at their minimum, or dropped, the LP re-solved); when the
+cheaper is within ``MILP_GAP`` (0.5 %) of the LP relaxation's cost -- a lower bound of the
+optimum -- it is taken, proven within 0.5 % of the optimum.  Otherwise the MILP above is
+solved to that gap (:func:`scipy.optimize.milp`, one binary per jet,
+``t_min_j z_j <= t_j <= M_j z_j`` with ``M_j`` the feasible plan's cost over ``mdot_j``, so no
+optimum is cut off).  Each distinct command is solved once (a dictionary keyed on the
+command's and the jet set's bytes).  No share is dropped or deferred after solving.
 
 ``t`` has no upper bound: a plan longer than a control cycle is flown over several cycles
 (:class:`rcsim.lookup.allocator_controller.AllocatorController`).  The elastic residual ``r``,
@@ -55,6 +58,9 @@ TRANSLATION_FIRST_FACTOR = 1e3
 #: ``propellant`` breaks ties between plans of equal propellant toward less translation, at
 #: this fraction of ``m / (Isp g0)`` (a plan costs at most this relative extra propellant).
 TIE_BREAK_FACTOR = 1e-6
+#: Relative optimality gap of a plan whose minimum on-time binds: a plan is accepted when its
+#: cost is within this of the LP relaxation's (a lower bound), else HiGHS' MILP is solved to it.
+MILP_GAP = 0.005
 #: Distinct MILP answers kept per allocator (oldest dropped first).
 MILP_CACHE_SIZE = 100_000
 
@@ -106,7 +112,13 @@ class Allocator:
         cost_scale = self.mdot.max()
         self.sD = 1.0 / np.abs(self.D).max()
         Ds = self.D * self.sD
-        wr = w_r * np.max((self.mdot / cost_scale) / np.maximum(np.linalg.norm(Ds, axis=0), 1e-300))
+        # A jet's full price per second: its propellant and, when priced, its translation; the
+        # residual costs w_r times the dearest jet's full price of the same rate change, so no
+        # translation price ever makes a reachable rate change cheaper to leave undone.
+        jet_price = self.mdot / cost_scale
+        if G is not None:
+            jet_price = jet_price + w_v * np.abs(np.asarray(G, float)).sum(axis=0) / cost_scale
+        wr = w_r * np.max(jet_price / np.maximum(np.linalg.norm(Ds, axis=0), 1e-300))
         rows = [np.hstack([Ds, np.eye(3), -np.eye(3)])]
         cost = [self.mdot / cost_scale, np.full(6, wr)]
         if G is not None:
@@ -127,6 +139,7 @@ class Allocator:
             raise InputError("must be finite and >= 0", parameter="t_min_s")
         self._milp_cache: dict[bytes, np.ndarray] = {}
         self.n_milp = 0  # MILP solves so far (distinct commands with a binding minimum)
+        self.n_certified = 0  # binding minimum, a rounded plan within MILP_GAP: no MILP
 
     def allocate(self, b, available=None) -> tuple[np.ndarray, np.ndarray]:
         """On-times and residuals for commands ``b``.
@@ -248,14 +261,33 @@ class Allocator:
         hit = self._milp_cache.get(key)
         if hit is not None:
             return hit.copy()
-        self.n_milp += 1
         n, ncol = self.n, self.ncol
         rhs = np.zeros(self.m)
         rhs[:3] = b * self.sD
-        # A feasible plan: the LP's short totals raised to their minimum, its residual elastic.
-        feasible = np.where((t_lp > 0) & (t_lp < self.t_min), self.t_min, t_lp)
+        # A feasible plan: the LP's short jets held at their minimum, the others re-solved.
+        # Its cost bounds the optimum's, so no optimal plan fires a jet longer than that cost
+        # over the jet's propellant price: a tight big-M (a loose one lets HiGHS' integrality
+        # tolerance, 1e-6, fire short pulses "off").
+        held = np.zeros(n, bool)
+        feasible = t_lp
+        while True:  # hold every short jet at its minimum until none is short (<= n rounds)
+            short = (feasible > 0) & (feasible < self.t_min * (1 - 1e-9)) & ~held
+            if not short.any():
+                break
+            held |= short
+            feasible = self._held_at_minimum(b, available, held)
         bound = self._cost(feasible, b)
-        big = bound / self.c[:n]  # no optimal plan fires a jet longer: its propellant alone
+        # A second feasible plan: the short jets dropped, the LP re-solved without them.
+        dropped = self._dropped(b, available)
+        if self._cost(dropped, b) < bound:
+            feasible, bound = dropped, self._cost(dropped, b)
+        # The LP relaxation bounds the optimum from below: a feasible plan within MILP_GAP of
+        # it is within MILP_GAP of the optimum, and no MILP is needed.
+        if bound <= (1 + MILP_GAP) * self._cost(t_lp, b):
+            self.n_certified += 1
+            return self._remember(key, feasible)
+        self.n_milp += 1
+        big = bound / self.c[:n]
         cost = np.concatenate([self.c, np.zeros(n)])
         a_link = np.zeros((2 * n, ncol + n))
         a_link[:n, :n] = np.eye(n)
@@ -276,7 +308,7 @@ class Allocator:
             constraints=constraints,
             integrality=np.r_[np.zeros(ncol), np.ones(n)],
             bounds=Bounds(np.zeros(ncol + n), upper),
-            options={"mip_rel_gap": 1e-9, "presolve": False},
+            options={"mip_rel_gap": MILP_GAP, "presolve": False},
         )
         if res.status != 0 or res.x is None:  # pragma: no cover - z = 0 is always feasible
             raise RuntimeError(f"allocator MILP failed: {res.message}")
@@ -285,10 +317,40 @@ class Allocator:
         # its minimum (the solve's primal tolerance, ~1e-9 s, rounded away).
         z = res.x[ncol:] > 0.5
         t = np.where(z & available, np.maximum(t, self.t_min), 0.0)
+        if self._cost(t, b) > bound:  # pragma: no cover - a solver shortfall: keep the bound's
+            t = feasible
+        return self._remember(key, t)
+
+    def _remember(self, key: bytes, t: np.ndarray) -> np.ndarray:
         if len(self._milp_cache) >= MILP_CACHE_SIZE:
             self._milp_cache.pop(next(iter(self._milp_cache)))
         self._milp_cache[key] = t
         return t.copy()
+
+    def _dropped(self, b, available) -> np.ndarray:
+        """On-times ``(n_jets,)`` [s] of the LP without the jets it fires short, repeated
+        until none is short (<= n rounds; a feasible plan of the mixed-integer problem)."""
+        allowed = available.copy()
+        while True:
+            t = self.allocate_relaxed(b[None], allowed[None])[0][0]
+            short = (t > 0) & (t < self.t_min * (1 - 1e-9))
+            if not short.any():
+                return t
+            allowed &= ~short
+
+    def _held_at_minimum(self, b, available, held) -> np.ndarray:
+        """On-times ``(n_jets,)`` [s] of the LP with the ``held`` jets at least their minimum
+        (a feasible plan of the mixed-integer problem)."""
+        lower = np.r_[np.where(held & available, self.t_min, 0.0), np.zeros(self.ncol - self.n)]
+        upper = [None if j >= self.n or available[j] else 0.0 for j in range(self.ncol)]
+        rhs = np.zeros(self.m)
+        rhs[:3] = b * self.sD
+        res = linprog(
+            self.c, A_eq=self.A, b_eq=rhs, bounds=list(zip(lower, upper)), method="highs-ds"
+        )
+        if res.status != 0:  # pragma: no cover - the elastic residual keeps it feasible
+            raise RuntimeError(f"allocator LP failed: {res.message}")
+        return np.where(res.x[: self.n] > 0, np.maximum(res.x[: self.n], lower[: self.n]), 0.0)
 
     def _cost(self, t, b) -> float:
         """The (scaled) objective of on-times ``t`` for command ``b``: propellant, the

@@ -129,7 +129,9 @@ def test_batched_cache_matches_linprog_on_random_problems():
             # the same LP, unscaled, straight to HiGHS
             A = np.block([[D, np.eye(3), -np.eye(3), np.zeros((3, 6))],
                           [G, np.zeros((3, 6)), -np.eye(3), np.eye(3)]])  # fmt: skip
-            wr = 1e3 * np.max(mdot / np.linalg.norm(D, axis=0)) * np.abs(D).max()
+            # residual price: 1e3 x the dearest jet's propellant + translation per rate change
+            price = mdot + w_v * np.abs(G).sum(axis=0)
+            wr = 1e3 * np.max(price / np.linalg.norm(D, axis=0)) * np.abs(D).max()
             cost = np.concatenate([mdot, np.full(6, wr / np.abs(D).max()), np.full(6, w_v)])
             bounds = [(0, None if (j >= n or available[i, j]) else 0) for j in range(n + 12)]
             ref = linprog(cost, A_eq=A, b_eq=np.r_[b[i], 0, 0, 0], bounds=bounds, method="highs")
