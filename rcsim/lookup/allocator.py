@@ -14,29 +14,24 @@ What it minimises is the profile's ``allocation`` (:func:`allocation_prices`): `
 
 Minimum on-time.  The LP relaxation (``t >= 0``) is solved first, batched as below.  When its
 optimum has no total in ``(0, t_min)`` it is also the mixed-integer optimum (the relaxation's
-optimum is feasible).  For a run whose LP optimum has a short total, two feasible plans are
-made from it (the short jets held at their minimum, or dropped, the LP re-solved); when the
-cheaper is within ``MILP_GAP`` (0.5 %) of the LP relaxation's cost -- a lower bound of the
-optimum -- it is taken, proven within 0.5 % of the optimum.  Otherwise the MILP above is
-solved to that gap (:func:`scipy.optimize.milp`, one binary per jet,
-``t_min_j z_j <= t_j <= M_j z_j`` with ``M_j`` the feasible plan's cost over ``mdot_j``, so no
-optimum is cut off).  Each distinct command is solved once (a dictionary keyed on the
-command's and the jet set's bytes).  No share is dropped or deferred after solving.
-
-``t`` has no upper bound: a plan longer than a control cycle is flown over several cycles
-(:class:`rcsim.lookup.allocator_controller.AllocatorController`).  The elastic residual ``r``,
-priced ``w_r`` times the dearest jet's cost of the same rate change, makes every command feasible:
-an unreachable direction returns the best partial answer and its residual.  ``w_v`` prices the
-translation a firing leaves (default: the propellant that would null it, ``m / (Isp g0)`` kg per
-m/s), so a coupled force is avoided when it is cheap to avoid.  Firing time and jet count are
-secondary: among plans of equal propellant the simplex returns a vertex (at most 6 jets).
+optimum is feasible).  For a run whose LP optimum has a short total, a depth-first branch and
+bound on the short jets (each either off, or held at its minimum: ``t = t_min + t'``, the held
+minimum moved to the right-hand side, so every node is the same LP with another right-hand
+side and the cached bases below serve it) finds a plan within ``MILP_GAP`` (0.5 %) of the
+optimum: a node is pruned when its LP bound cannot beat the best plan by more than the gap.
+Should ``MAX_NODES`` not suffice, HiGHS' MILP (:func:`scipy.optimize.milp`, one binary per jet,
+``t_min_j z_j <= t_j <= M_j z_j`` with ``M_j`` a feasible plan's cost over ``mdot_j``, so no
+optimum is cut off) is solved to the same gap.  Each distinct command is solved once (a
+dictionary keyed on the command's and the jet set's bytes).  No share is dropped or deferred
+after solving.
 
 Batched solution
 ----------------
 ``b`` enters only the right-hand side and no variable has an upper bound, so an optimal basis
-``B`` stays optimal for every ``b`` with ``A_B^-1 [b; 0] >= 0``: its dual feasibility does not
-depend on ``b``.  The optimum is piecewise linear over finitely many cones.  The allocator keeps
-the optimal bases it has met (index set, the first three columns of ``A_B^-1``, and which
+``B`` stays optimal for every ``b`` with ``A_B^-1 [b; 0] >= 0`` (every right-hand side, force
+rows included: the branch and bound's nodes): its dual feasibility does not depend on it.
+The optimum is piecewise linear over finitely many cones.  The allocator keeps
+the optimal bases it has met (index set, ``A_B^-1``, and which
 columns have a negative reduced cost); a batch is solved by evaluating every cached basis for
 every run at once (one ``einsum``, ``(n_runs, K, m)``) and keeping, per run, the cheapest
 primal-feasible basis whose columns the run may use and none of whose negative-reduced-cost
@@ -61,6 +56,8 @@ TIE_BREAK_FACTOR = 1e-6
 #: Relative optimality gap of a plan whose minimum on-time binds: a plan is accepted when its
 #: cost is within this of the LP relaxation's (a lower bound), else HiGHS' MILP is solved to it.
 MILP_GAP = 0.005
+#: Nodes the branch and bound may visit before HiGHS' MILP takes over.
+MAX_NODES = 400
 #: Distinct MILP answers kept per allocator (oldest dropped first).
 MILP_CACHE_SIZE = 100_000
 
@@ -131,7 +128,8 @@ class Allocator:
         self.c = np.concatenate(cost)
         self.m, self.ncol = self.A.shape
         self.bases = np.zeros((0, self.m), int)
-        self.inv3 = np.zeros((0, self.m, 3))  # first 3 columns of A_B^-1 (b has no force rows)
+        self.inv = np.zeros((0, self.m, self.m))  # A_B^-1 (a node of the MILP search shifts
+        # the force rows' right-hand side too)
         self.negative = np.zeros((0, self.ncol), bool)  # columns with negative reduced cost
         self.n_lp = 0  # HiGHS solves so far (cache misses)
         self.t_min = np.zeros(n) if t_min_s is None else np.broadcast_to(t_min_s, (n,)) * 1.0
@@ -177,33 +175,41 @@ class Allocator:
         n_runs = b.shape[0]
         if available is None:
             available = np.ones((n_runs, self.n), bool)
-        available = np.asarray(available, bool)
-        t = np.zeros((n_runs, self.n))
-        residual = np.zeros((n_runs, 3))
-        todo = np.flatnonzero(np.any(b != 0, axis=1))
+        rhs = np.zeros((n_runs, self.m))
+        rhs[:, :3] = b * self.sD
+        x = self._relaxed(rhs, np.asarray(available, bool))
+        t = x[:, : self.n].copy()
+        return t, b - t @ self.D.T
+
+    def _relaxed(self, rhs, available) -> np.ndarray:
+        """The LP's optimal variables ``(n_runs, ncol)`` for scaled right-hand sides ``rhs``
+        ``(n_runs, m)``: cached bases for the whole batch, HiGHS for the misses."""
+        n_runs = rhs.shape[0]
+        x = np.zeros((n_runs, self.ncol))
+        todo = np.flatnonzero(np.any(rhs != 0, axis=1))
         while todo.size:
-            chosen, x_basis = self._from_cache(b[todo], available[todo])
+            chosen, x_basis = self._from_cache(rhs[todo], available[todo])
             hit = chosen >= 0
-            self._scatter(t, residual, todo[hit], chosen[hit], x_basis[hit])
+            rows = todo[hit]
+            full = np.zeros((rows.size, self.ncol))
+            np.put_along_axis(full, self.bases[chosen[hit]], np.maximum(x_basis[hit], 0.0), axis=1)
+            x[rows] = full
             todo = todo[~hit]
             if todo.size == 0:
                 break
             i = todo[0]
             cached = self.bases.shape[0]
-            x = self._solve(b[i], available[i])
+            solved = self._solve(rhs[i], available[i])
             if self.bases.shape[0] == cached:  # basis not cacheable (degenerate): use the LP's
-                t[i] = x[: self.n]
-                residual[i] = b[i] - self.D @ t[i]
+                x[i] = solved
                 todo = todo[1:]
-        return t, residual
+        return x
 
-    def _solve(self, b, available) -> np.ndarray:
+    def _solve(self, rhs, available) -> np.ndarray:
         """One HiGHS solve; its optimal basis joins the cache when it is dual feasible."""
         self.n_lp += 1
         avail = np.concatenate([available, np.ones(self.ncol - self.n, bool)])
         bounds = [(0, None if avail[j] else 0) for j in range(self.ncol)]
-        rhs = np.zeros(self.m)
-        rhs[:3] = b * self.sD
         res = linprog(self.c, A_eq=self.A, b_eq=rhs, bounds=bounds, method="highs-ds")
         if res.status != 0:  # pragma: no cover - the elastic residual keeps it feasible
             raise RuntimeError(f"allocator LP failed: {res.message}")
@@ -227,16 +233,16 @@ class Allocator:
             known = (self.bases == basis).all(axis=1) & (self.negative == negative).all(axis=1)
             if not (negative & avail).any() and not known.any():
                 self.bases = np.vstack([self.bases, basis])
-                self.inv3 = np.concatenate([self.inv3, np.linalg.inv(a_b)[None, :, :3]])
+                self.inv = np.concatenate([self.inv, np.linalg.inv(a_b)[None]])
                 self.negative = np.vstack([self.negative, negative])
         return x
 
-    def _from_cache(self, b, available) -> tuple[np.ndarray, np.ndarray]:
+    def _from_cache(self, rhs, available) -> tuple[np.ndarray, np.ndarray]:
         """Per run the cheapest cached basis that is optimal for it (-1: none), and its x_B."""
-        n_runs = b.shape[0]
+        n_runs = rhs.shape[0]
         if self.bases.shape[0] == 0:
             return np.full(n_runs, -1), np.zeros((n_runs, self.m))
-        x = np.einsum("kij,nj->nki", self.inv3, b * self.sD)  # (n_runs, K, m)
+        x = np.einsum("kij,nj->nki", self.inv, rhs)  # (n_runs, K, m)
         scale = np.abs(x).max(axis=2, keepdims=True) + 1e-300
         primal = (x >= -1e-9 * scale).all(axis=2)
         avail = np.hstack([available, np.ones((n_runs, self.ncol - self.n), bool)])
@@ -248,12 +254,6 @@ class Allocator:
         chosen = np.where(ok.any(axis=1), k, -1)
         return chosen, x[np.arange(n_runs), np.maximum(k, 0)]
 
-    def _scatter(self, t, residual, rows, k, x_basis) -> None:
-        full = np.zeros((rows.size, self.ncol))
-        np.put_along_axis(full, self.bases[k], np.maximum(x_basis, 0.0), axis=1)
-        t[rows] = full[:, : self.n]
-        residual[rows] = (full[:, self.n : self.n + 3] - full[:, self.n + 3 : self.n + 6]) / self.sD
-
     def _solve_milp(self, b, available, t_lp) -> np.ndarray:
         """On-times ``(n_jets,)`` [s] of the mixed-integer problem (module docstring) for one
         command; each distinct (command, jet set) solved once."""
@@ -264,6 +264,9 @@ class Allocator:
         n, ncol = self.n, self.ncol
         rhs = np.zeros(self.m)
         rhs[:3] = b * self.sD
+        found = self._branch_and_bound(rhs, available)
+        if found is not None:
+            return self._remember(key, found)
         # A feasible plan: the LP's short jets held at their minimum, the others re-solved.
         # Its cost bounds the optimum's, so no optimal plan fires a jet longer than that cost
         # over the jet's propellant price: a tight big-M (a loose one lets HiGHS' integrality
@@ -320,6 +323,37 @@ class Allocator:
         if self._cost(t, b) > bound:  # pragma: no cover - a solver shortfall: keep the bound's
             t = feasible
         return self._remember(key, t)
+
+    def _branch_and_bound(self, rhs, available) -> np.ndarray | None:
+        """On-times ``(n_jets,)`` [s] within ``MILP_GAP`` of the mixed-integer optimum, by
+        depth-first branch and bound on the short jets (a short jet is either off or held at
+        least at its minimum); every node's LP is the cached-basis LP with the held minimum
+        moved to the right-hand side (``t = t_min + t'``, ``t' >= 0``), so a node costs a
+        matrix product once its basis is known.  None when ``MAX_NODES`` are not enough."""
+        n = self.n
+        lower_t = self.t_min * (1 - 1e-9)
+        best, best_cost = None, np.inf
+        stack = [(np.zeros(n, bool), ~available)]
+        for _ in range(MAX_NODES):
+            if not stack:
+                return best
+            held, off = stack.pop()
+            base = np.where(held, self.t_min, 0.0)
+            x = self._relaxed((rhs - self.A[:, :n] @ base)[None], (~off)[None])[0]
+            cost = float(self.c @ x + self.c[:n] @ base)
+            if cost * (1 + MILP_GAP) >= best_cost:
+                continue  # this branch cannot beat the best by more than the gap
+            t = x[:n] + base
+            short = (t > 0) & (t < lower_t) & ~held
+            if not short.any():
+                best, best_cost = t, cost
+                continue
+            j = int(np.argmax(np.where(short, t / self.t_min, -1.0)))  # nearest its minimum
+            one = np.zeros(n, bool)
+            one[j] = True
+            stack.append((held, off | one))  # off: explored second
+            stack.append((held | one, off))  # held at the minimum: a feasible plan soonest
+        return best if not stack else None
 
     def _remember(self, key: bytes, t: np.ndarray) -> np.ndarray:
         if len(self._milp_cache) >= MILP_CACHE_SIZE:
