@@ -57,7 +57,7 @@ TIE_BREAK_FACTOR = 1e-6
 #: cost is within this of the LP relaxation's (a lower bound), else HiGHS' MILP is solved to it.
 MILP_GAP = 0.005
 #: Nodes the branch and bound may visit before HiGHS' MILP takes over.
-MAX_NODES = 400
+MAX_NODES = 40
 #: Distinct MILP answers kept per allocator (oldest dropped first).
 MILP_CACHE_SIZE = 100_000
 
@@ -138,6 +138,7 @@ class Allocator:
         self._milp_cache: dict[bytes, np.ndarray] = {}
         self.n_milp = 0  # MILP solves so far (distinct commands with a binding minimum)
         self.n_certified = 0  # binding minimum, a rounded plan within MILP_GAP: no MILP
+        self.n_nodes = 0  # branch-and-bound nodes so far
 
     def allocate(self, b, available=None) -> tuple[np.ndarray, np.ndarray]:
         """On-times and residuals for commands ``b``.
@@ -337,6 +338,7 @@ class Allocator:
         for _ in range(MAX_NODES):
             if not stack:
                 return best
+            self.n_nodes += 1
             held, off = stack.pop()
             base = np.where(held, self.t_min, 0.0)
             x = self._relaxed((rhs - self.A[:, :n] @ base)[None], (~off)[None])[0]
