@@ -57,7 +57,7 @@ TIE_BREAK_FACTOR = 1e-6
 #: cost is within this of the LP relaxation's (a lower bound), else HiGHS' MILP is solved to it.
 MILP_GAP = 0.005
 #: Nodes the branch and bound may visit before HiGHS' MILP takes over.
-MAX_NODES = 40
+MAX_NODES = 10
 #: Distinct MILP answers kept per allocator (oldest dropped first).
 MILP_CACHE_SIZE = 100_000
 
