@@ -115,7 +115,11 @@ class Allocator:
         jet_price = self.mdot / cost_scale
         if G is not None:
             jet_price = jet_price + w_v * np.abs(np.asarray(G, float)).sum(axis=0) / cost_scale
-        wr = w_r * np.max(jet_price / np.maximum(np.linalg.norm(Ds, axis=0), 1e-300))
+        # Over the jets that turn the vehicle at all (1e-3 of the strongest): a jet whose force
+        # passes near the CG would make the price astronomically large (HiGHS fails on it).
+        turn = np.linalg.norm(Ds, axis=0)
+        useful = turn >= 1e-3 * turn.max()
+        wr = w_r * np.max(jet_price[useful] / turn[useful])
         rows = [np.hstack([Ds, np.eye(3), -np.eye(3)])]
         cost = [self.mdot / cost_scale, np.full(6, wr)]
         if G is not None:
@@ -211,9 +215,7 @@ class Allocator:
         self.n_lp += 1
         avail = np.concatenate([available, np.ones(self.ncol - self.n, bool)])
         bounds = [(0, None if avail[j] else 0) for j in range(self.ncol)]
-        res = linprog(self.c, A_eq=self.A, b_eq=rhs, bounds=bounds, method="highs-ds")
-        if res.status != 0:  # pragma: no cover - the elastic residual keeps it feasible
-            raise RuntimeError(f"allocator LP failed: {res.message}")
+        res = self._linprog(bounds, rhs)
         x, y = res.x, res.eqlin.marginals
         scale = np.maximum(np.abs(self.c), 1e-300)
         reduced = self.c - self.A.T @ y
@@ -374,6 +376,17 @@ class Allocator:
                 return t
             allowed &= ~short
 
+    def _linprog(self, bounds, rhs):
+        """HiGHS' dual simplex on the allocator's LP; its interior point, then its own choice,
+        when the simplex gives up (costs spanning many decades -- a translation price on a
+        layout that cannot reach an axis -- can leave its status unknown)."""
+        for method in ("highs-ds", "highs-ipm", "highs"):
+            res = linprog(self.c, A_eq=self.A, b_eq=rhs, bounds=bounds, method=method)
+            if res.status == 0:
+                return res
+        # pragma: no cover - the elastic residual keeps the LP feasible and bounded
+        raise RuntimeError(f"allocator LP failed: {res.message}")
+
     def _held_at_minimum(self, b, available, held) -> np.ndarray:
         """On-times ``(n_jets,)`` [s] of the LP with the ``held`` jets at least their minimum
         (a feasible plan of the mixed-integer problem)."""
@@ -381,11 +394,7 @@ class Allocator:
         upper = [None if j >= self.n or available[j] else 0.0 for j in range(self.ncol)]
         rhs = np.zeros(self.m)
         rhs[:3] = b * self.sD
-        res = linprog(
-            self.c, A_eq=self.A, b_eq=rhs, bounds=list(zip(lower, upper)), method="highs-ds"
-        )
-        if res.status != 0:  # pragma: no cover - the elastic residual keeps it feasible
-            raise RuntimeError(f"allocator LP failed: {res.message}")
+        res = self._linprog(list(zip(lower, upper)), rhs)
         return np.where(res.x[: self.n] > 0, np.maximum(res.x[: self.n], lower[: self.n]), 0.0)
 
     def _cost(self, t, b) -> float:

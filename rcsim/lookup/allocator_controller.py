@@ -22,9 +22,10 @@ runs (no Python loop over runs):
    minimum) is not fired while ``max |need|`` is below ``allocator.trim_deadband_deg_s``;
 4. the plan is flown over ``L = ceil(max t / cycle)`` cycles: jet ``j`` fires ``p_j`` equal
    pulses of ``t_j / p_j``, ``p_j = min(L, floor(t_j / t_min_j))`` (``L`` when it has no
-   minimum), spread evenly over the ``L`` cycles, so the coupled torques cancel within every
-   cycle when the minimum allows it (every jet then fires ``t / L`` each cycle) and over the
-   plan otherwise, and no pulse is below the minimum;
+   minimum), spread evenly over the ``L`` cycles from the first, so the coupled torques cancel
+   within every cycle when the minimum allows it (every jet then fires ``t / L`` each cycle)
+   and over the plan otherwise (every jet of the plan fires in its first cycle), and no pulse
+   is below the minimum;
 5. valve delays (the vehicle file's nominal ``open_delay_s`` / ``close_delay_s``): a pulse
    commanded ``u`` thrusts ``u - (d_o - d_c)``, so each pulse is commanded its planned
    delivered time plus ``d_o - d_c``, and the minimum delivered pulse is
@@ -182,12 +183,12 @@ class AllocatorController:
             pulses[idx] = count
             cycles[idx] = n_cyc
             flown[idx] = 0
-        # Jet j fires in cycle k of L when floor((k+1) p / L) > floor(k p / L): p pulses, evenly.
+        # Jet j fires in cycle k of L when ceil((k+1) p / L) > ceil(k p / L): p pulses, evenly,
+        # the first in cycle 0 (every jet of the plan fires in its first cycle).
         active = (flown < cycles)[:, None]
         length = np.maximum(cycles, 1)[:, None]
-        fires = active & (
-            ((flown[:, None] + 1) * pulses) // length > (flown[:, None] * pulses) // length
-        )
+        k = flown[:, None]
+        fires = active & (-((-(k + 1) * pulses) // length) > -((-k * pulses) // length))
         u = np.where(fires & (pulse > 0), np.minimum(pulse + self.lag_s, self.cycle_s), 0.0)
         flown = np.where(flown < cycles, flown + 1, flown)
         return u, AllocatorState(pulse, pulses, cycles, flown, maneuvering)

@@ -163,7 +163,8 @@ def _nav(att_err, rate_err):
 def test_every_pulse_flown_is_at_least_the_minimum_and_the_plan_is_delivered_whole():
     """canted16 (10 ms minimum): a plan's totals are 0 or >= 10 ms (the MILP), every pulse the
     controller commands over the plan is >= 10 ms, and the pulses add up to the totals the
-    allocator solved (nothing dropped or deferred).  Exact sums up to float round-off."""
+    allocator solved (nothing dropped or deferred); every jet of the plan fires in the first
+    cycle.  Exact sums up to float round-off."""
     vehicle, ctrl = _controller("canted16")
     need = np.radians([[0.05, -0.12, 0.2]])
     t, _ = ctrl.allocator.allocate(need)
@@ -172,6 +173,7 @@ def test_every_pulse_flown_is_at_least_the_minimum_and_the_plan_is_delivered_who
     state = ctrl.initial_state(1)
     total = np.zeros(vehicle.n_jets)
     u, state = ctrl.step(_nav(np.zeros(3), -need), state)
+    assert ((u[0] > 0) == fired).all()  # every jet of the plan fires in its first cycle
     total += u[0]
     # The plan flies to its end whatever the rates do meanwhile (receding horizon).
     while state.flown[0] < state.cycles[0]:
