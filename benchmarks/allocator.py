@@ -13,10 +13,20 @@ Measures, in one process run:
    jets) vehicles with the allocator under Table 5-style dispersions (the vehicle file's
    table): failures and propellant per case, and the wall time.
 
+4. ``milp`` (issue 28): the allocator in each allocation mode on canted12, canted16,
+   service16 and smallsat8 (26 rate cases + 3 maneuver starts), its propellant against an
+   independent mixed-integer optimum (scipy ``milp`` on ``min mdot . t, D t = b, t = 0 or
+   >= t_min``, written here), and the time per command and the MILP count;
+5. ``cost`` (issue 28): a campaign of the 26 rate cases x N runs on a vehicle with a minimum
+   on-time (default service16) with the allocator: wall time, cycles flown, the allocator's
+   time per cycle per run and its MILP solves (distinct commands whose minimum binds).  The
+   same spec flown by an older rcsim gives "today's" figure to compare (docs/allocator.md).
+
 Usage::
 
     python benchmarks/allocator.py [--runs-per-case 40] [--repeats 3] [--canted-runs 1000]
-        [--canted-vehicles canted16,canted12]
+        [--canted-vehicles canted16,canted12] [--only speed|compare|canted|milp|cost]
+        [--cost-vehicle docs/examples/service16.toml] [--cost-runs 20]
 
 Timings are wall-clock on a shared machine: the script prints the load average before and
 after; quote the ratio of interleaved repeats, not an absolute figure.
@@ -134,13 +144,115 @@ def canted(runs: int, vehicle: str) -> None:
     print(f"total failed {int(frame['failed'].sum())} of {len(frame)}")
 
 
+def milp_check() -> None:
+    import itertools
+
+    from scipy.optimize import Bounds, LinearConstraint, milp
+
+    from rcsim.lookup.allocator_controller import allocator_controller, jet_model
+    from rcsim.spacecraft.control_profile import ALLOCATION_MODES
+    from rcsim.spacecraft.vehicle_file import Vehicle
+
+    def optimum(D, mdot, t_min, b):
+        n = D.shape[1]
+        link = np.zeros((2 * n, 2 * n))
+        link[:n, :n], link[:n, n:] = np.eye(n), -10.0 * np.eye(n)
+        link[n:, :n], link[n:, n:] = np.eye(n), -np.diag(t_min)
+        res = milp(
+            np.r_[mdot / mdot.max(), np.zeros(n)],
+            constraints=[
+                LinearConstraint(np.hstack([D, np.zeros((3, n))]), b, b),
+                LinearConstraint(
+                    link,
+                    np.r_[np.full(n, -np.inf), np.zeros(n)],
+                    np.r_[np.zeros(n), np.full(n, np.inf)],
+                ),
+            ],
+            integrality=np.r_[np.zeros(n), np.ones(n)],
+            bounds=Bounds(0, np.r_[np.full(n, np.inf), np.ones(n)]),
+            options={"mip_rel_gap": 1e-9},
+        )
+        return float(res.fun) * mdot.max()
+
+    print("| vehicle | mode | worst / MILP optimum | mean / optimum | ms per command | MILPs |")
+    print("|---|---|---|---|---|---|")
+    for name in ("canted12", "canted16", "docs/examples/service16.toml",
+                 "docs/examples/smallsat8.toml"):  # fmt: skip
+        vehicle = Vehicle.load(ROOT / name if name.endswith(".toml") else name)
+        control = vehicle.control
+        signs = np.array([s for s in itertools.product((-1, 0, 1), repeat=3) if any(s)], float)
+        b = np.vstack([
+            signs / np.linalg.norm(signs, axis=1, keepdims=True) * control.rate_case_rad_s,
+            np.eye(3) * control.maneuver_rate_rad_s,
+        ])  # fmt: skip
+        D, _, mdot, _ = jet_model(vehicle.model, vehicle.isp_s)
+        for mode in ALLOCATION_MODES:
+            alloc = allocator_controller(vehicle, allocation=mode).allocator
+            best = np.array([optimum(D, mdot, alloc.t_min, row) for row in b])
+            t0 = time.perf_counter()
+            t, _ = alloc.allocate(b)
+            ms = (time.perf_counter() - t0) / len(b) * 1e3
+            ratio = (t @ mdot) / best
+            print(
+                f"| {Path(name).stem} | {mode} | {ratio.max():.5f} | {ratio.mean():.5f} | "
+                f"{ms:.1f} | {alloc.n_milp} |"
+            )
+
+
+def cost(vehicle: str, runs: int) -> None:
+    from rcsim.lookup.registry import make_controller
+    from rcsim.models.tables import load_rate_cases
+    from rcsim.spacecraft.navigation import Guidance
+    from rcsim.spacecraft.simulation import simulate_batch
+    from rcsim.spacecraft.vehicle_file import Vehicle
+
+    path = str(ROOT / vehicle) if vehicle.endswith(".toml") else vehicle
+    print(f"load average before: {os.getloadavg()}")
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        report = run_campaign(_spec("allocator", runs, 28, path), Path(tmp) / "c", progress=False)
+        wall = time.perf_counter() - t0
+    print(
+        f"{vehicle}: campaign 26 x {runs} runs, 20 s each: {wall:.1f} s wall (flying "
+        f"{report.fly_s:.1f} s)"
+    )
+    # The controller's own cost, in this process: the nominal 26 rate cases x runs, one batch.
+    flown = Vehicle.load(path)
+    rates = np.tile(np.asarray(load_rate_cases().rate_cmd, float), (runs, 1))
+    controller = make_controller("allocator", flown)
+    step = controller.step
+    spent = {"s": 0.0, "cycles": 0}
+
+    def timed(nav, state):
+        t0 = time.perf_counter()
+        out = step(nav, state)
+        spent["s"] += time.perf_counter() - t0
+        spent["cycles"] += 1
+        return out
+
+    controller.step = timed  # type: ignore[method-assign]
+    t0 = time.perf_counter()
+    simulate_batch(flown.nominal(len(rates)), controller, Guidance.rate(rates), 20.0, vehicle=flown)
+    total = time.perf_counter() - t0
+    alloc = controller.allocator
+    per = spent["s"] / (spent["cycles"] * len(rates)) * 1e6
+    print(
+        f"nominal 26 x {runs} rate cases in one batch: {total:.1f} s, of which the controller "
+        f"{spent['s']:.1f} s over {spent['cycles']} cycles = {per:.1f} us per cycle per run; "
+        f"{alloc.n_lp} LP solves, {alloc.n_certified} rounded plans certified within 0.5 %, "
+        f"{alloc.n_milp} MILPs; load average after: {os.getloadavg()}"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs-per-case", type=int, default=40)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--canted-runs", type=int, default=1000)
     parser.add_argument("--canted-vehicles", default="canted16,canted12")
-    parser.add_argument("--only", choices=("speed", "compare", "canted"))
+    parser.add_argument("--only", choices=("speed", "compare", "canted", "milp", "cost"))
+    parser.add_argument("--cost-vehicle", default="docs/examples/service16.toml")
+    parser.add_argument("--cost-runs", type=int, default=20)
     args = parser.parse_args()
     if args.only in (None, "speed"):
         speed(args.runs_per_case, args.repeats)
@@ -149,6 +261,10 @@ def main() -> None:
     if args.only in (None, "canted"):
         for vehicle in args.canted_vehicles.split(","):
             canted(args.canted_runs, vehicle)
+    if args.only in (None, "milp"):
+        milp_check()
+    if args.only in (None, "cost"):
+        cost(args.cost_vehicle, args.cost_runs)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 """Attitude controllers and their tables: phase-plane baseline, pattern-recognition lookup
 (static, and adaptive: :mod:`rcsim.lookup.adaptive`), tables regenerated for failed jets
-(:mod:`rcsim.lookup.jet_sets`), the minimum-propellant jet allocator for any jet layout
+(:mod:`rcsim.lookup.jet_sets`), the jet allocator for any jet layout (objective: the profile's
+``allocation``)
 (:mod:`rcsim.lookup.allocator`, :mod:`rcsim.lookup.allocator_controller`), channel tables for
 layouts whose jets torque several axes (:mod:`rcsim.lookup.channels`,
 :mod:`rcsim.lookup.channel_generation`) and the per-jet response database

@@ -29,21 +29,23 @@ static inline int64_t np_sign_int(double x) { return (x > 0.0) - (x < 0.0); }
 
 static PyObject *step(PyObject *self, PyObject *args) {
     (void)self;
-    Py_buffer att, theta_b, rate, rem_in, hold_in, times, scale_in, code_map, rate_abs, axis_b, group_b,
+    Py_buffer att, theta_b, rate, rem_in, hold_in, man_in, times, scale_in, code_map, rate_abs, axis_b, group_b,
         opp_b, on_b, rem_b, hold_b, case_b, need_b, new_b, done_b;
     Py_ssize_t n, n_jets, n_cases;
     int times_per_run, has_scale;
     double maneuver_limit, maneuver_rate, rate_limit, no_fire_band, on_limit, cycle, hold_time,
         timer_eps;
     if (!PyArg_ParseTuple(
-            args, "nnnipy*y*y*y*y*y*y*y*y*y*y*y*w*w*w*w*w*w*w*dddddddd", &n, &n_jets, &n_cases,
-            &times_per_run, &has_scale, &att, &theta_b, &rate, &rem_in, &hold_in, &times, &scale_in,
+            args, "nnnipy*y*y*y*y*y*y*y*y*y*y*y*y*w*w*w*w*w*w*w*dddddddd", &n, &n_jets, &n_cases,
+            &times_per_run, &has_scale, &att, &theta_b, &rate, &rem_in, &hold_in, &man_in, &times,
+            &scale_in,
             &code_map, &rate_abs, &axis_b, &group_b, &opp_b, &on_b, &rem_b, &hold_b, &case_b,
             &need_b, &new_b, &done_b, &maneuver_limit, &maneuver_rate, &rate_limit,
             &no_fire_band, &on_limit, &cycle, &hold_time, &timer_eps))
         return NULL;
 
     const double *e_all = att.buf, *theta_all = theta_b.buf, *w_all = rate.buf, *rem0 = rem_in.buf, *hold0 = hold_in.buf;
+    const uint8_t *man_all = man_in.buf;
     const double *tab = times.buf, *cscale = scale_in.buf, *rabs = rate_abs.buf;
     const int64_t *case_of_code = code_map.buf, *axis = axis_b.buf, *group = group_b.buf,
                   *opp = opp_b.buf;
@@ -59,9 +61,10 @@ static PyObject *step(PyObject *self, PyObject *args) {
     for (Py_ssize_t i = 0; rem && fire && i < n; i++) {
         const double *e = e_all + 3 * i, *w = w_all + 3 * i;
         /* Steps 1-2: rate error with the maneuver term, dead band.  theta = |e| comes from
-         * the caller: numpy's einsum sums the three squares in an order of its own. */
+         * the caller: numpy's einsum sums the three squares in an order of its own; so does
+         * the maneuver flag (the hysteresis is the caller's: it needs the last cycle's). */
         double theta = theta_all[i];
-        int maneuver = theta > maneuver_limit;
+        int maneuver = man_all[i] != 0;
         double div = theta > 0.0 ? theta : 1.0;
         double need[N_AXES];
         int any_err = 0;
@@ -144,6 +147,7 @@ static PyObject *step(PyObject *self, PyObject *args) {
     PyBuffer_Release(&rate);
     PyBuffer_Release(&rem_in);
     PyBuffer_Release(&hold_in);
+    PyBuffer_Release(&man_in);
     PyBuffer_Release(&times);
     PyBuffer_Release(&scale_in);
     PyBuffer_Release(&code_map);

@@ -258,7 +258,9 @@ class AdaptiveLookupController(LookupController):
                 jet_new = new_rem @ self._axis_onehot.T  # (n, 16)
                 jet_replan = (replan.astype(float) @ self._axis_onehot.T > 0) & (rem > 0)
                 base = LookupState(
-                    remaining_s=np.where(jet_replan, jet_new, rem), hold_s=state.base.hold_s
+                    remaining_s=np.where(jet_replan, jet_new, rem),
+                    hold_s=state.base.hold_s,
+                    maneuvering=state.base.maneuvering,
                 )
                 state = AdaptiveState(**{**vars(state), "base": base})
                 replans += replan

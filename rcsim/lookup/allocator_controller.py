@@ -6,27 +6,35 @@ torque, a roll thruster must fire to cancel that torque").  Each control cycle, 
 runs (no Python loop over runs):
 
 1. the rate change the logic acts on, ``need = -(omega - target)``, with the lookup
-   controller's maneuver rule: above the maneuver limit the target is the commanded rate plus
-   the maneuver rate toward the commanded attitude (the vehicle's profile,
-   :class:`rcsim.spacecraft.vehicle_file.ControlProfile`; the paper's Table 4 values for the
-   paper's vehicle);
+   controller's maneuver rule: in a maneuver the target is the commanded rate plus the
+   maneuver rate toward the commanded attitude (the vehicle's profile,
+   :class:`rcsim.spacecraft.vehicle_file.ControlProfile`).  A maneuver starts when the total
+   attitude error exceeds ``maneuver_limit_deg`` and ends when it falls below the limit minus
+   ``maneuver_hysteresis_deg`` (0 for the paper: enter and leave at the limit);
 2. dead band: no new plan while ``max |need| < deadband`` (the profile's
    ``allocator.rate_deadband_deg_s``, 0.004 deg/s for the paper's vehicle: a tenth of the
    0.04 deg/s success threshold of the rate cases, so a run settles well inside it);
-3. plan: the minimum-propellant on-times ``t`` for all of ``need`` from the allocator
-   (:class:`rcsim.lookup.allocator.Allocator`, nominal jet model) over the available jets, rounded
-   so that every jet's total is 0 or at least the minimum on-time by the profile's minimum
-   pulse policy (``min_pulse``): ``accumulate``, all ``2^k`` roundings of the ``k`` short jets
-   scored by the rate error they leave; ``round-up``, every short total to the minimum;
-   ``drop``, every short total to 0;
-4. the plan is spread over ``L = ceil(max t / cycle)`` cycles, every cycle firing ``t / L`` of
-   each jet, so the coupled torques cancel within every cycle, not only at the plan's end; a
-   share below the minimum on-time is owed and fired as one pulse when it reaches it;
-5. when the plan is done, re-plan from the measured rate (receding horizon): model error,
-   rounding and dispersions are corrected by feedback.
+3. plan: the on-times ``t`` for all of ``need`` from the allocator
+   (:class:`rcsim.lookup.allocator.Allocator`, nominal jet model, the profile's ``allocation``
+   objective) over the available jets, every total 0 or at least the jet's minimum delivered
+   pulse (the optimisation honours it: nothing is dropped or deferred after solving).  No
+   trim pairs: a plan that needs a minimum pulse (its LP relaxation has a total below the
+   minimum) is not fired while ``max |need|`` is below ``allocator.trim_deadband_deg_s``;
+4. the plan is flown over ``L = ceil(max t / cycle)`` cycles: jet ``j`` fires ``p_j`` equal
+   pulses of ``t_j / p_j``, ``p_j = min(L, floor(t_j / t_min_j))`` (``L`` when it has no
+   minimum), spread evenly over the ``L`` cycles from the first, so the coupled torques cancel
+   within every cycle when the minimum allows it (every jet then fires ``t / L`` each cycle)
+   and over the plan otherwise (every jet of the plan fires in its first cycle), and no pulse
+   is below the minimum;
+5. valve delays (the vehicle file's nominal ``open_delay_s`` / ``close_delay_s``): a pulse
+   commanded ``u`` thrusts ``u - (d_o - d_c)``, so each pulse is commanded its planned
+   delivered time plus ``d_o - d_c``, and the minimum delivered pulse is
+   ``max(min_on - (d_o - d_c), 0)``: what is solved is what is delivered;
+6. when the plan is done, re-plan from the measured rate (receding horizon): model error and
+   dispersions are corrected by feedback.
 
-State (:class:`AllocatorState`): the plan's per-cycle shares, the owed short pulses, the
-cycles left and which jets ended the last cycle on.
+State (:class:`AllocatorState`): the plan's pulse lengths and counts, its length and the
+cycles flown, and whether a maneuver is being flown.
 """
 
 from __future__ import annotations
@@ -37,9 +45,8 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
-from rcsim.lookup.allocator import Allocator
+from rcsim.lookup.allocator import Allocator, allocation_prices
 from rcsim.models.errors import InputError
-from rcsim.spacecraft.control_profile import MIN_PULSE_POLICIES
 from rcsim.spacecraft.propellant import full_inertia
 from rcsim.spacecraft.vehicle import BODY, G0_M_S2, VehicleParams, torque_per_jet_B
 
@@ -79,14 +86,16 @@ def _site_rotations(model: mujoco.MjModel) -> np.ndarray:
 class AllocatorState:
     """Per-run plan state, arrays ``(n_runs, n_jets)`` unless said.
 
-    ``share_s``: on-time per cycle of the current plan; ``owed_s``: short-pulse on-time not
-    yet fired; ``cycles_left`` (n_runs,): cycles left in the plan; ``on_at_end``: the jet
-    filled the last cycle (its next pulse is not a new one)."""
+    ``pulse_s``: delivered length of each of the plan's pulses of a jet [s]; ``pulses``: how
+    many pulses the jet fires in the plan; ``cycles`` (n_runs,): the plan's length in cycles;
+    ``flown`` (n_runs,): cycles of it flown; ``maneuvering`` (n_runs,) bool: a maneuver is
+    being flown (step 1's hysteresis)."""
 
-    share_s: np.ndarray
-    owed_s: np.ndarray
-    cycles_left: np.ndarray
-    on_at_end: np.ndarray
+    pulse_s: np.ndarray
+    pulses: np.ndarray
+    cycles: np.ndarray
+    flown: np.ndarray
+    maneuvering: np.ndarray
 
 
 class AllocatorController:
@@ -95,17 +104,19 @@ class AllocatorController:
     Parameters
     ----------
     allocator : Allocator
-    min_on_s : float
-        Shortest new pulse the valves make [s].
+        Its ``t_min`` is the minimum *delivered* pulse of each jet (module docstring, step 5).
     maneuver_limit_rad, maneuver_rate_rad_s : float
         The maneuver rule [rad, rad/s] (the vehicle's profile).
     deadband_rad_s : float
         No new plan below this rate error on every axis [rad/s] (the profile's).
     cycle_s : float
         Control cycle [s] (the profile's).
-    min_pulse : str
-        The profile's minimum pulse policy: how a plan's totals below ``min_on_s`` are rounded
-        (module docstring, step 3).
+    hysteresis_rad : float
+        A maneuver ends below ``maneuver_limit_rad - hysteresis_rad`` [rad]; default 0.
+    trim_deadband_rad_s : float
+        No plan needing a minimum pulse below this rate error on every axis [rad/s]; default 0.
+    lag_s : ndarray, (n_jets,), optional
+        Open minus close delay of each jet's valve [s], added to every commanded pulse.
     available : ndarray of bool, (n_jets,) or (n_runs, n_jets), optional
         The jets the controller may use (``--jets-off``); default all.
     """
@@ -114,31 +125,30 @@ class AllocatorController:
         self,
         allocator: Allocator,
         *,
-        min_on_s: float,
         maneuver_limit_rad: float,
         maneuver_rate_rad_s: float,
         deadband_rad_s: float,
         cycle_s: float,
-        min_pulse: str,
+        hysteresis_rad: float = 0.0,
+        trim_deadband_rad_s: float = 0.0,
+        lag_s=None,
         available=None,
     ):
         self.allocator = allocator
         self.n = allocator.n
-        self.min_on_s = float(min_on_s)
         self.maneuver_limit_rad = maneuver_limit_rad
         self.maneuver_rate_rad_s = maneuver_rate_rad_s
         self.deadband_rad_s = deadband_rad_s
+        self.hysteresis_rad = hysteresis_rad
+        self.trim_deadband_rad_s = trim_deadband_rad_s
+        self.lag_s = np.zeros(self.n) if lag_s is None else np.broadcast_to(lag_s, (self.n,))
         self.available = None if available is None else np.asarray(available, bool)
         self.cycle_s = cycle_s
-        if min_pulse not in MIN_PULSE_POLICIES:
-            raise InputError(
-                f"min_pulse must be one of {', '.join(MIN_PULSE_POLICIES)}, got {min_pulse!r}"
-            )
-        self.min_pulse = min_pulse
 
     def initial_state(self, n_runs: int) -> AllocatorState:
         z = np.zeros((n_runs, self.n))
-        return AllocatorState(z, z.copy(), np.zeros(n_runs, int), np.zeros((n_runs, self.n), bool))
+        zi = np.zeros(n_runs, int)
+        return AllocatorState(z, z.astype(int), zi, zi.copy(), np.zeros(n_runs, bool))
 
     def step(self, nav, state: AllocatorState) -> tuple[np.ndarray, AllocatorState]:
         """On-times this cycle (n_runs, n_jets) [s] and the next state."""
@@ -146,81 +156,82 @@ class AllocatorController:
         e = nav.att_err_B
         theta = np.linalg.norm(e, axis=1, keepdims=True)
         toward = np.where(theta > 0, e / np.where(theta > 0, theta, 1.0), 0.0)
-        maneuver = theta > self.maneuver_limit_rad
+        limit = self.maneuver_limit_rad
+        maneuvering = (theta[:, 0] > limit) | (
+            state.maneuvering & (theta[:, 0] > limit - self.hysteresis_rad)
+        )
+        maneuver = maneuvering[:, None]
         need = -(nav.rate_err_B + np.where(maneuver, self.maneuver_rate_rad_s * toward, 0.0))
-        share, owed = state.share_s.copy(), state.owed_s.copy()
-        left = state.cycles_left.copy()
-        plan = (left == 0) & (np.abs(need).max(axis=1) >= self.deadband_rad_s)
+        pulse, pulses = state.pulse_s.copy(), state.pulses.copy()
+        cycles, flown = state.cycles.copy(), state.flown.copy()
+        size = np.abs(need).max(axis=1)
+        plan = (flown >= cycles) & (size >= self.deadband_rad_s)
         if plan.any():
             idx = np.flatnonzero(plan)
             avail = None
             if self.available is not None:
                 avail = np.broadcast_to(self.available, (n_runs, self.n))[idx]
-            t, _ = self.allocator.allocate(need[idx], avail)
-            t = self._round(t, need[idx])
+            t = self._plan(need[idx], avail, size[idx])
             longest = t.max(axis=1)
-            cycles = np.maximum(np.ceil(longest / self.cycle_s - 1e-9), 1).astype(int)
-            cycles = np.where(longest > 0, cycles, GIVE_UP_CYCLES)
-            share[idx] = t / cycles[:, None]
-            owed[idx] = 0.0
-            left[idx] = cycles
-        s = np.where((left > 0)[:, None], share, 0.0)
-        short = (s > 0) & (s < self.min_on_s) & ~state.on_at_end
-        owed = np.where(short, owed + s, owed)
-        last = (left == 1)[:, None]
-        due = short & ((owed >= self.min_on_s - 1e-12) | (last & (owed >= self.min_on_s / 2)))
-        u = np.where(short, np.where(due, np.maximum(owed, self.min_on_s), 0.0), s)
-        u = np.minimum(u, self.cycle_s)
-        owed = np.where(due, 0.0, owed)
-        left = np.maximum(left - 1, 0)
-        owed = np.where((left == 0)[:, None], 0.0, owed)
-        return u, AllocatorState(share, owed, left, u >= self.cycle_s * (1 - 1e-12))
+            n_cyc = np.maximum(np.ceil(longest / self.cycle_s - 1e-9), 1).astype(int)
+            n_cyc = np.where(longest > 0, n_cyc, GIVE_UP_CYCLES)
+            t_min = self.allocator.t_min
+            fit = np.floor(t / np.where(t_min > 0, t_min, 1.0) * (1 + 1e-12)).astype(int)
+            count = np.where(t_min > 0, np.minimum(n_cyc[:, None], fit), n_cyc[:, None])
+            count = np.where(t > 0, np.maximum(count, 1), 0)
+            pulse[idx] = np.where(count > 0, t / np.maximum(count, 1), 0.0)
+            pulses[idx] = count
+            cycles[idx] = n_cyc
+            flown[idx] = 0
+        # Jet j fires in cycle k of L when ceil((k+1) p / L) > ceil(k p / L): p pulses, evenly,
+        # the first in cycle 0 (every jet of the plan fires in its first cycle).
+        active = (flown < cycles)[:, None]
+        length = np.maximum(cycles, 1)[:, None]
+        k = flown[:, None]
+        fires = active & (-((-(k + 1) * pulses) // length) > -((-k * pulses) // length))
+        u = np.where(fires & (pulse > 0), np.minimum(pulse + self.lag_s, self.cycle_s), 0.0)
+        flown = np.where(flown < cycles, flown + 1, flown)
+        return u, AllocatorState(pulse, pulses, cycles, flown, maneuvering)
 
-    def _round(self, t: np.ndarray, target: np.ndarray) -> np.ndarray:
-        """Totals below the minimum on-time to 0 or the minimum by the minimum pulse policy;
-        ``accumulate``: of all 2^k roundings of a run's k short jets, the one leaving the least
-        rate error (none when no rounding improves on firing nothing by 10 %)."""
-        small_all = (t > 0) & (t < self.min_on_s)
-        if self.min_pulse != "accumulate":
-            fired = self.min_on_s if self.min_pulse == "round-up" else 0.0
-            return np.where(small_all, fired, t)
-        rows = np.flatnonzero(small_all.any(axis=1))
-        if rows.size == 0:
-            return t
-        D = self.allocator.D
-        small = small_all[rows]
-        k = int(small.sum(axis=1).max())
-        order = np.argsort(~small, axis=1, kind="stable")[:, :k]  # the short jets first
-        valid = np.take_along_axis(small, order, axis=1)
-        base = np.where(small, 0.0, t[rows])
-        resid0 = target[rows] - base @ D.T
-        contrib = D.T[order] * (self.min_on_s * valid)[..., None]  # (R, k, 3)
-        bits = ((np.arange(2**k)[:, None] >> np.arange(k)[None, :]) & 1).astype(float)
-        err = np.linalg.norm(resid0[:, None, :] - np.einsum("pk,rkc->rpc", bits, contrib), axis=2)
-        best = np.argmin(err, axis=1)
-        keep = err[np.arange(rows.size), best] < 0.9 * np.linalg.norm(target[rows], axis=1)
-        pick = bits[best].astype(bool) & valid
-        new = base.copy()
-        r_idx = np.repeat(np.arange(rows.size)[:, None], k, axis=1)
-        new[r_idx[pick], order[pick]] = self.min_on_s
-        out = t.copy()
-        out[rows] = np.where(keep[:, None], new, 0.0)
+    def _plan(self, need: np.ndarray, available, size: np.ndarray) -> np.ndarray:
+        """The allocator's totals for ``need`` (rows of runs that plan), with the trim rule:
+        a run below the trim deadband whose plan needs a minimum pulse gets none."""
+        alloc = self.allocator
+        if not alloc.t_min.any() or self.trim_deadband_rad_s <= 0:
+            return alloc.allocate(need, available)[0]
+        t, _ = alloc.allocate_relaxed(need, available)
+        trim = (size < self.trim_deadband_rad_s) & ((t > 0) & (t < alloc.t_min)).any(axis=1)
+        rows = np.flatnonzero(~trim)
+        out = np.zeros_like(t)
+        if rows.size:
+            sub = None if available is None else available[rows]
+            out[rows] = alloc.allocate(need[rows], sub)[0]
         return out
 
 
-def allocator_controller(vehicle: Vehicle, *, jets_off=()) -> AllocatorController:
-    """The allocator controller of ``vehicle`` (any number of jets): minimum propellant,
-    translation priced at the propellant that would null it (``m / (Isp g0)`` per m/s), jets
-    ``jets_off`` (1-based numbers) never used; the maneuver rule, deadband and cycle of the
-    vehicle's profile, its minimum on-time.
+def allocator_controller(
+    vehicle: Vehicle, *, jets_off=(), allocation: str | None = None
+) -> AllocatorController:
+    """The allocator controller of ``vehicle`` (any number of jets): the objective of its
+    profile's ``allocation`` (or ``allocation`` given here), its minimum on-time and valve
+    delays honoured, jets ``jets_off`` (1-based numbers) never used; the maneuver rule,
+    hysteresis, deadbands and cycle of the vehicle's profile.
 
     Raises
     ------
     InputError
         A number in ``jets_off`` that is not a jet of the vehicle.
     """
+    control = vehicle.control
     D, G, mdot, mass = jet_model(vehicle.model, vehicle.isp_s)
-    allocator = Allocator(D, mdot, G=G, w_v=mass / (vehicle.isp_s * G0_M_S2))
+    w_v = allocation_prices(allocation or control.allocation, mass, vehicle.isp_s, G0_M_S2)
+    lag = np.zeros(D.shape[1])
+    timing = vehicle.timing(1)
+    if timing is not None:
+        timing = timing.for_jets(D.shape[1])
+        lag = timing.open_delay_s[0] - timing.close_delay_s[0]
+    t_min = np.maximum(vehicle.min_on_s - lag, 0.0)
+    allocator = Allocator(D, mdot, G=G, w_v=w_v, t_min_s=t_min)
     available = None
     if len(jets_off):
         n_jets = D.shape[1]
@@ -233,14 +244,14 @@ def allocator_controller(vehicle: Vehicle, *, jets_off=()) -> AllocatorControlle
             )
         available = np.ones(n_jets, bool)
         available[np.asarray(jets_off, int) - 1] = False
-    control = vehicle.control
     return AllocatorController(
         allocator,
-        min_on_s=vehicle.min_on_s,
         maneuver_limit_rad=control.maneuver_limit_rad,
         maneuver_rate_rad_s=control.maneuver_rate_rad_s,
         deadband_rad_s=control.allocator_rate_deadband_rad_s,
         cycle_s=control.cycle_s,
-        min_pulse=control.min_pulse,
+        hysteresis_rad=control.maneuver_hysteresis_rad,
+        trim_deadband_rad_s=control.allocator_trim_deadband_rad_s,
+        lag_s=lag,
         available=available,
     )

@@ -31,7 +31,7 @@ firing, so a firing's total rate change is its table time's, only spread over mo
 percent) are owed per jet and fired as one pulse of at least the minimum when they add up to
 it, folded into a longer pulse of the same jet when it fires anyway, or rounded (to the minimum when
 at least half of it is owed, else dropped) when no channel asks for the jet any more -- the
-allocator controller's rule, and the profile's ``min_pulse = "accumulate"``; ``"round-up"``
+profile's ``min_pulse = "accumulate"``; ``"round-up"``
 fires each short share at the minimum at once, ``"drop"`` does not fire it
 (:mod:`rcsim.spacecraft.control_profile`).
 
@@ -108,13 +108,15 @@ def solve_recipe(vehicle: Vehicle | str | os.PathLike, *, jets_off=()) -> Channe
     vehicle = Vehicle.load(vehicle)  # a name or a file: resolved here, at the public edge
     d = vehicle.definition
     jets_off = check_channel_jets_off(d.n_jets, jets_off)
-    ctl = allocator_controller(vehicle, jets_off=jets_off)
+    # A recipe is a direction (shares of the longest jet, scaled each cycle): the LP relaxation,
+    # with translation priced as it always was, whatever the profile's ``allocation`` is.
+    ctl = allocator_controller(vehicle, jets_off=jets_off, allocation="propellant+translation")
     allocator = ctl.allocator
     command = CHANNEL_MAP * _RECIPE_COMMAND_RAD_S  # (6, 3)
     available = None
     if ctl.available is not None:
         available = np.broadcast_to(ctl.available, (len(CHANNELS), allocator.n))
-    t, residual = allocator.allocate(command, available)
+    t, residual = allocator.allocate_relaxed(command, available)
     longest = t.max(axis=1)
     served = (np.linalg.norm(residual, axis=1) <= _RESIDUAL_RTOL * _RECIPE_COMMAND_RAD_S) & (
         longest > 0

@@ -17,6 +17,9 @@ Each control cycle, per run (all vectorized over ``n_runs``):
    ``theta = |e|``: above the maneuver limit the target rate is ``omega_cmd - w_m e / theta``
    (the maneuver rate ``w_m`` split across axes along the attitude-error direction, toward
    zero error); at or below it, the target is ``omega_cmd``.  ``rate_err = omega - target``.
+   With a hysteresis (the profile's ``maneuver_hysteresis_deg``, 0 for the paper) a maneuver
+   once entered is flown until ``theta`` falls below the limit minus the hysteresis (the
+   state remembers it), so an error hovering at the limit does not chatter.
 2. *Dead band.*  Per axis, ``|rate_err| < rate_error_limit`` is set to zero.
 3. *Case.*  The rate change needed is ``-rate_err``; its sign pattern selects the table case
    with that pattern (all 26 nonzero patterns are in every valid table).
@@ -169,6 +172,9 @@ class LookupParams:
         What a channel table's share shorter than the vehicle's minimum on-time becomes
         (``"accumulate"``; :mod:`rcsim.spacecraft.control_profile`).  A jet table fires its
         entries as they are.
+    maneuver_hysteresis_rad : float
+        A maneuver ends only below ``maneuver_limit_rad`` minus this [rad] (0: the paper's
+        rule, enter and leave at the limit).
     """
 
     maneuver_limit_rad: float
@@ -179,6 +185,7 @@ class LookupParams:
     no_fire_band_rad: float
     cycle_s: float
     min_pulse: str
+    maneuver_hysteresis_rad: float = 0.0
 
     def __post_init__(self):
         for name in (
@@ -191,7 +198,7 @@ class LookupParams:
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise InputError(f"LookupParams.{name} must be > 0, got {value}")
-        for name in ("hold_time_s", "no_fire_band_rad"):
+        for name in ("hold_time_s", "no_fire_band_rad", "maneuver_hysteresis_rad"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise InputError(f"LookupParams.{name} must be >= 0, got {value}")
@@ -209,6 +216,7 @@ class LookupParams:
             no_fire_band_rad=control.maneuver_band_rad,
             cycle_s=control.cycle_s,
             min_pulse=control.min_pulse,
+            maneuver_hysteresis_rad=control.maneuver_hysteresis_rad,
         )
         return replace(base, **overrides)
 
@@ -227,11 +235,14 @@ class LookupState:
     valves : ValveState, optional
         A channel table's per-jet delivery state (:class:`rcsim.lookup.channels.ValveState`); None
         for a jet table.
+    maneuvering : ndarray of bool, (n_runs,), optional
+        The last cycle flew the maneuver rate (step 1's hysteresis); None: no run was.
     """
 
     remaining_s: np.ndarray
     hold_s: np.ndarray
     valves: ValveState | None = None
+    maneuvering: np.ndarray | None = None
 
 
 class LookupController:
@@ -403,16 +414,36 @@ class LookupController:
             valves=None if self._channels is None else self._channels.initial(n_runs),
         )
 
-    def rate_error(self, nav: NavState, theta: np.ndarray | None = None) -> np.ndarray:
+    def maneuvering(self, theta: np.ndarray, before: np.ndarray | None) -> np.ndarray:
+        """Whether each run flies the maneuver rate this cycle, (n_runs,) bool (step 1):
+        above the limit, or still above limit - hysteresis after a maneuver cycle.
+        ``theta`` (n_runs,) [rad]; ``before`` the last cycle's flags (None: none)."""
+        p = self.params
+        above = theta > p.maneuver_limit_rad
+        if before is None or p.maneuver_hysteresis_rad <= 0:
+            return above
+        return above | (before & (theta > p.maneuver_limit_rad - p.maneuver_hysteresis_rad))
+
+    def rate_error(
+        self,
+        nav: NavState,
+        theta: np.ndarray | None = None,
+        maneuver: np.ndarray | None = None,
+    ) -> np.ndarray:
         """Dead-banded rate error the logic acts on, (n_runs, 3) [rad/s] (steps 1-2).
 
-        ``theta`` (n_runs, 1) is the total attitude error [rad] if the caller has it already.
+        ``theta`` (n_runs, 1) is the total attitude error [rad] if the caller has it already;
+        ``maneuver`` (n_runs,) bool the maneuver flags (:meth:`maneuvering`; default: above
+        the limit).
         """
         p = self.params
         e = nav.att_err_B
         if theta is None:
             theta = np.sqrt(np.einsum("ij,ij->i", e, e))[:, None]
-        maneuver = theta > p.maneuver_limit_rad
+        if maneuver is None:
+            maneuver = theta > p.maneuver_limit_rad
+        else:
+            maneuver = maneuver[:, None]
         direction = e / np.where(theta > 0, theta, 1.0)
         # omega - (omega_cmd - w_m e/theta) = rate_err_B + w_m e/theta
         err = nav.rate_err_B + np.where(maneuver, p.maneuver_rate_rad_s * direction, 0.0)
@@ -451,6 +482,7 @@ class LookupController:
         p = self.params
         e = nav.att_err_B
         theta = np.sqrt(np.einsum("ij,ij->i", e, e))  # total attitude error [rad], (n,)
+        maneuver = self.maneuvering(theta, state.maneuvering)
         # The same arithmetic as below, compiled (bit for bit); a channel table's delivery
         # (recipe, shared-jet scaling, owed short shares) is numpy's alone.
         if kernel_available() and self._channels is None:
@@ -460,6 +492,7 @@ class LookupController:
                 nav.rate_err_B,
                 state.remaining_s,
                 state.hold_s,
+                maneuver,
                 self._times,
                 case_scale,
                 *self._kernel_roles,
@@ -475,8 +508,9 @@ class LookupController:
                 ),
             )
             detail = {"case": case, "need": need, "axis_new": axis_new, "axis_done": axis_done}
-            return on, LookupState(remaining_s=rem_next, hold_s=hold), detail
-        err = self.rate_error(nav, theta[:, None])
+            nxt = LookupState(remaining_s=rem_next, hold_s=hold, maneuvering=maneuver)
+            return on, nxt, detail
+        err = self.rate_error(nav, theta[:, None], maneuver)
         need = -err  # rate change the vehicle needs
         code = ((np.sign(need).astype(int) + 1) * np.array([9, 3, 1])).sum(axis=1)
         any_err = np.any(need != 0, axis=1)
@@ -524,4 +558,5 @@ class LookupController:
         left = ((rem_next > 0).astype(float) @ self._axis_onehot) > 0
         hold = np.where(fired & ~left, p.hold_time_s, np.maximum(state.hold_s - p.cycle_s, 0.0))
         detail = {"case": case, "need": need, "axis_new": axis_new, "axis_done": fired & ~left}
-        return out, LookupState(remaining_s=rem_next, hold_s=hold, valves=valves), detail
+        nxt = LookupState(remaining_s=rem_next, hold_s=hold, valves=valves, maneuvering=maneuver)
+        return out, nxt, detail

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 CONTROLLERS = ("phase-plane", "lookup")
 #: Built by :func:`make_controller` too, offered by the CLI and campaign specs, not flown by the
 #: scenario comparison: the adaptive lookup controller (:mod:`rcsim.lookup.adaptive`) and the
-#: allocator controller (:mod:`rcsim.lookup.allocator_controller`: minimum-propellant jet selection
+#: allocator controller (:mod:`rcsim.lookup.allocator_controller`: jet selection
 #: for any jet layout).
 MORE_CONTROLLERS = ("adaptive", "allocator")
 #: Every controller :func:`make_controller` builds, by name: the CLI's and the specs' choices.

@@ -37,6 +37,7 @@ def kernel_step(
     rate_err_B: np.ndarray,
     remaining_s: np.ndarray,
     hold_s: np.ndarray,
+    maneuver: np.ndarray,
     times_s: np.ndarray,
     case_scale: np.ndarray | None,
     case_of_code: np.ndarray,
@@ -49,7 +50,8 @@ def kernel_step(
     """One cycle of every run; the arguments are the controller's arrays (see step_detail),
     ``theta_rad`` (n_runs,) the total attitude error as step_detail computes it (numpy's
     einsum has its own summation order; computing it once, there, keeps the two forms equal
-    on any numpy).
+    on any numpy), ``maneuver`` (n_runs,) bool whether the run flies the maneuver rate (the
+    hysteresis is decided there too).
 
     Returns
     -------
@@ -80,6 +82,7 @@ def kernel_step(
         _f64(rate_err_B),
         _f64(remaining_s),
         _f64(hold_s),
+        np.ascontiguousarray(maneuver, np.bool_).view(np.uint8),
         _f64(times_s),
         scale,
         case_of_code,

@@ -36,20 +36,43 @@ key (``[control]``)                       what                                  
 ``phase_plane.attitude_deadband_deg``     phase plane's attitude deadband         0.25 deg
 ``phase_plane.rate_deadband_deg_s``       phase plane's rate deadband             0.03 deg/s
 ``allocator.rate_deadband_deg_s``         allocator: no new plan below this       0.004 deg/s
-``min_pulse``                             a computed pulse shorter than the       accumulate
-                                          minimum on-time (channel tables, the
-                                          allocator): ``accumulate``,
+``allocator.trim_deadband_deg_s``         allocator: no plan that needs a         0.01 deg/s
+                                          minimum pulse while every axis's
+                                          rate error is below this (no trim
+                                          pairs; the rate cases' 0.01 deg/s
+                                          coupled-axis requirement)
+``maneuver_hysteresis_deg``               a maneuver, once entered above the      0 deg
+                                          limit, ends only below limit - this
+                                          (lookup, allocator; 0: no hysteresis,
+                                          the paper's rule)
+``min_pulse``                             a channel table's share shorter than    accumulate
+                                          the minimum on-time: ``accumulate``,
                                           ``round-up`` or ``drop``
+``allocation``                            what the allocator minimises:           propellant
+                                          ``propellant``,
+                                          ``propellant+translation`` or
+                                          ``translation-first``
 ========================================  ======================================  ============
 
-The minimum pulse policy applies to pulses a controller *computes* -- a channel table's
-per-cycle jet shares (:class:`rcsim.lookup.channels.ChannelMap`) and the allocator's plans
-(:mod:`rcsim.lookup.allocator_controller`); a jet table's entries are what it fires.
+Allocation modes (:mod:`rcsim.lookup.allocator`), each honouring the minimum on-time inside
+the optimisation (a jet is off or on for at least its minimum pulse):
+
+* ``propellant`` (default): least propellant for the rate change; among plans of equal
+  propellant, the one with least translation (a tie-break priced at 10^-6 of the next mode's).
+  The default because it is what an allocator is judged by, and what the name says.
+* ``propellant+translation``: propellant plus the translation left, priced at the propellant
+  that would null it with the same jets, ``m / (Isp g0)`` kg per m/s of ``|dv|_1``.
+* ``translation-first``: translation priced 1000 times that: a plan cancels the jets'
+  coupled force first (when the layout can), then spends least propellant.
+
+The minimum pulse policy applies to pulses a channel table's recipe *computes* (its per-cycle
+jet shares, :class:`rcsim.lookup.channels.ChannelMap`); a jet table's entries are what it
+fires, and the allocator honours the minimum on-time inside its optimisation
+(:mod:`rcsim.lookup.allocator_controller`).
 
 * ``accumulate``: a short pulse is owed, and fired at the minimum on-time once what is owed
-  reaches it (or half of it when the firing ends); the allocator first rounds each plan's
-  short totals to zero or the minimum, whichever leaves the smaller rate error.  The impulse
-  asked for is delivered, late by up to the firing's length.
+  reaches it (or half of it when the firing ends).  The impulse asked for is delivered, late
+  by up to the firing's length.
 * ``round-up``: a short pulse fires at the minimum on-time at once (no delay; more
   propellant and a larger rate change than asked for).
 * ``drop``: a short pulse is not fired (rate errors smaller than a minimum pulse's stay).
@@ -86,11 +109,18 @@ _KEYS: tuple[tuple[str, str, float, str], ...] = (
     ("phase_plane.attitude_deadband_deg", "phase_plane_att_deadband_rad", math.pi / 180, "pos"),
     ("phase_plane.rate_deadband_deg_s", "phase_plane_rate_deadband_rad_s", math.pi / 180, "pos"),
     ("allocator.rate_deadband_deg_s", "allocator_rate_deadband_rad_s", math.pi / 180, "pos"),
+    ("allocator.trim_deadband_deg_s", "allocator_trim_deadband_rad_s", math.pi / 180, "nonneg"),
+    ("maneuver_hysteresis_deg", "maneuver_hysteresis_rad", math.pi / 180, "nonneg"),
 )
 #: What a pulse shorter than the minimum on-time becomes (module docstring).
 MIN_PULSE_POLICIES = ("accumulate", "round-up", "drop")
+#: What the allocator minimises (module docstring).
+ALLOCATION_MODES = ("propellant", "propellant+translation", "translation-first")
 #: Keys whose value is a word, with the words each takes.
-_CHOICE_KEYS: dict[str, tuple[str, ...]] = {"min_pulse": MIN_PULSE_POLICIES}
+_CHOICE_KEYS: dict[str, tuple[str, ...]] = {
+    "min_pulse": MIN_PULSE_POLICIES,
+    "allocation": ALLOCATION_MODES,
+}
 #: Every key a ``[control]`` section (or ``--control KEY=VALUE``) takes.
 CONTROL_KEYS = tuple(key for key, _, _, _ in _KEYS) + tuple(_CHOICE_KEYS)
 
@@ -116,8 +146,16 @@ class ControlProfile:
         The phase-plane controller's attitude [rad] and rate [rad/s] deadbands.
     allocator_rate_deadband_rad_s : float
         The allocator controller plans no new firing below this rate error [rad/s].
+    allocator_trim_deadband_rad_s : float
+        The allocator fires no plan that needs a minimum pulse while every axis's rate error
+        is below this [rad/s] (no minimum-pulse trim pairs).
+    maneuver_hysteresis_rad : float
+        A maneuver entered above ``maneuver_limit_rad`` ends only below the limit minus this
+        [rad] (0: enter and leave at the limit).
     min_pulse : str
         The minimum pulse policy, one of :data:`MIN_PULSE_POLICIES` (module docstring).
+    allocation : str
+        What the allocator minimises, one of :data:`ALLOCATION_MODES` (module docstring).
     source : str
         Where the values came from: the vehicle file, the keys it left to the paper's
         profile, and any overrides (a spec's ``[control]``, the command line).
@@ -134,7 +172,10 @@ class ControlProfile:
     phase_plane_att_deadband_rad: float
     phase_plane_rate_deadband_rad_s: float
     allocator_rate_deadband_rad_s: float
+    allocator_trim_deadband_rad_s: float
+    maneuver_hysteresis_rad: float
     min_pulse: str
+    allocation: str
     source: str = ""
 
     def record(self) -> dict:
@@ -308,6 +349,12 @@ def _check(profile: ControlProfile, *, where: str, key_of) -> None:
         raise InputError(
             f"{where}: {key_of('cycle_s')}: must be within {MIN_CYCLE_S:g} to {MAX_CYCLE_S:g} s "
             f"(a cycle in ms?) (got {profile.cycle_s!r})"
+        )
+    if profile.maneuver_hysteresis_rad >= profile.maneuver_limit_rad:
+        raise InputError(
+            f"{where}: {key_of('maneuver_hysteresis_rad')}: must be below the maneuver limit "
+            f"{math.degrees(profile.maneuver_limit_rad):g} deg (a maneuver ends below limit - "
+            f"hysteresis) (got {math.degrees(profile.maneuver_hysteresis_rad):g} deg)"
         )
     if profile.maneuver_band_rad >= profile.maneuver_limit_rad:
         raise InputError(

@@ -11,11 +11,10 @@ jet off: on these vehicles no single jet out loses an axis direction (``rcsim ve
 check``, asserted below), so every case stays reachable.
 
 With valve delays in the vehicle file (command 5 ms, open 8 ms, close 5 ms on every jet) the
-allocator is not told them: it plans thrust time as if each pulse thrust as commanded, and each
-opening delivers 3 ms less.  The re-planning from the measured rate (the receding horizon)
-absorbs it, so the final requirements hold; the within-cycle cancellation does not hold to
-0.01 deg/s at every cycle (pulses of unequal length lose the same 3 ms, which shifts their
-torque ratio: up to 0.013 deg/s measured on canted12), so that one is not asserted there.
+allocator plans with them: each pulse is commanded 3 ms longer than it is to thrust, and the
+minimum thrust pulse is 10 - 3 = 7 ms.  The final requirements hold; the within-cycle
+cancellation is not asserted there (a full-cycle firing loses the 3 ms once, not per cycle, so
+pulses of unequal length still shift their torque ratio slightly until the re-plan).
 """
 
 from __future__ import annotations

@@ -317,3 +317,26 @@ def test_state_shapes(ctl):
     assert s.remaining_s.shape == (5, 16) and s.hold_s.shape == (5, 3)
     on, s2 = ctl.step(nav(rate_err_deg_s=np.zeros((5, 3))), s)
     assert on.shape == (5, 16) and not on.any()
+
+
+@pytest.mark.parametrize("hysteresis_deg", [0.0, 0.2])
+def test_maneuver_hysteresis(ctl, hysteresis_deg):
+    """Step 1 with the profile's maneuver_hysteresis_deg: a run that flew the maneuver at 0.8
+    deg keeps asking for the maneuver rate (0.2 deg/s along the error) at 0.5 deg when the
+    hysteresis is 0.2 deg (0.5 > 0.6 - 0.2), and asks for none at 0 (the paper's rule); at
+    0.3 deg both have left the maneuver.  Exact: the rate error is the 0.2 deg/s itself."""
+    from dataclasses import replace as _replace
+
+    c = LookupController(
+        ctl.table, _replace(ctl.params, maneuver_hysteresis_rad=hysteresis_deg * DEG)
+    )
+    state = c.initial_state(1)
+    _, state = c.step(nav(att_err_deg=(0, 0, 0.8)), state)
+    assert state.maneuvering is not None and state.maneuvering[0]
+    _, state = c.step(nav(att_err_deg=(0, 0, 0.5)), state)
+    assert bool(state.maneuvering[0]) is (hysteresis_deg > 0)
+    err = c.rate_error(nav(att_err_deg=(0, 0, 0.5)), maneuver=state.maneuvering)
+    expect = 0.2 * DEG if hysteresis_deg > 0 else 0.0
+    np.testing.assert_allclose(err[0], [0.0, 0.0, expect], rtol=1e-12)
+    _, state = c.step(nav(att_err_deg=(0, 0, 0.3)), state)
+    assert not state.maneuvering[0]

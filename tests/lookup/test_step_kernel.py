@@ -127,3 +127,24 @@ def test_a_campaign_flight_is_the_same_with_and_without_the_kernel(monkeypatch, 
         assert a.tobytes() == b.tobytes(), name
     assert compiled.final.omega_B.tobytes() == reference.final.omega_B.tobytes()
     assert np.asarray(compiled.on_time_s).sum() > 0  # the controller fired
+
+
+def test_maneuver_hysteresis_gives_the_numpy_cycle(monkeypatch):
+    """With a hysteresis band (the profile's maneuver_hysteresis_deg) the maneuver flag is
+    carried in the state; runs just below the limit that were maneuvering keep the maneuver
+    rate, and both forms agree bit for bit (flags included)."""
+    from dataclasses import replace
+
+    params = replace(LOOKUP_PARAMS, maneuver_hysteresis_rad=0.2 * DEG)
+    controller = LookupController(load_default_table(), params)
+    rng = np.random.default_rng(11)
+    for _ in range(10):
+        nav, state = _random_state(rng, 500, 16, params)
+        state.maneuvering = rng.random(500) < 0.5
+        compiled, reference = _both(monkeypatch, controller, nav, state)
+        _assert_same_bits(compiled, reference)
+        assert np.array_equal(compiled[1].maneuvering, reference[1].maneuvering)
+        theta = np.linalg.norm(nav.att_err_B, axis=1)
+        held = state.maneuvering & (theta < params.maneuver_limit_rad)
+        held &= theta > params.maneuver_limit_rad - params.maneuver_hysteresis_rad
+        assert held.any() and compiled[1].maneuvering[held].all()

@@ -31,7 +31,8 @@ def register(sub) -> None:
         default="phase-plane",
         help="phase-plane, lookup (the paper's pattern recognition), adaptive "
         "(lookup whose table entries learn their firing times in flight) or allocator "
-        "(minimum-propellant jet selection, any jet layout); default phase-plane",
+        "(jet selection for any layout; objective the profile's allocation: propellant, "
+        "propellant+translation or translation-first); default phase-plane",
     )
     p.add_argument(
         "--attitude-deg",

@@ -2,7 +2,9 @@
 
 Prints the jet-by-jet force and torque matrix, the control authority per axis and direction,
 the directions that cannot be reached and the jet-out cases that lose an axis
-(:mod:`rcsim.spacecraft.vehicle_file.authority`).  A bad file is one ``rcsim: error:`` line naming
+(:mod:`rcsim.spacecraft.vehicle_file.authority`), and the translation each pure rate change
+leaves with the propellant it costs, per allocation mode
+(:mod:`rcsim.lookup.translation_coupling`).  A bad file is one ``rcsim: error:`` line naming
 the file, the key and the value.
 """
 
@@ -26,12 +28,14 @@ def register(subparsers) -> None:
     check = sub.add_parser(
         "check",
         help="print the jets' force/torque matrix, authority per axis, unreachable "
-        "directions and the jet-out cases that lose an axis",
+        "directions, the jet-out cases that lose an axis and the translation coupling",
         description="Validate a vehicle file and print what its jets can do: the force [N] and "
         "torque about the CG [N m] of each jet, the control authority per axis and direction "
         "(angular acceleration with the other axes held at zero, as a pure couple too, and the "
-        "least propellant per deg/s), the directions no jet combination reaches, and, for each "
-        "jet failed off, the axis directions lost.",
+        "least propellant per deg/s), the directions no jet combination reaches, for each "
+        "jet failed off the axis directions lost, and the translation coupling: the delta-v "
+        "[m/s] and propellant [kg] per deg/s of each pure rate change in each allocation mode "
+        "(propellant, propellant+translation, translation-first).",
     )
     check.add_argument(
         "vehicle",
@@ -57,10 +61,12 @@ def _check(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from rcsim.analysis.apps.estimates import check_vehicle_cost
+    from rcsim.lookup.translation_coupling import coupling_text
     from rcsim.spacecraft.vehicle_file import Vehicle
     from rcsim.spacecraft.vehicle_file.authority import check_text, check_vehicle
 
-    vehicle = Vehicle.load(args.vehicle).definition
+    flown = Vehicle.load(args.vehicle)
+    vehicle = flown.definition
     pairs = not args.no_pairs
     # Its cost grows with the jets (n^2 with the pairs): estimated before the work.
     check_vehicle_cost(vehicle, pairs=pairs, yes=args.yes, source=args.vehicle)
@@ -70,4 +76,5 @@ def _check(args: argparse.Namespace) -> int:
     ) as bar:
         result = check_vehicle(vehicle, pairs=pairs, step=bar.update)
     print(check_text(vehicle, result), end="")
+    print(coupling_text(flown), end="")
     return 0

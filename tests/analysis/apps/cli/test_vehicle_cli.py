@@ -129,3 +129,21 @@ def test_many_jets_are_estimated_and_refused_before_the_work(tmp_path, capsys, m
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "60 jets" in err and "1,770 two-jets-out pairs" in err
     assert "3.4 h" in err and "--yes" in err and "--no-pairs" in err  # 12,090 s
+
+
+def test_paper_check_prints_translation_coupling(capsys):
+    """The paper's jets are pure couples: every mode costs the same and leaves no delta-v;
+    +roll costs the couple's propellant per deg/s, 2 mdot t with t = Ixx (1 deg/s) / (2 F r):
+    Ixx / (r Isp g0) x (pi / 180) = 3583.09 / (0.812 x 280 x 9.80665) x 0.017453 = 0.02805 kg
+    (Table 1's Ixx, Table 2's arm, rcsim's Isp 280 s)."""
+    assert main(["vehicle", "check", "paper", "--no-pairs"]) == 0
+    out = capsys.readouterr().out
+    assert "Translation coupling per allocation mode" in out
+    section = out.split("Translation coupling per allocation mode")[1]
+    rows = [line.split() for line in section.splitlines() if line.strip().startswith("+roll ")]
+    assert [r[1] for r in rows] == ["propellant", "propellant+translation", "translation-first"]
+    for r in rows:
+        assert float(r[2]) == pytest.approx(
+            3583.09 / (0.812 * 280 * 9.80665) * np.pi / 180, rel=1e-3
+        )
+        assert float(r[3]) == 0.0

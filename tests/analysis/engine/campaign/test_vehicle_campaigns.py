@@ -267,21 +267,21 @@ def _delay_campaign(tmp_path: Path, name: str, vehicle, timing: dict) -> Path:
     return out
 
 
-def _same_flights(a: Path, b: Path, drop=()) -> None:
-    runs_a = pd.read_parquet(a / "runs.parquet")
-    runs_b = pd.read_parquet(b / "runs.parquet").drop(columns=list(drop))
-    pd.testing.assert_frame_equal(runs_a, runs_b, check_exact=True)
-    for name in ("envelopes.parquet", "histories/run-0000000.parquet"):
-        pd.testing.assert_frame_equal(
-            pd.read_parquet(a / name), pd.read_parquet(b / name), check_exact=True
-        )
+def _same_delays(a: Path, b: Path) -> None:
+    """The valves of both campaigns flew the same delays (the runs tables' delay columns).
+    Since issue 28 the allocator plans with the vehicle file's delays (its flight software
+    knows its valves) and not with a spec's (a dispersion it does not know), so the flights
+    themselves differ: the delays flown are what must agree."""
+    runs_a, runs_b = pd.read_parquet(a / "runs.parquet"), pd.read_parquet(b / "runs.parquet")
+    columns = ["command_delay_s", "open_delay_max_s", "close_delay_max_s"]
+    pd.testing.assert_frame_equal(runs_a[columns], runs_b[columns], check_exact=True)
 
 
 def test_a_vehicles_delays_fly_as_the_same_delays_in_the_spec(tmp_path, delayed12):
     # Dispersed: the file's nominal + the spec's sigmas == the spec's means + sigmas.
     own = _delay_campaign(tmp_path, "own", delayed12, SIGMAS)
     spec = _delay_campaign(tmp_path, "spec", "canted12", {**DELAYS, **SIGMAS})
-    _same_flights(own, spec)
+    _same_delays(own, spec)
     runs = pd.read_parquet(own / "runs.parquet")
     assert runs["open_delay_max_s"].std() > 0 and not runs["sim_failed"].any()
     history = pd.read_parquet(own / "histories/run-0000000.parquet")
@@ -290,7 +290,7 @@ def test_a_vehicles_delays_fly_as_the_same_delays_in_the_spec(tmp_path, delayed1
     fixed = _delay_campaign(tmp_path, "fixed", delayed12, {})
     means = _delay_campaign(tmp_path, "means", "canted12", DELAYS)
     columns = ["command_delay_s", "open_delay_max_s", "close_delay_max_s"]
-    _same_flights(fixed, means, drop=columns)
+    assert not pd.read_parquet(fixed / "runs.parquet")["sim_failed"].any()
     assert (
         pd.read_parquet(means / "runs.parquet")[columns].to_numpy() == [0.005, 0.008, 0.005]
     ).all()
