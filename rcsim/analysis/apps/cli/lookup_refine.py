@@ -103,6 +103,15 @@ def register_refine(cmds) -> None:
         "(the same draws); the confirmation and the held-out check fly all N (default 200)",
     )
     ref.add_argument(
+        "--max-propellant-rise-pct",
+        type=float,
+        default=10.0,
+        metavar="P",
+        help="a change raising a case's mean propellant by more than P %% must pay for it: the "
+        "95 %% lower bound of its failure reduction at least 1 %% of runs per 10 %% of rise; "
+        "with failures only equal it is refused (default 10)",
+    )
+    ref.add_argument(
         "--out",
         required=True,
         metavar="OUT.csv",
@@ -184,6 +193,7 @@ def run_refine(args: argparse.Namespace) -> int:
         search_runs_per_case=args.search_runs_per_case,
         confirm_seed=confirm_seed,
         vehicle=vehicle,
+        max_propellant_rise_pct=args.max_propellant_rise_pct,
     )
     from rcsim.analysis.apps.estimates import REFINE_BYTES_PER_RUN as PER_RUN
     from rcsim.analysis.apps.estimates import check_memory, confirm, flying_seconds
@@ -217,6 +227,7 @@ def run_refine(args: argparse.Namespace) -> int:
         checkpoint=checkpoint,
         confirm_seed=confirm_seed,
         vehicle=vehicle,
+        max_propellant_rise=args.max_propellant_rise_pct / 100.0,
     )
     paths = write_refinement(ref, out, overwrite=args.overwrite)
     log = ref.changelog
