@@ -129,7 +129,7 @@ def propellant_check(
         ""
         if passes
         else (
-            f"propellant {100 * r:+.0f} % (limit {100 * max_rise:.0f} %) with failures "
+            f"propellant {100 * r:+.1f} % (limit {100 * max_rise:g} %) with failures "
             f"{int(fb.sum())} -> {int(fa.sum())}: the failure reduction's 95 % lower bound "
             f"{100 * gain_lo:.1f} % of runs is under the {100 * needed:.1f} % it must pay"
         )
