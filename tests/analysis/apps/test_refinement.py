@@ -341,8 +341,8 @@ def test_a_change_that_raises_propellant_must_pay_for_it_with_failures(monkeypat
     assert changed_cells(t6, result.table, PAPER_CYCLE_S).empty
     decision = result.iterations[0]["decisions"][0]
     assert decision["p"] == 2.0**-6 and not decision["accepted"]
-    assert decision["propellant_refused"].startswith("propellant +50 % (limit 10 %)")
-    assert "propellant +50 %" in result.evidence.iloc[0]["refused"]
+    assert decision["propellant_refused"].startswith("propellant +50.0 % (limit 10 %)")
+    assert "propellant +50.0 %" in result.evidence.iloc[0]["refused"]
     # The same gain at a 60 % limit: propellant within it, failures decide (taken).
     result = fake_refine(monkeypatch, world, cases=[ROW3], fuel=fuel, max_propellant_rise=0.6)
     assert changed_cells(t6, result.table, PAPER_CYCLE_S)["new_cycles"].tolist() == [6]
@@ -367,7 +367,7 @@ def test_a_row_whose_propellant_is_not_paid_for_on_the_confirmation_seed_is_reve
     np.testing.assert_array_equal(result.table.firing_time_s, t6.firing_time_s)
     ev = result.evidence.iloc[0]
     assert ev["decision"] == "reverted (search; propellant not paid for on the confirmation seed)"
-    assert ev["propellant_note"].startswith("confirmation seed: propellant +50 %")
+    assert ev["propellant_note"].startswith("confirmation seed: propellant +50.0 %")
 
 
 def test_the_search_flies_a_vehicle_files_valve_delays(tmp_path):

@@ -44,7 +44,7 @@ def test_twenty_percent_more_propellant_with_equal_failures_is_refused():
     assert v.rise == pytest.approx(0.2, abs=1e-12)  # 1.2 / 1.0 - 1
     assert v.gain_lo == 0.0 and v.needed == pytest.approx(0.02)  # 1 % of runs per 10 %
     assert not v.passes
-    assert v.reason.startswith("propellant +20 % (limit 10 %) with failures 20 -> 20")
+    assert v.reason.startswith("propellant +20.0 % (limit 10 %) with failures 20 -> 20")
 
 
 def test_twenty_percent_more_propellant_with_a_paying_failure_gain_is_accepted():
@@ -103,7 +103,7 @@ def test_a_row_worse_on_the_held_out_seed_is_marked_never_confirmed():
     )
     held_out_propellant(log, before, after)
     assert log["held_out"].iloc[0] == "worse on held-out seed: failures 35 -> 50"
-    assert log["held_out"].iloc[1].startswith("worse on held-out seed: propellant +86 %")
+    assert log["held_out"].iloc[1].startswith("worse on held-out seed: propellant +86.0 %")
     assert log["held_out"].iloc[2] == "holds"
     assert log["decision"].tolist() == [
         "worse on held-out seed (search; passed the confirmation seed)",
