@@ -153,6 +153,13 @@ def test_section_numbers_are_recomputed_from_the_runs_frames(extra):
     # The changed row's propellant in grams, as the table prints it (4 significant figures).
     mean_g = 1e3 * after.loc[after["case_index"] == 1, "propellant_kg"].mean()
     assert f"{mean_g:.4g}" in page
+    # Case 1 and 3 (unchanged) rose 20 %: named as rows the rule did not weigh.
+    rise = 100 * (
+        after.groupby("case_index")["propellant_kg"].mean()
+        / before.groupby("case_index")["propellant_kg"].mean()
+        - 1
+    )
+    assert f"case 1 ({rise[0]:+.1f} %), 3 ({rise[2]:+.1f} %)" in page
     for col in ("delta_v_N_m_s", "delta_v_B_m_s", "pulses", "min_pulses"):
         said = f"({col}): {NOT_RECORDED}" in page
         assert said is not extra

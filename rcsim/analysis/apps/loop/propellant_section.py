@@ -100,7 +100,7 @@ def _table(means: pd.DataFrame, scale: float, unit: str) -> pd.DataFrame:
             f"{lo * scale:.4g}-{hi * scale:.4g}" if np.isfinite(lo) else "n/a"
             for lo, hi in zip(means[f"{what}_lo"], means[f"{what}_hi"])
         ]
-    out["change [%]"] = means["change_pct"]
+    out["change [%]"] = means["change_pct"].round(1)
     return out
 
 
@@ -146,6 +146,21 @@ def propellant_blocks(
             "the refinement changed.",
         ),
     ]
+    # A correction firing picks its row by the signs of the rate error, so a changed row can
+    # fly in another case's runs: say which unchanged rows' propellant rose beyond the limit.
+    spill = means[~means["case"].isin(changed) & (means["change_pct"] > max_rise_pct)]
+    if changed and not spill.empty:
+        listed = ", ".join(
+            f"{int(c)} ({p:+.1f} %)" for c, p in zip(spill["case"], spill["change_pct"])
+        )
+        blocks.append(
+            text_block(
+                f"Rows the refinement did not change whose mean propellant rose more than "
+                f"{max_rise_pct:g} % on the held-out seed: case {listed}. A correction firing "
+                f"picks its row by the signs of the rate error, so a changed row also flies "
+                f"in other cases' runs; the refinement's rule weighs only the changed case."
+            )
+        )
     table = _table(means, 1e3, "g")
     shown = table[table["case"].isin(changed)].copy() if changed else table.iloc[0:0]
     if failures:
