@@ -149,7 +149,10 @@ def test_section_numbers_are_recomputed_from_the_runs_frames(extra):
     total_b, total_a = before["propellant_kg"].sum(), after["propellant_kg"].sum()
     assert f"{total_b:.4g} kg before, {total_a:.4g} kg after" in page
     assert f"({100 * (total_a / total_b - 1):+.1f} %)" in page
-    assert "more than 10 %" in page and "--max-propellant-rise-pct 10" in page
+    assert (
+        "(--max-propellant-rise-pct 10): A change raising a case" in page
+        and "mean propellant by more than 10 % is kept only if" in page
+    )
     # The changed row's propellant in grams, as the table prints it (4 significant figures).
     mean_g = 1e3 * after.loc[after["case_index"] == 1, "propellant_kg"].mean()
     assert f"{mean_g:.4g}" in page

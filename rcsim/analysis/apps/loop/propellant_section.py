@@ -129,8 +129,8 @@ def propellant_blocks(
             else f"Held-out seed {seed}: no propellant used before refinement."
         ),
         text_block(
-            f"The refinement's propellant rule: {rule_text(max_rise_pct / 100.0)} "
-            f"(setting: --max-propellant-rise-pct {max_rise_pct:g})."
+            f"The refinement's propellant rule (--max-propellant-rise-pct {max_rise_pct:g}): "
+            + rule_text(max_rise_pct / 100.0)
         ),
         figure_block(
             _plot(
