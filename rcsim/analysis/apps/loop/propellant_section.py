@@ -225,7 +225,7 @@ def propellant_section(out: Path, log: pd.DataFrame, settings, seed: int) -> Sec
     after = _read_runs(out / "campaign_after")
     changed = {int(c) for c in log.loc[log["changed"], "case"]}
     verdicts = (
-        {int(c): str(v) for c, v in zip(log["case"], log["held_out"].fillna(""))}
+        {int(c): str(v) for c, v in zip(log["case"], log["held_out"].astype(object).fillna(""))}
         if "held_out" in log
         else None
     )
