@@ -98,6 +98,15 @@ def test_cli_writes_a_loadable_table_and_its_changelog(tmp_path, capsys):
     assert (out.parent / "T_plots" / "failures_by_case.png").stat().st_size > 10_000
     printed = capsys.readouterr().out
     assert "case  3: yaw 0.28->0.24 s" in printed
+    # The held-out seed's propellant per run, printed from the changelog's columns [g].
+    row = log.iloc[0]
+    assert (
+        f"held-out seed propellant {1e3 * row['propellant_fresh_before_kg']:.4g} -> "
+        f"{1e3 * row['propellant_fresh_after_kg']:.4g} g per run" in printed
+    )
+    # Yaw one cycle shorter drops the overshoot's correction firing: less propellant (the
+    # paper loop in docs/refinement.md: case 3 -42.5 % on its held-out seed).
+    assert row["held_out"] == "holds" and row["propellant_fresh_change_pct"] < 0
     assert "Table 7 (paper)" in printed  # refining Table 6: Table 7 flown on the held-out seed
     heldout = pd.read_csv(out.with_name("T_heldout.csv"))
     assert heldout["table"].tolist() == ["Table 6 (paper)", "refined", "Table 7 (paper)"]

@@ -243,7 +243,16 @@ def run_refine(args: argparse.Namespace) -> int:
             for a, axis in enumerate(("roll", "pitch", "yaw"))
             if row[f"{axis}_change_cycles"]
         )
-        print(f"  case {int(row['case']):2d}: {moves}")
+        fuel = ""
+        if "propellant_fresh_before_kg" in row:
+            fuel = (
+                f"; held-out seed propellant {1e3 * row['propellant_fresh_before_kg']:.4g} -> "
+                f"{1e3 * row['propellant_fresh_after_kg']:.4g} g per run "
+                f"({row['propellant_fresh_change_pct']:+.1f} %), failed "
+                f"{int(row['failed_fresh_before'])} -> {int(row['failed_fresh_after'])}: "
+                f"{row['held_out']}"
+            )
+        print(f"  case {int(row['case']):2d}: {moves}{fuel}")
     if "decision" in log:
         print(
             f"evidence (search seed {args.seed}: first {search} runs; confirmation seed "
@@ -259,7 +268,10 @@ def run_refine(args: argparse.Namespace) -> int:
     if "refused" in log:
         refused = log[log["refused"].astype(object).fillna("").astype(str) != ""]
         if not refused.empty:
-            print("strictly better, but refused by the search gate (not significant):")
+            print(
+                "strictly better, but refused by the search gate (not significant, or "
+                "propellant not paid for):"
+            )
             for _, row in refused.iterrows():
                 print(f"  case {int(row['case']):2d}: {row['refused']}")
     if ref.comparison is not None:
