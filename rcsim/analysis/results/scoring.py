@@ -20,13 +20,15 @@ SCORED_COLUMNS = (
     "failed",
     *(f"firings_to_rate_{a}" for a in AXES),
     *(f"final_rate_err_{a}_deg_s" for a in AXES),
+    "propellant_kg",
 )
 
 
 def trial_frame(trial, case, k, outcome: pd.DataFrame) -> pd.DataFrame:
     """The per-run scoring frame of candidate ``trial`` runs from their campaign outcome columns
     (row-aligned): ``trial, case_index, k, failed, repeated``, ``firings_to_rate_<axis>``,
-    ``final_rate_err_<axis>_deg_s``."""
+    ``final_rate_err_<axis>_deg_s`` and ``propellant_kg`` (the refinement's second objective,
+    :mod:`rcsim.analysis.apps.refinement.propellant`)."""
     to_rate = outcome[[f"firings_to_rate_{a}" for a in AXES]].to_numpy(float)
     result = pd.DataFrame(
         {
@@ -42,6 +44,7 @@ def trial_frame(trial, case, k, outcome: pd.DataFrame) -> pd.DataFrame:
     for a, axis in enumerate(AXES):
         result[f"firings_to_rate_{axis}"] = to_rate[:, a]
         result[f"final_rate_err_{axis}_deg_s"] = outcome[f"final_rate_err_{axis}_deg_s"].to_numpy()
+    result["propellant_kg"] = outcome["propellant_kg"].to_numpy(float)
     return result
 
 

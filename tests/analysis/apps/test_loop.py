@@ -20,7 +20,15 @@ from rcsim.models.errors import InputError
 from rcsim.models.tables import load_lookup_table
 
 SMALL = LoopSettings(runs_per_case=6, duration_s=6.0, permutations=19, max_iterations=3)
-SECTIONS = ("summary", "before-after", "figs-9-10", "drivers", "changelog", "traceability")
+SECTIONS = (
+    "summary",
+    "before-after",
+    "figs-9-10",
+    "propellant",
+    "drivers",
+    "changelog",
+    "traceability",
+)
 
 
 @pytest.fixture(scope="module")

@@ -98,6 +98,15 @@ def test_cli_writes_a_loadable_table_and_its_changelog(tmp_path, capsys):
     assert (out.parent / "T_plots" / "failures_by_case.png").stat().st_size > 10_000
     printed = capsys.readouterr().out
     assert "case  3: yaw 0.28->0.24 s" in printed
+    # The held-out seed's propellant per run, printed from the changelog's columns [g].
+    row = log.iloc[0]
+    assert (
+        f"held-out seed propellant {1e3 * row['propellant_fresh_before_kg']:.4g} -> "
+        f"{1e3 * row['propellant_fresh_after_kg']:.4g} g per run" in printed
+    )
+    # Yaw one cycle shorter drops the overshoot's correction firing: less propellant (the
+    # paper loop in docs/refinement.md: case 3 -42.5 % on its held-out seed).
+    assert row["held_out"] == "holds" and row["propellant_fresh_change_pct"] < 0
     assert "Table 7 (paper)" in printed  # refining Table 6: Table 7 flown on the held-out seed
     heldout = pd.read_csv(out.with_name("T_heldout.csv"))
     assert heldout["table"].tolist() == ["Table 6 (paper)", "refined", "Table 7 (paper)"]
@@ -203,10 +212,11 @@ SEARCH_SEED, CONFIRM_SEED = 1, 3
 ROW3, ROW24 = 2, 23  # cases 3 (-,-,+) and 24 (+,+,-): mirrors of each other
 
 
-def fake_evaluate(world):
+def fake_evaluate(world, fuel=None):
     """An ``evaluate`` that flies nothing: in trial ``i`` the first ``world[(row, yaw cycles,
     seed)]`` runs fail (on yaw), the others converge; 0 for an entry not listed.  The same
-    ``k`` fails for every table, so counts are paired as common random numbers pair them."""
+    ``k`` fails for every table, so counts are paired as common random numbers pair them.
+    Every run uses ``fuel[(row, yaw cycles)]`` kg of propellant (1 kg if not listed)."""
     from rcsim.analysis.apps.refinement import evaluate as flying
     from rcsim.lookup.table_edits import axis_cycles, jet_axes
     from rcsim.models.tables import AXES
@@ -222,6 +232,7 @@ def fake_evaluate(world):
             failed = k < world.get((int(row), int(y), spec.seed), 0)
             frame = pd.DataFrame({"trial": i, "case_index": int(row), "k": k, "failed": failed})
             frame["repeated"] = False
+            frame["propellant_kg"] = (fuel or {}).get((int(row), int(y)), 1.0)
             for axis in AXES:
                 frame[f"firings_to_rate_{axis}"] = 1.0
                 bad = failed if axis == "yaw" else np.zeros(n, bool)
@@ -233,10 +244,10 @@ def fake_evaluate(world):
     return evaluate
 
 
-def fake_refine(monkeypatch, world, cases=(ROW3, ROW24), **kw):
+def fake_refine(monkeypatch, world, cases=(ROW3, ROW24), fuel=None, **kw):
     from rcsim.analysis.apps.refinement import search as search_module
 
-    monkeypatch.setattr(search_module, "evaluate", fake_evaluate(world))
+    monkeypatch.setattr(search_module, "evaluate", fake_evaluate(world, fuel))
     spec = refinement_spec(runs_per_case=200, seed=SEARCH_SEED, duration_s=8.0)
     return refine(
         spec, load_lookup_table(which="table6"), list(cases), confirm_seed=CONFIRM_SEED, **kw
@@ -313,6 +324,59 @@ def test_a_confirmed_change_is_offered_to_the_mirror_case(monkeypatch):
     assert ev.loc[ROW3, "mirror_decision"] == (
         "differs: case 3 yaw -1, case 24 none (the change was not confirmed for case 24)"
     )
+
+
+def test_a_change_that_raises_propellant_must_pay_for_it_with_failures(monkeypatch):
+    """Issue 28: the search took changes on failures alone, and on an Apollo-like vehicle
+    they raised a case's propellant 62-86 %.  Yaw 7 -> 6 on case 3 costing 50 % more
+    propellant per run: with 20 of 200 failures removed on both seeds it pays (the reduction's
+    95 % lower bound, 20 (2 * 0.05**(1/20) - 1) / 200 = 7.2 % of runs, is over the 5 % that
+    50 % asks); with 6 removed (McNemar p = 1/64, enough for the failure gate alone) the
+    lower bound is 6 (2 * 0.05**(1/6) - 1) / 200 = 0.6 % of runs: refused, and the changelog
+    says why."""
+    fuel = {(ROW3, 7): 1.0, (ROW3, 6): 1.5}
+    # Yaw 8 (the other candidate) fails as many runs as yaw 7: no better.
+    world = {(ROW3, 7, SEARCH_SEED): 20, (ROW3, 7, CONFIRM_SEED): 20, (ROW3, 8, SEARCH_SEED): 20}
+    result = fake_refine(monkeypatch, world, cases=[ROW3], fuel=fuel)
+    t6 = load_lookup_table(which="table6")
+    assert changed_cells(t6, result.table, PAPER_CYCLE_S)["new_cycles"].tolist() == [6]
+    ev = result.evidence.iloc[0]
+    assert ev["decision"] == "changed (search; confirmed)"
+    assert ev["search_propellant_change_pct"] == pytest.approx(50.0)  # 1.5 / 1.0 - 1, exact
+    assert ev["confirm_propellant_change_pct"] == pytest.approx(50.0)
+
+    world = {(ROW3, 7, SEARCH_SEED): 6, (ROW3, 7, CONFIRM_SEED): 6, (ROW3, 8, SEARCH_SEED): 6}
+    result = fake_refine(monkeypatch, world, cases=[ROW3], fuel=fuel)
+    assert changed_cells(t6, result.table, PAPER_CYCLE_S).empty
+    decision = result.iterations[0]["decisions"][0]
+    assert decision["p"] == 2.0**-6 and not decision["accepted"]
+    assert decision["propellant_refused"].startswith("propellant +50.0 % (limit 10 %)")
+    assert "propellant +50.0 %" in result.evidence.iloc[0]["refused"]
+    # The same gain at a 60 % limit: propellant within it, failures decide (taken).
+    result = fake_refine(monkeypatch, world, cases=[ROW3], fuel=fuel, max_propellant_rise=0.6)
+    assert changed_cells(t6, result.table, PAPER_CYCLE_S)["new_cycles"].tolist() == [6]
+    # Yaw 8 buys 5 of the 6 failures at no propellant: refused yaw 6 gives way to it.
+    world[(ROW3, 8, SEARCH_SEED)], world[(ROW3, 8, CONFIRM_SEED)] = 1, 0
+    result = fake_refine(monkeypatch, world, cases=[ROW3], fuel=fuel)
+    assert changed_cells(t6, result.table, PAPER_CYCLE_S)["new_cycles"].tolist() == [8]
+    assert [d["accepted"] for d in result.iterations[0]["decisions"]] == [False, True]
+
+
+def test_a_row_whose_propellant_is_not_paid_for_on_the_confirmation_seed_is_reverted(
+    monkeypatch,
+):
+    """Passes both gates on the search seed (20 failures removed, +50 % propellant pays),
+    but on the confirmation seed removes only 6 failures (McNemar p = 1/64 passes the Holm
+    family of one): 0.6 % of runs cannot pay 50 % more propellant, so the row reverts and its
+    decision says it was the propellant."""
+    fuel = {(ROW3, 7): 1.0, (ROW3, 6): 1.5}
+    world = {(ROW3, 7, SEARCH_SEED): 20, (ROW3, 7, CONFIRM_SEED): 6, (ROW3, 8, SEARCH_SEED): 20}
+    result = fake_refine(monkeypatch, world, cases=[ROW3], fuel=fuel)
+    t6 = load_lookup_table(which="table6")
+    np.testing.assert_array_equal(result.table.firing_time_s, t6.firing_time_s)
+    ev = result.evidence.iloc[0]
+    assert ev["decision"] == "reverted (search; propellant not paid for on the confirmation seed)"
+    assert ev["propellant_note"].startswith("confirmation seed: propellant +50.0 %")
 
 
 def test_the_search_flies_a_vehicle_files_valve_delays(tmp_path):

@@ -103,6 +103,15 @@ def register_refine(cmds) -> None:
         "(the same draws); the confirmation and the held-out check fly all N (default 200)",
     )
     ref.add_argument(
+        "--max-propellant-rise-pct",
+        type=float,
+        default=10.0,
+        metavar="P",
+        help="a change raising a case's mean propellant by more than P %% must pay for it: the "
+        "95 %% lower bound of its failure reduction at least 1 %% of runs per 10 %% of rise; "
+        "with failures only equal it is refused (default 10)",
+    )
+    ref.add_argument(
         "--out",
         required=True,
         metavar="OUT.csv",
@@ -184,6 +193,7 @@ def run_refine(args: argparse.Namespace) -> int:
         search_runs_per_case=args.search_runs_per_case,
         confirm_seed=confirm_seed,
         vehicle=vehicle,
+        max_propellant_rise_pct=args.max_propellant_rise_pct,
     )
     from rcsim.analysis.apps.estimates import REFINE_BYTES_PER_RUN as PER_RUN
     from rcsim.analysis.apps.estimates import check_memory, confirm, flying_seconds
@@ -217,6 +227,7 @@ def run_refine(args: argparse.Namespace) -> int:
         checkpoint=checkpoint,
         confirm_seed=confirm_seed,
         vehicle=vehicle,
+        max_propellant_rise=args.max_propellant_rise_pct / 100.0,
     )
     paths = write_refinement(ref, out, overwrite=args.overwrite)
     log = ref.changelog
@@ -232,7 +243,16 @@ def run_refine(args: argparse.Namespace) -> int:
             for a, axis in enumerate(("roll", "pitch", "yaw"))
             if row[f"{axis}_change_cycles"]
         )
-        print(f"  case {int(row['case']):2d}: {moves}")
+        fuel = ""
+        if "propellant_fresh_before_kg" in row:
+            fuel = (
+                f"; held-out seed propellant {1e3 * row['propellant_fresh_before_kg']:.4g} -> "
+                f"{1e3 * row['propellant_fresh_after_kg']:.4g} g per run "
+                f"({row['propellant_fresh_change_pct']:+.1f} %), failed "
+                f"{int(row['failed_fresh_before'])} -> {int(row['failed_fresh_after'])}: "
+                f"{row['held_out']}"
+            )
+        print(f"  case {int(row['case']):2d}: {moves}{fuel}")
     if "decision" in log:
         print(
             f"evidence (search seed {args.seed}: first {search} runs; confirmation seed "
@@ -248,7 +268,10 @@ def run_refine(args: argparse.Namespace) -> int:
     if "refused" in log:
         refused = log[log["refused"].astype(object).fillna("").astype(str) != ""]
         if not refused.empty:
-            print("strictly better, but refused by the search gate (not significant):")
+            print(
+                "strictly better, but refused by the search gate (not significant, or "
+                "propellant not paid for):"
+            )
             for _, row in refused.iterrows():
                 print(f"  case {int(row['case']):2d}: {row['refused']}")
     if ref.comparison is not None:

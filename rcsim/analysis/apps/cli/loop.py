@@ -51,6 +51,14 @@ def register(sub) -> None:
         "case's N (the same draws); the refined table is then checked on all N "
         "runs of the held-out seed (default 200)",
     )
+    p.add_argument(
+        "--max-propellant-rise-pct",
+        type=float,
+        metavar="P",
+        help="a change raising a case's mean propellant by more than P %% must pay for it: the "
+        "95 %% lower bound of its failure reduction at least 1 %% of runs per 10 %% of rise; "
+        "with failures only equal it is refused (default 10)",
+    )
     add_vehicle_args(
         p,
         vehicle_help="fly your own vehicle (a vehicle TOML file or a packaged name; "
@@ -101,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
         "seed": args.seed,
         "fresh_seed": args.fresh_seed,
         "search_runs_per_case": args.search_runs_per_case,
+        "max_propellant_rise_pct": args.max_propellant_rise_pct,
         "plots": args.plots,
         "vehicle": args.vehicle,
         "control": control_overrides(args) or None,

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.apps.loop.files import GENERATE, GENERATED_TABLE, table_file
+from rcsim.analysis.apps.loop.propellant_section import propellant_section
 from rcsim.analysis.apps.refinement.evidence import changed_cells
 from rcsim.analysis.apps.refinement.plots import most_improved_case
 from rcsim.analysis.engine import runs_table
@@ -368,6 +369,7 @@ def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
             "repeated_fresh_before",
             "repeated_fresh_after",
         ]
+        + [c for c in ("propellant_fresh_change_pct", "held_out") if c in log]
     )
     blocks = [
         table_block(
@@ -465,6 +467,7 @@ def write_loop_report(out: Path, settings, state: dict) -> Path:
         _summary(out, settings, state, log, before, after),
         _before_after(out, log, before, after),
         _figs_9_10(out, log),
+        propellant_section(out, log, settings, settings.held_out_seed),
         _drivers(out),
         _changelog(log, _table_file(out, settings), out / "refined_table.csv"),
         Section(

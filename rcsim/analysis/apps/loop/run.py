@@ -89,6 +89,9 @@ class LoopSettings:
     control : dict or None
         Overrides of the vehicle's flight-software profile (``[control]`` keys:
         ``--control KEY=VALUE``), written into every campaign spec of the loop.
+    max_propellant_rise_pct : float
+        A change raising a case's mean propellant by more than this [%] must pay for it with
+        failures (:mod:`rcsim.analysis.apps.refinement.propellant`); stated in the report.
     plots : bool
         The campaigns' per-case plots (about 4.5 s per campaign on 2 cores, whatever its
         size); without them the report's Figs 9-10 section says the figures were not made.
@@ -102,6 +105,7 @@ class LoopSettings:
     permutations: int = 200
     max_iterations: int = 8
     search_runs_per_case: int = SEARCH_RUNS_PER_CASE
+    max_propellant_rise_pct: float = 10.0
     plots: bool = True
     vehicle: str | None = None
     control: dict | None = None
@@ -121,6 +125,7 @@ class LoopSettings:
             duration_s=self.duration_s,
             max_iterations=self.max_iterations,
             search_runs_per_case=self.search_runs_per_case,
+            max_propellant_rise_pct=self.max_propellant_rise_pct,
         )
         Settings(n_permutations=self.permutations, random_state=self.seed)
         from rcsim.lookup.generation import is_coupled
@@ -532,6 +537,7 @@ class _Stages:
             # The second gate: a changed row is kept only if it holds on this seed too (the
             # held-out seed stays unused by any decision).
             confirm_seed=confirmation_seed(s.seed, s.held_out_seed),
+            max_propellant_rise=s.max_propellant_rise_pct / 100.0,
         )
         save_search(result, self.paths["search"])
         result.table.to_csv(self.paths["refined"])
@@ -572,6 +578,7 @@ class _Stages:
             progress=self.progress,
             vehicle=self.vehicle,
             table_file=refinement_vehicle(self.table, self.vehicle)[1],
+            max_propellant_rise=s.max_propellant_rise_pct / 100.0,
         )
         write_refinement(ref, self.paths["refined"], overwrite=True, writer=COMMAND)
         log = ref.changelog

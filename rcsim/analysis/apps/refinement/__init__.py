@@ -4,6 +4,8 @@
   runs (common random numbers), all candidates as one batched campaign;
 * :mod:`~rcsim.analysis.apps.refinement.search` -- find, case by case, the firing times that
   minimise failures first and repeated firings second;
+* :mod:`~rcsim.analysis.apps.refinement.propellant` -- propellant, the second objective: a
+  change raising its case's propellant beyond a limit must pay for it with failures;
 * :mod:`~rcsim.analysis.apps.refinement.outputs` -- the held-out check on a fresh seed, the refined
   table, its changelog and before/after plots.
 

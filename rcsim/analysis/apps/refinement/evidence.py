@@ -23,9 +23,10 @@ def refused_candidates(iterations: list, case_numbers) -> list[str]:
                 continue
             case = int(d["candidate"].split(":")[0].split()[1])
             move = d["candidate"].split(": ", 1)[1]
-            out[case].append(
-                f"round {it['round']}: {move} ({d['outcome']} {d['b']}:{d['c']}, p={d['p']:.2g})"
-            )
+            why = f"{d['outcome']} {d['b']}:{d['c']}, p={d['p']:.2g}"
+            if d.get("propellant_refused"):
+                why += f"; {d['propellant_refused']}"
+            out[case].append(f"round {it['round']}: {move} ({why})")
     return ["; ".join(out[int(c)]) for c in case_numbers]
 
 
@@ -156,6 +157,32 @@ def evidence_frame(
     frame.insert(1, "mirror_case", mirror_case)
     frame["mirror_decision"] = mirror_decision
     return frame
+
+
+def add_propellant(evidence: pd.DataFrame, search_fuel: dict, confirm_fuel: dict, kept: dict):
+    """Add each searched case's propellant evidence to :func:`evidence_frame`'s rows (in
+    place): the mean propellant per run [kg] of the original and the proposed row, and its
+    change [%], on the search seed and (where flown) the confirmation seed, and
+    ``propellant_note``, why the rule refused a row (:mod:`~rcsim.analysis.apps.refinement.
+    propellant`).  A row reverted for propellant says so in its ``decision``."""
+    for where, fuel in (("search", search_fuel), ("confirm", confirm_fuel)):
+        got = [fuel.get(t) for t in range(len(evidence))]
+        evidence[f"{where}_propellant_before_kg"] = [v.before_kg if v else np.nan for v in got]
+        evidence[f"{where}_propellant_after_kg"] = [v.after_kg if v else np.nan for v in got]
+        evidence[f"{where}_propellant_change_pct"] = [v.rise_pct if v else np.nan for v in got]
+    notes = []
+    for t in range(len(evidence)):
+        v = confirm_fuel.get(t)
+        if v is None or v.passes:
+            notes.append("")
+            continue
+        notes.append(f"confirmation seed: {v.reason}")
+        if t in kept and not kept[t]:
+            evidence.loc[t, "decision"] = str(evidence.loc[t, "decision"]).replace(
+                "not confirmed on the confirmation seed",
+                "propellant not paid for on the confirmation seed",
+            )
+    evidence["propellant_note"] = notes
 
 
 def changed_cells(old: LookupTable, new: LookupTable, cycle_s: float) -> pd.DataFrame:

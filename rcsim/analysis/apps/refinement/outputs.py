@@ -36,6 +36,7 @@ from rcsim.analysis.apps.refinement.plots import (
     plot_case_before_after,
     plot_failures_by_case,
 )
+from rcsim.analysis.apps.refinement.propellant import MAX_RISE, case_propellant, propellant_check
 from rcsim.analysis.apps.refinement.result import Refinement
 from rcsim.analysis.apps.refinement.search import (
     SEARCH_RUNS_PER_CASE,
@@ -69,6 +70,7 @@ def run_refinement(
     confirm_seed: int | None = None,
     compare_table7: bool | None = None,
     vehicle: Vehicle | str | None = None,
+    max_propellant_rise: float = MAX_RISE,
 ) -> Refinement:
     """Refine ``table`` on ``seed`` and fly the old and new tables on ``fresh_seed``.
 
@@ -98,6 +100,9 @@ def run_refinement(
         The vehicle flown; default the paper's for a jet table, the one a channel table's
         recipe was solved for (:func:`~rcsim.analysis.apps.refinement.parameters.
         refinement_vehicle`).
+    max_propellant_rise : float
+        Largest rise of a case's mean propellant (a fraction, default 0.10) judged on failures
+        alone (:mod:`~rcsim.analysis.apps.refinement.propellant`).
 
     Raises
     ------
@@ -134,6 +139,7 @@ def run_refinement(
         search_runs_per_case=search_runs_per_case,
         checkpoint=checkpoint,
         confirm_seed=confirm_seed,
+        max_propellant_rise=max_propellant_rise,
     )
     return held_out_check(
         table,
@@ -148,6 +154,7 @@ def run_refinement(
         confirm_seed=confirm_seed,
         vehicle=flown,
         table_file=table_file,
+        max_propellant_rise=max_propellant_rise,
     )
 
 
@@ -167,6 +174,7 @@ def held_out_check(
     confirm_seed: int | None = None,
     vehicle: Vehicle,
     table_file: str = "default",
+    max_propellant_rise: float = MAX_RISE,
 ) -> Refinement:
     """Fly the old and the refined table on ``fresh_seed`` (the seed no decision used).
 
@@ -177,6 +185,9 @@ def held_out_check(
     the packaged Table 6, the table the paper refined by hand).  ``vehicle`` and
     ``table_file``: what the refinement flew
     (:func:`~rcsim.analysis.apps.refinement.parameters.refinement_vehicle`).
+    ``max_propellant_rise``: the propellant rule's limit; a changed row that does worse on
+    this seed (more failures, or propellant beyond the limit without a paying failure gain)
+    is marked "worse on held-out seed" (:func:`changelog`).
     """
     from rcsim.models.tables import load_lookup_table
 
@@ -197,6 +208,7 @@ def held_out_check(
         tables["table7"] = load_lookup_table(which="table7")
     to_fly = [k for k in tables if given[k] is None]
     scores_of = {k: trial_scores(v, searched.size) for k, v in given.items() if v is not None}
+    runs_of = {k: v for k, v in given.items() if v is not None}
     if to_fly:
         trials = Trials(
             np.concatenate(
@@ -215,8 +227,11 @@ def held_out_check(
         for i, k in enumerate(to_fly):
             part = scores.iloc[i * searched.size : (i + 1) * searched.size]
             scores_of[k] = part.reset_index(drop=True)
+            mine = runs[(runs["trial"] // searched.size) == i]
+            runs_of[k] = mine.assign(trial=mine["trial"] - i * searched.size)
     fresh_before, fresh_after = scores_of["before"], scores_of["after"]
     log = changelog(table, result, fresh_before, fresh_after, vehicle.control.cycle_s)
+    held_out_propellant(log, runs_of["before"], runs_of["after"], max_propellant_rise)
     names = {"before": "Table 6 (paper)" if is_table6(table) else "original", "after": "refined"}
     if compare_table7:
         names["table7"] = "Table 7 (paper)"
@@ -354,6 +369,53 @@ def changelog(
             ev[f"{name}_ci_lo"], ev[f"{name}_ci_hi"] = lo, hi
         frame = pd.concat([frame, ev], axis=1)
     return frame
+
+
+def held_out_propellant(
+    log: pd.DataFrame, before: pd.DataFrame, after: pd.DataFrame, max_rise: float = MAX_RISE
+) -> None:
+    """Add the held-out seed's propellant to a :func:`changelog` (in place) and mark the
+    changed rows that do worse there.
+
+    ``before`` / ``after``: the old and the refined table's scoring frames on the held-out seed
+    (``trial`` = position among the searched cases, ``k``, ``failed``, ``propellant_kg``).
+    Adds ``propellant_fresh_{before,after}_kg`` with t 95 % intervals (``..._ci_lo_kg``,
+    ``..._ci_hi_kg``), ``propellant_fresh_change_pct`` and ``held_out``: ``holds``, or
+    ``worse on held-out seed: ...`` (more failures; or propellant beyond ``max_rise`` without
+    the failure gain that pays for it, :func:`~rcsim.analysis.apps.refinement.propellant.
+    propellant_check`); "" for an unchanged row.  A worse row's ``decision`` no longer says
+    "confirmed".
+    """
+    n = len(log)
+    for name, runs in (("before", before), ("after", after)):
+        stats_ = case_propellant(runs, n)
+        log[f"propellant_fresh_{name}_kg"] = stats_["propellant_kg"].to_numpy()
+        log[f"propellant_fresh_{name}_ci_lo_kg"] = stats_["ci_lo_kg"].to_numpy()
+        log[f"propellant_fresh_{name}_ci_hi_kg"] = stats_["ci_hi_kg"].to_numpy()
+    verdicts = []
+    for t in range(n):
+        if not bool(log["changed"].iloc[t]):
+            verdicts.append("")
+            continue
+        fb, fa = int(log["failed_fresh_before"].iloc[t]), int(log["failed_fresh_after"].iloc[t])
+        fuel = propellant_check(before[before["trial"] == t], after[after["trial"] == t], max_rise)
+        if fa > fb:
+            verdicts.append(f"worse on held-out seed: failures {fb} -> {fa}")
+        elif not fuel.passes:
+            verdicts.append(f"worse on held-out seed: {fuel.reason}")
+        else:
+            verdicts.append("holds")
+    log["propellant_fresh_change_pct"] = 100.0 * (
+        log["propellant_fresh_after_kg"] / log["propellant_fresh_before_kg"] - 1.0
+    )
+    log["held_out"] = verdicts
+    if "decision" in log:
+        worse = log["held_out"].str.startswith("worse")
+        log.loc[worse, "decision"] = [
+            "worse on held-out seed ("
+            + d.split("(", 1)[-1].replace("; confirmed", "; passed the confirmation seed")
+            for d in log.loc[worse, "decision"].astype(str)
+        ]
 
 
 def case_channels(rate_cmd: np.ndarray) -> list[str]:

@@ -182,6 +182,7 @@ def check_parameters(
     search_runs_per_case=SEARCH_RUNS_PER_CASE,
     confirm_seed=None,
     vehicle=None,
+    max_propellant_rise_pct=10.0,
 ) -> None:
     """Raise :class:`InputError` naming the first out-of-range refinement parameter
     (``duration_s`` within what one campaign chunk of ``vehicle``, default the paper's,
@@ -214,6 +215,17 @@ def check_parameters(
             "confirm_seed",
             confirm_seed,
             "must differ from the search and held-out seeds (it is the second gate)",
+        )
+    if (
+        isinstance(max_propellant_rise_pct, bool)
+        or not isinstance(max_propellant_rise_pct, (int, float))
+        or not (np.isfinite(max_propellant_rise_pct) and 0 <= max_propellant_rise_pct <= 1000)
+    ):
+        raise bad(
+            "max_propellant_rise_pct",
+            max_propellant_rise_pct,
+            "must be a percentage in 0..1000 (a case's mean propellant rise judged on "
+            "failures alone)",
         )
     from rcsim.analysis.engine.campaign.limits import max_duration_s
 

@@ -42,8 +42,14 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.apps.refinement.evaluate import Trials, evaluate
-from rcsim.analysis.apps.refinement.evidence import evidence_frame, refused_candidates, test_dict
+from rcsim.analysis.apps.refinement.evidence import (
+    add_propellant,
+    evidence_frame,
+    refused_candidates,
+    test_dict,
+)
 from rcsim.analysis.apps.refinement.gate import ALPHA, FAILED, PairedTest, mirror_rows, paired_test
+from rcsim.analysis.apps.refinement.propellant import MAX_RISE, propellant_check
 from rcsim.analysis.engine.campaign.spec import CampaignSpec
 from rcsim.analysis.results.proportions import holm
 from rcsim.analysis.results.scoring import offending_runs, score_key, total, trial_scores
@@ -104,6 +110,7 @@ def refine(
     checkpoint: str | Path | None = None,
     confirm_seed: int | None = None,
     alpha: float = ALPHA,
+    max_propellant_rise: float = MAX_RISE,
 ) -> RefineResult:
     """Refine ``table`` against the dispersed runs of ``spec``.
 
@@ -137,6 +144,10 @@ def refine(
         search gate alone).
     alpha : float
         Level of each paired test (:data:`rcsim.analysis.apps.refinement.gate.ALPHA`).
+    max_propellant_rise : float
+        Largest rise of a case's mean propellant (a fraction) judged on failures alone; a
+        change raising it more must pay with failures, on the search and on the confirmation
+        seed (:mod:`rcsim.analysis.apps.refinement.propellant`).
     """
     if len(spec.cases) != len(table.case):
         raise ValueError(f"spec has {len(spec.cases)} cases, the table {len(table.case)}")
@@ -145,6 +156,8 @@ def refine(
     if search_runs_per_case is not None and search_runs_per_case < 1:
         raise ValueError(f"search_runs_per_case must be >= 1, got {search_runs_per_case}")
     cases = np.arange(len(table.case)) if cases is None else np.asarray(sorted(set(cases)), int)
+    if not max_propellant_rise >= 0:
+        raise ValueError(f"max_propellant_rise must be >= 0, got {max_propellant_rise}")
     if confirm_seed is not None and confirm_seed == spec.seed:
         raise ValueError("the confirmation seed must differ from the search seed")
     search = _Search(
@@ -154,9 +167,13 @@ def refine(
         dict(threads=threads, progress=progress, lookup_params=lookup_params),
         min(spec.runs_per_case, search_runs_per_case or spec.runs_per_case),
         alpha,
+        max_propellant_rise,
     )
-    key = _checkpoint_key(
-        spec, table, cases, max_iterations, search.runs_per_case, confirm_seed, alpha
+    key = (
+        _checkpoint_key(
+            spec, table, cases, max_iterations, search.runs_per_case, confirm_seed, alpha
+        )
+        + f"|propellant {max_propellant_rise!r}"
     )
     saved = _load_checkpoint(checkpoint, key)
     if saved is not None:
@@ -250,10 +267,12 @@ class _Search:
         kw: dict,
         runs_per_case: int,
         alpha: float = ALPHA,
+        max_rise: float = MAX_RISE,
     ):
         self.spec, self.table, self.cases, self.kw = spec, table, cases, kw
         self.runs_per_case = runs_per_case
         self.alpha = alpha
+        self.max_rise = max_rise
         self.jet_axis = jet_axes(table)
         self.cycle_s = spec.cycle_s  # the flown vehicle's: candidates move whole cycles of it
         self.threshold_deg_s = float(np.degrees(spec.rate_threshold_rad_s))
@@ -367,21 +386,34 @@ class _Search:
         changed, decisions = [], []
         for t in np.unique([e[0] for e in edits]):
             mine = [i for i, e in enumerate(edits) if e[0] == t]
-            # Best candidate: fewest failures, then fewest repeated firings; first wins a tie
-            # (shorter before longer, roll before yaw), so the search is deterministic.
-            i = min(mine, key=lambda i: score_key(cand.iloc[i]))
-            if score_key(cand.iloc[i]) < score_key(self.scores.iloc[t]):
+            # Best candidate first: fewest failures, then fewest repeated firings; first wins a
+            # tie (shorter before longer, roll before yaw), so the search is deterministic.
+            for i in sorted(mine, key=lambda i: score_key(cand.iloc[i])):
+                if not score_key(cand.iloc[i]) < score_key(self.scores.iloc[t]):
+                    break
                 # Strictly better is not enough: the gain must be significant on the paired
                 # runs (a change resting on a run or two in 200 is noise).
-                test = paired_test(
-                    self.runs[self.runs["trial"] == t],
-                    cand_runs[cand_runs["trial"] == i],
-                    self.alpha,
+                mine_before = self.runs[self.runs["trial"] == t]
+                mine_after = cand_runs[cand_runs["trial"] == i]
+                test = paired_test(mine_before, mine_after, self.alpha)
+                # Propellant, the second objective: a rise beyond max_rise must be paid for.
+                fuel = propellant_check(mine_before, mine_after, self.max_rise)
+                decisions.append(
+                    {
+                        "candidate": trials.label[i],
+                        **test_dict(test),
+                        "accepted": test.passed and fuel.passes,
+                        "propellant_change_pct": fuel.rise_pct,
+                        "propellant_refused": fuel.reason,
+                    }
                 )
-                decisions.append({"candidate": trials.label[i], **test_dict(test)})
-                if test.passed:
+                if test.passed and fuel.passes:
                     accepted += edits[i][1]
                     changed.append(trials.label[i])
+                if not (test.passed and not fuel.passes):
+                    # Only a candidate refused for its propellant gives way to the next best
+                    # (the other direction may buy the failures cheaper).
+                    break
         if not changed:
             # Nothing helped: the table and its runs stand; the next round tries the entries
             # not flown yet (other axes), and the search ends when there are none.
@@ -478,8 +510,13 @@ class _Search:
             t: paired_test(self.base[self.base["trial"] == t], search_runs[t], self.alpha)
             for t in range(self.cases.size)
         }
+        search_fuel = {
+            t: propellant_check(self.base[self.base["trial"] == t], search_runs[t], self.max_rise)
+            for t in range(self.cases.size)
+        }
         involved = sorted([*changed, *source])
         confirm_tests: dict[int, PairedTest] = {}
+        confirm_fuel = {}
         kept = {t: True for t in involved}
         if confirm_seed is not None and involved:
             spec = replace(self.spec, seed=int(confirm_seed))
@@ -497,18 +534,17 @@ class _Search:
             self.flown += len(flown)
             for i, t in enumerate(involved):
                 decided = search_tests[source.get(t, t)].outcome
-                confirm_tests[t] = paired_test(
-                    flown[flown["trial"] == i],
-                    flown[flown["trial"] == i + len(rows)],
-                    self.alpha,
-                    outcome=decided,
-                )
+                pair = flown[flown["trial"] == i], flown[flown["trial"] == i + len(rows)]
+                confirm_tests[t] = paired_test(*pair, self.alpha, outcome=decided)
+                confirm_fuel[t] = propellant_check(*pair, self.max_rise)
             p = np.array([confirm_tests[t].p for t in involved])
             held = holm(p, self.alpha)
             for j, t in enumerate(involved):
                 ct = confirm_tests[t]
-                kept[t] = bool(held[j]) and (
-                    ct.outcome == FAILED or ct.failed_after <= ct.failed_before
+                kept[t] = (
+                    bool(held[j])
+                    and (ct.outcome == FAILED or ct.failed_after <= ct.failed_before)
+                    and confirm_fuel[t].passes
                 )
         for t in involved:
             if not kept[t]:
@@ -530,4 +566,5 @@ class _Search:
             confirm_seed is not None,
             self.cycle_s,
         )
+        add_propellant(evidence, search_fuel, confirm_fuel, kept)
         return final, after, evidence
