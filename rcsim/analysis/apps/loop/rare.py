@@ -6,8 +6,9 @@ of :data:`LEVEL_RUNS` runs per case, more than the whole default loop gives a ca
 each of five campaigns), so ``make run`` stays as affordable as it was.
 
 Which cases: those whose held-out campaign of the refined table (``campaign_after``) failed at
-most :data:`FEW_FAILURES` runs -- where its interval says least -- the ``rare_cases`` of them whose
-runs came closest to failing (the smallest ``margin`` of the runs table), each estimated on that
+most :data:`FEW_FAILURES` runs -- where its interval says least -- the ``rare_cases`` of them with
+the fewest failures and, among equals, whose runs came closest to failing (the smallest
+``margin`` of the runs table), each estimated on that
 campaign's spec (the refined table, the held-out seed: level 0 is a fresh draw of the same
 dispersions) by subset simulation with ``rare_budget`` runs at most.  ``DIR/rare/`` holds the
 estimations (``rcsim campaign rare``'s layout, :mod:`rcsim.analysis.apps.rare.estimate`) and
@@ -50,14 +51,16 @@ def check_rare_settings(budget: int, cases: int) -> None:
 def select_cases(runs: pd.DataFrame, n_cases: int) -> pd.DataFrame:
     """Per case of a campaign's runs (columns ``case``, ``case_index``, ``failed`` and, when
     recorded, ``margin``): runs, failed, the smallest margin, and ``chosen`` (module
-    docstring), closest to failing first."""
+    docstring); fewest failures first, and among equals closest to failing first."""
     grouped = runs.groupby(["case_index", "case"], sort=True)
     table = grouped["failed"].agg(runs="size", failed="sum").reset_index()
     if "margin" in runs.columns:
         table["min_margin"] = grouped["margin"].min().to_numpy()
     else:  # a campaign flown before the margin column: none is closer than another
         table["min_margin"] = np.nan
-    table = table.sort_values(["min_margin", "case_index"], na_position="last", kind="stable")
+    table = table.sort_values(
+        ["failed", "min_margin", "case_index"], na_position="last", kind="stable"
+    )
     few = table["failed"] <= FEW_FAILURES
     table["chosen"] = few & (few.cumsum() <= n_cases)
     return table.reset_index(drop=True)
@@ -156,7 +159,8 @@ def rare_section(out: Path) -> Section:
     blocks = [
         text_block(
             f"Cases of the held-out campaign of the refined table with at most {FEW_FAILURES} "
-            "failed runs, those whose runs came closest to failing (smallest margin): their "
+            "failed runs, the fewest failures first and, among equals, those whose runs came "
+            "closest to failing (smallest margin): their "
             "failure probability by subset simulation on the same spec, at most "
             f"{budget:,} runs each ({record['settings']['n_per_level']} a level). The closest "
             "failure is the failed run nearest the nominal vehicle that the estimation found, "
