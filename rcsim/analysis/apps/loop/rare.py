@@ -107,8 +107,16 @@ def _interval(rec: dict) -> str:
     return f"{lo:.2g} - {hi:.2g}"
 
 
+#: What a status other than ``converged`` means, in the method column.
+STATUS_NOTES = {
+    "monte_carlo": " (first level only: not rare, plain Monte Carlo's exact interval)",
+    "budget": " (budget ended before the failure level: rough)",
+    "not_resolved": " (no failure within the budget: a bound)",
+}
+
+
 def _status_note(status: str) -> str:
-    return "" if status == "converged" else f" ({status.replace('_', ' ')})"
+    return STATUS_NOTES.get(status, "")
 
 
 def rare_rows(record: dict, selection: pd.DataFrame) -> pd.DataFrame:
