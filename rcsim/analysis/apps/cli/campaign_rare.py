@@ -161,6 +161,6 @@ def _rare(args) -> int:
     print(
         f"every run in {out}/runs.parquet, the failed ones in failures.parquet (`rcsim analyze "
         f"{out}/runs.parquet --vehicle ...` reads them: conditional samples, not a Monte "
-        "Carlo sample)"
+        "Carlo sample, so the failure rate it prints is not the case's P(fail))"
     )
     return 0
