@@ -138,8 +138,7 @@ def rare_rows(record: dict, selection: pd.DataFrame) -> pd.DataFrame:
                 "its largest inputs [sigma]": "-"
                 if cf is None
                 else ", ".join(f"{n} {v:+.1f}" for n, v in cf["largest"]),
-                "method": rec["method"]
-                + ("" if rec["status"] == "converged" else f" ({rec['status']})"),
+                "method": rec["method"] + _status_note(rec["status"]),
             }
         )
     return pd.DataFrame(rows)
