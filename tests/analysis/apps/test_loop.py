@@ -8,6 +8,7 @@ the report renders in a real browser with every section.  Small settings (6 runs
 case, 19 permutations) keep it near 20 s.
 """
 
+import html
 import json
 from pathlib import Path
 
@@ -251,4 +252,4 @@ def test_rare_stage_estimates_the_closest_case_with_few_failures(loop_dir):
     selection = pd.read_csv(loop_dir / "rare" / "selection.csv")
     html_text = (loop_dir / "report.html").read_text()
     for cell in rare_rows(record, selection).iloc[0]:
-        assert str(cell) in html_text
+        assert html.escape(str(cell)) in html_text
