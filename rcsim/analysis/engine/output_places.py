@@ -30,7 +30,7 @@ from rcsim.analysis.engine.output_records import MARKER, MARKER_PREFIX
 from rcsim.models.errors import InputError
 
 #: Commands whose directories are written in place and resumed, and their state files.
-RESUMABLE = {"campaign run": "manifest.json", "loop": "loop.json"}
+RESUMABLE = {"campaign run": "manifest.json", "loop": "loop.json", "campaign rare": "rare.json"}
 #: (owner, writer) -> the owner's sub-folder the writer may write into.
 ALLOWED_INSIDE = {("campaign run", "campaign replay"): "replays"}
 

@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from rcsim.analysis.engine.run_margin import MARGIN_MEANING
 from rcsim.spacecraft.dispersions import DispersedRuns, pointing
 from rcsim.spacecraft.propellant import inertia_tensor_B, principal
 from rcsim.spacecraft.vehicle import AXES, VehicleParams, jet_name
@@ -238,6 +239,7 @@ _OUTCOMES_AFTER: tuple[Column, ...] = (
         "propellant ran out (a vehicle file's [propellant] mass_kg)",
     ),
     Column("reason", "str", "-", "why the run failed; empty if it did not"),
+    Column("margin", "float64", "-", MARGIN_MEANING),
 )
 
 #: Optional inputs, present only in campaigns whose spec has the matching table

@@ -8,6 +8,7 @@ the report renders in a real browser with every section.  Small settings (6 runs
 case, 19 permutations) keep it near 20 s.
 """
 
+import html
 import json
 from pathlib import Path
 
@@ -19,7 +20,15 @@ from rcsim.analysis.apps.loop.run import STAGES, LoopSettings, run_loop
 from rcsim.models.errors import InputError
 from rcsim.models.tables import load_lookup_table
 
-SMALL = LoopSettings(runs_per_case=6, duration_s=6.0, permutations=19, max_iterations=3)
+# The rare-event stage on one case, one level (500 runs of 6 s: a few seconds).
+SMALL = LoopSettings(
+    runs_per_case=6,
+    duration_s=6.0,
+    permutations=19,
+    max_iterations=3,
+    rare_budget=500,
+    rare_cases=1,
+)
 SECTIONS = (
     "summary",
     "before-after",
@@ -27,6 +36,7 @@ SECTIONS = (
     "propellant",
     "drivers",
     "changelog",
+    "rare",
     "traceability",
 )
 
@@ -232,3 +242,23 @@ def test_loop_json_lists_every_finding(loop_dir):
                 assert finding in line
             if len(group) > LISTED:
                 assert f"and {len(group) - LISTED} more" in line
+
+
+def test_rare_stage_estimates_the_closest_case_with_few_failures(loop_dir):
+    """The rare-event stage chose, among the held-out campaign's cases with the fewest failed
+    runs (at most 2), the one whose runs came closest to failing (recomputed here from
+    campaign_after's runs.parquet), and the report's section shows its record's figures."""
+    from rcsim.analysis.apps.loop.rare import FEW_FAILURES, rare_rows
+
+    runs = pd.read_parquet(loop_dir / "campaign_after" / "runs.parquet")
+    per_case = runs.groupby("case").agg(failed=("failed", "sum"), low=("margin", "min"))
+    few = per_case[per_case["failed"] <= FEW_FAILURES]
+    fewest = few[few["failed"] == few["failed"].min()]
+    record = json.loads((loop_dir / "rare" / "rare.json").read_text())
+    assert list(record["cases"]) == [fewest["low"].idxmin()]
+    rec = next(iter(record["cases"].values()))
+    assert rec["runs"] == 500  # the budget: one level
+    selection = pd.read_csv(loop_dir / "rare" / "selection.csv")
+    html_text = (loop_dir / "report.html").read_text()
+    for cell in rare_rows(record, selection).iloc[0]:
+        assert html.escape(str(cell)) in html_text

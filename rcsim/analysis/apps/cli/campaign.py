@@ -1,4 +1,4 @@
-"""``rcsim campaign example | run | replay``: Monte Carlo dispersion campaigns.
+"""``rcsim campaign example | run | replay | rare``: Monte Carlo dispersion campaigns.
 
 Exit status of ``campaign run``: 0 done (and the failure gate, if any, passed); 2 bad input;
 :data:`GATE_FAILED` (3) everything written, but more than ``max_failed_pct`` percent of the
@@ -123,6 +123,10 @@ def register(sub) -> None:
         help="replace OUT if it holds an earlier `rcsim campaign replay`'s outputs",
     )
     rp.set_defaults(func=_replay)
+
+    from rcsim.analysis.apps.cli.campaign_rare import register as register_rare
+
+    register_rare(csub)
 
 
 def _example(args) -> int:

@@ -72,6 +72,21 @@ def register(sub) -> None:
         help="the campaigns' per-case plots, about 4.5 s per campaign (default: on)",
     )
     p.add_argument(
+        "--rare-budget",
+        type=int,
+        metavar="RUNS",
+        help="after the held-out check, estimate P(fail) of the refined table by subset "
+        "simulation, at most RUNS runs a case (at least 500), for the cases whose held-out "
+        "campaign failed at most 2 runs (default 0: off; docs/rare_events.md)",
+    )
+    p.add_argument(
+        "--rare-cases",
+        type=int,
+        metavar="K",
+        help="with --rare-budget: at most K cases, those whose runs came closest to failing "
+        "(default 3)",
+    )
+    p.add_argument(
         "--yes",
         action="store_true",
         help="start even if the estimate is over 30 minutes (the estimate is printed first)",
@@ -113,6 +128,8 @@ def run(args: argparse.Namespace) -> int:
         "plots": args.plots,
         "vehicle": args.vehicle,
         "control": control_overrides(args) or None,
+        "rare_budget": args.rare_budget,
+        "rare_cases": args.rare_cases,
     }
     given = {k: v for k, v in given.items() if v is not None}
     if "vehicle" in given and Path(given["vehicle"]).suffix:  # a file, not a packaged name
@@ -139,6 +156,8 @@ def run(args: argparse.Namespace) -> int:
             5 * settings.runs_per_case
             + 3 * min(settings.search_runs_per_case, settings.runs_per_case)
         )
+        # The rare-event stage (opt-in): at most its budget on each of its cases.
+        + settings.duration_s * settings.rare_budget * settings.rare_cases
     )
     confirm(
         "the loop",

@@ -17,6 +17,7 @@ import pandas as pd
 
 from rcsim.analysis.apps.loop.files import GENERATE, GENERATED_TABLE, table_file
 from rcsim.analysis.apps.loop.propellant_section import propellant_section
+from rcsim.analysis.apps.loop.rare import rare_section
 from rcsim.analysis.apps.refinement.evidence import changed_cells
 from rcsim.analysis.apps.refinement.plots import most_improved_case
 from rcsim.analysis.engine import runs_table
@@ -470,6 +471,7 @@ def write_loop_report(out: Path, settings, state: dict) -> Path:
         propellant_section(out, log, settings, settings.held_out_seed),
         _drivers(out),
         _changelog(log, _table_file(out, settings), out / "refined_table.csv"),
+        rare_section(out),
         Section(
             "Traceability",
             [

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.apps.loop.files import GENERATE, table_file
+from rcsim.analysis.apps.loop.rare import check_rare_settings, rare_stage
 from rcsim.analysis.apps.refinement.parameters import (
     check_parameters,
     held_out_seed,
@@ -48,7 +49,7 @@ from rcsim.spacecraft.vehicle_file import Vehicle
 COMMAND = "loop"
 STATE = "loop.json"
 #: Stages in order, each a sub-directory (or file) of DIR.
-STAGES = ("campaign_before", "drivers", "refine", "campaign_after", "check", "report")
+STAGES = ("campaign_before", "drivers", "refine", "campaign_after", "check", "rare", "report")
 
 
 def stages_of(settings: LoopSettings) -> tuple:
@@ -95,6 +96,9 @@ class LoopSettings:
     plots : bool
         The campaigns' per-case plots (about 4.5 s per campaign on 2 cores, whatever its
         size); without them the report's Figs 9-10 section says the figures were not made.
+    rare_budget, rare_cases : int
+        The rare-event stage (:mod:`~rcsim.analysis.apps.loop.rare`): most runs per case (0,
+        the default: off) and most cases estimated.
     """
 
     table: str | None = None
@@ -109,6 +113,8 @@ class LoopSettings:
     plots: bool = True
     vehicle: str | None = None
     control: dict | None = None
+    rare_budget: int = 0
+    rare_cases: int = 3
 
     def flown_vehicle(self) -> Vehicle:
         """The vehicle the loop flies, resolved from its settings (the file, the overrides)."""
@@ -128,6 +134,7 @@ class LoopSettings:
             max_propellant_rise_pct=self.max_propellant_rise_pct,
         )
         Settings(n_permutations=self.permutations, random_state=self.seed)
+        check_rare_settings(self.rare_budget, self.rare_cases)
         from rcsim.lookup.generation import is_coupled
 
         try:
@@ -586,6 +593,9 @@ class _Stages:
 
         # The same fresh seed flown with the table before and after refinement: one contrast.
         return {"failed_fresh": fresh_seed_change(log)}
+
+    def rare(self) -> dict:
+        return rare_stage(self.out, self.settings, self.progress)
 
     def report(self) -> dict:
         from rcsim.analysis.apps.loop.report import write_loop_report

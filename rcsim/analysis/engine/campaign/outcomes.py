@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from rcsim.analysis.engine.run_margin import criterion_terms, run_margin
 from rcsim.analysis.engine.runs_table import outcome_frame
 from rcsim.spacecraft import cycle_kernel
 from rcsim.spacecraft.propellant import exhausted_before, exhausted_text
@@ -262,4 +263,18 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     out["sim_failed"] = sim_failed
     out["failed"] = np.array([bool(r) for r in reasons], dtype=bool)
     out["reason"] = reasons
+    out["margin"] = run_margin(
+        criterion_terms(
+            final_rate_err_rad_s=rate[:, -1],
+            rate_threshold_rad_s=thr,
+            final_att_err_deg=att_total,
+            attitude_threshold_deg=(
+                None
+                if spec.attitude_threshold_rad is None
+                else float(np.degrees(spec.attitude_threshold_rad))
+            ),
+            propellant_exhausted_s=exhausted,
+        ),
+        sim_failed,
+    )
     return outcome_frame(out, history.n_jets)

@@ -1,0 +1,14 @@
+"""Rare-event estimation on a campaign spec: ``P(fail)`` of a case down to probabilities plain
+Monte Carlo cannot afford (issue 30; ``docs/rare_events.md``).
+
+* :mod:`~rcsim.analysis.apps.rare.flights` -- the limit state of one case: the runs of points
+  ``u`` of the standard-normal space flown as campaign runs, their runs-table rows and margins;
+* :mod:`~rcsim.analysis.apps.rare.estimate` -- one estimation per case, resumable level by level,
+  its rows, state and summary in an output directory (``rcsim campaign rare``);
+* :mod:`~rcsim.analysis.apps.rare.words` -- what a reader is told: the estimate, its interval,
+  the runs spent and the closest failure in sigmas, in words.
+
+Composes ``rcsim.analysis.engine.rare`` (the generic sampler) with the campaign engine.
+
+Only imported by: rcsim.analysis.apps.cli, rcsim.analysis.apps.loop, rcsim.
+"""

@@ -1,0 +1,153 @@
+"""The limit state of one case of a campaign spec: ``g(u, ids)`` flies the runs of points ``u``.
+
+A point ``u`` of the standard-normal space is a run's vehicle draws
+(:mod:`rcsim.spacecraft.standard_space`: the dispersion normals, the tilt azimuths' normal
+scores, the mass extras); its vehicle comes from
+:func:`~rcsim.spacecraft.standard_space.vehicles_from_standard`, the same ``apply_draws`` as a
+campaign's seeded runs (bit for bit, tested there).  Everything else a run draws -- sensor
+noise and biases, valve timing -- comes from its run id's noise streams by the campaign's own
+rule (:func:`rcsim.analysis.engine.campaign.effects.draw_effects`): a random nuisance, fresh for
+every evaluation, which keeps subset simulation exact (``docs/rare_events.md``: a Markov move that
+redraws the nuisance from its law is a Metropolis move on the joint space) and estimates
+``P(fail)`` averaged over it, what plain Monte Carlo estimates.  Jet faults are not continuous
+and are refused (:func:`check_continuous`).
+
+Run identities: evaluation ``e < N`` (level 0) of case ``c`` is campaign run ``c R + e``
+(``R`` the spec's runs per case, when ``N <= R``): level 0 *is* the campaign's first ``N`` runs
+of that case, the same vehicles and noise.  Every later evaluation is run
+``c 2^32 + 2^31 + e``, outside any campaign's range, its case still ``run_id // 2^32``; its
+vehicle is recorded in its row and its ``u`` in the estimation's points file, so it replays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
+
+from rcsim.models.errors import InputError
+from rcsim.spacecraft import standard_space
+
+if TYPE_CHECKING:
+    from rcsim.analysis.engine.campaign.spec import CampaignSpec
+
+#: Runs per case of the rows of chain evaluations: their case is ``run_id // CHAIN_STRIDE``.
+CHAIN_STRIDE = 2**32
+#: Offset of chain evaluations inside their case's range (above any level-0 id).
+CHAIN_OFFSET = 2**31
+
+
+def check_continuous(spec: CampaignSpec, where: str) -> None:
+    """Refuse a spec whose runs draw inputs that are not continuous (jet faults: a Bernoulli
+    and a jet index), with one line naming the table."""
+    if not spec.effects.fault.is_none():
+        raise InputError(
+            f"{where}: [dispersions.fault] draws jet faults, which are not continuous: "
+            "rare-event estimation needs every dispersed input continuous (estimate each "
+            "fault case as its own spec, or use `rcsim campaign run`)",
+            parameter="dispersions.fault",
+            value="present",
+        )
+
+
+def run_ids_of(spec: CampaignSpec, case_index: int, eval_ids: np.ndarray, n0: int) -> np.ndarray:
+    """Run ids of evaluations ``eval_ids`` of case ``case_index`` (module docstring); ``n0``
+    the level-0 size."""
+    e = np.asarray(eval_ids, np.int64)
+    if n0 <= spec.runs_per_case:
+        first = np.int64(case_index) * spec.runs_per_case + e
+    else:
+        first = np.int64(case_index) * CHAIN_STRIDE + e
+    chain = np.int64(case_index) * CHAIN_STRIDE + CHAIN_OFFSET + e
+    return np.where(e < n0, first, chain)
+
+
+class CaseLimitState:
+    """``g(u, ids) -> margins`` of case ``case_index`` of ``spec``; keeps the rows it flew.
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+    case_index : int
+    n0 : int
+        Level-0 size (evaluations below it are the campaign's runs, module docstring).
+    on_rows : callable, optional
+        Called with each batch's runs-table rows (a DataFrame) as soon as they are flown.
+    """
+
+    def __init__(self, spec: CampaignSpec, case_index: int, n0: int, on_rows=None):
+        from rcsim.analysis.engine.campaign.effects import adapt_options
+        from rcsim.lookup.registry import make_controller
+
+        check_continuous(spec, spec.source)
+        self.spec = spec
+        self.case_index = int(case_index)
+        self.case = spec.cases[self.case_index]
+        self.n0 = int(n0)
+        self.nominal = spec.vehicle.nominal(1)
+        options = (
+            {"adapt_options": adapt_options(spec.effects)} if spec.controller == "adaptive" else {}
+        )
+        self.controller = make_controller(
+            spec.controller, spec.vehicle, table=spec.table, **options
+        )
+        self.on_rows = on_rows
+        self.runs = 0
+        self._chain_spec = replace(spec, runs_per_case=CHAIN_STRIDE)
+
+    @property
+    def dim(self) -> int:
+        """Coordinates of ``u`` (:func:`~rcsim.spacecraft.standard_space.n_standard`)."""
+        return standard_space.n_standard(self.nominal.n_jets, self.spec.sigmas.has_mass_extras)
+
+    @property
+    def names(self) -> list[str]:
+        """Names of the coordinates, for the closest failure in words."""
+        return standard_space.standard_names(self.nominal.n_jets, self.spec.sigmas.has_mass_extras)
+
+    def level_zero(self) -> np.ndarray:
+        """(n0, dim) level 0's points: the campaign runs' own draws."""
+        ids = run_ids_of(self.spec, self.case_index, np.arange(self.n0), self.n0)
+        return standard_space.run_standard_normals(
+            self.spec.seed, ids, self.nominal.n_jets, self.spec.sigmas.has_mass_extras
+        )
+
+    def rows(self, u: np.ndarray, eval_ids: np.ndarray) -> pd.DataFrame:
+        """Fly the points ``u`` (n, dim) as evaluations ``eval_ids``: their runs-table rows
+        (the campaign's columns, ``margin`` among them), in chunks of the spec's size."""
+        size = self.spec.chunk_size
+        parts = [
+            self._fly(u[lo : lo + size], eval_ids[lo : lo + size])
+            for lo in range(0, u.shape[0], size)
+        ]
+        return pd.concat(parts, ignore_index=True)
+
+    def _fly(self, u: np.ndarray, eval_ids: np.ndarray) -> pd.DataFrame:
+        from rcsim.analysis.engine.campaign.chunk import tabulate
+        from rcsim.analysis.engine.campaign.effects import draw_effects
+        from rcsim.analysis.engine.flight import fly_batch
+
+        spec = self.spec
+        run_ids = run_ids_of(spec, self.case_index, eval_ids, self.n0)
+        dispersed = standard_space.vehicles_from_standard(self.nominal, spec.sigmas, u, run_ids)
+        effects = draw_effects(spec.effects, spec.seed, run_ids, spec.n_jets)[0]
+        history = fly_batch(
+            [self.case] * u.shape[0],
+            dispersed.params,
+            self.controller,
+            vehicle=spec.vehicle,
+            **effects,
+        )
+        in_campaign = self.n0 <= spec.runs_per_case and bool(np.all(eval_ids < self.n0))
+        rows = tabulate(spec if in_campaign else self._chain_spec, history, dispersed)
+        rows["rare_eval_id"] = np.asarray(eval_ids, np.int64)
+        return rows
+
+    def __call__(self, u: np.ndarray, eval_ids: np.ndarray) -> np.ndarray:
+        rows = self.rows(u, eval_ids)
+        if self.on_rows is not None:
+            self.on_rows(rows)
+        self.runs += u.shape[0]
+        return rows["margin"].to_numpy(float)

@@ -1,0 +1,146 @@
+"""``rcsim campaign rare`` end to end on a tiny spec (case 13, 3 s, Table 5 x 3), where the
+thresholds make failures common enough to check against plain counting (issue 30).
+
+Oracles: the runs table's own ``failed`` column (a run fails exactly when its margin is not
+>= 0); the campaign's seeded runs (level 0 is the campaign's first N runs of the case, the same
+rows); plain counting of level 0 when failures are not rare (the estimator's ``monte_carlo``
+status is ``k / N`` exactly); an uninterrupted estimation (a resumed one gives the same result,
+bit for bit, and flies no finished level again).
+"""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rcsim.analysis.apps.cli import main
+from rcsim.analysis.apps.rare import estimate as rare_estimate
+from rcsim.analysis.apps.rare.estimate import RareSettings, estimate_cases
+from rcsim.analysis.apps.rare.flights import CaseLimitState
+from rcsim.analysis.apps.rare.words import case_sentence
+from rcsim.analysis.engine.campaign.chunk import Chunk, simulate_chunk
+from rcsim.analysis.engine.campaign.spec import load_spec
+
+SPEC = """
+seed = 3
+runs_per_case = 200
+[scenario]
+kind = "rate-cases"
+cases = [13]
+duration_s = 3.0
+[controller]
+name = "lookup"
+[dispersions]
+scale = 3.0
+[failure]
+rate_error_deg_s = {thr}
+[output]
+histories = "none"
+plots = false
+"""
+
+
+def _spec(tmp_path: Path, thr: float) -> Path:
+    path = tmp_path / f"spec-{thr:g}.toml"
+    path.write_text(SPEC.format(thr=thr))
+    return path
+
+
+def _rare(spec: Path, out: Path, *extra: str) -> int:
+    return main(
+        ["campaign", "rare", str(spec), "--out", str(out), "--runs-per-level", "100", *extra]
+    )
+
+
+def test_common_failures_give_plain_counting_of_the_campaigns_runs(tmp_path, capsys):
+    """At 0.02 deg/s about half the runs fail: level 0 holds more than p0 N = 10 failures, so
+    the estimate is plain Monte Carlo of level 0, k / 100 exactly; level 0's rows are the
+    campaign's runs 0-99 of the case, column for column; failed == ~(margin >= 0) on every
+    row; the printed line is the one built from rare.json's figures."""
+    spec_path = _spec(tmp_path, 0.02)
+    out = tmp_path / "out"
+    assert _rare(spec_path, out, "--budget", "1000") == 0
+    printed = capsys.readouterr().out
+    record = json.loads((out / "rare.json").read_text())["cases"]["rate-13"]
+    runs = pd.read_parquet(out / "runs.parquet")
+    assert record["status"] == "monte_carlo" and record["runs"] == 100 == len(runs)
+    k = int(runs["failed"].sum())
+    assert 10 <= k < 100
+    assert record["probability"] == k / 100
+    assert case_sentence("rate-13", record) in printed
+    np.testing.assert_array_equal(runs["failed"], ~(runs["margin"] >= 0))
+    campaign = simulate_chunk(load_spec(spec_path), Chunk(0, 100)).runs
+    pd.testing.assert_frame_equal(runs[campaign.columns], campaign)
+    failures = pd.read_parquet(out / "failures.parquet")
+    assert len(failures) == k and failures["failed"].all()
+
+
+def test_rarer_failures_go_through_levels(tmp_path):
+    """At 0.05 deg/s about 5 % fail: level 0 finds fewer than 10, a second level is flown
+    (chain runs outside the campaign's range of ids), the estimate converges with an interval
+    holding it, and every row still satisfies failed == ~(margin >= 0)."""
+    out = tmp_path / "out"
+    assert _rare(_spec(tmp_path, 0.05), out, "--budget", "1000") == 0
+    record = json.loads((out / "rare.json").read_text())["cases"]["rate-13"]
+    runs = pd.read_parquet(out / "runs.parquet")
+    assert record["status"] == "converged" and record["levels"] >= 2
+    assert record["interval"][0] < record["probability"] < record["interval"][1]
+    assert len(runs) == record["runs"] and runs["rare_eval_id"].is_unique
+    assert set(runs["rare_level"]) == set(range(record["levels"]))
+    assert (runs.loc[runs["rare_level"] > 0, "run_id"] >= 2**31).all()
+    np.testing.assert_array_equal(runs["failed"], ~(runs["margin"] >= 0))
+    assert record["failures_found"] == int(runs["failed"].sum())
+
+
+class _Killed(Exception):
+    pass
+
+
+def test_killed_estimation_resumes_at_its_last_level(tmp_path, monkeypatch):
+    """Killed after level 0, the estimation resumes from the state file: the same record as an
+    uninterrupted run's, and level 0's 100 runs are not flown again."""
+    spec = load_spec(_spec(tmp_path, 0.05))
+    settings = RareSettings(n_per_level=100, budget=1000)
+    whole = estimate_cases(spec, [0], settings, tmp_path / "whole")
+
+    def die(line: str) -> None:
+        raise _Killed(line)
+
+    out = tmp_path / "killed"
+    with pytest.raises(_Killed):
+        estimate_cases(spec, [0], settings, out, progress=die)
+    flown = []
+    real = CaseLimitState.__call__
+
+    def counting(self, u, ids):
+        flown.append(u.shape[0])
+        return real(self, u, ids)
+
+    monkeypatch.setattr(CaseLimitState, "__call__", counting)
+    resumed = estimate_cases(spec, [0], settings, out)
+    assert resumed == whole
+    assert sum(flown) == whole["rate-13"]["runs"] - 100
+    whole_runs = pd.read_parquet(tmp_path / "whole" / rare_estimate.RUNS)
+    pd.testing.assert_frame_equal(pd.read_parquet(out / rare_estimate.RUNS), whole_runs)
+
+
+def test_never_reached_is_a_stated_bound(tmp_path, capsys):
+    """A threshold no run reaches in a budget of level 0 alone: exit 0, no estimate, the
+    one-sided 95 % bound for 0 failures in 100 runs (1 - 0.05^(1/100) = 0.0295)."""
+    out = tmp_path / "out"
+    assert _rare(_spec(tmp_path, 100.0), out, "--budget", "100") == 0
+    record = json.loads((out / "rare.json").read_text())["cases"]["rate-13"]
+    assert record["status"] == "not_resolved" and record["probability"] is None
+    assert record["upper_bound"] == pytest.approx(1 - 0.05 ** (1 / 100), rel=1e-9)
+    assert "not resolved" in capsys.readouterr().out
+
+
+def test_always_failing_case_is_a_stated_result(tmp_path, capsys):
+    """A threshold every run misses: P = 1 by plain counting, said in words."""
+    out = tmp_path / "out"
+    assert _rare(_spec(tmp_path, 1e-6), out, "--budget", "100") == 0
+    record = json.loads((out / "rare.json").read_text())["cases"]["rate-13"]
+    assert record["status"] == "monte_carlo" and record["probability"] == 1.0
+    assert "every one of the first 100 runs failed" in capsys.readouterr().out
