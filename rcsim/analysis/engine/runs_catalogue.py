@@ -122,7 +122,12 @@ INERTIA_NAMES: tuple[str, ...] = tuple(f"i{a}{a}_kg_m2" for a in "xyz")
 def outcome_columns(n_jets: int) -> tuple[Column, ...]:
     """What the run did, with per-jet columns for ``n_jets`` jets.  Runs whose simulation
     failed (``sim_failed``) have NaN in every numeric outcome: their state is not a flight."""
-    return _OUTCOMES_BEFORE_JETS + tuple(_per_jet(*_JET_OUTCOME, n_jets=n_jets)) + _OUTCOMES_AFTER
+    return (
+        _OUTCOMES_BEFORE_JETS
+        + tuple(_per_jet(*_JET_OUTCOME, n_jets=n_jets))
+        + _OUTCOMES_AFTER
+        + propellant_motion_columns(n_jets)
+    )
 
 
 _OUTCOMES_BEFORE_JETS: tuple[Column, ...] = (
@@ -205,6 +210,71 @@ _OUTCOMES_AFTER: tuple[Column, ...] = (
     ),
     Column("reason", "str", "-", "why the run failed; empty if it did not"),
 )
+
+
+def _per_component(frame: str, meaning: str) -> list[Column]:
+    """``delta_v_<x|y|z>_<frame>_m_s``: one column per axis of ``frame`` (``N`` or ``B``)."""
+    return [
+        Column(f"delta_v_{a}_{frame}_m_s", "float64", "m/s", meaning.format(a=a)) for a in "xyz"
+    ]
+
+
+#: Propellant, translation and limit-cycle measures of a run, after the other outcomes
+#: (:func:`rcsim.analysis.engine.campaign.motion.motion_outcomes` computes them).  Per-jet ones
+#: follow the jets; the names ``propellant_kg``, ``delta_v_N_m_s``, ``delta_v_B_m_s``,
+#: ``pulses`` and ``min_pulses`` are read by name downstream (reports, plots, analyze).
+_MOTION_BEFORE_JETS: tuple[Column, ...] = (
+    *_per_component(
+        "N",
+        "net delta-v of the CG along inertial {a} over the run: MuJoCo's CG velocity at the end "
+        "minus at the start (translation every firing leaves; docking and formation budgets)",
+    ),
+    Column("delta_v_N_m_s", "float64", "m/s", "norm of the net inertial delta-v of the CG"),
+    *_per_component(
+        "B",
+        "net delta-v along body {a} over the run: each jet's delivered impulse along its "
+        "flown direction in B, summed, over the run's wet mass at the start (integral of the "
+        "thrust acceleration in body axes)",
+    ),
+    Column("delta_v_B_m_s", "float64", "m/s", "norm of the net body-axes delta-v"),
+    Column(
+        "pulses",
+        "float64",
+        "-",
+        "jet pulses (firings started), whole run: firings_total by the limit-cycle name",
+    ),
+    Column(
+        "min_pulses",
+        "float64",
+        "-",
+        "pulses fired at the jets' minimum on-time (the profile's min_pulse_s, to 1e-9 of a "
+        "cycle; 0 when it has none): the limit cycle's pulses",
+    ),
+    Column("pulses_per_min", "float64", "1/min", "pulses per minute of the run's flown duration"),
+)
+_MOTION_JETS = (
+    (
+        "jet_{jet}_propellant_kg",
+        "float64",
+        "kg",
+        "propellant the jet used: its delivered impulse / (Isp g0)",
+    ),
+    (
+        "jet_{jet}_duty",
+        "float64",
+        "-",
+        "duty cycle of the jet: its on-time over the run's flown duration",
+    ),
+)
+
+
+def propellant_motion_columns(n_jets: int) -> tuple[Column, ...]:
+    """The propellant, delta-v and pulse outcomes (:data:`_MOTION_BEFORE_JETS`), then the
+    per-jet propellant and duty columns of ``n_jets`` jets."""
+    return _MOTION_BEFORE_JETS + tuple(
+        c for pattern in _MOTION_JETS for c in _per_jet(*pattern, n_jets=n_jets)
+    )
+
 
 #: Optional inputs, present only in campaigns whose spec has the matching table
 #: (``[dispersions.sensor]``, ``[dispersions.timing]``, ``[dispersions.fault]``; draws of
@@ -349,6 +419,9 @@ def markdown_table() -> str:
                 break
         if name.startswith("jet_") and name[4:6].isdigit():
             name = "jet_NN" + name[6:]
+        if name.startswith("delta_v_") and name[8:9] in ("x", "y", "z") and name[9] == "_":
+            name = "delta_v_{x,y,z}" + name[9:]
+            meaning = meaning.replace(" x ", " x, y, z ")
         if name.startswith("cg_") and name.endswith("_m"):
             name = "cg_{x,y,z}_m"
         if name in INERTIA_NAMES:

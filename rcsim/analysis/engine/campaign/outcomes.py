@@ -160,6 +160,8 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     units and meanings: :func:`rcsim.analysis.engine.runs_table.outcome_columns`.  An axis's
     jets are those of :func:`axis_jets` of the spec's vehicle.
     """
+    from rcsim.analysis.engine.campaign.motion import motion_outcomes  # it uses firing_starts
+
     n, K = history.rate_err_B.shape[:2]
     cycle_s = history.cycle_s
     thr = spec.rate_threshold_rad_s
@@ -229,6 +231,7 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     assert history.flown_params is not None, "outcomes() needs a simulation's history"
     cols["propellant_kg"] = prop.propellant_kg(history.flown_params.isp_s)
     cols["rate_settled_time_s"] = settle
+    cols.update(motion_outcomes(history))
 
     sim_failed = np.asarray(history.failed, bool)
     exhausted = history.propellant_exhausted_s  # None: propellant not tracked
