@@ -206,7 +206,9 @@ _OUTCOMES_AFTER: tuple[Column, ...] = (
         "-",
         "sim_failed, or some axis ends with |rate error| >= thr, "
         "or (if failure.attitude_error_deg is set) final_att_err_deg exceeds it, or the "
-        "propellant ran out (a vehicle file's [propellant] mass_kg)",
+        "propellant ran out (a vehicle file's [propellant] mass_kg), or (if set) "
+        "propellant_kg exceeds failure.max_propellant_kg or delta_v_N_m_s exceeds "
+        "failure.max_delta_v_m_s; failed_by says which",
     ),
     Column("reason", "str", "-", "why the run failed; empty if it did not"),
 )
@@ -268,12 +270,21 @@ _MOTION_JETS = (
 )
 
 
+_FAILED_BY = Column(
+    "failed_by",
+    "str",
+    "-",
+    "the failure criteria the run met, joined by +: simulation, rate, attitude, "
+    "propellant_exhausted, max_propellant_kg, max_delta_v_m_s (the [failure] budgets); "
+    "empty if it did not fail",
+)
+
+
 def propellant_motion_columns(n_jets: int) -> tuple[Column, ...]:
-    """The propellant, delta-v and pulse outcomes (:data:`_MOTION_BEFORE_JETS`), then the
-    per-jet propellant and duty columns of ``n_jets`` jets."""
-    return _MOTION_BEFORE_JETS + tuple(
-        c for pattern in _MOTION_JETS for c in _per_jet(*pattern, n_jets=n_jets)
-    )
+    """The propellant, delta-v and pulse outcomes (:data:`_MOTION_BEFORE_JETS`), the per-jet
+    propellant and duty columns of ``n_jets`` jets, then ``failed_by``."""
+    per_jet = tuple(c for pattern in _MOTION_JETS for c in _per_jet(*pattern, n_jets=n_jets))
+    return _MOTION_BEFORE_JETS + per_jet + (_FAILED_BY,)
 
 
 #: Optional inputs, present only in campaigns whose spec has the matching table

@@ -106,6 +106,7 @@ def missing_outcomes(n: int, reason: str, n_jets: int) -> pd.DataFrame:
     numeric = [c.name for c in outcome_columns(n_jets) if c.dtype == "float64"]
     values: dict = {name: np.full(n, np.nan) for name in numeric}
     values.update(sim_failed=np.ones(n, bool), failed=np.ones(n, bool), reason=[reason] * n)
+    values["failed_by"] = ["simulation"] * n
     return outcome_frame(values, n_jets)
 
 
@@ -247,19 +248,35 @@ def is_campaign(path: str | os.PathLike) -> bool:
 
 
 def criterion_text(
-    rate_error_deg_s: float, attitude_error_deg: float | None = None, *, vehicle_file: bool = False
+    rate_error_deg_s: float,
+    attitude_error_deg: float | None = None,
+    *,
+    vehicle_file: bool = False,
+    budgets: dict | None = None,
 ) -> str:
     """What the ``failed`` column means, in words, as the campaign's outcomes apply it
     (:func:`rcsim.analysis.engine.campaign.outcomes.outcomes`: a run fails when ``not |rate error| <
     threshold``, i.e. at the threshold too): the one wording every report uses.
     ``vehicle_file``: the campaign flew a vehicle file, whose propellant may run out (a
-    failure too)."""
+    failure too).  ``budgets``: the spec's ``[failure]`` ``max_propellant_kg`` /
+    ``max_delta_v_m_s`` (a manifest's ``thresholds``; absent keys and None are not set)."""
     parts = [f"|final rate error| >= {rate_error_deg_s:g} deg/s on any axis"]
     if attitude_error_deg is not None:
         parts.append(f"final attitude error > {attitude_error_deg:g} deg")
     if vehicle_file:
         parts.append("propellant exhausted (a vehicle file's [propellant] mass_kg)")
+    parts += _budget_parts(budgets or {})
     return " or ".join(parts + ["simulation failure"])
+
+
+def _budget_parts(budgets: dict) -> list[str]:
+    """The criterion's words for the propellant and delta-v budgets that are set."""
+    parts = []
+    if budgets.get("max_propellant_kg") is not None:
+        parts.append(f"propellant used > {float(budgets['max_propellant_kg']):g} kg")
+    if budgets.get("max_delta_v_m_s") is not None:
+        parts.append(f"net delta-v (inertial) > {float(budgets['max_delta_v_m_s']):g} m/s")
+    return parts
 
 
 def dispersions_source(resolved: dict) -> str:

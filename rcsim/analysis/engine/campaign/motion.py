@@ -16,6 +16,50 @@ from rcsim.spacecraft.history import History
 from rcsim.spacecraft.propellant import exhausted_before
 from rcsim.spacecraft.vehicle import G0_M_S2, jet_name
 
+#: ``[failure]`` budgets of a campaign spec (issue 28): a run fails when its column exceeds
+#: the budget; key -> (column, unit, words).
+BUDGETS: dict[str, tuple[str, str, str]] = {
+    "max_propellant_kg": ("propellant_kg", "kg", "propellant"),
+    "max_delta_v_m_s": ("delta_v_N_m_s", "m/s", "net delta-v"),
+}
+BUDGET_KEYS: tuple[str, ...] = tuple(BUDGETS)
+
+
+def budget_thresholds(failure: dict) -> dict[str, float]:
+    """The budgets a resolved ``[failure]`` table sets (only those: a spec without them
+    keeps its manifest)."""
+    return {k: float(failure[k]) for k in BUDGET_KEYS if failure.get(k) is not None}
+
+
+def over_budget(cols: dict, failure: dict) -> dict[str, np.ndarray]:
+    """Per budget set in ``failure`` (a resolved ``[failure]`` table): (n,) bool, the run's
+    column exceeds it (``>``: at the budget passes; NaN, a non-flight, is not over)."""
+    return {
+        key: np.asarray(cols[BUDGETS[key][0]], float) > limit
+        for key, limit in budget_thresholds(failure).items()
+    }
+
+
+def budget_text(key: str, value: float, limit: float) -> str:
+    """A run's reason for exceeding budget ``key``: ``propellant 0.0123 kg > 0.01 kg``."""
+    _, unit, words = BUDGETS[key]
+    return f"{words} {value:.4g} {unit} > {limit:.4g} {unit}"
+
+
+def failed_by(criteria: dict[str, np.ndarray]) -> list[str]:
+    """Per run, the names of the criteria it failed (``criteria``: name -> (n,) bool), joined
+    by ``+`` in the given order; ``""`` when none."""
+    names = list(criteria)
+    hits = np.stack(
+        [
+            np.broadcast_to(np.asarray(m, bool), len(next(iter(criteria.values()))))
+            for m in criteria.values()
+        ],
+        axis=1,
+    )
+    return ["+".join(name for name, hit in zip(names, row) if hit) for row in hits]
+
+
 #: A pulse is at the minimum on-time when its on-time is within this fraction of a cycle of it
 #: (the valve limits pass the command through unchanged: only rounding separates them).
 MIN_PULSE_RTOL = 1e-9

@@ -160,7 +160,14 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     units and meanings: :func:`rcsim.analysis.engine.runs_table.outcome_columns`.  An axis's
     jets are those of :func:`axis_jets` of the spec's vehicle.
     """
-    from rcsim.analysis.engine.campaign.motion import motion_outcomes  # it uses firing_starts
+    # motion uses this module's firing_starts: imported here, not at the top (a cycle)
+    from rcsim.analysis.engine.campaign.motion import (
+        BUDGETS,
+        budget_text,
+        failed_by,
+        motion_outcomes,
+        over_budget,
+    )
 
     n, K = history.rate_err_B.shape[:2]
     cycle_s = history.cycle_s
@@ -235,6 +242,8 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
 
     sim_failed = np.asarray(history.failed, bool)
     exhausted = history.propellant_exhausted_s  # None: propellant not tracked
+    failure = (getattr(spec, "resolved", None) or {}).get("failure") or {}
+    over = over_budget(cols, failure)  # the spec's propellant / delta-v budgets
     reasons = []
     for i in range(n):
         if sim_failed[i]:
@@ -257,6 +266,10 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
             )
         if exhausted is not None and np.isfinite(exhausted[i]):
             why.append(exhausted_text(exhausted[i]))
+        for key, mask in over.items():
+            if mask[i]:
+                column = BUDGETS[key][0]
+                why.append(budget_text(key, cols[column][i], failure[key]))
         reasons.append("; ".join(why))
     # Outcomes of a non-flight are not numbers.
     out: dict[str, Any] = {
@@ -265,4 +278,15 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     out["sim_failed"] = sim_failed
     out["failed"] = np.array([bool(r) for r in reasons], dtype=bool)
     out["reason"] = reasons
+    # Which criteria each run failed, by name (the reasons' criteria, as flags).
+    flew = ~sim_failed
+    att_thr = spec.attitude_threshold_rad
+    criteria = {
+        "simulation": sim_failed,
+        "rate": flew & ~(np.abs(rate[:, -1]) < thr).all(axis=1),
+        "attitude": flew & (att_thr is not None and ~(att_total <= np.degrees(att_thr or 0.0))),
+        "propellant_exhausted": flew & (exhausted is not None and np.isfinite(exhausted)),
+        **{key: flew & mask for key, mask in over.items()},
+    }
+    out["failed_by"] = failed_by(criteria)
     return outcome_frame(out, history.n_jets)

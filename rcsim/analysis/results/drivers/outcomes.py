@@ -202,7 +202,8 @@ def pooled_criterion(runset) -> str:
         return f"column {runset.outcome!r}"
     att = ((runset.manifest or {}).get("thresholds") or {}).get("attitude_error_deg")
     flown = ((runset.manifest or {}).get("spec") or {}).get("vehicle")
-    return runs_table.criterion_text(thr, att, vehicle_file=bool(flown))
+    budgets = (runset.manifest or {}).get("thresholds") or {}
+    return runs_table.criterion_text(thr, att, vehicle_file=bool(flown), budgets=budgets)
 
 
 def outcome_table(res, top: int = TOP_DRIVERS) -> pd.DataFrame:
