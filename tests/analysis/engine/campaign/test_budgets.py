@@ -86,3 +86,28 @@ def test_manifest_and_criterion_state_the_budgets(flown):
     assert f"propellant used > {kg:g} kg" in text
     assert f"net delta-v (inertial) > {dv:g} m/s" in text
     assert "propellant used" not in runs_table.criterion_text(0.04, budgets={})
+
+
+def test_cases_csv_means_and_t_intervals_match_the_runs(flown, tmp_path_factory):
+    """Oracle: numpy's per-case mean and scipy's Student-t 95 % interval of each runs.parquet
+    column.  cases.csv prints 6 significant digits, so the unrounded table comes from the
+    assembly's own functions; 1e-9 relative: only the order of float sums differs (the
+    sum-of-squares form loses ~1e-16 * mean^2 / variance, ~1e-12 here)."""
+    from scipy import stats
+
+    from rcsim.analysis.engine.campaign.results import case_stats, finish_case_stats
+
+    free = flown[0]
+    cases = finish_case_stats(case_stats(free))
+    for row in cases.itertuples():
+        runs = free[free["case"] == row.case]
+        for col in ("propellant_kg", "delta_v_N_m_s", "delta_v_B_m_s", "pulses", "min_pulses"):
+            x = runs[col].to_numpy(float)
+            mean = x.mean()
+            assert np.isclose(getattr(row, f"{col}_mean"), mean, rtol=1e-9, atol=0)
+            if x.std() == 0:  # every run alike (e.g. no min pulses): a zero-width interval
+                assert getattr(row, f"{col}_lo95") == getattr(row, f"{col}_hi95") == mean
+                continue
+            lo, hi = stats.t.interval(0.95, len(x) - 1, loc=mean, scale=stats.sem(x))
+            assert np.isclose(getattr(row, f"{col}_lo95"), lo, rtol=1e-9)
+            assert np.isclose(getattr(row, f"{col}_hi95"), hi, rtol=1e-9)
