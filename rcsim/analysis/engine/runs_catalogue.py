@@ -280,6 +280,16 @@ _FAILED_BY = Column(
 )
 
 
+def is_propellant_motion(name: str) -> bool:
+    """``name`` is ``propellant_kg`` or one of :func:`propellant_motion_columns` (of any jet
+    number): an outcome, never an input of a driver analysis."""
+    if name.startswith("jet_"):
+        number, _, kind = name[4:].partition("_")
+        if number.isdigit() and int(number) >= 1:
+            name = f"jet_01_{kind}"
+    return name == "propellant_kg" or name in {c.name for c in propellant_motion_columns(1)}
+
+
 def propellant_motion_columns(n_jets: int) -> tuple[Column, ...]:
     """The propellant, delta-v and pulse outcomes (:data:`_MOTION_BEFORE_JETS`), the per-jet
     propellant and duty columns of ``n_jets`` jets, then ``failed_by``."""

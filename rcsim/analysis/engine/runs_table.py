@@ -50,6 +50,7 @@ from rcsim.analysis.engine.runs_catalogue import (  # noqa: F401 - re-exported
     column_named,
     input_columns,
     input_names,
+    is_propellant_motion,
     markdown_table,
     outcome_columns,
     outcome_names,
