@@ -452,6 +452,11 @@ def summary_text(report: CampaignReport, spec: CampaignSpec) -> str:
         f"{c.get('runs', 0)} runs, {c.get('failed', 0)} failed "
         f"({c.get('sim_failed', 0)} simulation failures); controller {spec.controller}, "
         f"failure: final |rate error| >= {spec.resolved['failure']['rate_error_deg_s']} deg/s"
+        + "".join(
+            f", or {spec.resolved['failure'][k]:g} {unit} exceeded ({k})"
+            for k, unit in (("max_propellant_kg", "kg"), ("max_delta_v_m_s", "m/s"))
+            if k in spec.resolved["failure"]
+        )
     )
     effects = describe(spec.effects)
     if effects:
