@@ -11,10 +11,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from rcsim.analysis.engine.campaign.outcomes import firing_starts
 from rcsim.spacecraft.history import History
 from rcsim.spacecraft.propellant import exhausted_before
 from rcsim.spacecraft.vehicle import G0_M_S2, jet_name
+
+# A firing continues into the next cycle only if it filled the previous one -- the same rule
+# (and tolerance) as rcsim.spacecraft.propulsion.apply_valve_limits, so firing counts agree with it.
+_FULL_CYCLE_RTOL = 1e-12
+
+
+def firing_starts(on_time_s: np.ndarray, cycle_s: float) -> np.ndarray:
+    """(n, K, n_jets) bool: a jet starts a new firing in the cycle (it was not on at the cycle's
+    start, i.e. did not fill the previous cycle).  The per-jet reference form of
+    :func:`rcsim.analysis.engine.campaign.outcomes.axis_firings`, which outcomes use."""
+    full = on_time_s >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)
+    prev_full = np.zeros_like(full)
+    prev_full[:, 1:] = full[:, :-1]
+    return (on_time_s > 0) & ~prev_full
+
 
 #: ``[failure]`` budgets of a campaign spec (issue 28): a run fails when its column exceeds
 #: the budget; key -> (column, unit, words).
@@ -69,7 +83,7 @@ def min_pulse_count(history: History) -> np.ndarray:
     """Pulses each run fired at the jets' minimum on-time, (n_runs,) int.
 
     A pulse starts in a cycle where the jet was not on at its start
-    (:func:`~rcsim.analysis.engine.campaign.outcomes.firing_starts`); it is a minimum pulse
+    (:func:`firing_starts`); it is a minimum pulse
     when its commanded on-time equals ``history.min_pulse_s`` (shorter than a cycle, so the
     pulse ends in that cycle).  Cycles starting at or after the propellant ran out fire
     nothing (as ``firings_total``).  0 when the jets have no minimum (``min_pulse_s`` 0).
@@ -89,14 +103,17 @@ def motion_outcomes(history: History) -> dict[str, np.ndarray]:
     """The propellant, delta-v and pulse columns of every run of a flown batch, name -> (n,).
 
     Duty and pulse rate are over the flown duration ``n_cycles * cycle_s``; propellant per jet
-    is its impulse over ``Isp g0`` at the flown Isp (their sum is ``propellant_kg``).
+    is its impulse over ``Isp g0`` at the flown Isp (their sum is ``propellant_kg``).  A
+    history without delta-v (not made by a simulation) gets NaN delta-v: unknown, not zero.
     """
-    if history.flown_params is None or history.delta_v_N is None or history.delta_v_B is None:
-        raise ValueError("motion outcomes need a simulation's history (flown vehicle, delta-v)")
+    if history.flown_params is None:
+        raise ValueError("motion outcomes need a simulation's history (the flown vehicle)")
     prop = history.propulsion
+    unknown = np.full((history.n_runs, 3), np.nan)  # a history not made by a simulation
     duration_s = history.on_time_s.shape[1] * history.cycle_s
     cols: dict[str, np.ndarray] = {}
     for frame, dv in (("N", history.delta_v_N), ("B", history.delta_v_B)):
+        dv = unknown if dv is None else dv
         for a, axis in enumerate("xyz"):
             cols[f"delta_v_{axis}_{frame}_m_s"] = dv[:, a]
         cols[f"delta_v_{frame}_m_s"] = np.linalg.norm(dv, axis=1)

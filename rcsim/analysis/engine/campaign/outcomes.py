@@ -12,6 +12,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from rcsim.analysis.engine.campaign.motion import (
+    _FULL_CYCLE_RTOL,
+    BUDGETS,
+    budget_text,
+    failed_by,
+    motion_outcomes,
+    over_budget,
+)
+from rcsim.analysis.engine.campaign.motion import firing_starts as firing_starts  # re-exported
 from rcsim.analysis.engine.runs_table import outcome_frame
 from rcsim.spacecraft import cycle_kernel
 from rcsim.spacecraft.propellant import exhausted_before, exhausted_text
@@ -20,10 +29,6 @@ from rcsim.spacecraft.vehicle import AXES, jet_name
 
 if TYPE_CHECKING:
     from rcsim.analysis.engine.campaign.spec import CampaignSpec
-
-# A firing continues into the next cycle only if it filled the previous one -- the same rule
-# (and tolerance) as rcsim.spacecraft.propulsion.apply_valve_limits, so firing counts agree with it.
-_FULL_CYCLE_RTOL = 1e-12
 
 
 def _channel_table(spec: CampaignSpec | None) -> bool:
@@ -50,16 +55,6 @@ def axis_jets(spec: CampaignSpec) -> np.ndarray:
 
         return axis_jets_of(load_recipe(recipe_path(table)))
     return (spec.vehicle.axis_signs != 0).T
-
-
-def firing_starts(on_time_s: np.ndarray, cycle_s: float) -> np.ndarray:
-    """(n, K, n_jets) bool: a jet starts a new firing in the cycle (it was not on at the cycle's
-    start, i.e. did not fill the previous cycle).  The per-jet reference form of
-    :func:`axis_firings`, which outcomes use."""
-    full = on_time_s >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)
-    prev_full = np.zeros_like(full)
-    prev_full[:, 1:] = full[:, :-1]
-    return (on_time_s > 0) & ~prev_full
 
 
 def _cycle_major(a: np.ndarray) -> np.ndarray:
@@ -160,15 +155,6 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     units and meanings: :func:`rcsim.analysis.engine.runs_table.outcome_columns`.  An axis's
     jets are those of :func:`axis_jets` of the spec's vehicle.
     """
-    # motion uses this module's firing_starts: imported here, not at the top (a cycle)
-    from rcsim.analysis.engine.campaign.motion import (
-        BUDGETS,
-        budget_text,
-        failed_by,
-        motion_outcomes,
-        over_budget,
-    )
-
     n, K = history.rate_err_B.shape[:2]
     cycle_s = history.cycle_s
     thr = spec.rate_threshold_rad_s
