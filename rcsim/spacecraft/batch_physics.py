@@ -21,6 +21,7 @@ from mujoco.batch import Batch, SimulationError
 from rcsim.spacecraft import cycle_kernel
 from rcsim.spacecraft.flight_model import flight_model, jet_wrench_B
 from rcsim.spacecraft.guards import warning_reasons
+from rcsim.spacecraft.navigation import quat_conj, quat_mul
 from rcsim.spacecraft.pieces import Pieces
 from rcsim.spacecraft.propellant import (
     PropellantTank,
@@ -171,6 +172,29 @@ class BatchPhysics:
             isp_s=self.params.isp_s,
             iquat=iquat,
         )
+
+    def cg_velocity_N(self) -> np.ndarray:
+        """Velocity of each run's centre of gravity in N [m/s], (n_runs, 3).
+
+        The free joint's linear velocity (``qvel[0:3]``) is the body origin's, in N; the CG
+        sits at ``body_ipos`` (its current value: it moves as propellant is used), so
+        ``v_CG = v_O + R_NB (omega_B x cg_B)`` (rigid-body kinematics).
+        """
+        body = self._flight.body(BODY).id
+        cg = self.batch.expanded("body_ipos")
+        cg_B = self.params.cg_B if cg is None else np.asarray(cg)[:, body]
+        spin_B = np.cross(self.qvel[:, 3:6], cg_B)
+        q = self.qpos[:, 3:7]
+        pure = np.concatenate([np.zeros((len(q), 1)), spin_B], axis=1)
+        rotated = quat_mul(quat_mul(q, pure), quat_conj(q))  # R_NB applied to spin_B
+        return self.qvel[:, 0:3] + rotated[:, 1:]
+
+    def jet_directions_B(self) -> np.ndarray:
+        """Unit thrust direction of each run's jets as flown, in B, (n_runs, n_jets, 3): the
+        force rows of their wrench matrix over their thrust (a jet of zero thrust: zero)."""
+        force = self._wrench[:, 0:3, :].transpose(0, 2, 1)
+        thrust = self._flown_thrust_n[..., None]
+        return np.divide(force, thrust, out=np.zeros_like(force), where=thrust > 0)
 
     def track_propellant(self, tank: PropellantTank) -> None:
         """Set up the per-run mass-property updates of a flight whose propellant runs out."""

@@ -57,6 +57,17 @@ class History:
     propellant_exhausted_s : ndarray, (n_runs,), or None
         When each run's propellant ran out [s] (inf: it did not); None when propellant is not
         tracked (:class:`rcsim.spacecraft.propellant.PropellantTank`).
+    delta_v_N : ndarray, (n_runs, 3), or None
+        Net change of the CG's velocity over the flight, in N [m/s]: MuJoCo's end state minus
+        its start (:meth:`rcsim.spacecraft.batch_physics.BatchPhysics.cg_velocity_N`); None for
+        a history not made by a simulation.
+    delta_v_B : ndarray, (n_runs, 3), or None
+        Net delta-v in B [m/s]: every jet's delivered impulse along its flown direction in B,
+        summed, over the run's wet mass at the start (the integral of the thrust acceleration
+        in body axes; a propellant-tracked run's falling mass is not followed: off by at most
+        the propellant used over the mass, relative).  None: not made by a simulation.
+    min_pulse_s : float
+        The valves' shortest firing flown [s] (``PropulsionParams.min_pulse_s``; 0: no limit).
     """
 
     cycle_s: float
@@ -75,6 +86,9 @@ class History:
     meas_att_err_B: np.ndarray | None = None
     meas_rate_err_B: np.ndarray | None = None
     propellant_exhausted_s: np.ndarray | None = None
+    delta_v_N: np.ndarray | None = None
+    delta_v_B: np.ndarray | None = None
+    min_pulse_s: float = 0.0
 
     @property
     def n_runs(self) -> int:

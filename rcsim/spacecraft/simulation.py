@@ -354,6 +354,7 @@ class BatchSimulation:
         failed = np.array([bool(r) for r in self.invalid])
         reason = list(self.invalid)
         physics.check_warnings(failed, reason, 0.0, 0.0)  # the initial state itself
+        self._v0_N = physics.cg_velocity_N()  # the start of the flight's delta-v
         sensors = self.sensors
         # The compiled per-cycle passes (rcsim/spacecraft/cycle_kernel.py), bit for bit the numpy
         # forms; decided once per flight.
@@ -479,6 +480,7 @@ class BatchSimulation:
         # (n_runs, n_cycles, k) views of the cycle-major buffers: a copy would double the peak
         # memory of a large batch and cost a tenth of its wall time.
         rec = {key: value.swapaxes(0, 1) for key, value in f.rec.items()}
+        flown = self.flown_params()
         return History(
             cycle_s=cycle,
             t_s=np.arange(f.n_cycles) * cycle,
@@ -486,8 +488,12 @@ class BatchSimulation:
             propulsion=f.prop,
             failed=f.failed,
             reason=f.reason,
-            flown_params=self.flown_params(),
+            flown_params=flown,
             propellant_exhausted_s=None if self.tank is None else physics.exhausted_s.copy(),
+            delta_v_N=physics.cg_velocity_N() - self._v0_N,
+            delta_v_B=np.einsum("nj,nja->na", f.prop.impulse_ns, physics.jet_directions_B())
+            / flown.mass_kg[:, None],
+            min_pulse_s=self.propulsion.min_pulse_s,
             **rec,
         )
 

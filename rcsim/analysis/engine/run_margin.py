@@ -6,6 +6,8 @@ one term per criterion the campaign applies,
 * rate (always): ``(thr - max_axis |final rate error|) / thr``;
 * attitude (when ``failure.attitude_error_deg`` is set): ``(att_thr - final attitude error) /
   att_thr``;
+* each ``[failure]`` budget set (``max_propellant_kg``, ``max_delta_v_m_s``):
+  ``(budget - value) / budget``;
 * propellant exhaustion (when a vehicle file tracks propellant): ``-1`` for a run whose
   propellant ran out, no term otherwise (a step, not a distance: the runs table records the
   propellant used, not a reserve to measure against);
@@ -32,7 +34,8 @@ import numpy as np
 MARGIN_MEANING = (
     "distance to the failure criterion in fractions of its thresholds: the smallest of "
     "(thr - max_axis |final rate error|) / thr, (att_thr - final_att_err_deg) / att_thr "
-    "when an attitude threshold is set, and -1 when the propellant ran out; below 0 (or "
+    "when an attitude threshold is set, (budget - value) / budget for each [failure] budget "
+    "set (max_propellant_kg, max_delta_v_m_s), and -1 when the propellant ran out; below 0 (or "
     "NaN: sim_failed) exactly when failed"
 )
 
@@ -47,6 +50,7 @@ def criterion_terms(
     final_att_err_deg: np.ndarray | None = None,
     attitude_threshold_deg: float | None = None,
     propellant_exhausted_s: np.ndarray | None = None,
+    budgets: Mapping[str, tuple[np.ndarray, float]] | None = None,
 ) -> Mapping[str, np.ndarray]:
     """One margin term per criterion, each (n,) in fractions of its threshold (module
     docstring).
@@ -61,6 +65,10 @@ def criterion_terms(
     attitude_threshold_deg : float, optional
     propellant_exhausted_s : ndarray, (n,), optional
         When each run's propellant ran out (NaN: it did not); None when not tracked.
+    budgets : dict of str to (ndarray (n,), float), optional
+        The ``[failure]`` budgets set (issue 28): name -> (the run's value, the budget > 0),
+        e.g. ``{"max_propellant_kg": (propellant_kg, 0.05)}``; a run fails above a budget, so
+        its term ``(budget - value) / budget`` fails below 0 and passes at 0.
 
     Returns
     -------
@@ -77,6 +85,8 @@ def criterion_terms(
     if propellant_exhausted_s is not None:
         ran_out = np.isfinite(np.asarray(propellant_exhausted_s, float))
         terms["propellant"] = np.where(ran_out, -1.0, np.inf)
+    for key, (value, limit) in (budgets or {}).items():
+        terms[key] = (float(limit) - np.asarray(value, float)) / float(limit)
     return terms
 
 

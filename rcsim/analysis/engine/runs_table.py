@@ -3,7 +3,8 @@ engine that writes campaigns and everything that reads them.
 
 It owns
 
-* every column's name, dtype, unit and meaning (:func:`run_columns`, :data:`EFFECT_COLUMNS`),
+* every column's name, dtype, unit and meaning (:func:`run_columns`, :data:`EFFECT_COLUMNS`;
+  described in its column catalogue, :mod:`rcsim.analysis.engine.runs_catalogue`, re-exported here),
   with one set of per-jet columns (``jet_01_...`` to ``jet_NN_...``) per jet of the vehicle
   flown, whatever its count (``n_jets``: 16 for the paper's vehicle; :func:`recorded_jets`
   reads it back from a table);
@@ -30,16 +31,34 @@ the paper's vehicle; a vehicle file's own jet matrix,
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from rcsim.analysis.engine.run_margin import MARGIN_MEANING
+from rcsim.analysis.engine.runs_catalogue import (  # noqa: F401 - re-exported
+    EFFECT_COLUMNS,
+    EFFECT_GROUPS,
+    EFFECT_NOT_APPLICABLE,
+    ID_COLUMNS,
+    INERTIA_NAMES,
+    PRODUCT_COLUMNS,
+    PRODUCT_NAMES,
+    Column,
+    all_columns,
+    column_named,
+    input_columns,
+    input_names,
+    is_propellant_motion,
+    markdown_table,
+    outcome_columns,
+    outcome_names,
+    run_columns,
+)
 from rcsim.spacecraft.dispersions import DispersedRuns, pointing
 from rcsim.spacecraft.propellant import inertia_tensor_B, principal
-from rcsim.spacecraft.vehicle import AXES, VehicleParams, jet_name
+from rcsim.spacecraft.vehicle import VehicleParams, jet_name
 
 # The campaign directory (rcsim.analysis.engine.campaign.results writes it):
 MANIFEST = "manifest.json"  # spec (resolved), code version, control cycle, times, status
@@ -51,301 +70,6 @@ HISTORIES = "histories"  # kept per-run histories, run-NNNNNNN.parquet
 PLOTS = "plots"  # Fig 9-14-like plots
 
 
-@dataclass(frozen=True)
-class Column:
-    """One column of ``runs.parquet``.
-
-    Attributes
-    ----------
-    name : str
-    dtype : str
-        pandas dtype: ``int64``, ``float64``, ``bool`` or ``str`` (a column of strings).
-    unit : str
-        ``-`` for counts, flags and names.
-    meaning : str
-    """
-
-    name: str
-    dtype: str
-    unit: str
-    meaning: str
-
-
-def _per_axis(pattern: str, dtype: str, unit: str, meaning: str) -> list[Column]:
-    return [Column(pattern.format(axis=a), dtype, unit, meaning.format(axis=a)) for a in AXES]
-
-
-def _per_jet(pattern: str, dtype: str, unit: str, meaning: str, n_jets: int) -> list[Column]:
-    """One column per jet of a vehicle of ``n_jets`` jets, ``{jet}`` -> ``01``, ``02`` ..."""
-    return [
-        Column(pattern.format(jet=jet_name(j + 1)[4:]), dtype, unit, meaning) for j in range(n_jets)
-    ]
-
-
-#: Identity of a run.
-ID_COLUMNS: tuple[Column, ...] = (
-    Column("run_id", "int64", "-", "run number: case_index * runs_per_case + k"),
-    Column("case", "str", "-", "case name (rate-NN, damp-NN, or the maneuver / hold name)"),
-    Column("case_index", "int64", "-", "position of the case in the spec"),
-    Column(
-        "seed",
-        "int64",
-        "-",
-        "the spec's root seed; run i draws from SeedSequence(seed, spawn_key=(i,)).spawn(2)[0]",
-    ),
-)
-
-
-def input_columns(n_jets: int) -> tuple[Column, ...]:
-    """The dispersed vehicle the run flew (:func:`input_frame`), read back from the simulation's
-    per-run MuJoCo model where MuJoCo holds the value; per-jet columns for ``n_jets`` jets."""
-    return _VEHICLE_INPUTS + tuple(
-        c for pattern in _JET_INPUTS for c in _per_jet(*pattern, n_jets=n_jets)
-    )
-
-
-_VEHICLE_INPUTS: tuple[Column, ...] = (
-    Column("mass_kg", "float64", "kg", "vehicle mass (read back from MuJoCo)"),
-    *[
-        Column(f"cg_{a}_m", "float64", "m", "centre of gravity, body x, y, z (read back)")
-        for a in "xyz"
-    ],
-    *[
-        Column(
-            f"i{a}{a}_kg_m2",
-            "float64",
-            "kg m^2",
-            "moments of inertia about body x, y, z through the CG: the inertia tensor's "
-            "diagonal entries in B, rebuilt from the principal moments and frame read back "
-            "from MuJoCo (for a vehicle whose principal axes are B, as the paper's, its "
-            "principal moments)",
-        )
-        for a in "xyz"
-    ],
-)
-# Per jet, in this order (each for every jet before the next): (pattern, dtype, unit, meaning).
-_JET_INPUTS = (
-    ("jet_{jet}_thrust_n", "float64", "N", "thrust of the jet (read back)"),
-    (
-        "jet_{jet}_tilt_deg",
-        "float64",
-        "deg",
-        "signed tilt of the jet's thrust direction (the draw); misalignment = |tilt|",
-    ),
-    ("jet_{jet}_azimuth_deg", "float64", "deg", "azimuth of the tilt, [0, 360) (the draw)"),
-)
-
-#: Products of inertia, present when the runs' principal axes are not B (:func:`records_products`:
-#: the vehicle file has products of inertia, or the campaign disperses them with ``ixy_kg_m2``,
-#: ``ixz_kg_m2`` or ``iyz_kg_m2`` in the spec's ``[dispersions.three_sigma]`` or the vehicle
-#: file's ``[dispersions]``), after the vehicle inputs; with the inertia columns they are the
-#: whole tensor flown, about the CG in B.  A campaign of a vehicle whose principal axes are B
-#: without dispersed products (the paper's) keeps its columns.
-PRODUCT_COLUMNS: tuple[Column, ...] = tuple(
-    Column(
-        f"i{a}_kg_m2",
-        "float64",
-        "kg m^2",
-        f"product of inertia I_{a}, the tensor entry in B (-sum m {a[0]} {a[1]}; MuJoCo's "
-        "fullinertia convention), read back from the run's principal moments and frame",
-    )
-    for a in ("xy", "xz", "yz")
-)
-PRODUCT_NAMES: tuple[str, ...] = tuple(c.name for c in PRODUCT_COLUMNS)
-
-
-def outcome_columns(n_jets: int) -> tuple[Column, ...]:
-    """What the run did, with per-jet columns for ``n_jets`` jets.  Runs whose simulation
-    failed (``sim_failed``) have NaN in every numeric outcome: their state is not a flight."""
-    return _OUTCOMES_BEFORE_JETS + tuple(_per_jet(*_JET_OUTCOME, n_jets=n_jets)) + _OUTCOMES_AFTER
-
-
-_OUTCOMES_BEFORE_JETS: tuple[Column, ...] = (
-    *_per_axis(
-        "final_rate_err_{axis}_deg_s",
-        "float64",
-        "deg/s",
-        "rate error about {axis} at the end of the run",
-    ),
-    *_per_axis(
-        "final_att_err_{axis}_deg",
-        "float64",
-        "deg",
-        "attitude error about {axis} (rotation-vector component) at the end",
-    ),
-    Column("final_att_err_deg", "float64", "deg", "total attitude error at the end (norm)"),
-    *_per_axis(
-        "firings_to_rate_{axis}",
-        "float64",
-        "-",
-        "firing events on {axis}'s jets (cycles where one of them starts a firing; a "
-        "pair is one event) before the commanded rate is first reached on {axis}: the "
-        "first sample with |rate error| < thr not taken in the middle of a firing on "
-        "{axis}; all of the run's events if never reached",
-    ),
-    *_per_axis(
-        "time_to_rate_{axis}_s", "float64", "s", "time of that first sample; NaN if never reached"
-    ),
-    *_per_axis(
-        "firings_{axis}",
-        "float64",
-        "-",
-        "firing events on {axis}'s jets, whole run (none commanded after the propellant ran "
-        "out: those jets deliver nothing)",
-    ),
-    Column(
-        "firings_total",
-        "float64",
-        "-",
-        "jet firings, whole run (a pair counts 2; none commanded after the propellant ran out)",
-    ),
-)
-_JET_OUTCOME = (
-    "jet_{jet}_on_time_s",
-    "float64",
-    "s",
-    "total on-time of the jet: what it delivered (with valve timing -- the vehicle file's or "
-    "[dispersions.timing] -- or [dispersions.fault], the commands moved by the delays, plus "
-    "stuck-on time, minus failed time)",
-)
-_OUTCOMES_AFTER: tuple[Column, ...] = (
-    Column(
-        "propellant_kg",
-        "float64",
-        "kg",
-        "propellant used, F t / (Isp g0) at the vehicle's Isp (280 s unless its vehicle file "
-        "says); its exhaustion is a failure reason",
-    ),
-    Column(
-        "rate_settled_time_s",
-        "float64",
-        "s",
-        "start of the final stretch in which every axis stays under thr through the end of "
-        "the run (NaN if the run does not end under thr); rates only, unlike the "
-        "att_rate_settled_time_s of `rcsim scenario compare` (attitude and rate)",
-    ),
-    Column(
-        "sim_failed",
-        "bool",
-        "-",
-        "the simulation failed (invalid parameters, divergence, or the run's flight raised)",
-    ),
-    Column(
-        "failed",
-        "bool",
-        "-",
-        "sim_failed, or some axis ends with |rate error| >= thr, "
-        "or (if failure.attitude_error_deg is set) final_att_err_deg exceeds it, or the "
-        "propellant ran out (a vehicle file's [propellant] mass_kg)",
-    ),
-    Column("reason", "str", "-", "why the run failed; empty if it did not"),
-    Column("margin", "float64", "-", MARGIN_MEANING),
-)
-
-#: Optional inputs, present only in campaigns whose spec has the matching table
-#: (``[dispersions.sensor]``, ``[dispersions.timing]``, ``[dispersions.fault]``; draws of
-#: :mod:`rcsim.spacecraft.effect_draws`), after the vehicle inputs in this order.  A campaign
-#: without them keeps exactly the columns it always had (it resumes and replays as before).
-EFFECT_COLUMNS: dict[str, tuple[Column, ...]] = {
-    "sensor": (
-        *_per_axis(
-            "att_bias_{axis}_deg",
-            "float64",
-            "deg",
-            "attitude sensor bias about {axis} (drawn per run; the measured attitude is "
-            "the true one rotated by bias and white noise)",
-        ),
-        *_per_axis(
-            "rate_bias_{axis}_deg_s",
-            "float64",
-            "deg/s",
-            "rate gyro bias about {axis} at the start (drawn per run; a random walk "
-            "and white noise add to it in flight)",
-        ),
-    ),
-    "timing": (
-        Column(
-            "command_delay_s",
-            "float64",
-            "s",
-            "sensor-to-actuator delay: valve commands start this late in each cycle",
-        ),
-        Column(
-            "open_delay_max_s",
-            "float64",
-            "s",
-            "largest valve opening latency of the run's jets (drawn per jet)",
-        ),
-        Column(
-            "close_delay_max_s",
-            "float64",
-            "s",
-            "largest valve closing latency of the run's jets (drawn per jet)",
-        ),
-    ),
-    "fault": (
-        Column(
-            "fault_jet",
-            "int64",
-            "-",
-            "the faulty jet, 1..n_jets of the vehicle; 0 if the run has no fault",
-        ),
-        Column(
-            "fault_time_s",
-            "float64",
-            "s",
-            "failure time (mode off) or start of the stuck window (mode stuck); NaN if "
-            "no fault or mode degraded (degraded for the whole run)",
-        ),
-        Column(
-            "fault_stuck_for_s",
-            "float64",
-            "s",
-            "length of the stuck-on window (mode stuck); NaN otherwise",
-        ),
-        Column(
-            "fault_thrust_factor",
-            "float64",
-            "-",
-            "thrust of the faulty jet as a fraction of its own (mode degraded); 1 for the "
-            "other modes and for runs without a fault",
-        ),
-    ),
-}
-EFFECT_GROUPS: tuple[str, ...] = tuple(EFFECT_COLUMNS)
-#: Effect columns that are NaN where the effect does not apply, and what that NaN means as an
-#: input of the driver analysis: (the run's place on the column's scale, why).  Rank-based
-#: analyses need a number; these put "no such event" beyond every run that had one.
-EFFECT_NOT_APPLICABLE: dict[str, tuple[str, str]] = {
-    "fault_time_s": (
-        "after",
-        "a run without a fault (or with a jet degraded all along) counts "
-        "as failing after the latest fault time",
-    ),
-    "fault_stuck_for_s": ("zero", "a run without a stuck window counts as stuck for 0 s"),
-}
-
-_NUMERIC_OUTCOMES = tuple(
-    c.name for c in _OUTCOMES_BEFORE_JETS + _OUTCOMES_AFTER if c.dtype == "float64"
-)
-
-
-def input_names(n_jets: int) -> tuple[str, ...]:
-    """Names of :func:`input_columns` ``(n_jets)``."""
-    return tuple(c.name for c in input_columns(n_jets))
-
-
-def outcome_names(n_jets: int) -> tuple[str, ...]:
-    """Names of :func:`outcome_columns` ``(n_jets)``."""
-    return tuple(c.name for c in outcome_columns(n_jets))
-
-
-def all_columns(n_jets: int) -> tuple[Column, ...]:
-    """Every column a runs.parquet of a vehicle of ``n_jets`` jets may have (products and all
-    effect groups), in order."""
-    return run_columns(EFFECT_GROUPS, True, n_jets=n_jets)
-
-
 def recorded_jets(columns) -> int:
     """How many jets a runs table records: its ``jet_01_thrust_n``, ``jet_02_thrust_n`` ...
     columns, counted up to the first missing (0 when it has none)."""
@@ -354,19 +78,6 @@ def recorded_jets(columns) -> int:
     while f"{jet_name(k + 1)}_thrust_n" in names:
         k += 1
     return k
-
-
-def column_named(name: str) -> Column | None:
-    """The schema's column ``name`` (a per-jet column of any jet number included), or None."""
-    schema_name = name
-    if name.startswith("jet_"):
-        number, _, kind = name[4:].partition("_")
-        if number.isdigit() and int(number) >= 1 and name == f"{jet_name(int(number))}_{kind}":
-            schema_name = f"jet_01_{kind}"  # every jet's column: the same dtype, unit, meaning
-    for c in all_columns(1):
-        if c.name == schema_name:
-            return replace(c, name=name)
-    return None
 
 
 def outcome_frame(values: dict, n_jets: int) -> pd.DataFrame:
@@ -393,22 +104,11 @@ def outcome_frame(values: dict, n_jets: int) -> pd.DataFrame:
 
 def missing_outcomes(n: int, reason: str, n_jets: int) -> pd.DataFrame:
     """Outcomes of ``n`` runs that have none (their flight raised): NaN, failed, ``reason``."""
-    numeric = _NUMERIC_OUTCOMES + tuple(c.name for c in _per_jet(*_JET_OUTCOME, n_jets=n_jets))
+    numeric = [c.name for c in outcome_columns(n_jets) if c.dtype == "float64"]
     values: dict = {name: np.full(n, np.nan) for name in numeric}
     values.update(sim_failed=np.ones(n, bool), failed=np.ones(n, bool), reason=[reason] * n)
+    values["failed_by"] = ["simulation"] * n
     return outcome_frame(values, n_jets)
-
-
-def run_columns(effects=(), products: bool = False, *, n_jets: int) -> tuple[Column, ...]:
-    """The columns of a campaign whose spec has the effect groups ``effects`` (names of
-    :data:`EFFECT_COLUMNS`), with ``products`` records products of inertia
-    (:func:`records_products`), and whose vehicle has ``n_jets`` jets, in order."""
-    unknown = [g for g in effects if g not in EFFECT_COLUMNS]
-    if unknown:
-        raise KeyError(f"unknown effect group(s) {unknown}; known: {list(EFFECT_GROUPS)}")
-    extra = tuple(c for g in EFFECT_GROUPS if g in effects for c in EFFECT_COLUMNS[g])
-    inputs = input_columns(n_jets) + (PRODUCT_COLUMNS if products else ())
-    return ID_COLUMNS + inputs + extra + outcome_columns(n_jets)
 
 
 def effect_frame_of(values: dict, effects) -> pd.DataFrame:
@@ -439,39 +139,6 @@ def _cast(value, dtype: str):
     return np.asarray(value, dtype=dtype)
 
 
-def markdown_table() -> str:
-    """The schema as a Markdown table (every column, the optional effect inputs included),
-    per-axis and per-jet columns folded into one row."""
-    rows, seen = [], set()
-    group_of = {c.name: g for g in EFFECT_GROUPS for c in EFFECT_COLUMNS[g]}
-    for c in all_columns(1):  # per-jet columns are folded into one row: one jet shows them
-        name, meaning = c.name, c.meaning
-        if name in group_of:
-            meaning = f"{meaning} (only with [dispersions.{group_of[name]}])"
-        if name in PRODUCT_NAMES:
-            meaning = f"{meaning} (only when the vehicle has or the campaign disperses them)"
-        for axis in AXES:
-            if f"_{axis}_" in name or name.endswith(f"_{axis}"):
-                name = name.replace(axis, "<axis>", 1)
-                meaning = meaning.replace(f"{axis}'s", "the axis's").replace(axis, "the axis")
-                break
-        if name.startswith("jet_") and name[4:6].isdigit():
-            name = "jet_NN" + name[6:]
-        if name.startswith("cg_") and name.endswith("_m"):
-            name = "cg_{x,y,z}_m"
-        if name in _INERTIA:
-            name = "i{xx,yy,zz}_kg_m2"
-        if name in PRODUCT_NAMES:
-            name = "i{xy,xz,yz}_kg_m2"
-            meaning = meaning.replace("I_xy", "I_ab").replace("-sum m x y", "-sum m a b")
-        if name in seen:
-            continue
-        seen.add(name)
-        meaning = meaning.replace("|", "\\|")  # a literal | inside a Markdown table cell
-        rows.append(f"| `{name}` | {c.dtype} | {c.unit} | {meaning} |")
-    return "\n".join(["| column | type | unit | meaning |", "|---|---|---|---|", *rows])
-
-
 # ----------------------------------------------------------------------- vehicles <-> rows --
 def _jet_columns(kind: str, n_jets: int) -> list[str]:
     """``jet_NN_<kind>`` of each of ``n_jets`` jets, in jet order (``thrust_n``, ...)."""
@@ -479,7 +146,7 @@ def _jet_columns(kind: str, n_jets: int) -> list[str]:
 
 
 _CG = [f"cg_{a}_m" for a in "xyz"]
-_INERTIA = [f"i{a}{a}_kg_m2" for a in "xyz"]
+_INERTIA = list(INERTIA_NAMES)
 
 
 _PRODUCT_ENTRIES = ((0, 1), (0, 2), (1, 2))
@@ -582,19 +249,35 @@ def is_campaign(path: str | os.PathLike) -> bool:
 
 
 def criterion_text(
-    rate_error_deg_s: float, attitude_error_deg: float | None = None, *, vehicle_file: bool = False
+    rate_error_deg_s: float,
+    attitude_error_deg: float | None = None,
+    *,
+    vehicle_file: bool = False,
+    budgets: dict | None = None,
 ) -> str:
     """What the ``failed`` column means, in words, as the campaign's outcomes apply it
     (:func:`rcsim.analysis.engine.campaign.outcomes.outcomes`: a run fails when ``not |rate error| <
     threshold``, i.e. at the threshold too): the one wording every report uses.
     ``vehicle_file``: the campaign flew a vehicle file, whose propellant may run out (a
-    failure too)."""
+    failure too).  ``budgets``: the spec's ``[failure]`` ``max_propellant_kg`` /
+    ``max_delta_v_m_s`` (a manifest's ``thresholds``; absent keys and None are not set)."""
     parts = [f"|final rate error| >= {rate_error_deg_s:g} deg/s on any axis"]
     if attitude_error_deg is not None:
         parts.append(f"final attitude error > {attitude_error_deg:g} deg")
     if vehicle_file:
         parts.append("propellant exhausted (a vehicle file's [propellant] mass_kg)")
+    parts += _budget_parts(budgets or {})
     return " or ".join(parts + ["simulation failure"])
+
+
+def _budget_parts(budgets: dict) -> list[str]:
+    """The criterion's words for the propellant and delta-v budgets that are set."""
+    parts = []
+    if budgets.get("max_propellant_kg") is not None:
+        parts.append(f"propellant used > {float(budgets['max_propellant_kg']):g} kg")
+    if budgets.get("max_delta_v_m_s") is not None:
+        parts.append(f"net delta-v (inertial) > {float(budgets['max_delta_v_m_s']):g} m/s")
+    return parts
 
 
 def dispersions_source(resolved: dict) -> str:

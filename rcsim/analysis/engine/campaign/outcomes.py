@@ -12,6 +12,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from rcsim.analysis.engine.campaign.motion import (
+    _FULL_CYCLE_RTOL,
+    BUDGETS,
+    budget_text,
+    budget_thresholds,
+    failed_by,
+    motion_outcomes,
+    over_budget,
+)
+from rcsim.analysis.engine.campaign.motion import firing_starts as firing_starts  # re-exported
 from rcsim.analysis.engine.run_margin import criterion_terms, run_margin
 from rcsim.analysis.engine.runs_table import outcome_frame
 from rcsim.spacecraft import cycle_kernel
@@ -21,10 +31,6 @@ from rcsim.spacecraft.vehicle import AXES, jet_name
 
 if TYPE_CHECKING:
     from rcsim.analysis.engine.campaign.spec import CampaignSpec
-
-# A firing continues into the next cycle only if it filled the previous one -- the same rule
-# (and tolerance) as rcsim.spacecraft.propulsion.apply_valve_limits, so firing counts agree with it.
-_FULL_CYCLE_RTOL = 1e-12
 
 
 def _channel_table(spec: CampaignSpec | None) -> bool:
@@ -51,16 +57,6 @@ def axis_jets(spec: CampaignSpec) -> np.ndarray:
 
         return axis_jets_of(load_recipe(recipe_path(table)))
     return (spec.vehicle.axis_signs != 0).T
-
-
-def firing_starts(on_time_s: np.ndarray, cycle_s: float) -> np.ndarray:
-    """(n, K, n_jets) bool: a jet starts a new firing in the cycle (it was not on at the cycle's
-    start, i.e. did not fill the previous cycle).  The per-jet reference form of
-    :func:`axis_firings`, which outcomes use."""
-    full = on_time_s >= cycle_s * (1.0 - _FULL_CYCLE_RTOL)
-    prev_full = np.zeros_like(full)
-    prev_full[:, 1:] = full[:, :-1]
-    return (on_time_s > 0) & ~prev_full
 
 
 def _cycle_major(a: np.ndarray) -> np.ndarray:
@@ -230,9 +226,12 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     assert history.flown_params is not None, "outcomes() needs a simulation's history"
     cols["propellant_kg"] = prop.propellant_kg(history.flown_params.isp_s)
     cols["rate_settled_time_s"] = settle
+    cols.update(motion_outcomes(history))
 
     sim_failed = np.asarray(history.failed, bool)
     exhausted = history.propellant_exhausted_s  # None: propellant not tracked
+    failure = (getattr(spec, "resolved", None) or {}).get("failure") or {}
+    over = over_budget(cols, failure)  # the spec's propellant / delta-v budgets
     reasons = []
     for i in range(n):
         if sim_failed[i]:
@@ -255,6 +254,10 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
             )
         if exhausted is not None and np.isfinite(exhausted[i]):
             why.append(exhausted_text(exhausted[i]))
+        for key, mask in over.items():
+            if mask[i]:
+                column = BUDGETS[key][0]
+                why.append(budget_text(key, cols[column][i], failure[key]))
         reasons.append("; ".join(why))
     # Outcomes of a non-flight are not numbers.
     out: dict[str, Any] = {
@@ -263,6 +266,17 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
     out["sim_failed"] = sim_failed
     out["failed"] = np.array([bool(r) for r in reasons], dtype=bool)
     out["reason"] = reasons
+    # Which criteria each run failed, by name (the reasons' criteria, as flags).
+    flew = ~sim_failed
+    att_thr = spec.attitude_threshold_rad
+    criteria = {
+        "simulation": sim_failed,
+        "rate": flew & ~(np.abs(rate[:, -1]) < thr).all(axis=1),
+        "attitude": flew & (att_thr is not None and ~(att_total <= np.degrees(att_thr or 0.0))),
+        "propellant_exhausted": flew & (exhausted is not None and np.isfinite(exhausted)),
+        **{key: flew & mask for key, mask in over.items()},
+    }
+    out["failed_by"] = failed_by(criteria)
     out["margin"] = run_margin(
         criterion_terms(
             final_rate_err_rad_s=rate[:, -1],
@@ -274,6 +288,10 @@ def outcomes(history: History, spec: CampaignSpec) -> pd.DataFrame:
                 else float(np.degrees(spec.attitude_threshold_rad))
             ),
             propellant_exhausted_s=exhausted,
+            budgets={
+                key: (np.asarray(cols[BUDGETS[key][0]], float), limit)
+                for key, limit in budget_thresholds(failure).items()
+            },
         ),
         sim_failed,
     )

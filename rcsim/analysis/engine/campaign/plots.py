@@ -6,6 +6,9 @@
   the fraction of runs firing that axis's jets in each control cycle.
 * ``plots/summary.png``: failures per case, firings per run per case, and the histogram of
   final rate errors (Fig 16).
+* ``plots/propellant_delta_v.png``: propellant used and net delta-v per case, runs and case
+  means with intervals, against the spec's budgets
+  (:mod:`~rcsim.analysis.engine.campaign.budget_plots`).
 """
 
 from __future__ import annotations
@@ -18,6 +21,8 @@ import pandas as pd
 from matplotlib.ticker import MaxNLocator
 
 from rcsim.analysis.engine import runs_table
+from rcsim.analysis.engine.campaign.budget_plots import COLUMNS as BUDGET_COLUMNS
+from rcsim.analysis.engine.campaign.budget_plots import plot_propellant_delta_v
 from rcsim.analysis.engine.plots import new_figure
 from rcsim.spacecraft.vehicle import AXES
 
@@ -165,6 +170,17 @@ def plot_campaign(out: Path, spec: CampaignSpec) -> list[Path]:
         path,
         title=f"{who}: {n_runs} runs, {n_failed} failed ({pct:.3g} %)",
         rate_threshold_deg_s=spec.resolved["failure"]["rate_error_deg_s"],
+    )
+    paths.append(path)
+    path = folder / "propellant_delta_v.png"
+    runs = pd.read_parquet(out / runs_table.RUNS, columns=["case_index", *BUDGET_COLUMNS])
+    plot_propellant_delta_v(
+        runs,
+        cases,
+        path,
+        title=f"{who}: propellant and translation",
+        budgets=spec.resolved["failure"],
+        dpi=DPI,
     )
     paths.append(path)
     return paths

@@ -32,6 +32,8 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from rcsim.analysis.engine.campaign.case_means import CASE_MEANS, mean_sums, means_with_intervals
+from rcsim.analysis.engine.campaign.case_means import PREFIX as MEAN_PREFIX
 from rcsim.analysis.engine.runs_table import (
     CASES,
     CHUNKS,
@@ -148,6 +150,7 @@ _STAT_INPUTS = (
     "firings_total",
     *(f"firings_to_rate_{a}" for a in AXES),
     *(f"final_rate_err_{a}_deg_s" for a in AXES),
+    *CASE_MEANS,
 )
 assert set(_STAT_INPUTS) <= {c.name for c in run_columns(n_jets=1)}, (
     "per-case statistics read columns the schema lacks"
@@ -291,7 +294,7 @@ def case_stats(runs: pd.DataFrame) -> pd.DataFrame:
             "max_abs_final_rate_err_deg_s": rate,
         }
     )
-    return merge_case_stats([work])
+    return merge_case_stats([pd.concat([work, mean_sums(runs)], axis=1)])
 
 
 def merge_case_stats(parts: list[pd.DataFrame]) -> pd.DataFrame:
@@ -299,7 +302,7 @@ def merge_case_stats(parts: list[pd.DataFrame]) -> pd.DataFrame:
     columns, maxima of the maxima.  Every part must have the same columns."""
     frame = pd.concat(parts, ignore_index=True)
     g = frame.groupby(["case_index", "case"], as_index=False, sort=True)
-    merged = g[list(_ADDITIVE)].sum()
+    merged = g[list(_ADDITIVE) + [c for c in frame.columns if c.startswith(MEAN_PREFIX)]].sum()
     merged["firings_max"] = g["firings_max"].max()["firings_max"]
     merged["max_abs_final_rate_err_deg_s"] = g["max_abs_final_rate_err_deg_s"].max()[
         "max_abs_final_rate_err_deg_s"
@@ -318,6 +321,7 @@ def finish_case_stats(stats: pd.DataFrame) -> pd.DataFrame:
     out["firings_to_rate_mean"] = stats["firings_to_rate_sum"] / stats["runs"]
     out["one_firing_pct"] = 100.0 * stats["one_firing_runs"] / stats["runs"]
     out["max_abs_final_rate_err_deg_s"] = stats["max_abs_final_rate_err_deg_s"]
+    out = pd.concat([out, means_with_intervals(stats)], axis=1)
     return out.sort_values("case_index").reset_index(drop=True)
 
 

@@ -42,6 +42,7 @@ from rcsim.analysis.engine.campaign.cluster import close, connect, dask_results
 from rcsim.analysis.engine.campaign.effects import describe
 from rcsim.analysis.engine.campaign.gate import GateResult, judge
 from rcsim.analysis.engine.campaign.local import local_results
+from rcsim.analysis.engine.campaign.motion import budget_thresholds
 from rcsim.analysis.engine.campaign.spec import CampaignSpec
 from rcsim.analysis.engine.interrupts import raise_if_interrupted, sigterm_interrupts
 from rcsim.analysis.engine.output import check_out_dir, output_lock, write_marker
@@ -204,6 +205,7 @@ def _new_manifest(spec: CampaignSpec, spec_file: str | None) -> dict:
         "thresholds": {
             "rate_error_deg_s": spec.resolved["failure"]["rate_error_deg_s"],
             "attitude_error_deg": spec.resolved["failure"].get("attitude_error_deg"),
+            **budget_thresholds(spec.resolved["failure"]),
         },
         "cases": [c.name for c in spec.cases],
         "started_utc": R.now_utc(),
@@ -450,6 +452,11 @@ def summary_text(report: CampaignReport, spec: CampaignSpec) -> str:
         f"{c.get('runs', 0)} runs, {c.get('failed', 0)} failed "
         f"({c.get('sim_failed', 0)} simulation failures); controller {spec.controller}, "
         f"failure: final |rate error| >= {spec.resolved['failure']['rate_error_deg_s']} deg/s"
+        + "".join(
+            f", or {spec.resolved['failure'][k]:g} {unit} exceeded ({k})"
+            for k, unit in (("max_propellant_kg", "kg"), ("max_delta_v_m_s", "m/s"))
+            if k in spec.resolved["failure"]
+        )
     )
     effects = describe(spec.effects)
     if effects:

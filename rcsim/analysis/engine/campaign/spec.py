@@ -41,6 +41,7 @@ from rcsim.analysis.engine.campaign.limits import (
     max_duration_s,
     vehicle_limits,
 )
+from rcsim.analysis.engine.campaign.motion import BUDGET_KEYS
 from rcsim.analysis.engine.campaign.reader import Reader, file_digest, file_key
 from rcsim.analysis.engine.campaign.spec_vehicle import (
     check_channel_table,
@@ -524,6 +525,9 @@ def _failure(f: Reader) -> tuple[float, float | None, float | None, dict]:
         if f.has("attitude_error_deg")
         else None
     )
+    # Budgets on the run's propellant and translation (issue 28): set only when given, so a
+    # spec without them resolves (and resumes) as before.
+    budgets = {k: f.number(k, None, minimum=0.0, strict=True) for k in BUDGET_KEYS if f.has(k)}
     max_failed = f.raw("max_failed_pct") if f.has("max_failed_pct") else None
     if max_failed is not None:
         problem = max_failed_pct_problem(max_failed)
@@ -534,6 +538,7 @@ def _failure(f: Reader) -> tuple[float, float | None, float | None, dict]:
     resolved: dict = {"rate_error_deg_s": rate_thr}
     if att_thr is not None:
         resolved["attitude_error_deg"] = att_thr
+    resolved.update(budgets)
     return rate_thr, att_thr, max_failed, resolved
 
 

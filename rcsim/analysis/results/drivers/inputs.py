@@ -6,7 +6,8 @@ vehicle flown has, :func:`rcsim.analysis.engine.runs_table.recorded_jets`; with 
 inertia and the sensor, timing and fault draws when the campaign recorded them), the
 ``failed`` outcome and the rate case of every run; any other table is taken as it is, with the
 inputs named by the caller or, by default, the recorded-input columns when present, else every
-numeric column other than the outcome and identifiers.  Physics-aware factors
+numeric column other than the outcome, identifiers and the propellant, delta-v and pulse
+outcomes (:func:`rcsim.analysis.engine.runs_table.is_propellant_motion`).  Physics-aware factors
 (:mod:`rcsim.analysis.results.drivers.factors`) are added when the recorded inputs are
 present. Every problem a user can fix raises
 :class:`rcsim.models.errors.InputError` naming the file, the column and the value.
@@ -239,12 +240,17 @@ def load_runs(
                 for c in runs.columns
                 if c not in ID_COLUMNS
                 and c != outcome
+                and not runs_table.is_propellant_motion(c)  # outcomes of the run (issue 28)
+                and c != "margin"  # the failure criterion's distance (issue 30), an outcome
                 and pd.api.types.is_numeric_dtype(runs[c])
                 and not pd.api.types.is_bool_dtype(runs[c])
             ]
             if not raw:
                 raise InputError(f"{where}: no numeric input columns besides the outcome")
-            notes.append("inputs: every numeric column except the outcome and identifiers")
+            notes.append(
+                "inputs: every numeric column except the outcome, identifiers and the "
+                "propellant, delta-v and pulse outcomes"
+            )
         der = list(factors.columns)
     runs = _fill_not_applicable(runs, raw, notes)
     _check_numeric(runs, raw, where)

@@ -12,7 +12,10 @@ first where pooled it ranks 11th).  Beside the pooled outcome this module analys
   every axis);
 * ``failed at thr2`` -- the campaign's criterion with the rate threshold ``thr2`` instead of
   ``thr`` (default 0.06 against 0.04 deg/s, the paper's pair): runs that failed for another
-  reason (simulation, attitude, propellant; read from ``reason``) still fail.
+  reason (simulation, attitude, propellant; read from ``reason``) still fail;
+* ``propellant ...`` and ``delta-v ...`` -- the run's ``propellant_kg`` / ``delta_v_N_m_s``
+  exceeds the campaign's ``[failure]`` budget, or, without one, lies in the runs' top decile
+  (:func:`budget_outcomes`; issue 28: what drives propellant use and translation).
 
 Each outcome is scored by :class:`~rcsim.analysis.results.drivers.single.SingleFactorKDE` with
 as many permutations as the pooled singles, labels permuted within cases.  The outcomes are one
@@ -123,7 +126,58 @@ def _breakdown(axes: dict[str, np.ndarray]) -> dict[str, int]:
 
 
 def build_outcomes(runset, second_threshold: float = DEFAULT_SECOND_THRESHOLD) -> OutcomeResults:
-    """The outcomes beside the pooled one that ``runset`` supports (no fitting)."""
+    """The outcomes beside the pooled one that ``runset`` supports (no fitting): per axis,
+    the second threshold, then propellant and delta-v (:func:`budget_outcomes`)."""
+    res = _rate_outcomes(runset, second_threshold)
+    res.outcomes += budget_outcomes(runset.runs, runset.manifest, res.notes)
+    return res
+
+
+#: Propellant and translation outcomes (issue 28): column, the spec's ``[failure]`` budget
+#: key, unit, words.  Without a budget a run is in the outcome when its value is in the
+#: campaign's top decile (what drives heavy use), at or above the 90th percentile.
+BUDGET_OUTCOMES = (
+    ("propellant_kg", "max_propellant_kg", "kg", "propellant"),
+    ("delta_v_N_m_s", "max_delta_v_m_s", "m/s", "delta-v"),
+)
+TOP_QUANTILE = 0.9
+
+
+def budget_outcomes(runs: pd.DataFrame, manifest: dict | None, notes: list) -> list[Outcome]:
+    """A propellant and a delta-v outcome when the runs carry ``propellant_kg`` /
+    ``delta_v_N_m_s``: over the campaign's budget (manifest ``thresholds``) when it set one,
+    else at or above the runs' 90th percentile.  Runs without a value (simulation failed)
+    are not in it (a note counts them).  Outcomes, never inputs: the columns are outcome
+    columns of the schema (:func:`rcsim.analysis.engine.runs_table.outcome_columns`)."""
+    thresholds = (manifest or {}).get("thresholds") or {}
+    out = []
+    for column, key, unit, words in BUDGET_OUTCOMES:
+        if column not in runs.columns:
+            continue
+        x = runs[column].to_numpy(float)
+        ok = np.isfinite(x)
+        if not ok.any():
+            continue
+        limit = thresholds.get(key)
+        if limit is not None:
+            y = ok & (x > float(limit))
+            name, criterion = f"{words} > {float(limit):g}", f"{column} > {float(limit):g} {unit}"
+        else:
+            q = float(np.quantile(x[ok], TOP_QUANTILE))
+            y = ok & (x >= q)
+            name = f"{words} top 10 %"
+            criterion = f"{column} >= {q:.4g} {unit} (the runs' 90th percentile; no budget set)"
+        out.append(Outcome(name, criterion, y))
+        if not ok.all():
+            notes.append(
+                f"outcomes: {int((~ok).sum())} run(s) without {column} (simulation failed) "
+                f"are not in the {words} outcome"
+            )
+    return out
+
+
+def _rate_outcomes(runset, second_threshold: float) -> OutcomeResults:
+    """Per-axis outcomes and the second rate threshold (module docstring)."""
     res = OutcomeResults(second_threshold=second_threshold)
     runs = runset.runs
     cols = [RATE_COLUMN.format(axis=a) for a in AXES]
@@ -202,7 +256,8 @@ def pooled_criterion(runset) -> str:
         return f"column {runset.outcome!r}"
     att = ((runset.manifest or {}).get("thresholds") or {}).get("attitude_error_deg")
     flown = ((runset.manifest or {}).get("spec") or {}).get("vehicle")
-    return runs_table.criterion_text(thr, att, vehicle_file=bool(flown))
+    budgets = (runset.manifest or {}).get("thresholds") or {}
+    return runs_table.criterion_text(thr, att, vehicle_file=bool(flown), budgets=budgets)
 
 
 def outcome_table(res, top: int = TOP_DRIVERS) -> pd.DataFrame:

@@ -200,6 +200,7 @@ def _criterion(m) -> str:
         float(t["rate_error_deg_s"]),
         t.get("attitude_error_deg"),
         vehicle_file=bool(m.get("spec", {}).get("vehicle")),
+        budgets=t,
     )
 
 

@@ -50,3 +50,30 @@ def test_a_long_table_name_wraps_inside_the_summary_plot(tmp_path):
     )  # fmt: skip
     fig = plot_summary(runs, cases, tmp_path / "s.png", title=f"{LONG}: rate-01: 2 runs")
     _inside(fig)
+
+
+def test_propellant_delta_v_plot_shows_means_intervals_and_the_budget(tmp_path):
+    """The plotted case means are cases.csv's in g and mm/s (x 1e3, exact), the budget line
+    sits at the spec's budget in the same unit, and a panel without a budget draws none."""
+    from rcsim.analysis.engine.campaign.budget_plots import plot_propellant_delta_v
+
+    runs = pd.DataFrame(
+        {
+            "case_index": [0, 0, 1],
+            "propellant_kg": [0.006, 0.007, 0.01],
+            "delta_v_N_m_s": [1e-4, 2e-4, 3e-4],
+        }
+    )
+    cases = pd.DataFrame({"case_index": [0, 1], "case": ["rate-01", "rate-02"]})
+    for col, m in (("propellant_kg", [0.0065, 0.01]), ("delta_v_N_m_s", [1.5e-4, 3e-4])):
+        cases[f"{col}_mean"], cases[f"{col}_lo95"], cases[f"{col}_hi95"] = m, m, m
+    fig = plot_propellant_delta_v(
+        runs, cases, tmp_path / "p.png", budgets={"max_delta_v_m_s": 2.5e-4}
+    )
+    prop_ax, dv_ax = fig.axes
+    means = [line for line in dv_ax.get_lines() if line.get_marker() == "o"][0]
+    assert means.get_ydata().tolist() == [1.5e-4 * 1e3, 3e-4 * 1e3]
+    budget = [line for line in dv_ax.get_lines() if line.get_linestyle() == "--"]
+    assert [line.get_ydata()[0] for line in budget] == [2.5e-4 * 1e3]
+    assert not [line for line in prop_ax.get_lines() if line.get_linestyle() == "--"]
+    assert (tmp_path / "p.png").stat().st_size > 0

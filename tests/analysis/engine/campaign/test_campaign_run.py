@@ -207,6 +207,7 @@ def test_replay_reproduces_a_run_alone(tmp_path, capsys):
     assert sorted(p.name for p in (out / "plots").iterdir()) == [
         "case-rate-13.png",
         "case-rate-22.png",
+        "propellant_delta_v.png",
         "summary.png",
     ]
     assert sorted(p.name for p in (out / "histories").iterdir()) == [

@@ -162,7 +162,8 @@ def test_runs_parquet_follows_the_schema(many_chunks):
     flown = runs[list(schema.outcome_names(16))]
     assert list(missing.columns) == list(flown.columns)
     assert [missing[c].dtype.kind for c in missing] == [flown[c].dtype.kind for c in flown]
-    assert missing.drop(columns=["sim_failed", "failed", "reason"]).isna().all().all()
+    assert missing.drop(columns=["sim_failed", "failed", "reason", "failed_by"]).isna().all().all()
+    assert (missing["failed_by"] == "simulation").all()
 
 
 def test_outcome_frame_refuses_columns_outside_the_schema():

@@ -202,3 +202,34 @@ def test_shared_codes_give_the_same_fit():
     pd.testing.assert_frame_equal(a.table(), b.table())
     with pytest.raises(ValueError, match="codes"):
         SingleFactorKDE().fit(X, roll, codes=codes[:, :2])
+
+
+def test_propellant_and_delta_v_are_outcomes_driven_by_their_inputs():
+    """Planted truth (issue 28): propellant_kg grows with input c, delta_v_N_m_s with n1;
+    the budgets in the manifest split them.  Each outcome's top driver must be its input,
+    flagged inside the report's one outcome family; without budgets the outcome is the top
+    decile; the columns are never inputs of a table analysed without named inputs."""
+    df, _, _ = _axes_table()
+    rng = np.random.default_rng(3)
+    df["propellant_kg"] = 0.01 + 0.002 * df["c"] + 0.0004 * rng.normal(size=len(df))
+    df["delta_v_N_m_s"] = 0.003 + 0.001 * df["n1"] + 0.0002 * rng.normal(size=len(df))
+    budgets = {"max_propellant_kg": 0.013, "max_delta_v_m_s": 0.0045}
+    rs = replace(_runset(df), manifest={"thresholds": {**MANIFEST["thresholds"], **budgets}})
+    res = analyze(rs, Settings(n_permutations=199, forest=False, n_splits=2))
+    by = {o.name: o for o in res.outcomes.outcomes}
+    prop, dv = by["propellant > 0.013"], by["delta-v > 0.0045"]
+    np.testing.assert_array_equal(prop.y, df["propellant_kg"].to_numpy() > 0.013)
+    np.testing.assert_array_equal(dv.y, df["delta_v_N_m_s"].to_numpy() > 0.0045)
+    for o, truth in ((prop, "c"), (dv, "n1")):
+        assert o.singles.table()["factor"][0] == truth, o.name
+        j = list(o.singles.feature_names_in_).index(truth)
+        assert o.significant[j] and o.p_family[j] < res.levels["outcomes"]
+    # No budget: the top decile, at or above the 90th percentile of the runs.
+    top = build_outcomes(_runset(df)).outcomes
+    decile = {o.name: o for o in top}["propellant top 10 %"]
+    q = np.quantile(df["propellant_kg"], 0.9)
+    np.testing.assert_array_equal(decile.y, df["propellant_kg"].to_numpy() >= q)
+    # A table analysed with its numeric columns as inputs leaves the outcomes out.
+    plain = load_runs(df.drop(columns=["final_rate_err_pitch_deg_s"]))
+    assert "propellant_kg" not in plain.X.columns and "delta_v_N_m_s" not in plain.X.columns
+    assert "c" in plain.X.columns
