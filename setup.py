@@ -13,12 +13,26 @@ default timers and the numpy forms.  Declared here rather than in pyproject.toml
 setuptools still calls its ``ext-modules`` table experimental and warns on every install.
 """
 
+import hashlib
+from pathlib import Path
+
 from setuptools import Extension, setup
+
+
+def _digest(source: str) -> list[tuple[str, str]]:
+    """The source's SHA-256 as the macro the module exports (``source_sha256``): the loader
+    (rcsim/spacecraft/optional_kernel.py) refuses a module built from another source."""
+    digest = hashlib.sha256(Path(source).read_bytes()).hexdigest()
+    return [("RCSIM_SOURCE_SHA256", f'"{digest}"')]
+
 
 setup(
     ext_modules=[
         Extension(
-            "rcsim.spacecraft._zero_clock", ["rcsim/spacecraft/_zero_clock.c"], optional=True
+            "rcsim.spacecraft._zero_clock",
+            ["rcsim/spacecraft/_zero_clock.c"],
+            optional=True,
+            define_macros=_digest("rcsim/spacecraft/_zero_clock.c"),
         ),
         # Bit for bit the numpy form (rcsim/lookup/step_kernel.py): never fuse a multiply and
         # an add.
@@ -26,6 +40,7 @@ setup(
             "rcsim.lookup._step_kernel",
             ["rcsim/lookup/_step_kernel.c"],
             optional=True,
+            define_macros=_digest("rcsim/lookup/_step_kernel.c"),
             extra_compile_args=["-ffp-contract=off"],
         ),
         # Bit for bit the numpy forms (rcsim/spacecraft/cycle_kernel.py): the same rule.
@@ -33,6 +48,7 @@ setup(
             "rcsim.spacecraft._cycle_kernel",
             ["rcsim/spacecraft/_cycle_kernel.c"],
             optional=True,
+            define_macros=_digest("rcsim/spacecraft/_cycle_kernel.c"),
             extra_compile_args=["-ffp-contract=off"],
         ),
     ]

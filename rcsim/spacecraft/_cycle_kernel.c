@@ -406,4 +406,15 @@ static struct PyModuleDef module = {
     methods,
 };
 
-PyMODINIT_FUNC PyInit__cycle_kernel(void) { return PyModule_Create(&module); }
+PyMODINIT_FUNC PyInit__cycle_kernel(void) {
+    PyObject *m = PyModule_Create(&module);
+#ifdef RCSIM_SOURCE_SHA256
+    /* The digest of the source this module was built from: a module older than its source
+       (an editable install not rebuilt after a pull) is not used (optional_kernel.py). */
+    if (m != NULL && PyModule_AddStringConstant(m, "source_sha256", RCSIM_SOURCE_SHA256) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+#endif
+    return m;
+}

@@ -53,8 +53,8 @@ def test_propellant_exhaustion_is_a_failing_term():
     assert list(run_margin(terms, np.zeros(2, bool))) == [1.0, -1.0]
 
 
-@pytest.mark.parametrize("attitude", [None, 0.5])
-def test_campaign_runs_fail_exactly_when_margin_is_negative(attitude):
+@pytest.mark.parametrize("attitude, propellant", [(None, None), (0.5, None), (None, 0.0064)])
+def test_campaign_runs_fail_exactly_when_margin_is_negative(attitude, propellant):
     """A flown chunk of 40 runs of case 13 (Table 5 x 3, 3 s): thresholds set so that some
     runs fail and some pass (checked, else the identity would hold vacuously); then
     ``failed == ~(margin >= 0)`` for every run, and the margin recomputed from the row's
@@ -62,6 +62,8 @@ def test_campaign_runs_fail_exactly_when_margin_is_negative(attitude):
     failure = {"rate_error_deg_s": 0.05}
     if attitude is not None:
         failure["attitude_error_deg"] = attitude
+    if propellant is not None:  # a [failure] budget (issue 28): its term joins the margin
+        failure["max_propellant_kg"] = propellant
     spec = parse_dict(
         {
             "seed": 3,
@@ -82,4 +84,8 @@ def test_campaign_runs_fail_exactly_when_margin_is_negative(attitude):
     expected = (0.05 - worst) / 0.05
     if attitude is not None:
         expected = np.minimum(expected, (attitude - rows["final_att_err_deg"]) / attitude)
+    if propellant is not None:
+        by_budget = rows["failed_by"].str.contains("max_propellant_kg")
+        assert 0 < by_budget.sum() < len(rows), "the budget must split the runs"
+        expected = np.minimum(expected, (propellant - rows["propellant_kg"]) / propellant)
     np.testing.assert_allclose(margin, expected, rtol=0, atol=1e-9)
