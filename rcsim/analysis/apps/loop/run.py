@@ -23,13 +23,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from rcsim.analysis.apps.loop.files import GENERATE, table_file
+from rcsim.analysis.apps.loop.files import GENERATE, spec_text, table_file
 from rcsim.analysis.apps.loop.rare import check_rare_settings, rare_stage
 from rcsim.analysis.apps.refinement.parameters import (
     check_parameters,
     held_out_seed,
     load_refinable_table,
-    rate_cases_campaign,
     refinement_spec,
     refinement_vehicle,
 )
@@ -196,50 +195,6 @@ class LoopResult:
     report: Path
     stage_s: dict = field(default_factory=dict)
     summary: dict = field(default_factory=dict)
-
-
-def spec_text(
-    *,
-    table: str,
-    runs_per_case: int,
-    seed: int,
-    duration_s: float,
-    plots: bool = True,
-    vehicle: Vehicle | None = None,
-    name_vehicle: bool = False,
-) -> str:
-    """The refinement's rate-case campaign (:func:`rate_cases_campaign`) as a TOML spec, with
-    failure histories and (unless ``plots`` is false) plots kept: a user reads these.
-    ``name_vehicle``: the user named the vehicle (``--vehicle paper`` is written too)."""
-    data = rate_cases_campaign(
-        runs_per_case=runs_per_case,
-        seed=seed,
-        duration_s=duration_s,
-        table=table,
-        histories="failures",
-        plots=plots,
-        vehicle=vehicle,
-        name_vehicle=name_vehicle,
-    )
-    named = vehicle is not None and vehicle.ref != "paper"
-    disp = "the vehicle file's [dispersions]" if named else "Table 5 dispersions"
-    lines = [f"# Written by `rcsim loop`: the 26 Table 3 rate cases, {disp}."]
-    scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
-    lines += [f"{k} = {_toml(v)}" for k, v in scalars.items()]
-    for name, table_ in data.items():
-        if isinstance(table_, dict):
-            lines += ["", f"[{name}]"] + [f"{_key(k)} = {_toml(v)}" for k, v in table_.items()]
-    return "\n".join(lines) + "\n"
-
-
-def _toml(value) -> str:
-    """A TOML scalar: JSON's spelling is TOML's for strings, numbers and booleans."""
-    return json.dumps(value)
-
-
-def _key(name: str) -> str:
-    """A TOML key: dotted keys (``phase_plane.rate_deadband_deg_s``) as written."""
-    return name
 
 
 class _State:
