@@ -21,12 +21,13 @@ import pandas as pd
 from rcsim.analysis.apps.refinement.propellant import mean_interval, rule_text
 from rcsim.analysis.results.report.html import Section, figure_block, table_block, text_block
 
-#: Optional per-run outcomes shown when both campaigns recorded them: column -> (label, unit).
+#: Optional per-run outcomes shown when both campaigns recorded them: column -> (label, unit
+#: shown, its factor from the stored SI value; attitude-control delta-v reads in mm/s).
 OPTIONAL = {
-    "delta_v_N_m_s": ("net delta-v, inertial", "m/s"),
-    "delta_v_B_m_s": ("net delta-v, body", "m/s"),
-    "pulses": ("pulses", "per run"),
-    "min_pulses": ("minimum pulses", "per run"),
+    "delta_v_N_m_s": ("net delta-v, inertial", "mm/s", 1e3),
+    "delta_v_B_m_s": ("net delta-v, body", "mm/s", 1e3),
+    "pulses": ("pulses", "per run", 1.0),
+    "min_pulses": ("minimum pulses", "per run", 1.0),
 }
 
 #: The propellant column of the runs table [kg per run].
@@ -189,14 +190,14 @@ def propellant_blocks(
         )
     )
     have = recorded(before, after)
-    for col, (label, unit) in OPTIONAL.items():
+    for col, (label, unit, scale) in OPTIONAL.items():
         if not have[col]:
             blocks.append(text_block(f"{label.capitalize()} ({col}): {NOT_RECORDED}."))
             continue
         m = case_means(before, after, col)
         blocks.append(
             table_block(
-                _table(m, 1.0, unit),
+                _table(m, scale, unit),
                 f"{label.capitalize()} ({col}) per run before and after on the held-out seed "
                 "(Student-t 95 % interval)",
                 max_rows=30,
