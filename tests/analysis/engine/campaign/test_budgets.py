@@ -71,8 +71,11 @@ def test_runs_over_a_budget_fail_by_it_and_nothing_else_changes(flown):
     assert [("rate" in b) for b in by] == rate_failed
     for i in np.flatnonzero(over_kg):
         assert f"> {kg:.4g} kg" in held["reason"].iloc[i]
-    same = [c for c in free.columns if c not in ("failed", "reason", "failed_by")]
+    # The margin gains one term per budget (issue 30's run_margin): it changes too, and stays
+    # below 0 exactly for the failed runs.
+    same = [c for c in free.columns if c not in ("failed", "reason", "failed_by", "margin")]
     pd.testing.assert_frame_equal(held[same], free[same], check_exact=True)
+    assert (held["failed"] == ~(held["margin"] >= 0)).all()
     # failed_by is empty exactly for runs that did not fail.
     assert ((held["failed_by"] == "") == ~held["failed"]).all()
 
