@@ -111,11 +111,10 @@ def outcomes(res) -> Section:
                 "outcome by the same shuffles; pairs are not repeated per outcome). An outcome's "
                 "driver is flagged family-wise over every outcome and input together (max-T), at "
                 f"p < {100 * res.levels.get('outcomes', res.settings.alpha):.3g} %, this family's "
-                "share of the report's budget. Per axis: the run ends with "
-                f"|rate error| >= {o.threshold:g} deg/s on that axis (the campaign's threshold). "
-                f"'failed at {o.second_threshold:g}': the campaign's criterion with "
-                f"{o.second_threshold:g} deg/s instead of {o.threshold:g} deg/s. 'rank on the "
-                "pooled outcome': a large one marks a driver the pooled analysis hides."
+                "share of the report's budget. "
+                + _threshold_words(o)
+                + "'rank on the pooled outcome': a large one marks a driver the pooled "
+                "analysis hides."
             )
         )
         if o.axis_breakdown:
@@ -172,3 +171,20 @@ def _top(t: pd.DataFrame, k: int) -> pd.DataFrame:
                 }
             )
     return pd.DataFrame(rows).astype(object).fillna("")
+
+
+def _threshold_words(o) -> str:
+    """The per-axis and second-threshold outcomes in words, when the table has a rate
+    threshold (a table without one gets only the propellant and delta-v outcomes)."""
+    if o.threshold is None:
+        return ""
+    words = (
+        f"Per axis: the run ends with |rate error| >= {o.threshold:g} deg/s on that axis (the "
+        "campaign's threshold). "
+    )
+    if o.second_threshold is not None:
+        words += (
+            f"'failed at {o.second_threshold:g}': the campaign's criterion with "
+            f"{o.second_threshold:g} deg/s instead of {o.threshold:g} deg/s. "
+        )
+    return words
