@@ -3,6 +3,8 @@ batches of points, down to failure probabilities plain Monte Carlo cannot afford
 
 * :mod:`~rcsim.analysis.engine.rare.subset` -- subset simulation (Au & Beck, 2001) with batched
   Markov chains (Papaioannou et al., 2015), resumable level by level;
+* :mod:`~rcsim.analysis.engine.rare.repeats` -- ``K`` independent subset simulations combined:
+  the mean, with a CoV and an interval measured from their spread (what the command reports);
 * :mod:`~rcsim.analysis.engine.rare.importance` -- cross-entropy importance sampling, the
   comparison ``benchmarks/rare_event.py`` measures (``docs/rare_events.md``);
 * :mod:`~rcsim.analysis.engine.rare.intervals` -- the coefficient of variation with the chains'
@@ -21,7 +23,15 @@ Must not import: rcsim.analysis.engine.campaign, rcsim.analysis.engine.flight,
 rcsim.analysis.engine.scenarios, rcsim.spacecraft, rcsim.lookup.
 """
 
+from rcsim.analysis.engine.rare.repeats import combine_repeats, repeated_subset_simulation
 from rcsim.analysis.engine.rare.result import FailurePoint, RareEventResult
 from rcsim.analysis.engine.rare.subset import SubsetConfig, subset_simulation
 
-__all__ = ["FailurePoint", "RareEventResult", "SubsetConfig", "subset_simulation"]
+__all__ = [
+    "FailurePoint",
+    "RareEventResult",
+    "SubsetConfig",
+    "combine_repeats",
+    "repeated_subset_simulation",
+    "subset_simulation",
+]

@@ -77,10 +77,11 @@ class RareEventResult:
     probability : float or None
         The estimate of ``P(g(u) < 0)``; None when ``not_resolved``.
     cov : float or None
-        Its coefficient of variation: for subset simulation Au & Beck's bound with the levels
-        fully correlated, ``sum_j delta_j`` (:mod:`.intervals`: the formula whose intervals
-        were measured to cover; ``docs/rare_events.md``); plain Monte Carlo's binomial one at
-        level 0.
+        Its coefficient of variation: for one subset simulation Au & Beck's bound with the
+        levels fully correlated, ``sum_j delta_j`` (:mod:`.intervals`: the formula whose
+        intervals were measured to cover; ``docs/rare_events.md``); for independent repeats
+        the measured one, ``s / (sqrt(K) mean)`` (:mod:`.repeats`); plain Monte Carlo's
+        binomial one at level 0.
     interval : (float, float) or None
         Two-sided interval at ``confidence``.
     upper_bound : float or None
@@ -101,6 +102,10 @@ class RareEventResult:
     cov_uncorrelated : float or None
         Au & Beck's usual CoV with the levels taken as uncorrelated, ``sqrt(sum_j delta_j^2)``,
         for reference: its intervals were measured to cover less than their nominal level.
+    extra : dict
+        Estimator-specific figures.
+    repeats : tuple of RareEventResult
+        The independent estimations this result combines (:mod:`.repeats`); empty for one.
     """
 
     method: str
@@ -120,6 +125,7 @@ class RareEventResult:
     reason: str = ""
     cov_uncorrelated: float | None = None
     extra: dict = field(default_factory=dict)
+    repeats: tuple[RareEventResult, ...] = ()
 
     def __post_init__(self):
         if self.status not in STATUSES:
