@@ -169,7 +169,13 @@ def _run(args) -> int:
         )
     else:
         print(f"{n} runs, {nf} failed; {len(runset.X.columns)} inputs analysed")
-    print(f"failure probability {_probability(res)}")
+    if runset.conditional:
+        print(
+            f"failure fraction of these runs {_probability(res)} -- not the cases' P(fail): "
+            "conditional samples of a rare-event estimation (note below)"
+        )
+    else:
+        print(f"failure probability {_probability(res)}")
     for note in res.runset.notes:  # the analysis may add one (a subsample)
         print(f"note: {note}")
     if res.has_failures and res.drivers is not None:

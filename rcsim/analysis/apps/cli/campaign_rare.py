@@ -18,14 +18,16 @@ from rcsim.models.errors import InputError
 
 def register(csub) -> None:
     """Add ``rare`` to ``rcsim campaign``'s actions."""
-    from rcsim.analysis.apps.rare.estimate import METHODS
+    from rcsim.analysis.apps.rare.estimate import METHODS, REPEATS
 
     rare = csub.add_parser(
         "rare",
         help="estimate P(fail) of rare failures per case (subset simulation), resumable",
         description="Estimate each case's failure probability on the spec's vehicle when it is "
         "too small for plain Monte Carlo: subset simulation flies level after level of runs "
-        "into the region where the failure margin (runs.parquet's margin column) is smallest. "
+        "into the region where the failure margin (runs.parquet's margin column) is smallest, "
+        "K times independently (--repeats), side by side on worker processes; the estimate is "
+        "the mean of the K, its CoV and interval measured from their spread. "
         "Prints per case the estimate with its CoV and 95%% interval (or, when no failure is "
         "found within the budget, an upper bound), the runs spent and the closest failure in "
         "sigmas; writes DIR/rare.json, DIR/runs.parquet (every run flown; conditional samples, "
@@ -51,19 +53,37 @@ def register(csub) -> None:
         "docs/rare_events.md)",
     )
     rare.add_argument(
+        "--repeats",
+        type=int,
+        default=REPEATS,
+        metavar="K",
+        help=f"independent subset simulations per case (default {REPEATS}); the estimate is "
+        "their mean, its CoV and interval measured from their spread; 1: one estimation "
+        "with Au & Beck's conservative CoV (levels fully correlated)",
+    )
+    rare.add_argument(
         "--runs-per-level",
         type=int,
-        default=1000,
+        default=500,
         metavar="N",
-        help="runs per level (a multiple of 10; default 1000; level 0 is the campaign's "
-        "first N runs of the case when N <= runs_per_case)",
+        help="runs per level of each repeat (a multiple of 10; default 500); level 0 of the "
+        "repeats is the campaign's first K*N runs of the case when K*N <= runs_per_case",
     )
     rare.add_argument(
         "--budget",
         type=int,
         default=20_000,
         metavar="RUNS",
-        help="most runs per case (default 20000); a level is started only if it fits",
+        help="most runs per case, all repeats together (default 20000; each repeat gets "
+        "RUNS/K); a level is started only if it fits",
+    )
+    rare.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="W",
+        help="worker processes flying repeats side by side (default: one per CPU, at most "
+        "K); the result does not depend on it",
     )
     rare.add_argument(
         "--resume", action="store_true", help="continue an interrupted estimation in DIR"
@@ -81,8 +101,8 @@ def _resume_hint(args) -> str:
     extra = f" --cases {shlex.quote(args.cases)}" if args.cases else ""
     return (
         f"rcsim campaign rare {shlex.quote(args.spec)} --out {shlex.quote(args.out)}{extra} "
-        f"--method {args.method} --runs-per-level {args.runs_per_level} "
-        f"--budget {args.budget} --resume"
+        f"--method {args.method} --repeats {args.repeats} --runs-per-level "
+        f"{args.runs_per_level} --budget {args.budget} --resume"
     )
 
 
@@ -113,11 +133,21 @@ def settings_of(args):
             f"--runs-per-level must be a multiple of 10 (p0 = 0.1: N/10 chains of 10 states), "
             f"at least 10, got {n}"
         )
-    if args.budget < n:
+    k = args.repeats
+    if k < 1:
+        raise InputError(f"--repeats must be at least 1, got {k}", parameter="repeats", value=k)
+    if args.budget < k * n:
         raise InputError(
-            f"--budget must allow level 0 (--runs-per-level {n} runs), got {args.budget}"
+            f"--budget must allow level 0 of every repeat (--repeats {k} x --runs-per-level "
+            f"{n} = {k * n} runs), got {args.budget}"
         )
-    return RareSettings(method=args.method, n_per_level=n, budget=args.budget)
+    if args.workers is not None and args.workers < 1:
+        raise InputError(
+            f"--workers must be at least 1, got {args.workers}",
+            parameter="workers",
+            value=args.workers,
+        )
+    return RareSettings(method=args.method, n_per_level=n, budget=args.budget, repeats=k)
 
 
 def _rare(args) -> int:
@@ -154,9 +184,12 @@ def _rare(args) -> int:
         if progress:
             print(line, file=sys.stderr, flush=True)
 
+    import os
+
     from rcsim.analysis.apps.rare.words import case_sentence
 
-    records = estimate_cases(spec, cases, settings, out, progress=echo)
+    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
+    records = estimate_cases(spec, cases, settings, out, progress=echo, workers=workers)
     for name, rec in records.items():
         print(case_sentence(name, rec))
     print(

@@ -3,8 +3,10 @@ Monte Carlo cannot afford (issue 30; ``docs/rare_events.md``).
 
 * :mod:`~rcsim.analysis.apps.rare.flights` -- the limit state of one case: the runs of points
   ``u`` of the standard-normal space flown as campaign runs, their runs-table rows and margins;
-* :mod:`~rcsim.analysis.apps.rare.estimate` -- one estimation per case, resumable level by level,
-  its rows, state and summary in an output directory (``rcsim campaign rare``);
+* :mod:`~rcsim.analysis.apps.rare.estimate` -- one estimation per case (``K`` independent
+  repeats, combined), resumable level by level, its rows, states and summary in an output
+  directory (``rcsim campaign rare``);
+* :mod:`~rcsim.analysis.apps.rare.parallel` -- the repeats side by side on worker processes;
 * :mod:`~rcsim.analysis.apps.rare.words` -- what a reader is told: the estimate, its interval,
   the runs spent and the closest failure in sigmas, in words.
 

@@ -12,11 +12,14 @@ redraws the nuisance from its law is a Metropolis move on the joint space) and e
 ``P(fail)`` averaged over it, what plain Monte Carlo estimates.  Jet faults are not continuous
 and are refused (:func:`check_continuous`).
 
-Run identities: evaluation ``e < N`` (level 0) of case ``c`` is campaign run ``c R + e``
-(``R`` the spec's runs per case, when ``N <= R``): level 0 *is* the campaign's first ``N`` runs
-of that case, the same vehicles and noise.  Every later evaluation is run
-``c 2^32 + 2^31 + e``, outside any campaign's range, its case still ``run_id // 2^32``; its
-vehicle is recorded in its row and its ``u`` in the estimation's points file, so it replays.
+Run identities.  A case is estimated by ``K`` independent repeats of ``N`` runs per level
+(:mod:`rcsim.analysis.engine.rare.repeats`); evaluation ``e`` of repeat ``k`` has the global
+evaluation id ``E = k 2^27 + e``.  Level 0 (``e < N``) of repeat ``k`` is campaign run
+``c R + k N + e`` of case ``c`` (``R`` the spec's runs per case, when ``K N <= R``): level 0 of
+the repeats *is* the campaign's first ``K N`` runs of that case, the same vehicles and noise.
+Every later evaluation is run ``c 2^32 + 2^31 + E``, outside any campaign's range, its case
+still ``run_id // 2^32`` (as level 0's, ``c 2^32 + k N + e``, when ``K N > R``); its vehicle is
+recorded in its row and its ``u`` in the estimation's points file, so it replays.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from rcsim.analysis.engine.rare.repeats import ID_STRIDE
 from rcsim.models.errors import InputError
 from rcsim.spacecraft import standard_space
 
@@ -52,16 +56,24 @@ def check_continuous(spec: CampaignSpec, where: str) -> None:
         )
 
 
-def run_ids_of(spec: CampaignSpec, case_index: int, eval_ids: np.ndarray, n0: int) -> np.ndarray:
-    """Run ids of evaluations ``eval_ids`` of case ``case_index`` (module docstring); ``n0``
-    the level-0 size."""
-    e = np.asarray(eval_ids, np.int64)
-    if n0 <= spec.runs_per_case:
-        first = np.int64(case_index) * spec.runs_per_case + e
+def run_ids_of(
+    spec: CampaignSpec, case_index: int, eval_ids: np.ndarray, n0: int, repeats: int = 1
+) -> np.ndarray:
+    """Run ids of global evaluation ids ``eval_ids`` of case ``case_index`` (module docstring);
+    ``n0`` the level-0 size of each of the ``repeats``."""
+    big = np.asarray(eval_ids, np.int64)
+    k, e = big // ID_STRIDE, big % ID_STRIDE
+    if in_campaign(spec, n0, repeats):
+        first = np.int64(case_index) * spec.runs_per_case + k * n0 + e
     else:
-        first = np.int64(case_index) * CHAIN_STRIDE + e
-    chain = np.int64(case_index) * CHAIN_STRIDE + CHAIN_OFFSET + e
+        first = np.int64(case_index) * CHAIN_STRIDE + k * n0 + e
+    chain = np.int64(case_index) * CHAIN_STRIDE + CHAIN_OFFSET + big
     return np.where(e < n0, first, chain)
+
+
+def in_campaign(spec: CampaignSpec, n0: int, repeats: int) -> bool:
+    """Whether level 0 of the ``repeats`` is the campaign's first ``repeats n0`` runs."""
+    return repeats * n0 <= spec.runs_per_case
 
 
 class CaseLimitState:
@@ -72,12 +84,24 @@ class CaseLimitState:
     spec : CampaignSpec
     case_index : int
     n0 : int
-        Level-0 size (evaluations below it are the campaign's runs, module docstring).
+        Level-0 size of each repeat (module docstring).
+    repeats : int
+        ``K``, the independent repeats the case is estimated by (their ids, module docstring).
     on_rows : callable, optional
         Called with each batch's runs-table rows (a DataFrame) as soon as they are flown.
+    nthread : int
+        MuJoCo threads of a batch (0: MuJoCo's choice; 1 in a worker process of a pool).
     """
 
-    def __init__(self, spec: CampaignSpec, case_index: int, n0: int, on_rows=None):
+    def __init__(
+        self,
+        spec: CampaignSpec,
+        case_index: int,
+        n0: int,
+        on_rows=None,
+        repeats: int = 1,
+        nthread: int = 0,
+    ):
         from rcsim.analysis.engine.campaign.effects import adapt_options
         from rcsim.lookup.registry import make_controller
 
@@ -86,6 +110,8 @@ class CaseLimitState:
         self.case_index = int(case_index)
         self.case = spec.cases[self.case_index]
         self.n0 = int(n0)
+        self.repeats = int(repeats)
+        self.nthread = int(nthread)
         self.nominal = spec.vehicle.nominal(1)
         options = (
             {"adapt_options": adapt_options(spec.effects)} if spec.controller == "adaptive" else {}
@@ -107,9 +133,15 @@ class CaseLimitState:
         """Names of the coordinates, for the closest failure in words."""
         return standard_space.standard_names(self.nominal.n_jets, self.spec.sigmas.has_mass_extras)
 
-    def level_zero(self) -> np.ndarray:
-        """(n0, dim) level 0's points: the campaign runs' own draws."""
-        ids = run_ids_of(self.spec, self.case_index, np.arange(self.n0), self.n0)
+    def level_zero(self, repeat: int = 0) -> np.ndarray:
+        """(n0, dim) level 0's points of repeat ``repeat``: the campaign runs' own draws."""
+        ids = run_ids_of(
+            self.spec,
+            self.case_index,
+            repeat * ID_STRIDE + np.arange(self.n0),
+            self.n0,
+            self.repeats,
+        )
         return standard_space.run_standard_normals(
             self.spec.seed, ids, self.nominal.n_jets, self.spec.sigmas.has_mass_extras
         )
@@ -130,7 +162,7 @@ class CaseLimitState:
         from rcsim.analysis.engine.flight import fly_batch
 
         spec = self.spec
-        run_ids = run_ids_of(spec, self.case_index, eval_ids, self.n0)
+        run_ids = run_ids_of(spec, self.case_index, eval_ids, self.n0, self.repeats)
         dispersed = standard_space.vehicles_from_standard(self.nominal, spec.sigmas, u, run_ids)
         effects = draw_effects(spec.effects, spec.seed, run_ids, spec.n_jets)[0]
         history = fly_batch(
@@ -138,10 +170,12 @@ class CaseLimitState:
             dispersed.params,
             self.controller,
             vehicle=spec.vehicle,
+            nthread=self.nthread,
             **effects,
         )
-        in_campaign = self.n0 <= spec.runs_per_case and bool(np.all(eval_ids < self.n0))
-        rows = tabulate(spec if in_campaign else self._chain_spec, history, dispersed)
+        level_zero = bool(np.all(np.asarray(eval_ids) % ID_STRIDE < self.n0))
+        campaign_rows = level_zero and in_campaign(spec, self.n0, self.repeats)
+        rows = tabulate(spec if campaign_rows else self._chain_spec, history, dispersed)
         rows["rare_eval_id"] = np.asarray(eval_ids, np.int64)
         return rows
 

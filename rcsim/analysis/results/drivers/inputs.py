@@ -58,6 +58,17 @@ def is_constant(values: pd.Series) -> bool:
     return bool(v.max() - v.min() <= ROUNDING_SPREAD * np.abs(v).max())
 
 
+#: The column only a rare-event estimation's runs table has (``rcsim campaign rare``).
+RARE_COLUMN = "rare_eval_id"
+#: What a reader of such a table is told first.
+RARE_NOTE = (
+    "these runs are the conditional samples of a rare-event estimation (rcsim campaign rare: "
+    "Markov chains inside ever rarer regions of the inputs), not a Monte Carlo sample: the "
+    "drivers describe the failures found, but the failure fractions and probabilities below "
+    "are those of the runs flown, not the cases' P(fail), which is in rare.json beside the table"
+)
+
+
 @dataclass
 class RunSet:
     """Runs ready for the driver analysis.
@@ -99,6 +110,13 @@ class RunSet:
     notes: list = field(default_factory=list)
     total_runs: int | None = None
     total_failed: int | None = None
+
+    @property
+    def conditional(self) -> bool:
+        """The runs are a rare-event estimation's conditional samples (``rcsim campaign
+        rare``'s ``runs.parquet``, recognised by its :data:`RARE_COLUMN`): their failure
+        fraction is not a failure probability."""
+        return RARE_COLUMN in self.runs.columns
 
     @property
     def subsampled(self) -> bool:
@@ -166,7 +184,7 @@ def load_runs(
     check_memory(where, reader.n_rows, len(reader.columns), yes=yes)
     runs, y, whole = _read_runs(reader, outcome, case, seed)
 
-    notes: list[str] = []
+    notes: list[str] = [RARE_NOTE] if RARE_COLUMN in runs.columns else []
     jets = runs_table.recorded_jets(runs.columns)
     raw_cols = list(runs_table.input_names(jets))
     has_raw = jets > 0 and all(c in runs.columns for c in raw_cols)

@@ -48,9 +48,22 @@ def _spec(tmp_path: Path, thr: float) -> Path:
     return path
 
 
-def _rare(spec: Path, out: Path, *extra: str) -> int:
+def _rare(spec: Path, out: Path, *extra: str, repeats: str = "1") -> int:
     return main(
-        ["campaign", "rare", str(spec), "--out", str(out), "--runs-per-level", "100", *extra]
+        [
+            "campaign",
+            "rare",
+            str(spec),
+            "--out",
+            str(out),
+            "--runs-per-level",
+            "100",
+            "--repeats",
+            repeats,
+            "--workers",
+            "1",
+            *extra,
+        ]
     )
 
 
@@ -77,12 +90,20 @@ def test_common_failures_give_plain_counting_of_the_campaigns_runs(tmp_path, cap
     assert len(failures) == k and failures["failed"].all()
 
 
-def test_rarer_failures_go_through_levels(tmp_path):
+@pytest.fixture(scope="module")
+def rarer(tmp_path_factory) -> Path:
+    """One estimation at 0.05 deg/s (about 5 % fail), one repeat, budget 1000: its DIR."""
+    tmp = tmp_path_factory.mktemp("rarer")
+    out = tmp / "out"
+    assert _rare(_spec(tmp, 0.05), out, "--budget", "1000") == 0
+    return out
+
+
+def test_rarer_failures_go_through_levels(rarer):
     """At 0.05 deg/s about 5 % fail: level 0 finds fewer than 10, a second level is flown
     (chain runs outside the campaign's range of ids), the estimate converges with an interval
     holding it, and every row still satisfies failed == ~(margin >= 0)."""
-    out = tmp_path / "out"
-    assert _rare(_spec(tmp_path, 0.05), out, "--budget", "1000") == 0
+    out = rarer
     record = json.loads((out / "rare.json").read_text())["cases"]["rate-13"]
     runs = pd.read_parquet(out / "runs.parquet")
     assert record["status"] == "converged" and record["levels"] >= 2
@@ -102,7 +123,7 @@ def test_killed_estimation_resumes_at_its_last_level(tmp_path, monkeypatch):
     """Killed after level 0, the estimation resumes from the state file: the same record as an
     uninterrupted run's, and level 0's 100 runs are not flown again."""
     spec = load_spec(_spec(tmp_path, 0.05))
-    settings = RareSettings(n_per_level=100, budget=1000)
+    settings = RareSettings(n_per_level=100, budget=1000, repeats=1)
     whole = estimate_cases(spec, [0], settings, tmp_path / "whole")
 
     def die(line: str) -> None:
@@ -144,3 +165,60 @@ def test_always_failing_case_is_a_stated_result(tmp_path, capsys):
     record = json.loads((out / "rare.json").read_text())["cases"]["rate-13"]
     assert record["status"] == "monte_carlo" and record["probability"] == 1.0
     assert "every one of the first 100 runs failed" in capsys.readouterr().out
+
+
+def test_repeats_are_the_campaigns_runs_then_combined_the_same_on_any_worker_count(tmp_path):
+    """Two repeats of 100 at 0.05 deg/s (about 5 % fail): level 0 of repeat k is the
+    campaign's runs 100 k .. 100 k + 99 of the case (K N = 200 <= runs_per_case), row for row;
+    the record's probability is the mean of the repeats' and its CoV their spread,
+    s / (sqrt(2) mean) (rcsim.analysis.engine.rare.repeats); flown on two worker processes the
+    record and every row are the same, bit for bit, as in this process."""
+    spec_path = _spec(tmp_path, 0.05)
+    spec = load_spec(spec_path)
+    settings = RareSettings(n_per_level=100, budget=560, repeats=2)  # levels 0-2 of each
+    one = estimate_cases(spec, [0], settings, tmp_path / "one", workers=1)["rate-13"]
+    two = estimate_cases(spec, [0], settings, tmp_path / "two", workers=2)["rate-13"]
+    assert one == two
+    runs = pd.read_parquet(tmp_path / "one" / rare_estimate.RUNS)
+    pd.testing.assert_frame_equal(runs, pd.read_parquet(tmp_path / "two" / rare_estimate.RUNS))
+    parts = [r["probability"] for r in one["repeats"]]
+    assert one["method"] == "subset simulation, 2 independent repeats"
+    assert one["probability"] == pytest.approx(np.mean(parts), rel=1e-12)
+    assert one["cov"] == pytest.approx(np.std(parts, ddof=1) / (np.sqrt(2) * np.mean(parts)))
+    assert one["runs"] == sum(r["runs"] for r in one["repeats"]) == len(runs)
+    campaign = simulate_chunk(spec, Chunk(0, 200)).runs
+    level0 = runs[runs["rare_level"] == 0].sort_values("run_id").reset_index(drop=True)
+    assert list(level0["rare_repeat"]) == [0] * 100 + [1] * 100
+    pd.testing.assert_frame_equal(level0[campaign.columns], campaign)
+    np.testing.assert_array_equal(runs["failed"], ~(runs["margin"] >= 0))
+    assert runs["rare_eval_id"].is_unique and runs["run_id"].is_unique
+
+
+def test_analyze_says_a_rare_runs_table_is_not_a_monte_carlo_sample(rarer, tmp_path, capsys):
+    """`rcsim analyze` on the command's runs.parquet: its first note and its probability line
+    say the fraction failed is that of conditional samples, not the case's P(fail)."""
+    from rcsim.analysis.results.drivers.inputs import RARE_NOTE, load_runs
+
+    out = rarer
+    runset = load_runs(out / rare_estimate.RUNS, vehicle="paper")
+    assert runset.conditional and runset.notes[0] == RARE_NOTE
+    capsys.readouterr()
+    argv = ["analyze", str(out / rare_estimate.RUNS), "--vehicle", "paper", "--inputs"]
+    # Two inputs and 19 permutations: what is tested is what the command says, not the drivers.
+    assert (
+        main(
+            [
+                *argv,
+                "iyy_kg_m2,jet_11_thrust_n",
+                "--permutations",
+                "19",
+                "--out",
+                str(tmp_path / "a"),
+            ]
+        )
+        == 0
+    )
+    printed = capsys.readouterr().out
+    assert "failure fraction of these runs" in printed and "not the cases' P(fail)" in printed
+    assert f"note: {RARE_NOTE}" in printed
+    assert "\nfailure probability" not in "\n" + printed
