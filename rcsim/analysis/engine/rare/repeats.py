@@ -162,7 +162,9 @@ def combine_repeats(
         repeats=tuple(results),
     )
     if all(s == "not_resolved" for s in statuses):
-        bound = max(float(r.upper_bound) for r in results if r.upper_bound is not None)
+        # The reason is the largest bound's own (how that bound is made), not repeat 0's.
+        worst = max(range(k), key=lambda i: float(results[i].upper_bound or 0.0))
+        bound = float(results[worst].upper_bound or 1.0)
         return RareEventResult(
             status="not_resolved",
             probability=None,
@@ -171,8 +173,8 @@ def combine_repeats(
             upper_bound=bound,
             reason=(
                 f"no failure in any of {k} independent repeats ({n_eval:,} evaluations); the "
-                f"largest of their {k} one-sided bounds (each valid alone): "
-                + "; ".join(r.reason for r in results[:1])
+                f"largest of their {k} one-sided bounds (each valid alone), repeat {worst}'s: "
+                + results[worst].reason
             ),
             **fields,
         )
@@ -264,7 +266,17 @@ def repeated_subset_simulation(
     """
     if repeats < 1:
         raise ValueError(f"repeats must be >= 1, got {repeats}")
-    per = replace(config, max_evaluations=split_budget(config.max_evaluations, repeats))
+    if u0 is not None and len(u0) != repeats:
+        raise ValueError(
+            f"u0 must hold one array of level-0 points per repeat ({repeats}), got {len(u0)}"
+        )
+    share = split_budget(config.max_evaluations, repeats)
+    if share is not None and share < config.n_per_level:
+        raise ValueError(
+            f"max_evaluations ({config.max_evaluations}) must allow level 0 of each of the "
+            f"{repeats} repeats ({repeats} x {config.n_per_level} evaluations)"
+        )
+    per = replace(config, max_evaluations=share)
     results = []
     for k in range(repeats):
 
