@@ -11,7 +11,17 @@ P = 1e-3, 1e-5, 1e-6; two opposite failure regions; a curved boundary) and each 
   of that coverage, and ``cover AB`` for intervals on the uncorrelated CoV;
 * ``evals`` -- mean evaluations of g, and ``MC evals`` -- what plain Monte Carlo needs for the
   same (empirical) CoV, ``(1 - P) / (P CoV^2)``, with the ratio;
-* ``|u*|`` -- the mean norm of the closest failure sample, beside ``beta``.
+* ``|u*|`` -- the mean norm of the closest failure sample, beside ``beta``;
+
+and after the table, each row's median interval width (upper over lower end: what a reader's
+interval spans) and, for the repeated rows, the coverage of a plain Student's ``t`` interval on
+the K raw estimates (the alternative to Cox's, ``rcsim.analysis.engine.rare.repeats``).
+
+With ``--repeats K`` (K >= 2), each ``subset`` row is followed by one of the repeated estimator
+(``repeated_subset_simulation``: K independent subset simulations of N per level each,
+combined; repetition ``r`` is seeded ``r``, its repeat 0 is the plain row's estimation) with
+the same columns: ``rep CoV`` is then the CoV measured from the K estimates' spread, ``cover``
+counts Cox's log-normal intervals, and ``AB CoV`` / ``cover AB`` do not apply.
 
 With ``--oracle``, OpenTURNS' ``SubsetSampling`` (if importable; it is not an rcsim
 dependency: ``docs/rare_events.md``) runs the same limit states with the same level size, as a
@@ -19,7 +29,7 @@ check of the estimates and the evaluation counts.  Its seed is global
 (``ot.RandomGenerator.SetSeed``).
 
 Usage: ``python benchmarks/rare_event.py [--repeat R] [--methods subset,ce] [--oracle]
-[--n-per-level N] [--json FILE]``; docs/rare_events.md records the printed table.
+[--n-per-level N] [--repeats K] [--json FILE]``; docs/rare_events.md records the printed table.
 """
 
 from __future__ import annotations
@@ -33,8 +43,14 @@ import sys
 import time
 
 import numpy as np
+from scipy import stats
 
-from rcsim.analysis.engine.rare import SubsetConfig, limit_states, subset_simulation
+from rcsim.analysis.engine.rare import (
+    SubsetConfig,
+    limit_states,
+    repeated_subset_simulation,
+    subset_simulation,
+)
 from rcsim.analysis.engine.rare.importance import cross_entropy_is
 from rcsim.analysis.engine.rare.intervals import (
     clopper_pearson,
@@ -53,13 +69,18 @@ def cases() -> list:
 def run_method(method: str, limit, seed: int, n: int):
     if method == "subset":
         return subset_simulation(limit, limit.dim, SubsetConfig(n_per_level=n), seed=seed)
+    if method.startswith("subset x"):  # "subset xK": K independent repeats, combined
+        k = int(method.removeprefix("subset x"))
+        return repeated_subset_simulation(
+            limit, limit.dim, SubsetConfig(n_per_level=n), k, seed=seed
+        )
     return cross_entropy_is(limit, limit.dim, seed=seed, n_per_step=n, n_final=2 * n)
 
 
 def measure(method: str, limit, repeat: int, n: int) -> dict:
     start = time.perf_counter()
-    est, rep_cov, ab_cov, evals, norms = [], [], [], [], []
-    covered = covered_ab = unresolved = 0
+    est, rep_cov, ab_cov, evals, norms, widths = [], [], [], [], [], []
+    covered = covered_ab = covered_t = unresolved = 0
     for seed in range(repeat):
         res = run_method(method, limit, seed, n)
         evals.append(res.n_evaluations)
@@ -70,6 +91,12 @@ def measure(method: str, limit, repeat: int, n: int) -> dict:
         rep_cov.append(res.cov)
         lo, hi = res.interval
         covered += lo <= limit.probability <= hi
+        widths.append(hi / lo if lo > 0 else math.inf)
+        if res.repeats:  # the plain Student's t interval on the K raw estimates, for reference
+            parts = np.array([p.probability or 0.0 for p in res.repeats])
+            k = parts.size
+            half = float(stats.t.ppf(0.975, k - 1)) * parts.std(ddof=1) / math.sqrt(k)
+            covered_t += abs(parts.mean() - limit.probability) <= half
         if res.cov_uncorrelated is not None:
             ab_cov.append(res.cov_uncorrelated)
             lo, hi = lognormal_interval(res.probability, res.cov_uncorrelated)
@@ -97,6 +124,8 @@ def measure(method: str, limit, repeat: int, n: int) -> dict:
         "evals": float(np.mean(evals)),
         "mc_evals": mc,
         "closest_norm": float(np.mean(norms)) if norms else math.nan,
+        "interval_ratio": float(np.median(widths)) if widths else math.nan,
+        "covered_raw_t": covered_t if method.startswith("subset x") else None,
         "seconds": time.perf_counter() - start,
     }
 
@@ -150,12 +179,13 @@ def oracle(limit, repeat: int, n: int) -> dict | None:
 def _fmt(row: dict) -> str:
     lo, hi = row["coverage_interval"]
     ab = "" if row["covered_ab"] is None else f"{row['covered_ab']}"
+    ab_cov = "" if math.isnan(row["ab_cov"]) else f"{row['ab_cov']:.3f}"
     unresolved = f" ({row['unresolved']} unresolved)" if row["unresolved"] else ""
     ratio = row["mc_evals"] / row["evals"] if row["evals"] else math.nan
     return (
         f"| {row['method']} | {row['limit_state']} | {row['truth']:.3g} | "
         f"{row['mean_ratio']:.3f}{unresolved} | {row['emp_cov']:.3f} | {row['reported_cov']:.3f} | "
-        f"{row['ab_cov']:.3f} | {row['covered']}/{row['repeat']} ({lo:.2f}-{hi:.2f}) | {ab} | "
+        f"{ab_cov} | {row['covered']}/{row['repeat']} ({lo:.2f}-{hi:.2f}) | {ab} | "
         f"{row['evals']:,.0f} | {row['mc_evals']:,.3g} ({ratio:,.0f}x) | "
         f"{row['closest_norm']:.2f} / {row['beta']:.2f} |"
     )
@@ -173,9 +203,17 @@ def main(argv=None) -> int:
     parser.add_argument("--repeat", type=int, default=100)
     parser.add_argument("--n-per-level", type=int, default=1000)
     parser.add_argument("--methods", default="subset,ce")
+    parser.add_argument(
+        "--repeats",
+        type=int,
+        default=1,
+        help="K >= 2: add rows of K independent subset simulations combined (N per level each)",
+    )
     parser.add_argument("--oracle", action="store_true")
     parser.add_argument("--json", default=None)
     args = parser.parse_args(argv)
+    if args.repeats < 1:
+        parser.error(f"--repeats must be >= 1, got {args.repeats}")
     print(
         f"Python {platform.python_version()}, numpy {np.__version__}, {os.cpu_count()} CPUs; "
         f"{args.repeat} repetitions, N = {args.n_per_level} per level (subset simulation, "
@@ -189,6 +227,10 @@ def main(argv=None) -> int:
             row = measure(method, limit, args.repeat, args.n_per_level)
             rows.append(row)
             print(_fmt(row), flush=True)
+            if method == "subset" and args.repeats > 1:
+                row = measure(f"subset x{args.repeats}", limit, args.repeat, args.n_per_level)
+                rows.append(row)
+                print(_fmt(row), flush=True)
     if args.oracle:
         for limit in cases():
             found = oracle(limit, args.repeat, args.n_per_level)
@@ -203,6 +245,17 @@ def main(argv=None) -> int:
                 f"{found['errors']} of {args.repeat} runs raised",
                 flush=True,
             )
+    print(
+        "median width of the 95 % interval a reader is shown (upper / lower end); for repeats, "
+        "how many plain t intervals on the K raw estimates held the truth:",
+        flush=True,
+    )
+    for r in rows:
+        raw = "" if r["covered_raw_t"] is None else f" | raw t {r['covered_raw_t']}/{r['repeat']}"
+        print(
+            f"  {r['method']} | {r['limit_state']} | {r['truth']:.3g} | "
+            f"{r['interval_ratio']:.2f}{raw}"
+        )
     total = sum(r["seconds"] for r in rows)
     print(f"estimations: {total:.1f} s in all", flush=True)
     if args.json:
