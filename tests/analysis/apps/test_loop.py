@@ -20,13 +20,13 @@ from rcsim.analysis.apps.loop.run import STAGES, LoopSettings, run_loop
 from rcsim.models.errors import InputError
 from rcsim.models.tables import load_lookup_table
 
-# The rare-event stage on one case, level 0 of its 4 repeats (1,000 runs of 6 s: a few seconds).
+# The rare-event stage on one case, level 0 of its 4 repeats (2,000 runs of 6 s: a few seconds).
 SMALL = LoopSettings(
     runs_per_case=6,
     duration_s=6.0,
     permutations=19,
     max_iterations=3,
-    rare_budget=1000,
+    rare_budget=2000,
     rare_cases=1,
 )
 SECTIONS = (
@@ -257,7 +257,7 @@ def test_rare_stage_estimates_the_closest_case_with_few_failures(loop_dir):
     record = json.loads((loop_dir / "rare" / "rare.json").read_text())
     assert list(record["cases"]) == [fewest["low"].idxmin()]
     rec = next(iter(record["cases"].values()))
-    assert rec["runs"] == 1000  # the budget: level 0 of each of the 4 repeats
+    assert rec["runs"] == 2000  # the budget: level 0 of each of the 4 repeats
     selection = pd.read_csv(loop_dir / "rare" / "selection.csv")
     html_text = (loop_dir / "report.html").read_text()
     for cell in rare_rows(record, selection).iloc[0]:

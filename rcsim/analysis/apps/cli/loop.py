@@ -76,7 +76,7 @@ def register(sub) -> None:
         type=int,
         metavar="RUNS",
         help="after the held-out check, estimate P(fail) of the refined table by 4 "
-        "independent subset simulations, at most RUNS runs a case (at least 1000), for the "
+        "independent subset simulations, at most RUNS runs a case (at least 2000), for the "
         "cases whose held-out campaign failed at most 2 runs (default 0: off; docs/rare_events.md)",
     )
     p.add_argument(

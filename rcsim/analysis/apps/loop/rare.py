@@ -29,10 +29,11 @@ import pandas as pd
 from rcsim.analysis.results.report.html import Section, table_block, text_block
 from rcsim.models.errors import InputError
 
-#: Runs per level of each repeat of the loop's estimations, and the repeats: a level of the four
-#: is 1,000 runs (one estimation of N = 1000 had an empirical CoV of 0.22 at P ~ 5e-3 on the
-#: paper's vehicle, docs/rare_events.md; four of 250 cost the same and measure their spread).
-LEVEL_RUNS = 250
+#: Runs per level of each repeat of the loop's estimations, and the repeats: the command's
+#: defaults (on the paper's vehicle at P ~ 7e-4, four repeats of 250 spread 2.1x more than
+#: four of 500 for half the runs -- subset simulation loses efficiency at small N;
+#: docs/rare_events.md).  A level of the four is 2,000 runs.
+LEVEL_RUNS = 500
 REPEATS = 4
 #: A case is a candidate when its held-out campaign failed at most this many runs.
 FEW_FAILURES = 2
