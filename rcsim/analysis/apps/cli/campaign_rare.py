@@ -27,7 +27,8 @@ def register(csub) -> None:
         "too small for plain Monte Carlo: subset simulation flies level after level of runs "
         "into the region where the failure margin (runs.parquet's margin column) is smallest, "
         "K times independently (--repeats), side by side on worker processes; the estimate is "
-        "the mean of the K, its CoV and interval measured from their spread. "
+        "the mean of the K, its CoV and interval from their spread (never below Au & Beck's "
+        "figure for their mean). "
         "Prints per case the estimate with its CoV and 95%% interval (or, when no failure is "
         "found within the budget, an upper bound), the runs spent and the closest failure in "
         "sigmas; writes DIR/rare.json, DIR/runs.parquet (every run flown; conditional samples, "
@@ -58,7 +59,8 @@ def register(csub) -> None:
         default=REPEATS,
         metavar="K",
         help=f"independent subset simulations per case (default {REPEATS}); the estimate is "
-        "their mean, its CoV and interval measured from their spread; 1: one estimation "
+        "their mean, its CoV and interval from their spread, never below Au & Beck's figure "
+        "for their mean; 1: one estimation "
         "with Au & Beck's conservative CoV (levels fully correlated)",
     )
     rare.add_argument(

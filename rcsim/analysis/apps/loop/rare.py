@@ -174,7 +174,7 @@ def rare_section(out: Path) -> Section:
     repeats = settings.get("repeats", 1)
     how = (
         f"the mean of {repeats} independent subset simulations on the same spec, its CoV and "
-        f"interval measured from their spread"
+        f"interval from their spread, never below Au & Beck's figure for their mean"
         if repeats > 1
         else "subset simulation on the same spec (its CoV the conservative bound)"
     )

@@ -2,9 +2,10 @@
 
 Each case is estimated by ``K`` independent subset simulations (``--repeats``, default
 :data:`REPEATS`), combined by :func:`rcsim.analysis.engine.rare.repeats.combine_repeats`: their
-mean, with a CoV and an interval measured from their spread (``docs/rare_events.md``).  The
-repeats run side by side on worker processes (:mod:`.parallel`); each is a pure function of the
-spec, the case and its index, so the result is the same bit for bit whatever the worker count.
+mean, with a CoV and an interval from their spread, never below Au & Beck's figure for the
+mean (``docs/rare_events.md``).  The repeats run side by side on worker processes
+(:mod:`.parallel`); each is a pure function of the spec, the case and its index, so the result
+is the same bit for bit whatever the worker count.
 
 Directory (``rcsim campaign rare SPEC --out DIR``):
 

@@ -4,7 +4,8 @@ batches of points, down to failure probabilities plain Monte Carlo cannot afford
 * :mod:`~rcsim.analysis.engine.rare.subset` -- subset simulation (Au & Beck, 2001) with batched
   Markov chains (Papaioannou et al., 2015), resumable level by level;
 * :mod:`~rcsim.analysis.engine.rare.repeats` -- ``K`` independent subset simulations combined:
-  the mean, with a CoV and an interval measured from their spread (what the command reports);
+  the mean, with a CoV and an interval from their spread, never below the model's (what the
+  command reports);
 * :mod:`~rcsim.analysis.engine.rare.importance` -- cross-entropy importance sampling, the
   comparison ``benchmarks/rare_event.py`` measures (``docs/rare_events.md``);
 * :mod:`~rcsim.analysis.engine.rare.intervals` -- the coefficient of variation with the chains'
