@@ -88,6 +88,13 @@ def register(csub) -> None:
         "K); the result does not depend on it",
     )
     rare.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="fly the repeats on an existing Dask cluster instead, e.g. tcp://host:8786 (its "
+        "workers write into DIR: it must be on a filesystem they share); the result does "
+        "not depend on it",
+    )
+    rare.add_argument(
         "--resume", action="store_true", help="continue an interrupted estimation in DIR"
     )
     rare.add_argument(
@@ -101,6 +108,8 @@ def register(csub) -> None:
 
 def _resume_hint(args) -> str:
     extra = f" --cases {shlex.quote(args.cases)}" if args.cases else ""
+    if args.scheduler:
+        extra += f" --scheduler {shlex.quote(args.scheduler)}"
     return (
         f"rcsim campaign rare {shlex.quote(args.spec)} --out {shlex.quote(args.out)}{extra} "
         f"--method {args.method} --repeats {args.repeats} --runs-per-level "
@@ -143,6 +152,13 @@ def settings_of(args):
             f"--budget must allow level 0 of every repeat (--repeats {k} x --runs-per-level "
             f"{n} = {k * n} runs), got {args.budget}"
         )
+    if args.workers is not None and args.scheduler is not None:
+        raise InputError(
+            "--workers and --scheduler are exclusive: --workers runs the repeats on this "
+            "machine's processes, --scheduler on an existing Dask cluster",
+            parameter="workers",
+            value=args.workers,
+        )
     if args.workers is not None and args.workers < 1:
         raise InputError(
             f"--workers must be at least 1, got {args.workers}",
@@ -179,8 +195,6 @@ def _rare(args) -> int:
     else:
         out = check_out_dir(out, COMMAND)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
-    out.mkdir(parents=True, exist_ok=True)
-    write_marker(out, COMMAND)
 
     def echo(line: str) -> None:
         if progress:
@@ -189,9 +203,20 @@ def _rare(args) -> int:
     import os
 
     from rcsim.analysis.apps.rare.words import case_sentence
+    from rcsim.analysis.engine.campaign.cluster import close, connect
 
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
-    records = estimate_cases(spec, cases, settings, out, progress=echo, workers=workers)
+    # Connected before DIR is made: an unreachable scheduler leaves nothing behind.
+    client = None if args.scheduler is None else connect(None, args.scheduler)[0]
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        write_marker(out, COMMAND)
+        records = estimate_cases(
+            spec, cases, settings, out, progress=echo, workers=workers, client=client
+        )
+    finally:
+        if client is not None:
+            close(client, None)
     for name, rec in records.items():
         print(case_sentence(name, rec))
     print(

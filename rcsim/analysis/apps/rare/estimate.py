@@ -49,7 +49,13 @@ from rcsim.analysis.engine.rare import (
     combine_repeats,
     subset_simulation,
 )
-from rcsim.analysis.engine.rare.repeats import ID_STRIDE, offset_result, repeat_seed, split_budget
+from rcsim.analysis.engine.rare.repeats import (
+    ID_STRIDE,
+    model_cov2,
+    offset_result,
+    repeat_seed,
+    split_budget,
+)
 from rcsim.spacecraft import standard_space
 
 if TYPE_CHECKING:
@@ -199,12 +205,14 @@ def estimate_case(
     case_dir: Path,
     progress: Callable[[str], None] | None = None,
     workers: int = 1,
+    client=None,
 ) -> RareEventResult:
     """Estimate ``P(fail)`` of case ``case_index`` by its ``settings.repeats`` repeats, on up to
-    ``workers`` processes (:mod:`.parallel`); rows, points and states in ``case_dir``."""
+    ``workers`` processes or a Dask ``client``'s workers (:mod:`.parallel`); rows, points and
+    states in ``case_dir``."""
     from rcsim.analysis.apps.rare.parallel import run_repeats
 
-    parts = run_repeats(spec, case_index, settings, case_dir, progress, workers)
+    parts = run_repeats(spec, case_index, settings, case_dir, progress, workers, client)
     if len(parts) == 1:
         return parts[0]
     return combine_repeats(parts, parts[0].confidence)
@@ -262,12 +270,14 @@ def result_record(result: RareEventResult, names: list[str], active: np.ndarray)
 
 
 def _repeat_record(part: RareEventResult) -> dict:
-    """One repeat's own figures (its CoV is one estimation's conservative bound)."""
+    """One repeat's own figures: its CoV as one estimation's conservative bound, and Au & Beck's
+    usual one, the model the combined CoV never goes below."""
     cov = part.cov if part.cov is not None and math.isfinite(part.cov) else None
     return {
         "status": part.status,
         "probability": part.probability,
         "cov_bound": cov,
+        "cov_model": math.sqrt(model_cov2(part)),
         "upper_bound": part.upper_bound,
         "runs": part.n_evaluations,
         "levels": len(part.levels),
@@ -325,10 +335,11 @@ def estimate_cases(
     out: Path,
     progress: Callable[[str], None] | None = None,
     workers: int = 1,
+    client=None,
 ) -> dict[str, dict]:
-    """Estimate each case in turn into ``out``, its repeats on up to ``workers`` processes;
-    returns ``{case name: record}`` and writes ``runs.parquet``, ``failures.parquet`` and
-    ``rare.json`` (module docstring)."""
+    """Estimate each case in turn into ``out``, its repeats on up to ``workers`` processes (or
+    a Dask ``client``'s workers); returns ``{case name: record}`` and writes
+    ``runs.parquet``, ``failures.parquet`` and ``rare.json`` (module docstring)."""
     names = standard_space.standard_names(
         spec.vehicle.nominal(1).n_jets, spec.sigmas.has_mass_extras
     )
@@ -340,7 +351,7 @@ def estimate_cases(
     for c in case_indices:
         name = spec.cases[c].name
         case_dir = out / CASES_DIR / name
-        result = estimate_case(spec, c, settings, case_dir, progress, workers)
+        result = estimate_case(spec, c, settings, case_dir, progress, workers, client)
         records[name] = result_record(result, names, active)
         frames.append(case_rows(case_dir, result))
         write_record(out, spec, settings, records)
