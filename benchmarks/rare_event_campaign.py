@@ -25,7 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rcsim.analysis.apps.rare.estimate import RareSettings, estimate_cases
+from rcsim.analysis.apps.rare.estimate import estimate_cases
+from rcsim.analysis.apps.rare.settings import RareSettings
 from rcsim.analysis.engine.campaign.spec import parse_dict
 
 

@@ -18,7 +18,7 @@ from rcsim.models.errors import InputError
 
 def register(csub) -> None:
     """Add ``rare`` to ``rcsim campaign``'s actions."""
-    from rcsim.analysis.apps.rare.estimate import METHODS, REPEATS
+    from rcsim.analysis.apps.rare.settings import METHODS, REPEATS
 
     rare = csub.add_parser(
         "rare",
@@ -136,7 +136,7 @@ def case_indices(spec, names: str | None) -> list[int]:
 
 def settings_of(args):
     """The :class:`~rcsim.analysis.apps.rare.estimate.RareSettings` of the flags, checked."""
-    from rcsim.analysis.apps.rare.estimate import RareSettings
+    from rcsim.analysis.apps.rare.settings import RareSettings
 
     n = args.runs_per_level
     if n < 10 or n % 10:

@@ -79,7 +79,8 @@ def rare_stage(out: Path, settings, progress: bool | None) -> dict:
     import os
     import sys
 
-    from rcsim.analysis.apps.rare.estimate import RareSettings, estimate_cases
+    from rcsim.analysis.apps.rare.estimate import estimate_cases
+    from rcsim.analysis.apps.rare.settings import RareSettings
     from rcsim.analysis.engine.campaign.spec import load_spec
 
     runs = pd.read_parquet(out / "campaign_after" / "runs.parquet")

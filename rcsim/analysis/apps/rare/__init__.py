@@ -6,7 +6,12 @@ Monte Carlo cannot afford (issue 30; ``docs/rare_events.md``).
 * :mod:`~rcsim.analysis.apps.rare.estimate` -- one estimation per case (``K`` independent
   repeats, combined), resumable level by level, its rows, states and summary in an output
   directory (``rcsim campaign rare``);
-* :mod:`~rcsim.analysis.apps.rare.parallel` -- the repeats side by side on worker processes;
+* :mod:`~rcsim.analysis.apps.rare.settings` -- how each case is estimated (method, runs per
+  level, budget, repeats);
+* :mod:`~rcsim.analysis.apps.rare.repeat` -- one repeat: one subset simulation of a case, its
+  files in its own folder;
+* :mod:`~rcsim.analysis.apps.rare.parallel` -- the repeats side by side on worker processes or
+  a Dask cluster;
 * :mod:`~rcsim.analysis.apps.rare.words` -- what a reader is told: the estimate, its interval,
   the runs spent and the closest failure in sigmas, in words.
 

@@ -32,29 +32,22 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import secrets
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
-from rcsim.analysis.apps.rare.flights import CaseLimitState
+from rcsim.analysis.apps.rare.repeat import repeat_dir, write_atomic
+from rcsim.analysis.apps.rare.settings import RareSettings
 from rcsim.analysis.engine.rare import (
     RareEventResult,
-    SubsetConfig,
     combine_repeats,
-    subset_simulation,
 )
 from rcsim.analysis.engine.rare.repeats import (
     ID_STRIDE,
     model_cov2,
-    offset_result,
-    repeat_seed,
-    split_budget,
 )
 from rcsim.spacecraft import standard_space
 
@@ -66,136 +59,6 @@ RECORD = "rare.json"
 CASES_DIR = "cases"
 RUNS = "runs.parquet"
 FAILURES = "failures.parquet"
-#: Independent repeats per case by default: Cox's interval on 4 estimates covered the truth
-#: in 94-97 % of 400 analytic repetitions (rcsim.analysis.engine.rare.repeats).
-REPEATS = 4
-#: The methods the command offers.  Cross-entropy importance sampling (one Gaussian,
-#: rcsim.analysis.engine.rare.importance) is left out: on rate-13 (Table 5 x 3, 0.05 deg/s,
-#: P ~ 6e-2 by subset simulation and plain counting) it reported 1.1e-19 with a CoV of 0.43 --
-#: its weights degenerate in 53 dimensions, the failure docs/rare_events.md measured.
-METHODS = ("subset",)
-
-
-@dataclass(frozen=True)
-class RareSettings:
-    """How each case is estimated.
-
-    Attributes
-    ----------
-    method : str
-        ``"subset"`` (subset simulation, resumable; :data:`METHODS`).
-    n_per_level : int
-        Runs per level of each repeat.
-    budget : int
-        Most runs per case, all repeats together (each gets ``budget // repeats``).
-    repeats : int
-        Independent subset simulations per case (1: one, with its conservative CoV).
-    """
-
-    method: str = "subset"
-    n_per_level: int = 500
-    budget: int = 20_000
-    repeats: int = REPEATS
-
-    def record(self) -> dict:
-        return {
-            "method": self.method,
-            "n_per_level": self.n_per_level,
-            "budget": self.budget,
-            "repeats": self.repeats,
-        }
-
-    def config(self) -> SubsetConfig:
-        """One repeat's :class:`SubsetConfig`: ``n_per_level``, its share of the budget."""
-        return SubsetConfig(
-            n_per_level=self.n_per_level,
-            max_evaluations=split_budget(self.budget, self.repeats),
-        )
-
-
-def _write_atomic(path: Path, write: Callable[[str], object]) -> None:
-    tmp = path.with_name(f"{path.name}.tmp-{secrets.token_hex(4)}")
-    try:
-        write(str(tmp))
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-
-
-def _save_points(path: str, u: np.ndarray, ids: np.ndarray) -> None:
-    with open(path, "wb") as fh:
-        np.savez(fh, u=u, eval_id=ids)
-
-
-def _batch_writer(case_dir: Path, names: list[str]) -> Callable[[pd.DataFrame], None]:
-    def write(rows: pd.DataFrame) -> None:
-        first = int(rows["rare_eval_id"].iloc[0])
-        _write_atomic(case_dir / f"batch-{first:012d}.parquet", lambda p: rows.to_parquet(p))
-
-    return write
-
-
-def case_seed(spec: CampaignSpec, case_index: int) -> np.random.SeedSequence:
-    """The root of case ``case_index``'s estimation: ``SeedSequence(spec.seed, spawn_key=(2**62,
-    case_index))``, a key no campaign run uses (run ``i``'s streams are ``(i, ...)``); repeat
-    ``k`` draws from its child (:func:`rcsim.analysis.engine.rare.repeats.repeat_seed`)."""
-    return np.random.SeedSequence(spec.seed, spawn_key=(2**62, case_index))
-
-
-def repeat_dir(case_dir: Path, k: int) -> Path:
-    return case_dir / f"repeat-{k}"
-
-
-def estimate_repeat(
-    spec: CampaignSpec,
-    case_index: int,
-    settings: RareSettings,
-    k: int,
-    case_dir: Path,
-    progress: Callable[[str], None] | None = None,
-    nthread: int = 0,
-) -> RareEventResult:
-    """Repeat ``k`` of case ``case_index``: one subset simulation, its rows, points and state in
-    ``case_dir/repeat-<k>/``; its evaluation ids global (``+ k 2^27``).  Level 0 is the
-    campaign's own runs (:mod:`.flights`), drawn from theirs."""
-    where = repeat_dir(case_dir, k)
-    where.mkdir(parents=True, exist_ok=True)
-    g = CaseLimitState(
-        spec, case_index, settings.n_per_level, repeats=settings.repeats, nthread=nthread
-    )
-    g.on_rows = _batch_writer(where, g.names)
-    inner = g.__call__
-    offset = k * ID_STRIDE
-
-    def g_global(u: np.ndarray, ids: np.ndarray) -> np.ndarray:
-        ids = np.asarray(ids, np.int64) + offset
-        margins = inner(u, ids)
-        _write_atomic(where / f"batch-{int(ids[0]):012d}.npz", lambda p: _save_points(p, u, ids))
-        return margins
-
-    name = spec.cases[case_index].name
-    of = f" repeat {k + 1}/{settings.repeats}" if settings.repeats > 1 else ""
-
-    def level_done(record) -> None:
-        if progress is not None:
-            progress(
-                f"{name}{of}: level {record.level} done, {record.n_evaluations:,} runs, "
-                f"{record.n_failures} failed in the level, next threshold "
-                f"{record.threshold:.3g}"
-            )
-
-    result = subset_simulation(
-        g_global,
-        g.dim,
-        settings.config(),
-        seed=repeat_seed(case_seed(spec, case_index), k),
-        state_path=where / "state.npz",
-        progress=level_done,
-        u0=g.level_zero(k),
-        label=f"{spec.resolved!r} case {case_index} repeat {k} of {settings.repeats}",
-    )
-    return offset_result(result, k)
 
 
 def estimate_case(
@@ -305,7 +168,7 @@ def write_record(out: Path, spec: CampaignSpec, settings: RareSettings, cases: d
         indent=2,
         default=float,
     )
-    _write_atomic(out / RECORD, lambda p: Path(p).write_text(text + "\n", encoding="utf-8"))
+    write_atomic(out / RECORD, lambda p: Path(p).write_text(text + "\n", encoding="utf-8"))
 
 
 def check_resumable(out: Path, spec: CampaignSpec, settings: RareSettings) -> None:
@@ -356,7 +219,7 @@ def estimate_cases(
         frames.append(case_rows(case_dir, result))
         write_record(out, spec, settings, records)
     runs = pd.concat(frames, ignore_index=True)
-    _write_atomic(out / RUNS, lambda p: runs.to_parquet(p))
+    write_atomic(out / RUNS, lambda p: runs.to_parquet(p))
     failed = runs[runs["failed"].to_numpy(bool)].reset_index(drop=True)
-    _write_atomic(out / FAILURES, lambda p: failed.to_parquet(p))
+    write_atomic(out / FAILURES, lambda p: failed.to_parquet(p))
     return records

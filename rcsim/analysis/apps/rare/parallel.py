@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from rcsim.analysis.apps.rare.estimate import RareSettings
+    from rcsim.analysis.apps.rare.settings import RareSettings
     from rcsim.analysis.engine.campaign.spec import CampaignSpec
     from rcsim.analysis.engine.rare import RareEventResult
 
@@ -50,7 +50,7 @@ def repeat_in_worker(
     spec: CampaignSpec, case_index: int, settings: RareSettings, k: int, case_dir: str
 ) -> RareEventResult:
     """Repeat ``k`` in a worker process: one MuJoCo thread, progress to its log."""
-    from rcsim.analysis.apps.rare.estimate import estimate_repeat, repeat_dir
+    from rcsim.analysis.apps.rare.repeat import estimate_repeat, repeat_dir
 
     where = repeat_dir(Path(case_dir), k)
     where.mkdir(parents=True, exist_ok=True)
@@ -112,7 +112,7 @@ def run_repeats(
     """Every repeat's result (ids global), repeat ``k`` at index ``k``: on the Dask ``client``'s
     workers when given; else in this process when ``workers`` is 1 (MuJoCo's threads on every
     CPU), else on ``min(workers, repeats)`` local processes."""
-    from rcsim.analysis.apps.rare.estimate import estimate_repeat, repeat_dir
+    from rcsim.analysis.apps.rare.repeat import estimate_repeat, repeat_dir
 
     k_all = range(settings.repeats)
     workers = max(1, min(workers, settings.repeats))

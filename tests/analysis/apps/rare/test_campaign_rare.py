@@ -17,8 +17,9 @@ import pytest
 
 from rcsim.analysis.apps.cli import main
 from rcsim.analysis.apps.rare import estimate as rare_estimate
-from rcsim.analysis.apps.rare.estimate import RareSettings, estimate_cases
+from rcsim.analysis.apps.rare.estimate import estimate_cases
 from rcsim.analysis.apps.rare.flights import CaseLimitState
+from rcsim.analysis.apps.rare.settings import RareSettings
 from rcsim.analysis.apps.rare.words import case_sentence
 from rcsim.analysis.engine.campaign.chunk import Chunk, simulate_chunk
 from rcsim.analysis.engine.campaign.cluster import close, connect
