@@ -1,5 +1,6 @@
 # Two commands on a fresh machine: `make run` and `make test`.
-# `make test-min` runs the suite again on the lowest versions pyproject.toml claims.
+# `make test-min` runs the suite again on the lowest versions pyproject.toml claims, less the
+# tests marked `slow` (end-to-end tests whose dependency calls the other tests make too).
 PYTHON   ?= python3
 VENV     := .venv
 BIN      := $(VENV)/bin
@@ -48,6 +49,8 @@ chromium:
 # Lowest versions: a separate venv with exactly the pins of $(MIN_PINS), rcsim built as a wheel
 # (not editable) so that a package or data file missing from pyproject.toml fails here too.
 # Built from scratch every time: a venv left over from other pins would prove nothing.
+# `-m "not slow"`: the slow end-to-end tests fly code the other tests fly too, so on these pins
+# they would only repeat calls already made (docs/dependencies.md); `make test` runs them.
 test-min:
 	rm -rf $(MIN_VENV) build
 	$(PYTHON) -m venv $(MIN_VENV)
@@ -55,7 +58,7 @@ test-min:
 	$(MIN_VENV)/bin/python -m pip install --quiet --no-build-isolation -c $(MIN_PINS) '.[test]'
 	rm -rf build
 	$(MIN_VENV)/bin/python -m pip list --format=freeze >$(MIN_VENV)/versions.txt
-	$(MIN_VENV)/bin/python -m pytest -q -p no:cacheprovider
+	$(MIN_VENV)/bin/python -m pytest -q -p no:cacheprovider -m "not slow"
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/maneuver.py

@@ -183,6 +183,28 @@ def test_every_pin_is_a_claimed_requirement_or_its_build_helper():
     assert not extra, f"pins for packages pyproject.toml does not require: {extra}"
 
 
+def _make_pytest_command(target: str) -> list[str]:
+    """The options of a Makefile target's ``python -m pytest`` command, split into words
+    (quotes kept)."""
+    recipe = (ROOT / "Makefile").read_text().split(f"\n{target}:", 1)[1].split("\n\n", 1)[0]
+    (line,) = [line for line in recipe.splitlines() if " -m pytest" in line]
+    return re.findall(r'"[^"]*"|\S+', line.split(" -m pytest", 1)[1])
+
+
+def test_make_test_runs_every_test_and_test_min_leaves_out_only_the_slow_ones():
+    # `make test` is the whole suite: no selection in pytest's own options nor in its command.
+    # `make test-min` leaves out the tests marked `slow` and nothing else (docs/dependencies.md
+    # says why those add no version coverage); the marker is registered (--strict-markers).
+    selecting = {"-m", "-k", "--deselect", "--ignore", "--ignore-glob", "-x", "--maxfail"}
+    ini = PYPROJECT["tool"]["pytest"]["ini_options"]
+    assert not selecting & set(ini["addopts"].split()), ini["addopts"]
+    assert not selecting & set(_make_pytest_command("test")), _make_pytest_command("test")
+    words = _make_pytest_command("test-min")
+    assert [w for w in words if w in selecting] == ["-m"]
+    assert words[words.index("-m") + 1] == '"not slow"'
+    assert any(m.startswith("slow:") for m in ini["markers"])
+
+
 def test_requires_python_covers_the_standard_library_the_code_imports():
     # Oracle: the Python docs' "New in version" notes: tomllib is 3.11+.  Whatever else is
     # added here must come with its version.

@@ -75,6 +75,7 @@ def loop_dir(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_loop_generates_the_channel_table_and_composes(loop_dir):
     state = json.loads((loop_dir / "loop.json").read_text())
     assert list(state["done"]) == ["generate", *STAGES]
@@ -100,6 +101,7 @@ def test_loop_generates_the_channel_table_and_composes(loop_dir):
     assert before["one_firing_pct"].mean() > 50
 
 
+@pytest.mark.slow
 def test_loop_resumes_and_report_renders(loop_dir, render_page, tmp_path):
     lines = []
     run_loop(SMALL, loop_dir, resume=True, progress=False, echo=lines.append)
@@ -115,6 +117,7 @@ def test_loop_resumes_and_report_renders(loop_dir, render_page, tmp_path):
     assert "Table 7" not in dom  # the paper's hand refinement is not this table's
 
 
+@pytest.mark.slow
 def test_a_nominal_channel_firing_is_one_event(tmp_path):
     from rcsim.analysis.engine.campaign.runner import run_campaign
     from rcsim.analysis.engine.campaign.spec import load_spec

@@ -93,6 +93,7 @@ def test_cli_refuses_an_existing_loop_without_resume(loop_dir, capsys):
     assert err.count("\n") == 1 and str(loop_dir) in err
 
 
+@pytest.mark.slow
 def test_sigterm_after_the_campaign_stops_with_143_one_line_and_resumes(tmp_path):
     """Issue 17, defect 5: SIGTERM to `rcsim loop` outside a campaign stage killed it with no
     message, and inside one exited 130.  Sent once the first campaign is done (the drivers or
@@ -129,6 +130,7 @@ def test_sigterm_after_the_campaign_stops_with_143_one_line_and_resumes(tmp_path
     assert set(json.loads((out / "loop.json").read_text())["done"]) == set(STAGES)
 
 
+@pytest.mark.slow
 def test_loop_with_the_paper_vehicle_file_flies_the_same_loop(tmp_path):
     """Issue 18: `rcsim loop --vehicle FILE`.  The paper's vehicle as a file (the packaged
     `paper` vehicle) gives the loop of the packaged MJCF: the same runs in every campaign and

@@ -168,6 +168,7 @@ def test_evaluation_keeps_a_few_chunks_in_flight_and_returns_them_in_order(monke
     assert list(two["trial"]) == sorted(two["trial"])  # chunk order kept
 
 
+@pytest.mark.slow
 def test_a_stopped_search_resumes_at_its_last_round_and_finds_the_same_table(tmp_path):
     """Issue 17: a kill lost the whole refinement.  Stopped (KeyboardInterrupt, as Ctrl-C or
     SIGTERM raise it) in its second round, the search resumes from the checkpoint of its first

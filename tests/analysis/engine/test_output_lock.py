@@ -14,6 +14,7 @@ import threading
 import time
 
 import pandas as pd
+import pytest
 
 from rcsim.analysis.engine.output import OutputLocked, output_lock
 
@@ -36,6 +37,7 @@ def _rcsim(*args) -> list[str]:
     return [sys.executable, "-m", "rcsim", *args]
 
 
+@pytest.mark.slow
 def test_a_second_campaign_writer_is_refused_and_the_first_finishes(tmp_path):
     spec = tmp_path / "spec.toml"
     spec.write_text(SPEC)

@@ -102,6 +102,7 @@ def kill_points():
     return lambda total_s: [rng.uniform(0.2, 1.1) * total_s for _ in range(KILLS)]
 
 
+@pytest.mark.slow
 def test_maneuver_killed_then_overwritten(tmp_path, capsys, monkeypatch, kill_points):
     monkeypatch.chdir(tmp_path)
     total = _full_run([*MANEUVER, "--out", "M"], tmp_path)
@@ -119,6 +120,7 @@ def test_maneuver_killed_then_overwritten(tmp_path, capsys, monkeypatch, kill_po
         assert unlisted_entry(out) is None
 
 
+@pytest.mark.slow
 def test_lookup_database_killed_then_overwritten(tmp_path, capsys, monkeypatch, kill_points):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "D").mkdir()
@@ -135,6 +137,7 @@ def test_lookup_database_killed_then_overwritten(tmp_path, capsys, monkeypatch, 
         assert names == ["db.parquet", "db.png", "db_summary.csv"]
 
 
+@pytest.mark.slow
 def test_campaign_killed_then_overwritten_by_others_and_resumed(
     tmp_path, capsys, monkeypatch, kill_points
 ):

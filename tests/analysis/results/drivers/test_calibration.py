@@ -41,6 +41,7 @@ def bound(n: int) -> int:
     return int(binom.ppf(0.99, n, ALPHA))
 
 
+@pytest.mark.slow
 def test_null_tables_show_any_flag_at_most_at_the_report_budget():
     # Pure null: failures at random (5 %) in every case, every input noise; every flag of any
     # family is false, and the report-wise count is the tables with at least one.
