@@ -29,7 +29,7 @@ def register(csub) -> None:
         "K times independently (--repeats), side by side on worker processes; the estimate is "
         "the mean of the K, its CoV and interval from their spread (never below Au & Beck's "
         "figure for their mean). "
-        "Prints per case the estimate with its CoV and 95%% interval (or, when no failure is "
+        "Prints per case the estimate with its CoV and 95 % interval (or, when no failure is "
         "found within the budget, an upper bound), the runs spent and the closest failure in "
         "sigmas; writes DIR/rare.json, DIR/runs.parquet (every run flown; conditional samples, "
         "not a Monte Carlo sample), DIR/failures.parquet.  Jet faults are not continuous and "
