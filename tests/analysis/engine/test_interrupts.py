@@ -19,6 +19,16 @@ import pytest
 from rcsim.analysis.engine.interrupts import Terminated, raise_if_interrupted, sigterm_interrupts
 
 
+@pytest.fixture(autouse=True)
+def _python_sigint_handler():
+    """SIGINT with Python's own handler, the state ``sigterm_interrupts`` takes over (it leaves
+    an ignored SIGINT alone, as a shell's background job or ``nohup`` sets it, and a test
+    process started that way would inherit it); restored afterwards."""
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, old)
+
+
 def _swallowed(sig: int) -> None:
     """Send ``sig`` to this process inside code that swallows every exception, as a library
     that clears the error it met would."""
