@@ -57,6 +57,8 @@ def vehicle_problem(
 
     if name == "allocator":
         return None
+    if is_plugin(name):  # the user's flight software judges its own vehicle (its factory)
+        return None
     generate = f"`rcsim lookup generate --vehicle {vehicle.label} --out T.csv`"
     if name == "phase-plane":
         problem = _coupled(vehicle)
@@ -129,12 +131,16 @@ def make_controller(
     phase_plane_options: dict | None = None,
     adapt_options: dict | None = None,
     jets_off=(),
+    plugin_params: dict | None = None,
 ) -> Controller:
     """Build a controller for ``vehicle``, tuned by its flight-software profile.
 
     Parameters
     ----------
-    name : {"phase-plane", "lookup", "adaptive", "allocator"}
+    name : str
+        ``"phase-plane"``, ``"lookup"``, ``"adaptive"``, ``"allocator"``, or a plug-in:
+        ``"plugin:package.module:factory"`` or a name an installed package registers
+        (:mod:`rcsim.lookup.plugins`).
     vehicle : rcsim.spacecraft.vehicle_file.Vehicle
         The vehicle flown: its profile (cycle, maneuver rate and limit, deadbands) tunes every
         controller; the phase plane's design uses its nominal mass properties and jet
@@ -152,6 +158,8 @@ def make_controller(
         :class:`rcsim.lookup.adaptive.AdaptParams` fields for ``"adaptive"``.
     jets_off : sequence of int
         Jets (1-based) the allocator may not use.
+    plugin_params : dict, optional
+        A plug-in's parameters (its factory's second argument); only for a plug-in.
 
     Raises
     ------
@@ -160,8 +168,24 @@ def make_controller(
         that does not load (a missing file is named by its path); a channel table solved for
         another vehicle.
     """
+    from rcsim.lookup.plugins import build
     from rcsim.models.errors import InputError
 
+    if is_plugin(name):
+        if table is not None:
+            raise InputError(
+                f"is only for the lookup controller, not the plug-in {name!r} (its own "
+                f"parameters set its table; got {str(table)!r})",
+                parameter="table",
+                value=table,
+            )
+        return build(name, vehicle, plugin_params)
+    if plugin_params:
+        raise InputError(
+            f"parameters are only for a plug-in controller, not {name!r}",
+            parameter="params",
+            value=plugin_params,
+        )
     if table is not None and name in ALL_CONTROLLERS and name not in TABLE_CONTROLLERS:
         raise InputError(
             f"is only for the lookup controller, not {name!r} (got {str(table)!r})",
@@ -193,4 +217,39 @@ def make_controller(
         from rcsim.lookup.allocator_controller import allocator_controller
 
         return allocator_controller(vehicle, jets_off=jets_off)
-    raise InputError(f"unknown controller {name!r}; choose one of {', '.join(ALL_CONTROLLERS)}")
+    raise InputError(
+        f"unknown controller {name!r}; choose one of {', '.join(controller_names())} or a "
+        "plug-in, plugin:package.module:factory"
+    )
+
+
+def is_plugin(name: str) -> bool:
+    """Whether controller ``name`` names a plug-in (:mod:`rcsim.lookup.plugins`: by import
+    path, or a name an installed package registers; a built-in's name never does)."""
+    from rcsim.lookup.plugins import PLUGIN_PREFIX, registered
+
+    if name in ALL_CONTROLLERS:
+        return False
+    return name.startswith(PLUGIN_PREFIX) or name in registered()
+
+
+def controller_names() -> tuple[str, ...]:
+    """The built-in controllers, then the names installed packages register
+    (:data:`rcsim.lookup.plugins.ENTRY_POINT_GROUP`; a built-in's name is never shadowed)."""
+    from rcsim.lookup.plugins import registered
+
+    return ALL_CONTROLLERS + tuple(n for n in sorted(registered()) if n not in ALL_CONTROLLERS)
+
+
+def check_controller_name(name: str) -> str:
+    """``name`` if it names a controller :func:`make_controller` can build, else InputError
+    (an argparse ``type=``: the message is the one line the user sees)."""
+    from rcsim.lookup.plugins import PLUGIN_PREFIX
+    from rcsim.models.errors import InputError
+
+    if name in controller_names() or name.startswith(PLUGIN_PREFIX):
+        return name
+    raise InputError(
+        f"unknown controller {name!r}; choose one of {', '.join(controller_names())} or a "
+        "plug-in, plugin:package.module:factory"
+    )

@@ -128,6 +128,7 @@ def fly(
     table: str | os.PathLike | None = None,
     params: VehicleParams | None = None,
     controller_obj: Controller | None = None,
+    controller_params: dict | None = None,
 ) -> History:
     """Fly ``scenario`` for every run of ``params`` (default: one nominal vehicle).
 
@@ -145,11 +146,25 @@ def fly(
         The lookup table (``"lookup"``, ``"adaptive"``).
     params : VehicleParams, optional
         The runs' parameters (of ``vehicle``); default one nominal run.
+    controller_params : dict, optional
+        A plug-in controller's parameters (:mod:`rcsim.lookup.plugins`).
     """
     vehicle = Vehicle.load(vehicle)
     params = vehicle.nominal(1) if params is None else params
-    ctl = controller_obj or make_controller(controller, vehicle, table=table)
+    ctl = controller_obj or make_controller(
+        controller, vehicle, table=table, plugin_params=controller_params
+    )
     return fly_batch([scenario] * params.n_runs, params, ctl, vehicle=vehicle)
+
+
+def controller_record(name: str, controller: Controller) -> dict:
+    """What a flight's summary records of its controller: the name, and for a plug-in
+    (:mod:`rcsim.lookup.plugins`) its target, distribution, version and source SHA-256."""
+    info = getattr(controller, "info", None)
+    record: dict = {"controller": name}
+    if info is not None and hasattr(info, "record"):
+        record["plugin"] = info.record()
+    return record
 
 
 def history_frame(history: History, run: int = 0) -> pd.DataFrame:
@@ -227,6 +242,7 @@ def write_flight(
     run: int = 0,
     command: str | None = None,
     overwrite: bool = False,
+    record: dict | None = None,
 ) -> dict[str, Path]:
     """Write ``history.parquet``, ``attitude_error.png``, ``rates_jets.png`` and
     ``summary.json`` for one run of ``vehicle`` into ``out_dir`` (atomically).
@@ -234,7 +250,8 @@ def write_flight(
     ``command`` (e.g. ``"maneuver"``) is recorded in the directory's marker, and ``overwrite``
     allows replacing an earlier output of that command
     (:func:`rcsim.analysis.engine.output.atomic_dir`).  The plot draws each axis's jets by the
-    vehicle's torque signs; the summary names the vehicle and the profile flown.
+    vehicle's torque signs; the summary names the vehicle and the profile flown, plus
+    ``record`` (e.g. :func:`controller_record`: which controller, a plug-in's source).
     """
     import json
 
@@ -246,6 +263,7 @@ def write_flight(
     summary["propellant_kg"] = float(history.propellant_kg[run])
     summary["title"] = title
     summary.update(vehicle.record())
+    summary.update(record or {})
     with atomic_dir(out_dir, command, overwrite=overwrite) as tmp:
         frame.to_parquet(tmp / "history.parquet", index=False)
         plot_attitude_error(frame, tmp / "attitude_error.png", title=title)

@@ -9,7 +9,6 @@ import math
 import numpy as np
 
 from rcsim.analysis.apps.cli.vehicle_args import add_vehicle_args, flown_vehicle
-from rcsim.lookup.registry import ALL_CONTROLLERS
 from rcsim.models.errors import InputError
 
 COMMAND = "maneuver"  # recorded in the output directory's marker
@@ -27,12 +26,22 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--controller",
-        choices=ALL_CONTROLLERS,
         default="phase-plane",
+        metavar="NAME",
         help="phase-plane, lookup (the paper's pattern recognition), adaptive "
-        "(lookup whose table entries learn their firing times in flight) or allocator "
+        "(lookup whose table entries learn their firing times in flight), allocator "
         "(jet selection for any layout; objective the profile's allocation: propellant, "
-        "propellant+translation or translation-first); default phase-plane",
+        "propellant+translation or translation-first), a name an installed package registers "
+        "(entry points 'rcsim.controllers'), or your own flight software, "
+        "plugin:package.module:factory (docs/flight_software.md); default phase-plane",
+    )
+    p.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a plug-in controller's parameter (repeatable; VALUE read as TOML: 0.5, true, "
+        '"text", [1, 2]; anything else is a string)',
     )
     p.add_argument(
         "--attitude-deg",
@@ -74,13 +83,20 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rcsim.analysis.engine.flight import Scenario, fly, write_flight
+    from rcsim.analysis.engine.flight import Scenario, controller_record, fly, write_flight
     from rcsim.analysis.engine.output import check_out_dir
+    from rcsim.lookup.registry import check_controller_name, is_plugin, make_controller
 
     if not all(math.isfinite(a) for a in args.attitude_deg):
         raise InputError(f"--attitude-deg must be finite, got {args.attitude_deg}")
     if np.linalg.norm(args.attitude_deg) >= 180.0:
         raise InputError(f"--attitude-deg: rotation must be under 180 deg, got {args.attitude_deg}")
+    try:
+        check_controller_name(args.controller)
+    except InputError as exc:
+        raise InputError(f"--controller: {exc}") from None
+    if args.param and not is_plugin(args.controller):
+        raise InputError(f"--param is only for a plug-in controller, not {args.controller!r}")
     vehicle = _vehicle(args)  # after the command is known to be a rotation
     cycle = vehicle.control.cycle_s
     if not math.isfinite(args.duration_s) or args.duration_s < cycle:
@@ -110,12 +126,21 @@ def run(args: argparse.Namespace) -> int:
     scenario = Scenario(
         name="maneuver", duration_s=args.duration_s, att_cmd_rad=np.radians(args.attitude_deg)
     )
-    history = fly(scenario, args.controller, table=args.table, vehicle=vehicle)
+    ctl = make_controller(
+        args.controller, vehicle, table=args.table, plugin_params=plugin_params(args.param)
+    )
+    history = fly(scenario, controller_obj=ctl, vehicle=vehicle)
     title = f"{args.controller} maneuver ({r:g}, {p:g}, {y:g}) deg"
     if args.vehicle is not None:
         title += f" on {vehicle.name}"
     paths = write_flight(
-        history, out, title=title, vehicle=vehicle, command=COMMAND, overwrite=args.overwrite
+        history,
+        out,
+        title=title,
+        vehicle=vehicle,
+        command=COMMAND,
+        overwrite=args.overwrite,
+        record=controller_record(args.controller, ctl),
     )
     s = json.loads(paths["summary.json"].read_text())  # what the user's file says
     err = ", ".join(f"{v:.4f}" for v in s["final_att_err_deg"])
@@ -153,3 +178,20 @@ def _vehicle(args: argparse.Namespace):
             f"--vehicle {args.vehicle} cannot fly --attitude-deg {args.attitude_deg}: {why}"
         )
     return vehicle
+
+
+def plugin_params(pairs: list[str]) -> dict:
+    """``--param KEY=VALUE`` pairs as a plug-in's parameters: VALUE read as a TOML value
+    (numbers, booleans, quoted strings, arrays), else kept as the string given."""
+    import tomllib
+
+    params: dict = {}
+    for pair in pairs:
+        key, sep, value = pair.partition("=")
+        if not sep or not key.strip():
+            raise InputError(f"--param must be KEY=VALUE, got {pair!r}")
+        try:
+            params[key.strip()] = tomllib.loads(f"v = {value}")["v"]
+        except tomllib.TOMLDecodeError:
+            params[key.strip()] = value
+    return params

@@ -103,7 +103,6 @@ class CaseLimitState:
         nthread: int = 0,
     ):
         from rcsim.analysis.engine.campaign.effects import adapt_options
-        from rcsim.lookup.registry import make_controller
 
         check_continuous(spec, spec.source)
         self.spec = spec
@@ -116,9 +115,7 @@ class CaseLimitState:
         options = (
             {"adapt_options": adapt_options(spec.effects)} if spec.controller == "adaptive" else {}
         )
-        self.controller = make_controller(
-            spec.controller, spec.vehicle, table=spec.table, **options
-        )
+        self.controller = spec.make_controller(**options)
         self.on_rows = on_rows
         self.runs = 0
         self._chain_spec = replace(spec, runs_per_case=CHAIN_STRIDE)

@@ -186,7 +186,6 @@ def fly_runs(
     the flight raises :class:`Cancelled`.
     """
     from rcsim.analysis.engine.flight import fly_batch
-    from rcsim.lookup.registry import make_controller
 
     vehicle = spec.vehicle
     run_ids = np.asarray(run_ids, dtype=np.int64)
@@ -196,7 +195,7 @@ def fly_runs(
     options = (
         {"adapt_options": adapt_options(spec.effects)} if spec.controller == "adaptive" else {}
     )
-    controller = make_controller(spec.controller, vehicle, table=spec.table, **options)
+    controller = spec.make_controller(**options)
     if cancel is not None:
         controller = _Cancellable(controller, cancel)
     # The vehicle's valve timing comes with the effects: the spec's [dispersions.timing]

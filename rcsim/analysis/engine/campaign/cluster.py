@@ -130,6 +130,29 @@ def connect(workers: int | None, scheduler: str | None):
     return client, cluster
 
 
+def check_workers_controller(client, spec: CampaignSpec) -> None:
+    """Build the campaign's controller on every Dask worker before any run: a plug-in that
+    imports here but not on a worker (another environment, a module not on its path) is
+    refused with one line naming the worker, instead of failing every chunk it is sent."""
+    answers = client.run(_controller_problem, spec)
+    bad = {worker: why for worker, why in answers.items() if why}
+    if bad:
+        worker, why = next(iter(sorted(bad.items())))
+        raise InputError(
+            f"{spec.source}: controller {spec.controller!r} cannot be built on Dask worker "
+            f"{worker} ({len(bad)} of {len(answers)} workers): {why}"
+        )
+
+
+def _controller_problem(spec: CampaignSpec) -> str | None:
+    """Run on a worker: why the spec's controller cannot be built there, or None."""
+    try:
+        spec.make_controller()
+    except Exception as exc:  # noqa: BLE001 - reported to the user as the worker's answer
+        return " ".join(str(exc).split()) or type(exc).__name__
+    return None
+
+
 def close(client, cluster) -> None:
     """Close a Dask client and the cluster we started, quietly and without a long wait."""
     with quiet_dask():

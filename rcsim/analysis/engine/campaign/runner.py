@@ -38,7 +38,12 @@ from pathlib import Path
 from rcsim.analysis.engine import runs_table
 from rcsim.analysis.engine.campaign import results as R
 from rcsim.analysis.engine.campaign.chunk import iter_chunks
-from rcsim.analysis.engine.campaign.cluster import close, connect, dask_results
+from rcsim.analysis.engine.campaign.cluster import (
+    check_workers_controller,
+    close,
+    connect,
+    dask_results,
+)
 from rcsim.analysis.engine.campaign.effects import describe
 from rcsim.analysis.engine.campaign.gate import GateResult, judge
 from rcsim.analysis.engine.campaign.local import local_results
@@ -47,6 +52,7 @@ from rcsim.analysis.engine.campaign.spec import CampaignSpec
 from rcsim.analysis.engine.interrupts import raise_if_interrupted, sigterm_interrupts
 from rcsim.analysis.engine.output import check_out_dir, output_lock, write_marker
 from rcsim.analysis.engine.runs_table import all_columns
+from rcsim.lookup.registry import is_plugin
 from rcsim.models.errors import InputError
 
 COMMAND = "campaign run"  # recorded in the directory's marker (rcsim.analysis.engine.output)
@@ -278,6 +284,8 @@ def run_campaign(
         with sigterm_interrupts():
             client, cluster = connect(workers, scheduler)  # before creating DIR: no debris
             try:
+                if client is not None and is_plugin(spec.controller):
+                    check_workers_controller(client, spec)
                 return _run(
                     spec,
                     out,

@@ -50,7 +50,7 @@ from rcsim.analysis.engine.campaign.spec_vehicle import (
     spec_vehicle,
 )
 from rcsim.analysis.engine.flight import Scenario
-from rcsim.lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
+from rcsim.lookup.registry import TABLE_CONTROLLERS, controller_names, is_plugin
 from rcsim.models.errors import InputError
 from rcsim.models.tables import PAPER_LOOKUP_TABLES
 from rcsim.spacecraft.dispersions import MAX_SEED, DispersionSigmas
@@ -82,6 +82,8 @@ class CampaignSpec:
     cases : tuple of rcsim.analysis.engine.flight.Scenario
         Case ``c`` holds runs ``c * runs_per_case ... (c + 1) * runs_per_case - 1``.
     controller : str
+        A built-in controller, a registered plug-in's name or ``plugin:package.module:factory``
+        (:mod:`rcsim.lookup.plugins`).
     table : str or None
         Absolute path of the lookup table (None: packaged default / phase-plane).
     sigmas : DispersionSigmas
@@ -104,6 +106,8 @@ class CampaignSpec:
     effects : Effects
         Sensors, valve timing and jet faults (:mod:`~rcsim.analysis.engine.campaign.effects`);
         each ``is_none()`` when the spec has no such table.
+    controller_params : dict
+        A plug-in's ``[controller.params]`` (empty for a built-in).
     max_failed_pct : float or None
         The failure gate, percent of runs (:mod:`~rcsim.analysis.engine.campaign.gate`);
         None: no gate.
@@ -128,6 +132,16 @@ class CampaignSpec:
     vehicle: Vehicle
     max_failed_pct: float | None = None
     effects: Effects = Effects()
+    controller_params: dict = dataclasses.field(default_factory=dict)
+
+    def make_controller(self, **options):
+        """The campaign's controller, built for its vehicle (a plug-in with its
+        ``[controller.params]``): what every chunk, replay and rare-event flight flies."""
+        from rcsim.lookup.registry import make_controller
+
+        if self.controller_params:
+            options["plugin_params"] = self.controller_params
+        return make_controller(self.controller, self.vehicle, table=self.table, **options)
 
     @property
     def sensor(self):
@@ -347,6 +361,8 @@ def parse_dict(
         top.table_("controller"), base_dir, vehicle.control.cycle_s
     )
     check_jet_map(vehicle, name, table, source)
+    if is_plugin(name):
+        check_plugin(resolved["controller"], vehicle, source)
     if table is not None and table not in PAPER_LOOKUP_TABLES:
         check_channel_table(name, table, vehicle, source)
     sigmas, effects, resolved["dispersions"] = _dispersions(
@@ -363,6 +379,7 @@ def parse_dict(
         cases=tuple(cases),
         controller=name,
         table=table,
+        controller_params=resolved["controller"].get("params", {}),
         sigmas=sigmas,
         rate_threshold_rad_s=math.radians(rate_thr),
         attitude_threshold_rad=None if att_thr is None else math.radians(att_thr),
@@ -382,7 +399,7 @@ def _controller(c: Reader, base_dir: Path, cycle_s: float) -> tuple[str, str | N
     from rcsim.lookup.jet_sets import load_table_for_jets
     from rcsim.models.tables import load_lookup_table
 
-    name = c.choice("name", None, ALL_CONTROLLERS)
+    name = _controller_name(c, base_dir)
     table = file_key(c, "table", base_dir, names=tuple(PAPER_LOOKUP_TABLES))
     if name not in TABLE_CONTROLLERS and table is not None:
         raise c.error("table", "is only for the lookup and adaptive controllers", table)
@@ -416,17 +433,89 @@ def _controller(c: Reader, base_dir: Path, cycle_s: float) -> tuple[str, str | N
             else f"recipe {recipe.name} changed since the campaign ran (sha256 differs)"
         )
         raise c.error("table", problem, table)
+    params = c.raw("params", {})
+    if not isinstance(params, dict):
+        raise c.error("params", "must be a table of the plug-in's parameters", params)
+    if params and not is_plugin(name):
+        raise c.error("params", f"are only for a plug-in controller, not {name!r}", params)
+    c.unlisted.add("plugin_record")  # a manifest's record of the plug-in that flew
+    record = c.raw("plugin_record")
     c.done()
     resolved: dict = {
         "name": name,
         "table": table or "default",
         "table_sha256": file_digest(table),
     }
+    if is_plugin(name):  # recorded only for a plug-in: other specs resolve as before
+        resolved["params"] = params
+        if record is not None:
+            resolved["plugin_record"] = record
     if jets_off:  # recorded only when there are some: other specs resolve as before
         resolved["jets_off"] = list(jets_off)
     if recipe_sha is not None:  # a channel table's recipe is part of the table
         resolved["recipe_sha256"] = recipe_sha
     return name, table, resolved
+
+
+def _absolute_plugin_file(target: str, base_dir: Path) -> str:
+    """``path/to/fsw.py:factory`` with the file made absolute (relative to the spec's
+    directory), so a resume or replay from elsewhere imports the same file."""
+    module, _, attr = target.rpartition(":")
+    if not module.endswith(".py"):
+        return target
+    path = Path(module).expanduser()
+    return f"{path if path.is_absolute() else (base_dir / path).resolve()}:{attr}"
+
+
+def _controller_name(c: Reader, base_dir: Path) -> str:
+    """``[controller]``'s ``name`` (a built-in, a registered plug-in's name, or
+    ``plugin:package.module:factory``) or ``plugin = "package.module:factory"``, the same
+    plug-in by its import path."""
+    from rcsim.lookup.plugins import PLUGIN_PREFIX
+
+    named = c.has("name")  # asked first: the order unknown-key messages list the keys in
+    plugin = c.raw("plugin")
+    if plugin is not None:
+        if named:
+            raise c.error("plugin", "names the controller: give plugin or name, not both", plugin)
+        if not isinstance(plugin, str) or plugin.count(":") != 1:
+            raise c.error(
+                "plugin", "must be 'package.module:factory' or 'path/to/file.py:factory'", plugin
+            )
+        return PLUGIN_PREFIX + _absolute_plugin_file(plugin, base_dir)
+    name = c.raw("name")
+    choices = controller_names()
+    if name is None:
+        raise c.error("name", f"is required; one of {', '.join(choices)} (or plugin = ...)")
+    if not isinstance(name, str) or not (name in choices or name.startswith(PLUGIN_PREFIX)):
+        raise c.error(
+            "name",
+            f'must be one of {", ".join(choices)}, or a plug-in: plugin = "package.module:factory"',
+            name,
+        )
+    return name
+
+
+def check_plugin(spec_resolved: dict, vehicle: Vehicle, source: str) -> None:
+    """Build a plug-in controller once on ``vehicle`` (its import, factory and one probe
+    cycle: :func:`rcsim.lookup.plugins.build`) and record what it was in
+    ``spec_resolved["plugin_record"]``; refuse (one line naming ``source``) a plug-in whose
+    source changed since a manifest recorded it."""
+    from rcsim.lookup.plugins import build
+
+    name = spec_resolved["name"]
+    try:
+        info = build(name, vehicle, spec_resolved.get("params")).info.record()
+    except InputError as exc:
+        raise InputError(f"{source}: controller: {exc}") from None
+    old = spec_resolved.get("plugin_record")
+    if old is not None and old.get("source_sha256") != info["source_sha256"]:
+        raise InputError(
+            f"{source}: controller: plug-in {old.get('target')!r} changed since the campaign "
+            f"ran (its source's sha256 differs: {old.get('source_sha256')} -> "
+            f"{info['source_sha256']})"
+        )
+    spec_resolved["plugin_record"] = info
 
 
 def _recipe_file(table: str | None) -> Path | None:
