@@ -124,6 +124,10 @@ def load_factory(name: str):
         A malformed target, a module that is not found or fails to import (the module's own
         exception named), a missing attribute, or one that is not callable.
     """
+    from rcsim.lookup.c_library import LIBRARY_PREFIX
+
+    if name.startswith(LIBRARY_PREFIX):
+        return _library_factory(name, name[len(LIBRARY_PREFIX) :])
     target, entry_point = _target(name)
     module_name, sep, attr = target.partition(":")
     if not sep or not module_name or not attr:
@@ -167,6 +171,20 @@ def load_factory(name: str):
     )
 
 
+def _library_factory(name: str, path: str):
+    """A C library's factory (:class:`rcsim.lookup.c_library.CLibraryController`) and its
+    record: the library's path and the SHA-256 of the file."""
+    from rcsim.lookup.c_library import CLibraryController, load_library
+
+    load_library(path, name)  # missing, not a library, wrong ABI: refused before the factory
+
+    def factory(vehicle, params):
+        return CLibraryController(path, vehicle, params, name)
+
+    digest = hashlib.sha256(Path(path).expanduser().read_bytes()).hexdigest()
+    return factory, PluginInfo(name, path, None, None, None, digest)
+
+
 def build(name: str, vehicle: Vehicle, params: dict | None = None) -> CheckedController:
     """Build plug-in ``name`` for ``vehicle`` and check its contract on one probe cycle.
 
@@ -183,6 +201,8 @@ def build(name: str, vehicle: Vehicle, params: dict | None = None) -> CheckedCon
     factory, info = load_factory(name)
     try:
         ctl = factory(vehicle, dict(params or {}))
+    except InputError:
+        raise  # already one line naming the plug-in (a C library's refusals)
     except Exception as exc:  # noqa: BLE001 - the user's factory: its failure is the message
         raise PluginError(
             f"controller {name!r}: its factory raised {type(exc).__name__}: {_one_line(exc)}"
@@ -233,6 +253,8 @@ class CheckedController:
     def step(self, nav: NavState, state: Any) -> tuple[np.ndarray, Any]:
         try:
             on, state = self.inner.step(nav, state)
+        except InputError:
+            raise  # already one line naming the plug-in, its cycle and run
         except Exception as exc:  # noqa: BLE001 - named with the cycle, as the user's fault
             raise PluginError(
                 f"controller {self.info.name!r} raised at cycle {self._cycle} (t = "

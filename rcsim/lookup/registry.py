@@ -219,18 +219,19 @@ def make_controller(
         return allocator_controller(vehicle, jets_off=jets_off)
     raise InputError(
         f"unknown controller {name!r}; choose one of {', '.join(controller_names())} or a "
-        "plug-in, plugin:package.module:factory"
+        "plug-in, plugin:package.module:factory or library:path/to/libfsw.so"
     )
 
 
 def is_plugin(name: str) -> bool:
     """Whether controller ``name`` names a plug-in (:mod:`rcsim.lookup.plugins`: by import
     path, or a name an installed package registers; a built-in's name never does)."""
+    from rcsim.lookup.c_library import LIBRARY_PREFIX
     from rcsim.lookup.plugins import PLUGIN_PREFIX, registered
 
     if name in ALL_CONTROLLERS:
         return False
-    return name.startswith(PLUGIN_PREFIX) or name in registered()
+    return name.startswith((PLUGIN_PREFIX, LIBRARY_PREFIX)) or name in registered()
 
 
 def controller_names() -> tuple[str, ...]:
@@ -244,12 +245,11 @@ def controller_names() -> tuple[str, ...]:
 def check_controller_name(name: str) -> str:
     """``name`` if it names a controller :func:`make_controller` can build, else InputError
     (an argparse ``type=``: the message is the one line the user sees)."""
-    from rcsim.lookup.plugins import PLUGIN_PREFIX
     from rcsim.models.errors import InputError
 
-    if name in controller_names() or name.startswith(PLUGIN_PREFIX):
+    if name in controller_names() or is_plugin(name):
         return name
     raise InputError(
         f"unknown controller {name!r}; choose one of {', '.join(controller_names())} or a "
-        "plug-in, plugin:package.module:factory"
+        "plug-in, plugin:package.module:factory or library:path/to/libfsw.so"
     )

@@ -54,3 +54,28 @@ def test_the_campaign_spec_snippet_loads_and_flies(tmp_path):
     assert manifest["spec"]["controller"]["plugin_record"]["target"].endswith(
         "switching_line.py:make_controller"
     )
+
+
+def test_the_c_example_builds_and_flies_as_written(tmp_path, monkeypatch):
+    """The second sh block: the build script, then the maneuver with the library."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+
+    import pytest
+
+    if shutil.which(os.environ.get("CC", "cc")) is None:
+        pytest.skip("no C compiler (cc) to build the C example")
+    build, fly = _blocks("sh")[1].replace("\\\n", " ").strip().splitlines()
+    lib = tmp_path / "libswitching_line.so"
+    argv = shlex.split(build)
+    argv[-1] = str(lib)
+    monkeypatch.chdir(ROOT)
+    subprocess.run(argv, check=True, env={**os.environ, "PYTHON": sys.executable})
+    argv = shlex.split(fly)[1:]
+    argv[argv.index("--controller") + 1] = f"library:{lib}"
+    argv[argv.index("--out") + 1] = str(tmp_path / "switching_c")
+    assert main(argv) == 0
+    summary = json.loads((tmp_path / "switching_c" / "summary.json").read_text())
+    assert summary["firings"] > 0 and summary["plugin"]["target"] == str(lib)

@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from rcsim.analysis.apps.cli.vehicle_args import add_vehicle_args, flown_vehicle
+from rcsim.lookup.c_library import LIBRARY_PREFIX
 from rcsim.models.errors import InputError
 
 COMMAND = "maneuver"  # recorded in the output directory's marker
@@ -32,8 +33,10 @@ def register(sub) -> None:
         "(lookup whose table entries learn their firing times in flight), allocator "
         "(jet selection for any layout; objective the profile's allocation: propellant, "
         "propellant+translation or translation-first), a name an installed package registers "
-        "(entry points 'rcsim.controllers'), or your own flight software, "
-        "plugin:package.module:factory (docs/flight_software.md); default phase-plane",
+        "(entry points 'rcsim.controllers'), or your own flight software: "
+        "plugin:package.module:factory (Python) or library:path/to/libfsw.so (C, the ABI "
+        "of rcsim/lookup/c_abi/rcsim_fsw.h; flown in a child process) "
+        "(docs/flight_software.md); default phase-plane",
     )
     p.add_argument(
         "--param",
@@ -126,10 +129,12 @@ def run(args: argparse.Namespace) -> int:
     scenario = Scenario(
         name="maneuver", duration_s=args.duration_s, att_cmd_rad=np.radians(args.attitude_deg)
     )
-    ctl = make_controller(
-        args.controller, vehicle, table=args.table, plugin_params=plugin_params(args.param)
-    )
-    history = fly(scenario, controller_obj=ctl, vehicle=vehicle)
+    params = plugin_params(args.param)
+    ctl = make_controller(args.controller, vehicle, table=args.table, plugin_params=params)
+    if args.controller.startswith(LIBRARY_PREFIX):  # C code may crash: not in this process
+        history = _fly_isolated(scenario, args.controller, vehicle, params)
+    else:
+        history = fly(scenario, controller_obj=ctl, vehicle=vehicle)
     title = f"{args.controller} maneuver ({r:g}, {p:g}, {y:g}) deg"
     if args.vehicle is not None:
         title += f" on {vehicle.name}"
@@ -178,6 +183,25 @@ def _vehicle(args: argparse.Namespace):
             f"--vehicle {args.vehicle} cannot fly --attitude-deg {args.attitude_deg}: {why}"
         )
     return vehicle
+
+
+def _fly_isolated(scenario, controller: str, vehicle, params: dict):
+    """Fly in a child process (:func:`rcsim.analysis.engine.isolated.call_isolated`); a crash
+    of the flight code there is one line naming the signal and the cycle."""
+    from rcsim.analysis.engine.isolated import Crash, call_isolated
+
+    ((_, result),) = call_isolated(_fly_one, [(scenario, controller, vehicle, params)])
+    if isinstance(result, Crash):
+        raise InputError(f"--controller {controller}: the flight software {result.describe()}")
+    return result
+
+
+def _fly_one(item: tuple):
+    """``(scenario, controller, vehicle, params)`` flown: what a child process runs."""
+    from rcsim.analysis.engine.flight import fly
+
+    scenario, controller, vehicle, params = item
+    return fly(scenario, controller, vehicle=vehicle, controller_params=params)
 
 
 def plugin_params(pairs: list[str]) -> dict:

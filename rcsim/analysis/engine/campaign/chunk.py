@@ -369,8 +369,49 @@ def tabulate(spec: CampaignSpec, history: History, dispersed: DispersedRuns) -> 
 def _raised(spec: CampaignSpec, run_ids: np.ndarray, exc: BaseException) -> pd.DataFrame:
     """Rows for runs whose flight raised: inputs (the draws) recorded, outcomes NaN, failed
     with the exception as the reason."""
-    dispersed = draw_runs(spec.vehicle.nominal(1), spec.sigmas, spec.seed, run_ids)
     reason = f"exception: {type(exc).__name__}: {exc}".replace("\n", " ")
+    return _raised_reason(spec, run_ids, reason)
+
+
+def crashed_chunk(spec: CampaignSpec, chunk: Chunk) -> tuple[ChunkResult, list[str]]:
+    """Fly a chunk whose worker process died, run by run in a child process
+    (:func:`rcsim.analysis.engine.isolated.call_isolated`): the runs that crash it are recorded
+    failed with the signal and the control cycle as their reason, the others fly as usual.
+    Returns the result and one line per crashed run (for the console)."""
+    from rcsim.analysis.engine.isolated import Crash, call_isolated
+
+    parts, lines = [], []
+    for run_id, result in call_isolated(simulate_one_run, [(spec, r) for r in chunk.run_ids]):
+        rid = int(run_id[1])
+        if isinstance(result, Crash):
+            why = f"flight software {result.describe()}"
+            rows = _raised_reason(spec, np.array([rid]), why)
+            parts.append(ChunkResult(Chunk(rid, rid + 1), rows, pd.DataFrame(), {}))
+            lines.append(f"run {rid}: {why}; recorded failed, the campaign goes on")
+        else:
+            parts.append(result)
+    env = [p.envelope for p in parts if not p.envelope.empty]
+    return (
+        ChunkResult(
+            chunk=chunk,
+            runs=pd.concat([p.runs for p in parts], ignore_index=True),
+            envelope=combine_envelopes(env) if env else pd.DataFrame(),
+            histories={k: v for p in parts for k, v in p.histories.items()},
+        ),
+        lines,
+    )
+
+
+def simulate_one_run(item: tuple) -> ChunkResult:
+    """``(spec, run_id)``: that run alone (what :func:`crashed_chunk` runs in a child)."""
+    spec, run_id = item
+    return simulate_chunk(spec, Chunk(int(run_id), int(run_id) + 1), 1)
+
+
+def _raised_reason(spec: CampaignSpec, run_ids: np.ndarray, reason: str) -> pd.DataFrame:
+    """Rows for runs that did not fly to the end: inputs (the draws) recorded, outcomes NaN,
+    failed with ``reason``."""
+    dispersed = draw_runs(spec.vehicle.nominal(1), spec.sigmas, spec.seed, run_ids)
     return run_rows(spec, dispersed, missing_outcomes(run_ids.size, reason, spec.n_jets))
 
 

@@ -26,13 +26,21 @@ import sys
 import threading
 from collections.abc import Generator, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from itertools import islice
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from rcsim.analysis.engine import pool_guard
-from rcsim.analysis.engine.campaign.chunk import Chunk, ChunkResult, simulate_chunk, warm_up
+from rcsim.analysis.engine.campaign.chunk import (
+    Chunk,
+    ChunkResult,
+    crashed_chunk,
+    simulate_chunk,
+    warm_up,
+)
+from rcsim.lookup.c_library import LIBRARY_PREFIX
 
 if TYPE_CHECKING:
     from rcsim.analysis.engine.campaign.spec import CampaignSpec
@@ -176,13 +184,14 @@ def local_results(
     dropped.
     """
     workers = max(1, min(workers, n_chunks))
-    if workers == 1:
+    # C flight code may crash its process: it never flies in this one.
+    if workers == 1 and not spec.controller.startswith(LIBRARY_PREFIX):
         nthread = os.cpu_count() or 1
         for chunk in chunks:
             yield simulate_chunk(spec, chunk, nthread=nthread, cancel=cancel)
         return
     pool = worker_pool(workers)
-    pending: set = set()
+    pending: dict[Future, Chunk] = {}
     finished_normally = False
     # One chunk more than workers: a worker that finishes starts the queued chunk at once,
     # instead of idling while this process takes its result, commits it and submits the next
@@ -191,13 +200,31 @@ def local_results(
     try:
         while True:
             for chunk in islice(chunks, in_flight - len(pending)):
-                pending.add(submit(pool, simulate_chunk, spec, chunk, 1))
+                pending[submit(pool, simulate_chunk, spec, chunk, 1)] = chunk
             if not pending:
                 finished_normally = True
                 return
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            lost = []
             for future in done:
-                yield future.result()
+                chunk = pending.pop(future)
+                if isinstance(future.exception(), BrokenProcessPool):
+                    lost.append(chunk)
+                else:
+                    yield future.result()
+            if lost:
+                # A worker died (a crash in C flight code, or a kill): the chunks in flight in
+                # the pool are lost with it.  Fly them again run by run, each crash recorded
+                # with its run and cycle, then go on with a new pool.
+                lost += list(pending.values())
+                pending.clear()
+                kill_pool(pool)
+                for chunk in sorted(lost, key=lambda c: c.first):
+                    result, lines = crashed_chunk(spec, chunk)
+                    for line in lines:
+                        print(f"rcsim: warning: {line}", file=sys.stderr, flush=True)
+                    yield result
+                pool = worker_pool(workers)
     finally:
         if finished_normally:
             pool.shutdown(wait=True)

@@ -468,12 +468,23 @@ def _absolute_plugin_file(target: str, base_dir: Path) -> str:
 
 
 def _controller_name(c: Reader, base_dir: Path) -> str:
-    """``[controller]``'s ``name`` (a built-in, a registered plug-in's name, or
-    ``plugin:package.module:factory``) or ``plugin = "package.module:factory"``, the same
-    plug-in by its import path."""
+    """``[controller]``'s ``name`` (a built-in, a registered plug-in's name,
+    ``plugin:package.module:factory`` or ``library:path``), ``plugin = "package.module:factory"``
+    (the same plug-in by its import path; or ``"path/to/fsw.py:factory"``) or ``library =
+    "path/to/libfsw.so"`` (C flight code, :mod:`rcsim.lookup.c_library`); a path is relative
+    to the spec."""
+    from rcsim.lookup.c_library import LIBRARY_PREFIX
     from rcsim.lookup.plugins import PLUGIN_PREFIX
 
     named = c.has("name")  # asked first: the order unknown-key messages list the keys in
+    library = c.raw("library")
+    if library is not None:
+        if named or c.has("plugin"):
+            raise c.error("library", "names the controller: give one of name, plugin, library")
+        if not isinstance(library, str) or not library:
+            raise c.error("library", "must be the path of a shared library", library)
+        path = Path(library).expanduser()
+        return LIBRARY_PREFIX + str(path if path.is_absolute() else (base_dir / path).resolve())
     plugin = c.raw("plugin")
     if plugin is not None:
         if named:
@@ -487,7 +498,7 @@ def _controller_name(c: Reader, base_dir: Path) -> str:
     choices = controller_names()
     if name is None:
         raise c.error("name", f"is required; one of {', '.join(choices)} (or plugin = ...)")
-    if not isinstance(name, str) or not (name in choices or name.startswith(PLUGIN_PREFIX)):
+    if not isinstance(name, str) or not (name in choices or is_plugin(name)):
         raise c.error(
             "name",
             f'must be one of {", ".join(choices)}, or a plug-in: plugin = "package.module:factory"',
