@@ -43,6 +43,7 @@ _COMMANDS = (
     "rcsim.analysis.apps.cli.campaign",
     "rcsim.analysis.apps.cli.study",
     "rcsim.analysis.apps.cli.analyze",
+    "rcsim.analysis.apps.cli.compare",
     "rcsim.analysis.apps.cli.vehicle",
 )
 
