@@ -55,6 +55,7 @@ from rcsim.spacecraft.vehicle_file.definition import (
     resolve_vehicle,
 )
 from rcsim.spacecraft.vehicle_file.sections import (
+    check_profile,
     check_reach,
     paper_control,
     paper_isp_s,
@@ -199,6 +200,7 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
         )
     integrator = ph.choice("integrator", "RK4", INTEGRATORS)
     ph.done()
+    check_profile(control, dt, path, data.get("control", {}), overrides, overrides_from)
     hull = top.table_("hull")
     hull_half = hull.vector("half_size_m", 3, required=False)
     hull_center = hull.vector("center_m", 3, list(cg) if hull_half else None, required=False)
