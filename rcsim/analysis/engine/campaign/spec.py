@@ -264,17 +264,9 @@ def _scenarios(raw, source: str, resolved: list, vehicle: Vehicle) -> list[Scena
             else:
                 dist = r.vector3("disturbance_n_m", [0.0, 0.0, 0.0])
                 limits = vehicle_limits(vehicle)
-                torque = limits["torque_n_m"]
-                over = [a for a in range(3) if abs(dist[a]) > torque[a]]
-                if over:
-                    raise r.error(
-                        "disturbance_n_m",
-                        f"each component must be within the jets' largest torque about that "
-                        f"axis, +-[{', '.join(f'{t:.4g}' for t in torque)}] N m ({vehicle.ref}'s "
-                        "nominal vehicle, all jets of one sign firing): beyond it no "
-                        "controller can hold attitude",
-                        dist,
-                    )
+                problem = vehicle.disturbance_problem(dist)
+                if problem:
+                    raise r.error("disturbance_n_m", problem, dist)
                 w0 = r.vector3("initial_rate_deg_s", [0.0, 0.0, 0.0])
                 if np.linalg.norm(w0) > limits["initial_rate_deg_s"]:
                     raise r.error(
