@@ -365,6 +365,40 @@ def check_profile(
     )
 
 
+def read_failure(f: Reader, control: ControlProfile) -> dict:
+    """``[failure]``: the vehicle's own failure criterion, the keys it gives (deg/s, deg).
+
+    * ``rate_error_deg_s`` (a run fails when its final rate error on any axis is at or above
+      it): > 0 and below the profile's maneuver rate, or a run still turning at the maneuver
+      rate at its end would pass;
+    * ``attitude_error_deg`` (a run fails when its final attitude error is above it): > 0 and
+      below 180 deg (no attitude error is larger, so it could never fail a run).
+    """
+    out: dict = {}
+    if f.has("rate_error_deg_s"):
+        rate = f.number("rate_error_deg_s", None, minimum=0.0, strict=True)
+        most = math.degrees(control.maneuver_rate_rad_s)
+        if rate >= most:
+            raise f.error(
+                "rate_error_deg_s",
+                f"must be below the maneuver rate control.maneuver_rate_deg_s = {most:g}: a run "
+                "still turning at the maneuver rate at its end would pass",
+                rate,
+            )
+        out["rate_error_deg_s"] = rate
+    if f.has("attitude_error_deg"):
+        att = f.number("attitude_error_deg", None, minimum=0.0, strict=True)
+        if att >= 180.0:
+            raise f.error(
+                "attitude_error_deg",
+                "must be below 180 deg: no attitude error is larger, so it would fail no run",
+                att,
+            )
+        out["attitude_error_deg"] = att
+    f.done()
+    return out
+
+
 def _given_keys(raw) -> list[str]:
     if not isinstance(raw, dict):
         return []
