@@ -78,6 +78,9 @@ class Jet:
 #: The keys of a vehicle file's ``[failure]``: a campaign's failure criterion for this vehicle
 #: (final rate error [deg/s], final attitude error [deg]), as a campaign spec's ``[failure]``.
 FAILURE_KEYS = ("rate_error_deg_s", "attitude_error_deg")
+#: The failure threshold of a campaign whose spec and vehicle file give none [deg/s]: the
+#: paper's (Gambone sec. III; the campaign's example spec says why), set for its vehicle.
+PAPER_RATE_ERROR_DEG_S = 0.04
 
 
 @dataclass(frozen=True)

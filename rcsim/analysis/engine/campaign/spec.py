@@ -56,6 +56,7 @@ from rcsim.models.tables import PAPER_LOOKUP_TABLES
 from rcsim.spacecraft.dispersions import MAX_SEED, DispersionSigmas
 from rcsim.spacecraft.dispersions import THREE_SIGMA_KEYS as _SIGMA_KEYS
 from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle_file.definition import PAPER_RATE_ERROR_DEG_S
 
 #: The commented example spec ``rcsim campaign example`` prints: every key, its default and
 #: what it means (a data file beside this module, ``example_spec.toml``; a test loads it).
@@ -63,9 +64,9 @@ EXAMPLE_SPEC = (files("rcsim.analysis.engine.campaign") / "example_spec.toml").r
     encoding="utf-8"
 )
 
-#: The failure threshold of a spec without ``[failure] rate_error_deg_s`` [deg/s] (Gambone
-#: sec. III; example_spec.toml says why).
-DEFAULT_RATE_ERROR_DEG_S = 0.04
+#: The failure threshold of a spec without ``[failure] rate_error_deg_s`` whose vehicle file
+#: gives none either [deg/s] (Gambone sec. III; example_spec.toml says why).
+DEFAULT_RATE_ERROR_DEG_S = PAPER_RATE_ERROR_DEG_S
 #: :func:`failure_source` of a spec whose ``[failure]`` gives its thresholds itself.
 SPEC_FAILURE_SOURCE = "rate threshold from the spec's [failure]"
 HISTORY_MODES = ("none", "failures", "all", "first")
