@@ -54,6 +54,11 @@ key (``[control]``)                       what                                  
                                           ``translation-first``
 ========================================  ======================================  ============
 
+Every key has a physical bound, from the profile's other keys, its cycle and the vehicle's
+physics step (:func:`bound_problems`, :func:`rate_problems`; listed with their reasons in
+``docs/vehicles.md``); a value outside it is refused with the bound and why, naming the key
+and where it came from.
+
 Allocation modes (:mod:`rcsim.lookup.allocator`), each honouring the minimum on-time inside
 the optimisation (a jet is off or on for at least its minimum pulse):
 
@@ -83,9 +88,11 @@ With a minimum on-time of zero (the paper's vehicle) the three are the same.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, fields, replace
 
 from rcsim.models.errors import InputError
+from rcsim.models.tables.constants import PAPER_CYCLE_S
 from rcsim.models.toml_reader import Reader
 
 #: Longest control cycle a profile may give [s]: an attitude-control loop slower than 1 Hz is
@@ -112,6 +119,23 @@ _KEYS: tuple[tuple[str, str, float, str], ...] = (
     ("allocator.trim_deadband_deg_s", "allocator_trim_deadband_rad_s", math.pi / 180, "nonneg"),
     ("maneuver_hysteresis_deg", "maneuver_hysteresis_rad", math.pi / 180, "nonneg"),
 )
+#: Every numeric field of a profile (SI names), in file order.
+CONTROL_FIELDS = tuple(name for _, name, _, _ in _KEYS)
+#: Field -> file key, unit factor (file unit to SI) and unit, for messages.
+_KEY_OF = {name: key for key, name, _, _ in _KEYS}
+_FACTOR = {name: factor for _, name, factor, _ in _KEYS}
+_UNIT = {
+    name: "deg/s" if key.endswith("_deg_s") else "deg" if key.endswith("_deg") else "s"
+    for key, name, _, _ in _KEYS
+}
+#: Largest body rate a profile may ask for at the validated physics step [deg/s]: the
+#: convergence study (docs/convergence.md) validates the 40 ms RK4 step with a torque-free
+#: tumble at ~3 deg/s, 10 times the paper's largest commanded rate (0.3 deg/s, Table 3);
+#: what it validates is the rotation per step (0.12 deg), so another step gets the rate that
+#: turns as far per step (:func:`validated_rate_rad_s`).
+MAX_VALIDATED_RATE_DEG_S = 3.0
+#: The physics step the convergence study validated [s]: the paper's (its control cycle).
+VALIDATED_STEP_S = PAPER_CYCLE_S
 #: What a pulse shorter than the minimum on-time becomes (module docstring).
 MIN_PULSE_POLICIES = ("accumulate", "round-up", "drop")
 #: What the allocator minimises (module docstring).
@@ -212,7 +236,12 @@ def _round_trip(value: float) -> float:
 
 
 def read_control(
-    raw: dict, base: ControlProfile | None, *, where: str, path: str = "control"
+    raw: dict,
+    base: ControlProfile | None,
+    *,
+    where: str,
+    path: str = "control",
+    bounds: bool = True,
 ) -> ControlProfile:
     """A profile from a ``[control]`` table ``raw`` (file keys, units in their names), each key
     it leaves out taken from ``base``; with ``base`` None every key is required.
@@ -226,6 +255,10 @@ def read_control(
         The file or flag the table came from, for messages and :attr:`ControlProfile.source`.
     path : str
         The table's key path in messages (``control``).
+    bounds : bool
+        Check the bounds between keys (:func:`bound_problems`); False for a caller that
+        checks them itself once every override is applied (a vehicle file, which knows its
+        physics step: :func:`rcsim.spacecraft.vehicle_file.sections.check_profile`).
 
     Raises
     ------
@@ -264,7 +297,13 @@ def read_control(
         source = base.source
     profile = ControlProfile(**values, source=source)  # type: ignore[arg-type]
     file_key = {name: key for key, name, _, _ in _KEYS} | {key: key for key in _CHOICE_KEYS}
-    _check(profile, where=where, key_of=lambda name: f"{path}.{file_key[name]}")
+    named = frozenset(name for name, key in file_key.items() if key in given)
+    _check(
+        profile,
+        where=where,
+        key_of=lambda name: f"{path}.{file_key[name]}",
+        given=(named,) if bounds else None,
+    )
     return profile
 
 
@@ -326,13 +365,14 @@ def with_values(profile: ControlProfile, **si_values: float | str) -> ControlPro
         **si_values,  # type: ignore[arg-type]  # each field's type is _check's to refuse
         source=f"{profile.source}; {', '.join(si_values)} set in code",
     )
-    _check(new, where="code", key_of=lambda name: name)
+    _check(new, where="code", key_of=lambda name: name, given=(frozenset(si_values),))
     return new
 
 
-def _check(profile: ControlProfile, *, where: str, key_of) -> None:
+def _check(profile: ControlProfile, *, where: str, key_of, given) -> None:
     """The rules every profile keeps, however made; ``key_of(field)`` names a field in the
-    message (a file key, or the field itself for code)."""
+    message (a file key, or the field itself for code).  ``given``: the fields this ``where``
+    set (:func:`bound_problems`), or None to leave the bounds between keys to the caller."""
     for key, words in _CHOICE_KEYS.items():
         if getattr(profile, key) not in words:
             raise InputError(
@@ -350,15 +390,165 @@ def _check(profile: ControlProfile, *, where: str, key_of) -> None:
             f"{where}: {key_of('cycle_s')}: must be within {MIN_CYCLE_S:g} to {MAX_CYCLE_S:g} s "
             f"(a cycle in ms?) (got {profile.cycle_s!r})"
         )
-    if profile.maneuver_hysteresis_rad >= profile.maneuver_limit_rad:
-        raise InputError(
-            f"{where}: {key_of('maneuver_hysteresis_rad')}: must be below the maneuver limit "
-            f"{math.degrees(profile.maneuver_limit_rad):g} deg (a maneuver ends below limit - "
-            f"hysteresis) (got {math.degrees(profile.maneuver_hysteresis_rad):g} deg)"
+    for name, text in bound_problems(profile, given) if given is not None else ():
+        raise InputError(f"{where}: {key_of(name)}: {text} (got {shown_value(profile, name)})")
+
+
+def shown_value(profile: ControlProfile, name: str) -> str:
+    """Field ``name``'s value as its file key gives it (degrees, deg/s, s)."""
+    return f"{_round_trip(getattr(profile, name) / _FACTOR[name]):g}"
+
+
+def control_key(name: str) -> str:
+    """Field ``name``'s key in a ``[control]`` table (``rate_deadband_rad_s`` ->
+    ``rate_deadband_deg_s``)."""
+    return _KEY_OF[name]
+
+
+def _told(profile: ControlProfile, name: str) -> str:
+    """``control.key = value unit``, how a message names another key's value."""
+    return f"control.{control_key(name)} = {shown_value(profile, name)} {_UNIT[name]}"
+
+
+def bound_problems(
+    profile: ControlProfile, given: Sequence[frozenset[str] | set[str]] = ()
+) -> list[tuple[str, str]]:
+    """The profile's broken bounds, as (field, problem) pairs; empty when it keeps them all.
+
+    Each bound is physical, from the profile's own values and its cycle (the vehicle's
+    physics step bounds the rates: :func:`rate_problems`):
+
+    * ``maneuver_limit_deg`` and ``phase_plane.attitude_deadband_deg`` below 180 deg: no
+      attitude error is larger (a rotation's angle is at most 180 deg), so a limit at or above
+      it never flies the maneuver rate, a deadband never fires;
+    * ``maneuver_band_deg`` and ``maneuver_hysteresis_deg`` below the maneuver limit (the band
+      lies on both sides of the limit; a maneuver ends below limit - hysteresis);
+    * ``on_time_limit_s`` at most the cycle: a remaining on-time of a cycle or more is a firing
+      still under way, and a limit above the cycle lets every cycle re-plan it;
+    * ``hold_time_s`` at most ``maneuver_limit / maneuver_rate``: turning at the maneuver rate,
+      a longer hold lets the vehicle cross the whole region inside the limit, where the
+      controllers brake, without a firing;
+    * the rate deadbands (lookup, phase plane, allocator and its trim deadband) below
+      ``maneuver_rate / sqrt(3)``: a maneuver from rest along a diagonal starts with that
+      per-axis rate error, the smallest a maneuver has on its largest axis, and a deadband at
+      or above it leaves that maneuver unflown, no jet firing.
+
+    A rule between fields names the first of them in the first of the ``given`` sets that
+    holds one (sets of fields, most recently set first: the value just set is the one to
+    blame), else the rule's first field.
+    """
+    p = profile
+    out: list[tuple[str, str]] = []
+
+    def blame(*names: str) -> str:
+        for fields_set in given:
+            for name in names:
+                if name in fields_set:
+                    return name
+        return names[0]
+
+    for name, what in (
+        ("maneuver_limit_rad", "the maneuver rate would never be flown"),
+        ("phase_plane_att_deadband_rad", "the phase plane would never fire on attitude"),
+    ):
+        if getattr(p, name) >= math.pi:
+            out.append(
+                (
+                    name,
+                    "must be below 180 deg: no attitude error is larger (a rotation's angle is "
+                    f"at most 180 deg), so at or above it {what}",
+                )
+            )
+    for name, why in (
+        ("maneuver_hysteresis_rad", "a maneuver ends below limit - hysteresis"),
+        ("maneuver_band_rad", "the band lies on both sides of the limit"),
+    ):
+        if getattr(p, name) >= p.maneuver_limit_rad:
+            who = blame(name, "maneuver_limit_rad")
+            if who == name:
+                text = f"must be below the maneuver limit {_told(p, 'maneuver_limit_rad')} ({why})"
+            else:
+                text = f"must be above {_told(p, name)} ({why})"
+            out.append((who, text))
+    if p.on_time_limit_s > p.cycle_s * (1 + 1e-12):
+        why = (
+            "a remaining on-time of a cycle or more is a firing still under way, and a limit "
+            "above the cycle lets every cycle re-plan a firing in progress"
         )
-    if profile.maneuver_band_rad >= profile.maneuver_limit_rad:
-        raise InputError(
-            f"{where}: {key_of('maneuver_band_rad')}: must be below the maneuver limit "
-            f"{math.degrees(profile.maneuver_limit_rad):g} deg (the band lies on both sides of "
-            f"the limit) (got {math.degrees(profile.maneuver_band_rad):g} deg)"
+        who = blame("on_time_limit_s", "cycle_s")
+        if who == "on_time_limit_s":
+            text = f"must be at most the control cycle {_told(p, 'cycle_s')}: {why}"
+        else:
+            text = f"must be at least {_told(p, 'on_time_limit_s')}: {why}"
+        out.append((who, text))
+    most_hold_s = p.maneuver_limit_rad / p.maneuver_rate_rad_s
+    if p.hold_time_s > most_hold_s * (1 + 1e-12):
+        who = blame("hold_time_s", "maneuver_rate_rad_s", "maneuver_limit_rad")
+        why = (
+            "turning at the maneuver rate, a longer hold lets the vehicle cross the whole "
+            "region inside the maneuver limit, where the controllers brake, without a firing"
         )
+        ratio = f"{_told(p, 'maneuver_limit_rad')} / {_told(p, 'maneuver_rate_rad_s')}"
+        if who == "hold_time_s":
+            text = f"must be at most {ratio} = {most_hold_s:.4g} s: {why}"
+        else:
+            text = (
+                f"makes {_told(p, 'hold_time_s')} longer than {ratio} = {most_hold_s:.4g} s: {why}"
+            )
+        out.append((who, text))
+    diagonal = p.maneuver_rate_rad_s / math.sqrt(3.0)
+    for name, whose in (
+        ("rate_deadband_rad_s", "the lookup controller's"),
+        ("phase_plane_rate_deadband_rad_s", "the phase plane's"),
+        ("allocator_rate_deadband_rad_s", "the allocator's"),
+        ("allocator_trim_deadband_rad_s", "the allocator's trim rule's"),
+    ):
+        if getattr(p, name) >= diagonal:
+            who = blame(name, "maneuver_rate_rad_s")
+            why = (
+                "a maneuver from rest along a diagonal starts with a per-axis rate error of "
+                f"maneuver_rate / sqrt(3) (the smallest a maneuver has on its largest axis), and "
+                f"{whose} deadband at or above it leaves that maneuver unflown, no jet firing"
+            )
+            if who == name:
+                text = (
+                    f"must be below {_told(p, 'maneuver_rate_rad_s')} / sqrt(3) = "
+                    f"{math.degrees(diagonal):.4g} deg/s: {why}"
+                )
+            else:
+                text = (
+                    f"must be above sqrt(3) x {_told(p, name)} = "
+                    f"{math.degrees(getattr(p, name)) * math.sqrt(3.0):.4g} deg/s: {why}"
+                )
+            out.append((who, text))
+    return out
+
+
+def validated_rate_rad_s(timestep_s: float) -> float:
+    """The largest body rate a vehicle's physics step ``timestep_s`` [s] is validated for
+    [rad/s]: :data:`MAX_VALIDATED_RATE_DEG_S` at :data:`VALIDATED_STEP_S`, the same rotation
+    per step at another step."""
+    return math.radians(MAX_VALIDATED_RATE_DEG_S) * VALIDATED_STEP_S / timestep_s
+
+
+def rate_problems(profile: ControlProfile, timestep_s: float) -> list[tuple[str, str]]:
+    """The profile's rates against the vehicle's physics step ``timestep_s`` [s], as
+    (field, problem) pairs: the maneuver rate and the rate cases' total rate at most
+    :func:`validated_rate_rad_s` (faster, the flight's accuracy is not established; the
+    maneuver rate at the braking the jets give is a warning,
+    :mod:`rcsim.spacecraft.vehicle_file.sanity`; rate cases the jets cannot reach are refused
+    by table generation)."""
+    most = validated_rate_rad_s(timestep_s)
+    out = []
+    for name in ("maneuver_rate_rad_s", "rate_case_rad_s"):
+        if getattr(profile, name) > most * (1 + 1e-12):
+            out.append(
+                (
+                    name,
+                    f"must be at most {math.degrees(most):.4g} deg/s, the largest rate the "
+                    f"vehicle's {timestep_s * 1e3:g} ms physics step is validated for "
+                    f"({MAX_VALIDATED_RATE_DEG_S:g} deg/s at {VALIDATED_STEP_S * 1e3:g} ms, "
+                    "docs/convergence.md: the same rotation per step)",
+                )
+            )
+    return out

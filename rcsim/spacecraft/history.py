@@ -6,6 +6,7 @@ Imports ``rcsim.spacecraft.navigation``, ``rcsim.spacecraft.propulsion`` and
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -13,6 +14,16 @@ import numpy as np
 from rcsim.spacecraft.navigation import NavState
 from rcsim.spacecraft.propulsion import PropulsionState
 from rcsim.spacecraft.vehicle import VehicleParams
+
+#: A flight lost control when its total attitude error rose more than this above its value at
+#: the start [deg] (:meth:`History.control_lost`).  No controller of rcsim lets an error grow
+#: that far past where it began: a maneuver turns toward its target, a hold keeps the error
+#: within its deadbands (the paper's maneuver limit is 0.6 deg, 50 times below), and braking
+#: from the fastest validated rate (3 deg/s) at the paper's weakest pure-axis authority (roll,
+#: 0.58 deg/s^2, ``rcsim vehicle check paper``) takes 7.8 deg.  Yet it is far enough below
+#: 180 deg that a tumble, whose error sweeps up to 180 deg, is caught from any start below
+#: 150 deg.
+CONTROL_LOST_DEG = 30.0
 
 
 @dataclass
@@ -98,6 +109,34 @@ class History:
     def n_jets(self) -> int:
         """The flown vehicle's jet count (the width of ``on_time_s``)."""
         return int(self.on_time_s.shape[2])
+
+    def control_lost(self) -> np.ndarray:
+        """Per run, whether it lost control, (n_runs,) bool: its total attitude error rose
+        more than :data:`CONTROL_LOST_DEG` above its value at the start, at some cycle or at
+        the end (a run that failed as a simulation is judged on the cycles it flew)."""
+        return np.isfinite(self.control_lost_at_s())
+
+    def control_lost_at_s(self) -> np.ndarray:
+        """Per run, when its attitude error first rose past the :meth:`control_lost` line
+        [s], (n_runs,); inf when it never did."""
+        att = np.concatenate([self.att_err_B, self.final.att_err_B[:, None]], axis=1)
+        total = np.linalg.norm(att, axis=2)  # (n_runs, n_cycles + 1)
+        t = np.append(self.t_s, self.final.t_s)
+        over = total > total[:, :1] + math.radians(CONTROL_LOST_DEG)
+        first = np.argmax(over, axis=1)
+        return np.where(over.any(axis=1), t[first], np.inf)
+
+    def control_lost_text(self, run: int = 0) -> str:
+        """Why run ``run`` lost control, one line; '' when it did not."""
+        at = float(self.control_lost_at_s()[run])
+        if not math.isfinite(at):
+            return ""
+        att = np.concatenate([self.att_err_B[run], self.final.att_err_B[run][None]], axis=0)
+        total = np.degrees(np.linalg.norm(att, axis=1))
+        return (
+            f"control lost at t = {at:g} s: the attitude error rose from {total[0]:.3g} deg at "
+            f"the start to {total.max():.4g} deg, more than {CONTROL_LOST_DEG:g} deg above it"
+        )
 
     @property
     def propellant_kg(self) -> np.ndarray:

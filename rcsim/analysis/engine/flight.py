@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from rcsim.lookup.registry import make_controller
+from rcsim.models.errors import InputError
 from rcsim.spacecraft.navigation import Guidance, euler321_deg, quat_from_rotvec
 from rcsim.spacecraft.propellant import exhausted_text
 from rcsim.spacecraft.simulation import Controller, History, simulate_batch
@@ -148,8 +149,29 @@ def fly(
         The runs' parameters (of ``vehicle``); default one nominal run.
     controller_params : dict, optional
         A plug-in controller's parameters (:mod:`rcsim.lookup.plugins`).
+
+    Returns
+    -------
+    History
+        Its :meth:`~rcsim.spacecraft.history.History.control_lost` says which runs lost
+        control (the attitude error rose far above its start:
+        :data:`~rcsim.spacecraft.history.CONTROL_LOST_DEG`), as :func:`flight_summary` does.
+
+    Raises
+    ------
+    InputError
+        The scenario's disturbance exceeds the jets' largest torque about an axis
+        (:meth:`Vehicle.disturbance_problem`, the rule a campaign and ``rcsim scenario run``
+        apply): no controller could hold it.
     """
     vehicle = Vehicle.load(vehicle)
+    dist = np.asarray(scenario.disturbance_n_m, float)
+    problem = vehicle.disturbance_problem(dist)
+    if problem:
+        raise InputError(
+            f"Scenario {scenario.name!r}: disturbance_n_m: {problem} (got {dist.tolist()} N m)",
+            value=dist.tolist(),
+        )
     params = vehicle.nominal(1) if params is None else params
     ctl = controller_obj or make_controller(
         controller, vehicle, table=table, plugin_params=controller_params
@@ -210,9 +232,13 @@ def flight_summary(history: History, run: int = 0) -> dict:
 
     ``propellant_exhausted_s``: when a vehicle file's tracked propellant ran out [s] (None:
     it did not, or is not tracked); the jets deliver nothing after it, and commands after it
-    are not counted in ``firings`` (:mod:`rcsim.spacecraft.propellant`).  ``reason``: the
-    simulator's own when ``sim_failed``, else ``"propellant exhausted at t = ... s"`` when
-    the propellant ran out (a campaign's failure reason), else empty.
+    are not counted in ``firings`` (:mod:`rcsim.spacecraft.propellant`).  ``control_lost``:
+    the total attitude error rose more than
+    :data:`~rcsim.spacecraft.history.CONTROL_LOST_DEG` above its value at the start
+    (:meth:`~rcsim.spacecraft.history.History.control_lost`).  ``reason``: the simulator's
+    own when ``sim_failed``, else ``"propellant exhausted at t = ... s"`` when the propellant
+    ran out (a campaign's failure reason), else the control loss when control was lost,
+    else empty.
     """
     final = history.final
     exhausted = history.propellant_exhausted_s
@@ -220,6 +246,9 @@ def flight_summary(history: History, run: int = 0) -> dict:
     reason = history.reason[run]
     if not reason and t_out is not None:
         reason = exhausted_text(t_out)
+    lost = history.control_lost_text(run)
+    if not reason:
+        reason = lost
     return {
         "final_att_err_deg": np.degrees(final.att_err_B[run]).round(6).tolist(),
         "final_rate_err_deg_s": np.degrees(final.rate_err_B[run]).round(6).tolist(),
@@ -229,6 +258,7 @@ def flight_summary(history: History, run: int = 0) -> dict:
         # above are then not a flight.
         "sim_failed": bool(history.failed[run]),
         "propellant_exhausted_s": t_out,
+        "control_lost": bool(lost),
         "reason": reason,
     }
 

@@ -30,6 +30,7 @@ from rcsim.spacecraft.vehicle_file.axis_authority import (
     pure_axis_authority,
     reachable,
 )
+from rcsim.spacecraft.vehicle_file.definition import PAPER_RATE_ERROR_DEG_S
 from rcsim.spacecraft.vehicle_file.sanity import sanity_warnings
 from rcsim.spacecraft.vehicle_file.schema import VehicleDef
 
@@ -187,6 +188,13 @@ def check_text(vehicle: VehicleDef, result: VehicleCheck) -> str:
             "command edges"
         )
     out.append(f"flight-software profile: {d.control.describe()}")
+    own = "; ".join(f"{k} = {v:g}" for k, v in d.failure.items())
+    out.append(
+        f"failure criterion of its campaigns: {own} ([failure])"
+        if own
+        else "failure criterion of its campaigns: the paper's, rate_error_deg_s = "
+        f"{PAPER_RATE_ERROR_DEG_S:g} (Gambone sec. III; no [failure])"
+    )
     out += [
         "",
         "Force [N] and torque about the CG [N m] of each jet at full thrust:",

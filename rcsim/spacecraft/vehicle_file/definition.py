@@ -75,6 +75,14 @@ class Jet:
     close_delay_s: float = 0.0
 
 
+#: The keys of a vehicle file's ``[failure]``: a campaign's failure criterion for this vehicle
+#: (final rate error [deg/s], final attitude error [deg]), as a campaign spec's ``[failure]``.
+FAILURE_KEYS = ("rate_error_deg_s", "attitude_error_deg")
+#: The failure threshold of a campaign whose spec and vehicle file give none [deg/s]: the
+#: paper's (Gambone sec. III; the campaign's example spec says why), set for its vehicle.
+PAPER_RATE_ERROR_DEG_S = 0.04
+
+
 @dataclass(frozen=True)
 class VehicleDef:
     """A validated vehicle file.
@@ -111,6 +119,10 @@ class VehicleDef:
         The valve-timing keys (:data:`DELAY_KEYS`) the file gives, anywhere (even as 0): the
         delays it states as its own, which a campaign spec may disperse but not restate
         (:mod:`rcsim.analysis.engine.campaign.effects`).
+    failure : dict
+        The vehicle's own failure criterion (``[failure]``): :data:`FAILURE_KEYS` it gives ->
+        value (deg/s, deg), the defaults of a campaign of it (a spec's ``[failure]`` wins);
+        empty: the paper's apply.
     """
 
     source: str
@@ -132,6 +144,7 @@ class VehicleDef:
     doc: str = ""
     command_delay_s: float = 0.0
     delay_keys: tuple = ()
+    failure: dict = field(default_factory=dict)
 
     @property
     def n_jets(self) -> int:

@@ -19,6 +19,10 @@ Conventions
   the control cycle, maneuver rate and limit, deadbands, hold time; a key left out is the
   paper's (``paper.toml``'s ``[control]``).  Every limit below that depends on the cycle (valve
   delays, minimum on-time, physics step) is checked against the profile's cycle.
+* ``[failure]`` is the vehicle's own failure criterion (``rate_error_deg_s``,
+  ``attitude_error_deg``, as a campaign spec's ``[failure]``): the defaults of a campaign of
+  it, which a spec's ``[failure]`` overrides; without it a campaign judges the vehicle by the
+  paper's (0.04 deg/s, Gambone sec. III) and says so.
 * Valve timing (optional, seconds; the names of :class:`rcsim.spacecraft.valves.ValveTiming`
   and of a campaign's ``[dispersions.timing]``): ``open_delay_s`` and ``close_delay_s`` per jet (in
   ``[jet_defaults]``, overridden per ``[[jet]]``), the valve's latency from a rising (falling)
@@ -55,10 +59,12 @@ from rcsim.spacecraft.vehicle_file.definition import (
     resolve_vehicle,
 )
 from rcsim.spacecraft.vehicle_file.sections import (
+    check_profile,
     check_reach,
     paper_control,
     paper_isp_s,
     read_dispersions,
+    read_failure,
     read_file_control,
     read_inertia,
     read_jets,
@@ -199,6 +205,7 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
         )
     integrator = ph.choice("integrator", "RK4", INTEGRATORS)
     ph.done()
+    check_profile(control, dt, path, data.get("control", {}), overrides, overrides_from)
     hull = top.table_("hull")
     hull_half = hull.vector("half_size_m", 3, required=False)
     hull_center = hull.vector("center_m", 3, list(cg) if hull_half else None, required=False)
@@ -234,6 +241,7 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
             f"{src}: propellant.mass_kg: must be below mass.mass_kg = {mass:g} (got {prop!r})"
         )
     three_sigma = read_dispersions(top.table_("dispersions"), mass, inertia, cg, jets)
+    failure = read_failure(top.table_("failure"), control)
     top.done()
     return VehicleDef(
         source=src,
@@ -255,4 +263,5 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
         doc=doc,
         command_delay_s=command_delay,
         delay_keys=delay_keys,
+        failure=failure,
     )

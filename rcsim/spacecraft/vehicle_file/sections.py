@@ -16,7 +16,17 @@ import numpy as np
 
 from rcsim.models.errors import InputError
 from rcsim.models.toml_reader import Reader
-from rcsim.spacecraft.control_profile import CONTROL_KEYS, ControlProfile, read_control
+from rcsim.spacecraft.control_profile import (
+    CONTROL_FIELDS,
+    CONTROL_KEYS,
+    ControlProfile,
+    bound_problems,
+    control_key,
+    flatten_control,
+    rate_problems,
+    read_control,
+    shown_value,
+)
 from rcsim.spacecraft.dispersions import (
     INERTIA_ENTRIES,
     INERTIA_RULE,
@@ -303,7 +313,7 @@ def read_file_control(
     overridden keys."""
     raw = top.raw("control", {})
     paper = paper_control()
-    own = read_control(raw, paper, where=str(path))
+    own = read_control(raw, paper, where=str(path), bounds=False)
     given = sorted(set(_given_keys(raw)))
     if path.resolve() == packaged_vehicle("paper").resolve():
         source = "the paper's profile (paper.toml [control]: Gambone sec. II, Table 4)"
@@ -316,8 +326,77 @@ def read_file_control(
         source = f"{path.name} [control]; the paper's profile for {', '.join(rest)}"
     own = replace(own, source=source)
     if overrides:
-        own = read_control(overrides, own, where=overrides_from or "overrides")
+        own = read_control(overrides, own, where=overrides_from or "overrides", bounds=False)
     return own
+
+
+def check_profile(
+    control: ControlProfile,
+    timestep_s: float,
+    path: Path,
+    raw: dict,
+    overrides: dict,
+    overrides_from: str,
+) -> None:
+    """The profile's bounds once every override is applied, named where the key at fault came
+    from: its rates against the vehicle's physics step first
+    (:func:`rcsim.spacecraft.control_profile.rate_problems`), then the bounds between its keys
+    (:func:`rcsim.spacecraft.control_profile.bound_problems`), a rule between keys blaming an
+    overridden key before one the file set.
+
+    Parameters
+    ----------
+    raw : dict
+        The file's ``[control]`` table as written (the keys it sets).
+    overrides : dict
+        The ``[control]`` overrides applied on top (a spec's, ``--control``'s), from
+        ``overrides_from``.
+    """
+    by_key = {control_key(name): name for name in CONTROL_FIELDS}
+    over = {by_key[k] for k in flatten_control(overrides) if k in by_key}
+    own = {by_key[k] for k in _given_keys(raw) if k in by_key}
+    problems = rate_problems(control, timestep_s) or bound_problems(control, (over, own))
+    if not problems:
+        return
+    name, text = problems[0]
+    where = (overrides_from or "overrides") if name in over else str(path)
+    raise InputError(
+        f"{where}: control.{control_key(name)}: {text} (got {shown_value(control, name)})"
+    )
+
+
+def read_failure(f: Reader, control: ControlProfile) -> dict:
+    """``[failure]``: the vehicle's own failure criterion, the keys it gives (deg/s, deg).
+
+    * ``rate_error_deg_s`` (a run fails when its final rate error on any axis is at or above
+      it): > 0 and below the profile's maneuver rate, or a run still turning at the maneuver
+      rate at its end would pass;
+    * ``attitude_error_deg`` (a run fails when its final attitude error is above it): > 0 and
+      below 180 deg (no attitude error is larger, so it could never fail a run).
+    """
+    out: dict = {}
+    if f.has("rate_error_deg_s"):
+        rate = f.number("rate_error_deg_s", None, minimum=0.0, strict=True)
+        most = math.degrees(control.maneuver_rate_rad_s)
+        if rate >= most:
+            raise f.error(
+                "rate_error_deg_s",
+                f"must be below the maneuver rate control.maneuver_rate_deg_s = {most:g}: a run "
+                "still turning at the maneuver rate at its end would pass",
+                rate,
+            )
+        out["rate_error_deg_s"] = rate
+    if f.has("attitude_error_deg"):
+        att = f.number("attitude_error_deg", None, minimum=0.0, strict=True)
+        if att >= 180.0:
+            raise f.error(
+                "attitude_error_deg",
+                "must be below 180 deg: no attitude error is larger, so it would fail no run",
+                att,
+            )
+        out["attitude_error_deg"] = att
+    f.done()
+    return out
 
 
 def _given_keys(raw) -> list[str]:

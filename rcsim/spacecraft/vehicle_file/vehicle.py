@@ -252,6 +252,22 @@ class Vehicle:
             -np.where(torque < 0, torque, 0).sum(axis=0),
         )
 
+    def disturbance_problem(self, disturbance_n_m) -> str:
+        """Why a constant disturbance torque ``disturbance_n_m`` (3,) [N m, body axes] cannot
+        be flown on this vehicle, or '' when it can: a component beyond the jets' largest
+        torque about its axis (:meth:`axis_torque_n_m`), against which no controller can hold
+        attitude.  The one rule a campaign spec, ``rcsim scenario run`` and :func:`rcsim.fly`
+        apply."""
+        dist = np.asarray(disturbance_n_m, float)
+        torque = self.axis_torque_n_m()
+        if not (np.abs(dist) > torque).any():
+            return ""
+        return (
+            "each component must be within the jets' largest torque about that axis, +-["
+            f"{', '.join(f'{t:.4g}' for t in torque)}] N m ({self.label}'s nominal vehicle, all "
+            "jets of one sign firing): beyond it no controller can hold attitude"
+        )
+
     @property
     def n_jets(self) -> int:
         """The vehicle's jet count (its model's, :func:`rcsim.spacecraft.vehicle.jet_count`)."""

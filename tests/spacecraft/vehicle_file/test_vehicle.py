@@ -117,13 +117,18 @@ def test_overrides_apply_on_top_and_every_cycle_check_runs_again(tmp_path):
     # paper.toml's physics step (40 ms) does not divide 100 ms: refused, naming both.
     with pytest.raises(InputError, match=r"physics.timestep_s.*100 ms.*with control cycle_s"):
         Vehicle.load("paper").with_control({"cycle_s": 0.1}, "a test")
-    # A valve that opens 30 ms late cannot act within a 20 ms cycle.
+    # A valve that opens 30 ms late cannot act within a 20 ms cycle (the on-time limit
+    # lowered with the cycle: the paper's 30 ms is over a 20 ms cycle, refused first).
     delayed = _file(
         tmp_path,
         jets=JETS.replace("direction = [0, 0, 1]", "direction = [0, 0, 1]\nopen_delay_s = 0.03", 1),
     )  # noqa: E501
     with pytest.raises(InputError, match=r"open_delay_s.*20 ms control cycle"):
-        Vehicle.load(delayed, control={"cycle_s": 0.02}, control_from="--control")
+        Vehicle.load(
+            delayed,
+            control={"cycle_s": 0.02, "on_time_limit_s": 0.015},
+            control_from="--control",
+        )
 
 
 @pytest.mark.parametrize(

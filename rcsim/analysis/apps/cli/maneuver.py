@@ -157,6 +157,8 @@ def run(args: argparse.Namespace) -> int:
         )
     elif s["sim_failed"]:
         print(f"the simulation failed: {s['reason']}")
+    elif s["control_lost"]:
+        print(s["reason"])
     print(
         f"outputs in {paths['history.parquet'].parent}/: "
         + ", ".join(p.name for p in paths.values())

@@ -14,21 +14,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rcsim.models.errors import InputError
-from rcsim.models.tables import PAPER_CYCLE_S
+from rcsim.spacecraft.control_profile import MAX_VALIDATED_RATE_DEG_S as MAX_INITIAL_RATE_DEG_S
+from rcsim.spacecraft.control_profile import VALIDATED_STEP_S
 
 if TYPE_CHECKING:
     from rcsim.spacecraft.vehicle_file import Vehicle
 
-# Largest initial body rate of a hold [deg/s] (norm) at the validated physics step:
-# docs/convergence.md validates the 40 ms RK4 step with a torque-free tumble at ~3 deg/s, 10x
-# the paper's largest commanded rate (0.3 deg/s, Table 3); beyond it the step's accuracy is
-# not established.  What is validated is the rotation per step (3 deg/s x 40 ms = 0.12 deg),
-# so a vehicle with another physics step gets the rate that turns it as far per step
+# Largest initial body rate of a hold [deg/s] (norm) at the validated physics step, and that
+# step [s]: the flight-software profile's rate bound (rcsim.spacecraft.control_profile says
+# why); a vehicle with another physics step gets the rate that turns it as far per step
 # (:func:`vehicle_limits`).
-MAX_INITIAL_RATE_DEG_S = 3.0
-#: The physics step the convergence study validated [s]: the paper's vehicle's (paper.toml
-#: ``timestep_s``, equal to its 40 ms control cycle).
-VALIDATED_STEP_S = PAPER_CYCLE_S
 
 # A chunk's simulation records every cycle of every run (rcsim.spacecraft.simulation.History,
 # sized by rcsim.spacecraft.guards.history_bytes).  Long runs get smaller chunks so that one

@@ -48,7 +48,7 @@ from rcsim.analysis.engine.campaign.effects import describe
 from rcsim.analysis.engine.campaign.gate import GateResult, judge
 from rcsim.analysis.engine.campaign.local import local_results
 from rcsim.analysis.engine.campaign.motion import budget_thresholds
-from rcsim.analysis.engine.campaign.spec import CampaignSpec
+from rcsim.analysis.engine.campaign.spec import CampaignSpec, failure_note
 from rcsim.analysis.engine.interrupts import raise_if_interrupted, sigterm_interrupts
 from rcsim.analysis.engine.output import check_out_dir, output_lock, write_marker
 from rcsim.analysis.engine.runs_table import all_columns
@@ -212,6 +212,7 @@ def _new_manifest(spec: CampaignSpec, spec_file: str | None) -> dict:
             "rate_error_deg_s": spec.resolved["failure"]["rate_error_deg_s"],
             "attitude_error_deg": spec.resolved["failure"].get("attitude_error_deg"),
             **budget_thresholds(spec.resolved["failure"]),
+            "source": spec.failure_source,
         },
         "cases": [c.name for c in spec.cases],
         "started_utc": R.now_utc(),
@@ -465,6 +466,7 @@ def summary_text(report: CampaignReport, spec: CampaignSpec) -> str:
             for k, unit in (("max_propellant_kg", "kg"), ("max_delta_v_m_s", "m/s"))
             if k in spec.resolved["failure"]
         )
+        + (f" ({note})" if (note := failure_note(spec)) else "")
     )
     effects = describe(spec.effects)
     if effects:

@@ -56,6 +56,7 @@ from rcsim.models.tables import PAPER_LOOKUP_TABLES
 from rcsim.spacecraft.dispersions import MAX_SEED, DispersionSigmas
 from rcsim.spacecraft.dispersions import THREE_SIGMA_KEYS as _SIGMA_KEYS
 from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle_file.definition import PAPER_RATE_ERROR_DEG_S
 
 #: The commented example spec ``rcsim campaign example`` prints: every key, its default and
 #: what it means (a data file beside this module, ``example_spec.toml``; a test loads it).
@@ -63,9 +64,11 @@ EXAMPLE_SPEC = (files("rcsim.analysis.engine.campaign") / "example_spec.toml").r
     encoding="utf-8"
 )
 
-#: The failure threshold of a spec without ``[failure] rate_error_deg_s`` [deg/s] (Gambone
-#: sec. III; example_spec.toml says why).
-DEFAULT_RATE_ERROR_DEG_S = 0.04
+#: The failure threshold of a spec without ``[failure] rate_error_deg_s`` whose vehicle file
+#: gives none either [deg/s] (Gambone sec. III; example_spec.toml says why).
+DEFAULT_RATE_ERROR_DEG_S = PAPER_RATE_ERROR_DEG_S
+#: :func:`failure_source` of a spec whose ``[failure]`` gives its thresholds itself.
+SPEC_FAILURE_SOURCE = "rate threshold from the spec's [failure]"
 HISTORY_MODES = ("none", "failures", "all", "first")
 SCENARIO_KINDS = ("rate-cases", "maneuver", "hold")
 
@@ -113,6 +116,10 @@ class CampaignSpec:
         None: no gate.
         Not in ``resolved``: it judges results and changes nothing that is flown, so a
         campaign can be resumed under another limit.
+    failure_source : str
+        Where the failure thresholds came from (:func:`failure_source`): the spec's
+        ``[failure]``, the vehicle file's, or the paper's (said plainly when they judge another
+        vehicle); the manifest's ``thresholds.source``, the summary line and the report say it.
     """
 
     source: str
@@ -132,6 +139,7 @@ class CampaignSpec:
     vehicle: Vehicle
     max_failed_pct: float | None = None
     effects: Effects = Effects()
+    failure_source: str = ""
     controller_params: dict = dataclasses.field(default_factory=dict)
 
     def make_controller(self, **options):
@@ -192,7 +200,10 @@ class CampaignSpec:
         """The same campaign with ``n`` runs per case (what the CLI's ``--runs-per-case`` sets)."""
         resolved = dict(self.resolved, runs_per_case=n)
         spec = parse_dict(resolved, source=f"{self.source} with runs_per_case={n}", base_dir=None)
-        return dataclasses.replace(spec, max_failed_pct=self.max_failed_pct)
+        # resolved states every threshold: where they came from is this spec's
+        return dataclasses.replace(
+            spec, max_failed_pct=self.max_failed_pct, failure_source=self.failure_source
+        )
 
     def with_max_failed_pct(self, pct) -> CampaignSpec:
         """The same campaign under the failure gate ``pct`` (overrides the spec's).
@@ -278,17 +289,9 @@ def _scenarios(raw, source: str, resolved: list, vehicle: Vehicle) -> list[Scena
             else:
                 dist = r.vector3("disturbance_n_m", [0.0, 0.0, 0.0])
                 limits = vehicle_limits(vehicle)
-                torque = limits["torque_n_m"]
-                over = [a for a in range(3) if abs(dist[a]) > torque[a]]
-                if over:
-                    raise r.error(
-                        "disturbance_n_m",
-                        f"each component must be within the jets' largest torque about that "
-                        f"axis, +-[{', '.join(f'{t:.4g}' for t in torque)}] N m ({vehicle.ref}'s "
-                        "nominal vehicle, all jets of one sign firing): beyond it no "
-                        "controller can hold attitude",
-                        dist,
-                    )
+                problem = vehicle.disturbance_problem(dist)
+                if problem:
+                    raise r.error("disturbance_n_m", problem, dist)
                 w0 = r.vector3("initial_rate_deg_s", [0.0, 0.0, 0.0])
                 if np.linalg.norm(w0) > limits["initial_rate_deg_s"]:
                     raise r.error(
@@ -368,7 +371,9 @@ def parse_dict(
     sigmas, effects, resolved["dispersions"] = _dispersions(
         top.table_("dispersions"), base_dir, cases, source, vehicle, named
     )
-    rate_thr, att_thr, max_failed, resolved["failure"] = _failure(top.table_("failure"))
+    rate_thr, att_thr, max_failed, resolved["failure"], failure_from = _failure(
+        top.table_("failure"), vehicle
+    )
     histories, first_k, plots, resolved["output"] = _output(top.table_("output"))
     top.done()
     return CampaignSpec(
@@ -390,6 +395,7 @@ def parse_dict(
         vehicle=vehicle,
         max_failed_pct=max_failed,
         effects=effects,
+        failure_source=failure_from,
     )
 
 
@@ -617,13 +623,22 @@ def _dispersions(
     return sigmas, effects, resolved
 
 
-def _failure(f: Reader) -> tuple[float, float | None, float | None, dict]:
-    """``[failure]``: rate and attitude thresholds [deg/s, deg], the gate [%], resolved."""
-    rate_thr = f.number("rate_error_deg_s", DEFAULT_RATE_ERROR_DEG_S, minimum=0.0, strict=True)
+def _failure(f: Reader, vehicle: Vehicle) -> tuple[float, float | None, float | None, dict, str]:
+    """``[failure]``: rate and attitude thresholds [deg/s, deg], the gate [%], resolved, and
+    where the thresholds came from (:func:`failure_source`).  A key the spec leaves out is the
+    vehicle file's ``[failure]`` one, else the paper's (rate: 0.04 deg/s; attitude: none)."""
+    own = vehicle.definition.failure
+    spec_rate, spec_att = f.has("rate_error_deg_s"), f.has("attitude_error_deg")
+    rate_thr = f.number(
+        "rate_error_deg_s",
+        own.get("rate_error_deg_s", DEFAULT_RATE_ERROR_DEG_S),
+        minimum=0.0,
+        strict=True,
+    )
     att_thr = (
         f.number("attitude_error_deg", None, minimum=0.0, strict=True)
-        if f.has("attitude_error_deg")
-        else None
+        if spec_att
+        else own.get("attitude_error_deg")
     )
     # Budgets on the run's propellant and translation (issue 28): set only when given, so a
     # spec without them resolves (and resumes) as before.
@@ -639,7 +654,46 @@ def _failure(f: Reader) -> tuple[float, float | None, float | None, dict]:
     if att_thr is not None:
         resolved["attitude_error_deg"] = att_thr
     resolved.update(budgets)
-    return rate_thr, att_thr, max_failed, resolved
+    return rate_thr, att_thr, max_failed, resolved, failure_source(vehicle, spec_rate, spec_att)
+
+
+def failure_source(vehicle: Vehicle, spec_rate: bool, spec_att: bool) -> str:
+    """Where a campaign's failure thresholds came from, in words: the spec's ``[failure]``,
+    the vehicle file's, or the paper's -- said plainly when the paper's judge another vehicle
+    (0.04 deg/s was set for the paper's 3.5 t vehicle, Gambone sec. III).
+
+    Parameters
+    ----------
+    spec_rate, spec_att : bool
+        The spec's ``[failure]`` gives ``rate_error_deg_s`` / ``attitude_error_deg``.
+    """
+    own = vehicle.definition.failure
+    if spec_rate:
+        rate = "the spec's [failure]"
+        if spec_att or "attitude_error_deg" not in own:
+            return SPEC_FAILURE_SOURCE
+    elif "rate_error_deg_s" in own:
+        rate = f"{vehicle.label}'s own [failure]"
+    elif vehicle.ref == "paper":
+        rate = "the paper's (Gambone sec. III)"
+    else:
+        rate = (
+            f"the paper's {DEFAULT_RATE_ERROR_DEG_S:g} deg/s (Gambone sec. III, set for the "
+            f"paper's vehicle) applied to {vehicle.name}: neither the spec nor the vehicle file "
+            "gives [failure] rate_error_deg_s"
+        )
+    text = f"rate threshold from {rate}"
+    if not spec_att and "attitude_error_deg" in own:
+        text += f"; attitude threshold from {vehicle.label}'s own [failure]"
+    return text
+
+
+def failure_note(spec: CampaignSpec) -> str:
+    """:attr:`CampaignSpec.failure_source` when a reader could not guess it -- the paper's
+    thresholds judging another vehicle, or a vehicle file's own -- else '' (the spec's own
+    ``[failure]``, the paper's on the paper's vehicle): what a summary line adds."""
+    plain = spec.vehicle.ref == "paper" or spec.failure_source == SPEC_FAILURE_SOURCE
+    return "" if plain else spec.failure_source
 
 
 def _output(o: Reader) -> tuple[str, int, bool, dict]:

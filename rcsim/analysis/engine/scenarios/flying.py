@@ -49,18 +49,15 @@ def build_controller(
 
 def check_scenario_vehicle(scenario: PaperScenario, vehicle: Vehicle) -> None:
     """Refuse to fly ``scenario`` on ``vehicle`` when a run's disturbance torque exceeds the
-    jets' largest torque about an axis (the campaign rule, computed from the vehicle flown:
-    :meth:`Vehicle.axis_torque_n_m`): no controller could hold
-    it, and the flight would only show that."""
-    torque = vehicle.axis_torque_n_m()
+    jets' largest torque about an axis (:meth:`Vehicle.disturbance_problem`, the campaign's
+    and :func:`rcsim.fly`'s rule): no controller could hold it, and the flight would only show
+    that."""
     for run in scenario.runs:
         dist = np.asarray(run.disturbance_n_m, float)
-        if (np.abs(dist) > torque).any():
+        problem = vehicle.disturbance_problem(dist)
+        if problem:
             raise InputError(
-                f"scenario {scenario.name}: its disturbance {dist.tolist()} N m exceeds "
-                f"{vehicle.label}'s largest torque about an axis, +-"
-                f"[{', '.join(f'{t:.4g}' for t in torque)}] N m (all jets of one sign firing): "
-                "no controller can hold attitude against it"
+                f"scenario {scenario.name}: disturbance_n_m: {problem} (got {dist.tolist()} N m)"
             )
 
 
