@@ -149,6 +149,17 @@ class Record:
             return np.empty((0, self.k))
         return np.vstack([self.margins[int(i)] for i in np.asarray(ids, np.int64)])
 
+    def _all(self) -> np.ndarray:
+        return np.vstack(list(self.margins.values())) if self.margins else np.empty((0, self.k))
+
+    def n_failed(self) -> int:
+        """Flights that failed any criterion."""
+        return int(np.sum(np.any(~(self._all() >= 0.0), axis=1)))
+
+    def n_nonfinite(self) -> int:
+        """Flights with a margin that is not finite (a run not flown: every criterion fails)."""
+        return int(np.sum(np.any(~np.isfinite(self._all()), axis=1)))
+
     def failing(self) -> np.ndarray:
         """(k,) how many recorded flights fail each criterion."""
         if not self.margins:
@@ -219,6 +230,8 @@ class SeriesResult:
         Per criterion, the recorded flights that failed it.
     reason : str
         How the result was reached, and for ``not_explored`` what would resolve it.
+    n_failures, n_nonfinite : int
+        Flights that failed any criterion; flights with a margin not finite.
     """
 
     names: tuple[str, ...]
@@ -234,6 +247,8 @@ class SeriesResult:
     unexplored: tuple[str, ...] = ()
     found_elsewhere: tuple[int, ...] = ()
     reason: str = ""
+    n_failures: int = 0
+    n_nonfinite: int = 0
     extra: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -296,6 +311,8 @@ def combine_series(
     n_evaluations: int,
     confidence: float = CONFIDENCE,
     resolve: str = "more runs per level or a larger budget",
+    n_failures: int = 0,
+    n_nonfinite: int = 0,
 ) -> SeriesResult:
     """Combine the criteria's estimations (module docstring, "Combination").
 
@@ -313,6 +330,8 @@ def combine_series(
     confidence : float
     resolve : str
         What would resolve an unexplored criterion (the caller's words: its flags).
+    n_failures, n_nonfinite : int
+        Flights that failed any criterion, and with a margin not finite.
 
     Returns
     -------
@@ -337,6 +356,8 @@ def combine_series(
         n_evaluations=int(n_evaluations),
         weights=tuple(weights),
         found_elsewhere=found,
+        n_failures=int(n_failures),
+        n_nonfinite=int(n_nonfinite),
     )
     missed = [i for i, r in enumerate(criteria) if r.status == "not_resolved" and found[i] > 0]
     if missed:
@@ -415,12 +436,16 @@ class SeriesRepeat:
         Flights of this repeat that failed each criterion.
     flights : int
         Distinct flights of this repeat.
+    n_failures, n_nonfinite : int
+        Of them, those that failed any criterion, and those with a margin not finite.
     """
 
     parts: tuple[RareEventResult, ...]
     failing: tuple[np.ndarray, ...]
     found: np.ndarray
     flights: int
+    n_failures: int = 0
+    n_nonfinite: int = 0
 
 
 def series_config(config: SubsetConfig, repeats: int, k: int) -> SubsetConfig:
@@ -452,6 +477,7 @@ def series_repeat(
     state_paths: Sequence | None = None,
     progress: Callable[[str, object], None] | None = None,
     label: str = "",
+    record: Record | None = None,
 ) -> SeriesRepeat:
     """Repeat ``r`` of every criterion: criterion ``i`` by subset simulation on its own margin
     from the shared level 0 ``u0``, its chains on :func:`criterion_seed`'s repeat ``r``.
@@ -475,6 +501,9 @@ def series_repeat(
     progress : callable, optional
         ``progress(name, level record)`` after each level of each criterion.
     label : str
+    record : Record, optional
+        The flights already made (a resumed estimation's, read back from its files): not
+        flown again, and their margins known to the joint estimate.
 
     Returns
     -------
@@ -482,7 +511,7 @@ def series_repeat(
     """
     k = len(names)
     n0 = per.n_per_level
-    record = Record(k)
+    record = Record(k) if record is None else record
     g_rec = recording(g, k, record)
     parts, failing = [], []
     for i, name in enumerate(names):
@@ -504,7 +533,14 @@ def series_repeat(
         res = offset_result(res, r)
         parts.append(res)
         failing.append(record.lookup(flight_ids(res.failures_id, i, n0)))
-    return SeriesRepeat(tuple(parts), tuple(failing), record.failing(), len(record.margins))
+    return SeriesRepeat(
+        tuple(parts),
+        tuple(failing),
+        record.failing(),
+        len(record.margins),
+        record.n_failed(),
+        record.n_nonfinite(),
+    )
 
 
 def combine_series_repeats(
@@ -530,6 +566,8 @@ def combine_series_repeats(
         sum(rep.flights for rep in repeats),
         confidence,
         resolve,
+        sum(rep.n_failures for rep in repeats),
+        sum(rep.n_nonfinite for rep in repeats),
     )
 
 
