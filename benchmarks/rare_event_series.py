@@ -101,7 +101,7 @@ def _fmt(row: dict) -> str:
     return (
         f"| {row['method']} | {row['limit_state']} | {row['truth']:.3g} | {st} | {cover} | "
         f"{row['missed']} | {row['silent']} | {row['mean_ratio']:.3f} | "
-        f"{row['median_width']:.1f} | {row['evals']:,.0f} |"
+        f"{row['median_width']:.3g} | {row['evals']:,.0f} |"
     )
 
 
