@@ -340,3 +340,34 @@ def test_words_of_a_case_of_several_criteria():
     row = rare_rows({"cases": {"rate-13": bad}}, selection).iloc[0]
     assert row["95 % interval"] == "none: attitude not explored" and row["P(fail)"] == "-"
     assert "not explored: no bound, no interval" in row["method"]
+
+
+def test_two_criteria_resume_the_same_without_flying_a_run_again(tmp_path, monkeypatch):
+    """Killed after level 0, an estimation of two criteria resumes: the same record and rows
+    as an uninterrupted one, and no run already flown is flown again (the criteria's margins of
+    the runs flown are read back from the batch files)."""
+    spec_path = tmp_path / "two.toml"
+    spec_path.write_text(SPEC_TWO)
+    spec = load_spec(spec_path)
+    settings = RareSettings(n_per_level=100, budget=1000, repeats=1)
+    whole = estimate_cases(spec, [0], settings, tmp_path / "whole")
+
+    def die(line: str) -> None:
+        raise _Killed(line)
+
+    out = tmp_path / "killed"
+    with pytest.raises(_Killed):
+        estimate_cases(spec, [0], settings, out, progress=die)
+    flown = []
+    real = CaseLimitState.criterion_margins
+
+    def counting(self, u, ids):
+        flown.append(u.shape[0])
+        return real(self, u, ids)
+
+    monkeypatch.setattr(CaseLimitState, "criterion_margins", counting)
+    resumed = estimate_cases(spec, [0], settings, out)
+    assert resumed == whole
+    assert sum(flown) == whole["rate-13"]["runs"] - 100
+    whole_runs = pd.read_parquet(tmp_path / "whole" / rare_estimate.RUNS)
+    pd.testing.assert_frame_equal(pd.read_parquet(out / rare_estimate.RUNS), whole_runs)
