@@ -501,6 +501,8 @@ def series_repeat(
     progress : callable, optional
         ``progress(name, level record)`` after each level of each criterion.
     label : str
+        Of the state files: suffixed by the criterion's name when there are several (one
+        criterion keeps it as given, so a single-margin estimation's state file resumes).
     record : Record, optional
         The flights already made (a resumed estimation's, read back from its files): not
         flown again, and their margins known to the joint estimate.
@@ -528,7 +530,7 @@ def series_repeat(
             state_path=None if state_paths is None else state_paths[i],
             progress=None if progress is None else _named(progress, name),
             u0=u0,
-            label=f"{label} criterion {name}",
+            label=label if k == 1 else f"{label} criterion {name}",
         )
         res = offset_result(res, r)
         parts.append(res)
