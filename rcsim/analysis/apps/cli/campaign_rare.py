@@ -28,7 +28,12 @@ def register(csub) -> None:
         "into the region where the failure margin (runs.parquet's margin column) is smallest, "
         "K times independently (--repeats), side by side on worker processes; the estimate is "
         "the mean of the K, its CoV and interval from their spread (never below Au & Beck's "
-        "figure for their mean). "
+        "figure for their mean). A spec with several failure criteria (an attitude "
+        "threshold, tracked propellant, a [failure] budget) is estimated as a series system: "
+        "each criterion on its own margin from a shared first level, combined by series-system "
+        "bounds (the largest lower end, the sum of the upper ends); a criterion whose region "
+        "was not explored gets no bound or interval, and the line says which and what would "
+        "resolve it. "
         "Prints per case the estimate with its CoV and 95 % interval (or, when no failure is "
         "found within the budget, an upper bound), the runs spent and the closest failure in "
         "sigmas; writes DIR/rare.json, DIR/runs.parquet (every run flown; conditional samples, "
@@ -76,8 +81,9 @@ def register(csub) -> None:
         type=int,
         default=20_000,
         metavar="RUNS",
-        help="most runs per case, all repeats together (default 20000; each repeat gets "
-        "RUNS/K); a level is started only if it fits",
+        help="most runs per case, all repeats and criteria together (default 20000; with "
+        "one criterion each repeat gets RUNS/K; with C criteria the K first levels are flown "
+        "once and the rest split into C*K equal shares); a level is started only if it fits",
     )
     rare.add_argument(
         "--workers",

@@ -110,10 +110,9 @@ def rare_stage(out: Path, settings, progress: bool | None) -> dict:
 
 
 def _interval(rec: dict) -> str:
-    if rec["interval"] is None:
-        return f"< {rec['upper_bound']:.2g} (one-sided)"
-    lo, hi = rec["interval"]
-    return f"{lo:.2g} - {hi:.2g}"
+    from rcsim.analysis.apps.rare.words import interval_text
+
+    return interval_text(rec)
 
 
 #: What a status other than ``converged`` means, in the method column.
@@ -121,6 +120,8 @@ STATUS_NOTES = {
     "monte_carlo": " (first level only: not rare, plain Monte Carlo's exact interval)",
     "budget": " (budget ended before the failure level: rough)",
     "not_resolved": " (no failure within the budget: a bound)",
+    "partial": " (some criteria saw no failure: their bounds enter the upper end)",
+    "not_explored": " (a criterion's region was not explored: no bound, no interval)",
 }
 
 

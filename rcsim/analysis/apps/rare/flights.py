@@ -19,7 +19,16 @@ evaluation id ``E = k 2^27 + e``.  Level 0 (``e < N``) of repeat ``k`` is campai
 the repeats *is* the campaign's first ``K N`` runs of that case, the same vehicles and noise.
 Every later evaluation is run ``c 2^32 + 2^31 + E``, outside any campaign's range, its case
 still ``run_id // 2^32`` (as level 0's, ``c 2^32 + k N + e``, when ``K N > R``); its vehicle is
-recorded in its row and its ``u`` in the estimation's points file, so it replays.
+recorded in its row and its ``u`` in the estimation's points file, so it replays.  With several
+criteria, criterion ``i``'s chain evaluations carry ``i 2^23`` more
+(:func:`rcsim.analysis.engine.rare.series.flight_ids`); level 0 is shared.
+
+Criteria.  A run fails when any of the campaign's criteria fails (:func:`criteria_names`: the
+rate, and the attitude, propellant exhaustion and each budget when the spec applies them); its
+``margin`` column is their smallest term (:mod:`rcsim.analysis.engine.run_margin`).  The
+estimation flies each criterion's own margin (:func:`criterion_margins`, from the same row), so
+that a criterion that fails further out than another but more often is not missed
+(:mod:`rcsim.analysis.engine.rare.series`).
 """
 
 from __future__ import annotations
@@ -31,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.engine.rare.repeats import ID_STRIDE
+from rcsim.analysis.engine.run_margin import JUST_BELOW_ZERO
 from rcsim.models.errors import InputError
 from rcsim.spacecraft import standard_space
 
@@ -54,6 +64,65 @@ def check_continuous(spec: CampaignSpec, where: str) -> None:
             parameter="dispersions.fault",
             value="present",
         )
+
+
+def criteria_names(spec: CampaignSpec) -> list[str]:
+    """The criteria a run of ``spec`` can fail, by their names in the runs table's
+    ``failed_by`` column: ``rate`` always; ``attitude`` with an attitude threshold;
+    ``propellant_exhausted`` when the vehicle tracks propellant; each ``[failure]`` budget set."""
+    from rcsim.analysis.engine.campaign.motion import budget_thresholds
+
+    names = ["rate"]
+    if spec.attitude_threshold_rad is not None:
+        names.append("attitude")
+    if spec.vehicle.tank(1) is not None:
+        names.append("propellant_exhausted")
+    names += list(budget_thresholds(_failure_table(spec)))
+    return names
+
+
+def _failure_table(spec: CampaignSpec) -> dict:
+    return (getattr(spec, "resolved", None) or {}).get("failure") or {}
+
+
+def criterion_margins(spec: CampaignSpec, rows: pd.DataFrame) -> np.ndarray:
+    """(n, k) each criterion's margin (:func:`criteria_names`' order) of flown ``rows``.
+
+    Each term is :func:`rcsim.analysis.engine.run_margin.criterion_terms`' for that criterion,
+    in fractions of its threshold, recomputed from the row's outcome columns; its sign is the
+    row's own verdict (``failed_by``), so that a criterion fails in the estimation exactly when
+    the campaign says the run failed it (a term the row's rounding puts on the wrong side of 0
+    keeps its size and takes the verdict's sign).  Propellant exhaustion, a step, is -1 or +1.
+    A run whose simulation failed fails every criterion (NaN).
+    """
+    from rcsim.analysis.engine.campaign.motion import BUDGETS, budget_thresholds
+
+    names = criteria_names(spec)
+    if len(names) == 1:  # the margin column is the rate term itself, bit for bit
+        return rows["margin"].to_numpy(float)[:, None]
+    verdicts = [set(str(v).split("+")) for v in rows["failed_by"]]
+    n = len(rows)
+    cols = []
+    for name in names:
+        if name == "rate":
+            thr = float(np.degrees(spec.rate_threshold_rad_s))
+            axes = [f"final_rate_err_{a}_deg_s" for a in ("roll", "pitch", "yaw")]
+            worst = np.max(np.abs(rows[axes].to_numpy(float)), axis=1)
+            size = (thr - worst) / thr
+        elif name == "attitude":
+            thr = float(np.degrees(spec.attitude_threshold_rad or 0.0))
+            size = (thr - rows["final_att_err_deg"].to_numpy(float)) / thr
+        elif name == "propellant_exhausted":
+            size = np.ones(n)
+        else:
+            limit = budget_thresholds(_failure_table(spec))[name]
+            size = (limit - rows[BUDGETS[name][0]].to_numpy(float)) / limit
+        failed = np.array([name in v for v in verdicts], bool)
+        size = np.abs(size)
+        cols.append(np.where(failed, -np.maximum(size, -JUST_BELOW_ZERO), size))
+    margins = np.stack(cols, axis=1)
+    margins[rows["sim_failed"].to_numpy(bool)] = np.nan
+    return margins
 
 
 def run_ids_of(
@@ -176,9 +245,22 @@ class CaseLimitState:
         rows["rare_eval_id"] = np.asarray(eval_ids, np.int64)
         return rows
 
+    @property
+    def criteria(self) -> list[str]:
+        """The criteria a run can fail (:func:`criteria_names`)."""
+        return criteria_names(self.spec)
+
     def __call__(self, u: np.ndarray, eval_ids: np.ndarray) -> np.ndarray:
+        """(n,) the runs' ``margin`` column: the smallest of their criteria's terms."""
+        return self._flown(u, eval_ids)["margin"].to_numpy(float)
+
+    def criterion_margins(self, u: np.ndarray, eval_ids: np.ndarray) -> np.ndarray:
+        """(n, k) each criterion's margin of the runs (:func:`criterion_margins`)."""
+        return criterion_margins(self.spec, self._flown(u, eval_ids))
+
+    def _flown(self, u: np.ndarray, eval_ids: np.ndarray) -> pd.DataFrame:
         rows = self.rows(u, eval_ids)
         if self.on_rows is not None:
             self.on_rows(rows)
         self.runs += u.shape[0]
-        return rows["margin"].to_numpy(float)
+        return rows

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from rcsim.analysis.apps.rare.settings import RareSettings
     from rcsim.analysis.engine.campaign.spec import CampaignSpec
-    from rcsim.analysis.engine.rare import RareEventResult
+    from rcsim.analysis.engine.rare.series import SeriesRepeat
 
 LOG = "levels.log"
 #: Seconds between two looks at the workers' progress logs.
@@ -48,7 +48,7 @@ def _log_writer(path: Path) -> Callable[[str], None]:
 
 def repeat_in_worker(
     spec: CampaignSpec, case_index: int, settings: RareSettings, k: int, case_dir: str
-) -> RareEventResult:
+) -> SeriesRepeat:
     """Repeat ``k`` in a worker process: one MuJoCo thread, progress to its log."""
     from rcsim.analysis.apps.rare.repeat import estimate_repeat, repeat_dir
 
@@ -108,7 +108,7 @@ def run_repeats(
     progress: Callable[[str], None] | None,
     workers: int,
     client=None,
-) -> list[RareEventResult]:
+) -> list[SeriesRepeat]:
     """Every repeat's result (ids global), repeat ``k`` at index ``k``: on the Dask ``client``'s
     workers when given; else in this process when ``workers`` is 1 (MuJoCo's threads on every
     CPU), else on ``min(workers, repeats)`` local processes."""

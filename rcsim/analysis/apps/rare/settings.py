@@ -7,7 +7,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from rcsim.analysis.engine.rare import SubsetConfig
-from rcsim.analysis.engine.rare.repeats import split_budget
 
 #: Independent repeats per case by default: Cox's interval on 4 estimates, with the model's CoV
 #: as its floor, covered the truth in 99-100 % of 400 analytic repetitions per cell
@@ -31,7 +30,9 @@ class RareSettings:
     n_per_level : int
         Runs per level of each repeat.
     budget : int
-        Most runs per case, all repeats together (each gets ``budget // repeats``).
+        Most runs per case, all repeats and criteria together: level 0 of each repeat is
+        flown once for every criterion, the rest split evenly (one criterion: each repeat gets
+        ``budget // repeats``).
     repeats : int
         Independent subset simulations per case (1: one, with its conservative CoV).
     """
@@ -50,8 +51,7 @@ class RareSettings:
         }
 
     def config(self) -> SubsetConfig:
-        """One repeat's :class:`SubsetConfig`: ``n_per_level``, its share of the budget."""
-        return SubsetConfig(
-            n_per_level=self.n_per_level,
-            max_evaluations=split_budget(self.budget, self.repeats),
-        )
+        """The estimation's :class:`SubsetConfig`: ``n_per_level`` and the whole ``budget`` (runs
+        flown, level 0 once), which :func:`rcsim.analysis.engine.rare.series.series_config`
+        splits over the repeats and the criteria."""
+        return SubsetConfig(n_per_level=self.n_per_level, max_evaluations=self.budget)

@@ -12,13 +12,21 @@ from __future__ import annotations
 
 
 def estimate_text(rec: dict) -> str:
-    """The estimate, its interval and CoV, or the bound, in one phrase."""
+    """The estimate, its interval and CoV, or the bound, in one phrase; for a case of several
+    criteria, the series combination and each criterion's own figures; no figure at all when a
+    criterion's region was not explored (the record's reason says which and what would resolve
+    it)."""
     pct = f"{rec['confidence']:.0%}"
+    if rec["status"] == "not_explored":
+        return f"not estimated: {rec['reason']}"
     if rec["status"] == "not_resolved":
-        return (
+        text = (
             f"not resolved: no failure in {rec['runs']:,} runs, "
-            f"P(fail) < {rec['upper_bound']:.3g} ({pct} one-sided bound)"
+            f"P(fail) < {rec['upper_bound']:.3g} ({pct} one-sided bound"
+            + (", the sum of the criteria's" if rec.get("criteria") else "")
+            + ")"
         )
+        return text + _criteria_text(rec)
     lo, hi = rec["interval"]
     cov = "" if rec["cov"] is None else f", CoV {rec['cov']:.2f}"
     text = f"P(fail) = {rec['probability']:.3g} ({pct} interval {lo:.3g} - {hi:.3g}{cov})"
@@ -29,7 +37,39 @@ def estimate_text(rec: dict) -> str:
             text += ": not rare, plain Monte Carlo of the first level (exact interval)"
     elif rec["status"] == "budget":
         text += ": the budget ended before the failure level (few failure runs; a rough estimate)"
-    return text
+    elif rec["status"] == "partial":
+        text += ": some criteria saw no failure, their bounds enter the upper end"
+    return text + _criteria_text(rec)
+
+
+def interval_text(rec: dict) -> str:
+    """The interval or the bound alone, short (a table cell); ``none`` when nothing can be
+    stated."""
+    if rec["interval"] is not None:
+        lo, hi = rec["interval"]
+        return f"{lo:.2g} - {hi:.2g}"
+    if rec["upper_bound"] is not None:
+        return f"< {rec['upper_bound']:.2g} (one-sided)"
+    return "none: " + ", ".join(rec.get("unexplored") or []) + " not explored"
+
+
+def _criteria_text(rec: dict) -> str:
+    """`` (series bounds over rate: ..., attitude: ...)`` for a case of several criteria."""
+    crit = rec.get("criteria")
+    if not crit:
+        return ""
+    pct = f"{rec['criterion_confidence']:.1%}"
+    parts = []
+    for name, c in crit.items():
+        if c["status"] == "not_resolved":
+            parts.append(f"{name} no failure, P < {c['upper_bound']:.3g}")
+        else:
+            lo, hi = c["interval"]
+            parts.append(f"{name} P = {c['probability']:.3g} ({lo:.3g} - {hi:.3g})")
+    return (
+        f"; series-system bounds over {len(crit)} criteria, each estimated on its own margin "
+        f"at {pct}: " + ", ".join(parts)
+    )
 
 
 def closest_text(rec: dict) -> str:

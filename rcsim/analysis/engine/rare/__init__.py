@@ -6,6 +6,9 @@ batches of points, down to failure probabilities plain Monte Carlo cannot afford
 * :mod:`~rcsim.analysis.engine.rare.repeats` -- ``K`` independent subset simulations combined:
   the mean, with a CoV and an interval from their spread, never below the model's (what the
   command reports);
+* :mod:`~rcsim.analysis.engine.rare.series` -- a failure with several criteria as a series
+  system: each criterion estimated on its own margin, combined with series-system bounds
+  (one margin, the smallest of the criteria, can miss a criterion entirely);
 * :mod:`~rcsim.analysis.engine.rare.importance` -- cross-entropy importance sampling, the
   comparison ``benchmarks/rare_event.py`` measures (``docs/rare_events.md``);
 * :mod:`~rcsim.analysis.engine.rare.intervals` -- the coefficient of variation with the chains'
@@ -26,13 +29,16 @@ rcsim.analysis.engine.scenarios, rcsim.spacecraft, rcsim.lookup.
 
 from rcsim.analysis.engine.rare.repeats import combine_repeats, repeated_subset_simulation
 from rcsim.analysis.engine.rare.result import FailurePoint, RareEventResult
+from rcsim.analysis.engine.rare.series import SeriesResult, series_subset_simulation
 from rcsim.analysis.engine.rare.subset import SubsetConfig, subset_simulation
 
 __all__ = [
     "FailurePoint",
     "RareEventResult",
+    "SeriesResult",
     "SubsetConfig",
     "combine_repeats",
     "repeated_subset_simulation",
+    "series_subset_simulation",
     "subset_simulation",
 ]

@@ -87,3 +87,72 @@ def parabolic(dim: int, beta: float, kappa: float) -> LimitState:
     return LimitState(
         f"parabolic d={dim} kappa={kappa:g}", dim, p, float(beta), "parabolic", e1, kappa
     )
+
+
+@dataclass(frozen=True)
+class CriteriaLimitState:
+    """A failure with several criteria: half-spaces along distinct coordinates,
+    ``g_i = scale_i (1 - u_{axis_i} / beta_i)``, failing when any does.
+
+    ``margins(u, ids)`` gives the (n, k) criteria's margins (what
+    :func:`~rcsim.analysis.engine.rare.series.series_subset_simulation` takes); calling the
+    state gives their minimum, the single margin a campaign's ``margin`` column is.  The
+    coordinates are independent standard normals, so ``P = 1 - prod_i (1 - Phi(-beta_i))``.
+    The scales make a criterion look closer at nominal (``g_i(0) = scale_i``) than its
+    probability says: the trap of a single margin (``docs/rare_events.md``, "Several
+    criteria").
+    """
+
+    name: str
+    dim: int
+    betas: tuple[float, ...]
+    scales: tuple[float, ...]
+    axes: tuple[int, ...]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(f"c{i}" for i in range(len(self.betas)))
+
+    @property
+    def probabilities(self) -> tuple[float, ...]:
+        """Each criterion's ``Phi(-beta_i)``."""
+        return tuple(float(stats.norm.sf(b)) for b in self.betas)
+
+    @property
+    def probability(self) -> float:
+        """``1 - prod_i (1 - p_i)``, without cancellation."""
+        return float(-np.expm1(np.sum(np.log1p(-np.array(self.probabilities)))))
+
+    def margins(self, u: np.ndarray, ids: np.ndarray | None = None) -> np.ndarray:
+        """(n, k) the criteria's margins of points ``u`` (n, dim)."""
+        u = np.asarray(u, dtype=float)
+        cols = [s * (1.0 - u[:, a] / b) for s, a, b in zip(self.scales, self.axes, self.betas)]
+        return np.stack(cols, axis=1)
+
+    def __call__(self, u: np.ndarray, ids: np.ndarray | None = None) -> np.ndarray:
+        """The single margin ``min_i g_i`` (n,)."""
+        return np.min(self.margins(u, ids), axis=1)
+
+
+def criteria(
+    dim: int, betas: tuple[float, ...], scales: tuple[float, ...], name: str = ""
+) -> CriteriaLimitState:
+    """Criterion ``i`` along coordinate ``i`` (:class:`CriteriaLimitState`)."""
+    if len(betas) != len(scales) or not 1 <= len(betas) <= dim:
+        raise ValueError(f"betas and scales must have 1 to {dim} equal lengths")
+    label = name or (f"{len(betas)} criteria d={dim} beta=" + ",".join(f"{b:g}" for b in betas))
+    return CriteriaLimitState(
+        label, dim, tuple(map(float, betas)), tuple(map(float, scales)), tuple(range(len(betas)))
+    )
+
+
+def far_criterion(dim: int = 10) -> CriteriaLimitState:
+    """``min(0.3 (1 - u_1 / 10), 1 - u_2 / 4.5)``: the criterion closest at nominal (0.3)
+    fails at 10 sigma (7.6e-24), the other at 4.5 (3.4e-6) -- what one margin's chains miss."""
+    return criteria(dim, (10.0, 4.5), (0.3, 1.0), f"far criterion d={dim}")
+
+
+def two_criteria(dim: int = 86) -> CriteriaLimitState:
+    """``min(0.25 (1 - u_1 / 4.75), 1 - u_2 / 4.26)``: both criteria fail within reach (1.0e-6
+    and 1.0e-5), the rarer one closer at nominal."""
+    return criteria(dim, (4.75, 4.26), (0.25, 1.0), f"two criteria d={dim}")

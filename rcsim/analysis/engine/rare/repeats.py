@@ -192,8 +192,7 @@ def combine_repeats(
             upper_bound=bound,
             reason=(
                 f"no failure in any of {k} independent repeats ({n_eval:,} evaluations); the "
-                f"largest of their {k} one-sided bounds (each valid alone), repeat {worst}'s: "
-                + results[worst].reason
+                f"largest of their {k} one-sided bounds, repeat {worst}'s: " + results[worst].reason
             ),
             **fields,
         )

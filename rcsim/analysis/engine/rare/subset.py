@@ -457,5 +457,9 @@ def _budget_result(state: SubsetState, config: SubsetConfig, stalled: bool) -> R
         cov=None,
         interval=None,
         upper_bound=bound,
-        reason=f"{why} with no failure seen; {how}",
+        reason=(
+            f"{why} with no failure seen; {how}; a bound only if the chains followed every "
+            f"failure region of the margin (the smallest of several criteria is not one "
+            f"region: estimate each criterion on its own, rcsim.analysis.engine.rare.series)"
+        ),
     )
