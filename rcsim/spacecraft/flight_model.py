@@ -86,10 +86,17 @@ def flight_model(model: mujoco.MjModel) -> mujoco.MjModel:
             f"(got {model.nbody - 1} bodies, {model.njnt} joints)"
         )
     body = model.body(BODY).id
+    ipos = model.body_ipos[body]
+    # A body whose CG is at its origin with principal axes along its own compiles as
+    # "simple": a diagonal mass matrix with no translation-rotation coupling, a structure
+    # mj_setConst keeps.  A run's dispersed CG needs that coupling (without it a coasting
+    # smallsat8 lost 3e-5 of its angular momentum in 20 s; MuJoCo 4 refuses such a run), so
+    # such a vehicle is compiled with its CG one metre off, then given its own values below.
+    simple = not np.any(ipos) and np.array_equal(model.body_iquat[body], [1.0, 0.0, 0.0, 0.0])
     flight = mujoco.MjModel.from_xml_string(
         _XML.format(
             body=BODY,
-            ipos=_numbers(model.body_ipos[body]),
+            ipos=_numbers(ipos + [1.0, 0.0, 0.0] if simple else ipos),
             iquat=_numbers(model.body_iquat[body]),
             mass=repr(float(model.body_mass[body])),
             inertia=_numbers(model.body_inertia[body]),
