@@ -57,6 +57,9 @@ class _Config(ctypes.Structure):
         ("names", ctypes.POINTER(ctypes.c_char_p)),
         ("values", ctypes.POINTER(ctypes.c_double)),
         ("jet_torque_n_m", ctypes.POINTER(ctypes.c_double)),
+        ("n_texts", ctypes.c_int32),
+        ("text_names", ctypes.POINTER(ctypes.c_char_p)),
+        ("text_values", ctypes.POINTER(ctypes.c_char_p)),
     ]
 
 
@@ -142,11 +145,15 @@ class CLibraryController:
         self.name = name
         self.lib = load_library(path, name)
         values = profile_values(vehicle)
+        texts: dict[str, str] = {}
         for key, value in params.items():
+            if isinstance(value, str):
+                texts[key] = value
+                continue
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise InputError(
-                    f"controller {name!r}: parameter {key!r} must be a number for a C library "
-                    f"(got {value!r})"
+                    f"controller {name!r}: parameter {key!r} must be a number or a string for "
+                    f"a C library (got {value!r})"
                 )
             if key in values:
                 raise InputError(
@@ -161,9 +168,14 @@ class CLibraryController:
         self._values = np.ascontiguousarray(list(values.values()), dtype=float)
         # The vehicle file's torques, from which its axis_signs (Table 2 rule) are read.
         self._torque = np.ascontiguousarray(vehicle.force_torque()[3:].T, dtype=float)
+        self._text_names = (ctypes.c_char_p * max(len(texts), 1))(*(k.encode() for k in texts))
+        self._text_values = (ctypes.c_char_p * max(len(texts), 1))(
+            *(v.encode() for v in texts.values())
+        )
         self.config = _Config(
             ABI_VERSION, self.n_jets, self._cycle_s, len(values), self._names,
-            _ptr(self._values), _ptr(self._torque),
+            _ptr(self._values), _ptr(self._torque), len(texts), self._text_names,
+            self._text_values,
         )  # fmt: skip
         size = int(self.lib.rcsim_fsw_state_bytes(ctypes.byref(self.config)))
         if size < 0:

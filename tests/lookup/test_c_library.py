@@ -89,8 +89,8 @@ def test_refusals(tmp_path, library):
         with pytest.raises(InputError) as err:
             fly(SCENARIO, name)
         assert words in str(err.value) and "\n" not in str(err.value), str(err.value)
-    with pytest.raises(InputError, match="must be a number for a C library"):
-        fly(SCENARIO, f"library:{library}", controller_params={"mode": "fast"})
+    with pytest.raises(InputError, match="must be a number or a string for a C library"):
+        fly(SCENARIO, f"library:{library}", controller_params={"mode": [1, 2]})
 
 
 SPEC = """

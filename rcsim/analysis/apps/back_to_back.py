@@ -180,8 +180,8 @@ def summary_lines(s: dict) -> list[str]:
     if e is not None:
         lines.append(
             f"earliest divergence: run {e['run_id']} ({e['case']}) at cycle {e['first_cycle']} "
-            f"(t = {e['first_t_s']:g} s), jet {e['first_jet']}: A {e['a_on_s']:.6g} s, "
-            f"B {e['b_on_s']:.6g} s; attitude error "
+            f"(t = {e['first_t_s']:g} s), jet {e['first_jet']}: A {e['a_on_s']!r} s, "
+            f"B {e['b_on_s']!r} s; attitude error "
             f"[{e['att_err_roll_deg']:.4g}, {e['att_err_pitch_deg']:.4g}, "
             f"{e['att_err_yaw_deg']:.4g}] deg, rate error [{e['rate_err_roll_deg_s']:.4g}, "
             f"{e['rate_err_pitch_deg_s']:.4g}, {e['rate_err_yaw_deg_s']:.4g}] deg/s"

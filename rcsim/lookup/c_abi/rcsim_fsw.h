@@ -38,10 +38,14 @@ typedef struct rcsim_fsw_config {
     int32_t n_values;    /* named numbers, SI, units in the names: the profile's numbers
                             (cycle_s, maneuver_rate_rad_s, rate_deadband_rad_s, ...: the
                             fields of rcsim.spacecraft.control_profile.ControlProfile), then the
-                            spec's [controller.params] (numbers only, as given) */
+                            spec's [controller.params] that are numbers */
     const char *const *names; /* n_values NUL-terminated names */
     const double *values;     /* n_values values */
     const double *jet_torque_n_m; /* (n_jets, 3) each jet's nominal torque about the CG [N m] */
+    int32_t n_texts;                 /* named strings: the spec's [controller.params] that are
+                                        strings, as given (a table file, say) */
+    const char *const *text_names;   /* n_texts NUL-terminated names */
+    const char *const *text_values;  /* n_texts NUL-terminated values */
 } rcsim_fsw_config;
 
 /* The ABI version the library was built for: rcsim refuses any other. */
