@@ -206,6 +206,32 @@ def _fly_one(item: tuple):
     return fly(scenario, controller, vehicle=vehicle, controller_params=params)
 
 
+def fly_plugin_scenario(scenario, controller: str, vehicle, params: dict):
+    """A named scenario (``rcsim scenario run``) flown by a plug-in: built and probed here
+    (one line if it cannot be), flown here, or in a child process for C flight code."""
+    from rcsim.analysis.engine.isolated import Crash, call_isolated
+    from rcsim.analysis.engine.scenarios import fly_scenario
+    from rcsim.lookup.registry import make_controller
+
+    ctl = make_controller(controller, vehicle, plugin_params=params)
+    if not controller.startswith(LIBRARY_PREFIX):
+        return fly_scenario(scenario, vehicle=vehicle, controller_obj=ctl)
+    ((_, result),) = call_isolated(_fly_scenario_one, [(scenario, controller, vehicle, params)])
+    if isinstance(result, Crash):
+        raise InputError(f"--controller {controller}: the flight software {result.describe()}")
+    return result
+
+
+def _fly_scenario_one(item: tuple):
+    """``(scenario, controller, vehicle, params)`` flown: what a child process runs."""
+    from rcsim.analysis.engine.scenarios import fly_scenario
+    from rcsim.lookup.registry import make_controller
+
+    scenario, controller, vehicle, params = item
+    ctl = make_controller(controller, vehicle, plugin_params=params)
+    return fly_scenario(scenario, vehicle=vehicle, controller_obj=ctl)
+
+
 def plugin_params(pairs: list[str]) -> dict:
     """``--param KEY=VALUE`` pairs as a plug-in's parameters: VALUE read as a TOML value
     (numbers, booleans, quoted strings, arrays), else kept as the string given."""

@@ -18,7 +18,7 @@ import argparse
 from pathlib import Path
 
 from rcsim.analysis.apps.cli.vehicle_args import add_vehicle_args, flown_vehicle
-from rcsim.lookup.registry import ALL_CONTROLLERS, TABLE_CONTROLLERS
+from rcsim.lookup.registry import TABLE_CONTROLLERS
 from rcsim.models.errors import InputError
 
 
@@ -47,10 +47,18 @@ def register(sub) -> None:
     run.add_argument("name", help="scenario name (see `rcsim scenario list`)")
     run.add_argument(
         "--controller",
-        choices=ALL_CONTROLLERS,
         default="lookup",
-        help="lookup (default), phase-plane or adaptive (lookup whose table "
-        "entries learn their firing times in flight)",
+        metavar="NAME",
+        help="lookup (default), phase-plane, adaptive (lookup whose table entries learn their "
+        "firing times in flight), allocator, a registered plug-in's name, or your own flight "
+        "software: plugin:MODULE:FACTORY or library:libfsw.so (docs/flight_software.md)",
+    )
+    run.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a plug-in controller's parameter (repeatable; VALUE read as TOML)",
     )
     run.add_argument("--table", help="lookup table CSV (default: the packaged table)")
     run.add_argument(
@@ -147,6 +155,7 @@ def run_run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from rcsim.analysis.apps.cli.maneuver import fly_plugin_scenario, plugin_params
     from rcsim.analysis.engine.output import check_out_dir
     from rcsim.analysis.engine.scenarios import (
         fly_scenario,
@@ -154,7 +163,15 @@ def run_run(args: argparse.Namespace) -> int:
         summarize,
         write_scenario,
     )
+    from rcsim.lookup.registry import check_controller_name, is_plugin
 
+    try:
+        check_controller_name(args.controller)
+    except InputError as exc:
+        raise InputError(f"--controller: {exc}") from None
+    plugin = is_plugin(args.controller)
+    if args.param and not plugin:
+        raise InputError(f"--param is only for a plug-in controller, not {args.controller!r}")
     scn = get_scenario(args.name)
     _check_table(args.table)
     if args.controller not in TABLE_CONTROLLERS and (
@@ -172,7 +189,10 @@ def run_run(args: argparse.Namespace) -> int:
     out = check_out_dir(  # before the work
         args.out, "scenario run", overwrite=args.overwrite, inputs={"--table": args.table}
     )
-    hist = fly_scenario(scn, args.controller, table=args.table, vehicle=vehicle, **overrides)
+    if plugin:
+        hist = fly_plugin_scenario(scn, args.controller, vehicle, plugin_params(args.param))
+    else:
+        hist = fly_scenario(scn, args.controller, table=args.table, vehicle=vehicle, **overrides)
     paths = write_scenario(
         hist,
         scn,
