@@ -125,7 +125,8 @@ def test_a_campaign_with_c_flight_code_matches_its_python_twin(tmp_path, library
     assert len(record["plugin_record"]["source_sha256"]) == 64
 
 
-def test_a_crash_fails_only_its_run_and_names_the_cycle(tmp_path, capfd):
+@pytest.mark.parametrize("where", ["local", "dask"])
+def test_a_crash_fails_only_its_run_and_names_the_cycle(tmp_path, capfd, where):
     """A library that dereferences NULL from t = 0.2 s (cycle 5 of 40 ms) in any run whose yaw
     rate error still exceeds 1e-3 rad/s: case 13's runs (a 0.3 deg/s yaw rate case: the
     switching line removes at most 0.03 deg/s a cycle, so 0.15 deg/s = 2.6e-3 rad/s is left at
@@ -140,7 +141,9 @@ def test_a_crash_fails_only_its_run_and_names_the_cycle(tmp_path, capfd):
         "    for (int64_t i = 0; i < n_runs; i++) {",
     )
     (tmp_path / "s.toml").write_text(SPEC.format(controller=f'library = "{lib}"'))
-    run_campaign(load_spec(tmp_path / "s.toml"), tmp_path / "out", local_workers=1, progress=False)
+    # Locally in worker processes (even one); on Dask in a child of the worker.
+    where_kw = {"local_workers": 1} if where == "local" else {"workers": 1}
+    run_campaign(load_spec(tmp_path / "s.toml"), tmp_path / "out", progress=False, **where_kw)
     runs = pd.read_parquet(tmp_path / "out" / "runs.parquet")
     crashed = runs[runs["reason"].fillna("").str.contains("crashed")]
     assert len(runs) == 6
@@ -148,7 +151,7 @@ def test_a_crash_fails_only_its_run_and_names_the_cycle(tmp_path, capfd):
     assert crashed["reason"].str.contains(r"crashed \(SIGSEGV\) at cycle 5 \(t = 0.2 s\)").all()
     assert not runs.loc[runs["run_id"] >= 3, "reason"].fillna("").str.contains("crash").any()
     err = capfd.readouterr().err
-    assert err.count("rcsim: warning: run ") == 3 and "Traceback" not in err
+    assert err.count("rcsim: warning: run ") == 3 and "Traceback" not in err, err
 
 
 def test_maneuver_with_a_crashing_library_is_one_line(tmp_path):

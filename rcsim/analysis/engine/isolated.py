@@ -2,7 +2,7 @@
 
 A segfault inside a library called through ctypes ends the process; nothing in Python can
 catch it.  :func:`call_isolated` runs ``fn(item)`` for each item in a child process started
-fresh (the ``spawn`` method: no fork of a process with MuJoCo threads), sends each result back
+fresh (a new interpreter: no fork of a process with MuJoCo threads), sends each result back
 as it is made, and when the child dies mid-item, says which item, with what signal, and at
 which control cycle: the child's C-library controllers write their cycle to a *beacon* file
 before each call (:data:`rcsim.lookup.c_library.BEACON_ENV`).  The items after the crashed one
@@ -11,9 +11,12 @@ go on in a new child.
 
 from __future__ import annotations
 
-import multiprocessing
 import os
+import pickle
 import signal
+import struct
+import subprocess
+import sys
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -55,65 +58,95 @@ class Crash:
         return f"crashed ({how}){where}"
 
 
-class _ChildError(Exception):
-    """An exception the child raised, carried back to be raised again here."""
+def _send(stream, message) -> None:
+    data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+    stream.write(struct.pack("<Q", len(data)) + data)
+    stream.flush()
 
 
-def _child(fn: Callable, items: Sequence, conn, beacon: str) -> None:
+def _receive(stream):
+    """The next message, or EOFError when the child is gone (mid-message too)."""
+    head = stream.read(8)
+    if len(head) < 8:
+        raise EOFError
+    size = struct.unpack("<Q", head)[0]
+    data = stream.read(size)
+    if len(data) < size:
+        raise EOFError
+    return pickle.loads(data)
+
+
+def child_main() -> None:
+    """The child: ``(fn, items, beacon)`` from stdin, one message per item on the original
+    stdout (this process's own prints go to stderr, so they cannot corrupt the messages)."""
+    channel = os.fdopen(os.dup(1), "wb")
+    os.dup2(2, 1)
+    fn, items, beacon = pickle.load(sys.stdin.buffer)
     os.environ[BEACON_ENV] = beacon
     for i, item in enumerate(items):
         Path(beacon).write_text("")  # a crash before this item's first cycle reads as such
         try:
             result = fn(item)
         except BaseException as exc:  # noqa: BLE001 - sent back and raised in the parent
-            conn.send((i, "error", exc))
+            _send(channel, (i, "error", exc))
             return
-        conn.send((i, "ok", result))
-    conn.close()
+        _send(channel, (i, "ok", result))
+    channel.close()
 
 
 def call_isolated(fn: Callable, items: Sequence) -> Iterator[tuple[Any, Any]]:
     """Yield ``(item, fn(item))`` for each item, or ``(item, Crash)`` for one whose call ended
     the child process; ``fn`` must be picklable by reference (a module-level function).
 
-    An exception ``fn`` raises in the child is raised here (the rest are not run).
+    The child is a new Python process (``python -m rcsim.analysis.engine.isolated``; a
+    subprocess, not multiprocessing, so that a daemonic process, such as a Dask worker's, may
+    start it).  An exception ``fn`` raises in the child is raised here (the rest are not run).
     """
     items = list(items)
-    ctx = multiprocessing.get_context("spawn")
     start = 0
     with tempfile.TemporaryDirectory(prefix="rcsim-isolated-") as tmp:
         while start < len(items):
             beacon = str(Path(tmp) / f"beacon-{start}")
             Path(beacon).write_text("")
-            recv, send = ctx.Pipe(duplex=False)
-            child = ctx.Process(target=_child, args=(fn, items[start:], send, beacon))
-            child.start()
-            send.close()  # the child holds the only write end: EOF when it dies
+            child = subprocess.Popen(
+                [sys.executable, "-m", "rcsim.analysis.engine.isolated"],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+            )
+            assert child.stdin is not None and child.stdout is not None
             done = 0
             try:
+                pickle.dump((fn, items[start:], beacon), child.stdin)
+                child.stdin.close()
                 while True:
                     try:
-                        i, kind, value = recv.recv()
+                        i, kind, value = _receive(child.stdout)
                     except EOFError:
                         break
                     if kind == "error":
                         raise value
                     yield items[start + i], value
                     done = i + 1
+                child.wait()  # it closed its end: finished, or died
             finally:
-                recv.close()
-                child.join(timeout=30)
-                if child.is_alive():  # the consumer stopped early: do not leave it running
+                child.stdout.close()
+                if child.poll() is None:  # the consumer stopped early: do not leave it running
                     child.kill()
-                    child.join()
+                    child.wait()
             start += done
             if start >= len(items):
                 return
             at = read_beacon(beacon)
-            crash = Crash(
-                exitcode=child.exitcode if child.exitcode is not None else -1,
-                cycle=None if at is None else at[0],
-                t_s=None if at is None else at[1],
+            yield (
+                items[start],
+                Crash(
+                    exitcode=child.returncode,
+                    cycle=None if at is None else at[0],
+                    t_s=None if at is None else at[1],
+                ),
             )
-            yield items[start], crash
             start += 1
+
+
+if __name__ == "__main__":
+    child_main()

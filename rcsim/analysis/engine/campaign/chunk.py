@@ -132,12 +132,16 @@ class ChunkResult:
         Per-cycle min / max / sum over the chunk's simulated runs (for envelope plots).
     histories : dict of int -> DataFrame
         Per-cycle histories of the runs the spec keeps.
+    crashes : tuple of str
+        One line per run whose flight software crashed its process
+        (:func:`crashed_chunk`), for the console.
     """
 
     chunk: Chunk
     runs: pd.DataFrame
     envelope: pd.DataFrame
     histories: dict
+    crashes: tuple = ()
 
 
 class Cancelled(BaseException):
@@ -373,11 +377,26 @@ def _raised(spec: CampaignSpec, run_ids: np.ndarray, exc: BaseException) -> pd.D
     return _raised_reason(spec, run_ids, reason)
 
 
-def crashed_chunk(spec: CampaignSpec, chunk: Chunk) -> tuple[ChunkResult, list[str]]:
-    """Fly a chunk whose worker process died, run by run in a child process
+def simulate_chunk_isolated(spec: CampaignSpec, chunk: Chunk, nthread: int = 1) -> ChunkResult:
+    """:func:`simulate_chunk` in a child process, for flight code that may crash its process
+    (a C library: what a Dask worker runs, so that a crash ends neither the worker nor the
+    campaign); a crash is flown again run by run (:func:`crashed_chunk`)."""
+    from rcsim.analysis.engine.isolated import Crash, call_isolated
+
+    ((_, result),) = call_isolated(_simulate_item, [(spec, chunk, nthread)])
+    return crashed_chunk(spec, chunk) if isinstance(result, Crash) else result
+
+
+def _simulate_item(item: tuple) -> ChunkResult:
+    spec, chunk, nthread = item
+    return simulate_chunk(spec, chunk, nthread)
+
+
+def crashed_chunk(spec: CampaignSpec, chunk: Chunk) -> ChunkResult:
+    """Fly a chunk whose process died, run by run in a child process
     (:func:`rcsim.analysis.engine.isolated.call_isolated`): the runs that crash it are recorded
-    failed with the signal and the control cycle as their reason, the others fly as usual.
-    Returns the result and one line per crashed run (for the console)."""
+    failed with the signal and the control cycle as their reason, the others fly as usual;
+    ``crashes`` holds one line per crashed run (for the console)."""
     from rcsim.analysis.engine.isolated import Crash, call_isolated
 
     parts, lines = [], []
@@ -391,14 +410,12 @@ def crashed_chunk(spec: CampaignSpec, chunk: Chunk) -> tuple[ChunkResult, list[s
         else:
             parts.append(result)
     env = [p.envelope for p in parts if not p.envelope.empty]
-    return (
-        ChunkResult(
-            chunk=chunk,
-            runs=pd.concat([p.runs for p in parts], ignore_index=True),
-            envelope=combine_envelopes(env) if env else pd.DataFrame(),
-            histories={k: v for p in parts for k, v in p.histories.items()},
-        ),
-        lines,
+    return ChunkResult(
+        chunk=chunk,
+        runs=pd.concat([p.runs for p in parts], ignore_index=True),
+        envelope=combine_envelopes(env) if env else pd.DataFrame(),
+        histories={k: v for p in parts for k, v in p.histories.items()},
+        crashes=tuple(lines),
     )
 
 

@@ -17,7 +17,8 @@ from collections.abc import Generator
 from itertools import islice
 from typing import TYPE_CHECKING
 
-from rcsim.analysis.engine.campaign.chunk import simulate_chunk
+from rcsim.analysis.engine.campaign.chunk import simulate_chunk, simulate_chunk_isolated
+from rcsim.lookup.c_library import LIBRARY_PREFIX
 from rcsim.models.errors import InputError
 
 if TYPE_CHECKING:
@@ -32,7 +33,9 @@ def dask_results(
     still queued or running when the consumer stops are cancelled."""
     from distributed import as_completed
 
-    submit = lambda c: client.submit(simulate_chunk, spec, c, 1, pure=False)  # noqa: E731
+    # C flight code may crash its process: on a worker it flies in a child of the worker.
+    fly = simulate_chunk_isolated if spec.controller.startswith(LIBRARY_PREFIX) else simulate_chunk
+    submit = lambda c: client.submit(fly, spec, c, 1, pure=False)  # noqa: E731
     live = {submit(c) for c in islice(chunks, in_flight)}
     pool = as_completed(list(live))
     try:

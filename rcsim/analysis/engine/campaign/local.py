@@ -220,10 +220,7 @@ def local_results(
                 pending.clear()
                 kill_pool(pool)
                 for chunk in sorted(lost, key=lambda c: c.first):
-                    result, lines = crashed_chunk(spec, chunk)
-                    for line in lines:
-                        print(f"rcsim: warning: {line}", file=sys.stderr, flush=True)
-                    yield result
+                    yield crashed_chunk(spec, chunk)
                 pool = worker_pool(workers)
     finally:
         if finished_normally:

@@ -426,6 +426,8 @@ def _drain(
     ) as bar:
         for result in results:
             R.commit_chunk(out, result)
+            for line in result.crashes:  # flight software that crashed its process
+                bar.write(f"rcsim: warning: {line}", file=sys.stderr)
             # An interrupt a library swallowed (rcsim.analysis.engine.interrupts) stops it here.
             raise_if_interrupted()
             n = result.chunk.stop - result.chunk.first
