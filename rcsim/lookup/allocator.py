@@ -155,7 +155,7 @@ class Allocator:
             "exact": self.n_milp,
         }
 
-    def allocate(self, b, available=None) -> tuple[np.ndarray, np.ndarray]:
+    def allocate(self, b, available=None, relaxed=None) -> tuple[np.ndarray, np.ndarray]:
         """On-times and residuals for commands ``b``.
 
         Parameters
@@ -164,6 +164,9 @@ class Allocator:
             Rate change wanted [rad/s].
         available : ndarray of bool, (n_runs, n_jets), optional
             The jets each run may use; default all.
+        relaxed : ndarray, (n_runs, n_jets), optional
+            :meth:`allocate_relaxed`'s on-times for the same ``b`` and ``available``, when
+            the caller has them (not solved again).
 
         Returns
         -------
@@ -173,7 +176,11 @@ class Allocator:
             Rate change the jets cannot give [rad/s] (zero when ``b`` is reachable).
         """
         b = np.atleast_2d(np.asarray(b, float))
-        t, residual = self.allocate_relaxed(b, available)
+        if relaxed is None:
+            t, residual = self.allocate_relaxed(b, available)
+        else:
+            t = np.array(relaxed, float)
+            residual = b - t @ self.D.T
         if not self.t_min.any():
             return t, residual
         if available is None:

@@ -145,6 +145,11 @@ class AllocatorController:
         self.available = None if available is None else np.asarray(available, bool)
         self.cycle_s = cycle_s
 
+    def solver_counts(self) -> dict[str, int]:
+        """The allocator's solver work so far (:meth:`rcsim.lookup.allocator.Allocator.counts`:
+        LPs, branch-and-bound searches and nodes, exact MILP solves)."""
+        return self.allocator.counts()
+
     def initial_state(self, n_runs: int) -> AllocatorState:
         z = np.zeros((n_runs, self.n))
         zi = np.zeros(n_runs, int)
@@ -205,7 +210,7 @@ class AllocatorController:
         out = np.zeros_like(t)
         if rows.size:
             sub = None if available is None else available[rows]
-            out[rows] = alloc.allocate(need[rows], sub)[0]
+            out[rows] = alloc.allocate(need[rows], sub, relaxed=t[rows])[0]
         return out
 
 
