@@ -14,15 +14,17 @@ What it minimises is the profile's ``allocation`` (:func:`allocation_prices`): `
 
 Solution (:mod:`rcsim.lookup.allocator_simplex`, numpy, every command its own problem).
 
-* **The LP relaxation** (``t >= 0``) of every command is solved by a dense primal simplex from
-  the slack basis, all commands of a batch at once.  When its optimum has no total in
-  ``(0, t_min)`` it is also the mixed-integer optimum, and the command is settled.
+* **The LP relaxation** (``t >= 0``) of every command is solved by a dense dual simplex, all
+  commands of a batch at once, each started from the allocator's own start bases (the optimal
+  bases of 200 fixed directions, computed once per allocator from its LP alone: the one whose
+  dual bound is highest for the command).  When its optimum has no total in ``(0, t_min)`` it
+  is also the mixed-integer optimum, and the command is settled.
 * **Branch and bound.**  A command whose LP optimum fires a jet short is searched best first:
   a short jet is either off, or held at its minimum (``t = t_min + t'``, the held minimum
   moved to the right-hand side, so every node is the same LP with another right-hand side and
   column set).  A node is pruned when its LP bound cannot beat the best plan by more than
-  ``MILP_GAP`` (0.5 %), so the plan is within ``MILP_GAP`` of the optimum.  The nodes of all
-  the batch's searches are solved together.
+  ``MILP_GAP`` (0.5 %), so the plan is within ``MILP_GAP`` of the optimum.  A node's LP starts
+  from its parent's optimal basis; the nodes of all the batch's searches are solved together.
 * **Exact solve (the rule).**  HiGHS' MILP (:func:`scipy.optimize.milp`, one binary per jet,
   ``t_min_j z_j <= t_j <= M_j z_j`` with ``M_j`` a feasible plan's cost over ``mdot_j``, so no
   optimum is cut off, solved to the same gap) runs for a command exactly when its branch and

@@ -32,7 +32,7 @@ def test_solver_counts_in_the_manifest_and_runs_independent_of_chunking(tmp_path
     frames = {}
     for size in (1, 4):
         out = tmp_path / f"c{size}"
-        run_campaign(_spec(size), out, progress=False, workers=1)
+        run_campaign(_spec(size), out, progress=False, local_workers=1)
         manifest = json.loads((out / "manifest.json").read_text())
         counts = manifest["solver_counts"]
         # canted16's 10 ms minimum binds on the corrections: searches happen, and every
