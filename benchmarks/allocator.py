@@ -239,8 +239,8 @@ def cost(vehicle: str, runs: int) -> None:
     print(
         f"nominal 26 x {runs} rate cases in one batch: {total:.1f} s, of which the controller "
         f"{spent['s']:.1f} s over {spent['cycles']} cycles = {per:.1f} us per cycle per run; "
-        f"{alloc.n_lp} LP solves, {alloc.n_certified} rounded plans certified within 0.5 %, "
-        f"{alloc.n_milp} MILPs; load average after: {os.getloadavg()}"
+        f"solver counts {alloc.counts()} (exact = HiGHS MILP solves); "
+        f"load average after: {os.getloadavg()}"
     )
 
 

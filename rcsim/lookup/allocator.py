@@ -12,40 +12,44 @@ What it minimises is the profile's ``allocation`` (:func:`allocation_prices`): `
 (``w_v`` a tie-break only), ``propellant+translation`` (``w_v = m / (Isp g0)``) or
 ``translation-first`` (1000 times that).
 
-Minimum on-time.  The LP relaxation (``t >= 0``) is solved first, batched as below.  When its
-optimum has no total in ``(0, t_min)`` it is also the mixed-integer optimum (the relaxation's
-optimum is feasible).  For a run whose LP optimum has a short total, a depth-first branch and
-bound on the short jets (each either off, or held at its minimum: ``t = t_min + t'``, the held
-minimum moved to the right-hand side, so every node is the same LP with another right-hand
-side and the cached bases below serve it) finds a plan within ``MILP_GAP`` (0.5 %) of the
-optimum: a node is pruned when its LP bound cannot beat the best plan by more than the gap.
-Should ``MAX_NODES`` not suffice, HiGHS' MILP (:func:`scipy.optimize.milp`, one binary per jet,
-``t_min_j z_j <= t_j <= M_j z_j`` with ``M_j`` a feasible plan's cost over ``mdot_j``, so no
-optimum is cut off) is solved to the same gap.  Each distinct command is solved once (a
-dictionary keyed on the command's and the jet set's bytes).  No share is dropped or deferred
-after solving.
+Solution (:mod:`rcsim.lookup.allocator_simplex`, numpy, every command its own problem).
 
-Batched solution
-----------------
-``b`` enters only the right-hand side and no variable has an upper bound, so an optimal basis
-``B`` stays optimal for every ``b`` with ``A_B^-1 [b; 0] >= 0`` (every right-hand side, force
-rows included: the branch and bound's nodes): its dual feasibility does not depend on it.
-The optimum is piecewise linear over finitely many cones.  The allocator keeps
-the optimal bases it has met (index set, ``A_B^-1``, and which
-columns have a negative reduced cost); a batch is solved by evaluating every cached basis for
-every run at once (one ``einsum``, ``(n_runs, K, m)``) and keeping, per run, the cheapest
-primal-feasible basis whose columns the run may use and none of whose negative-reduced-cost
-columns it may use.  Runs no cached basis covers are solved by HiGHS
-(:func:`scipy.optimize.linprog`) one at a time and their basis joins the cache; one miss's
-basis usually covers other misses, and in a campaign the misses stop within the first cycles.
-Failed jets (per-run availability) use the same cache.
+* **The LP relaxation** (``t >= 0``) of every command is solved by a dense dual simplex, all
+  commands of a batch at once, each started from the allocator's own start bases (the optimal
+  bases of 200 fixed directions, computed once per allocator from its LP alone: the one whose
+  dual bound is highest for the command).  When its optimum has no total in ``(0, t_min)`` it
+  is also the mixed-integer optimum, and the command is settled.
+* **Branch and bound.**  A command whose LP optimum fires a jet short is searched best first:
+  a short jet is either off, or held at its minimum (``t = t_min + t'``, the held minimum
+  moved to the right-hand side, so every node is the same LP with another right-hand side and
+  column set).  A node is pruned when its LP bound cannot beat the best plan by more than
+  ``MILP_GAP`` (0.5 %), so the plan is within ``MILP_GAP`` of the optimum.  A node's LP starts
+  from its parent's optimal basis; the nodes of all the batch's searches are solved together.
+* **Exact solve (the rule).**  HiGHS' MILP (:func:`scipy.optimize.milp`, one binary per jet,
+  ``t_min_j z_j <= t_j <= M_j z_j`` with ``M_j`` a feasible plan's cost over ``mdot_j``, so no
+  optimum is cut off, solved to the same gap) runs for a command exactly when its branch and
+  bound has not finished within ``MAX_NODES`` LPs.  ``n_milp`` counts these solves.
+
+Each distinct command (its bytes and the jet set's) is solved once per allocator (a dictionary
+of plans; a plan is a function of its key alone).  No share is dropped or deferred after
+solving.  Nothing else is kept between calls, so a command's plan does not depend on which
+other commands share its batch: a campaign's runs fly the same, bit for bit, whichever chunk
+holds them.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import Bounds, LinearConstraint, linprog, milp
+from scipy.optimize import Bounds, LinearConstraint, milp
 
+from rcsim.lookup.allocator_simplex import (
+    branch_and_bound,
+    resolve_lps,
+    slack_columns,
+    solve_lps,
+    start_bases,
+    warm_start,
+)
 from rcsim.models.errors import InputError
 
 #: ``translation-first`` prices translation this many times ``m / (Isp g0)``.
@@ -57,8 +61,8 @@ TIE_BREAK_FACTOR = 1e-6
 #: cost is within this of the LP relaxation's (a lower bound), else HiGHS' MILP is solved to it.
 MILP_GAP = 0.005
 #: Nodes the branch and bound may visit before HiGHS' MILP takes over.
-MAX_NODES = 10
-#: Distinct MILP answers kept per allocator (oldest dropped first).
+MAX_NODES = 1000
+#: Distinct plans of a binding minimum kept per allocator (oldest dropped first).
 MILP_CACHE_SIZE = 100_000
 
 
@@ -131,20 +135,29 @@ class Allocator:
         self.A = np.vstack(rows)
         self.c = np.concatenate(cost)
         self.m, self.ncol = self.A.shape
-        self.bases = np.zeros((0, self.m), int)
-        self.inv = np.zeros((0, self.m, self.m))  # A_B^-1 (a node of the MILP search shifts
-        # the force rows' right-hand side too)
-        self.negative = np.zeros((0, self.ncol), bool)  # columns with negative reduced cost
-        self.n_lp = 0  # HiGHS solves so far (cache misses)
+        self.plus, self.minus = slack_columns(self.A, self.n)
+        self.start_bases, self.start_duals = start_bases(self.A, self.c, self.plus, self.minus)
         self.t_min = np.zeros(n) if t_min_s is None else np.broadcast_to(t_min_s, (n,)) * 1.0
         if not (np.isfinite(self.t_min).all() and (self.t_min >= 0).all()):
             raise InputError("must be finite and >= 0", parameter="t_min_s")
-        self._milp_cache: dict[bytes, np.ndarray] = {}
-        self.n_milp = 0  # MILP solves so far (distinct commands with a binding minimum)
-        self.n_certified = 0  # binding minimum, a rounded plan within MILP_GAP: no MILP
-        self.n_nodes = 0  # branch-and-bound nodes so far
+        self._plans: dict[bytes, np.ndarray] = {}
+        self.n_lp = 0  # LP relaxations solved (commands, and the fallback's heuristics)
+        self.n_searched = 0  # distinct commands whose minimum binds: branch and bound
+        self.n_nodes = 0  # branch-and-bound nodes (LPs) so far
+        self.n_milp = 0  # exact solves (HiGHS' MILP): searches not finished in MAX_NODES
 
-    def allocate(self, b, available=None) -> tuple[np.ndarray, np.ndarray]:
+    def counts(self) -> dict[str, int]:
+        """The solver's work so far: ``lp`` relaxations, ``searched`` commands (branch and
+        bound), their ``nodes``, and ``exact`` solves (HiGHS' MILP; the module docstring's
+        rule)."""
+        return {
+            "lp": self.n_lp,
+            "searched": self.n_searched,
+            "nodes": self.n_nodes,
+            "exact": self.n_milp,
+        }
+
+    def allocate(self, b, available=None, relaxed=None) -> tuple[np.ndarray, np.ndarray]:
         """On-times and residuals for commands ``b``.
 
         Parameters
@@ -153,6 +166,9 @@ class Allocator:
             Rate change wanted [rad/s].
         available : ndarray of bool, (n_runs, n_jets), optional
             The jets each run may use; default all.
+        relaxed : ndarray, (n_runs, n_jets), optional
+            :meth:`allocate_relaxed`'s on-times for the same ``b`` and ``available``, when
+            the caller has them (not solved again).
 
         Returns
         -------
@@ -162,15 +178,28 @@ class Allocator:
             Rate change the jets cannot give [rad/s] (zero when ``b`` is reachable).
         """
         b = np.atleast_2d(np.asarray(b, float))
-        t, residual = self.allocate_relaxed(b, available)
+        if relaxed is None:
+            t, residual = self.allocate_relaxed(b, available)
+        else:
+            t = np.array(relaxed, float)
+            residual = b - t @ self.D.T
         if not self.t_min.any():
             return t, residual
-        short = (t > 0) & (t < self.t_min * (1 - 1e-9))
         if available is None:
             available = np.ones(t.shape, bool)
         available = np.broadcast_to(np.asarray(available, bool), t.shape)
-        for i in np.flatnonzero(short.any(axis=1)):  # runs whose minimum binds, each once
-            t[i] = self._solve_milp(b[i], available[i], t[i])
+        rows = np.flatnonzero(((t > 0) & (t < self.t_min * (1 - 1e-9))).any(axis=1))
+        keys = [b[i].tobytes() + np.packbits(available[i]).tobytes() for i in rows]
+        new: dict[bytes, int] = {}  # each distinct command searched once, at its first row
+        for key, i in zip(keys, rows):
+            if key not in self._plans:
+                new.setdefault(key, int(i))
+        if new:
+            at = np.fromiter(new.values(), int, len(new))
+            for key, plan in zip(new, self._search(b[at], available[at])):
+                self._remember(key, plan)
+        for key, i in zip(keys, rows):
+            t[i] = self._plans[key]
             residual[i] = b[i] - self.D @ t[i]
         return t, residual
 
@@ -182,117 +211,57 @@ class Allocator:
             available = np.ones((n_runs, self.n), bool)
         rhs = np.zeros((n_runs, self.m))
         rhs[:, :3] = b * self.sD
-        x = self._relaxed(rhs, np.asarray(available, bool))
+        x = self._relaxed(rhs, np.broadcast_to(np.asarray(available, bool), (n_runs, self.n)))
         t = x[:, : self.n].copy()
         return t, b - t @ self.D.T
 
     def _relaxed(self, rhs, available) -> np.ndarray:
         """The LP's optimal variables ``(n_runs, ncol)`` for scaled right-hand sides ``rhs``
-        ``(n_runs, m)``: cached bases for the whole batch, HiGHS for the misses."""
-        n_runs = rhs.shape[0]
-        x = np.zeros((n_runs, self.ncol))
+        ``(n_runs, m)`` and jets ``available`` ``(n_runs, n)``."""
+        x = np.zeros((rhs.shape[0], self.ncol))
         todo = np.flatnonzero(np.any(rhs != 0, axis=1))
-        while todo.size:
-            chosen, x_basis = self._from_cache(rhs[todo], available[todo])
-            hit = chosen >= 0
-            rows = todo[hit]
-            full = np.zeros((rows.size, self.ncol))
-            np.put_along_axis(full, self.bases[chosen[hit]], np.maximum(x_basis[hit], 0.0), axis=1)
-            x[rows] = full
-            todo = todo[~hit]
-            if todo.size == 0:
-                break
-            i = todo[0]
-            cached = self.bases.shape[0]
-            solved = self._solve(rhs[i], available[i])
-            if self.bases.shape[0] == cached:  # basis not cacheable (degenerate): use the LP's
-                x[i] = solved
-                todo = todo[1:]
+        if todo.size:
+            allowed = np.ones((todo.size, self.ncol), bool)
+            allowed[:, : self.n] = available[todo]
+            start = warm_start(self.start_bases, self.start_duals, rhs[todo])
+            x[todo] = resolve_lps(self.A, self.c, rhs[todo], allowed, self.plus, self.minus, start)[
+                0
+            ]
+            self.n_lp += todo.size
         return x
 
-    def _solve(self, rhs, available) -> np.ndarray:
-        """One HiGHS solve; its optimal basis joins the cache when it is dual feasible."""
-        self.n_lp += 1
-        avail = np.concatenate([available, np.ones(self.ncol - self.n, bool)])
-        bounds = [(0, None if avail[j] else 0) for j in range(self.ncol)]
-        res = self._linprog(bounds, rhs)
-        x, y = res.x, res.eqlin.marginals
-        scale = np.maximum(np.abs(self.c), 1e-300)
-        reduced = self.c - self.A.T @ y
-        support = list(np.flatnonzero(x > 1e-12 * max(1.0, np.abs(x).max())))
-        zero = np.flatnonzero(avail & (np.abs(reduced) <= 1e-7 * scale))
-        basis = support
-        # Complete the support to a basis with zero-reduced-cost columns (A_B nonsingular).
-        for j in sorted(set(zero) - set(support), key=lambda j: -np.linalg.norm(self.A[:, j])):
-            if len(basis) == self.m:
-                break
-            if np.linalg.matrix_rank(self.A[:, basis + [j]], tol=1e-10) == len(basis) + 1:
-                basis = basis + [j]
-        if len(basis) == self.m and np.linalg.matrix_rank(self.A[:, basis], tol=1e-10) == self.m:
-            basis = sorted(basis)
-            a_b = self.A[:, basis]
-            y_b = np.linalg.solve(a_b.T, self.c[basis])
-            negative = (self.c - self.A.T @ y_b) < -1e-7 * scale
-            known = (self.bases == basis).all(axis=1) & (self.negative == negative).all(axis=1)
-            if not (negative & avail).any() and not known.any():
-                self.bases = np.vstack([self.bases, basis])
-                self.inv = np.concatenate([self.inv, np.linalg.inv(a_b)[None]])
-                self.negative = np.vstack([self.negative, negative])
-        return x
+    def _search(self, b, available) -> np.ndarray:
+        """Plans ``(k, n_jets)`` [s] for commands ``b`` ``(k, 3)`` whose minimum binds: the
+        branch and bound, and HiGHS' MILP for a search not finished (module docstring)."""
+        rhs = np.zeros((b.shape[0], self.m))
+        rhs[:, :3] = b * self.sD
+        t, finished, nodes = branch_and_bound(
+            self.A, self.c, rhs, available, self.t_min, self.plus, self.minus,
+            gap=MILP_GAP, max_nodes=MAX_NODES,
+            start=warm_start(self.start_bases, self.start_duals, rhs),
+        )  # fmt: skip
+        self.n_searched += b.shape[0]
+        self.n_nodes += int(nodes.sum())
+        for i in np.flatnonzero(~finished):
+            t[i] = self._solve_milp(b[i], available[i])
+        return t
 
-    def _from_cache(self, rhs, available) -> tuple[np.ndarray, np.ndarray]:
-        """Per run the cheapest cached basis that is optimal for it (-1: none), and its x_B."""
-        n_runs = rhs.shape[0]
-        if self.bases.shape[0] == 0:
-            return np.full(n_runs, -1), np.zeros((n_runs, self.m))
-        x = np.einsum("kij,nj->nki", self.inv, rhs)  # (n_runs, K, m)
-        scale = np.abs(x).max(axis=2, keepdims=True) + 1e-300
-        primal = (x >= -1e-9 * scale).all(axis=2)
-        avail = np.hstack([available, np.ones((n_runs, self.ncol - self.n), bool)])
-        in_basis = avail[:, self.bases].all(axis=2)
-        dual = (avail.astype(np.uint8) @ self.negative.T.astype(np.uint8)) == 0
-        ok = primal & in_basis & dual
-        cost = np.where(ok, np.einsum("nki,ki->nk", np.maximum(x, 0), self.c[self.bases]), np.inf)
-        k = np.argmin(cost, axis=1)
-        chosen = np.where(ok.any(axis=1), k, -1)
-        return chosen, x[np.arange(n_runs), np.maximum(k, 0)]
-
-    def _solve_milp(self, b, available, t_lp) -> np.ndarray:
+    def _solve_milp(self, b, available) -> np.ndarray:
         """On-times ``(n_jets,)`` [s] of the mixed-integer problem (module docstring) for one
-        command; each distinct (command, jet set) solved once."""
-        key = b.tobytes() + np.packbits(available).tobytes()
-        hit = self._milp_cache.get(key)
-        if hit is not None:
-            return hit.copy()
+        command, by HiGHS' MILP."""
         n, ncol = self.n, self.ncol
+        self.n_milp += 1
         rhs = np.zeros(self.m)
         rhs[:3] = b * self.sD
-        found = self._branch_and_bound(rhs, available)
-        if found is not None:
-            return self._remember(key, found)
-        # A feasible plan: the LP's short jets held at their minimum, the others re-solved.
-        # Its cost bounds the optimum's, so no optimal plan fires a jet longer than that cost
-        # over the jet's propellant price: a tight big-M (a loose one lets HiGHS' integrality
-        # tolerance, 1e-6, fire short pulses "off").
-        held = np.zeros(n, bool)
-        feasible = t_lp
-        while True:  # hold every short jet at its minimum until none is short (<= n rounds)
-            short = (feasible > 0) & (feasible < self.t_min * (1 - 1e-9)) & ~held
-            if not short.any():
-                break
-            held |= short
-            feasible = self._held_at_minimum(b, available, held)
+        # A feasible plan: the LP's short jets held at their minimum until none is short, or
+        # dropped until none is.  Its cost bounds the optimum's, so no optimal plan fires a
+        # jet longer than that cost over the jet's propellant price: a tight big-M (a loose
+        # one lets HiGHS' integrality tolerance, 1e-6, fire short pulses "off").
+        feasible = min(
+            (self._held_at_minimum(b, available), self._dropped(b, available)),
+            key=lambda plan: self._cost(plan, b),
+        )
         bound = self._cost(feasible, b)
-        # A second feasible plan: the short jets dropped, the LP re-solved without them.
-        dropped = self._dropped(b, available)
-        if self._cost(dropped, b) < bound:
-            feasible, bound = dropped, self._cost(dropped, b)
-        # The LP relaxation bounds the optimum from below: a feasible plan within MILP_GAP of
-        # it is within MILP_GAP of the optimum, and no MILP is needed.
-        if bound <= (1 + MILP_GAP) * self._cost(t_lp, b):
-            self.n_certified += 1
-            return self._remember(key, feasible)
-        self.n_milp += 1
         big = bound / self.c[:n]
         cost = np.concatenate([self.c, np.zeros(n)])
         a_link = np.zeros((2 * n, ncol + n))
@@ -325,45 +294,12 @@ class Allocator:
         t = np.where(z & available, np.maximum(t, self.t_min), 0.0)
         if self._cost(t, b) > bound:  # pragma: no cover - a solver shortfall: keep the bound's
             t = feasible
-        return self._remember(key, t)
+        return t
 
-    def _branch_and_bound(self, rhs, available) -> np.ndarray | None:
-        """On-times ``(n_jets,)`` [s] within ``MILP_GAP`` of the mixed-integer optimum, by
-        depth-first branch and bound on the short jets (a short jet is either off or held at
-        least at its minimum); every node's LP is the cached-basis LP with the held minimum
-        moved to the right-hand side (``t = t_min + t'``, ``t' >= 0``), so a node costs a
-        matrix product once its basis is known.  None when ``MAX_NODES`` are not enough."""
-        n = self.n
-        lower_t = self.t_min * (1 - 1e-9)
-        best, best_cost = None, np.inf
-        stack = [(np.zeros(n, bool), ~available)]
-        for _ in range(MAX_NODES):
-            if not stack:
-                return best
-            self.n_nodes += 1
-            held, off = stack.pop()
-            base = np.where(held, self.t_min, 0.0)
-            x = self._relaxed((rhs - self.A[:, :n] @ base)[None], (~off)[None])[0]
-            cost = float(self.c @ x + self.c[:n] @ base)
-            if cost * (1 + MILP_GAP) >= best_cost:
-                continue  # this branch cannot beat the best by more than the gap
-            t = x[:n] + base
-            short = (t > 0) & (t < lower_t) & ~held
-            if not short.any():
-                best, best_cost = t, cost
-                continue
-            j = int(np.argmax(np.where(short, t / self.t_min, -1.0)))  # nearest its minimum
-            one = np.zeros(n, bool)
-            one[j] = True
-            stack.append((held, off | one))  # off: explored second
-            stack.append((held | one, off))  # held at the minimum: a feasible plan soonest
-        return best if not stack else None
-
-    def _remember(self, key: bytes, t: np.ndarray) -> np.ndarray:
-        if len(self._milp_cache) >= MILP_CACHE_SIZE:
-            self._milp_cache.pop(next(iter(self._milp_cache)))
-        self._milp_cache[key] = t
-        return t.copy()
+    def _remember(self, key: bytes, t: np.ndarray) -> None:
+        if len(self._plans) >= MILP_CACHE_SIZE:
+            self._plans.pop(next(iter(self._plans)))
+        self._plans[key] = t
 
     def _dropped(self, b, available) -> np.ndarray:
         """On-times ``(n_jets,)`` [s] of the LP without the jets it fires short, repeated
@@ -376,26 +312,24 @@ class Allocator:
                 return t
             allowed &= ~short
 
-    def _linprog(self, bounds, rhs):
-        """HiGHS' dual simplex on the allocator's LP; its interior point, then its own choice,
-        when the simplex gives up (costs spanning many decades -- a translation price on a
-        layout that cannot reach an axis -- can leave its status unknown)."""
-        for method in ("highs-ds", "highs-ipm", "highs"):
-            res = linprog(self.c, A_eq=self.A, b_eq=rhs, bounds=bounds, method=method)
-            if res.status == 0:
-                return res
-        # pragma: no cover - the elastic residual keeps the LP feasible and bounded
-        raise RuntimeError(f"allocator LP failed: {res.message}")
-
-    def _held_at_minimum(self, b, available, held) -> np.ndarray:
-        """On-times ``(n_jets,)`` [s] of the LP with the ``held`` jets at least their minimum
-        (a feasible plan of the mixed-integer problem)."""
-        lower = np.r_[np.where(held & available, self.t_min, 0.0), np.zeros(self.ncol - self.n)]
-        upper = [None if j >= self.n or available[j] else 0.0 for j in range(self.ncol)]
+    def _held_at_minimum(self, b, available) -> np.ndarray:
+        """On-times ``(n_jets,)`` [s] of the LP with every jet it fires short held at least at
+        its minimum, repeated until none is short (<= n rounds; a feasible plan of the
+        mixed-integer problem)."""
+        held = np.zeros(self.n, bool)
         rhs = np.zeros(self.m)
         rhs[:3] = b * self.sD
-        res = self._linprog(list(zip(lower, upper)), rhs)
-        return np.where(res.x[: self.n] > 0, np.maximum(res.x[: self.n], lower[: self.n]), 0.0)
+        allowed = np.r_[available, np.ones(self.ncol - self.n, bool)][None]
+        while True:
+            base = np.where(held, self.t_min, 0.0)
+            shifted = (rhs - self.A[:, : self.n] @ base)[None]
+            x = solve_lps(self.A, self.c, shifted, allowed, self.plus, self.minus)[0][0]
+            self.n_lp += 1
+            t = x[: self.n] + base
+            short = (t > 0) & (t < self.t_min * (1 - 1e-9)) & ~held
+            if not short.any():
+                return t
+            held |= short
 
     def _cost(self, t, b) -> float:
         """The (scaled) objective of on-times ``t`` for command ``b``: propellant, the

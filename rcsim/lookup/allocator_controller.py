@@ -26,10 +26,20 @@ runs (no Python loop over runs):
    within every cycle when the minimum allows it (every jet then fires ``t / L`` each cycle)
    and over the plan otherwise (every jet of the plan fires in its first cycle), and no pulse
    is below the minimum;
-5. valve delays (the vehicle file's nominal ``open_delay_s`` / ``close_delay_s``): a pulse
-   commanded ``u`` thrusts ``u - (d_o - d_c)``, so each pulse is commanded its planned
-   delivered time plus ``d_o - d_c``, and the minimum delivered pulse is
-   ``max(min_on - (d_o - d_c), 0)``: what is solved is what is delivered;
+5. valve delays (the vehicle file's nominal ``open_delay_s`` / ``close_delay_s``, lag
+   ``d_o - d_c``): an *opening* of the valve commanded ``u`` in all thrusts ``u - lag``
+   (:mod:`rcsim.spacecraft.valves`), and a full-cycle command continues into the next
+   cycle's without a new opening.  So the lag is planned per opening, not per pulse: a pulse
+   that starts an opening is commanded its planned delivered time plus the lag; a command
+   cut at the full cycle carries what it could not command into the next cycle, where the
+   opening continues (the jet fires then even if its pulses do not, and a plan is not done
+   while anything is carried); a pulse in a cycle that continues an opening (the previous
+   command was the full cycle) is commanded its planned time alone; and a lagging valve
+   whose command would fall short of the full cycle by less than the lag stays open into
+   the next cycle when the jet fires there (the shortfall commanded then: one lag, not
+   two).  The minimum delivered pulse is ``max(min_on - lag, 0)``, and a planned total
+   below :data:`NOTHING_S` is no pulse: every pulse commanded delivers what was planned, to
+   rounding;
 6. when the plan is done, re-plan from the measured rate (receding horizon): model error and
    dispersions are corrected by feedback.
 
@@ -55,6 +65,13 @@ if TYPE_CHECKING:
 
 #: Cycles to wait before re-planning when no rounding of a plan helps.
 GIVE_UP_CYCLES = 5
+#: A planned total on-time below this [s] is no pulse (LP round-off, not a firing).
+NOTHING_S = 1e-9
+
+
+def _fires(k, pulses, length):
+    """``ceil(k p / L)``: jet pulses of the plan begun before cycle ``k`` (step 4's spread)."""
+    return -((-k * pulses) // length)
 
 
 def jet_model(model: mujoco.MjModel, isp_s: float):
@@ -89,13 +106,17 @@ class AllocatorState:
     ``pulse_s``: delivered length of each of the plan's pulses of a jet [s]; ``pulses``: how
     many pulses the jet fires in the plan; ``cycles`` (n_runs,): the plan's length in cycles;
     ``flown`` (n_runs,): cycles of it flown; ``maneuvering`` (n_runs,) bool: a maneuver is
-    being flown (step 1's hysteresis)."""
+    being flown (step 1's hysteresis); ``carried_s``: command the open valve still owes
+    (step 5) [s]; ``full``: the jet's last command was the full cycle (its valve stays open
+    if the next command fires it)."""
 
     pulse_s: np.ndarray
     pulses: np.ndarray
     cycles: np.ndarray
     flown: np.ndarray
     maneuvering: np.ndarray
+    carried_s: np.ndarray
+    full: np.ndarray
 
 
 class AllocatorController:
@@ -145,10 +166,17 @@ class AllocatorController:
         self.available = None if available is None else np.asarray(available, bool)
         self.cycle_s = cycle_s
 
+    def solver_counts(self) -> dict[str, int]:
+        """The allocator's solver work so far (:meth:`rcsim.lookup.allocator.Allocator.counts`:
+        LPs, branch-and-bound searches and nodes, exact MILP solves)."""
+        return self.allocator.counts()
+
     def initial_state(self, n_runs: int) -> AllocatorState:
         z = np.zeros((n_runs, self.n))
         zi = np.zeros(n_runs, int)
-        return AllocatorState(z, z.astype(int), zi, zi.copy(), np.zeros(n_runs, bool))
+        return AllocatorState(
+            z, z.astype(int), zi, zi.copy(), np.zeros(n_runs, bool), z.copy(), z.astype(bool)
+        )
 
     def step(self, nav, state: AllocatorState) -> tuple[np.ndarray, AllocatorState]:
         """On-times this cycle (n_runs, n_jets) [s] and the next state."""
@@ -165,13 +193,15 @@ class AllocatorController:
         pulse, pulses = state.pulse_s.copy(), state.pulses.copy()
         cycles, flown = state.cycles.copy(), state.flown.copy()
         size = np.abs(need).max(axis=1)
-        plan = (flown >= cycles) & (size >= self.deadband_rad_s)
+        owed = (state.carried_s != 0).any(axis=1)
+        plan = (flown >= cycles) & (size >= self.deadband_rad_s) & ~owed
         if plan.any():
             idx = np.flatnonzero(plan)
             avail = None
             if self.available is not None:
                 avail = np.broadcast_to(self.available, (n_runs, self.n))[idx]
             t = self._plan(need[idx], avail, size[idx])
+            t = np.where(t >= NOTHING_S, t, 0.0)
             longest = t.max(axis=1)
             n_cyc = np.maximum(np.ceil(longest / self.cycle_s - 1e-9), 1).astype(int)
             n_cyc = np.where(longest > 0, n_cyc, GIVE_UP_CYCLES)
@@ -188,10 +218,28 @@ class AllocatorController:
         active = (flown < cycles)[:, None]
         length = np.maximum(cycles, 1)[:, None]
         k = flown[:, None]
-        fires = active & (-((-(k + 1) * pulses) // length) > -((-k * pulses) // length))
-        u = np.where(fires & (pulse > 0), np.minimum(pulse + self.lag_s, self.cycle_s), 0.0)
+        fires = active & (_fires(k + 1, pulses, length) > _fires(k, pulses, length))
+        planned = np.where(fires & (pulse > 0), pulse, 0.0)  # delivered time wanted [s]
+        # Step 5: the lag once per opening.  The valve is still open when the last command
+        # filled its cycle and this one fires: then what it owes and this pulse, no new lag.
+        carried = state.carried_s
+        same = state.full & ((planned > 0) | (carried != 0))
+        want = np.where(same, carried + planned, np.where(planned > 0, planned + self.lag_s, 0.0))
+        # A lagging valve stays open into the next cycle when the jet fires there, this cycle
+        # wants all but less than the lag of it, and the two cycles' wants fill it: the
+        # shortfall now (under the lag) is commanded then, and the opening pays its lag once
+        # instead of twice.  Without a lag nothing is saved, and every cycle keeps its own
+        # share (the coupled torques cancel within each cycle).
+        lagging = (self.lag_s > 0) & (want >= self.cycle_s - self.lag_s)
+        following = (k + 1 < length) & (
+            _fires(k + 2, pulses, length) > _fires(k + 1, pulses, length)
+        )
+        stay = (want > 0) & following & (pulse > 0) & (want + pulse >= self.cycle_s) & lagging
+        u = np.where(stay, self.cycle_s, np.minimum(want, self.cycle_s))
+        carried = want - u
+        full = u >= self.cycle_s * (1.0 - 1e-12)  # as the propulsion model continues a firing
         flown = np.where(flown < cycles, flown + 1, flown)
-        return u, AllocatorState(pulse, pulses, cycles, flown, maneuvering)
+        return u, AllocatorState(pulse, pulses, cycles, flown, maneuvering, carried, full)
 
     def _plan(self, need: np.ndarray, available, size: np.ndarray) -> np.ndarray:
         """The allocator's totals for ``need`` (rows of runs that plan), with the trim rule:
@@ -205,7 +253,7 @@ class AllocatorController:
         out = np.zeros_like(t)
         if rows.size:
             sub = None if available is None else available[rows]
-            out[rows] = alloc.allocate(need[rows], sub)[0]
+            out[rows] = alloc.allocate(need[rows], sub, relaxed=t[rows])[0]
         return out
 
 

@@ -11,10 +11,10 @@ jet off: on these vehicles no single jet out loses an axis direction (``rcsim ve
 check``, asserted below), so every case stays reachable.
 
 With valve delays in the vehicle file (command 5 ms, open 8 ms, close 5 ms on every jet) the
-allocator plans with them: each pulse is commanded 3 ms longer than it is to thrust, and the
-minimum thrust pulse is 10 - 3 = 7 ms.  The final requirements hold; the within-cycle
-cancellation is not asserted there (a full-cycle firing loses the 3 ms once, not per cycle, so
-pulses of unequal length still shift their torque ratio slightly until the re-plan).
+allocator plans with them: each opening of a valve is commanded 3 ms longer than it is to
+thrust, and the minimum thrust pulse is 10 - 3 = 7 ms.  The final requirements hold; the
+within-cycle cancellation is not asserted there (the delays shift when each jet thrusts within
+a cycle, so the coupled torques cancel over the plan rather than within every cycle).
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -132,6 +132,9 @@ class ChunkResult:
         Per-cycle min / max / sum over the chunk's simulated runs (for envelope plots).
     histories : dict of int -> DataFrame
         Per-cycle histories of the runs the spec keeps.
+    solver : dict of str -> int
+        The controller's solver counts over the chunk (:func:`fly_runs`; empty for a
+        controller without them).
     crashes : tuple of str
         One line per run whose flight software crashed its process
         (:func:`crashed_chunk`), for the console.
@@ -141,6 +144,7 @@ class ChunkResult:
     runs: pd.DataFrame
     envelope: pd.DataFrame
     histories: dict
+    solver: dict = field(default_factory=dict)
     crashes: tuple = ()
 
 
@@ -180,6 +184,7 @@ def fly_runs(
     *,
     nthread: int = 1,
     cancel: threading.Event | None = None,
+    solver: dict | None = None,
 ) -> tuple[History, DispersedRuns]:
     """Draw and fly campaign runs ``run_ids`` (cases of equal duration) as one batch.
 
@@ -187,7 +192,8 @@ def fly_runs(
     the spec has) from children of their noise streams
     (:mod:`rcsim.analysis.engine.campaign.effects`), so a run flies the same whichever chunk holds
     it (and :func:`run_rows` records the same draws).  ``cancel``: when set (from another thread),
-    the flight raises :class:`Cancelled`.
+    the flight raises :class:`Cancelled`.  ``solver``: filled with the controller's solver
+    counts when it has them (``solver_counts()``: the allocator's, e.g. its exact solves).
     """
     from rcsim.analysis.engine.flight import fly_batch
 
@@ -207,6 +213,9 @@ def fly_runs(
     history = fly_batch(
         scenarios, dispersed.params, controller, vehicle=vehicle, nthread=nthread, **effects
     )
+    counts = getattr(controller, "solver_counts", None)
+    if solver is not None and counts is not None:
+        solver.update(counts())
     return history, dispersed
 
 
@@ -409,13 +418,19 @@ def crashed_chunk(spec: CampaignSpec, chunk: Chunk) -> ChunkResult:
             lines.append(f"run {rid}: {why}; recorded failed, the campaign goes on")
         else:
             parts.append(result)
+    return merge_parts(chunk, parts, crashes=tuple(lines))
+
+
+def merge_parts(chunk: Chunk, parts: list[ChunkResult], crashes: tuple = ()) -> ChunkResult:
+    """One result for ``chunk`` from the results of its runs flown apart."""
     env = [p.envelope for p in parts if not p.envelope.empty]
     return ChunkResult(
         chunk=chunk,
         runs=pd.concat([p.runs for p in parts], ignore_index=True),
         envelope=combine_envelopes(env) if env else pd.DataFrame(),
         histories={k: v for p in parts for k, v in p.histories.items()},
-        crashes=tuple(lines),
+        solver=add_counts(p.solver for p in parts),
+        crashes=crashes + tuple(line for p in parts for line in p.crashes),
     )
 
 
@@ -443,7 +458,10 @@ def simulate_chunk(
     chunk is abandoned with :class:`Cancelled`.
     """
     try:
-        history, dispersed = fly_runs(spec, chunk.run_ids, nthread=nthread, cancel=cancel)
+        solver: dict = {}
+        history, dispersed = fly_runs(
+            spec, chunk.run_ids, nthread=nthread, cancel=cancel, solver=solver
+        )
     except Exception as exc:  # noqa: BLE001 - recorded as the failure reason of its runs
         if chunk.stop - chunk.first == 1:
             return ChunkResult(chunk, _raised(spec, chunk.run_ids, exc), pd.DataFrame(), {})
@@ -451,13 +469,7 @@ def simulate_chunk(
             simulate_chunk(spec, Chunk(i, i + 1), nthread, cancel)
             for i in range(chunk.first, chunk.stop)
         ]
-        env = [p.envelope for p in parts if not p.envelope.empty]
-        return ChunkResult(
-            chunk=chunk,
-            runs=pd.concat([p.runs for p in parts], ignore_index=True),
-            envelope=combine_envelopes(env) if env else pd.DataFrame(),
-            histories={k: v for p in parts for k, v in p.histories.items()},
-        )
+        return merge_parts(chunk, parts)
     from rcsim.analysis.engine.flight import history_frame
 
     runs = tabulate(spec, history, dispersed)
@@ -471,7 +483,16 @@ def simulate_chunk(
         ~np.asarray(history.failed, bool),
         axis_jets(spec),
     )
-    return ChunkResult(chunk, runs, env, histories)
+    return ChunkResult(chunk, runs, env, histories, solver)
+
+
+def add_counts(counts) -> dict:
+    """The key-wise sum of solver-count dicts (:attr:`ChunkResult.solver`)."""
+    total: dict = {}
+    for one in counts:
+        for key, value in one.items():
+            total[key] = total.get(key, 0) + int(value)
+    return total
 
 
 def combine_envelopes(frames: list[pd.DataFrame]) -> pd.DataFrame:

@@ -37,7 +37,7 @@ from pathlib import Path
 
 from rcsim.analysis.engine import runs_table
 from rcsim.analysis.engine.campaign import results as R
-from rcsim.analysis.engine.campaign.chunk import iter_chunks
+from rcsim.analysis.engine.campaign.chunk import add_counts, iter_chunks
 from rcsim.analysis.engine.campaign.cluster import (
     check_workers_controller,
     close,
@@ -360,7 +360,7 @@ def _run(
         n_workers = max(1, len(client.scheduler_info().get("workers", {})) or (workers or 1))
         results = dask_results(spec, todo, client, in_flight=2 * n_workers)
     try:
-        flown, simulated, fly_s = _drain(results, out, spec, n_done, progress)
+        flown, simulated, fly_s, solver = _drain(results, out, spec, n_done, progress)
     finally:
         cancel.set()  # stop local chunks in flight (none are, after a normal finish)
         results.close()  # an interrupt inside _drain: the generator cancels what it started
@@ -384,6 +384,11 @@ def _run(
         "fly_s": round(fly_s, 3),
         "wall_s": round(wall, 3),
     }
+    if solver:
+        # The controller's solver work (the allocator's LPs, searches and exact solves),
+        # summed over this session's chunks and added to earlier sessions' (a resume).
+        manifest["last_session"]["solver_counts"] = solver
+        manifest["solver_counts"] = add_counts([manifest.get("solver_counts", {}), solver])
     gate = _gate(spec, counts)
     if gate is not None:
         manifest["gate"] = gate.to_json()
@@ -403,17 +408,19 @@ def _gate(spec: CampaignSpec, counts: dict) -> GateResult | None:
 
 def _drain(
     results, out: Path, spec: CampaignSpec, n_done: int, progress: bool
-) -> tuple[int, float, float]:
+) -> tuple[int, float, float, dict]:
     """Commit each finished chunk; progress bar with runs done, runs/s and ETA.
 
     Returns
     -------
-    (runs flown, simulated seconds, wall seconds spent flying)
+    (runs flown, simulated seconds, wall seconds spent flying, the chunks' solver counts
+    summed)
     """
     from tqdm import tqdm
 
     t0 = time.perf_counter()
     flown, simulated = 0, 0.0
+    solver: dict = {}
     with tqdm(
         total=spec.n_runs,
         initial=n_done,
@@ -426,6 +433,7 @@ def _drain(
     ) as bar:
         for result in results:
             R.commit_chunk(out, result)
+            solver = add_counts([solver, result.solver])
             for line in result.crashes:  # flight software that crashed its process
                 bar.write(f"rcsim: warning: {line}", file=sys.stderr)
             # An interrupt a library swallowed (rcsim.analysis.engine.interrupts) stops it here.
@@ -435,7 +443,7 @@ def _drain(
             # A chunk's runs all last equally long (plan_chunks).
             simulated += n * spec.cases[spec.case_of(result.chunk.first)].duration_s
             bar.update(n)
-    return flown, simulated, time.perf_counter() - t0
+    return flown, simulated, time.perf_counter() - t0, solver
 
 
 def summary_text(report: CampaignReport, spec: CampaignSpec) -> str:
