@@ -74,9 +74,11 @@ def test_params_reach_the_factory():
     plus one cycle's rate change with all its jets (torque / inertia x cycle, the vehicle's
     own figures), and a band ten times wider leaves more rate behind."""
     paper = Vehicle.load(None)
+    # inertia_B: the principal moments, along B for the paper's vehicle (iquat identity).
     step_deg_s = np.degrees(
-        paper.axis_torque_n_m() / np.diag(paper.nominal(1).inertia_B[0]) * paper.control.cycle_s
+        paper.axis_torque_n_m() / paper.nominal(1).inertia_B[0] * paper.control.cycle_s
     )
+    assert np.all(np.isfinite(step_deg_s)) and step_deg_s.max() < 0.05
     spin = Scenario(name="d", duration_s=20.0, omega0_rad_s=np.radians([0.3, -0.2, 0.1]))
     tight = fly(spin, SWITCHING, controller_params={"deadband_deg_s": 0.01, "tau_s": 1e6})
     loose = fly(spin, SWITCHING, controller_params={"deadband_deg_s": 0.1, "tau_s": 1e6})
