@@ -1,0 +1,397 @@
+"""Closed-loop tuning of a generated table's rows: every rate case ends near its command.
+
+The paper's rule (:mod:`rcsim.lookup.table_generation`, :mod:`rcsim.lookup.channel_generation`)
+picks each row's whole cycles per axis from the firing loop, one axis at a time.  On a vehicle
+whose jets are coarse, whose channels share jets, or whose axes couple, that row can end a case
+farther from its command than the campaigns' failure threshold allows, below the controller's
+dead band, where it never fires again.  Here every row is judged as it is flown:
+
+1. *Nominal check*: the nominal vehicle flies each of the 26 rate cases from rest under the
+   lookup controller itself (closed loop,
+   :class:`~rcsim.lookup.pattern_recognition.LookupController` with the table), for the
+   longest row's firing plus a settling window.  The case's error is what its row's firing
+   left: the rate error per axis when a second firing starts (the
+   controller re-fires only above its dead band) or, without one, at the end of the flight.
+   A case *meets the target* when every axis's is within ``target_fraction`` of the failure
+   threshold: with a dead band at or above the target, it then ends in one firing.
+2. *Tuning*: for each case that misses, every combination of its commanded axes' whole cycles
+   within ``reach`` cycles of its row is flown the same way -- all candidates of all cases in
+   one batched flight, each run carrying its own table
+   (:meth:`~rcsim.lookup.pattern_recognition.LookupController.for_runs`) -- and the case keeps
+   the candidate whose firing ends nearest (largest axis error least).  A case whose best moved
+   is searched again around it (its new neighbours), up to ``rounds`` rounds.
+3. *Named misses*: a case that no candidate brings within the target keeps its best row, and
+   the reason is stated: an axis direction no jet turns, a cycle's rate step coarser than the
+   band (a whole-cycle row cannot land inside ``2 x target``: the row's minimum impulse bit is
+   one cycle), or the axes' coupling.
+
+Rows the paper's rule already brings within the target are not changed, so the paper's table
+(residuals at most half a cycle's rate change, well inside the target) stays Table 6's.
+
+Imports ``models``, ``spacecraft`` and ``lookup`` only.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rcsim.lookup.pattern_recognition import LookupController, LookupParams
+from rcsim.models.errors import InputError
+from rcsim.models.tables import LookupTable
+from rcsim.spacecraft.navigation import Guidance
+from rcsim.spacecraft.simulation import History, simulate_batch
+from rcsim.spacecraft.valves import JetFaults, ValveTiming
+from rcsim.spacecraft.vehicle import AXES
+
+if TYPE_CHECKING:
+    from rcsim.spacecraft.vehicle_file import Vehicle
+
+#: The campaigns' default failure threshold on the final rate error of any axis [deg/s]
+#: (Gambone sec. III; ``rcsim.analysis.engine.campaign.spec.DEFAULT_RATE_ERROR_DEG_S``, which a
+#: test checks this equals).
+FAILURE_RATE_ERROR_DEG_S = 0.04
+#: Default fraction of the failure threshold a nominal case must end within.
+DEFAULT_TARGET_FRACTION = 0.5
+#: Cycles searched either side of a row's, per commanded axis and round.
+DEFAULT_REACH_CYCLES = 2
+#: Search rounds (a round re-centres a case on its best row when that lay on the edge).
+DEFAULT_ROUNDS = 3
+
+
+def check_target_fraction(value: float) -> float:
+    """``value`` as a target fraction of the failure threshold, in (0, 1].
+
+    Raises
+    ------
+    InputError
+        Outside (0, 1]: a target at or above the failure threshold is no margin.
+    """
+    v = float(value)
+    if not (np.isfinite(v) and 0.0 < v <= 1.0):
+        raise InputError(
+            f"must be in (0, 1] (a fraction of the failure threshold), got {value!r}",
+            parameter="target_fraction",
+            value=value,
+        )
+    return v
+
+
+@dataclass(frozen=True)
+class NominalCheck:
+    """The 26 rate cases flown closed loop on the nominal vehicle with the final table.
+
+    Attributes
+    ----------
+    rate_err_rad_s : ndarray, (26, 3)
+        Rate error per axis the row's firing left [rad/s] (:func:`row_result`).
+    firings : ndarray of int, (26,)
+        Firings the case took (times its main jets switched on).
+    flight_s : float
+        Length of the closed-loop flight [s]: the longest row's firing (stretched by shared
+        jets for a channel table) plus the settling window, in whole cycles.
+    threshold_rad_s : float
+        Failure threshold the target is a fraction of [rad/s].
+    target_fraction : float
+        The fraction: a case meets the target when it fires once and every axis ends within
+        ``target_fraction * threshold_rad_s``.
+    tuned : ndarray of bool, (26,)
+        The row differs from the paper's rule's.
+    reason : tuple of str
+        Per case, why it misses the target (``""`` where it meets it).
+    """
+
+    rate_err_rad_s: np.ndarray
+    firings: np.ndarray
+    flight_s: float
+    threshold_rad_s: float
+    target_fraction: float
+    tuned: np.ndarray
+    reason: tuple
+
+    @property
+    def target_rad_s(self) -> float:
+        """The target on every axis's final rate error [rad/s]."""
+        return self.target_fraction * self.threshold_rad_s
+
+    @property
+    def worst_rad_s(self) -> np.ndarray:
+        """Per case, the largest axis's final |rate error| [rad/s], (26,)."""
+        return np.abs(self.rate_err_rad_s).max(axis=1)
+
+    @property
+    def met(self) -> np.ndarray:
+        """Per case, its row's firing left every axis within the target, (26,) bool."""
+        return self.worst_rad_s <= self.target_rad_s
+
+
+def first_firing(on_time_s: np.ndarray, main_jets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Firings per run and the cycle the second one starts.
+
+    Parameters
+    ----------
+    on_time_s : ndarray, (n, K, n_jets)
+        Jet on-times per cycle [s].
+    main_jets : ndarray of bool, (n_jets,)
+        The jets that fire *for* an axis (a channel's trims, whose short shares may fire as
+        separate pulses, are not firings of their own).
+
+    Returns
+    -------
+    firings : ndarray of int, (n,)
+        Cycles in which any main jet switches on.
+    second : ndarray of int, (n,)
+        Cycle the second firing starts (``K`` when there is none).
+    """
+    on = on_time_s[:, :, np.asarray(main_jets, bool)].max(axis=2) > 0  # (n, K)
+    starts = np.concatenate([on[:, :1], on[:, 1:] & ~on[:, :-1]], axis=1)
+    rank = np.cumsum(starts, axis=1)
+    second = np.where((rank >= 2).any(axis=1), np.argmax(rank >= 2, axis=1), on.shape[1])
+    return starts.sum(axis=1), second
+
+
+def row_result(hist: History, main_jets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per run, the rate error the first firing left and the firings, ``((n, 3), (n,))``.
+
+    The error is read at the start of the cycle the second firing starts (before it fires),
+    or at the end of the flight when there is none: what the row achieved, whatever the
+    controller's dead band does after it."""
+    firings, second = first_firing(hist.on_time_s, main_jets)
+    err = np.concatenate([hist.rate_err_B, hist.final.rate_err_B[:, None]], axis=1)
+    return err[np.arange(err.shape[0]), second].copy(), firings
+
+
+@dataclass(frozen=True)
+class _Flown:
+    """Candidate rows flown: their case, cycles, final errors and firings."""
+
+    case: np.ndarray  # (m,)
+    cycles: np.ndarray  # (m, 3)
+    rate_err_rad_s: np.ndarray  # (m, 3)
+    firings: np.ndarray  # (m,)
+
+
+class RowTuner:
+    """Flies candidate rows of a table closed loop and keeps each case's best (module docstring).
+
+    Parameters
+    ----------
+    table : LookupTable
+        The table the paper's rule generated (jet or channel columns; a channel table carries
+        its recipe).  Its jet roles are kept: a candidate changes times only.
+    served : ndarray of bool, (26, 3)
+        Per case, the commanded axes some jet (channel) turns the commanded way: these fire
+        at least one cycle in every candidate (the others never fire).
+    row_times : callable
+        ``(cycles (m, 3), direction (m, 3)) -> (m, n_columns)``: a row's times [s] from its
+        cycles per axis.
+    main_jets : ndarray of bool, (n_jets,)
+        Jets whose switching on counts a firing (:func:`first_firing`).
+    vehicle : Vehicle
+        The vehicle flown nominally (its profile gives the controller's inputs and cycle).
+    stretch : float
+        Longest wall time of a row per second of its longest column (1 for a jet table; a
+        channel table's shared jets spread a firing over up to 3 times its time).
+    settle_window_s : float
+        Flight after the longest row's firing [s].
+    faults, timing : optional
+        One run's jet faults and valve timing (taken for every run); None: none / nominal.
+    jets_off : tuple of int
+        Jets the table was made without (the controller accepts a lost direction).
+    """
+
+    def __init__(
+        self,
+        table: LookupTable,
+        served: np.ndarray,
+        row_times: Callable[[np.ndarray, np.ndarray], np.ndarray],
+        main_jets: np.ndarray,
+        *,
+        vehicle: Vehicle,
+        stretch: float,
+        settle_window_s: float,
+        faults: JetFaults | None = None,
+        timing: ValveTiming | None = None,
+        jets_off: tuple = (),
+    ):
+        self.table = table
+        self.served = np.asarray(served, bool)
+        # From rest the torque sign of each axis is its command's.
+        self.direction = np.sign(np.asarray(table.rate_cmd, float)).astype(int) * self.served
+        self.row_times = row_times
+        self.main_jets = np.asarray(main_jets, bool)
+        self.vehicle = vehicle
+        self.stretch = float(stretch)
+        self.settle_window_s = float(settle_window_s)
+        self.faults = faults
+        self.timing = timing
+        self.jets_off = tuple(jets_off)
+        self.params = LookupParams.from_profile(vehicle.control)
+
+    def flight_s(self, times_s: np.ndarray) -> float:
+        """Closed-loop flight length for rows of these times [s], whole cycles."""
+        cyc = self.vehicle.control.cycle_s
+        longest = self.stretch * float(np.max(times_s, initial=0.0)) + self.settle_window_s
+        return float(np.ceil(longest / cyc - 1e-9) * cyc)
+
+    def fly(
+        self, base_times_s: np.ndarray, case: np.ndarray, cycles: np.ndarray, duration_s: float
+    ) -> tuple[_Flown, History]:
+        """Fly run ``i``: case ``case[i]`` from rest with the table ``base_times_s`` whose row
+        ``case[i]`` has ``cycles[i]`` -- one batch, every run its own table."""
+        case = np.asarray(case, int)
+        cycles = np.asarray(cycles, int).reshape(-1, 3)
+        m = case.size
+        run_times = np.repeat(np.asarray(base_times_s, float)[None], m, axis=0)
+        run_times[np.arange(m), case] = self.row_times(cycles, self.direction[case])
+        # Every run's table fires the same jets in every case (only times differ): the roles
+        # are learned from the first run's.
+        roles = replace(self.table, firing_time_s=run_times[0])
+        controller = LookupController.for_runs(
+            roles, run_times, self.params, jets_off=self.jets_off
+        )
+        zeros = np.zeros(m, int)
+        hist = simulate_batch(
+            self.vehicle.nominal(1).take(zeros),
+            controller,
+            Guidance.rate(np.asarray(self.table.rate_cmd, float)[case]),
+            duration_s,
+            vehicle=self.vehicle,
+            faults=None if self.faults is None else self.faults.take(zeros),
+            timing=None if self.timing is None else self.timing.take(zeros),
+        )
+        err, firings = row_result(hist, self.main_jets)
+        flown = _Flown(case=case, cycles=cycles, rate_err_rad_s=err, firings=firings)
+        return flown, hist
+
+    def tune(
+        self,
+        cycles: np.ndarray,
+        *,
+        target_fraction: float = DEFAULT_TARGET_FRACTION,
+        threshold_rad_s: float = float(np.radians(FAILURE_RATE_ERROR_DEG_S)),
+        reach: int = DEFAULT_REACH_CYCLES,
+        rounds: int = DEFAULT_ROUNDS,
+    ) -> tuple[np.ndarray, NominalCheck]:
+        """Tune the rows (module docstring); return the cycles (26, 3) and the nominal check
+        of the table they make.
+
+        Parameters
+        ----------
+        cycles : ndarray of int, (26, 3)
+            The paper's rule's cycles per case and axis.
+        target_fraction : float
+            Fraction of ``threshold_rad_s`` each axis must end within, in (0, 1].
+        threshold_rad_s : float
+            The failure threshold [rad/s].
+        reach, rounds : int
+            Cycles searched either side per commanded axis; search rounds.
+        """
+        original = np.asarray(cycles, int).copy()
+        n = original.shape[0]
+        target = target_fraction * threshold_rad_s
+        fires = self.served  # axes a row may tune
+        # A served axis fires at least a cycle (a row that leaves a commanded axis unfired
+        # leaves its whole command as error; the controller's jet roles need it to fire).
+        cur = np.where(fires, np.maximum(original, 1), 0)
+        times = self.row_times(cur, self.direction)
+        duration = self.flight_s(times)
+        first, _ = self.fly(times, np.arange(n), cur, duration)
+        tried: list[_Flown] = [first]
+        best_err = np.abs(first.rate_err_rad_s).max(axis=1)
+        seen = [{tuple(cur[i])} for i in range(n)]
+        open_ = best_err > target
+        for _ in range(rounds):
+            case, cand = [], []
+            for i in np.flatnonzero(open_):  # cases that miss: at most 26, each <= 125 rows
+                axes = [
+                    range(max(c - reach, 1), c + reach + 1) if f else (c,)
+                    for c, f in zip(cur[i], fires[i], strict=True)
+                ]
+                for combo in itertools.product(*axes):
+                    if combo not in seen[i]:
+                        seen[i].add(combo)
+                        case.append(i)
+                        cand.append(combo)
+            if not case:
+                break
+            cand_arr = np.array(cand, int)
+            duration = self.flight_s(self.row_times(cand_arr, self.direction[case]))
+            duration = max(duration, self.flight_s(times))
+            flown, _ = self.fly(times, np.array(case), cand_arr, duration)
+            tried.append(flown)
+            err = np.abs(flown.rate_err_rad_s).max(axis=1)
+            moved = np.zeros(n, bool)
+            for i in np.unique(flown.case):  # per case: the best of its candidates
+                own = np.flatnonzero(flown.case == i)
+                k = own[np.argmin(err[own])]
+                if err[k] < best_err[i]:
+                    cur[i], best_err[i] = flown.cycles[k], err[k]
+                    moved[i] = True
+            # Search again only around a case whose best moved (its new neighbours are unflown).
+            open_ = (best_err > target) & moved
+            times = self.row_times(cur, self.direction)
+        times = self.row_times(cur, self.direction)
+        duration = self.flight_s(times)
+        final, _ = self.fly(times, np.arange(n), cur, duration)
+        check = NominalCheck(
+            rate_err_rad_s=final.rate_err_rad_s,
+            firings=final.firings,
+            flight_s=duration,
+            threshold_rad_s=float(threshold_rad_s),
+            target_fraction=float(target_fraction),
+            tuned=np.any(cur != original, axis=1),
+            reason=(),
+        )
+        reasons = tuple("" if check.met[i] else self._reason(i, check, tried) for i in range(n))
+        return cur, replace(check, reason=reasons)
+
+    def _reason(self, i: int, check: NominalCheck, tried: list[_Flown]) -> str:
+        """Why case ``i`` misses the target, with the best error reached."""
+        target = check.target_rad_s
+        err = check.rate_err_rad_s[i]
+        best = f"best {np.degrees(check.worst_rad_s[i]):.4f} deg/s"
+        rate = np.asarray(self.table.rate_cmd, float)[i]
+        lost = [
+            f"{'+' if rate[a] > 0 else '-'}{AXES[a]}"
+            for a in range(3)
+            if rate[a] != 0 and self.direction[i, a] == 0
+        ]
+        if lost:
+            return f"unreachable: no jet left turns {', '.join(lost)} ({best})"
+        coarse = []
+        for a in np.flatnonzero(np.abs(err) > target):
+            step = _cycle_step(i, int(a), tried)
+            if step is not None and step > 2 * target:
+                coarse.append(
+                    f"one cycle on {AXES[a]} changes its rate by {np.degrees(step):.4f} deg/s, "
+                    f"coarser than the {np.degrees(2 * target):.4f} deg/s band"
+                )
+        if coarse:
+            return (
+                "cycle coarser than the band: "
+                + "; ".join(coarse)
+                + f" (a whole-cycle row's minimum impulse bit is one cycle; {best})"
+            )
+        return (
+            "coupling: no whole-cycle row within the searched cycles ends every axis within "
+            f"{np.degrees(target):.4f} deg/s ({best})"
+        )
+
+
+def _cycle_step(i: int, a: int, tried: list[_Flown]) -> float | None:
+    """Median |change of axis ``a``'s final rate| between flown rows of case ``i`` one cycle
+    apart on ``a`` and equal elsewhere [rad/s]; None when no such pair was flown."""
+    cyc = np.concatenate([f.cycles[f.case == i] for f in tried])
+    err = np.concatenate([f.rate_err_rad_s[f.case == i, a] for f in tried])
+    other = np.delete(cyc, a, axis=1)
+    same = np.all(other[:, None] == other[None, :], axis=2)
+    one_up = cyc[None, :, a] == cyc[:, None, a] + 1
+    j, k = np.nonzero(same & one_up)
+    if j.size == 0:
+        return None
+    return float(np.median(np.abs(err[k] - err[j])))
