@@ -48,6 +48,7 @@ from rcsim.lookup.row_tuning import (
     FAILURE_RATE_ERROR_DEG_S,
     RowTuner,
     check_target_fraction,
+    cycle_steps,
 )
 from rcsim.lookup.table_generation import (
     FiringSweep,
@@ -355,6 +356,7 @@ def generate_channel_table(
         vehicle=vehicle,
         stretch=_STRETCH,
         settle_window_s=settle_window_s,
+        cycle_step_rad_s=cycle_steps(command.history),
     )
     cycles, nominal = tuner.tune(
         command.cycles,

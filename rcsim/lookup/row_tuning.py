@@ -202,6 +202,10 @@ class RowTuner:
         One run's jet faults and valve timing (taken for every run); None: none / nominal.
     jets_off : tuple of int
         Jets the table was made without (the controller accepts a lost direction).
+    cycle_step_rad_s : ndarray, (26, 3), optional
+        Per case and axis, the largest rate change one cycle of the case's firing makes on
+        the axis [rad/s] (:func:`cycle_steps` of the firing loop): what a whole-cycle row
+        cannot resolve below.  None: no miss is put down to it.
     """
 
     def __init__(
@@ -217,6 +221,7 @@ class RowTuner:
         faults: JetFaults | None = None,
         timing: ValveTiming | None = None,
         jets_off: tuple = (),
+        cycle_step_rad_s: np.ndarray | None = None,
     ):
         self.table = table
         self.served = np.asarray(served, bool)
@@ -230,6 +235,7 @@ class RowTuner:
         self.faults = faults
         self.timing = timing
         self.jets_off = tuple(jets_off)
+        self.cycle_step_rad_s = cycle_step_rad_s
         self.params = LookupParams.from_profile(vehicle.control)
 
     def flight_s(self, times_s: np.ndarray) -> float:
@@ -301,7 +307,6 @@ class RowTuner:
         times = self.row_times(cur, self.direction)
         duration = self.flight_s(times)
         first, _ = self.fly(times, np.arange(n), cur, duration)
-        tried: list[_Flown] = [first]
         best_err = np.abs(first.rate_err_rad_s).max(axis=1)
         seen = [{tuple(cur[i])} for i in range(n)]
         open_ = best_err > target
@@ -323,7 +328,6 @@ class RowTuner:
             duration = self.flight_s(self.row_times(cand_arr, self.direction[case]))
             duration = max(duration, self.flight_s(times))
             flown, _ = self.fly(times, np.array(case), cand_arr, duration)
-            tried.append(flown)
             err = np.abs(flown.rate_err_rad_s).max(axis=1)
             moved = np.zeros(n, bool)
             for i in np.unique(flown.case):  # per case: the best of its candidates
@@ -347,10 +351,10 @@ class RowTuner:
             tuned=np.any(cur != original, axis=1),
             reason=(),
         )
-        reasons = tuple("" if check.met[i] else self._reason(i, check, tried) for i in range(n))
+        reasons = tuple("" if check.met[i] else self._reason(i, check) for i in range(n))
         return cur, replace(check, reason=reasons)
 
-    def _reason(self, i: int, check: NominalCheck, tried: list[_Flown]) -> str:
+    def _reason(self, i: int, check: NominalCheck) -> str:
         """Why case ``i`` misses the target, with the best error reached."""
         target = check.target_rad_s
         err = check.rate_err_rad_s[i]
@@ -363,19 +367,17 @@ class RowTuner:
         ]
         if lost:
             return f"unreachable: no jet left turns {', '.join(lost)} ({best})"
-        coarse = []
-        for a in np.flatnonzero(np.abs(err) > target):
-            step = _cycle_step(i, int(a), tried)
-            if step is not None and step > 2 * target:
-                coarse.append(
-                    f"one cycle on {AXES[a]} changes its rate by {np.degrees(step):.4f} deg/s, "
-                    f"coarser than the {np.degrees(2 * target):.4f} deg/s band"
-                )
+        steps = self.cycle_step_rad_s
+        coarse = [
+            f"{AXES[a]} {np.degrees(steps[i, a]):.4f}"
+            for a in np.flatnonzero(np.abs(err) > target)
+            if steps is not None and steps[i, a] > 2 * target
+        ]
         if coarse:
             return (
-                "cycle coarser than the band: "
-                + "; ".join(coarse)
-                + f" (a whole-cycle row's minimum impulse bit is one cycle; {best})"
+                f"cycle coarser than the band: one cycle changes {', '.join(coarse)} deg/s, "
+                f"more than the band's {np.degrees(2 * target):.4f} deg/s width (a whole-cycle "
+                f"row's minimum impulse bit is one cycle; {best})"
             )
         return (
             "coupling: no whole-cycle row within the searched cycles ends every axis within "
@@ -383,15 +385,8 @@ class RowTuner:
         )
 
 
-def _cycle_step(i: int, a: int, tried: list[_Flown]) -> float | None:
-    """Median |change of axis ``a``'s final rate| between flown rows of case ``i`` one cycle
-    apart on ``a`` and equal elsewhere [rad/s]; None when no such pair was flown."""
-    cyc = np.concatenate([f.cycles[f.case == i] for f in tried])
-    err = np.concatenate([f.rate_err_rad_s[f.case == i, a] for f in tried])
-    other = np.delete(cyc, a, axis=1)
-    same = np.all(other[:, None] == other[None, :], axis=2)
-    one_up = cyc[None, :, a] == cyc[:, None, a] + 1
-    j, k = np.nonzero(same & one_up)
-    if j.size == 0:
-        return None
-    return float(np.median(np.abs(err[k] - err[j])))
+def cycle_steps(firing_loop: History) -> np.ndarray:
+    """Per run and axis, the largest rate change one cycle of the firing loop made on the
+    axis [rad/s], (n, 3): a whole-cycle row's resolution there."""
+    err = np.concatenate([firing_loop.rate_err_B, firing_loop.final.rate_err_B[:, None]], axis=1)
+    return np.abs(np.diff(err, axis=1)).max(axis=1)

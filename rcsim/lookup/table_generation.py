@@ -60,6 +60,7 @@ from rcsim.lookup.row_tuning import (
     NominalCheck,
     RowTuner,
     check_target_fraction,
+    cycle_steps,
 )
 from rcsim.lookup.table_candidates import nearest_rows
 from rcsim.models.errors import InputError
@@ -486,6 +487,7 @@ def generate_jet_table(
         faults=faults,
         timing=delays,
         jets_off=jets_off,
+        cycle_step_rad_s=cycle_steps(command.history),
     )
     cycles, nominal = tuner.tune(
         command.cycles,
