@@ -82,15 +82,15 @@ def main(names: list[str]) -> None:
         before, t0 = generate(ref, 0)
         after, t1 = generate(ref, DEFAULT_ROUNDS)
         b, a = before.nominal, after.nominal
-        missed = [
-            f"{int(c)} ({r.split(':')[0]})"
-            for c, r, m in zip(after.table.case, a.reason, a.met)
-            if not m
-        ]
+        missed: dict[str, list[int]] = {}
+        for case, reason, met in zip(after.table.case, a.reason, a.met, strict=True):
+            if not met:
+                missed.setdefault(reason.split(":")[0], []).append(int(case))
+        named = "; ".join(f"{r}: {', '.join(map(str, c))}" for r, c in missed.items())
         print(
             f"| {name} | {t0:.1f} / {t1:.1f} | {np.degrees(b.worst_rad_s).max():.4f} / "
             f"{np.degrees(a.worst_rad_s).max():.4f} | {int(b.met.sum())} / {int(a.met.sum())} | "
-            f"{int(a.tuned.sum())} | {', '.join(missed) or 'none'} |"
+            f"{int(a.tuned.sum())} | {named or 'none'} |"
         )
 
 

@@ -22,6 +22,11 @@ it delivered):
    rate error (all three axes, squared) is least is the row.  That flight is the table's
    verification too (end rate error, settling time after the firing, translation).
 
+3. *Nominal check and tuning* (:mod:`rcsim.lookup.row_tuning`, as for a jet table): each case
+   flown closed loop under the lookup controller with the table; a row that leaves an axis
+   farther than the target from its command is replaced by the best of its neighbouring
+   whole-cycle rows (then flown open loop again as its verification), or the case is named.
+
 Rate damping (Figs 3-4) is checked the same way: from each case's rate with a zero command,
 the cycles found must be the command's on the opposing channels.
 

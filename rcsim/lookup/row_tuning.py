@@ -184,8 +184,8 @@ class RowTuner:
         The table the paper's rule generated (jet or channel columns; a channel table carries
         its recipe).  Its jet roles are kept: a candidate changes times only.
     served : ndarray of bool, (26, 3)
-        Per case, the commanded axes some jet (channel) turns the commanded way: these fire
-        at least one cycle in every candidate (the others never fire).
+        Per case, the commanded axes some jet (channel) turns the commanded way (the others
+        never fire).
     row_times : callable
         ``(cycles (m, 3), direction (m, 3)) -> (m, n_columns)``: a row's times [s] from its
         cycles per axis.
@@ -300,10 +300,11 @@ class RowTuner:
         original = np.asarray(cycles, int).copy()
         n = original.shape[0]
         target = target_fraction * threshold_rad_s
-        fires = self.served  # axes a row may tune
-        # A served axis fires at least a cycle (a row that leaves a commanded axis unfired
-        # leaves its whole command as error; the controller's jet roles need it to fire).
-        cur = np.where(fires, np.maximum(original, 1), 0)
+        # The axes a row may tune: those it fires.  An axis the rule left at 0 cycles (one
+        # cycle overshoots by more than the command) stays so: the controller learns which
+        # jets serve a case from the table, and every candidate must fire the same ones.
+        fires = self.served & (original > 0)
+        cur = original.copy()
         times = self.row_times(cur, self.direction)
         duration = self.flight_s(times)
         first, _ = self.fly(times, np.arange(n), cur, duration)

@@ -11,6 +11,12 @@ number of cycles whose *measured* end rate is nearest the command -- the last cy
 crossing or the crossing cycle, whichever ends closer.  No mass property enters: the rates are
 read from the simulation.
 
+Every row is then checked and, where it misses, tuned in closed loop: the nominal vehicle flies
+each case under the lookup controller with the table, and a case whose row leaves an axis
+farther from its command than a fraction of the failure threshold gets the nearest of its
+neighbouring whole-cycle rows, or is named with the reason it cannot
+(:mod:`rcsim.lookup.row_tuning`; the paper's vehicle keeps every row).
+
 The table is then *verified* by flying it open loop (every jet fires its table time from rest):
 the residual rate error per axis and the rate settling time after firing
 (``settle_after_firing_s``: time from the end of the firing until every axis stays within
