@@ -137,8 +137,9 @@ class FiringSweep:
     cycles : ndarray of int, (n_cases, 3)
         Whole control cycles chosen per axis (0 on axes that do not fire).
     end_rate_err_rad_s : ndarray, (n_cases, 3)
-        Measured rate error after the chosen number of cycles [rad/s] (with valve timing:
-        after the chosen row's open-loop flight, :mod:`rcsim.lookup.table_candidates`).
+        Measured rate error after the chosen number of cycles [rad/s] (with valve timing, or
+        a row the closed-loop tuning changed: after the row's open-loop flight,
+        :mod:`rcsim.lookup.table_candidates`, :mod:`rcsim.lookup.row_tuning`).
     direction : ndarray of int, (n_cases, 3)
         Torque sign fired per axis.
     history : History
@@ -536,6 +537,10 @@ def generate_jet_table(
     # (the firings are short and the attitude barely moves while they last).
     _, dir_B = jet_geometry_B(model)
     impulse_B = (verify.propulsion.impulse_ns[:, :, None] * dir_B[None]).sum(axis=1)
+    # A tuned row's end rate is its verification flight's (the firing loop never flew it).
+    tuned = nominal.tuned[:, None]
+    end_err = np.where(tuned, verify.final.rate_err_B, command.end_rate_err_rad_s)
+    command = replace(command, end_rate_err_rad_s=end_err)
     return GeneratedTable(
         table=table,
         command=command,

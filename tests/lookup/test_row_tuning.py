@@ -45,14 +45,20 @@ VEHICLES = {
     "canted16": "canted16",
     "service16": str(ROOT / "docs" / "examples" / "service16.toml"),
     "smallsat150": str(Path(__file__).parent / "vehicles" / "smallsat150.toml"),
+    "paper": "paper",
 }
 TARGET_DEG_S = 0.5 * 0.04  # the default: half the campaigns' failure threshold
+#: Vehicle and target fraction: the default on the three vehicles of the brief, and a quarter
+#: on the paper's jet table (0.01 deg/s, finer than its 0.023-0.030 deg/s cycles: rows tuned
+#: and cases named on a jet table).
+GENERATED = [("canted16", 0.5), ("service16", 0.5), ("smallsat150", 0.5), ("paper", 0.25)]
 
 
-@pytest.fixture(scope="module", params=list(VEHICLES))
+@pytest.fixture(scope="module", params=GENERATED, ids=[f"{v}-{f}" for v, f in GENERATED])
 def generated(request):
-    vehicle = Vehicle.load(VEHICLES[request.param])
-    return request.param, vehicle, generate_table(vehicle)
+    name, fraction = request.param
+    vehicle = Vehicle.load(VEHICLES[name])
+    return name, vehicle, generate_table(vehicle, target_fraction=fraction), fraction * 0.04
 
 
 def fly_first_firing(table, vehicle, flight_s):
@@ -80,7 +86,7 @@ def test_failure_threshold_is_the_campaigns():
 
 
 def test_every_case_within_target_or_named(generated):
-    name, vehicle, gen = generated
+    name, vehicle, gen, target_deg_s = generated
     frame = gen.settling_frame()
     flight_s = float(frame["nominal_flight_s"].iloc[0])
     err, firings = fly_first_firing(gen.table, vehicle, flight_s)
@@ -89,8 +95,8 @@ def test_every_case_within_target_or_named(generated):
     worst = np.abs(err).max(axis=1)
     np.testing.assert_allclose(frame["nominal_err_deg_s"], worst, atol=1e-9)
     np.testing.assert_array_equal(frame["nominal_firings"], firings)
-    np.testing.assert_allclose(frame["nominal_target_deg_s"], TARGET_DEG_S, rtol=1e-12)
-    met = worst <= TARGET_DEG_S
+    np.testing.assert_allclose(frame["nominal_target_deg_s"], target_deg_s, rtol=1e-12)
+    met = worst <= target_deg_s
     np.testing.assert_array_equal(frame["nominal_met"], met)
     reasons = frame["unmet_reason"]
     assert all(r == "" for r in reasons[met]), name
@@ -133,19 +139,24 @@ def test_unreachable_direction_is_named():
     assert nom.met[~minus_yaw].all()
 
 
-@pytest.mark.parametrize("name", ["service16"])
-def test_tuning_never_worse_and_helps(name):
-    """service16's paper-rule rows leave 16 of 26 cases beyond the target (measured,
-    docs/lookup.md); tuning changes rows, meets more cases, and never makes a case worse
-    (its search includes the rule's row; 1e-6 deg/s for the flights' differing lengths)."""
-    from rcsim.lookup.channel_generation import generate_channel_table as gen_ct
+@pytest.mark.parametrize("name, fraction", [("service16", 0.5), ("paper", 0.25)])
+def test_tuning_never_worse(name, fraction):
+    """Tuning changes rows where the rule's miss (service16's leave 16 of 26 cases beyond
+    0.02 deg/s, the paper's 16 beyond 0.01 deg/s: measured, docs/lookup.md) and never makes a
+    case worse: its search includes the rule's row (1e-6 deg/s for the flights' differing
+    lengths).  On service16 it also brings more cases within the target."""
+    from rcsim.lookup.channel_generation import generate_channel_table as channel
+    from rcsim.lookup.table_generation import generate_jet_table as jet
 
     vehicle = Vehicle.load(VEHICLES[name])
-    before = gen_ct(vehicle, tune_rounds=0).nominal
-    after = gen_ct(vehicle).nominal
+    generate = jet if name == "paper" else channel
+    before = generate(vehicle, target_fraction=fraction, tune_rounds=0).nominal
+    after = generate(vehicle, target_fraction=fraction).nominal
     assert not before.tuned.any() and after.tuned.any()
-    assert after.met.sum() > before.met.sum()
     assert (np.degrees(after.worst_rad_s) <= np.degrees(before.worst_rad_s) + 1e-6).all()
+    assert after.met.sum() >= before.met.sum()
+    if name == "service16":
+        assert after.met.sum() > before.met.sum()
 
 
 def test_paper_vehicle_keeps_its_rows():
