@@ -298,7 +298,7 @@ def _nominal_lines(gen) -> None:
     missed = [int(c) for c in gen.table.case[~met]]
     print(
         f"rcsim: warning: {len(missed)} of 26 cases miss the target {target:.4g} deg/s on the "
-        f"nominal vehicle (cases {', '.join(map(str, missed))}; reasons above and in the "
-        "settling CSV's unmet_reason): their rows cannot do better in whole control cycles",
+        f"nominal vehicle (cases {', '.join(map(str, missed))}; why: above, and the settling "
+        "CSV's unmet_reason)",
         file=sys.stderr,
     )
