@@ -374,7 +374,7 @@ def generate_channel_table(
         verify = _open_loop(times, rate, zero, vehicle, cmap, settle_window_s)
         rows = np.arange(len(rate))
         command = FiringSweep(
-            cycles, verify.final.rate_err_B.copy(), sign * served_case, command.history
+            cycles, verify.final.rate_err_B.copy(), np.where(cycles > 0, sign, 0), command.history
         )
     damping, damping_times, _, _ = sweep(zero, rate)
     jmap = CHANNEL_MAP * served[:, None]
