@@ -24,8 +24,8 @@ it delivered):
 
 3. *Nominal check and tuning* (:mod:`rcsim.lookup.row_tuning`, as for a jet table): each case
    flown closed loop under the lookup controller with the table; a row that leaves an axis
-   farther than the target from its command is replaced by the best of its neighbouring
-   whole-cycle rows (then flown open loop again as its verification), or the case is named.
+   farther than the target from its command is replaced by a neighbouring whole-cycle row
+   that meets it (then flown open loop again as its verification), or the case is named.
 
 Rate damping (Figs 3-4) is checked the same way: from each case's rate with a zero command,
 the cycles found must be the command's on the opposing channels.
@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rcsim.lookup.channels import ChannelMap, axis_jets_of, solve_recipe
+from rcsim.lookup.channels import ChannelMap, solve_recipe
 from rcsim.lookup.row_tuning import (
     DEFAULT_ROUNDS,
     DEFAULT_TARGET_FRACTION,
@@ -357,7 +357,6 @@ def generate_channel_table(
         LookupTable(case=rate_cases.case, rate_cmd=rate, firing_time_s=times, recipe=recipe),
         served_case,
         lambda c, d: channel_row_times(c, d, control.cycle_s),
-        np.asarray(axis_jets_of(recipe).any(axis=0), bool),
         vehicle=vehicle,
         stretch=_STRETCH,
         settle_window_s=settle_window_s,

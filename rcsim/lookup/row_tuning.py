@@ -10,20 +10,24 @@ dead band, where it never fires again.  Here every row is judged as it is flown:
    lookup controller itself (closed loop,
    :class:`~rcsim.lookup.pattern_recognition.LookupController` with the table), for the
    longest row's firing plus a settling window.  The case's error is what its row's firing
-   left: the rate error per axis when a second firing starts (the
-   controller re-fires only above its dead band) or, without one, at the end of the flight.
+   left: each axis's rate error when the controller starts a second firing on it (a re-plan,
+   a firing the other way, one after the hold: it fires again only above its dead band) or,
+   without one, at the end of the flight.
    A case *meets the target* when every axis's is within ``target_fraction`` of the failure
    threshold: with a dead band at or above the target, it then ends in one firing.
 2. *Tuning*: for each case that misses, every combination of its commanded axes' whole cycles
    within ``reach`` cycles of its row is flown the same way -- all candidates of all cases in
    one batched flight, each run carrying its own table
    (:meth:`~rcsim.lookup.pattern_recognition.LookupController.for_runs`) -- and the case keeps
-   the candidate whose firing ends nearest (largest axis error least).  A case whose best moved
-   is searched again around it (its new neighbours), up to ``rounds`` rounds.
-3. *Named misses*: a case that no candidate brings within the target keeps its best row, and
-   the reason is stated: an axis direction no jet turns, a cycle's rate step coarser than the
-   band (a whole-cycle row cannot land inside ``2 x target``: the row's minimum impulse bit is
-   one cycle), or the axes' coupling.
+   the candidate whose firing ends nearest (largest axis error least) among those that meet
+   the target; a case none of whose candidates meets it keeps the rule's row (``rounds``
+   bounds the search rounds; as a row moves only to one that meets the target, one does).  The
+   table as tuned is then flown again: a tuned case that ranks worse there (after an
+   overshoot the controller flies other cases' rows too) gets the rule's row back.
+3. *Named misses*: a case that no candidate brings within the target keeps the rule's row,
+   and the reason and the least error any candidate reached are stated: an axis direction no
+   jet turns, a cycle's rate step coarser than the band (a whole-cycle row cannot land inside
+   ``2 x target``: the row's minimum impulse bit is one cycle), or the axes' coupling.
 
 Rows the paper's rule already brings within the target are not changed, so the paper's table
 (residuals at most half a cycle's rate change, well inside the target) stays Table 6's.
@@ -89,8 +93,11 @@ class NominalCheck:
     ----------
     rate_err_rad_s : ndarray, (26, 3)
         Rate error per axis the row's firing left [rad/s] (:func:`row_result`).
+    end_rate_err_rad_s : ndarray, (26, 3)
+        Rate error per axis at the end of the flight [rad/s] (after the controller's further
+        firings, if any).
     firings : ndarray of int, (26,)
-        Firings the case took (times its main jets switched on).
+        Firings the controller started in the case (:class:`FiringRecorder`).
     flight_s : float
         Length of the closed-loop flight [s]: the longest row's firing (stretched by shared
         jets for a channel table) plus the settling window, in whole cycles.
@@ -106,6 +113,7 @@ class NominalCheck:
     """
 
     rate_err_rad_s: np.ndarray
+    end_rate_err_rad_s: np.ndarray
     firings: np.ndarray
     flight_s: float
     threshold_rad_s: float
@@ -129,40 +137,59 @@ class NominalCheck:
         return self.worst_rad_s <= self.target_rad_s
 
 
-def first_firing(on_time_s: np.ndarray, main_jets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Firings per run and the cycle the second one starts.
+class FiringRecorder:
+    """The lookup controller, recording the cycles in which it starts a new firing.
+
+    A row from rest starts a firing on each commanded axis in the first cycle; any later
+    firing the controller starts (:meth:`LookupController.step_detail`'s ``axis_new``: a
+    re-plan at the end of a firing, a firing the other way after an overshoot, one after the
+    hold) is a second firing.  The delivery's own tails (a channel's short shares owed and
+    fired later) are not.
 
     Parameters
     ----------
-    on_time_s : ndarray, (n, K, n_jets)
-        Jet on-times per cycle [s].
-    main_jets : ndarray of bool, (n_jets,)
-        The jets that fire *for* an axis (a channel's trims, whose short shares may fire as
-        separate pulses, are not firings of their own).
-
-    Returns
-    -------
-    firings : ndarray of int, (n,)
-        Cycles in which any main jet switches on.
-    second : ndarray of int, (n,)
-        Cycle the second firing starts (``K`` when there is none).
+    controller : LookupController
     """
-    on = on_time_s[:, :, np.asarray(main_jets, bool)].max(axis=2) > 0  # (n, K)
-    starts = np.concatenate([on[:, :1], on[:, 1:] & ~on[:, :-1]], axis=1)
-    rank = np.cumsum(starts, axis=1)
-    second = np.where((rank >= 2).any(axis=1), np.argmax(rank >= 2, axis=1), on.shape[1])
-    return starts.sum(axis=1), second
+
+    def __init__(self, controller: LookupController):
+        self.controller = controller
+        self.new_firing: list[np.ndarray] = []  # per cycle, (n_runs, 3) bool
+
+    @property
+    def cycle_s(self) -> float:
+        return self.controller.cycle_s
+
+    def initial_state(self, n_runs: int):
+        self.new_firing = []
+        return self.controller.initial_state(n_runs)
+
+    def step(self, nav, state):
+        on, state, detail = self.controller.step_detail(nav, state)
+        self.new_firing.append(np.asarray(detail["axis_new"], bool).copy())
+        return on, state
+
+    def first_firing(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per run, the firings started (cycles in which the controller starts one on some
+        axis) and per axis the cycle a second firing starts on it (the number of cycles flown
+        when none does), ``((n,), (n, 3))``."""
+        new = np.stack(self.new_firing, axis=1)  # (n, K, 3)
+        later = new.copy()
+        later[:, 0] = False
+        n_k = new.shape[1]
+        second = np.where(later.any(axis=1), np.argmax(later, axis=1), n_k)
+        return new.any(axis=2).sum(axis=1), second
 
 
-def row_result(hist: History, main_jets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def row_result(hist: History, recorder: FiringRecorder) -> tuple[np.ndarray, np.ndarray]:
     """Per run, the rate error the first firing left and the firings, ``((n, 3), (n,))``.
 
-    The error is read at the start of the cycle the second firing starts (before it fires),
-    or at the end of the flight when there is none: what the row achieved, whatever the
-    controller's dead band does after it."""
-    firings, second = first_firing(hist.on_time_s, main_jets)
+    Each axis's error is read at the start of the cycle a second firing starts on that axis
+    (before it fires), or at the end of the flight when none does: what the row achieved,
+    whatever the controller does after it."""
+    firings, second = recorder.first_firing()
     err = np.concatenate([hist.rate_err_B, hist.final.rate_err_B[:, None]], axis=1)
-    return err[np.arange(err.shape[0]), second].copy(), firings
+    runs = np.arange(err.shape[0])[:, None]
+    return err[runs, second, np.arange(3)[None, :]], firings
 
 
 @dataclass(frozen=True)
@@ -172,7 +199,14 @@ class _Flown:
     case: np.ndarray  # (m,)
     cycles: np.ndarray  # (m, 3)
     rate_err_rad_s: np.ndarray  # (m, 3)
+    end_rate_err_rad_s: np.ndarray  # (m, 3)
     firings: np.ndarray  # (m,)
+
+    def score(self, target_rad_s: float) -> np.ndarray:
+        """Per row, the keys to rank it by, the least best, (m, 2): whether it misses the
+        target, then the error its firing left."""
+        row = np.abs(self.rate_err_rad_s).max(axis=1)
+        return np.stack([row > target_rad_s, row], axis=1).astype(float)
 
 
 class RowTuner:
@@ -189,8 +223,6 @@ class RowTuner:
     row_times : callable
         ``(cycles (m, 3), direction (m, 3)) -> (m, n_columns)``: a row's times [s] from its
         cycles per axis.
-    main_jets : ndarray of bool, (n_jets,)
-        Jets whose switching on counts a firing (:func:`first_firing`).
     vehicle : Vehicle
         The vehicle flown nominally (its profile gives the controller's inputs and cycle).
     stretch : float
@@ -213,7 +245,6 @@ class RowTuner:
         table: LookupTable,
         served: np.ndarray,
         row_times: Callable[[np.ndarray, np.ndarray], np.ndarray],
-        main_jets: np.ndarray,
         *,
         vehicle: Vehicle,
         stretch: float,
@@ -228,7 +259,6 @@ class RowTuner:
         # From rest the torque sign of each axis is its command's.
         self.direction = np.sign(np.asarray(table.rate_cmd, float)).astype(int) * self.served
         self.row_times = row_times
-        self.main_jets = np.asarray(main_jets, bool)
         self.vehicle = vehicle
         self.stretch = float(stretch)
         self.settle_window_s = float(settle_window_s)
@@ -257,8 +287,8 @@ class RowTuner:
         # Every run's table fires the same jets in every case (only times differ): the roles
         # are learned from the first run's.
         roles = replace(self.table, firing_time_s=run_times[0])
-        controller = LookupController.for_runs(
-            roles, run_times, self.params, jets_off=self.jets_off
+        controller = FiringRecorder(
+            LookupController.for_runs(roles, run_times, self.params, jets_off=self.jets_off)
         )
         zeros = np.zeros(m, int)
         hist = simulate_batch(
@@ -270,8 +300,14 @@ class RowTuner:
             faults=None if self.faults is None else self.faults.take(zeros),
             timing=None if self.timing is None else self.timing.take(zeros),
         )
-        err, firings = row_result(hist, self.main_jets)
-        flown = _Flown(case=case, cycles=cycles, rate_err_rad_s=err, firings=firings)
+        err, firings = row_result(hist, controller)
+        flown = _Flown(
+            case=case,
+            cycles=cycles,
+            rate_err_rad_s=err,
+            end_rate_err_rad_s=hist.final.rate_err_B.copy(),
+            firings=firings,
+        )
         return flown, hist
 
     def tune(
@@ -306,11 +342,19 @@ class RowTuner:
         fires = self.served & (original > 0)
         cur = original.copy()
         times = self.row_times(cur, self.direction)
-        duration = self.flight_s(times)
+        # One flight length for every flight (the longest row the default search may try,
+        # whatever ``rounds`` is: the rule's table is judged alike with and without a search),
+        # so that every row of a case is judged at the same time.
+        cyc = self.vehicle.control.cycle_s
+        longest = reach * max(rounds, DEFAULT_ROUNDS) * cyc
+        duration = self.flight_s(times + (times > 0) * longest)
         first, _ = self.fly(times, np.arange(n), cur, duration)
-        best_err = np.abs(first.rate_err_rad_s).max(axis=1)
+        best = first.score(target)
+        first_keys = best.copy()
+        # The least error any row of the case left in its firing (what a miss reports).
+        least = np.abs(first.rate_err_rad_s).max(axis=1)
         seen = [{tuple(cur[i])} for i in range(n)]
-        open_ = best_err > target
+        open_ = best[:, 0] > 0
         for _ in range(rounds):
             case, cand = [], []
             for i in np.flatnonzero(open_):  # cases that miss: at most 26, each <= 125 rows
@@ -326,25 +370,40 @@ class RowTuner:
             if not case:
                 break
             cand_arr = np.array(cand, int)
-            duration = self.flight_s(self.row_times(cand_arr, self.direction[case]))
-            duration = max(duration, self.flight_s(times))
             flown, _ = self.fly(times, np.array(case), cand_arr, duration)
-            err = np.abs(flown.rate_err_rad_s).max(axis=1)
+            keys = flown.score(target)
+            row_err = np.abs(flown.rate_err_rad_s).max(axis=1)
+            np.minimum.at(least, flown.case, row_err)
             moved = np.zeros(n, bool)
             for i in np.unique(flown.case):  # per case: the best of its candidates
                 own = np.flatnonzero(flown.case == i)
-                k = own[np.argmin(err[own])]
-                if err[k] < best_err[i]:
-                    cur[i], best_err[i] = flown.cycles[k], err[k]
+                k = own[np.lexsort(keys[own].T[::-1])[0]]
+                # A row is replaced only by one that meets the target: a row that misses it
+                # may still end its case better than another that misses it by less (the
+                # controller corrects a residual above its dead band, not one under it), which
+                # only the dispersed runs of a refinement can judge.
+                if keys[k, 0] == 0 and tuple(keys[k]) < tuple(best[i]):
+                    cur[i], best[i] = flown.cycles[k], keys[k]
                     moved[i] = True
             # Search again only around a case whose best moved (its new neighbours are unflown).
-            open_ = (best_err > target) & moved
+            open_ = (best[:, 0] > 0) & moved
             times = self.row_times(cur, self.direction)
         times = self.row_times(cur, self.direction)
-        duration = self.flight_s(times)
         final, _ = self.fly(times, np.arange(n), cur, duration)
+        # After an overshoot the controller flies other cases' rows too: a case's own best
+        # may rank worse among the other rows as tuned.  Such a case keeps the rule's row.
+        for _ in range(n):  # each pass reverts at least one row: at most 26 passes
+            ranked = final.score(target)
+            worse = np.array([tuple(ranked[i]) > tuple(first_keys[i]) for i in range(n)])
+            worse &= np.any(cur != original, axis=1)
+            if not worse.any():
+                break
+            cur[worse] = original[worse]
+            times = self.row_times(cur, self.direction)
+            final, _ = self.fly(times, np.arange(n), cur, duration)
         check = NominalCheck(
             rate_err_rad_s=final.rate_err_rad_s,
+            end_rate_err_rad_s=final.end_rate_err_rad_s,
             firings=final.firings,
             flight_s=duration,
             threshold_rad_s=float(threshold_rad_s),
@@ -352,14 +411,22 @@ class RowTuner:
             tuned=np.any(cur != original, axis=1),
             reason=(),
         )
-        reasons = tuple("" if check.met[i] else self._reason(i, check) for i in range(n))
+        reasons = tuple(
+            "" if check.met[i] else self._reason(i, check, float(least[i])) for i in range(n)
+        )
         return cur, replace(check, reason=reasons)
 
-    def _reason(self, i: int, check: NominalCheck) -> str:
-        """Why case ``i`` misses the target, with the best error reached."""
+    def _reason(self, i: int, check: NominalCheck, least_rad_s: float) -> str:
+        """Why case ``i`` misses the target, with the best error reached (``least_rad_s``:
+        the least any flown row left in its firing)."""
         target = check.target_rad_s
         err = check.rate_err_rad_s[i]
-        best = f"best {np.degrees(check.worst_rad_s[i]):.4f} deg/s"
+        end = float(np.abs(check.end_rate_err_rad_s[i]).max())
+        best = (
+            f"best {np.degrees(least_rad_s):.4f} deg/s in one firing; the row kept leaves "
+            f"{np.degrees(check.worst_rad_s[i]):.4f} and the case ends at "
+            f"{np.degrees(end):.4f} deg/s"
+        )
         rate = np.asarray(self.table.rate_cmd, float)[i]
         lost = [
             f"{'+' if rate[a] > 0 else '-'}{AXES[a]}"

@@ -13,8 +13,8 @@ read from the simulation.
 
 Every row is then checked and, where it misses, tuned in closed loop: the nominal vehicle flies
 each case under the lookup controller with the table, and a case whose row leaves an axis
-farther from its command than a fraction of the failure threshold gets the nearest of its
-neighbouring whole-cycle rows, or is named with the reason it cannot
+farther from its command than a fraction of the failure threshold gets a neighbouring
+whole-cycle row that meets it, or is named with the reason it cannot
 (:mod:`rcsim.lookup.row_tuning`; the paper's vehicle keeps every row).
 
 The table is then *verified* by flying it open loop (every jet fires its table time from rest):
@@ -227,6 +227,7 @@ class GeneratedTable:
             cols["nominal_err_deg_s"] = np.degrees(nom.worst_rad_s)
             for a, axis in enumerate(AXES):
                 cols[f"nominal_err_{axis}_deg_s"] = np.degrees(nom.rate_err_rad_s[:, a])
+            cols["nominal_end_err_deg_s"] = np.degrees(np.abs(nom.end_rate_err_rad_s).max(axis=1))
             cols["nominal_firings"] = nom.firings
             cols["nominal_target_deg_s"] = np.degrees(nom.target_rad_s)
             cols["nominal_met"] = nom.met
@@ -487,7 +488,6 @@ def generate_jet_table(
         LookupTable(case=rate_cases.case, rate_cmd=rate, firing_time_s=np.zeros((n, N_JETS))),
         served,
         lambda c, d: firing_times(c, d, jet_map, cyc),
-        (jet_map != 0).any(axis=1),
         vehicle=vehicle,
         stretch=1.0,
         settle_window_s=settle_window_s,
