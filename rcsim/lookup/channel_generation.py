@@ -22,6 +22,11 @@ it delivered):
    rate error (all three axes, squared) is least is the row.  That flight is the table's
    verification too (end rate error, settling time after the firing, translation).
 
+3. *Nominal check and tuning* (:mod:`rcsim.lookup.row_tuning`, as for a jet table): each case
+   flown closed loop under the lookup controller with the table; a row that leaves an axis
+   farther than the target from its command is replaced by a neighbouring whole-cycle row
+   that meets it (then flown open loop again as its verification), or the case is named.
+
 Rate damping (Figs 3-4) is checked the same way: from each case's rate with a zero command,
 the cycles found must be the command's on the opposing channels.
 
@@ -42,6 +47,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rcsim.lookup.channels import ChannelMap, solve_recipe
+from rcsim.lookup.row_tuning import (
+    DEFAULT_ROUNDS,
+    DEFAULT_TARGET_FRACTION,
+    FAILURE_RATE_ERROR_DEG_S,
+    RowTuner,
+    check_target_fraction,
+    cycle_steps,
+)
 from rcsim.lookup.table_generation import (
     FiringSweep,
     GeneratedTable,
@@ -65,6 +78,9 @@ if TYPE_CHECKING:
 
 #: "A whole number of cycles" when bracketing delivered channel time [cycles].
 _CYCLE_EPS = 1e-9
+#: A cycle delivers at least a third of a channel's share (three channels, fractions <= 1), so
+#: every row has ended by this many times its longest channel.
+_STRETCH = 3.0
 
 
 def channel_of(axis: int, sign: int) -> int:
@@ -186,6 +202,19 @@ def _candidates(
     return cands, direction
 
 
+def channel_row_times(cycles: np.ndarray, direction: np.ndarray, cycle_s: float) -> np.ndarray:
+    """Channel times (m, 6) [s] of rows firing ``cycles`` (m, 3) whole cycles on each axis's
+    channel of sign ``direction`` (m, 3) (0: none)."""
+    cycles = np.asarray(cycles, int)
+    direction = np.asarray(direction, int)
+    times = np.zeros((cycles.shape[0], len(CHANNEL_COLUMNS)))
+    rows = np.arange(cycles.shape[0])
+    for a in range(3):
+        col = 2 * a + (direction[:, a] < 0)
+        times[rows, col] += np.where(direction[:, a] != 0, cycles[:, a], 0) * cycle_s
+    return times
+
+
 def _choose(
     cands: list,
     direction: np.ndarray,
@@ -212,18 +241,8 @@ def _choose(
             combos.append(combo)
     times = np.array(rows)
     owner_arr = np.array(owner)
-    # A cycle delivers at least a third of a channel's share (three channels, fractions <= 1),
-    # so every row has ended by three times its longest channel.
-    duration = 3.0 * float(times.max()) + settle_window_s
-    duration = np.ceil(duration / cyc - _CYCLE_EPS) * cyc
-    batch = vehicle.nominal(1).take(np.zeros(len(rows), int))
-    hist = simulate_batch(
-        batch,
-        ChannelOpenLoop(times, channel_map),
-        Guidance.rate(target[owner_arr]),
-        float(duration),
-        omega0_B=omega0[owner_arr],
-        vehicle=vehicle,
+    hist = _open_loop(
+        times, target[owner_arr], omega0[owner_arr], vehicle, channel_map, settle_window_s
     )
     score = (hist.final.rate_err_B**2).sum(axis=1)
     n = len(cands)
@@ -234,6 +253,30 @@ def _choose(
     return cycles, times[best], hist, best
 
 
+def _open_loop(
+    times: np.ndarray,
+    target: np.ndarray,
+    omega0: np.ndarray,
+    vehicle: Vehicle,
+    channel_map: ChannelMap,
+    settle_window_s: float,
+) -> History:
+    """Fly rows of channel times (m, 6) [s] open loop from ``omega0`` under the rate command
+    ``target`` (both (m, 3) [rad/s]) on the nominal vehicle, until every row has ended and
+    ``settle_window_s`` more."""
+    cyc = channel_map.cycle_s
+    duration = _STRETCH * float(times.max()) + settle_window_s
+    duration = np.ceil(duration / cyc - _CYCLE_EPS) * cyc
+    return simulate_batch(
+        vehicle.nominal(1).take(np.zeros(len(times), int)),
+        ChannelOpenLoop(times, channel_map),
+        Guidance.rate(target),
+        float(duration),
+        omega0_B=omega0,
+        vehicle=vehicle,
+    )
+
+
 def generate_channel_table(
     vehicle: Vehicle | str | os.PathLike,
     *,
@@ -242,6 +285,9 @@ def generate_channel_table(
     settle_window_s: float = 2.0,
     max_fire_s: float = 5.0,
     recipe: ChannelRecipe | None = None,
+    target_fraction: float = DEFAULT_TARGET_FRACTION,
+    threshold_deg_s: float = FAILURE_RATE_ERROR_DEG_S,
+    tune_rounds: int = DEFAULT_ROUNDS,
 ) -> GeneratedTable:
     """Solve the recipes and generate, verify and damping-check a channel table.
 
@@ -258,6 +304,9 @@ def generate_channel_table(
         As :func:`rcsim.lookup.table_generation.generate_jet_table`.
     recipe : ChannelRecipe, optional
         Recipes already solved (default: :func:`rcsim.lookup.channels.solve_recipe`).
+    target_fraction, threshold_deg_s, tune_rounds
+        Every case is tuned in closed loop to end within this fraction of the failure
+        threshold [deg/s] (:mod:`rcsim.lookup.row_tuning`), as for a jet table.
 
     Returns
     -------
@@ -300,6 +349,32 @@ def generate_channel_table(
         return FiringSweep(cycles, err, direction, hist), times, chosen, rows
 
     command, times, verify, rows = sweep(rate, zero)
+    sign = np.sign(rate).astype(int)
+    served_case = (sign != 0) & np.stack(
+        [np.where(sign[:, a] > 0, served[2 * a], served[2 * a + 1]) for a in range(3)], axis=1
+    )
+    tuner = RowTuner(
+        LookupTable(case=rate_cases.case, rate_cmd=rate, firing_time_s=times, recipe=recipe),
+        served_case,
+        lambda c, d: channel_row_times(c, d, control.cycle_s),
+        vehicle=vehicle,
+        stretch=_STRETCH,
+        settle_window_s=settle_window_s,
+        cycle_step_rad_s=cycle_steps(command.history),
+    )
+    cycles, nominal = tuner.tune(
+        command.cycles,
+        target_fraction=check_target_fraction(target_fraction),
+        threshold_rad_s=float(np.radians(threshold_deg_s)),
+        rounds=tune_rounds,
+    )
+    if nominal.tuned.any():  # the verification flies the rows as tuned
+        times = channel_row_times(cycles, sign * served_case, control.cycle_s)
+        verify = _open_loop(times, rate, zero, vehicle, cmap, settle_window_s)
+        rows = np.arange(len(rate))
+        command = FiringSweep(
+            cycles, verify.final.rate_err_B.copy(), np.where(cycles > 0, sign, 0), command.history
+        )
     damping, damping_times, _, _ = sweep(zero, rate)
     jmap = CHANNEL_MAP * served[:, None]
     check_consistency(
@@ -348,6 +423,7 @@ def generate_channel_table(
         jets_off=recipe.jets_off,
         unreachable=unreachable,
         dv_B_m_s=impulse_B / mass,
+        nominal=nominal,
     )
 
 

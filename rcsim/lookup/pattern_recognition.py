@@ -361,7 +361,12 @@ class LookupController:
 
     @classmethod
     def for_runs(
-        cls, table: LookupTable, run_times_s: np.ndarray, params: LookupParams
+        cls,
+        table: LookupTable,
+        run_times_s: np.ndarray,
+        params: LookupParams,
+        *,
+        jets_off=(),
     ) -> LookupController:
         """A controller in which every run flies its own firing times (candidate tables).
 
@@ -373,6 +378,8 @@ class LookupController:
         run_times_s : ndarray, (n_runs, 26, 16)
             Firing times of run ``i``'s table [s].
         params : LookupParams
+        jets_off : sequence of int
+            As for the constructor: the jets the table was made without.
 
         Raises
         ------
@@ -388,7 +395,7 @@ class LookupController:
             )
         if np.any((times > 0) != (base > 0)[None]):
             raise ValueError("a candidate table changes which jets fire; only times may change")
-        controller = cls(table, params)
+        controller = cls(table, params, jets_off=jets_off)
         controller._times = times
         return controller
 

@@ -11,6 +11,12 @@ number of cycles whose *measured* end rate is nearest the command -- the last cy
 crossing or the crossing cycle, whichever ends closer.  No mass property enters: the rates are
 read from the simulation.
 
+Every row is then checked and, where it misses, tuned in closed loop: the nominal vehicle flies
+each case under the lookup controller with the table, and a case whose row leaves an axis
+farther from its command than a fraction of the failure threshold gets a neighbouring
+whole-cycle row that meets it, or is named with the reason it cannot
+(:mod:`rcsim.lookup.row_tuning`; the paper's vehicle keeps every row).
+
 The table is then *verified* by flying it open loop (every jet fires its table time from rest):
 the residual rate error per axis and the rate settling time after firing
 (``settle_after_firing_s``: time from the end of the firing until every axis stays within
@@ -45,7 +51,7 @@ delivers, the rows are chosen among the loop's neighbours flown open loop
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -53,6 +59,15 @@ import pandas as pd
 
 from rcsim.lookup.jet_sets import check_jets_off, jet_map_without
 from rcsim.lookup.open_loop import OpenLoopController
+from rcsim.lookup.row_tuning import (
+    DEFAULT_ROUNDS,
+    DEFAULT_TARGET_FRACTION,
+    FAILURE_RATE_ERROR_DEG_S,
+    NominalCheck,
+    RowTuner,
+    check_target_fraction,
+    cycle_steps,
+)
 from rcsim.lookup.table_candidates import nearest_rows
 from rcsim.models.errors import InputError
 from rcsim.models.tables import (
@@ -122,8 +137,9 @@ class FiringSweep:
     cycles : ndarray of int, (n_cases, 3)
         Whole control cycles chosen per axis (0 on axes that do not fire).
     end_rate_err_rad_s : ndarray, (n_cases, 3)
-        Measured rate error after the chosen number of cycles [rad/s] (with valve timing:
-        after the chosen row's open-loop flight, :mod:`rcsim.lookup.table_candidates`).
+        Measured rate error after the chosen number of cycles [rad/s] (with valve timing, or
+        a row the closed-loop tuning changed: after the row's open-loop flight,
+        :mod:`rcsim.lookup.table_candidates`, :mod:`rcsim.lookup.row_tuning`).
     direction : ndarray of int, (n_cases, 3)
         Torque sign fired per axis.
     history : History
@@ -169,6 +185,9 @@ class GeneratedTable:
     dv_B_m_s : ndarray, (26, 3)
         Velocity change of the CG from the case's firing, body axes [m/s] (the translation side
         effect; ~0 for pure couples).
+    nominal : NominalCheck, optional
+        The 26 cases flown closed loop with the table on the nominal vehicle, and the rows
+        tuned to meet the target (:mod:`rcsim.lookup.row_tuning`).
     """
 
     table: LookupTable
@@ -181,6 +200,7 @@ class GeneratedTable:
     jets_off: tuple = ()
     unreachable: np.ndarray | None = None
     dv_B_m_s: np.ndarray | None = None
+    nominal: NominalCheck | None = None
 
     @property
     def damping_equal(self) -> np.ndarray:
@@ -202,6 +222,18 @@ class GeneratedTable:
         for a, axis in enumerate(AXES):
             cols[f"damping_{axis}_cycles"] = self.damping.cycles[:, a]
         cols["damping_equal_opposing"] = self.damping_equal
+        if self.nominal is not None:
+            nom = self.nominal
+            cols["nominal_err_deg_s"] = np.degrees(nom.worst_rad_s)
+            for a, axis in enumerate(AXES):
+                cols[f"nominal_err_{axis}_deg_s"] = np.degrees(nom.rate_err_rad_s[:, a])
+            cols["nominal_end_err_deg_s"] = np.degrees(np.abs(nom.end_rate_err_rad_s).max(axis=1))
+            cols["nominal_firings"] = nom.firings
+            cols["nominal_target_deg_s"] = np.degrees(nom.target_rad_s)
+            cols["nominal_met"] = nom.met
+            cols["nominal_flight_s"] = nom.flight_s
+            cols["tuned"] = nom.tuned
+            cols["unmet_reason"] = list(nom.reason)
         if self.jets_off:  # only tables for a reduced jet set carry these columns
             assert self.unreachable is not None and self.dv_B_m_s is not None
             cols["jets_off"] = " ".join(str(j) for j in self.jets_off)
@@ -348,8 +380,11 @@ def generate_jet_table(
     rate_cases: RateCases | None = None,
     settle_window_s: float = 2.0,
     max_fire_s: float = 3.0,
+    target_fraction: float = DEFAULT_TARGET_FRACTION,
+    threshold_deg_s: float = FAILURE_RATE_ERROR_DEG_S,
+    tune_rounds: int = DEFAULT_ROUNDS,
 ) -> GeneratedTable:
-    """Generate, verify and damping-check the lookup table of a vehicle whose jets play
+    """Generate, tune, verify and damping-check the lookup table of a vehicle whose jets play
     Table 2's roles (the paper's 16-jet layout, any mass, arms and thrust).
 
     Parameters
@@ -368,6 +403,14 @@ def generate_jet_table(
         How long the verification flight continues after the longest firing [s].
     max_fire_s : float
         Longest firing the firing loop tries [s].
+    target_fraction : float
+        Every case is tuned in closed loop to end within this fraction of ``threshold_deg_s``
+        on every axis, in one firing (:mod:`rcsim.lookup.row_tuning`), in (0, 1].
+    threshold_deg_s : float
+        The failure threshold on a case's final rate error [deg/s].
+    tune_rounds : int
+        Rounds of the closed-loop search (0: the paper's rule's rows as they are, still
+        checked in closed loop).
 
     Returns
     -------
@@ -437,6 +480,29 @@ def generate_jet_table(
         return FiringSweep(cycles, end_err, found.direction, found.history)
 
     command = loop(rate, np.zeros_like(rate))
+    sign = np.sign(rate).astype(int)
+    served = (sign != 0) & np.stack(
+        [(jet_map[None, :, a] == sign[:, a, None]).any(axis=1) for a in range(3)], axis=1
+    )
+    tuner = RowTuner(
+        LookupTable(case=rate_cases.case, rate_cmd=rate, firing_time_s=np.zeros((n, N_JETS))),
+        served,
+        lambda c, d: firing_times(c, d, jet_map, cyc),
+        vehicle=vehicle,
+        stretch=1.0,
+        settle_window_s=settle_window_s,
+        faults=faults,
+        timing=delays,
+        jets_off=jets_off,
+        cycle_step_rad_s=cycle_steps(command.history),
+    )
+    cycles, nominal = tuner.tune(
+        command.cycles,
+        target_fraction=check_target_fraction(target_fraction),
+        threshold_rad_s=float(np.radians(threshold_deg_s)),
+        rounds=tune_rounds,
+    )
+    command = replace(command, cycles=cycles)
     times = firing_times(command.cycles, command.direction, jet_map, cyc)
     check_consistency(rate_cases.case, rate, times, jet_map, file="<generated table>", cycle_s=cyc)
     source = "generated by rcsim.lookup.table_generation" + (
@@ -471,6 +537,10 @@ def generate_jet_table(
     # (the firings are short and the attitude barely moves while they last).
     _, dir_B = jet_geometry_B(model)
     impulse_B = (verify.propulsion.impulse_ns[:, :, None] * dir_B[None]).sum(axis=1)
+    # A tuned row's end rate is its verification flight's (the firing loop never flew it).
+    tuned = nominal.tuned[:, None]
+    end_err = np.where(tuned, verify.final.rate_err_B, command.end_rate_err_rad_s)
+    command = replace(command, end_rate_err_rad_s=end_err)
     return GeneratedTable(
         table=table,
         command=command,
@@ -482,4 +552,5 @@ def generate_jet_table(
         jets_off=jets_off,
         unreachable=unreachable,
         dv_B_m_s=impulse_B / batch.mass_kg[:, None],
+        nominal=nominal,
     )

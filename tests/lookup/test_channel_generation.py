@@ -86,4 +86,9 @@ def test_files_round_trip_and_jets_off(generated, tmp_path):
     assert off.table.recipe.jets_off == (3,)
     assert off.table.recipe.fractions[:, 2].max() == 0.0
     assert off.table.recipe.served.all()  # canted16 loses no direction to one jet
-    assert np.degrees(np.abs(off.verify_rate_err_rad_s)).max() < 0.04
+    # Rows the paper's rule kept end within the failure threshold open loop; a tuned row may
+    # not (it may leave the controller's last-cycle re-plan to finish it), but it ends within
+    # the target in closed loop, or is named (test_row_tuning.py checks the figures).
+    kept = ~off.nominal.tuned
+    assert np.degrees(np.abs(off.verify_rate_err_rad_s[kept])).max() < 0.04
+    assert all(met or reason for met, reason in zip(off.nominal.met, off.nominal.reason))

@@ -19,6 +19,7 @@ from rcsim.analysis.engine.output import check_out_file, make_parents, remove_pa
 from rcsim.analysis.engine.output_places import refuse_own_inputs
 from rcsim.lookup.generation import generate_table, is_coupled
 from rcsim.lookup.jet_sets import companion_path
+from rcsim.lookup.row_tuning import DEFAULT_TARGET_FRACTION
 from rcsim.lookup.table_generation import GeneratedTable
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.vehicle_file import Vehicle
@@ -40,9 +41,12 @@ def generate_table_files(
     jets_off=(),
     overwrite: bool = False,
     vehicle: Vehicle,
+    target_fraction: float = DEFAULT_TARGET_FRACTION,
 ) -> TableFiles:
     """Generate ``vehicle``'s lookup table (:func:`rcsim.lookup.generation.generate_table`) and
-    write ``out`` and its companion (default ``<out stem>_settling.csv``).
+    write ``out`` and its companion (default ``<out stem>_settling.csv``); every row tuned to
+    end its nominal case within ``target_fraction`` of the failure threshold
+    (:mod:`rcsim.lookup.row_tuning`).
 
     Raises
     ------
@@ -81,7 +85,7 @@ def generate_table_files(
         from rcsim.models.tables import recipe_path
 
         check_out_file(recipe_path(table), overwrite=overwrite, parameter="out")
-    gen = generate_table(vehicle, jets_off=jets_off)
+    gen = generate_table(vehicle, jets_off=jets_off, target_fraction=target_fraction)
     created = make_parents(table) + make_parents(settling)
     try:
         write_table_files(gen, table, settling)

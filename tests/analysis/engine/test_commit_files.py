@@ -74,7 +74,7 @@ def test_lookup_generate_on_a_full_disk_leaves_no_part(
     from rcsim.models.tables import LookupTable
 
     monkeypatch.setattr(
-        table_files, "generate_table", lambda vehicle, jets_off=(): generated_jets_off_13
+        table_files, "generate_table", lambda vehicle, jets_off=(), **_: generated_jets_off_13
     )
     out = tmp_path / "T.csv"
     if full_at == "table":

@@ -9,6 +9,11 @@ import sys
 import numpy as np
 
 from rcsim.analysis.apps.cli.vehicle_args import add_vehicle_args, flown_vehicle
+from rcsim.lookup.row_tuning import (
+    DEFAULT_TARGET_FRACTION,
+    FAILURE_RATE_ERROR_DEG_S,
+    check_target_fraction,
+)
 from rcsim.models.errors import InputError
 
 
@@ -27,7 +32,15 @@ def register_generate(cmds) -> None:
         "columns are six axis channels (+roll, -roll, +pitch, -pitch, +yaw, -yaw), each firing "
         "the jets by a recipe (pure rate change, coupled torque and translation cancelled at "
         "least propellant: the allocator's LP), written beside it as TABLE_recipe.csv with "
-        "the vehicle file's SHA-256.",
+        "the vehicle file's SHA-256.  Every row is then checked in closed loop: the nominal "
+        "vehicle flies each case under the lookup controller with the table, and a row whose "
+        "firing leaves an axis farther from its command than --target-fraction of the 0.04 "
+        "deg/s failure threshold is replaced by the neighbouring whole-cycle row (within two "
+        "cycles per axis) that meets it best, if one does; a case none brings within the "
+        "target keeps its row and is named with the reason (an unreachable direction, a "
+        "cycle's rate step coarser than the band, coupling) and the best error reached.  "
+        "Each case's nominal error is printed and in the settling CSV (nominal_err_deg_s, "
+        "nominal_end_err_deg_s, nominal_met, unmet_reason).",
     )
     gen.add_argument(
         "--out",
@@ -66,6 +79,15 @@ def register_generate(cmds) -> None:
         "table: its recipes are solved again without them, and TABLE_recipe.csv "
         "records them)",
     )
+    gen.add_argument(
+        "--target-fraction",
+        metavar="F",
+        type=_target_fraction,
+        default=DEFAULT_TARGET_FRACTION,
+        help="every nominal case must end within F times the 0.04 deg/s failure threshold on "
+        f"every axis, in (0, 1] (default {DEFAULT_TARGET_FRACTION:g}: within "
+        f"{DEFAULT_TARGET_FRACTION * FAILURE_RATE_ERROR_DEG_S:g} deg/s)",
+    )
     add_vehicle_args(
         gen,
         vehicle_help='vehicle file to fly instead of the paper\'s (a name such as "paper" '
@@ -74,6 +96,18 @@ def register_generate(cmds) -> None:
         "total rate and the cycle are its profile's (rate_case_deg_s, cycle_s)",
     )
     gen.set_defaults(func=run_generate)
+
+
+def _target_fraction(text: str) -> float:
+    """``--target-fraction`` value: a number in (0, 1]."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: a number in (0, 1] expected") from None
+    try:
+        return check_target_fraction(value)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(f"{text!r}: {exc.message}") from None
 
 
 class JetsOff(tuple):
@@ -155,6 +189,7 @@ def run_generate(args: argparse.Namespace) -> int:
         jets_off=jets_off,
         overwrite=args.overwrite,
         vehicle=vehicle,
+        target_fraction=args.target_fraction,
     )
     gen, out, settling = files.generated, files.table, files.settling
     recipe = gen.table.recipe
@@ -173,7 +208,8 @@ def run_generate(args: argparse.Namespace) -> int:
         )
     dead_band = float(np.degrees(vehicle.control.rate_deadband_rad_s))
     print(_damping_line(gen, "jets" if recipe is None else "channels", dead_band))
-    _open_loop_lines(gen, channels=recipe is not None, dead_band_deg_s=dead_band)
+    _open_loop_lines(gen, channels=recipe is not None)
+    _nominal_lines(gen)
     if recipe is not None:
         from rcsim.models.tables import CHANNELS
 
@@ -225,31 +261,50 @@ def _damping_line(gen, what: str, dead_band: float) -> str:
     )
 
 
-def _open_loop_lines(gen, *, channels: bool, dead_band_deg_s: float) -> None:
-    """The open-loop check of the table (every case flown from rest with its row), with a
-    warning on stderr when a case ends at or beyond the campaigns' failure threshold."""
-    from rcsim.analysis.engine.campaign.spec import DEFAULT_RATE_ERROR_DEG_S
-
+def _open_loop_lines(gen, *, channels: bool) -> None:
+    """The open-loop check of the table (every case flown from rest with its row, no
+    controller)."""
     err = np.degrees(np.abs(gen.verify_rate_err_rad_s))  # (26, 3)
     print(
         f"flown open loop: every case within {err.max():.4f} deg/s of its command (all axes)"
         + ("; a channel table has no jets to compare with the paper's tables" if channels else "")
     )
-    # A miss the controller's dead band hides is never corrected in flight (a larger one is,
-    # by a second firing): only those can leave a nominal run failed.
-    stranded = (err >= DEFAULT_RATE_ERROR_DEG_S) & (err < dead_band_deg_s)
-    bad = np.flatnonzero(stranded.any(axis=1))
-    if not bad.size:
-        return
-    worst = int(bad[np.argmax(np.where(stranded, err, 0)[bad].max(axis=1))])
-    axis = ("roll", "pitch", "yaw")[int(np.argmax(np.where(stranded[worst], err[worst], 0)))]
+
+
+def _nominal_lines(gen) -> None:
+    """Each case flown closed loop on the nominal vehicle (:mod:`rcsim.lookup.row_tuning`): its
+    error and whether it met the target, one line a case, and a warning on stderr naming the
+    cases that did not."""
+    nom = gen.nominal
+    target = float(np.degrees(nom.target_rad_s))
+    threshold = float(np.degrees(nom.threshold_rad_s))
+    met = nom.met
+    worst = np.degrees(nom.worst_rad_s)
     print(
-        f"rcsim: warning: the table misses its command by {DEFAULT_RATE_ERROR_DEG_S:g} deg/s or "
-        f"more, but less than the lookup controller's {dead_band_deg_s:g} deg/s dead band (the "
-        f"profile's rate_deadband_deg_s), in {bad.size} of 26 cases flown open loop (worst: "
-        f"case {int(gen.table.case[worst])}, {err[worst].max():.4f} deg/s on {axis}): the "
-        "controller does not fire again for such a miss, and it is at or above the campaigns' "
-        f"default failure threshold {DEFAULT_RATE_ERROR_DEG_S:g} deg/s, so a nominal run of "
-        "those cases can end failed (end_rate_err_<axis>_deg_s in the settling CSV)",
+        f"flown closed loop (lookup controller, nominal vehicle, {nom.flight_s:g} s): "
+        f"{int(met.sum())}/26 cases end within the target {target:.4g} deg/s "
+        f"({nom.target_fraction:g} of the {threshold:g} deg/s failure threshold) on every axis "
+        f"after their row's firing; {int(nom.tuned.sum())} rows tuned from the firing loop's; "
+        f"worst {worst.max():.4f} deg/s (row's error: each axis's rate error when the "
+        "controller fires it again, else at the end; end error: at the end)"
+    )
+    end = np.degrees(np.abs(nom.end_rate_err_rad_s).max(axis=1))
+    print("case  pattern  row's error [deg/s]  end error [deg/s]  firings  target")
+    signs = np.sign(np.asarray(gen.table.rate_cmd)).astype(int)
+    for i, case in enumerate(gen.table.case):
+        pattern = "(" + ",".join("-0+"[s + 1] for s in signs[i]) + ")"
+        verdict = "met" + (" (tuned)" if nom.tuned[i] else "") if met[i] else "MISSED"
+        line = (
+            f"{int(case):4d}  {pattern}  {worst[i]:19.4f}  {end[i]:17.4f}  "
+            f"{int(nom.firings[i]):7d}  {verdict}"
+        )
+        print(line + ("" if met[i] else f": {nom.reason[i]}"))
+    if met.all():
+        return
+    missed = [int(c) for c in gen.table.case[~met]]
+    print(
+        f"rcsim: warning: {len(missed)} of 26 cases miss the target {target:.4g} deg/s on the "
+        f"nominal vehicle (cases {', '.join(map(str, missed))}; why: above, and the settling "
+        "CSV's unmet_reason)",
         file=sys.stderr,
     )
