@@ -167,7 +167,8 @@ def _top(t: pd.DataFrame, k: int) -> pd.DataFrame:
                     "p_value": r["p_value"],
                     "significant": "yes" if r["significant"] else "no",
                     "rank on the pooled outcome": int(r["pooled_rank"]),
-                    "failure_region": r["failure_region"],
+                    # A region is a claim about where runs fail: only a flagged driver's.
+                    "failure_region": r["failure_region"] if r["significant"] else "",
                 }
             )
     return pd.DataFrame(rows).astype(object).fillna("")
