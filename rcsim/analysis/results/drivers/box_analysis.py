@@ -13,6 +13,7 @@ from rcsim.analysis.results.drivers.boxes import (
     BoxResults,
     choose,
     find_boxes,
+    limit_text,
     peel,
 )
 

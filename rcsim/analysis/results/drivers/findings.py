@@ -215,12 +215,12 @@ FAILURE_FAMILIES = ("singles", "interactions", "per_case")
 
 
 def outcome_counts(found: list[Finding]) -> str:
-    """``propellant top 10 % 15, delta-v top 10 % 16``: the outcome drivers per outcome."""
+    """``21 on propellant top 10 %, 10 on delta-v top 10 %``: the outcome drivers per outcome."""
     names: dict[str, int] = {}
     for x in found:
         if x.family == "outcomes":
             names[x.outcome] = names.get(x.outcome, 0) + 1
-    return ", ".join(f"{k} {v}" for k, v in names.items())
+    return ", ".join(f"{v} on {k}" for k, v in names.items())
 
 
 def _words(family: str, n: int) -> str:

@@ -441,6 +441,12 @@ def regions_caption(res, factors) -> str:
     rows = res.drivers.set_index("factor")
     y = res.runset.y
     said = []
+    scopes = {
+        f: m.scope
+        for m in (mechanisms(res) if res.has_failures else [])
+        if m.scope
+        for f in [m.factor, *m.members]
+    }
     for f in factors:
         if not bool(rows.loc[f, "significant"]):  # an unflagged region is no place of failures
             continue
@@ -450,6 +456,8 @@ def regions_caption(res, factors) -> str:
             continue
         k, kf = int((in_region(res.runset.X[f].to_numpy(), region) & y).sum()), int(y.sum())
         count = f"{k:,} of {kf:,} failures, {pct(k / kf)} %"
+        if f in scopes:  # pooled counts of a driver confined to some cases: say where it acts
+            count += f"; it acts within {_cases_words(scopes[f])} only, How the runs fail"
         if side in ("high", "low"):
             said.append(f"{side} {f} ({count})")
         else:

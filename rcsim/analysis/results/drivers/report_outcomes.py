@@ -132,6 +132,8 @@ def outcomes(res) -> Section:
     summary = first[["outcome", "criterion", "runs", "failed"]].copy()
     summary[P_HEADER] = [
         P.p_with_ci(p, lo, hi)
+        if np.isfinite(lo)
+        else f"{P.pct(p)} % (the top decile by construction: no interval)"
         for p, lo, hi in zip(first["failure_probability"], first["cp95_low"], first["cp95_high"])
     ]
     blocks.append(table_block(summary, "Outcomes (outcomes.csv)", max_rows=20))

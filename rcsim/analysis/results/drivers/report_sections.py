@@ -67,6 +67,14 @@ def summary(res) -> Section:
             "inputs analysed",
             f"{len(rs.raw_inputs)} recorded + {len(rs.derived_inputs)} physics-aware derived",
         ),
+        *[
+            (
+                f"runs without {c}",
+                f"{k:,} of {n:,}: none left out; {why}",
+            )
+            for c, (k, why) in getattr(rs, "placed", {}).items()
+            if c in rs.X.columns
+        ],
     ]
     m = rs.manifest
     if m:
@@ -86,8 +94,10 @@ def summary(res) -> Section:
             ("code version", ", ".join(f"{k} {v}" for k, v in m.get("code_version", {}).items())),
         ]
     blocks.append(table_block(pd.DataFrame(facts, columns=["", "value"]), "Campaign"))
+    later: list[str] = []
     if res.has_failures:
-        blocks += _findings_blocks(res)
+        now, later = _findings_blocks(res)
+        blocks += now
     cases = pd.DataFrame(
         [
             {
@@ -114,7 +124,7 @@ def summary(res) -> Section:
         if len(carry):
             blocks.append(text_block(_most_failures_text(carry, len(cases), nf)))
         blocks.append(table_block(cases, "Failures per case", max_rows=60))
-    return Section("Summary", blocks, "summary")
+    return Section("Summary", blocks + later, "summary")
 
 
 def _most_failures_text(carry: pd.DataFrame, n_cases: int, nf: int, most: int = 5) -> str:
@@ -140,8 +150,10 @@ def _most_failures_text(carry: pd.DataFrame, n_cases: int, nf: int, most: int = 
     )
 
 
-def _findings_blocks(res) -> list[str]:
-    """Every flag the report shows, in one list (the same as findings.csv and the CLI's)."""
+def _findings_blocks(res) -> tuple[list[str], list[str]]:
+    """Every flag the report shows (the same as findings.csv and the CLI's): the head line and
+    the findings on the failures, then apart the outcome drivers, which the summary puts after
+    the failures per case so that many of them cannot bury the failure analysis."""
     c = conclude(res)
     found = c.findings
     blocks = [
@@ -151,25 +163,28 @@ def _findings_blocks(res) -> list[str]:
             "is a finding."
         )
     ]
+    later: list[str] = []
     if found:
         frame = findings.findings_frame(found)
         frame.insert(0, "what", frame["family"].map(findings.FAMILY_WORDS))
         on_failures = frame["family"].isin(findings.FAILURE_FAMILIES)
-        # The failures first, the other outcomes' drivers in a table of their own, so that
-        # many outcome drivers cannot bury the failure analysis.
-        for rows, caption in (
-            (on_failures, "Findings on the failures (findings.csv)"),
-            (~on_failures, "Outcome drivers: per axis, second threshold, budgets (findings.csv)"),
-        ):
-            if rows.any():
-                blocks.append(
-                    table_block(
-                        frame.loc[rows, ["what", "finding", "p_value", "level"]],
-                        caption,
-                        max_rows=40,
-                    )
+        shown = ["what", "finding", "p_value", "level"]
+        if on_failures.any():
+            blocks.append(
+                table_block(
+                    frame.loc[on_failures, shown], "Findings on the failures (findings.csv)", 40
                 )
-    return blocks
+            )
+        if (~on_failures).any():
+            later.append(
+                table_block(
+                    frame.loc[~on_failures, shown],
+                    "Outcome drivers: per axis, second threshold, propellant and delta-v "
+                    "(findings.csv; the Outcomes section)",
+                    max_rows=40,
+                )
+            )
+    return blocks, later
 
 
 def _controller_text(ctrl: dict) -> str:

@@ -364,3 +364,7 @@ def test_a_driver_of_one_case_is_not_spread_on_one_other_case_at_uncorrected_p()
         assert words in t, (words, t)
     assert "acts in the other cases too" not in t and "described over all runs" not in t
     assert "within rate-19" in clean(text.strongest(res))
+    # Flagged pooled too (rate-19's failures carry it): the pooled panel's caption says where
+    # it acts.
+    assert bool(res.drivers.set_index("factor").loc["a", "significant"])
+    assert "it acts within rate-19 only" in clean(text.regions_caption(res, ["a"]))

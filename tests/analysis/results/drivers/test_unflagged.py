@@ -123,12 +123,12 @@ def test_outcome_drivers_do_not_bury_the_failures():
     assert lines[0] == (
         "4 findings (report-wise false-flag rate 5 %), none on the failures: no input, pair or "
         "case is a flagged driver of the runs failing the criterion; all 4 are outcome drivers "
-        "(propellant top 10 % 3, delta-v top 10 % 1)"
+        "(3 on propellant top 10 %, 1 on delta-v top 10 %)"
     )
     found.insert(0, F.Finding("singles", "a", 0.001, 0.02))
     assert F.summary_lines(found, 0.05)[0] == (
         "5 findings (report-wise false-flag rate 5 %): on the failures 1 single driver; beside "
-        "them 4 outcome drivers (propellant top 10 % 3, delta-v top 10 % 1)"
+        "them 4 outcome drivers (3 on propellant top 10 %, 1 on delta-v top 10 %)"
     )
     assert F.summary_lines(found, 0.05)[1] == "  single drivers: a"  # the failures first
 
