@@ -139,3 +139,33 @@ def test_conclusions_survive_the_file(null_few):
     back = Conclusions.from_json(c.to_json())
     assert back == c
     assert np.isfinite([r["score"] for r in back.ranking]).all()
+
+
+def test_outcome_drivers_of_a_table_come_after_the_failures(null_few, tmp_path):
+    """The packaged example campaign at 26 x 200 runs: 10 failures, no failure driver, 31
+    outcome drivers (propellant and delta-v top 10 %), and the head line read "31 findings:
+    31 outcome drivers" above a 31-row table.  The null table with a propellant column driven
+    by noise_001 has the same shape: the head line says none is on the failures, the outcome
+    drivers' table comes after the failures per case, and "How the runs fail" says they
+    concern other outcomes."""
+    df, _, _ = null_few
+    rng = np.random.default_rng(11)
+    df = df.assign(propellant_kg=1.0 + 0.1 * df["noise_001"] + 0.02 * rng.standard_normal(len(df)))
+    inputs = [c for c in df.columns if c.startswith("noise_")]
+    res = analyze(
+        load_runs(df, inputs=inputs, derived=False),
+        Settings(n_permutations=199, forest=False, n_splits=1),
+    )
+    found = F.findings(res)
+    assert found and {f.family for f in found} == {"outcomes"}
+    n = len(found)
+    write_analysis(res, tmp_path / "an")
+    text = visible((tmp_path / "an" / "report.html").read_text())
+    every = "it is an outcome driver" if n == 1 else f"all {n} are outcome drivers"
+    assert (
+        f"{n} finding{'s' if n > 1 else ''} (report-wise false-flag rate 5 %), none on the "
+        f"failures: no input, pair or case is a flagged driver of the runs failing the "
+        f"criterion; {every} ({n} on propellant top 10 %)"
+    ) in text
+    assert text.index("Failures per case") < text.index("Outcome drivers: per axis")
+    assert "concern other outcomes" in text
