@@ -49,6 +49,8 @@ def test_maps_follow_the_evidence_and_include_the_fig15_pair():
     assert len(res.map_reasons) == len(res.maps)
     html = "".join(str(b) for b in pairs_section(res).blocks)
     assert "no flagged driver in this case" in html
+    # Issue 38: the paper's pair is noise here; its map must not read as where runs fail.
+    assert "Fig. 15, for comparison); neither input is a flagged driver, so its shading" in html
 
 
 def test_a_case_map_says_its_pair_rank():
