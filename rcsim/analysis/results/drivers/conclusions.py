@@ -130,12 +130,23 @@ def conclude(res) -> Conclusions:
             {k: _plain(v) for k, v in row.items()} for row in table[keep].to_dict("records")
         ]
         out.maps = [
-            (name, why) for name, why in zip(map_png_names(res), getattr(res, "map_reasons", []))
+            (name, why + _no_finding(res, case, fmap, flagged))
+            for name, why, (case, fmap) in zip(
+                map_png_names(res), getattr(res, "map_reasons", []), res.maps
+            )
         ]
     else:
         out.summary = summary_lines([], alpha)
     res._conclusions = out
     return out
+
+
+def _no_finding(res, case, fmap, flagged) -> str:
+    """ "; neither input is a flagged driver, ..." for a pooled map of two unflagged inputs (the
+    paper's Fig. 15 pair is drawn for comparison whatever the evidence), else ""."""
+    if case is not None or set(fmap.feature_names_in_) & set(res.drivers.loc[flagged, "factor"]):
+        return ""
+    return "; neither input is a flagged driver, so its shading is no finding"
 
 
 def _plain(v):

@@ -398,27 +398,15 @@ def pairs(res, top: int = 15) -> Section:
                 "input), so a map would show noise."
             )
         )
-    reasons = res.map_reasons or [""] * len(res.maps)
-    flagged = (
-        set()
-        if res.drivers is None
-        else set(res.drivers.loc[res.drivers["significant"].astype(bool), "factor"])
-    )
+    # Why each map was drawn, as the conclusions say it (the loop's report says the same).
+    reasons = [why for _, why in conclude(res).maps] or [""] * len(res.maps)
     for (case, fmap), name, why in zip(res.maps, figures.map_png_names(res), reasons):
         title = figures.map_title(case)
-        # The paper's pair is drawn for comparison whatever the evidence: say when neither
-        # of its inputs is flagged, so that its shading does not read as where runs fail.
-        unflagged = case is None and not flagged & set(fmap.feature_names_in_)
         blocks.append(
             figure_block(
                 figures.report_pngs(res)[name],
                 f"{title}: {fmap.feature_names_in_[0]} against {fmap.feature_names_in_[1]}"
                 + (f" ({why})" if why else "")
-                + (
-                    "; neither input is a flagged driver, so its shading is no finding"
-                    if unflagged
-                    else ""
-                )
                 + ". "
                 "Shading: failure probability of the k nearest runs (k by cross-validation); "
                 "blank cells hold no runs. Red dots failed, blue succeeded (as Gambone Fig. 15). "

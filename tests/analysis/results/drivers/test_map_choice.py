@@ -50,7 +50,14 @@ def test_maps_follow_the_evidence_and_include_the_fig15_pair():
     html = "".join(str(b) for b in pairs_section(res).blocks)
     assert "no flagged driver in this case" in html
     # Issue 38: the paper's pair is noise here; its map must not read as where runs fail.
-    assert "Fig. 15, for comparison); neither input is a flagged driver, so its shading" in html
+    assert "Fig. 15, for comparison; neither input is a flagged driver, so its shading" in html
+    # The loop's report renders the same words (the conclusions object).
+    from rcsim.analysis.results.drivers.conclusions import conclude
+
+    whys = [why for _, why in conclude(res).maps]
+    assert any(
+        w.endswith("neither input is a flagged driver, so its shading is no finding") for w in whys
+    )
 
 
 def test_a_case_map_says_its_pair_rank():
