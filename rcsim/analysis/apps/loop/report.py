@@ -301,8 +301,9 @@ def _drivers(out: Path) -> Section:
 
 
 def _map_words(name: str) -> str:
-    """``map_1_rate-19_a__b.png`` as "rate-19: a vs b"."""
-    return Path(name).stem.split("_", 2)[2].replace("__", " vs ").replace("_rate", " rate")
+    """``map_1_rate-19_a__b.png`` as "rate-19: a vs b" (``all``: "all cases")."""
+    scope, pair = Path(name).stem.split("_", 2)[2].split("_", 1)
+    return f"{'all cases' if scope == 'all' else scope}: {pair.replace('__', ' vs ')}"
 
 
 def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:

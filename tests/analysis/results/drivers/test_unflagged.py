@@ -169,3 +169,12 @@ def test_outcome_drivers_of_a_table_come_after_the_failures(null_few, tmp_path):
     ) in text
     assert text.index("Failures per case") < text.index("Outcome drivers: per axis")
     assert "concern other outcomes" in text
+
+
+def test_loop_map_captions_name_the_scope_and_pair():
+    from rcsim.analysis.apps.loop.report import _map_words
+
+    assert _map_words("map_1_all_izz_kg_m2__thrust_yaw_fire_n.png") == (
+        "all cases: izz_kg_m2 vs thrust_yaw_fire_n"
+    )
+    assert _map_words("map_2_rate-19_a__noise_01.png") == "rate-19: a vs noise_01"
