@@ -25,6 +25,9 @@ Usage::
     python benchmarks/null_calibration.py --scenarios single two-cases ratio-band pair tail \\
         --tables 20 --tables-csv t.csv
     python benchmarks/null_calibration.py --summarise t_null.csv t_tail.csv   # counts only
+    # few failures (about 10 in 26 x 200 runs), where chance regions are most tempting:
+    python benchmarks/null_calibration.py --scenarios null --runs-per-case 200 --noise 30 \
+        --failure-rate 0.002 --tables 60 --tables-csv few.csv
 """
 
 from __future__ import annotations
@@ -38,7 +41,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 ALPHA = 0.05
-FAMILIES = ("false_any", "false_single", "false_pair", "false_case", "false_outcome")
+FAMILIES = (
+    "false_any",
+    "false_single",
+    "false_pair",
+    "false_case",
+    "false_outcome",
+    "unflagged_region_said",
+)
 
 
 def summarise(frame) -> None:
@@ -50,14 +60,19 @@ def summarise(frame) -> None:
     for sc, g in frame.groupby("scenario", sort=False):
         n = len(g)
         seeds = f"seeds {int(g['seed'].min())}-{int(g['seed'].max())}"
-        print(f"{sc}: {n} tables ({seeds}), 26 x {int(g['runs_per_case'].iloc[0])} runs")
+        rate = (
+            f", {100 * float(g['failure_rate'].iloc[0]):g} % failing at random"
+            if "failure_rate" in g
+            else ""
+        )
+        print(f"{sc}: {n} tables ({seeds}), 26 x {int(g['runs_per_case'].iloc[0])} runs{rate}")
         for key in [*FAMILIES, *sorted(c for c in g.columns if c.startswith("found "))]:
             if key not in g or g[key].isna().all():
                 continue
             k = int(g[key].fillna(False).astype(bool).sum())
             lo, hi = clopper_pearson(k, n)
             line = f"  {key:24s} {k:3d}/{n}  {k / n:6.1%}  95 % CI {float(lo):.3f}-{float(hi):.3f}"
-            if key.startswith("false_"):
+            if key.startswith("false_"):  # (unflagged_region_said: must be 0, no budget)
                 bound = int(binom.ppf(0.99, n, ALPHA))
                 tail = float(binom.sf(k - 1, n, ALPHA)) if k else 1.0
                 line += f"  (Binomial({n}, {ALPHA}) 0.99 quantile {bound}; P(X >= {k}) {tail:.3g})"
@@ -77,6 +92,13 @@ def main() -> None:
     ap.add_argument("--scenarios", nargs="+", default=list(STRATIFIED), choices=STRATIFIED)
     ap.add_argument("--runs-per-case", type=int, default=1000)
     ap.add_argument("--noise", type=int, default=100)
+    ap.add_argument(
+        "--failure-rate",
+        type=float,
+        default=0.05,
+        help="share of runs failing at random in every scenario (0.002: the few-failure "
+        "tables, about 10 failed runs in 26 x 200)",
+    )
     ap.add_argument("--permutations", type=int, default=200)
     ap.add_argument("--tables-csv", type=Path, default=None, help="append each table's row")
     ap.add_argument("--summarise", nargs="+", type=Path, default=None, help="only count CSVs")
@@ -92,12 +114,20 @@ def main() -> None:
     for sc in args.scenarios:
         for seed in range(args.first_seed, args.first_seed + args.tables):
             t0 = time.perf_counter()
-            got = flags(sc, seed, settings, runs_per_case=args.runs_per_case, n_noise=args.noise)
+            got = flags(
+                sc,
+                seed,
+                settings,
+                runs_per_case=args.runs_per_case,
+                n_noise=args.noise,
+                failure_rate=args.failure_rate,
+            )
             row = {
                 "scenario": sc,
                 "seed": seed,
                 "runs_per_case": args.runs_per_case,
                 "noise_inputs": args.noise,
+                "failure_rate": args.failure_rate,
                 "permutations": args.permutations,
                 **got,
                 "seconds": round(time.perf_counter() - t0, 1),

@@ -101,18 +101,49 @@ def runs_to_bound(k, n, p_max, confidence: float = CONFIDENCE) -> np.ndarray:
         r, pm = rate[idx], p_max[idx]
         if r >= pm:
             continue
-        # The bound decreases with N at a fixed rate; bracket, then bisect on integers.
-        lo, hi = 1, max(1, int(np.ceil(np.log(1 - confidence) / np.log(1 - pm))))
-        while upper_bound(np.round(hi * r), hi, confidence) >= pm:
-            lo, hi = hi, hi * 2
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if upper_bound(np.round(mid * r), mid, confidence) < pm:
-                hi = mid
-            else:
-                lo = mid + 1
-        out[idx] = hi
+        out[idx] = _smallest_n(float(r), float(pm), confidence)
     return out
+
+
+def _smallest_n(r: float, pm: float, confidence: float) -> int:
+    """The smallest ``N`` with ``upper_bound(round(N r), N) < pm`` (``r < pm``).
+
+    ``N -> upper_bound(round(N r), N)`` is a sawtooth, not monotone: it jumps up each time
+    ``round(N r)`` gains a failure.  Within one tooth (one failure count ``j``) the bound
+    falls with ``N``, so the answer is in the first tooth whose last ``N`` is below ``pm``,
+    at the first ``N`` of that tooth that is (a bisection on that tooth alone).
+    """
+
+    def bound(j, m):
+        return upper_bound(j, m, confidence)
+
+    # Some N that bounds it: the rule of three's N, doubled until the bound is below pm
+    # (it tends to r < pm, so the doubling ends).
+    top = max(1, int(np.ceil(np.log(1 - confidence) / np.log(1 - pm))))
+    while bound(np.round(top * r), top) >= pm:
+        top *= 2
+    if r == 0.0:  # one tooth: j = 0 throughout
+        first, last, j = 1, top, 0
+    else:
+        js = np.arange(int(np.round(top * r)) + 1, dtype=float)
+        # Each tooth's last N (at most top): the largest N with round(N r) == j.
+        last_n = np.minimum(np.floor((js + 0.5) / r), top)
+        last_n -= np.round(last_n * r) > js
+        last_n = np.maximum(last_n, 1)
+        ok = (np.round(last_n * r) == js) & (bound(js, last_n) < pm)
+        j = int(np.flatnonzero(ok)[0])
+        last = int(last_n[j])
+        first = max(1, int(np.ceil((j - 0.5) / r)) - 1)
+        while np.round(first * r) < j:
+            first += 1
+    lo, hi = first, last
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if bound(j, mid) < pm:
+            hi = mid
+        else:
+            lo = mid + 1
+    return hi
 
 
 def mcnemar_exact(b, c) -> np.ndarray:

@@ -66,6 +66,16 @@ def test_runs_to_bound_is_the_smallest_that_works():
     assert np.isinf(runs_to_bound(20, 100, 0.1))  # observed 20 % cannot be bounded under 10 %
 
 
+@pytest.mark.parametrize("k, n", [(1, 200), (3, 1000), (9, 1000), (1, 150), (13, 5200), (0, 200)])
+def test_runs_to_bound_is_the_smallest_on_the_sawtooth(k, n):
+    """Issue 38: ``N -> upper_bound(round(N k / n), N)`` is a sawtooth (it jumps up when the
+    rounded count gains a failure), and a bisection over it returned 1,182 runs for 1 failure
+    in 200 where 1,049 already bound it below 1 %.  Oracle: a scan of every N up to 40,000."""
+    N = np.arange(1, 40_001)
+    ub = upper_bound(np.round(N * (k / n)), N)
+    assert int(runs_to_bound(k, n, 0.01)) == int(N[np.flatnonzero(ub < 0.01)[0]])
+
+
 def test_mcnemar_exact_closed_forms():
     assert mcnemar_exact(0, 6) == pytest.approx(2 / 2**6)
     assert mcnemar_exact(6, 0) == pytest.approx(2 / 2**6)

@@ -27,10 +27,13 @@ def register(subparsers) -> None:
             "region, per box) carry exact (Clopper-Pearson) 95 % intervals; the per-axis "
             "outcomes and a second threshold are analysed beside the pooled one.  One "
             "false-flag budget (5 %) covers every flag the report shows; the command prints "
-            "them all.  Writes drivers.csv, pairs.csv, cases.csv, summary.csv, outcomes.csv, "
-            "findings.csv, boxes.csv, box_limits.csv, trajectory.csv, driver_regions.csv, "
-            "figures/ and report.html.  Beyond 250,000 runs (after --case) it reads and "
-            "analyses a uniform random subsample of 250,000 drawn with --seed, and says so."
+            "them all, the findings on the failures before the outcome drivers; failure "
+            "regions are shown for flagged drivers only.  Writes drivers.csv, pairs.csv, "
+            "cases.csv, summary.csv, outcomes.csv, findings.csv, conclusions.json (what the "
+            "report concludes, which the loop's report renders too), boxes.csv, box_limits.csv, "
+            "trajectory.csv, driver_regions.csv, figures/ and report.html.  Beyond 250,000 "
+            "runs (after --case) it reads and analyses a uniform random subsample of 250,000 "
+            "drawn with --seed, and says so."
         ),
     )
     parser.add_argument(

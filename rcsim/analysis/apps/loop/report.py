@@ -22,8 +22,8 @@ from rcsim.analysis.apps.refinement.evidence import changed_cells
 from rcsim.analysis.apps.refinement.plots import most_improved_case
 from rcsim.analysis.engine import runs_table
 from rcsim.analysis.engine.campaign.spec import load_spec
-from rcsim.analysis.results.drivers.findings import Finding, summary_lines
-from rcsim.analysis.results.drivers.probabilities import pct, rate_text, share_text
+from rcsim.analysis.results.drivers.conclusions import Conclusions
+from rcsim.analysis.results.drivers.probabilities import rate_text
 from rcsim.analysis.results.report.html import (
     Section,
     figure_block,
@@ -257,6 +257,8 @@ def _figs_9_10(out: Path, log: pd.DataFrame) -> Section:
 
 
 def _drivers(out: Path) -> Section:
+    """The driver analysis's conclusions as it stated them (``drivers/conclusions.json``, the
+    object its own report renders), with its figures: nothing is concluded again here."""
     d = out / "drivers"
     blocks = [
         text_block(
@@ -264,96 +266,44 @@ def _drivers(out: Path) -> Section:
             "analysis, with methods and pair maps, is drivers/report.html)."
         )
     ]
-    drivers_csv = d / "drivers.csv"
-    if drivers_csv.is_file() and len(pd.read_csv(drivers_csv)):
-        table = pd.read_csv(drivers_csv)
-        blocks.append(text_block(*_findings_lines(d)))
-        cols = [
-            c
-            for c in (
-                "rank",
-                "factor",
-                "score",
-                "p_value",
-                "failure_region",
-                "region_fail_share",
-                "stability",
-                "forest_rank",
-            )
-            if c in table
-        ]
+    c = Conclusions.read(d)
+    if c is None:
+        blocks.append(text_block("(drivers/conclusions.json not written: run the drivers stage)"))
+    elif not c.ranking:
+        blocks.append(text_block("No failures to analyse."))
+    else:
+        blocks.append(text_block(*c.summary_sentences()))
         blocks.append(
             _img(
                 d / "figures" / "ranking.png",
-                _strongest(table, pd.read_csv(d / "summary.csv"))
-                + "Single-factor drivers: score, corrected p-value and stability; red "
-                "bars are flagged (within the report's 5 % false-flag budget).",
+                c.strongest + "Single-factor drivers: score, corrected p-value and stability; red "
+                f"bars are flagged (within the report's {100 * c.alpha:g} % false-flag budget).",
             )
         )
-        blocks.append(table_block(table[cols], "Driver ranking (drivers/drivers.csv)", max_rows=12))
-        maps = sorted((d / "figures").glob("map_*.png"))[:2]
+        blocks.append(
+            table_block(
+                c.ranking_frame(),
+                "Driver ranking (drivers/drivers.csv; failure regions of the flagged drivers only)",
+                max_rows=12,
+            )
+        )
+        maps = c.maps[:2]
         if maps:
             blocks.append(
                 _side_by_side(
                     *[
-                        _img(
-                            m,
-                            "kNN failure map, "
-                            + m.stem.split("_", 2)[2]
-                            .replace("__", " vs ")
-                            .replace("_rate", " rate"),
-                        )
-                        for m in maps
+                        _img(d / "figures" / name, f"kNN failure map ({why}), " + _map_words(name))
+                        for name, why in maps
                     ]
                 )
             )
-    else:
-        blocks.append(text_block("No failures to analyse."))
     return Section("Failure drivers", blocks, "drivers")
 
 
-def _strongest(table: pd.DataFrame, summary: pd.DataFrame) -> str:
-    """The caption's conclusion: the best flagged driver and the failures in its region, as the
-    analysis counted them on its runs (``region_failed``, ``region_runs`` of drivers.csv; the
-    totals of summary.csv)."""
-    sig = table[table["significant"].astype(bool)] if "significant" in table else table[:0]
-    if not len(sig):
-        return "No input is a flagged driver. "
-    row = sig.iloc[0]
-    region = row.get("failure_region")
-    if not (isinstance(region, str) and region) or "region_failed" not in row:
-        return f"{row['factor']} is the strongest driver (no 1-D failure region). "
-    runs, failed = int(summary["runs"].iloc[0]), int(summary["failed"].iloc[0])
-    return (
-        f"{row['factor']} is the strongest driver: its failure region {region} holds "
-        f"{share_text(int(row['region_failed']), failed)} of the failed runs in "
-        f"{pct(int(row['region_runs']) / runs)} % of the runs. "
-    )
-
-
-def _findings_lines(d: Path) -> list[str]:
-    """Every flag of the driver analysis (drivers/findings.csv), or how many more."""
-    path = d / "findings.csv"
-    if not path.is_file():
-        return ["(findings.csv not written)"]
-    frame = pd.read_csv(path, keep_default_na=False)
-    found = [
-        Finding(
-            str(r["family"]),
-            str(r["factor"]),
-            float(r["p_value"]),
-            float(r["level"]),
-            factor_b=str(r["factor_b"]),
-            case=str(r["case"]),
-            outcome=str(r["outcome"]),
-        )
-        for _, r in frame.iterrows()
-    ]
-    from rcsim.analysis.results.drivers.pipeline import Settings
-
-    alpha = float(Settings().alpha)  # the loop's analysis runs at the default budget
-    lines = summary_lines(found, alpha)
-    return [f"{lines[0][:1].upper()}{lines[0][1:]}.", *(x.strip() + "." for x in lines[1:])]
+def _map_words(name: str) -> str:
+    """``map_1_rate-19_a__b.png`` as "rate-19: a vs b" (``all``: "all cases")."""
+    scope, pair = Path(name).stem.split("_", 2)[2].split("_", 1)
+    return f"{'all cases' if scope == 'all' else scope}: {pair.replace('__', ' vs ')}"
 
 
 def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:

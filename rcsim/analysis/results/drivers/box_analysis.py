@@ -13,6 +13,7 @@ from rcsim.analysis.results.drivers.boxes import (
     BoxResults,
     choose,
     find_boxes,
+    limit_text,
     peel,
 )
 
@@ -39,12 +40,14 @@ def regions_1d(X: pd.DataFrame, y: np.ndarray, drivers: pd.DataFrame, res: BoxRe
         t = peel(x, y, min_support=min(MAX_MIN_SUPPORT, 0.5 * float(y.mean())))
         step = choose(t, int(y.sum()))
         lo, hi = t.lo[step, 0], t.hi[step, 0]
+        # Limits printed so that applying them to the runs gives the counts stated.
+        lo_t, hi_t = limit_text(lo, x[:, 0], upper=False), limit_text(hi, x[:, 0], upper=True)
         if np.isfinite(lo) and np.isfinite(hi):
-            text = f"{lo:.4g} .. {hi:.4g}"
+            text = f"{lo_t} .. {hi_t}"
         elif np.isfinite(lo):
-            text = f">= {lo:.4g}"
+            text = f">= {lo_t}"
         elif np.isfinite(hi):
-            text = f"<= {hi:.4g}"
+            text = f"<= {hi_t}"
         else:
             text = ""
         dens, cov = float(t.density[step]), float(t.coverage[step])

@@ -97,6 +97,24 @@ def in_box(X, codes, lo, hi, cats) -> np.ndarray:
     return inside
 
 
+def limit_text(limit: float, values: np.ndarray, upper: bool) -> str:
+    """``limit`` written with the fewest significant figures (at least 4) at which it keeps
+    exactly the runs it keeps: applying the printed limit (``x <= printed`` for an upper
+    limit, ``x >= printed`` for a lower one) to ``values`` (every run's value of the
+    dimension) gives the same runs, so the counts a sentence states can be recounted from
+    the printed text.  "" for an infinite (absent) limit."""
+    if not np.isfinite(limit):
+        return ""
+    v = np.asarray(values, float)
+    keep = v <= limit if upper else v >= limit
+    for digits in range(4, 18):
+        text = f"{limit:.{digits}g}"
+        printed = float(text)
+        if np.array_equal(v <= printed if upper else v >= printed, keep):
+            return text
+    return repr(float(limit))
+
+
 def choose(traj: Trajectory, remaining_failed: int, min_coverage: float = MIN_COVERAGE) -> int:
     """Step of the trajectory chosen by :data:`CHOICE_RULE` (densest with enough coverage;
     ties: the larger coverage)."""
@@ -208,6 +226,9 @@ class Box:
     step: int
     qp: dict
     dims: list = field(default_factory=list)  # restricted dimension names (case last)
+    #: Each dimension's limits as printed (:func:`limit_text`; "" where not limited).
+    lo_text: list = field(default_factory=list)
+    hi_text: list = field(default_factory=list)
 
 
 @dataclass
@@ -228,18 +249,22 @@ class BoxResults:
     subsample_of: int | None = None
 
     def limits_text(self, box: Box) -> str:
-        return self._limits(box.lo, box.hi)
+        return self._limits(box.lo, box.hi, (box.lo_text, box.hi_text) if box.lo_text else None)
 
-    def _limits(self, lo, hi) -> str:
+    def _limits(self, lo, hi, texts=None) -> str:
         parts = []
         for j, name in enumerate(self.names):
             a, b = lo[j], hi[j]
+            # A chosen box's limits as printed (they reproduce its counts); a trajectory's
+            # other boxes, for browsing, to 4 figures.
+            ta = texts[0][j] if texts else f"{a:.4g}"
+            tb = texts[1][j] if texts else f"{b:.4g}"
             if np.isfinite(a) and np.isfinite(b):
-                parts.append(f"{a:.4g} <= {name} <= {b:.4g}")
+                parts.append(f"{ta} <= {name} <= {tb}")
             elif np.isfinite(a):
-                parts.append(f"{name} >= {a:.4g}")
+                parts.append(f"{name} >= {ta}")
             elif np.isfinite(b):
-                parts.append(f"{name} <= {b:.4g}")
+                parts.append(f"{name} <= {tb}")
         return "; ".join(parts)
 
     def cases_text(self, box: Box) -> str:
@@ -452,6 +477,8 @@ def find_boxes(
                 step=step,
                 qp=quasi_p(M, y, codes, lo, hi, cats, remaining),
                 dims=dims,
+                lo_text=[limit_text(v, M[:, j], upper=False) for j, v in enumerate(lo)],
+                hi_text=[limit_text(v, M[:, j], upper=True) for j, v in enumerate(hi)],
             )
         )
         remaining = remaining[~inside]

@@ -179,9 +179,28 @@ def summary_lines(found: list[Finding], alpha: float, listed: int = LISTED) -> l
     if not found:
         return [f"no finding: nothing is flagged (report-wise false-flag rate {rate})"]
     counts = {f: sum(x.family == f for x in found) for f in FAMILY_WEIGHTS}
-    parts = ", ".join(f"{n} {_words(f, n)}" for f, n in counts.items() if n)
-    head = f"{len(found)} finding{'s' if len(found) > 1 else ''}"
-    lines = [f"{head} (report-wise false-flag rate {rate}): {parts}"]
+    head = (
+        f"{len(found)} finding{'s' if len(found) > 1 else ''} (report-wise false-flag rate {rate})"
+    )
+    on_failures = ", ".join(
+        f"{n} {_words(f, n)}" for f, n in counts.items() if n and f in FAILURE_FAMILIES
+    )
+    n_out = counts["outcomes"]
+    # The outcome families (per axis, a second threshold, propellant, delta-v) answer other
+    # questions than "why do runs fail": said after the failures, never in their place.
+    if n_out and not on_failures:
+        every = "it is an outcome driver" if n_out == 1 else f"all {n_out} are outcome drivers"
+        lines = [
+            f"{head}, none on the failures: no input, pair or case is a flagged driver of the "
+            f"runs failing the criterion; {every} ({outcome_counts(found)})"
+        ]
+    elif n_out:
+        lines = [
+            f"{head}: on the failures {on_failures}; beside them {n_out} "
+            f"{_words('outcomes', n_out)} ({outcome_counts(found)})"
+        ]
+    else:
+        lines = [f"{head}: {on_failures}"]
     for fam, n in counts.items():
         if not n:
             continue
@@ -189,6 +208,19 @@ def summary_lines(found: list[Finding], alpha: float, listed: int = LISTED) -> l
         more = f" and {n - listed} more (findings.csv)" if n > listed else ""
         lines.append(f"  {FAMILY_WORDS[fam]}: {', '.join(labels[:listed])}{more}")
     return lines
+
+
+#: The families that say why runs fail the campaign's criterion (the rest: other outcomes).
+FAILURE_FAMILIES = ("singles", "interactions", "per_case")
+
+
+def outcome_counts(found: list[Finding]) -> str:
+    """``21 on propellant top 10 %, 10 on delta-v top 10 %``: the outcome drivers per outcome."""
+    names: dict[str, int] = {}
+    for x in found:
+        if x.family == "outcomes":
+            names[x.outcome] = names.get(x.outcome, 0) + 1
+    return ", ".join(f"{v} on {k}" for k, v in names.items())
 
 
 def _words(family: str, n: int) -> str:

@@ -110,6 +110,9 @@ class RunSet:
     notes: list = field(default_factory=list)
     total_runs: int | None = None
     total_failed: int | None = None
+    #: Inputs whose NaN means "does not apply" (:data:`runs_table.EFFECT_NOT_APPLICABLE`): per
+    #: input, how many runs had no value and where they were placed instead (none left out).
+    placed: dict = field(default_factory=dict)
 
     @property
     def conditional(self) -> bool:
@@ -270,7 +273,8 @@ def load_runs(
                 "propellant, delta-v and pulse outcomes"
             )
         der = list(factors.columns)
-    runs = _fill_not_applicable(runs, raw, notes)
+    placed: dict = {}
+    runs = _fill_not_applicable(runs, raw, notes, placed)
     _check_numeric(runs, raw, where)
     X = pd.concat([runs[raw].astype(float), factors[der]], axis=1)
     constant = [c for c in X.columns if is_constant(X[c])]
@@ -298,6 +302,7 @@ def load_runs(
         strata=strata,
         manifest=manifest,
         notes=notes,
+        placed=placed,
         total_runs=total_runs,
         total_failed=total_failed,
     )
@@ -409,9 +414,12 @@ def _outcome(runs: pd.DataFrame, outcome: str, where) -> np.ndarray:
     )
 
 
-def _fill_not_applicable(runs: pd.DataFrame, cols, notes: list) -> pd.DataFrame:
+def _fill_not_applicable(
+    runs: pd.DataFrame, cols, notes: list, placed: dict | None = None
+) -> pd.DataFrame:
     """Effect columns' NaN ("does not apply", :data:`runs_table.EFFECT_NOT_APPLICABLE`) as
-    numbers the rank-based analysis can use, each with a note saying what was done."""
+    numbers the rank-based analysis can use, each with a note saying what was done (and in
+    ``placed``, per input, ``(runs without a value, why)``)."""
     fill = {}
     for c in cols:
         rule = runs_table.EFFECT_NOT_APPLICABLE.get(c)
@@ -424,6 +432,8 @@ def _fill_not_applicable(runs: pd.DataFrame, cols, notes: list) -> pd.DataFrame:
         place, why = rule
         fill[c] = float(where_known.max()) + 1.0 if place == "after" else 0.0
         notes.append(f"{c}: {int(runs[c].isna().sum())} run(s) without it; {why}")
+        if placed is not None:
+            placed[c] = (int(runs[c].isna().sum()), why)
     return runs.fillna(fill) if fill else runs
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rcsim.analysis.results.drivers.findings import findings
 from rcsim.analysis.results.drivers.mechanism import (
     MAX_FAMILIES,
     Mechanism,
@@ -283,13 +284,35 @@ def joint_context(res, factor: str) -> list[str]:
             if factor not in box.dims and not through:
                 continue
             how = f"through the ratio {', '.join(through)}" if through else "directly"
-            band = _band_words(b, box, through[0] if through else factor)
-            out.append(
-                f"Its failures lie in {band} found by box {box.number} (it bounds {factor} "
-                f"{how}): the box holds {share_text(box.failed, b.total_failed)} of all failed "
-                f"runs in {_p(box.runs, b.total_runs)} of the runs, and a run in it fails at "
-                f"{rate_text(box.failed, box.runs)}."
+            dim = through[0] if through else factor
+            band = _band_words(b, box, dim)
+            # Where the box's counts hold: outside the earlier boxes and in its cases only.
+            where = []
+            if box.number > 1:
+                earlier = ", ".join(str(k) for k in range(1, box.number))
+                where.append(
+                    f"among the runs outside box{'es' if box.number > 2 else ''} {earlier}"
+                )
+            if b.case_names and not box.cats.all():
+                kept = [c for c, k in zip(b.case_names, box.cats) if k]
+                where.append(
+                    f"in the {len(kept)} case{'s' if len(kept) > 1 else ''} it "
+                    f"keeps ({', '.join(kept)})"
+                )
+            qualifier = f" {' and '.join(where)}" if where else ""
+            text = (
+                f"Its failures lie in {band} found by box {box.number}{qualifier} (it bounds "
+                f"{factor} {how}): the box holds {share_text(box.failed, b.total_failed)} of "
+                f"all failed runs in {_p(box.runs, b.total_runs)} of the runs, and a run in it "
+                f"fails at {rate_text(box.failed, box.runs)}."
             )
+            if where:  # the same band over every run, so the restriction is not dropped
+                k, n = _band_counts(res, b, box, dim)
+                text += (
+                    f" Over all {res.runset.y.size:,} runs the same band of {dim} holds {n:,} "
+                    f"runs, {rate_text(k, n)} of them failed."
+                )
+            out.append(text)
     pt = res.pair_table
     if pt is not None:
         hits = pt[pt["significant"] & ((pt["factor_a"] == factor) | (pt["factor_b"] == factor))]
@@ -303,13 +326,34 @@ def joint_context(res, factor: str) -> list[str]:
     return out
 
 
+def _limits_of(box, j: int) -> tuple[str, str]:
+    """A box's limits on dimension ``j`` as printed (figures that reproduce its runs)."""
+    if box.lo_text:
+        return box.lo_text[j], box.hi_text[j]
+    return f"{box.lo[j]:.4g}", f"{box.hi[j]:.4g}"
+
+
 def _band_words(b, box, dim: str) -> str:
     """ "a band of X" (limited on both sides) or "a tail of X" (one side) for dimension ``dim``."""
     j = b.names.index(dim)
     lo, hi = np.isfinite(box.lo[j]), np.isfinite(box.hi[j])
+    lo_t, hi_t = _limits_of(box, j)
     if lo and hi:
-        return f"a band of {dim} ({box.lo[j]:.4g} to {box.hi[j]:.4g})"
-    return f"a tail of {dim} ({dim} {'>=' if lo else '<='} {box.lo[j] if lo else box.hi[j]:.4g})"
+        return f"a band of {dim} ({lo_t} to {hi_t})"
+    return f"a tail of {dim} ({dim} {'>=' if lo else '<='} {lo_t if lo else hi_t})"
+
+
+def _band_counts(res, b, box, dim: str) -> tuple[int, int]:
+    """``(failed, runs)`` of every run analysed inside the box's limits on ``dim`` alone."""
+    X = res.runset.X
+    if dim in b.ratio_parts:
+        num, den = b.ratio_parts[dim]
+        x = X[num].to_numpy(float) / X[den].to_numpy(float)
+    else:
+        x = X[dim].to_numpy(float)
+    j = b.names.index(dim)
+    inside = (x >= box.lo[j]) & (x <= box.hi[j])
+    return int((inside & res.runset.y).sum()), int(inside.sum())
 
 
 def mechanisms(res, max_families: int = MAX_FAMILIES) -> list[Mechanism]:
@@ -397,13 +441,23 @@ def regions_caption(res, factors) -> str:
     rows = res.drivers.set_index("factor")
     y = res.runset.y
     said = []
+    scopes = {
+        f: m.scope
+        for m in (mechanisms(res) if res.has_failures else [])
+        if m.scope
+        for f in [m.factor, *m.members]
+    }
     for f in factors:
+        if not bool(rows.loc[f, "significant"]):  # an unflagged region is no place of failures
+            continue
         region = rows.loc[f, "failure_region"]
         side, _ = parse_region(region)
         if side == "none":
             continue
         k, kf = int((in_region(res.runset.X[f].to_numpy(), region) & y).sum()), int(y.sum())
         count = f"{k:,} of {kf:,} failures, {pct(k / kf)} %"
+        if f in scopes:  # pooled counts of a driver confined to some cases: say where it acts
+            count += f"; it acts within {_cases_words(scopes[f])} only, How the runs fail"
         if side in ("high", "low"):
             said.append(f"{side} {f} ({count})")
         else:
@@ -415,7 +469,20 @@ def section(res) -> Section:
     """The report section: one paragraph per family (:func:`mechanisms`)."""
     mechs = mechanisms(res) if res.has_failures else []
     if not mechs:
-        blocks = [text_block("No input is a flagged driver: no mechanism to describe.")]
+        n_out = sum(f.family == "outcomes" for f in findings(res)) if res.has_failures else 0
+        others = (
+            f" The {n_out} outcome driver{'s' if n_out != 1 else ''} in the summary concern "
+            "other outcomes (per axis, a second threshold, propellant, delta-v), not why runs "
+            "fail the campaign's criterion; the Outcomes section lists them."
+            if n_out
+            else ""
+        )
+        blocks = [
+            text_block(
+                "No input is a flagged driver of the failures (pooled or in any case): no "
+                "mechanism to describe." + others
+            )
+        ]
     else:
         blocks = [
             text_block(

@@ -64,6 +64,9 @@ class Outcome:
     p_family: np.ndarray | None = None
     #: ``p_family`` below the outcome family's share of the budget: a flag the report shows.
     significant: np.ndarray | None = None
+    #: Its share of the runs is set by its definition (the runs' top decile), not estimated:
+    #: no interval and no "runs to bound" belong to it.
+    by_construction: bool = False
 
     @property
     def runs(self) -> int:
@@ -167,7 +170,7 @@ def budget_outcomes(runs: pd.DataFrame, manifest: dict | None, notes: list) -> l
             y = ok & (x >= q)
             name = f"{words} top 10 %"
             criterion = f"{column} >= {q:.4g} {unit} (the runs' 90th percentile; no budget set)"
-        out.append(Outcome(name, criterion, y))
+        out.append(Outcome(name, criterion, y, by_construction=limit is None))
         if not ok.all():
             notes.append(
                 f"outcomes: {int((~ok).sum())} run(s) without {column} (simulation failed) "
@@ -279,6 +282,8 @@ def outcome_table(res, top: int = TOP_DRIVERS) -> pd.DataFrame:
     rows = []
     for o in [pooled, *extra]:
         prob = probability_frame(o.failed, o.runs, bound_p).iloc[0].to_dict()
+        if o.by_construction:  # a share fixed by the definition is no estimate
+            prob.update(cp95_low=np.nan, cp95_high=np.nan, runs_to_bound=np.nan)
         base = {
             "outcome": o.name,
             "criterion": o.criterion,

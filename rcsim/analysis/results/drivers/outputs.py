@@ -1,5 +1,6 @@
 """Writing an analysis: ``drivers.csv``, ``pairs.csv``, ``cases.csv``, ``summary.csv``,
-``outcomes.csv``, ``findings.csv`` (every flag the report shows), figures, ``report.html``.
+``outcomes.csv``, ``findings.csv`` (every flag the report shows), ``conclusions.json`` (what
+every report of the analysis states, :mod:`.conclusions`), figures, ``report.html``.
 
 Everything is written into a temporary directory that replaces the output directory only when
 complete (:func:`rcsim.analysis.engine.output.atomic_dir`): a failure never leaves half-written
@@ -16,6 +17,7 @@ import pandas as pd
 from rcsim.analysis.engine.output import atomic_dir
 from rcsim.analysis.results.drivers import report_boxes
 from rcsim.analysis.results.drivers import report_sections as sections
+from rcsim.analysis.results.drivers.conclusions import conclude
 from rcsim.analysis.results.drivers.findings import findings, findings_frame
 from rcsim.analysis.results.drivers.outcomes import outcome_table
 from rcsim.analysis.results.drivers.pipeline import DriverResults
@@ -128,6 +130,7 @@ def write_analysis(res: DriverResults, out, *, overwrite: bool = False) -> Path:
             pd.DataFrame(columns=PAIR_COLUMNS[:6]).to_csv(tmp / "pairs.csv", index=False)
         with_case_probabilities(case_table(res), res).to_csv(tmp / "cases.csv", index=False)
         findings_frame(findings(res)).to_csv(tmp / "findings.csv", index=False)
+        conclude(res).write(tmp)
         _write_probabilities(res, tmp)
         _write_figures(res, tmp / "figures")
         report_boxes.write_files(res, tmp)

@@ -426,6 +426,21 @@ def _distinct_top(table: pd.DataFrame, X: pd.DataFrame, seen: set):
     return None
 
 
+def _case_pair_words(full: pd.DataFrame, pair) -> str:
+    """Why a case's map shows ``pair``, with its rank among all the case's pairs by score: "the
+    case's best" only when it is first (a pair may be passed over for holding no flagged
+    driver, for being two views of one quantity, or for being mapped already)."""
+    hit = full["factor_a"].eq(pair[0]) & full["factor_b"].eq(pair[1])
+    hit |= full["factor_a"].eq(pair[1]) & full["factor_b"].eq(pair[0])
+    rank = int(np.flatnonzero(hit.to_numpy())[0]) + 1
+    if rank == 1:
+        return "the case's best pair by score, holding a flagged driver"
+    return (
+        f"ranked {rank} of the case's {len(full):,} pairs by score: the best that holds a "
+        "flagged driver, is not two views of one quantity and is not mapped already"
+    )
+
+
 #: Gambone's Fig. 15 pair (Izz against the yaw jets' thrust), mapped whenever both inputs are
 #: analysed so a reader can set the paper's figure beside the data's own best pair.
 FIG15_PAIR = ("izz_kg_m2", "thrust_yaw_fire_n")
@@ -462,11 +477,11 @@ def _maps(res: DriverResults, seed: int) -> None:
                 continue
             if c.pairs is None:
                 continue
-            t = c.pairs.table()
-            t = t[t["factor_a"].isin(drivers) | t["factor_b"].isin(drivers)]
+            full = c.pairs.table().reset_index(drop=True)
+            t = full[full["factor_a"].isin(drivers) | full["factor_b"].isin(drivers)]
             top = _distinct_top(t, rs.X[rs.strata == c.case], seen)
             if top is not None:
-                chosen.append((c.case, *top, "the case's best pair holding a flagged driver"))
+                chosen.append((c.case, *top, _case_pair_words(full, top)))
                 seen.add(frozenset(top))
         pt, d = res.pair_table, res.drivers
         assert d is not None  # fitted before the maps

@@ -132,6 +132,8 @@ def outcomes(res) -> Section:
     summary = first[["outcome", "criterion", "runs", "failed"]].copy()
     summary[P_HEADER] = [
         P.p_with_ci(p, lo, hi)
+        if np.isfinite(lo)
+        else f"{P.pct(p)} % (the top decile by construction: no interval)"
         for p, lo, hi in zip(first["failure_probability"], first["cp95_low"], first["cp95_high"])
     ]
     blocks.append(table_block(summary, "Outcomes (outcomes.csv)", max_rows=20))
@@ -167,7 +169,8 @@ def _top(t: pd.DataFrame, k: int) -> pd.DataFrame:
                     "p_value": r["p_value"],
                     "significant": "yes" if r["significant"] else "no",
                     "rank on the pooled outcome": int(r["pooled_rank"]),
-                    "failure_region": r["failure_region"],
+                    # A region is a claim about where runs fail: only a flagged driver's.
+                    "failure_region": r["failure_region"] if r["significant"] else "",
                 }
             )
     return pd.DataFrame(rows).astype(object).fillna("")

@@ -16,6 +16,7 @@ from rcsim.analysis.engine import runs_table
 from rcsim.analysis.results.drivers import figures, findings, report_boxes
 from rcsim.analysis.results.drivers import mechanism_text as mechanism
 from rcsim.analysis.results.drivers import report_outcomes as probs
+from rcsim.analysis.results.drivers.conclusions import conclude
 from rcsim.analysis.results.drivers.probabilities import share_text
 from rcsim.analysis.results.report.html import (
     Section,
@@ -25,16 +26,6 @@ from rcsim.analysis.results.report.html import (
     text_block,
 )
 
-_DRIVER_COLS = [
-    "rank",
-    "factor",
-    "score",
-    "p_value",
-    "failure_region",
-    "region_fail_share",
-    "stability",
-    "forest_rank",
-]
 _PAIR_COLS = [
     "rank",
     "factor_a",
@@ -76,6 +67,14 @@ def summary(res) -> Section:
             "inputs analysed",
             f"{len(rs.raw_inputs)} recorded + {len(rs.derived_inputs)} physics-aware derived",
         ),
+        *[
+            (
+                f"runs without {c}",
+                f"{k:,} of {n:,}: none left out; {why}",
+            )
+            for c, (k, why) in getattr(rs, "placed", {}).items()
+            if c in rs.X.columns
+        ],
     ]
     m = rs.manifest
     if m:
@@ -95,8 +94,10 @@ def summary(res) -> Section:
             ("code version", ", ".join(f"{k} {v}" for k, v in m.get("code_version", {}).items())),
         ]
     blocks.append(table_block(pd.DataFrame(facts, columns=["", "value"]), "Campaign"))
+    later: list[str] = []
     if res.has_failures:
-        blocks += _findings_blocks(res)
+        now, later = _findings_blocks(res)
+        blocks += now
     cases = pd.DataFrame(
         [
             {
@@ -118,43 +119,72 @@ def summary(res) -> Section:
                 "(Clopper-Pearson) 95 % interval of the case's failure probability.",
             )
         )
-        carry = cases.sort_values("failed", ascending=False)
+        carry = cases.sort_values("failed", ascending=False, kind="stable")
         carry = carry[carry["failed"] > 0]
-        top = carry.head(5)
-        if len(top):
-            blocks.append(
-                text_block(
-                    f"{len(carry)} of {len(cases)} cases have failures; the {len(top)} with the "
-                    f"most ({', '.join(top['case'])}) carry "
-                    f"{share_text(int(top['failed'].sum()), nf)} of all failures."
-                )
-            )
+        if len(carry):
+            blocks.append(text_block(_most_failures_text(carry, len(cases), nf)))
         blocks.append(table_block(cases, "Failures per case", max_rows=60))
-    return Section("Summary", blocks, "summary")
+    return Section("Summary", blocks + later, "summary")
 
 
-def _findings_blocks(res) -> list[str]:
-    """Every flag the report shows, in one list (the same as findings.csv and the CLI's)."""
-    found = findings.findings(res)
-    lines = findings.summary_lines(found, res.settings.alpha)
+def _most_failures_text(carry: pd.DataFrame, n_cases: int, nf: int, most: int = 5) -> str:
+    """Which cases carry the failures: the (at most ``most``) cases with the most, never a
+    choice among ties -- cases tied at the cut are counted as a tie, not picked from."""
+    head = f"{len(carry)} of {n_cases} cases have failures"
+    failed = carry["failed"].astype(int)
+    cut = int(failed.iloc[min(most, len(carry)) - 1])
+    above, tied = carry[failed > cut], carry[failed == cut]
+    if len(above) + len(tied) <= most:
+        top = carry.head(most)
+        return (
+            f"{head}; the {len(top)} with the most ({', '.join(top['case'])}) carry "
+            f"{share_text(int(top['failed'].sum()), nf)} of all failures."
+        )
+    each = f"{cut} failure{'s' if cut != 1 else ''} each"
+    if not len(above):
+        return f"{head}; all {len(tied)} tie at {each}, none carries more than another."
+    return (
+        f"{head}; the {len(above)} with the most ({', '.join(above['case'])}) carry "
+        f"{share_text(int(above['failed'].sum()), nf)} of all failures; {len(tied)} more "
+        f"tie at {each}."
+    )
+
+
+def _findings_blocks(res) -> tuple[list[str], list[str]]:
+    """Every flag the report shows (the same as findings.csv and the CLI's): the head line and
+    the findings on the failures, then apart the outcome drivers, which the summary puts after
+    the failures per case so that many of them cannot bury the failure analysis."""
+    c = conclude(res)
+    found = c.findings
     blocks = [
         text_block(
-            f"{lines[0][:1].upper()}{lines[0][1:]}. Every flag below is counted against one "
+            f"{c.summary_sentences()[0]} Every flag below is counted against one "
             "budget for the whole report (How to read this report); nothing else in the report "
             "is a finding."
         )
     ]
+    later: list[str] = []
     if found:
         frame = findings.findings_frame(found)
         frame.insert(0, "what", frame["family"].map(findings.FAMILY_WORDS))
-        blocks.append(
-            table_block(
-                frame[["what", "finding", "p_value", "level"]],
-                "Findings (findings.csv): every flag in this report",
-                max_rows=40,
+        on_failures = frame["family"].isin(findings.FAILURE_FAMILIES)
+        shown = ["what", "finding", "p_value", "level"]
+        if on_failures.any():
+            blocks.append(
+                table_block(
+                    frame.loc[on_failures, shown], "Findings on the failures (findings.csv)", 40
+                )
             )
-        )
-    return blocks
+        if (~on_failures).any():
+            later.append(
+                table_block(
+                    frame.loc[~on_failures, shown],
+                    "Outcome drivers: per axis, second threshold, propellant and delta-v "
+                    "(findings.csv; the Outcomes section)",
+                    max_rows=40,
+                )
+            )
+    return blocks, later
 
 
 def _controller_text(ctrl: dict) -> str:
@@ -220,6 +250,21 @@ def _imbalance_text(res) -> str:
     )
 
 
+def _physics_text(res) -> list[str]:
+    """The physics-aware factors explained, only when some were derived (a table with no
+    vehicle has none, and a paragraph on them would describe inputs the report does not hold)."""
+    if not res.runset.derived_inputs:
+        return []
+    return [
+        "Physics-aware factors: authority_<axis>_<pos|neg|fire>_rad_s2 is the angular "
+        "acceleration the jet group gives (torque about the dispersed CG over the inertia); "
+        "thrust_* the group's total thrust; "
+        + _imbalance_text(res)
+        + "pointing_loss_* the share of torque lost to jet misalignment; 'fire' is the "
+        "group firing toward each case's commanded rate."
+    ]
+
+
 def method(res) -> Section:
     st = res.settings
     bw = res.singles.bandwidth_ if res.singles is not None else float("nan")
@@ -253,13 +298,7 @@ def method(res) -> Section:
                 "says the pair differs at all). 'gain' of a pair is its score beyond its better "
                 "input. 'forest_rank' is a random forest's ranking of the same inputs, for "
                 "comparison (another method family; not a test).",
-                "Physics-aware factors: authority_<axis>_<pos|neg|fire>_rad_s2 is the angular "
-                "acceleration the jet group gives (torque about the dispersed CG over the "
-                "inertia); "
-                "thrust_* the group's total thrust; "
-                + _imbalance_text(res)
-                + "pointing_loss_* the share of torque lost to jet misalignment; 'fire' is the "
-                "group firing toward each case's commanded rate.",
+                *_physics_text(res),
                 "Failure probabilities (overall, per case, per failure region, per outcome) are "
                 "shares of runs; each carries the Clopper-Pearson exact 95 % interval (its "
                 "coverage is at least 95 % for every true probability). 'runs to bound' answers "
@@ -278,7 +317,7 @@ def drivers(res, top: int = 25) -> Section:
     blocks = [
         figure_block(
             figures.report_pngs(res)["ranking.png"],
-            mechanism.strongest(res)
+            conclude(res).strongest
             + "Top inputs by score. Labels give the corrected p-value and the share "
             "of half-campaigns keeping the rank.",
         )
@@ -297,8 +336,19 @@ def drivers(res, top: int = 25) -> Section:
             )
         )
     )
-    show = list((sig if len(sig) else d)["factor"].head(4))
-    if show:
+    # Only flagged drivers get a failure-region panel: an unflagged input's smoothed P(fail | x)
+    # rises above twice the base rate somewhere by chance (most often with few failures), and a
+    # shaded "failure region" beside it would read as a finding.
+    show = list(sig["factor"].head(4))
+    if not show:
+        blocks.append(
+            text_block(
+                "No failure region is drawn: no input is a flagged single driver, and where an "
+                "unflagged input's smoothed failure probability passes twice the base rate is "
+                "chance at this budget, not where failures are."
+            )
+        )
+    else:
         blocks.append(
             figure_block(
                 png_bytes(figures.failure_regions(res.singles, res.runset.X, show)),
@@ -307,17 +357,11 @@ def drivers(res, top: int = 25) -> Section:
                 "shaded part is the failure region (at least twice the base rate, dashed).",
             )
         )
-    shown = _present(d, _DRIVER_COLS).copy()
-    at = list(shown.columns).index("region_fail_share") + 1 if "region_fail_share" in shown else 0
-    shown.insert(at or len(shown.columns), "P(fail in region)", probs.region_column(d))
-    # A failure region is a claim about where an input makes runs fail: shown only for the
-    # flagged drivers (drivers.csv keeps every input's).
-    for col in ("failure_region", "region_fail_share", "P(fail in region)"):
-        if col in shown:
-            shown[col] = shown[col].astype(object).where(d["significant"], "")
+    # A failure region is a claim about where an input makes runs fail: the ranking shows it
+    # only for the flagged drivers (drivers.csv keeps every input's).
     blocks.append(
         table_block(
-            shown,
+            conclude(res).ranking_frame(),
             "Driver ranking (drivers.csv; failure regions of the flagged drivers only)",
             max_rows=top,
         )
@@ -349,12 +393,16 @@ def pairs(res, top: int = 15) -> Section:
         blocks.append(
             text_block(
                 "No map for "
-                + ", ".join(f"case {c} ({n} failed runs)" for c, n in res.unmapped_cases)
+                + ", ".join(
+                    f"case {c} ({n} failed run{'s' if n != 1 else ''})"
+                    for c, n in res.unmapped_cases
+                )
                 + ": no flagged driver in this case (family-wise over every case and "
                 "input), so a map would show noise."
             )
         )
-    reasons = res.map_reasons or [""] * len(res.maps)
+    # Why each map was drawn, as the conclusions say it (the loop's report says the same).
+    reasons = [why for _, why in conclude(res).maps] or [""] * len(res.maps)
     for (case, fmap), name, why in zip(res.maps, figures.map_png_names(res), reasons):
         title = figures.map_title(case)
         blocks.append(
@@ -396,15 +444,21 @@ def cases(res) -> Section:
         rows.append(row)
     df = probs.with_case_columns(pd.DataFrame(rows), res)
     df = df.sort_values("failed", ascending=False, kind="stable")
-    blocks = [
-        text_block(
-            f"Each case with at least {res.settings.min_case_failures} failed and successful runs "
-            "is analysed on its own; listed are the drivers it flags, family-wise over every "
-            f"case and input together (max-T: p < {100 * level:.3g} %, this family's share of "
-            "the report's budget). cases.csv lists the same drivers; its 'significant' column "
-            "is this flag. Cases are sorted by failures."
+    k = res.settings.min_case_failures
+    if "per_case" in res.levels:
+        how = (
+            f"Each case with at least {k} failed and {k} successful runs is analysed on its "
+            "own; listed are the drivers it flags, family-wise over every case and input "
+            f"together (max-T: p < {100 * level:.3g} %, this family's share of the report's "
+            "budget). cases.csv lists the same drivers; its 'significant' column is this flag. "
         )
-    ]
+    else:  # no share: say so rather than print a level nobody tested at
+        how = (
+            f"No case has at least {k} failed and {k} successful runs, so no case is analysed "
+            "on its own: the per-case family is not tested and has no share of the report's "
+            "budget (its share went to the other families). "
+        )
+    blocks = [text_block(how + "Cases are sorted by failures.")]
     blocks.append(table_block(df.fillna(""), "Drivers per case (cases.csv)", max_rows=60))
     return Section("Per case", blocks, "cases")
 

@@ -296,10 +296,13 @@ def flags(scenario: str, seed: int, settings=None, **campaign) -> dict:
         in its case; ``true_interaction``: the planted interaction is flagged;
         ``interaction_first``: it ranks first among the pairs; ``true_singles``: every pooled
         driver is flagged; ``found <truth>``: each planted driver (``found a``), per-case
-        driver (``found a in case-05``) and interaction (``found a x b``) is flagged.
+        driver (``found a in case-05``) and interaction (``found a x b``) is flagged;
+        ``unflagged_region_said``: the report's conclusions state a failure region of an input
+        no family flagged (or name a strongest driver with nothing flagged).
     """
     from dataclasses import replace
 
+    from rcsim.analysis.results.drivers.conclusions import conclude
     from rcsim.analysis.results.drivers.findings import findings
     from rcsim.analysis.results.drivers.inputs import load_runs
     from rcsim.analysis.results.drivers.pipeline import analyze
@@ -318,6 +321,13 @@ def flags(scenario: str, seed: int, settings=None, **campaign) -> dict:
         return out
     found = findings(res)
     out["flags"] = len(found)
+    # What the report says of where failures are (its conclusions): a region stated for an
+    # input no family flagged, or a strongest-driver sentence with nothing flagged, would read
+    # as a finding that is none.
+    c = conclude(res)
+    out["unflagged_region_said"] = bool(c.strongest and not found) or any(
+        r.get("failure_region") and not r["significant"] for r in c.ranking
+    )
     sig = {f.factor for f in found if f.family == "singles"}
     out["false_single"] = bool(sig - set(truth["drivers"]))
     if truth["drivers"]:

@@ -366,3 +366,38 @@ def test_box_captions_state_counts_recounted_from_the_runs():
         if box.number > 1:
             assert "among the runs outside box" in text
         left &= ~inside
+
+
+def test_printed_limits_reproduce_the_box_counts():
+    """Issue 38: box limits were printed to 4 significant figures; applying "<= 104.9" gave
+    739 runs and 675 failures where the text said 746 and 681.  A thrust-like input on
+    [100, 110] N with 20,000 runs (about 2,000 runs per newton: 4 figures lump some 200 runs);
+    runs below 104.937 N fail.  The box's printed limits, read back as numbers and applied to
+    the runs, give exactly the box's runs and failed runs -- and to 4 figures they would not
+    (the trap is real)."""
+    rng = np.random.default_rng(5)
+    n = 20_000
+    X = pd.DataFrame({"thrust_n": rng.uniform(100.0, 110.0, n), "other": rng.uniform(0, 1, n)})
+    y = (X["thrust_n"] < 104.937).to_numpy() & (rng.random(n) < 0.9)
+    res = find_boxes(X, y, None, list(X.columns), ratios=False)
+    b = res.boxes[0]
+    text = res.limits_text(b)
+    x, o = X["thrust_n"].to_numpy(), X["other"].to_numpy()
+    inside = np.ones(n, bool)
+    for part in text.split("; "):
+        nums = [
+            float(t)
+            for t in part.replace("<=", " ").replace(">=", " ").split()
+            if t[0].isdigit() or t[0] == "-"
+        ]
+        col = x if "thrust_n" in part else o
+        if part.count("<=") == 2:
+            inside &= (col >= nums[0]) & (col <= nums[1])
+        elif "<=" in part:
+            inside &= col <= nums[0]
+        else:
+            inside &= col >= nums[0]
+    assert (int(inside.sum()), int((inside & y).sum())) == (b.runs, b.failed), text
+    j = res.names.index("thrust_n")
+    four = x <= float(f"{b.hi[j]:.4g}")
+    assert int(four.sum()) != int((x <= b.hi[j]).sum())  # 4 figures would not reproduce

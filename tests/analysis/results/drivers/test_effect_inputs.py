@@ -62,3 +62,27 @@ def test_a_table_beyond_the_ceiling_is_subsampled_and_says_so(monkeypatch):
     assert "300 of the 400 runs" in note
     pd.testing.assert_frame_equal(a.drivers, b.drivers)
     assert a.runset.runs["run_id"].is_monotonic_increasing
+
+
+def test_named_nan_input_says_which_runs_lack_it(tmp_path, capsys):
+    """Issue 38: ``rcsim analyze --inputs fault_time_s`` (NaN for runs without a fault) must
+    not analyse the input without a word.  The command prints, and the report's summary
+    states, how many runs lack it (counted here) and where they were placed: none left out."""
+    import re
+
+    from rcsim.analysis.apps.cli import main
+
+    frame = _fault_runs()
+    path = tmp_path / "runs.csv"
+    frame.to_csv(path, index=False)
+    out = tmp_path / "an"
+    args = ["analyze", str(path), "--inputs", "fault_time_s,fault_jet"]
+    assert main([*args, "--permutations", "19", "--out", str(out)]) == 0
+    k, n = int(frame["fault_time_s"].isna().sum()), len(frame)
+    printed = capsys.readouterr().out
+    assert f"note: fault_time_s: {k} run(s) without it; a run without a fault" in printed
+    page = re.sub(r"<[^>]+>", " ", (out / "report.html").read_text())
+    page = re.sub(r"\s+", " ", page)
+    assert f"runs without fault_time_s {k:,} of {n:,}: none left out; a run without a fault" in (
+        page
+    )

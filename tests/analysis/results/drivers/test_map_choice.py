@@ -49,3 +49,42 @@ def test_maps_follow_the_evidence_and_include_the_fig15_pair():
     assert len(res.map_reasons) == len(res.maps)
     html = "".join(str(b) for b in pairs_section(res).blocks)
     assert "no flagged driver in this case" in html
+    # Issue 38: the paper's pair is noise here; its map must not read as where runs fail.
+    assert "Fig. 15, for comparison; neither input is a flagged driver, so its shading" in html
+    # The loop's report renders the same words (the conclusions object).
+    from rcsim.analysis.results.drivers.conclusions import conclude
+
+    whys = [why for _, why in conclude(res).maps]
+    assert any(
+        w.endswith("neither input is a flagged driver, so its shading is no finding") for w in whys
+    )
+
+
+def test_a_case_map_says_its_pair_rank():
+    """Issue 38: a case's map caption said "the case's best" for a pair the case ranks fourth.
+    Here the case's best pair is two views of one quantity (``a`` and ``a2 = a`` plus 1 %
+    noise, rank correlation ~1), which the maps skip (a line, not two drivers): the pair
+    mapped is not the case's first, and its caption gives its rank among the case's pairs
+    (recounted from the case's pair table) instead of "the case's best"."""
+    table = _table()
+    rng = np.random.default_rng(7)
+    table.insert(1, "a2", table["a"] + 0.01 * rng.standard_normal(len(table)))
+    inputs = [c for c in table.columns if c not in ("case", "failed")]
+    rs = load_runs(table, inputs=inputs, derived=False)
+    res = analyze(rs, Settings(n_permutations=99, forest=False, n_maps=4, case_pairs=3))
+    k = next(i for i, (case, _) in enumerate(res.maps) if case == "driven")
+    a, b = res.maps[k][1].feature_names_in_
+    case = next(c for c in res.cases if c.case == "driven")
+    full = case.pairs.table().reset_index(drop=True)
+    first = {full.loc[0, "factor_a"], full.loc[0, "factor_b"]}
+    assert first == {"a", "a2"}  # the trap: the case's best pair is not mapped
+    rank = 1 + int(
+        np.flatnonzero(
+            ((full["factor_a"] == a) & (full["factor_b"] == b))
+            | ((full["factor_a"] == b) & (full["factor_b"] == a))
+        )[0]
+    )
+    assert rank > 1
+    why = res.map_reasons[k]
+    assert "best pair by score" not in why
+    assert why.startswith(f"ranked {rank} of the case's {len(full):,} pairs by score")

@@ -22,6 +22,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
+from rcsim.analysis.results.drivers import report_outcomes
 from rcsim.analysis.results.drivers.inputs import load_runs
 from rcsim.analysis.results.drivers.kde import bin_codes, rank_scale
 from rcsim.analysis.results.drivers.outcomes import (
@@ -229,6 +230,13 @@ def test_propellant_and_delta_v_are_outcomes_driven_by_their_inputs():
     decile = {o.name: o for o in top}["propellant top 10 %"]
     q = np.quantile(df["propellant_kg"], 0.9)
     np.testing.assert_array_equal(decile.y, df["propellant_kg"].to_numpy() >= q)
+    # Issue 38: its share is 10 % by construction -- no interval, no runs to bound it.
+    assert decile.by_construction and not prop.by_construction
+    res_top = analyze(_runset(df), Settings(n_permutations=19, forest=False, n_splits=1))
+    t = outcome_table(res_top).drop_duplicates("outcome").set_index("outcome")
+    assert np.isnan(t.loc["propellant top 10 %", ["cp95_low", "cp95_high"]].astype(float)).all()
+    section = " ".join(report_outcomes.outcomes(res_top).blocks)
+    assert "% (the top decile by construction: no interval)" in section
     # A table analysed with its numeric columns as inputs leaves the outcomes out.
     plain = load_runs(df.drop(columns=["final_rate_err_pitch_deg_s"]))
     assert "propellant_kg" not in plain.X.columns and "delta_v_N_m_s" not in plain.X.columns
