@@ -1,9 +1,11 @@
 """The compiled pieces of rcsim; everything else is declared in pyproject.toml.
 
 * ``rcsim/spacecraft/_zero_clock.c`` is a zero clock for MuJoCo's stage timers, which rcsim never
-  reads (``rcsim/spacecraft/mujoco_timers.py``; -19 % per campaign chunk, ``docs/performance.md``).
+  reads (``rcsim/spacecraft/mujoco_timers.py``; its saving per campaign chunk is measured in
+  ``docs/performance.md``).
 * ``rcsim/lookup/_step_kernel.c`` is the lookup controller's cycle in one pass, bit for bit its
-  numpy form (``rcsim/lookup/step_kernel.py``; the controller's share of a chunk 7 % -> 2 %).
+  numpy form (``rcsim/lookup/step_kernel.py``; the controller's share of a chunk before and after
+  in ``docs/performance.md``).
 * ``rcsim/spacecraft/_cycle_kernel.c`` is the closed loop's per-cycle bookkeeping (navigation's
   quaternion algebra, valve limits and commands, the no-switch test, the propulsion totals),
   bit for bit its numpy forms (``rcsim/spacecraft/cycle_kernel.py``).

@@ -72,7 +72,7 @@ class BatchPhysics:
         self.dt_s = float(model.opt.timestep)
         self.compiled = False  # the compiled state check; set by the loop for each flight
         # MuJoCo integrates the wrench model; the jets are summed by a matrix per run
-        # (rcsim/spacecraft/flight_model.py: the same physics to rounding, ~40 % cheaper a step).
+        # (rcsim/spacecraft/flight_model.py: the same physics to rounding, cheaper a step).
         # (``flight``: the vehicle's, built once per process; a Batch simulates copies of it)
         self._flight = flight_model(model) if flight is None else flight
         self.batch = Batch(self._flight, params.n_runs, nthread)

@@ -14,7 +14,7 @@ sum is taken here, per run, with a matrix (:func:`jet_wrench_B`):
 
 which is exactly what MuJoCo's site transmissions apply, summed in another order: flights
 agree with the jet model to rounding (``tests/spacecraft/test_flight_model.py``, 1e-12) and a
-step costs about 40 % less (``docs/performance.md``).  The disturbance torque is added to the
+step costs less (measured in ``docs/performance.md``).  The disturbance torque is added to the
 torque components.
 """
 

@@ -1,5 +1,5 @@
 """A run's dispersions as one vector ``u`` of independent standard normals, and back: what a
-rare-event estimator moves in (issue 30), exposed from the draws campaigns already make.
+rare-event estimator moves in, exposed from the draws campaigns already make.
 
 The vector
 ----------

@@ -8,9 +8,9 @@ whose memory would exceed half of the machine's (:func:`check_memory`) is refuse
 
 The estimate is simulated seconds over a measured rate, not a promise: the lookup-table
 campaign flies about 7,500 simulated seconds per wall second on one core of the development
-machine (``docs/performance.md``, issue 19); :data:`SIM_S_PER_CORE_S` takes two thirds of
+machine (``docs/performance.md``); :data:`SIM_S_PER_CORE_S` takes two thirds of
 that, so that a loaded machine is rarely slower than the estimate.  Commands whose cost is not
-simulated time have their own measured rates below (issue 31: ``lookup database``, ``vehicle
+simulated time have their own measured rates below (``lookup database``, ``vehicle
 check``, ``lookup refine``'s memory).
 """
 
@@ -100,12 +100,12 @@ def check_memory(
 #: ``lookup database``: wall seconds per flight (one jet, one on-time, one dispersed vehicle),
 #: and the fixed start.  Measured on the 2-core development machine, loaded by other work:
 #: 64, 512 and 2,048 vehicles of the paper's 16 jets (6,144 to 196,608 flights) took 6.1,
-#: 16.8 and 35.9 s, 130 us per flight beyond the start (issue 31).
+#: 16.8 and 35.9 s, 130 us per flight beyond the start.
 DATABASE_S_PER_FLIGHT = 150e-6
 DATABASE_START_S = 6.0
 #: ``lookup database``: bytes per flight per jet of the vehicle (its on-times, forces and
 #: parameters are per jet).  Measured: peak RSS 603 MB at 49,152 flights and 1,739 MB at
-#: 196,608 flights of 16 jets, 7.7 kB per flight, 480 bytes per jet (issue 31).
+#: 196,608 flights of 16 jets, 7.7 kB per flight, 480 bytes per jet.
 DATABASE_BYTES_PER_FLIGHT_JET = 500
 
 
@@ -183,5 +183,5 @@ def check_vehicle_cost(vehicle, *, pairs: bool, yes: bool, source: str) -> None:
 
 #: ``lookup refine``: bytes per dispersed run of a case (its drawn vehicle, its rows for every
 #: table flown).  Measured: peak RSS 344 MB with 200 runs and 360 MB with 1,600 runs of 4
-#: cases, 2.8 kB per run beyond the start (issue 31); rounded up.
+#: cases, 2.8 kB per run beyond the start; rounded up.
 REFINE_BYTES_PER_RUN = 4096

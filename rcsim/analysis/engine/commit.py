@@ -1,6 +1,6 @@
 """Files that belong together are written together: all of them, or none.
 
-Issue 31: on a full disk ``lookup generate`` left a table without its ``_settling.csv`` (with
+Why: on a full disk ``lookup generate`` left a table without its ``_settling.csv`` (with
 ``--jets-off`` a table that cannot even load) and ``lookup database`` a ``db.parquet``
 without its plot, and "No space left on device" named no file.
 

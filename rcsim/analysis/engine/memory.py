@@ -5,7 +5,7 @@ mapping separately once one was freed) for the process's next allocations, and s
 pyarrow's own pool (mimalloc in its Linux wheels), so a process that peaked in one stage holds
 that peak for the rest of its life.  In ``rcsim loop`` the parent held ~490 MB after the driver
 analysis, of which ~170 MB were free, and the later stages' worker processes came on top of it
-(``docs/performance.md``, issue 19's fifth round).
+(``docs/performance.md``).
 """
 
 from __future__ import annotations

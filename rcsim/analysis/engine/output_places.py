@@ -1,6 +1,6 @@
 """Where an output may go: never inside another command's output, never over its own input.
 
-Outputs are not nested (issue 31).  A directory a command wrote (it holds the marker of
+Outputs are not nested.  A directory a command wrote (it holds the marker of
 :mod:`rcsim.analysis.engine.output_records`) or is writing in place (a campaign's, a loop's:
 their state file) belongs to that command; an output inside it -- ``maneuver --out
 CAMPAIGN/histories``, ``lookup generate --out LOOP/new.csv`` -- would be a file the owner did

@@ -1,6 +1,6 @@
 """Worker processes die with the process that started them, and die quietly.
 
-Issue 31: after a ``kill -9`` of ``rcsim campaign run`` or ``rcsim lookup refine``, the fork
+Why: after a ``kill -9`` of ``rcsim campaign run`` or ``rcsim lookup refine``, the fork
 server, its workers (~400 MB) and the resource tracker lived on -- once for 17 minutes,
 holding the caller's stdout open -- and a SIGTERM while the pool started printed a 15-line
 worker traceback after the one line.

@@ -66,7 +66,7 @@ def criterion_terms(
     propellant_exhausted_s : ndarray, (n,), optional
         When each run's propellant ran out (NaN: it did not); None when not tracked.
     budgets : dict of str to (ndarray (n,), float), optional
-        The ``[failure]`` budgets set (issue 28): name -> (the run's value, the budget > 0),
+        The ``[failure]`` budgets set: name -> (the run's value, the budget > 0),
         e.g. ``{"max_propellant_kg": (propellant_kg, 0.05)}``; a run fails above a budget, so
         its term ``(budget - value) / budget`` fails below 0 and passes at 0.
 

@@ -175,7 +175,7 @@ class PaperSetup:
     dai_memory_s : float
         Forgetting time constant of the DAI regression [s] (chosen; SOURCES.md).
     dai_gain_s3 : float
-        Learning gain ``g`` of the integral reading [s^3] (issue 31; SOURCES.md).
+        Learning gain ``g`` of the integral reading [s^3] (SOURCES.md).
     """
 
     paper: str

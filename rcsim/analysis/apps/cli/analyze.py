@@ -150,7 +150,7 @@ def _run(args) -> int:
     from rcsim.analysis.results.drivers.inputs import load_runs
     from rcsim.analysis.results.drivers.outputs import COMMAND, write_analysis
 
-    # Before minutes of work; never over its own input (issue 31).
+    # Before minutes of work; never over its own input.
     check_out_dir(args.out, COMMAND, overwrite=args.overwrite, inputs={"PATH": args.path})
     runset = load_runs(
         args.path,

@@ -1,4 +1,4 @@
-"""The loop report's "Propellant and translation" section (issue 28, item 4).
+"""The loop report's "Propellant and translation" section.
 
 The refinement's held-out seed is flown with the table before (``campaign_check``) and after
 (``campaign_after``) refinement: the same dispersed runs, so per case the two means differ by

@@ -1,4 +1,4 @@
-"""The loop's rare-event stage and its report section (issue 30): after the held-out check,
+"""The loop's rare-event stage and its report section: after the held-out check,
 ``P(fail)`` of the refined table for the cases where plain Monte Carlo saw few or no failures.
 
 Opt-in (``rcsim loop --rare-budget RUNS``; off by default): an estimation flies at least level 0

@@ -1,5 +1,5 @@
 """Rare-event estimation on a campaign spec: ``P(fail)`` of a case down to probabilities plain
-Monte Carlo cannot afford (issue 30; ``docs/rare_events.md``).
+Monte Carlo cannot afford (``docs/rare_events.md``).
 
 * :mod:`~rcsim.analysis.apps.rare.flights` -- the limit state of one case: the runs of points
   ``u`` of the standard-normal space flown as campaign runs, their runs-table rows and margins;

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 from rcsim.analysis.engine.rare import SubsetConfig
 
 #: Independent repeats per case by default: Cox's interval on 4 estimates, with the model's CoV
-#: as its floor, covered the truth in 99-100 % of 400 analytic repetitions per cell
-#: (rcsim.analysis.engine.rare.repeats, docs/rare_events.md).
+#: as its floor (rcsim.analysis.engine.rare.repeats; its measured coverage in
+#: docs/rare_events.md).
 REPEATS = 4
 #: The methods the command offers.  Cross-entropy importance sampling (one Gaussian,
 #: rcsim.analysis.engine.rare.importance) is left out: on rate-13 (Table 5 x 3, 0.05 deg/s,

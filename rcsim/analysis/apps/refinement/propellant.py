@@ -1,4 +1,4 @@
-"""Propellant, the refinement's stated second objective (issue 28, item 4).
+"""Propellant, the refinement's stated second objective.
 
 A table change that removes failures by firing longer can cost far more propellant than it
 buys: on an Apollo-like vehicle a held-out seed showed cases whose mean propellant rose 62-86 %

@@ -1,4 +1,4 @@
-"""``plots/propellant_delta_v.png``: propellant used and net delta-v per case (issue 28).
+"""``plots/propellant_delta_v.png``: propellant used and net delta-v per case.
 
 Two panels sharing the cases: each run as a dot (spread sideways within its case so equal
 values stay visible), the case mean with its Student-t 95 % interval (``cases.csv``), and the

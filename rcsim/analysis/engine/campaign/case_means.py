@@ -1,5 +1,5 @@
 """Per-case means with 95 % intervals of the propellant, delta-v and pulse outcomes, for
-``cases.csv`` (issue 28).
+``cases.csv``.
 
 Additive partial sums (count, sum, sum of squares of the runs that flew) merge across chunks
 like the other per-case statistics (:func:`rcsim.analysis.engine.campaign.results.case_stats`);

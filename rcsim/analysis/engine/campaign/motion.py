@@ -1,4 +1,4 @@
-"""Propellant, translation and limit-cycle measures of flown runs (issue 28).
+"""Propellant, translation and limit-cycle measures of flown runs.
 
 Per run: propellant per jet, the net delta-v of the CG in N and in B (components and norms),
 pulses, pulses at the jets' minimum on-time, pulses per minute and each jet's duty cycle.
@@ -30,7 +30,7 @@ def firing_starts(on_time_s: np.ndarray, cycle_s: float) -> np.ndarray:
     return (on_time_s > 0) & ~prev_full
 
 
-#: ``[failure]`` budgets of a campaign spec (issue 28): a run fails when its column exceeds
+#: ``[failure]`` budgets of a campaign spec: a run fails when its column exceeds
 #: the budget; key -> (column, unit, words).
 BUDGETS: dict[str, tuple[str, str, str]] = {
     "max_propellant_kg": ("propellant_kg", "kg", "propellant"),

@@ -640,7 +640,7 @@ def _failure(f: Reader, vehicle: Vehicle) -> tuple[float, float | None, float | 
         if spec_att
         else own.get("attitude_error_deg")
     )
-    # Budgets on the run's propellant and translation (issue 28): set only when given, so a
+    # Budgets on the run's propellant and translation: set only when given, so a
     # spec without them resolves (and resumes) as before.
     budgets = {k: f.number(k, None, minimum=0.0, strict=True) for k in BUDGET_KEYS if f.has(k)}
     max_failed = f.raw("max_failed_pct") if f.has("max_failed_pct") else None

@@ -1,5 +1,5 @@
 """Rare-event estimation: ``P(g(u) < 0)`` for ``u ~ N(0, I_d)`` with a margin ``g`` evaluated on
-batches of points, down to failure probabilities plain Monte Carlo cannot afford (issue 30).
+batches of points, down to failure probabilities plain Monte Carlo cannot afford.
 
 * :mod:`~rcsim.analysis.engine.rare.subset` -- subset simulation (Au & Beck, 2001) with batched
   Markov chains (Papaioannou et al., 2015), resumable level by level;

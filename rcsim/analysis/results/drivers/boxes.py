@@ -24,7 +24,7 @@ does not lower the box's failure rate significantly (EMA's quasi-p-value: one-si
 test of the box's failures against the failure rate of the box without it, > ``QP_MAX``) is
 removed, the least significant first.
 
-A box holds only what fails (issue 29: a box padded with four cases that never failed, and a
+A box holds only what fails (a box was once padded with four cases that never failed, and a
 threshold that did nothing in one of its two cases).  :data:`CASE_RULE`: a case is in a box
 exactly when, among that case's runs searched, the box's input limits hold failures at least
 ``MIN_LIFT`` times the overall failure rate *and* separate them -- more of the case's failures

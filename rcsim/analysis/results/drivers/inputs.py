@@ -244,7 +244,7 @@ def load_runs(
     else:
         if has_raw:
             # The vehicle dispersions, plus the sensor, timing and fault draws a campaign with
-            # those effects recorded (issue 17: they were left out unless named).
+            # those effects recorded (they were once left out unless named).
             effects = [
                 c.name
                 for g in runs_table.EFFECT_GROUPS
@@ -261,8 +261,8 @@ def load_runs(
                 for c in runs.columns
                 if c not in ID_COLUMNS
                 and c != outcome
-                and not runs_table.is_propellant_motion(c)  # outcomes of the run (issue 28)
-                and c != "margin"  # the failure criterion's distance (issue 30), an outcome
+                and not runs_table.is_propellant_motion(c)  # outcomes of the run
+                and c != "margin"  # the failure criterion's distance, an outcome
                 and pd.api.types.is_numeric_dtype(runs[c])
                 and not pd.api.types.is_bool_dtype(runs[c])
             ]

@@ -315,9 +315,8 @@ def standardise(obs: np.ndarray, null: np.ndarray) -> tuple[np.ndarray, np.ndarr
     one*, so that under the null the observed vector and the ``B`` permuted ones stay
     exchangeable and the max-T p-value is exact.  Standardising by the ``B`` null values alone
     (the observed value out of sample) made the test anti-conservative: the tests whose null sd
-    happens to be underestimated dominate the observed maximum but not the null maxima (one
-    case's 86 inputs, 5 % failures of 1,000 runs, B = 200: 6.3 % of 400 null tables flagged an
-    input at alpha = 0.05; 4.5 % with this standardisation, same seeds).
+    happens to be underestimated dominate the observed maximum but not the null maxima
+    (``benchmarks/null_calibration.py`` measures the false-flag rate; ``docs/drivers.md``).
 
     Returns
     -------

@@ -485,8 +485,8 @@ def acts_elsewhere(m: Mechanism) -> bool:
     """Whether a confined mechanism acts in the cases outside its scope too, by either
     measure, each at half of :data:`ELSEWHERE_P` (Bonferroni over the two): its region's runs
     there fail at least :data:`ELSEWHERE_LIFT` times as often as the others and significantly so
-    (one-sided Fisher exact test; both, because with tens of thousands of runs a chance excess
-    of 10 % is significant: 5.9 % against 5.2 % in 25 cases where the input does nothing); or,
+    (one-sided Fisher exact test; both, because with tens of thousands of runs a small chance
+    excess is significant where the input does nothing); or,
     per case, more of those cases show it at p < 0.05 (uncorrected) than chance would
     (Binomial(n, 0.05) upper tail at most half of :data:`ELSEWHERE_P`: a band of a ratio has no
     1-D region to count in), unless its region fails no more often inside than outside there.

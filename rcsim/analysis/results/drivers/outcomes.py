@@ -2,7 +2,7 @@
 
 The pooled ``failed`` outcome mixes failures of different axes: a run that ends with too much
 roll rate and one that ends with too much yaw rate are failures of different jets, and an input
-that drives only one axis's failures is diluted by the others (issue 16: in the Table 6
+that drives only one axis's failures is diluted by the others (in the Table 6
 campaign 28 % of failures are roll-only or pitch-only; analysed alone, roll authority ranks
 first where pooled it ranks 11th).  Beside the pooled outcome this module analyses
 
@@ -15,7 +15,7 @@ first where pooled it ranks 11th).  Beside the pooled outcome this module analys
   reason (simulation, attitude, propellant; read from ``reason``) still fail;
 * ``propellant ...`` and ``delta-v ...`` -- the run's ``propellant_kg`` / ``delta_v_N_m_s``
   exceeds the campaign's ``[failure]`` budget, or, without one, lies in the runs' top decile
-  (:func:`budget_outcomes`; issue 28: what drives propellant use and translation).
+  (:func:`budget_outcomes`: what drives propellant use and translation).
 
 Each outcome is scored by :class:`~rcsim.analysis.results.drivers.single.SingleFactorKDE` with
 as many permutations as the pooled singles, labels permuted within cases.  The outcomes are one
@@ -23,7 +23,7 @@ family of flags (:mod:`rcsim.analysis.results.drivers.findings`): every outcome'
 the *same* permutations of the runs (``joint=True`` and one seed), so the largest standardised
 null score over every outcome and input at each permutation is the exact max-T null of all of
 them together, and an outcome's driver is flagged when that family-wise p-value is below the
-family's share of the report-wise level.  (Until issue 29 each outcome was corrected on its
+family's share of the report-wise level.  (Each outcome was once corrected on its
 own at 0.05: five outcomes, five chances of a false flag.)  Pairs are not run per outcome
 (they cost ~40x the singles).  Per-axis outcomes need the per-axis
 ``final_rate_err_*`` columns and the campaign's threshold; without them they are skipped with
@@ -136,7 +136,7 @@ def build_outcomes(runset, second_threshold: float = DEFAULT_SECOND_THRESHOLD) -
     return res
 
 
-#: Propellant and translation outcomes (issue 28): column, the spec's ``[failure]`` budget
+#: Propellant and translation outcomes: column, the spec's ``[failure]`` budget
 #: key, unit, words.  Without a budget a run is in the outcome when its value is in the
 #: campaign's top decile (what drives heavy use), at or above the 90th percentile.
 BUDGET_OUTCOMES = (

@@ -12,7 +12,7 @@ Two tests per pair:
   (:mod:`rcsim.analysis.results.drivers.interaction`)?  Every pair is tested with an exact
   conditional p-value, Holm-adjusted over all pairs.  A pair is flagged as an interaction only
   when its joint test also holds (``p_joint_ < joint_level``): a pair whose failed runs do not
-  differ at all adds nothing to see (issue 29: three false interactions in 16 full-size null
+  differ at all adds nothing to see (three false interactions in 16 full-size null
   tables all had ``p_joint = 1``).  The gate only removes flags, so the interaction family's
   error stays at most ``alpha``; a pair that passes the joint test alone is not flagged (it
   holds a driver, which the single-factor ranking shows).  (Testing only the pairs that pass the

@@ -399,7 +399,7 @@ def case_family(cases: list, level: float) -> None:
     every case and input at draw ``b`` is the max-T null of the whole family, exact like the
     single-family one.  ``significant`` is ``p_family < level`` (the per-case family's share of
     the report-wise budget): the flags the report shows.  (Benjamini-Hochberg q-values over the
-    same tests were listed in ``cases.csv`` beside the family-wise call until issue 29: a second
+    same tests were listed in ``cases.csv`` beside the family-wise call once: a second
     significance column that meant something else than the report's.)
     """
     done = [c for c in cases if c.singles is not None]

@@ -61,7 +61,7 @@ def subsample_note(analysed: int, n_runs: int, failed_analysed: int, failed: int
 #: Bytes the analysis holds per run analysed and column of the table, at its peak, beyond
 #: :data:`BASE_BYTES`: the runs frame, the inputs and derived factors as float64, their rank
 #: scales and bin codes, the permutation draws, the forest's copies.  Measured peak RSS
-#: (``benchmarks/analyze_scale.py``, issue 31): campaign tables of 97 columns, 0.89 GB at
+#: (``benchmarks/analyze_scale.py``): campaign tables of 97 columns, 0.89 GB at
 #: 100,000 runs and 1.41 GB at 10^6 (250,000 analysed), 36 bytes a cell between them;
 #: synthetic tables of 63 columns, 0.69 GB at 10^5 and 1.28 GB at 10^6, 63 bytes a cell.
 #: Rounded up to 64: the estimate is above every measurement (by 1.2-1.6x).

@@ -8,7 +8,7 @@ mean and sd over ``n_repeats`` shuffles.  Rows beyond ``max_rows`` are subsample
 by outcome) to bound the cost.
 
 The forest's ranking is shown beside the KDE's for comparison, never as a flag: no rule on it
-is a calibrated test (issue 29: "mean - 2 sd > 0", with no correction, marked 3-8 inputs of
+is a calibrated test (the earlier rule, "mean - 2 sd > 0", with no correction, marked 3-8 inputs of
 every one of 16 full-size null tables as "forest only").
 """
 
