@@ -47,6 +47,8 @@ from rcsim.spacecraft.vehicle_file import Vehicle
 
 COMMAND = "loop"
 STATE = "loop.json"
+#: Where the loop's ``control`` overrides come from, in messages and the profile's source.
+CONTROL_FROM = "the loop's --control"
 #: Stages in order, each a sub-directory (or file) of DIR.
 STAGES = ("campaign_before", "drivers", "refine", "campaign_after", "check", "rare", "report")
 
@@ -117,7 +119,7 @@ class LoopSettings:
 
     def flown_vehicle(self) -> Vehicle:
         """The vehicle the loop flies, resolved from its settings (the file, the overrides)."""
-        return Vehicle.load(self.vehicle, control=self.control, control_from="the loop's --control")
+        return Vehicle.load(self.vehicle, control=self.control, control_from=CONTROL_FROM)
 
     def __post_init__(self):
         # The refinement's and the driver analysis's own checks: one rule for each.
@@ -137,9 +139,12 @@ class LoopSettings:
         from rcsim.lookup.generation import is_coupled
 
         try:
-            vehicle = self.flown_vehicle()
+            vehicle = Vehicle.load(self.vehicle)
         except InputError as exc:
             raise InputError(str(exc), parameter="vehicle", value=self.vehicle) from None
+        # An override's error names the overrides (their origin starts the message), not the
+        # vehicle: the file itself loaded.
+        vehicle = vehicle.with_control(self.control, CONTROL_FROM)
         coupled = is_coupled(vehicle)
         table_name = self.table if self.table is not None else (GENERATE if coupled else "table6")
         object.__setattr__(self, "table", table_name)
