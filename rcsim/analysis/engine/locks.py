@@ -58,6 +58,8 @@ class ClaimScope:
     def __init__(self, stack: contextlib.ExitStack):
         self.stack = stack
         self.command = ""
+        #: The outputs claimed, in order: what a write error without a file was writing.
+        self.outputs: list[Path] = []
 
 
 _scope: contextvars.ContextVar[ClaimScope | None] = contextvars.ContextVar(
@@ -150,8 +152,16 @@ def _acquire(lock: Path, path: Path, command: str, parameter: str) -> int:
         if same:
             break
         os.close(fd)  # the previous holder removed the file after we opened it: start again
-    os.ftruncate(fd, 0)
-    os.pwrite(fd, f"pid {os.getpid()}, rcsim {command}\n".encode(), 0)
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pid {os.getpid()}, rcsim {command}\n".encode(), 0)
+    except OSError as exc:
+        # A full disk at the start: the holder's line does not fit.  Refused now, naming the
+        # output, and no lock file is left behind (it is still ours to remove).
+        _release(lock, fd, -1)
+        raise InputError(
+            f"{path}: cannot lock it ({exc.strerror or exc})", parameter=parameter, value=str(path)
+        ) from None
     return fd
 
 
@@ -308,3 +318,4 @@ def claim(out: str | os.PathLike, command: str, *, parameter: str = "out") -> No
     if command in ("", "output") and scope.command:
         command = scope.command
     scope.stack.enter_context(output_lock(out, command, parameter=parameter))
+    scope.outputs.append(as_out_path(out, parameter))

@@ -66,6 +66,7 @@ from rcsim.analysis.engine.output_records import (
     write_marker,
     write_record,
 )
+from rcsim.analysis.engine.write_errors import watching, written_file_error
 from rcsim.models.errors import InputError
 
 __all__ = [
@@ -349,8 +350,13 @@ def _write_atomically(out: Path, command: str | None, overwrite: bool):
         remove_parents(created)
         raise
     try:
-        yield tmp
-        write_record(tmp, command or "")
+        # A full disk names the file it stopped (a plotting or Parquet library names none).
+        with watching(tmp):
+            try:
+                yield tmp
+                write_record(tmp, command or "")
+            except OSError as exc:
+                raise written_file_error(exc, tmp, out) from exc
         if out.exists() and any(out.iterdir()):
             # Checked again under the lock, just before: what got in since is not removed.
             _check_replaceable(out, command, overwrite)

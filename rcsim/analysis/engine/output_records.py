@@ -28,6 +28,7 @@ import secrets
 from pathlib import Path
 
 from rcsim.analysis.engine.locks import lock_identity
+from rcsim.models.atomic import named_os_error
 
 MARKER = ".rcsim-output"
 MARKER_PREFIX = "written by rcsim"
@@ -82,6 +83,8 @@ def write_marker(directory: str | os.PathLike, command: str) -> None:
     try:
         tmp.write_text(f"{MARKER_PREFIX} {command}\n")
         os.replace(tmp, marker)
+    except OSError as exc:  # a full disk: name the marker, not nothing
+        raise named_os_error(exc, marker) from exc
     finally:
         tmp.unlink(missing_ok=True)
 

@@ -151,6 +151,7 @@ def main(argv: list[str] | None = None) -> int:
 
     parser = build_parser()
     args = None
+    claims = None
     try:
         # SIGTERM stops every command as Ctrl-C does (cleanly, resumably), told apart by the
         # exit status: 143 against 130.  Every output a command checks is locked from that
@@ -165,6 +166,8 @@ def main(argv: list[str] | None = None) -> int:
             # `rcsim ... | head`: the reader has gone.  End quietly, as other command-line
             # tools do (killed by SIGPIPE: status 128 + 13); nothing to report to anyone.
             return STDOUT_CLOSED
+        if isinstance(exc, OSError) and claims is not None:
+            exc = _name_outputs(exc, claims.outputs)
         # One line even if a message carries a newline (a path, a parser's text).
         line = " ".join(error_line(exc, getattr(args, "_parser", None)).split("\n"))
         print(f"rcsim: error: {line}", file=sys.stderr)
@@ -178,6 +181,16 @@ def main(argv: list[str] | None = None) -> int:
         hint = getattr(args, "resume_hint", None)
         print(f"rcsim: {what}" + (f"; resume with: {hint(args)}" if hint else ""), file=sys.stderr)
         return code
+
+
+def _name_outputs(exc: OSError, outputs: list) -> OSError:
+    """A write error that names no file (a full disk met by a library that does not say
+    where) names the command's outputs instead: every write goes to one of them."""
+    from rcsim.models.atomic import WRITE_ERRNOS, named_os_error, os_errno
+
+    if exc.filename is not None or not outputs or os_errno(exc) not in WRITE_ERRNOS:
+        return exc
+    return named_os_error(exc, "writing " + ", ".join(str(p) for p in outputs))
 
 
 #: Seconds the interpreter may take to exit after an interrupt before the process ends anyway.
