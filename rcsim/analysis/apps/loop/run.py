@@ -221,14 +221,14 @@ class _State:
                     parameter="out",
                     value=str(out),
                 )
-        else:
-            self.data = {
-                "format": "rcsim-loop/1",
-                "settings": wanted,
-                "done": {},
-                "code_version": campaign_results.code_version(),
-                "started_utc": campaign_results.now_utc(),
-            }
+            return  # as it was: saved again only when a stage finishes
+        self.data = {
+            "format": "rcsim-loop/1",
+            "settings": wanted,
+            "done": {},
+            "code_version": campaign_results.code_version(),
+            "started_utc": campaign_results.now_utc(),
+        }
         self.save()
 
     def done(self, stage: str) -> bool:
@@ -359,10 +359,12 @@ def _run_stages(table, settings: LoopSettings, out: Path, resume: bool, progress
     write_marker(out, COMMAND)
     state = _State(out, settings, resume)
     stages = _Stages(out, settings, table, state, progress)
+    flown = False
     for name in stages_of(settings):
         if state.done(name):
             echo(f"{name}: already done")
             continue
+        flown = True
         t0 = time.perf_counter()
         info = getattr(stages, name)() or {}
         seconds = time.perf_counter() - t0
@@ -371,8 +373,10 @@ def _run_stages(table, settings: LoopSettings, out: Path, resume: bool, progress
         give_back_free_memory()
         state.finish(name, seconds, **info)
         echo(f"{name}: done in {seconds:.1f} s" + "".join(f"; {k} {v}" for k, v in info.items()))
-    state.data["finished_utc"] = campaign_results.now_utc()
-    state.save()
+    if flown or "finished_utc" not in state.data:
+        # A resume of a finished loop did nothing: its record keeps when it finished.
+        state.data["finished_utc"] = campaign_results.now_utc()
+        state.save()
     return LoopResult(
         out=out,
         report=stages.paths["report"],
