@@ -193,8 +193,9 @@ def _name_outputs(exc: OSError, outputs: list) -> OSError:
     return named_os_error(exc, "writing " + ", ".join(str(p) for p in outputs))
 
 
-#: Seconds the interpreter may take to exit after an interrupt before the process ends anyway.
-EXIT_GRACE_S = 15.0
+#: Seconds the interpreter may take to exit after an interrupt before the process ends anyway
+#: (every cleanup of rcsim's own is done by then; a normal exit takes about 1 s).
+EXIT_GRACE_S = 3.0
 #: Exit status when stdout was closed by its reader (``| head``): a shell's for a process that
 #: SIGPIPE ended, 128 + 13.
 STDOUT_CLOSED = 141
@@ -215,6 +216,20 @@ def _stdout_closed() -> bool:
     except (AttributeError, OSError, ValueError):  # no descriptor (captured), or no poll
         return False
     return any(ev & (select.POLLERR | select.POLLHUP) for _, ev in events)
+
+
+def _silence_stderr() -> None:
+    """After an interrupt's one line, this process says nothing more: what libraries print
+    while the interpreter exits (an exit hook's traceback of a Dask cluster interrupted while
+    it started, asyncio's "Task exception was never retrieved", a pool's warnings) goes to
+    /dev/null.  Everything rcsim had to do and say is done when :func:`main` returns."""
+    try:
+        sys.stderr.flush()
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stderr.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass  # no descriptor (a captured stream): nothing to protect
 
 
 def run() -> None:
@@ -242,6 +257,7 @@ def run() -> None:
     from rcsim.analysis.engine.interrupts import INTERRUPTED, TERMINATED
 
     if code in (INTERRUPTED, TERMINATED):
+        _silence_stderr()
 
         def end(status: int = code) -> None:
             for stream in (sys.stderr, sys.stdout):

@@ -287,7 +287,7 @@ def run_campaign(
             try:
                 if client is not None and is_plugin(spec.controller):
                     check_workers_controller(client, spec)
-                return _run(
+                report = _run(
                     spec,
                     out,
                     manifest,
@@ -299,8 +299,14 @@ def run_campaign(
                     progress,
                     spec_file,
                 )
-            finally:
+            except KeyboardInterrupt:
+                close(client, cluster, kill=True)  # interrupted: no worker is waited for
+                raise
+            except BaseException:
                 close(client, cluster)
+                raise
+            close(client, cluster)
+            return report
 
 
 def _run(
