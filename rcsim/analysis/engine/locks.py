@@ -157,11 +157,9 @@ def _acquire(lock: Path, path: Path, command: str, parameter: str) -> int:
         os.pwrite(fd, f"pid {os.getpid()}, rcsim {command}\n".encode(), 0)
     except OSError as exc:
         # A full disk at the start: the holder's line does not fit.  Refused now, naming the
-        # output, and no lock file is left behind (it is still ours to remove).
+        # output (a disk's error, not a flag's), and no lock file is left behind.
         _release(lock, fd, -1)
-        raise InputError(
-            f"{path}: cannot lock it ({exc.strerror or exc})", parameter=parameter, value=str(path)
-        ) from None
+        raise OSError(exc.errno, f"cannot lock it ({exc.strerror or exc})", str(path)) from None
     return fd
 
 
