@@ -118,3 +118,16 @@ def test_a_lock_that_cannot_be_written_is_refused_and_leaves_no_lock_file(tmp_pa
     assert err.value.errno == errno.ENOSPC and err.value.filename == str(tmp_path / "sub/t.csv")
     assert err.value.strerror == f"cannot lock it ({ENOSPC})"
     assert list(tmp_path.iterdir()) == []  # no lock file, no parent made for it
+
+
+def test_the_command_line_names_its_outputs_when_nothing_else_can():
+    """Last resort: a write error that names no file, met outside any output directory's
+    temporary, names the outputs the command claimed; other errors are left as they are."""
+    from rcsim.analysis.apps.cli import _name_outputs, error_line
+
+    outputs = [Path("/d/t.csv"), Path("/d/t_settling.csv")]
+    named = _name_outputs(PYARROW_ENOSPC, outputs)
+    assert error_line(named) == f"writing /d/t.csv, /d/t_settling.csv: {ENOSPC}"
+    refused = ConnectionRefusedError(errno.ECONNREFUSED, "refused")
+    assert _name_outputs(refused, outputs) is refused
+    assert _name_outputs(OSError(errno.ENOSPC, ENOSPC), []).filename is None
