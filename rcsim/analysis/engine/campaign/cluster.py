@@ -206,6 +206,10 @@ def _kill_workers(cluster) -> None:
     import os
 
     for nanny in list(getattr(cluster, "workers", {}).values()):
+        # A nanny restarts a worker that died unless told the cluster is closing; one spawned
+        # now, as the cluster closes, fails to start and prints its traceback on stderr.
+        with contextlib.suppress(Exception):
+            nanny.close_gracefully(reason="rcsim-interrupted")
         pid = getattr(nanny, "pid", None)
         if isinstance(pid, int) and pid > 0:
             with contextlib.suppress(OSError):

@@ -494,8 +494,7 @@ def summary_text(report: CampaignReport, spec: CampaignSpec) -> str:
     lines.append(
         f"{c.get('runs', 0)} runs, {c.get('failed', 0)} failed "
         f"({c.get('sim_failed', 0)} simulation failures); controller {spec.controller}, "
-        f"failure: {failure_words(spec)}"
-        + (f" ({note})" if (note := failure_note(spec)) else "")
+        f"failure: {failure_words(spec)}" + (f" ({note})" if (note := failure_note(spec)) else "")
     )
     effects = describe(spec.effects)
     if effects:
