@@ -13,7 +13,9 @@ like every other file the user's tools write.
 
 from __future__ import annotations
 
+import errno
 import os
+import re
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -86,12 +88,33 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Pat
     return target
 
 
+#: Errors a write meets that are about where it writes, not about an input: a full disk or
+#: quota, a file too large, a filesystem gone read-only or failing.
+WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO})
+
+
+def os_errno(exc: OSError) -> int | None:
+    """``exc``'s errno, also when a library put it only in its message: pyarrow raises
+    ``OSError("Error writing bytes to file. Detail: [errno 28] No space left on device")``."""
+    if exc.errno is not None:
+        return exc.errno
+    found = _WRAPPED_ERRNO.search(str(exc))
+    return int(found.group(1)) if found else None
+
+
+_WRAPPED_ERRNO = re.compile(r"\[errno (\d+)\]", re.IGNORECASE)
+
+
 def named_os_error(exc: OSError, path: str | os.PathLike) -> OSError:
     """``exc`` naming ``path`` -- the file the user asked for -- instead of no file or a hidden
-    temporary, with the same errno (a full disk still reads "No space left on device")."""
+    temporary, with the same errno (a full disk still reads "No space left on device", also
+    when a library wrapped it in its own words)."""
+    number = os_errno(exc)
     reason = exc.strerror or str(exc) or type(exc).__name__
-    if exc.errno is not None:
-        return OSError(exc.errno, reason, str(path))
+    if number is not None and _WRAPPED_ERRNO.search(reason):
+        reason = os.strerror(number)  # the system's words, not the library's around them
+    if number is not None:
+        return OSError(number, reason, str(path))
     error = OSError(reason)
     error.strerror, error.filename = reason, str(path)
     return error

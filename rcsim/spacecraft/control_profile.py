@@ -326,6 +326,10 @@ def parse_assignments(items: list[str] | tuple[str, ...], *, flag: str = "--cont
     """``KEY=VALUE`` strings from the command line as a flat dict of numbers (of words for
     a key that takes one, e.g. ``min_pulse=drop``; the profile checks the word).
 
+    A key may be written as messages and warnings spell it, with its table's name
+    (``control.cycle_s``): it is the same key (``cycle_s``), not an unknown
+    ``control.control.cycle_s``.
+
     Raises
     ------
     InputError
@@ -335,6 +339,7 @@ def parse_assignments(items: list[str] | tuple[str, ...], *, flag: str = "--cont
     for item in items:
         key, sep, text = item.partition("=")
         key, text = key.strip(), text.strip()
+        key = key.removeprefix("control.")
         if not sep or not key:
             raise InputError(
                 f"{flag}: expected KEY=VALUE, e.g. maneuver_limit_deg=0.8 (got {item!r})"

@@ -4,12 +4,14 @@ A terminal's Ctrl-C raises :class:`KeyboardInterrupt`; a ``kill`` (SIGTERM, what
 ``timeout`` send) would end the process on the spot.  Inside :func:`sigterm_interrupts` it
 raises :class:`Terminated` instead, a KeyboardInterrupt, so every writer's cleanup runs the
 same way for both, and the command can exit with the shell's convention for the signal:
-130 (128 + SIGINT) after Ctrl-C, 143 (128 + SIGTERM) after SIGTERM.
+130 (128 + SIGINT) after Ctrl-C, 143 (128 + SIGTERM) after SIGTERM.  From the interrupt to
+the end of the block, logging is disabled: the stop is told in one line, by the command.
 """
 
 from __future__ import annotations
 
 import contextlib
+import logging
 import signal
 import threading
 
@@ -50,14 +52,17 @@ def sigterm_interrupts():
         yield
         return
     received = []
+    hushed = logging.root.manager.disable
 
     def interrupt(signum, frame):
         received.append(signum)
         _received.append(signum)
+        _hush()
         raise Terminated
 
     def ctrl_c(signum, frame):
         _received.append(signum)
+        _hush()
         raise KeyboardInterrupt
 
     old = signal.signal(signal.SIGTERM, interrupt)
@@ -75,9 +80,16 @@ def sigterm_interrupts():
         _depth -= 1
         if _depth == 0:
             _received.clear()
+            logging.disable(hushed)
         signal.signal(signal.SIGTERM, old)
         if old_int is signal.default_int_handler:
             signal.signal(signal.SIGINT, old_int)
+
+
+def _hush() -> None:
+    """Interrupted: libraries' logs stay unsaid until the block ends (a Dask cluster winding
+    down logs every closed stream and cancelled task); the command's one line says it all."""
+    logging.disable(logging.CRITICAL)
 
 
 def raise_if_interrupted() -> None:

@@ -6,7 +6,13 @@ writer's pid and command; a second writer is refused with that holder, before an
 
 The lock file is named after the path with every symbolic link resolved
 (``os.path.realpath``): ``--out LINK`` and ``--out TARGET`` are one output and take one lock
-(issue 31: through a symlink a second ``campaign run --resume`` flew beside the first).
+(issue 31: through a symlink a second ``campaign run --resume`` flew beside the first).  A
+bind mount of an ancestor changes nothing (the lock file beside the output is one file, seen
+at two paths), but a path cannot tell that a directory *itself* is mounted at a second path:
+an output directory is therefore also locked by its identity (device and inode), ``flock`` on
+the directory itself -- from the start when it exists, else from when its writer makes it and
+writes its marker (:func:`lock_identity`) -- and a second writer reaching it by any path is
+refused.
 
 Re-entrant within a thread: a command that claimed its output before the work (below) and
 then writes it through :func:`rcsim.analysis.engine.output.atomic_dir`, which locks again, holds
@@ -40,7 +46,8 @@ class OutputLocked(InputError):
     """Another process is writing the same output; ``holder`` says which."""
 
 
-#: Locks this process holds: lock file (real path) -> [descriptor, depth, thread ident].
+#: Locks this process holds: lock file (real path) -> [descriptor, depth, thread ident,
+#: descriptor of the output directory locked by identity (-1: none yet)].
 _held: dict[str, list[int]] = {}
 
 
@@ -51,6 +58,8 @@ class ClaimScope:
     def __init__(self, stack: contextlib.ExitStack):
         self.stack = stack
         self.command = ""
+        #: The outputs claimed, in order: what a write error without a file was writing.
+        self.outputs: list[Path] = []
 
 
 _scope: contextvars.ContextVar[ClaimScope | None] = contextvars.ContextVar(
@@ -143,9 +152,78 @@ def _acquire(lock: Path, path: Path, command: str, parameter: str) -> int:
         if same:
             break
         os.close(fd)  # the previous holder removed the file after we opened it: start again
-    os.ftruncate(fd, 0)
-    os.pwrite(fd, f"pid {os.getpid()}, rcsim {command}\n".encode(), 0)
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pid {os.getpid()}, rcsim {command}\n".encode(), 0)
+    except OSError as exc:
+        # A full disk at the start: the holder's line does not fit.  Refused now, naming the
+        # output (a disk's error, not a flag's), and no lock file is left behind.
+        _release(lock, fd, -1)
+        raise OSError(exc.errno, f"cannot lock it ({exc.strerror or exc})", str(path)) from None
     return fd
+
+
+def _identity_holder(info: os.stat_result) -> str:
+    """Who holds an flock on the file of ``info`` (device, inode), from ``/proc/locks``: the
+    holder's lock file is beside its own path, which this process does not know."""
+    wanted = f"{os.major(info.st_dev):02x}:{os.minor(info.st_dev):02x}:{info.st_ino}"
+    try:
+        with open("/proc/locks") as fh:
+            lines = fh.read().splitlines()
+    except OSError:
+        return ""
+    for line in lines:
+        fields = line.split()
+        if "FLOCK" in fields and wanted in fields:
+            pid = fields[fields.index(wanted) - 1]
+            try:
+                with open(f"/proc/{pid}/cmdline", "rb") as fh:
+                    argv = fh.read().split(b"\0")
+            except OSError:
+                return f"pid {pid}"
+            words = [a.decode(errors="replace") for a in argv if a]
+            if words and os.path.basename(words[0]).startswith("python"):
+                words = words[1:]  # the interpreter: the program it runs says more
+            if not words:
+                return f"pid {pid}"
+            # As the holder's own lock file says it: "pid 12, rcsim campaign run".
+            return f"pid {pid}, {' '.join([os.path.basename(words[0]), *words[1:3]])}"
+    return ""
+
+
+def _lock_identity(path: Path, parameter: str) -> int:
+    """flock directory ``path`` itself; its descriptor, -1 when it is no directory (yet), or
+    :class:`OutputLocked` when another process holds it (through another path)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError:
+        return -1  # not there (yet), or no directory: its path lock alone guards it
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as exc:
+        holder = _identity_holder(os.fstat(fd))
+        os.close(fd)
+        if exc.errno not in (errno.EAGAIN, errno.EACCES, errno.EWOULDBLOCK):
+            raise
+        raise OutputLocked(
+            f"{path}: is being written by another rcsim process ({holder or 'unknown'}) "
+            "through another path to the same directory (a bind mount); wait for it to finish "
+            "or stop it",
+            parameter=parameter,
+            value=str(path),
+        ) from None
+    return fd
+
+
+def lock_identity(out: str | os.PathLike, *, parameter: str = "out") -> None:
+    """Lock output directory ``out``, whose path lock this thread holds, by its identity too
+    (module docstring): called once its writer has made it.  Nothing when this thread does not
+    hold ``out``, or holds its identity already; :class:`OutputLocked` when another process
+    reached it first through another path."""
+    held = _held.get(str(lock_file(out)))
+    if held is None or held[2] != threading.get_ident() or held[3] != -1:
+        return
+    held[3] = _lock_identity(real_path(out), parameter)
 
 
 @contextlib.contextmanager
@@ -178,18 +256,34 @@ def output_lock(out: str | os.PathLike, command: str, *, parameter: str = "out")
     except BaseException:
         _remove_empty(created)
         raise
-    _held[key] = [fd, 1, threading.get_ident()]
+    try:
+        # Beside the lock by path, the lock by identity: the directory may be mounted at a
+        # second path, whose lock file is another.
+        identity = _lock_identity(real_path(path), parameter)
+    except BaseException:
+        _release(lock, fd, -1)
+        _remove_empty(created)
+        raise
+    _held[key] = [fd, 1, threading.get_ident(), identity]
     ok = False
     try:
         yield path
         ok = True
     finally:
-        _held.pop(key, None)
-        with contextlib.suppress(OSError):
-            os.unlink(lock)
-        os.close(fd)
+        held = _held.pop(key, None)
+        _release(lock, fd, held[3] if held is not None else identity)
         if not ok:
             _remove_empty(created)
+
+
+def _release(lock: Path, fd: int, identity: int) -> None:
+    """Remove the lock file (while still holding it: a waiting writer then opens a new one),
+    then close the descriptors."""
+    with contextlib.suppress(OSError):
+        os.unlink(lock)
+    os.close(fd)
+    if identity != -1:
+        os.close(identity)
 
 
 def holds_lock(out: str | os.PathLike) -> bool:
@@ -222,3 +316,4 @@ def claim(out: str | os.PathLike, command: str, *, parameter: str = "out") -> No
     if command in ("", "output") and scope.command:
         command = scope.command
     scope.stack.enter_context(output_lock(out, command, parameter=parameter))
+    scope.outputs.append(as_out_path(out, parameter))

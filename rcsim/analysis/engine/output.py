@@ -44,12 +44,13 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import secrets
 import sys
 import tempfile
 from pathlib import Path
 
-from rcsim.analysis.engine.locks import OutputLocked, claim, output_lock
+from rcsim.analysis.engine.locks import OutputLocked, claim, holds_lock, output_lock
 from rcsim.analysis.engine.locks import as_out_path as _as_path
 from rcsim.analysis.engine.output_places import (
     RESUMABLE,
@@ -66,6 +67,7 @@ from rcsim.analysis.engine.output_records import (
     write_marker,
     write_record,
 )
+from rcsim.analysis.engine.write_errors import watching, written_file_error
 from rcsim.models.errors import InputError
 
 __all__ = [
@@ -316,10 +318,57 @@ def remove_parents(created: list[Path]) -> None:
             break
 
 
+def _staging_name(name: str) -> re.Pattern:
+    return re.compile(rf"\.{re.escape(name)}\.tmp-[0-9a-f]{{{2 * _STAGING_BYTES}}}")
+
+
+def remove_stale_staging(out: Path) -> list[Path]:
+    """Remove the staging folders of ``out`` (:func:`_make_temp_dir`'s, beside it) that
+    writers killed before their rename left behind (``kill -9`` of ``maneuver --overwrite``).
+
+    Only under ``out``'s lock, which every writer of ``out`` holds while its staging folder
+    exists: a folder of that name is then a dead writer's.  Only rcsim's own kind: a real
+    directory (no link) of exactly that name, owned by this user.
+
+    Returns
+    -------
+    list of Path
+        The folders removed.
+    """
+    import shutil
+
+    if not holds_lock(out):
+        return []  # no proof that their writer is dead
+    pattern = _staging_name(out.name)
+    removed: list[Path] = []
+    try:
+        entries = list(os.scandir(out.parent))
+    except OSError:
+        return removed
+    for entry in entries:
+        if not pattern.fullmatch(entry.name):
+            continue
+        try:
+            if (
+                not entry.is_dir(follow_symlinks=False)
+                or entry.stat(follow_symlinks=False).st_uid != os.geteuid()
+            ):
+                continue
+        except OSError:
+            continue
+        shutil.rmtree(entry.path, ignore_errors=True)
+        removed.append(Path(entry.path))
+    return removed
+
+
+#: Random bytes in a staging folder's name (``.NAME.tmp-<hex>``).
+_STAGING_BYTES = 4
+
+
 def _make_temp_dir(parent: Path, name: str) -> Path:
     """A new hidden directory in ``parent``, mode 0o777 under the umask (mkdtemp gives 0o700)."""
     while True:
-        tmp = parent / f".{name}.tmp-{secrets.token_hex(4)}"
+        tmp = parent / f".{name}.tmp-{secrets.token_hex(_STAGING_BYTES)}"
         try:
             tmp.mkdir(mode=0o777)  # the kernel applies the umask, as for any new directory
             return tmp
@@ -343,14 +392,20 @@ def atomic_dir(out: str | os.PathLike, command: str | None = None, *, overwrite:
 
 def _write_atomically(out: Path, command: str | None, overwrite: bool):
     created = make_parents(out)
+    remove_stale_staging(out)
     try:
         tmp = _make_temp_dir(out.parent, out.name)
     except BaseException:
         remove_parents(created)
         raise
     try:
-        yield tmp
-        write_record(tmp, command or "")
+        # A full disk names the file it stopped (a plotting or Parquet library names none).
+        with watching(tmp):
+            try:
+                yield tmp
+                write_record(tmp, command or "")
+            except OSError as exc:
+                raise written_file_error(exc, tmp, out) from exc
         if out.exists() and any(out.iterdir()):
             # Checked again under the lock, just before: what got in since is not removed.
             _check_replaceable(out, command, overwrite)

@@ -27,6 +27,9 @@ import os
 import secrets
 from pathlib import Path
 
+from rcsim.analysis.engine.locks import lock_identity
+from rcsim.models.atomic import named_os_error
+
 MARKER = ".rcsim-output"
 MARKER_PREFIX = "written by rcsim"
 FORMAT = "rcsim-outputs/1"
@@ -69,12 +72,19 @@ def write_record(directory: str | os.PathLike, command: str) -> None:
 def write_marker(directory: str | os.PathLike, command: str) -> None:
     """Write the marker of ``rcsim <command>``, without a list, into a directory written in
     place and never replaced (a campaign's, a loop's): it names the owner for other commands.
-    Written beside and renamed over the old one: a kill mid-write never leaves it empty."""
+    Written beside and renamed over the old one: a kill mid-write never leaves it empty.
+
+    The directory exists now: a writer holding its lock by path locks it by its identity too
+    first (:func:`rcsim.analysis.engine.locks.lock_identity`), so that no second writer
+    reaches it through a bind mount at another path."""
+    lock_identity(directory)
     marker = Path(directory) / MARKER
     tmp = marker.with_name(f"{MARKER}.tmp-{secrets.token_hex(4)}")
     try:
         tmp.write_text(f"{MARKER_PREFIX} {command}\n")
         os.replace(tmp, marker)
+    except OSError as exc:  # a full disk: name the marker, not nothing
+        raise named_os_error(exc, marker) from exc
     finally:
         tmp.unlink(missing_ok=True)
 

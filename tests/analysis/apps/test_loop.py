@@ -65,8 +65,11 @@ def test_every_stage_done_and_consistent(loop_dir):
 
 def test_resume_skips_finished_stages_and_refuses_other_settings(loop_dir):
     lines = []
+    record = (loop_dir / "loop.json").read_bytes()
     run_loop(SMALL, loop_dir, resume=True, progress=False, echo=lines.append)
     assert lines == [f"{stage}: already done" for stage in STAGES]
+    # A resume that did nothing left the record as it was: finished_utc is when it finished.
+    assert (loop_dir / "loop.json").read_bytes() == record
     with pytest.raises(InputError, match="other settings"):
         run_loop(
             LoopSettings(runs_per_case=9, duration_s=6.0),

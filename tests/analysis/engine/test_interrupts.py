@@ -79,3 +79,24 @@ def test_numpy_swallows_an_interrupt_raised_inside_a_dtype_comparison():
             raise KeyboardInterrupt
 
     assert (np.dtype("float64") == Interrupting()) is False
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_logging_is_silent_from_the_interrupt_to_the_end_of_the_block(sig):
+    """A Dask cluster winding down after an interrupt logged closed streams and a nanny's
+    traceback around the command's one line (issue 38): from the interrupt on, logging is
+    disabled; after the block it is as it was."""
+    import logging
+
+    before = logging.root.manager.disable
+    seen = []
+    with pytest.raises(KeyboardInterrupt):
+        with sigterm_interrupts():
+            assert logging.root.manager.disable == before  # no interrupt yet: as it was
+            try:
+                os.kill(os.getpid(), sig)
+                time.sleep(5.0)
+            finally:
+                seen.append(logging.root.manager.disable)
+    assert seen == [logging.CRITICAL]
+    assert logging.root.manager.disable == before

@@ -223,3 +223,39 @@ def test_lookup_refine_is_refused_before_any_flight_while_another_writes(
     finally:
         holder.communicate("", timeout=60)
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_a_dead_writers_staging_folder_is_removed_by_the_next_writer(tmp_path):
+    """``kill -9`` of ``maneuver --overwrite`` left ``.M.tmp-<hex>`` beside the output, full of
+    its half-written files, and no later run removed it (issue 38, section 4).  The next writer
+    of the output, holding its lock (so the folder's writer is dead), removes it; nothing else
+    of that look: another output's, a name that only begins the same, a link, a file."""
+    from rcsim.analysis.engine.output import remove_stale_staging
+
+    out = tmp_path / "M"
+    _write(out, "maneuver")
+    dead = tmp_path / ".M.tmp-0123abcd"
+    (dead / "plots").mkdir(parents=True)
+    (dead / "history.parquet").write_text("PAR1 half")
+    keep = tmp_path / "keep"
+    keep.mkdir()
+    (keep / "mine.txt").write_text("mine")
+    others = {
+        ".N.tmp-0123abcd": "dir",  # another output's: its own writer's business
+        ".M.tmp-0123abcd.x": "dir",  # not the staging pattern
+        ".M.tmp-89abcdef": "link",  # a link to the user's folder: never followed, never removed
+        ".M.tmp-fedcba98": "file",
+    }
+    for name, kind in others.items():
+        if kind == "dir":
+            (tmp_path / name).mkdir()
+        elif kind == "link":
+            (tmp_path / name).symlink_to(keep)
+        else:
+            (tmp_path / name).write_text("x")
+    assert remove_stale_staging(out) == []  # without the output's lock: no proof it is dead
+    assert dead.exists()
+    _write(out, "maneuver", overwrite=True)
+    assert not dead.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["M", "keep", *others])
+    assert (keep / "mine.txt").read_text() == "mine"

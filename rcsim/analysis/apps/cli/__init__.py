@@ -151,6 +151,7 @@ def main(argv: list[str] | None = None) -> int:
 
     parser = build_parser()
     args = None
+    claims = None
     try:
         # SIGTERM stops every command as Ctrl-C does (cleanly, resumably), told apart by the
         # exit status: 143 against 130.  Every output a command checks is locked from that
@@ -165,6 +166,8 @@ def main(argv: list[str] | None = None) -> int:
             # `rcsim ... | head`: the reader has gone.  End quietly, as other command-line
             # tools do (killed by SIGPIPE: status 128 + 13); nothing to report to anyone.
             return STDOUT_CLOSED
+        if isinstance(exc, OSError) and claims is not None:
+            exc = _name_outputs(exc, claims.outputs)
         # One line even if a message carries a newline (a path, a parser's text).
         line = " ".join(error_line(exc, getattr(args, "_parser", None)).split("\n"))
         print(f"rcsim: error: {line}", file=sys.stderr)
@@ -180,8 +183,19 @@ def main(argv: list[str] | None = None) -> int:
         return code
 
 
-#: Seconds the interpreter may take to exit after an interrupt before the process ends anyway.
-EXIT_GRACE_S = 15.0
+def _name_outputs(exc: OSError, outputs: list) -> OSError:
+    """A write error that names no file (a full disk met by a library that does not say
+    where) names the command's outputs instead: every write goes to one of them."""
+    from rcsim.models.atomic import WRITE_ERRNOS, named_os_error, os_errno
+
+    if exc.filename is not None or not outputs or os_errno(exc) not in WRITE_ERRNOS:
+        return exc
+    return named_os_error(exc, "writing " + ", ".join(str(p) for p in outputs))
+
+
+#: Seconds the interpreter may take to exit after an interrupt before the process ends anyway
+#: (every cleanup of rcsim's own is done by then; a normal exit takes about 1 s).
+EXIT_GRACE_S = 3.0
 #: Exit status when stdout was closed by its reader (``| head``): a shell's for a process that
 #: SIGPIPE ended, 128 + 13.
 STDOUT_CLOSED = 141
@@ -202,6 +216,20 @@ def _stdout_closed() -> bool:
     except (AttributeError, OSError, ValueError):  # no descriptor (captured), or no poll
         return False
     return any(ev & (select.POLLERR | select.POLLHUP) for _, ev in events)
+
+
+def _silence_stderr() -> None:
+    """After an interrupt's one line, this process says nothing more: what libraries print
+    while the interpreter exits (an exit hook's traceback of a Dask cluster interrupted while
+    it started, asyncio's "Task exception was never retrieved", a pool's warnings) goes to
+    /dev/null.  Everything rcsim had to do and say is done when :func:`main` returns."""
+    try:
+        sys.stderr.flush()
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stderr.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass  # no descriptor (a captured stream): nothing to protect
 
 
 def run() -> None:
@@ -229,6 +257,7 @@ def run() -> None:
     from rcsim.analysis.engine.interrupts import INTERRUPTED, TERMINATED
 
     if code in (INTERRUPTED, TERMINATED):
+        _silence_stderr()
 
         def end(status: int = code) -> None:
             for stream in (sys.stderr, sys.stdout):

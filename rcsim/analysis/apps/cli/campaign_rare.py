@@ -132,7 +132,7 @@ def case_indices(spec, names: str | None) -> list[int]:
     for n in wanted:
         if n not in known:
             raise InputError(
-                f"--cases: {n!r} is not a case of the spec (its cases: {', '.join(known[:8])}"
+                f"{n!r} is not a case of the spec (its cases: {', '.join(known[:8])}"
                 f"{' ...' if len(known) > 8 else ''})",
                 parameter="cases",
                 value=n,
@@ -152,7 +152,7 @@ def settings_of(args):
         )
     k = args.repeats
     if k < 1:
-        raise InputError(f"--repeats must be at least 1, got {k}", parameter="repeats", value=k)
+        raise InputError(f"must be at least 1, got {k}", parameter="repeats", value=k)
     if args.budget < k * n:
         raise InputError(
             f"--budget must allow level 0 of every repeat (--repeats {k} x --runs-per-level "
@@ -160,14 +160,14 @@ def settings_of(args):
         )
     if args.workers is not None and args.scheduler is not None:
         raise InputError(
-            "--workers and --scheduler are exclusive: --workers runs the repeats on this "
+            "and --scheduler are exclusive: --workers runs the repeats on this "
             "machine's processes, --scheduler on an existing Dask cluster",
             parameter="workers",
             value=args.workers,
         )
     if args.workers is not None and args.workers < 1:
         raise InputError(
-            f"--workers must be at least 1, got {args.workers}",
+            f"must be at least 1, got {args.workers}",
             parameter="workers",
             value=args.workers,
         )

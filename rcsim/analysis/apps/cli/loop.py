@@ -11,6 +11,7 @@ from rcsim.analysis.apps.cli.vehicle_args import (
     control_overrides,
     warn_vehicle,
 )
+from rcsim.models.errors import InputError
 
 
 def register(sub) -> None:
@@ -83,8 +84,8 @@ def register(sub) -> None:
         "--rare-cases",
         type=int,
         metavar="K",
-        help="with --rare-budget: at most K cases, those whose runs came closest to failing "
-        "(default 3)",
+        help="with --rare-budget (refused without it): at most K cases, those whose runs came "
+        "closest to failing (default 3)",
     )
     p.add_argument(
         "--yes",
@@ -141,6 +142,13 @@ def run(args: argparse.Namespace) -> int:
         settings = resumed_settings(args.out, given)
     else:
         settings = LoopSettings(**given)
+    if args.rare_cases is not None and settings.rare_budget == 0:
+        # The stage is off without a budget: K cases of nothing would be flown silently.
+        raise InputError(
+            f"--rare-cases {args.rare_cases} needs --rare-budget RUNS: with a budget of 0 (the "
+            "default) the rare-event stage is off and estimates no case; give --rare-budget as "
+            "well, or leave --rare-cases out"
+        )
     from rcsim.analysis.apps.estimates import confirm, flying_seconds
 
     warn_vehicle(settings.flown_vehicle())
@@ -149,22 +157,28 @@ def run(args: argparse.Namespace) -> int:
     # half the cases, twice) and Table 7 on the held-out seed, the search (a few rounds) on
     # its subset.
     cases = 26
-    simulated = (
+    campaigns = (
         settings.duration_s
         * cases
         * (
             5 * settings.runs_per_case
             + 3 * min(settings.search_runs_per_case, settings.runs_per_case)
         )
-        # The rare-event stage (opt-in): at most its budget on each of its cases.
-        + settings.duration_s * settings.rare_budget * settings.rare_cases
+    )
+    # The rare-event stage (opt-in): at most its budget on each of its cases.
+    rare = settings.duration_s * settings.rare_budget * min(settings.rare_cases, cases)
+    # A refusal names the setting that makes the loop long.
+    parameter, value = (
+        ("rare_budget", settings.rare_budget)
+        if rare > campaigns
+        else ("runs_per_case", settings.runs_per_case)
     )
     confirm(
         "the loop",
-        flying_seconds(simulated, runs=cases * settings.runs_per_case),
+        flying_seconds(campaigns + rare, runs=cases * settings.runs_per_case),
         yes=args.yes,
-        parameter="runs_per_case",
-        value=settings.runs_per_case,
+        parameter=parameter,
+        value=value,
     )
     result = run_loop(settings, args.out, resume=args.resume, progress=args.progress)
     total = sum(result.stage_s.values())

@@ -47,6 +47,8 @@ from rcsim.spacecraft.vehicle_file import Vehicle
 
 COMMAND = "loop"
 STATE = "loop.json"
+#: Where the loop's ``control`` overrides come from, in messages and the profile's source.
+CONTROL_FROM = "the loop's --control"
 #: Stages in order, each a sub-directory (or file) of DIR.
 STAGES = ("campaign_before", "drivers", "refine", "campaign_after", "check", "rare", "report")
 
@@ -117,7 +119,7 @@ class LoopSettings:
 
     def flown_vehicle(self) -> Vehicle:
         """The vehicle the loop flies, resolved from its settings (the file, the overrides)."""
-        return Vehicle.load(self.vehicle, control=self.control, control_from="the loop's --control")
+        return Vehicle.load(self.vehicle, control=self.control, control_from=CONTROL_FROM)
 
     def __post_init__(self):
         # The refinement's and the driver analysis's own checks: one rule for each.
@@ -137,9 +139,12 @@ class LoopSettings:
         from rcsim.lookup.generation import is_coupled
 
         try:
-            vehicle = self.flown_vehicle()
+            vehicle = Vehicle.load(self.vehicle)
         except InputError as exc:
             raise InputError(str(exc), parameter="vehicle", value=self.vehicle) from None
+        # An override's error names the overrides (their origin starts the message), not the
+        # vehicle: the file itself loaded.
+        vehicle = vehicle.with_control(self.control, CONTROL_FROM)
         coupled = is_coupled(vehicle)
         table_name = self.table if self.table is not None else (GENERATE if coupled else "table6")
         object.__setattr__(self, "table", table_name)
@@ -216,14 +221,14 @@ class _State:
                     parameter="out",
                     value=str(out),
                 )
-        else:
-            self.data = {
-                "format": "rcsim-loop/1",
-                "settings": wanted,
-                "done": {},
-                "code_version": campaign_results.code_version(),
-                "started_utc": campaign_results.now_utc(),
-            }
+            return  # as it was: saved again only when a stage finishes
+        self.data = {
+            "format": "rcsim-loop/1",
+            "settings": wanted,
+            "done": {},
+            "code_version": campaign_results.code_version(),
+            "started_utc": campaign_results.now_utc(),
+        }
         self.save()
 
     def done(self, stage: str) -> bool:
@@ -354,10 +359,12 @@ def _run_stages(table, settings: LoopSettings, out: Path, resume: bool, progress
     write_marker(out, COMMAND)
     state = _State(out, settings, resume)
     stages = _Stages(out, settings, table, state, progress)
+    flown = False
     for name in stages_of(settings):
         if state.done(name):
             echo(f"{name}: already done")
             continue
+        flown = True
         t0 = time.perf_counter()
         info = getattr(stages, name)() or {}
         seconds = time.perf_counter() - t0
@@ -366,8 +373,10 @@ def _run_stages(table, settings: LoopSettings, out: Path, resume: bool, progress
         give_back_free_memory()
         state.finish(name, seconds, **info)
         echo(f"{name}: done in {seconds:.1f} s" + "".join(f"; {k} {v}" for k, v in info.items()))
-    state.data["finished_utc"] = campaign_results.now_utc()
-    state.save()
+    if flown or "finished_utc" not in state.data:
+        # A resume of a finished loop did nothing: its record keeps when it finished.
+        state.data["finished_utc"] = campaign_results.now_utc()
+        state.save()
     return LoopResult(
         out=out,
         report=stages.paths["report"],

@@ -61,12 +61,15 @@ def _quiet_worker() -> None:
     logging.getLogger("distributed").setLevel(logging.CRITICAL + 1)
 
 
+#: The loggers a closing Dask cluster talks through.
+_DASK_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
 @contextlib.contextmanager
 def quiet_dask():
     """Silence distributed's (and its event loop's) loggers: closing a cluster with tasks in
     flight makes them log every cancelled task and closed stream, which is expected here."""
-    names = ("distributed", "tornado", "asyncio")
-    loggers = [logging.getLogger(n) for n in names]
+    loggers = [logging.getLogger(n) for n in _DASK_LOGGERS]
     levels = [lg.level for lg in loggers]
     for lg in loggers:
         lg.setLevel(logging.CRITICAL + 1)
@@ -109,18 +112,32 @@ def connect(workers: int | None, scheduler: str | None):
     if workers is not None:
         if workers < 1:
             raise InputError(f"must be >= 1, got {workers}", parameter="workers", value=workers)
-        with _children_ignore_sigint():
-            cluster = LocalCluster(
-                n_workers=workers,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                # No dashboard, but the scheduler still serves its health routes over HTTP, on
-                # port 8787 unless told otherwise: a second campaign found it taken and warned
-                # in four lines (issue 31).  Any free port on this machine only.
-                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-            )
-        client = Client(cluster)
+        from distributed.deploy.spec import SpecCluster
+
+        before = set(SpecCluster._instances)
+        client = None
+        try:
+            with _children_ignore_sigint():
+                cluster = LocalCluster(
+                    n_workers=workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    # No dashboard, but the scheduler still serves its health routes over
+                    # HTTP, on port 8787 unless told otherwise: a second campaign found it
+                    # taken and warned in four lines (issue 31).  Any free port here only.
+                    scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                )
+            client = Client(cluster)
+            client.run(warm_up)
+        except BaseException:
+            # Interrupted while the cluster started: closed here, its workers killed, not
+            # left to distributed's exit hook (which printed a 30-line traceback of a nanny
+            # that never started after the one line).
+            for started in set(SpecCluster._instances) - before:
+                close(client, started, kill=True)
+            raise
+        return client, cluster
     else:
         cluster = None
         try:
@@ -156,12 +173,44 @@ def _controller_problem(spec: CampaignSpec) -> str | None:
     return None
 
 
-def close(client, cluster) -> None:
-    """Close a Dask client and the cluster we started, quietly and without a long wait."""
+def close(client, cluster, *, kill: bool = False) -> None:
+    """Close a Dask client and the cluster we started, quietly and without a long wait.
+
+    ``kill`` (an interrupt): the cluster's worker processes are killed first -- a worker busy
+    in a chunk does not answer the request to stop, and closing waited 4 s per worker for it,
+    then logged that it killed it."""
     with quiet_dask():
+        if kill and cluster is not None:
+            _kill_workers(cluster)
         if client is not None:
             with contextlib.suppress(Exception):
                 client.close(timeout=5)
         if cluster is not None:
             with contextlib.suppress(Exception):
                 cluster.close(timeout=5)
+        if kill and cluster is not None:
+            # Closed as far as it goes: distributed's exit hook would try again, for 10 s,
+            # a cluster whose workers never started.
+            from distributed.deploy.spec import SpecCluster
+
+            SpecCluster._instances.discard(cluster)
+    if kill:
+        # The work was interrupted and its one line is on its way: what the cluster's event
+        # loop still logs while it winds down ("Received 'close-stream' ...") stays unsaid.
+        for name in _DASK_LOGGERS:
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+
+
+def _kill_workers(cluster) -> None:
+    """SIGKILL the worker processes of a local cluster (its nannies' children)."""
+    import os
+
+    for nanny in list(getattr(cluster, "workers", {}).values()):
+        # A nanny restarts a worker that died unless told the cluster is closing; one spawned
+        # now, as the cluster closes, fails to start and prints its traceback on stderr.
+        with contextlib.suppress(Exception):
+            nanny.close_gracefully(reason="rcsim-interrupted")
+        pid = getattr(nanny, "pid", None)
+        if isinstance(pid, int) and pid > 0:
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)

@@ -97,8 +97,33 @@ def _start_fork_server() -> None:
     # may end before the process does (Linux ties the request to the starting thread).
     if threading.current_thread() is threading.main_thread():
         env[pool_guard.PARENT_ENV] = str(os.getpid())
+    _start_quiet_resource_tracker()
     with environment(env):
         forkserver.ensure_running()
+
+
+def _start_quiet_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker (once per process) with its stderr on
+    /dev/null.  It unlinks the semaphores of a pool that was killed, not shut down (an
+    interrupt), and would say so under the command's one line, after the command ended ("There
+    appear to be 2 leaked semaphore objects to clean up at shutdown"); it still cleans them.
+    """
+    from multiprocessing import resource_tracker
+
+    try:
+        saved = os.dup(2)
+    except OSError:
+        resource_tracker.ensure_running()
+        return
+    try:
+        sys.stderr.flush()
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 2)  # the tracker is started with this process's descriptor 2
+        os.close(devnull)
+        resource_tracker.ensure_running()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 @contextmanager

@@ -287,7 +287,7 @@ def run_campaign(
             try:
                 if client is not None and is_plugin(spec.controller):
                     check_workers_controller(client, spec)
-                return _run(
+                report = _run(
                     spec,
                     out,
                     manifest,
@@ -299,8 +299,14 @@ def run_campaign(
                     progress,
                     spec_file,
                 )
-            finally:
+            except KeyboardInterrupt:
+                close(client, cluster, kill=True)  # interrupted: no worker is waited for
+                raise
+            except BaseException:
                 close(client, cluster)
+                raise
+            close(client, cluster)
+            return report
 
 
 def _run(
@@ -446,6 +452,24 @@ def _drain(
     return flown, simulated, time.perf_counter() - t0, solver
 
 
+def failure_words(spec: CampaignSpec) -> str:
+    """Every criterion that fails a run of ``spec`` (those of
+    :func:`rcsim.analysis.engine.campaign.outcomes.outcomes`), in words with its threshold."""
+    failure = spec.resolved["failure"]
+    words = [f"final |rate error| >= {failure['rate_error_deg_s']} deg/s"]
+    if "attitude_error_deg" in failure:
+        words.append(f"final attitude error > {failure['attitude_error_deg']:g} deg")
+    loaded = spec.vehicle.definition.propellant_kg
+    if loaded is not None:  # the vehicle's tank is tracked: running dry fails the run
+        words.append(f"propellant exhausted ({loaded:g} kg loaded)")
+    words += [
+        f"{failure[k]:g} {unit} exceeded ({k})"
+        for k, unit in (("max_propellant_kg", "kg"), ("max_delta_v_m_s", "m/s"))
+        if k in failure
+    ]
+    return ", or ".join(words)
+
+
 def summary_text(report: CampaignReport, spec: CampaignSpec) -> str:
     """The end-of-campaign summary: runs, failures by case, time."""
     import pandas as pd
@@ -470,13 +494,7 @@ def summary_text(report: CampaignReport, spec: CampaignSpec) -> str:
     lines.append(
         f"{c.get('runs', 0)} runs, {c.get('failed', 0)} failed "
         f"({c.get('sim_failed', 0)} simulation failures); controller {spec.controller}, "
-        f"failure: final |rate error| >= {spec.resolved['failure']['rate_error_deg_s']} deg/s"
-        + "".join(
-            f", or {spec.resolved['failure'][k]:g} {unit} exceeded ({k})"
-            for k, unit in (("max_propellant_kg", "kg"), ("max_delta_v_m_s", "m/s"))
-            if k in spec.resolved["failure"]
-        )
-        + (f" ({note})" if (note := failure_note(spec)) else "")
+        f"failure: {failure_words(spec)}" + (f" ({note})" if (note := failure_note(spec)) else "")
     )
     effects = describe(spec.effects)
     if effects:

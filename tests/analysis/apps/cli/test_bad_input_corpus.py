@@ -16,6 +16,7 @@ in-process through :func:`rcsim.analysis.apps.cli.main` (fast); cases marked ``r
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import stat
 import subprocess
@@ -46,6 +47,10 @@ KEYS = {
 # The issue asks for at least 60 malformed inputs across every command.
 MIN_REFUSALS = 60
 COMMANDS = {"maneuver", "lookup", "scenario", "campaign", "study"}
+
+
+#: A flag repeated (``--cases --cases:``) or a key path's head repeated (``control.control.``).
+_DOUBLED = re.compile(r"(?<![\w-])(--[a-z][\w-]*)[ :]+\1(?![\w-])|(?<![\w.])([a-z_]+)\.\2\.")
 
 
 def _load_cases() -> list[dict]:
@@ -161,6 +166,11 @@ def test_bad_input(case, tmp_path, capsys, monkeypatch, request):
     assert len(lines) == 1, f"expected one error line on stderr, got:\n{err}"
     assert lines[0].startswith("rcsim: error: "), err
     assert rc == 2, err
+    # The flag or key is named once: a message that names its flag itself, rendered under the
+    # flag again, read "--repeats --repeats must be at least 1"; a key path prefixed twice,
+    # "control.control.cycle_s".
+    doubled = _DOUBLED.search(lines[0])
+    assert doubled is None, f"{doubled.group(0)!r} named twice in the error line: {lines[0]}"
     for text in case["expect"]:
         assert text.format(**subs).lower() in lines[0].lower(), (
             f"{text!r} not in the error line: {lines[0]}"

@@ -118,6 +118,8 @@ def test_maneuver_killed_then_overwritten(tmp_path, capsys, monkeypatch, kill_po
         assert main([*MANEUVER, "--out", "M", "--overwrite"]) == 0  # no stale lock, no debris
         capsys.readouterr()
         assert unlisted_entry(out) is None
+        # The killed writer's staging folder is gone with it (issue 38).
+        assert not list(tmp_path.glob(".M.tmp-*"))
 
 
 @pytest.mark.slow

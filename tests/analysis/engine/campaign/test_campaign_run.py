@@ -441,3 +441,28 @@ def test_paper_table_by_name_flies_replays_and_resumes(tmp_path, capsys):
     assert main(["campaign", "replay", str(tmp_path / "a"), "2", "--out", str(tmp_path / "r")]) == 2
     assert "packaged paper table changed since the campaign ran" in capsys.readouterr().err
     assert not (tmp_path / "r").exists()
+
+
+def test_the_summary_names_every_failure_criterion(tmp_path):
+    """The console's "failure: ..." line left out the attitude criterion and propellant
+    exhaustion (issue 38, section 4): it names every criterion outcomes() fails a run on,
+    with its threshold -- the spec's [failure] keys and, when the vehicle's tank is tracked
+    (its [propellant] mass_kg), running dry."""
+    import shutil
+
+    from rcsim.analysis.engine.campaign.runner import failure_words
+
+    plain = load_spec(_spec(tmp_path))
+    assert failure_words(plain) == "final |rate error| >= 0.04 deg/s"
+    shutil.copy(
+        Path(__file__).parents[3] / "analysis/apps/cli/corpus/files/smallsat8.toml", tmp_path
+    )
+    text = _spec(tmp_path, name="all.toml").read_text()
+    text = 'vehicle = "smallsat8.toml"\n' + text.replace('"phase-plane"', '"allocator"')
+    text += "[failure]\nattitude_error_deg = 0.5\nmax_delta_v_m_s = 0.2\n"
+    (tmp_path / "all.toml").write_text(text)
+    words = failure_words(load_spec(tmp_path / "all.toml"))
+    assert words == (
+        "final |rate error| >= 0.04 deg/s, or final attitude error > 0.5 deg, or propellant "
+        "exhausted (2 kg loaded), or 0.2 m/s exceeded (max_delta_v_m_s)"
+    )
