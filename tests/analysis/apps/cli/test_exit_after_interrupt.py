@@ -29,9 +29,11 @@ def test_only_an_interrupted_command_arms_the_exit_timer(monkeypatch, code, arme
     assert ended == ([code] if armed else [])
 
 
+# Long enough (minutes on two cores) that the last signal, 4 s after the lock, always finds it
+# flying: at 400 runs a loaded machine's campaign once finished first and exited 0.
 SPEC = """
 seed = 1
-runs_per_case = 400
+runs_per_case = 8000
 [scenario]
 kind = "maneuver"
 attitude_deg = [0.0, 0.0, 5.0]
