@@ -6,7 +6,7 @@ writer's pid and command; a second writer is refused with that holder, before an
 
 The lock file is named after the path with every symbolic link resolved
 (``os.path.realpath``): ``--out LINK`` and ``--out TARGET`` are one output and take one lock
-(issue 31: through a symlink a second ``campaign run --resume`` flew beside the first).  A
+(through a symlink a second ``campaign run --resume`` flew beside the first).  A
 bind mount of an ancestor changes nothing (the lock file beside the output is one file, seen
 at two paths), but a path cannot tell that a directory *itself* is mounted at a second path:
 an output directory is therefore also locked by its identity (device and inode), ``flock`` on

@@ -12,7 +12,7 @@ maneuver``); its second line, JSON, lists every file and sub-directory the comma
 The marker is written last, into the hidden temporary directory that is renamed into place in
 one step, so the list is complete whenever the directory exists under its name.
 
-A marker is a claim, not proof (issue 31: a campaign killed before its ``manifest.json``, its
+A marker is a claim, not proof (a campaign killed before its ``manifest.json``, its
 marker edited to name ``maneuver``, was deleted by ``maneuver --overwrite``).  So
 ``--overwrite`` replaces a directory only when every entry in it is one its record lists
 (:func:`unlisted_entry`), and then removes only those entries (:func:`remove_listed`), never a

@@ -125,7 +125,7 @@ def connect(workers: int | None, scheduler: str | None):
                     dashboard_address=None,
                     # No dashboard, but the scheduler still serves its health routes over
                     # HTTP, on port 8787 unless told otherwise: a second campaign found it
-                    # taken and warned in four lines (issue 31).  Any free port here only.
+                    # taken and warned in four lines.  Any free port here only.
                     scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                 )
             client = Client(cluster)
