@@ -341,7 +341,9 @@ def test_loop(tmp_path):
     from rcsim.analysis.apps.loop.run import STAGES
 
     assert set(res["stage_s"]) == set(STAGES)
-    positive(res["wall_s"], *res["stage_s"].values())
+    # Every stage ran; the rare-event stage is opt-in (off by default), so it may take 0 s.
+    assert all(math.isfinite(v) and v >= 0 for v in res["stage_s"].values()), res["stage_s"]
+    positive(res["wall_s"], res["stage_s"]["campaign_before"], res["stage_s"]["refine"])
     assert 0 < res["peak_pss_mb"] < 4096
     # The loop flies its first campaign and four more stages: more than one campaign's time.
     assert res["campaigns"] > 1
