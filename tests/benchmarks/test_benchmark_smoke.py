@@ -39,6 +39,11 @@ BENCH = ROOT / "benchmarks"
 #: benchmarks/ file -> the test(s) below that run it.
 COVERED = {
     "allocator.py": "test_allocator",
+    "allocator_vs_lookup.py": "test_allocator_vs_lookup",
+    "c_lookup_cost.py": "test_c_lookup_cost",
+    "plugin_overhead.py": "test_plugin_overhead",
+    "rare_event_series.py": "test_rare_event_series",
+    "table_generation_nominal.py": "test_table_generation_nominal",
     "analyze_scale.py": "test_analyze_scale",
     "basilisk_peer.py": "test_basilisk_peer",
     "campaign.py": "test_campaign",
@@ -491,3 +496,55 @@ def test_rare_event_campaign():
     )  # fmt: skip
     (runs,) = numbers(r"runs ([\d,]+) mean", out)[0]
     assert 0 < runs <= 200 + 2 * 20  # the budget, overshot by at most a level
+
+
+def test_rare_event_series():
+    out = run(
+        "rare_event_series.py", "--repeat", 2, "--n-per-level", 100, "--repeats", 2,
+        "--budget", 2000,
+    )  # fmt: skip
+    rows = table_rows(out, "| method | limit state |")
+    assert {r[0] for r in rows} == {"single margin", "series"}
+    for row in rows:
+        covered, of = (int(x) for x in row[4].split()[0].split("/"))
+        assert of == 2 and 0 <= covered <= 2, row
+        assert 0 < number(row[-1]) <= 2000, row  # evaluations, within the budget
+
+
+# ------------------------------------------------------- controllers, plug-ins and tables --
+
+
+def test_allocator_vs_lookup():
+    out = run("allocator_vs_lookup.py", "--vehicles", "canted16", "--runs-per-case", 1)
+    (lookup_s, alloc_s, ratio) = numbers(
+        rf"lookup ({NUM}) s CPU, allocator ({NUM}) s CPU, allocator / lookup ({NUM})", out
+    )[0]
+    positive(lookup_s, alloc_s, ratio)
+    assert ratio == pytest.approx(alloc_s / lookup_s, rel=0.02)
+    assert "'exact':" in out  # the allocator's solver counts, from the campaign manifest
+
+
+def test_c_lookup_cost():
+    out = run("c_lookup_cost.py", "--runs-per-case", 2, "--rounds", 1, "--duration-s", 4)
+    rows = numbers(rf"({NUM}) us CPU per run-cycle in all, ({NUM}) us of it in the", out)
+    assert len(rows) == 2  # built-in, C
+    for total, step in rows:
+        positive(total, step)
+        assert step < total  # the controller's step is part of the run-cycle
+
+
+def test_plugin_overhead():
+    out = run("plugin_overhead.py", "--runs-per-case", 2, "--rounds", 1, "--duration-s", 4)
+    (builtin, plugin, ratio) = numbers(
+        rf"built-in ({NUM}) s, plug-in ({NUM}) s CPU: the plug-in path costs ({NUM})x", out
+    )[0]
+    positive(builtin, plugin, ratio)
+
+
+def test_table_generation_nominal():
+    out = run("table_generation_nominal.py", "paper")
+    (row,) = table_rows(out, "| vehicle | generation")
+    assert row[0] == "paper"
+    # docs/lookup.md section 6: the paper's vehicle meets the target in all 26 cases, none
+    # ends failed.
+    assert row[2] == "26 -> 26" and row[3] == "0 -> 0", row
