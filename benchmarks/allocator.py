@@ -87,9 +87,9 @@ def compare() -> None:
     from rcsim.analysis.engine.scenarios.flying import build_controller
     from rcsim.lookup.registry import make_controller
     from rcsim.models.tables import load_rate_cases
-    from rcsim.spacecraft.vehicle import VehicleParams, load_model
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
-    model = load_model()
+    vehicle = Vehicle.load()
     rates = np.asarray(load_rate_cases().rate_cmd, float)
     sets = {
         "26 rate cases": (
@@ -109,15 +109,16 @@ def compare() -> None:
     for label, (runs, named) in sets.items():
         for ctl_name in ("phase-plane", "lookup", "allocator"):
             if named is not None and ctl_name != "allocator":
-                ctl = build_controller(get_scenario(named), ctl_name, model=model)
+                ctl = build_controller(get_scenario(named), ctl_name, vehicle)
             else:
-                ctl = make_controller(ctl_name, model=model)
-            h = fly_batch(runs, VehicleParams.nominal(len(runs), model), ctl, model=model)
+                ctl = make_controller(ctl_name, vehicle)
+            h = fly_batch(runs, vehicle.nominal(len(runs)), ctl, vehicle=vehicle)
             att = np.degrees(np.linalg.norm(h.final.att_err_B, axis=1)).max()
             rate = np.degrees(np.abs(h.final.rate_err_B)).max()
             print(
                 f"| {label} | {ctl_name} | {int(h.propulsion.firings.sum())} | "
-                f"{h.propulsion.propellant_kg(280.0).sum() * 1e3:.1f} | {att:.3f} | {rate:.4f} |"
+                f"{h.propulsion.propellant_kg(vehicle.isp_s).sum() * 1e3:.1f} | {att:.3f} | "
+                f"{rate:.4f} |"
             )
 
 

@@ -51,6 +51,8 @@ BLOCK_RUNS = 8_192
 N_CASES = 26
 #: The planted campaign's failure threshold [deg/s] (the spec's failure.rate_error_deg_s).
 THRESHOLD_DEG_S = 0.04
+#: The planted runs' duration [s] (the spec's scenario.duration_s).
+DURATION_S = 20.0
 
 
 def synthetic_table(n_runs: int, n_inputs: int, path: Path) -> Path:
@@ -68,10 +70,12 @@ def synthetic_table(n_runs: int, n_inputs: int, path: Path) -> Path:
 
 
 def _planted_outcomes(frame, case_names, rng, nominal: float, spread: float):
-    """Outcome columns of one block (the schema's, planted): fail on yaw over-authority."""
+    """Outcome columns of one block, planted: fail on yaw over-authority.  Every column of the
+    schema is filled and the frame is built by the schema's own ``outcome_frame``, so an
+    outcome added to the runs table fails here (and in the smoke test) at once."""
     import numpy as np
-    import pandas as pd
 
+    from rcsim.analysis.engine.runs_table import outcome_frame
     from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
     from rcsim.spacecraft.vehicle_file import Vehicle
 
@@ -84,28 +88,40 @@ def _planted_outcomes(frame, case_names, rng, nominal: float, spread: float):
     sign = rng.choice([-1.0, 1.0], (n, 3))
     err = 0.004 * rng.standard_normal((n, 3))
     err[:, 2] = np.where(failed, sign[:, 2] * (0.05 + 0.01 * rng.random(n)), err[:, 2])
-    cols = {f"final_rate_err_{a}_deg_s": err[:, k] for k, a in enumerate(("roll", "pitch", "yaw"))}
+    axes = ("roll", "pitch", "yaw")
+    cols = {f"final_rate_err_{a}_deg_s": err[:, k] for k, a in enumerate(axes)}
     att = 0.05 * rng.standard_normal((n, 3))
-    cols.update(
-        {f"final_att_err_{a}_deg": att[:, k] for k, a in enumerate(("roll", "pitch", "yaw"))}
-    )
+    cols.update({f"final_att_err_{a}_deg": att[:, k] for k, a in enumerate(axes)})
     cols["final_att_err_deg"] = np.linalg.norm(att, axis=1)
     fires = rng.integers(1, 4, (n, 3)).astype(float)
-    for k, a in enumerate(("roll", "pitch", "yaw")):
+    for k, a in enumerate(axes):
         cols[f"firings_to_rate_{a}"] = fires[:, k] + (failed if a == "yaw" else 0)
-    for k, a in enumerate(("roll", "pitch", "yaw")):
         cols[f"time_to_rate_{a}_s"] = 0.04 * fires[:, k] * (1 + 0.1 * rng.random(n))
-    for k, a in enumerate(("roll", "pitch", "yaw")):
         cols[f"firings_{a}"] = fires[:, k] + 1
     cols["firings_total"] = 2 * (fires.sum(axis=1) + 3)
     on = 0.08 * rng.random((n, 16))
+    jet_kg = on * 22.24 / (280.0 * 9.80665)  # impulse / (Isp g0), Table 1 thrust and Isp
     cols.update({f"jet_{j + 1:02d}_on_time_s": on[:, j] for j in range(16)})
-    cols["propellant_kg"] = on.sum(axis=1) * 25.0 / (280.0 * 9.80665)
+    cols["propellant_kg"] = jet_kg.sum(axis=1)
     cols["rate_settled_time_s"] = np.where(failed, np.nan, 2.0 + rng.random(n))
     cols["sim_failed"] = np.zeros(n, bool)
     cols["failed"] = failed
     cols["reason"] = np.where(failed, "yaw rate error", "")
-    return pd.DataFrame(cols, index=frame.index)
+    dv = 1e-4 * rng.standard_normal((n, 2, 3))  # translation left by imperfect pairs [m/s]
+    for f, frame_name in enumerate("NB"):
+        for k, a in enumerate("xyz"):
+            cols[f"delta_v_{a}_{frame_name}_m_s"] = dv[:, f, k]
+        cols[f"delta_v_{frame_name}_m_s"] = np.linalg.norm(dv[:, f], axis=1)
+    cols["pulses"] = cols["firings_total"]
+    cols["min_pulses"] = np.zeros(n)
+    cols["pulses_per_min"] = cols["pulses"] / (DURATION_S / 60.0)
+    cols.update({f"jet_{j + 1:02d}_propellant_kg": jet_kg[:, j] for j in range(16)})
+    cols.update({f"jet_{j + 1:02d}_duty": on[:, j] / DURATION_S for j in range(16)})
+    cols["failed_by"] = np.where(failed, "rate", "")
+    worst = np.abs(err).max(axis=1)
+    margin = (THRESHOLD_DEG_S - worst) / THRESHOLD_DEG_S
+    cols["margin"] = np.where(failed, np.minimum(margin, -np.finfo(float).tiny), margin)
+    return outcome_frame(cols, n_jets=16).set_axis(frame.index)
 
 
 def campaign_dir(n_runs: int, folder: Path, seed: int = 7) -> Path:
@@ -168,7 +184,7 @@ def campaign_dir(n_runs: int, folder: Path, seed: int = 7) -> Path:
         "spec": {
             "seed": seed,
             "runs_per_case": per_case,
-            "scenario": {"kind": "rate-cases", "mode": "command", "duration_s": 20.0},
+            "scenario": {"kind": "rate-cases", "mode": "command", "duration_s": DURATION_S},
             "controller": {"name": "lookup", "table": "table6"},
             "dispersions": {"table": "default", "scale": 1.0},
         },

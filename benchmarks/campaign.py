@@ -17,8 +17,9 @@ Measures, on this machine, in one process run:
    (``per_cycle_calls``; issue 19's sixth round);
 3. ``single-core``: one 256-run chunk against a raw rollout of its steps on one core (the
    closed loop's own efficiency, least disturbed by other load);
-4. ``local modes``: the campaign with one chunk at a time on MuJoCo's thread pool versus
-   ``threads`` chunks in flight with one MuJoCo thread each (the default);
+4. ``local modes``: the campaign with one chunk at a time in this process on MuJoCo's thread
+   pool (``local_workers=1``) versus one chunk in flight per CPU, each in a worker process (the
+   default);
 5. ``dask``: the same campaign on a LocalCluster of 1 and 2 workers (target: 2 >= 1.7 x 1);
 6. ``memory``: peak RSS of ``rcsim campaign run`` for a large summary-only campaign of short
    runs, at two sizes (target: < 1 GB at 100,000 runs, and no growth with the run count);
@@ -118,16 +119,13 @@ def bench_raw(spec_path: Path) -> dict:
 
     from rcsim.analysis.engine.campaign.chunk import plan_chunks
     from rcsim.analysis.engine.campaign.spec import load_spec
-    from rcsim.spacecraft.flight_model import flight_model
-    from rcsim.spacecraft.propulsion import PropulsionParams
-    from rcsim.spacecraft.vehicle import load_model
 
     spec = load_spec(spec_path)
-    cycle = PropulsionParams().cycle_s
+    cycle = spec.vehicle.control.cycle_s
     chunks = plan_chunks(spec)
 
     def roll(chunk, nthread, spinning, per_cycle=False):
-        model = flight_model(load_model())  # the model the campaign's MuJoCo integrates
+        model = spec.vehicle.flight_model  # the model the campaign's MuJoCo integrates
         n = chunk.stop - chunk.first
         duration = spec.cases[spec.case_of(chunk.first)].duration_s
         n_cycles = int(np.ceil(duration / cycle - 1e-9))
@@ -192,14 +190,12 @@ def bench_single_core(spec_path: Path, n: int = 256, repeats: int = 3) -> dict:
 
     from rcsim.analysis.engine.campaign.chunk import Chunk, simulate_chunk, warm_up
     from rcsim.analysis.engine.campaign.spec import load_spec
-    from rcsim.spacecraft.flight_model import flight_model
-    from rcsim.spacecraft.vehicle import load_model
 
     spec = load_spec(spec_path)
     warm_up()
     n = min(n, spec.n_runs)
     duration = spec.cases[0].duration_s
-    model = flight_model(load_model())  # the model the campaign's MuJoCo integrates
+    model = spec.vehicle.flight_model  # the model the campaign's MuJoCo integrates
     nstep = int(round(duration / model.opt.timestep))
     best_chunk, best_raw, best_same = float("inf"), float("inf"), float("inf")
     best_spinning = float("inf")
@@ -248,25 +244,23 @@ def _replay_same_steps(spec, n: int) -> float:
     import numpy as np
     from mujoco.batch import Batch
 
-    import rcsim.spacecraft.simulation as sim
     from rcsim.analysis.engine.campaign.chunk import Chunk, simulate_chunk
-    from rcsim.spacecraft.flight_model import flight_model
-    from rcsim.spacecraft.vehicle import load_model
+    from rcsim.spacecraft.batch_physics import BatchPhysics
 
     calls = []
-    original = sim.BatchSimulation._rollout
+    original = BatchPhysics._rollout
 
     def record(self, nstep, control, runs, failed, reason):
         ids = np.flatnonzero(runs)
         calls.append((nstep, control[ids].copy(), ids, self._timestep[ids].copy()))
         return original(self, nstep, control, runs, failed, reason)
 
-    sim.BatchSimulation._rollout = record
+    BatchPhysics._rollout = record
     try:
         simulate_chunk(spec, Chunk(0, n), nthread=1)
     finally:
-        sim.BatchSimulation._rollout = original
-    batch = Batch(flight_model(load_model()), n, 1)
+        BatchPhysics._rollout = original
+    batch = Batch(spec.vehicle.flight_model, n, 1)
     batch.reset(stage=int(mujoco.mjtStage.mjSTAGE_NONE))
     timestep = batch.expand("opt.timestep")
     ctrl_spec = int(mujoco.mjtState.mjSTATE_CTRL)
@@ -442,7 +436,9 @@ def main(argv=None) -> int:
             results["single_core"] = bench_single_core(spec)
             print(f"one core, one chunk: {results['single_core']}", flush=True)
         if want("local-modes"):
-            results["local_one_chunk_mujoco_pool"] = bench_campaign(folder, spec, "pool", threads=1)
+            results["local_one_chunk_mujoco_pool"] = bench_campaign(
+                folder, spec, "pool", local_workers=1
+            )
             print(
                 f"local, one chunk at a time on MuJoCo's pool: "
                 f"{results['local_one_chunk_mujoco_pool']}",

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from rcsim.lookup.channel_generation import generate_channel_table  # noqa: E402
-from rcsim.lookup.pattern_recognition import LookupController  # noqa: E402
 from rcsim.lookup.registry import make_controller  # noqa: E402
 from rcsim.spacecraft.navigation import Guidance  # noqa: E402
 from rcsim.spacecraft.simulation import simulate_batch  # noqa: E402
@@ -34,9 +34,8 @@ from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
 def fly(vehicle: Vehicle, controller, rate: np.ndarray) -> dict:
     n = rate.shape[0]
     h = simulate_batch(
-        vehicle.nominal(n), controller, Guidance.rate(rate), 20.0, model=vehicle.model,
-        nthread=1, **vehicle.flight_options(n),
-    )  # fmt: skip
+        vehicle.nominal(n), controller, Guidance.rate(rate), 20.0, vehicle=vehicle, nthread=1
+    )
     cmd = rate != 0
     final = np.degrees(np.abs(h.final.rate_err_B))
     flown = np.degrees(np.abs(h.omega_B))
@@ -45,7 +44,7 @@ def fly(vehicle: Vehicle, controller, rate: np.ndarray) -> dict:
         "off": np.where(~cmd, final, 0).max(axis=1),
         "off_any": np.where(~cmd[:, None, :], flown, 0).max(axis=(1, 2)),
         "firings": h.propulsion.firings.sum(axis=1),
-        "propellant_g": h.propulsion.propellant_kg(vehicle.definition.isp_s) * 1e3,
+        "propellant_g": h.propulsion.propellant_kg(vehicle.isp_s) * 1e3,
         "dropped": int(h.propulsion.dropped.sum()),
     }
 
@@ -57,13 +56,14 @@ def main() -> None:
     vehicle = Vehicle.load(args.vehicle)
     generated = generate_channel_table(args.vehicle)
     rate = np.asarray(generated.table.rate_cmd, float)
+    with tempfile.TemporaryDirectory() as tmp:
+        table = Path(tmp) / f"{args.vehicle}.csv"
+        generated.table.to_csv(table)  # as `rcsim lookup generate --vehicle` writes it
+        lookup = make_controller("lookup", vehicle, table=table)
     res = {
-        "channel table": fly(vehicle, LookupController(generated.table), rate),
-        "allocator": fly(
-            vehicle, make_controller("allocator", model=vehicle.model, vehicle=vehicle.definition),
-            rate,
-        ),
-    }  # fmt: skip
+        "channel table": fly(vehicle, lookup, rate),
+        "allocator": fly(vehicle, make_controller("allocator", vehicle), rate),
+    }
     sym = {-1: "-", 0: "0", 1: "+"}
     print("| case | signs | " + " | ".join(f"{k}: on-axis / off-axis / off any cycle" for k in res))
     for c in range(rate.shape[0]):

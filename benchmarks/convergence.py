@@ -40,8 +40,10 @@ controllers, nominal vehicle) plus a 600 s attitude hold under the 2 N m yaw dis
   closed loop at 1 ms (attitude deviation, largest on-time difference): whether any decision of
   the controller depends on the physics step.
 
-Usage: ``python benchmarks/convergence.py [--quick] [--part steps|scenarios|all]`` (prints
-Markdown tables and the choice; ``--quick`` skips the 600 s tumbling and the long hold).  The
+Usage: ``python benchmarks/convergence.py [--quick] [--part steps|scenarios|all]
+[--integrators RK4 ...] [--steps-ms 40 ...] [--scenarios NAME ...]`` (prints Markdown tables
+and the choice; ``--quick`` skips the 600 s tumbling and the long hold; the last three narrow
+the study, as the smoke test in ``tests/benchmarks/`` does).  The
 step study takes about two minutes on two shared cores, the scenario study about ten.
 """
 
@@ -66,7 +68,7 @@ from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # n
 from rcsim.models.tables import load_jet_map, load_mass_properties  # noqa: E402
 from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat  # noqa: E402
 from rcsim.spacecraft.simulation import BatchSimulation  # noqa: E402
-from rcsim.spacecraft.vehicle import VehicleParams, load_model  # noqa: E402
+from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
 
 INTEGRATORS = ("RK4", "Euler", "implicitfast")
 STEPS_MS = (1, 2, 4, 5, 8, 10, 20, 40)
@@ -165,18 +167,23 @@ class Result:
         return self.pulse_rel_err <= PULSE_TOL and self.att_dev_deg <= ATT_TOL_DEG and dh_ok
 
 
-def fly_pulses(model, on_total: np.ndarray) -> np.ndarray:
+def paper_at(dt_ms: float, integrator: str | None = None) -> Vehicle:
+    """The paper's vehicle integrated at ``dt_ms`` with ``integrator`` (default its own)."""
+    return Vehicle.load().with_physics(timestep_s=dt_ms * 1e-3, integrator=integrator)
+
+
+def fly_pulses(vehicle: Vehicle, on_total: np.ndarray) -> np.ndarray:
     n = on_total.shape[0]
-    sim = BatchSimulation(VehicleParams.nominal(n, model), model=model, nthread=1)
+    sim = BatchSimulation(vehicle.nominal(n), vehicle, nthread=1)
     guidance = Guidance.attitude(np.zeros((n, 3)))
     hist = sim.run(Scripted(on_total), guidance, PULSE_HORIZON_S)
     return hist.final.omega_B
 
 
-def fly_maneuver(model, duration_s: float = 60.0):
+def fly_maneuver(vehicle: Vehicle, duration_s: float = 60.0):
     """5/5/5 deg phase-plane maneuver: attitude at every cycle boundary and the commands."""
-    ctl = PhasePlaneController(PhasePlaneParams.for_vehicle(load_jet_map(), model=model))
-    sim = BatchSimulation(VehicleParams.nominal(1, model), model=model, nthread=1)
+    ctl = PhasePlaneController(PhasePlaneParams.for_vehicle(vehicle))
+    sim = BatchSimulation(vehicle.nominal(1), vehicle, nthread=1)
     hist = sim.run(ctl, Guidance.attitude(np.radians([[5.0, 5.0, 5.0]])), duration_s)
     q = np.concatenate([hist.q_BN[0], hist.final.q_BN[:1]], axis=0)
     return q, hist.on_time_s[0]
@@ -252,9 +259,9 @@ def fly_scenario_at(scenario, controller: str, dt_ms: int):
     from rcsim.analysis.engine.flight import fly_batch
     from rcsim.analysis.engine.scenarios.flying import build_controller
 
-    model = load_model(timestep_s=dt_ms * 1e-3, integrator="RK4")
-    ctl = build_controller(scenario, controller, model=model)
-    return fly_batch(scenario.runs, VehicleParams.nominal(scenario.n_runs, model), ctl, model=model)
+    vehicle = paper_at(dt_ms, "RK4")
+    ctl = build_controller(scenario, controller, vehicle)
+    return fly_batch(scenario.runs, vehicle.nominal(scenario.n_runs), ctl, vehicle=vehicle)
 
 
 def boundary_q(hist) -> np.ndarray:
@@ -265,12 +272,12 @@ def angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.degrees(np.linalg.norm(rotvec_from_quat(quat_mul(quat_conj(a), b)), axis=-1))
 
 
-def scenario_study(quick: bool) -> list[dict]:
+def scenario_study(quick: bool, only: list[str] | None = None) -> list[dict]:
     from exact_replay import replay_run
 
     rows = []
     for name, scenario in study_scenarios():
-        if quick and scenario.duration_s > 120:
+        if (quick and scenario.duration_s > 120) or (only and name not in only):
             continue
         for controller in ("phase-plane", "lookup"):
             t0 = time.perf_counter()
@@ -301,13 +308,13 @@ def scenario_study(quick: bool) -> list[dict]:
                     else float("nan")
                 )
                 if dt_ms == 40:
-                    model = load_model()
+                    paper = Vehicle.load()
                     q = boundary_q(hist)
                     dev = 0.0
                     for i, run in enumerate(scenario.runs):
                         replay = replay_run(
-                            VehicleParams.nominal(1, model),
-                            model,
+                            paper.nominal(1),
+                            paper.model,
                             hist.on_time_s[i],
                             CYCLE_S,
                             q[i, 0],
@@ -365,12 +372,24 @@ def main(argv=None) -> int:
         help="skip the 600 s tumbling runs and the scenarios over 120 s",
     )
     ap.add_argument("--part", choices=("steps", "scenarios", "all"), default="all")
+    ap.add_argument(
+        "--integrators", nargs="+", choices=INTEGRATORS, default=list(INTEGRATORS),
+        help="step study: the integrators tried (default all)",
+    )  # fmt: skip
+    ap.add_argument(
+        "--steps-ms", nargs="+", type=int, choices=STEPS_MS, default=list(STEPS_MS),
+        help="step study: the physics steps tried [ms] (default all)",
+    )  # fmt: skip
+    ap.add_argument(
+        "--scenarios", nargs="+", metavar="NAME",
+        help="scenario study: only these (default every paper scenario and the long hold)",
+    )  # fmt: skip
     ap.add_argument("--json", help="also write the results to this JSON file")
     args = ap.parse_args(argv)
     out = {}
     if args.part in ("scenarios", "all"):
         sys.path.insert(0, str(Path(__file__).resolve().parent))
-        out["scenarios"] = scenario_study(args.quick)
+        out["scenarios"] = scenario_study(args.quick, args.scenarios)
         print_scenario_table(out["scenarios"])
         print()
     if args.part in ("steps", "all"):
@@ -385,18 +404,19 @@ def step_study(args) -> list[dict]:
     mass, jet_map = load_mass_properties(), load_jet_map()
     on_total = pulse_on_times(jet_map)
     ref_w = pulse_reference(mass)
-    ref_q, ref_cmd = fly_maneuver(load_model(timestep_s=0.001, integrator="RK4"))
+    ref_q, ref_cmd = fly_maneuver(paper_at(1, "RK4"))
 
     results = []
-    for integ in INTEGRATORS:
-        for dt_ms in STEPS_MS:
-            model = load_model(timestep_s=dt_ms * 1e-3, integrator=integ)
+    for integ in args.integrators:
+        for dt_ms in args.steps_ms:
+            vehicle = paper_at(dt_ms, integ)
+            model = vehicle.model
             r = Result(integ, dt_ms)
-            w = fly_pulses(model, on_total)
+            w = fly_pulses(vehicle, on_total)
             r.pulse_rel_err = float(
                 np.max(np.linalg.norm(w - ref_w, axis=1) / np.linalg.norm(ref_w, axis=1))
             )
-            q, cmd = fly_maneuver(model)
+            q, cmd = fly_maneuver(vehicle)
             dev = np.linalg.norm(rotvec_from_quat(quat_mul(quat_conj(ref_q), q)), axis=1)
             r.att_dev_deg = float(np.degrees(dev.max()))
             r.cmd_diff_s = float(np.abs(cmd - ref_cmd).max())
@@ -431,7 +451,7 @@ def step_study(args) -> list[dict]:
         )
     else:
         print("\nno candidate passes")
-    return [dict(vars(r), us_per_sim_s=r.us_per_sim_s, passes=r.passes()) for r in results]
+    return [dict(vars(r), us_per_sim_s=r.us_per_sim_s, passes=bool(r.passes())) for r in results]
 
 
 if __name__ == "__main__":

@@ -31,12 +31,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from rcsim.lookup.pattern_recognition import LookupController  # noqa: E402
+from rcsim.lookup.registry import make_controller  # noqa: E402
 from rcsim.models.tables import load_dispersions, load_rate_cases  # noqa: E402
 from rcsim.spacecraft import simulation  # noqa: E402
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs, run_streams  # noqa: E402
 from rcsim.spacecraft.navigation import Guidance  # noqa: E402
-from rcsim.spacecraft.vehicle import VehicleParams, load_model  # noqa: E402
+from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
 
 
 def noisy_options(n: int, seed: int, run_ids) -> dict:
@@ -61,14 +61,14 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args(argv)
 
-    model = load_model()
+    vehicle = Vehicle.load()
     cases = load_rate_cases()
     rate = np.repeat(np.asarray(cases.rate_cmd, float), args.runs_per_case, axis=0)
     n = rate.shape[0]
     run_ids = np.arange(n)
     sigmas = DispersionSigmas.from_table(load_dispersions())
-    params = draw_runs(VehicleParams.nominal(1, model), sigmas, 1, run_ids).params
-    ctl = LookupController.from_files()
+    params = draw_runs(vehicle.nominal(1), sigmas, 1, run_ids).params
+    ctl = make_controller("lookup", vehicle)
     has_effects = "sensors" in inspect.signature(simulation.BatchSimulation).parameters
     variants = {"nominal": {}}
     if has_effects:
@@ -80,9 +80,9 @@ def main(argv=None) -> int:
     for name, opts in variants.items():
         best = np.inf
         for _ in range(args.repeats):
-            sim = simulation.BatchSimulation(params, model=model, nthread=1, **opts)
+            sim = simulation.BatchSimulation(params, vehicle, nthread=1, **opts)
             rollouts = []
-            real = sim._batch.rollout
+            real = sim.physics.batch.rollout
 
             def counting(nstep, *a, rollouts=rollouts, real=real, **kw):
                 ids = kw.get("ids")
@@ -90,7 +90,7 @@ def main(argv=None) -> int:
                     rollouts.append(nstep * (n if ids is None else len(ids)))
                 return real(nstep, *a, **kw)
 
-            sim._batch.rollout = counting
+            sim.physics.batch.rollout = counting
             t0 = time.process_time()
             sim.run(ctl, Guidance.rate(np.zeros((n, 3))), args.duration_s, omega0_B=rate)
             best = min(best, time.process_time() - t0)

@@ -32,13 +32,13 @@ def main() -> None:
     from rcsim.models.tables import load_dispersions
     from rcsim.spacecraft.dispersions import (
         N_MASS_EXTRAS,
-        N_NORMALS,
-        N_UNIFORMS,
         DispersionSigmas,
         apply_draws,
         inertia_scale_limit,
+        n_normals,
+        n_uniforms,
     )
-    from rcsim.spacecraft.vehicle import VehicleParams
+    from rcsim.spacecraft.vehicle_file import Vehicle
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=2_000_000)
@@ -46,7 +46,8 @@ def main() -> None:
     ap.add_argument("--products", type=float, default=0.0, help="3-sigma of each product [kg m^2]")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
-    nominal = VehicleParams.nominal(1)
+    nominal = Vehicle.load().nominal(1)
+    n_jets = nominal.n_jets
     table = load_dispersions()
     three = dict(zip(table["name"], table["three_sigma"]))
     three.update(ixy=args.products, ixz=args.products, iyz=args.products)
@@ -68,8 +69,8 @@ def main() -> None:
             params, _, _ = apply_draws(
                 nominal,
                 sigmas,
-                rng.standard_normal((n, N_NORMALS)),
-                rng.random((n, N_UNIFORMS)),
+                rng.standard_normal((n, n_normals(n_jets))),
+                rng.random((n, n_uniforms(n_jets))),
                 rng.standard_normal((n, N_MASS_EXTRAS)),
             )
             m = np.sort(params.inertia_B, axis=1)

@@ -10,7 +10,11 @@ and while it runs samples, twice a second:
 * foreign load: every other process that used more than 10 % of a CPU over the sample.  A
   run during which one was seen is marked ``watched_clean: false``; quote clean runs only.
 
-Stage times come from the loop's own ``loop.json`` (each stage's wall seconds).
+Stage times come from the loop's own ``loop.json`` (each stage's wall seconds).  Beside the
+seconds, the loop's wall time in units of its own first campaign (``campaign_before``: the 26
+rate cases x N runs, lookup controller, Table 5 dispersions), measured in the same run: a
+ratio that carries from one machine to another better than seconds do (quote it as "the loop =
+5.1 campaigns of its size").
 
 Usage::
 
@@ -141,10 +145,12 @@ def run_loop(runs_per_case: int, folder: Path) -> dict:
     if proc.returncode != 0:
         raise SystemExit(f"rcsim loop failed ({proc.returncode}):\n{log}")
     state = json.loads((out / "loop.json").read_text())
+    stage_s = {k: v["seconds"] for k, v in state["done"].items()}
     return {
         "runs_per_case": runs_per_case,
         "wall_s": round(wall, 1),
-        "stage_s": {k: v["seconds"] for k, v in state["done"].items()},
+        "campaigns": round(wall / stage_s["campaign_before"], 2),
+        "stage_s": stage_s,
         "peak_pss_mb": round(peak / 2**20),
         "stage_peak_pss_mb": {k: round(v / 2**20) for k, v in stage_peak.items()},
         "watched_clean": not foreign,
@@ -170,7 +176,8 @@ def main(argv=None) -> int:
                 else f"FOREIGN LOAD at {res['foreign_load_at_s']}"
             )
             print(
-                f"{n} runs/case: {res['wall_s']:.1f} s wall ({stages}); peak memory "
+                f"{n} runs/case: {res['wall_s']:.1f} s wall = {res['campaigns']:.2f} campaigns "
+                f"of 26 x {n} runs ({stages}); peak memory "
                 f"(PSS) {res['peak_pss_mb']} MB (by stage: {res['stage_peak_pss_mb']}); {load}",
                 flush=True,
             )

@@ -40,18 +40,17 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # noqa: E402
-from rcsim.models.tables import load_jet_map  # noqa: E402
 from rcsim.spacecraft.flight_model import flight_model, jet_wrench_B  # noqa: E402
 from rcsim.spacecraft.mujoco_timers import quiet_stage_timers  # noqa: E402
 from rcsim.spacecraft.navigation import Guidance, navigate  # noqa: E402
 from rcsim.spacecraft.propulsion import (  # noqa: E402
-    PropulsionParams,
     PropulsionState,
     apply_valve_limits,
     duty_profile,
 )
 from rcsim.spacecraft.simulation import simulate_batch  # noqa: E402
-from rcsim.spacecraft.vehicle import VehicleParams, jet_actuator_ids, load_model  # noqa: E402
+from rcsim.spacecraft.vehicle import jet_actuator_ids  # noqa: E402
+from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
 
 # The raw ceiling steps MuJoCo as the closed loop does: stage timers on the zero clock.
 quiet_stage_timers()
@@ -61,15 +60,18 @@ ATT_CMD_DEG = (5.0, 5.0, 5.0)
 CHUNK_S = 6.0  # raw rollout length per call [s of simulated time]
 
 
-def closed_loop(model, controller, n_runs: int, nthread: int):
+def closed_loop(vehicle: Vehicle, controller, n_runs: int, nthread: int):
     guidance = Guidance.attitude(np.radians(np.tile(ATT_CMD_DEG, (n_runs, 1))))
-    params = VehicleParams.nominal(n_runs, model)
+    params = vehicle.nominal(n_runs)
     t0 = time.perf_counter()
-    hist = simulate_batch(params, controller, guidance, DURATION_S, model=model, nthread=nthread)
+    hist = simulate_batch(
+        params, controller, guidance, DURATION_S, vehicle=vehicle, nthread=nthread
+    )
     return time.perf_counter() - t0, hist
 
 
-def raw(model, hist, n_runs: int, nthread: int) -> float:
+def raw(vehicle: Vehicle, hist, n_runs: int, nthread: int) -> float:
+    model = vehicle.model
     dt = float(model.opt.timestep)
     n_sub = int(round(0.04 / dt))
     n_total = int(round(DURATION_S / dt))
@@ -79,7 +81,7 @@ def raw(model, hist, n_runs: int, nthread: int) -> float:
     # (rcsim/spacecraft/flight_model.py).
     n_cyc = chunk // n_sub
     duty = duty_profile(hist.on_time_s[:, :n_cyc].reshape(-1, 16), dt, n_sub)
-    wrench = jet_wrench_B(VehicleParams.nominal(n_runs, model), model)
+    wrench = jet_wrench_B(vehicle.nominal(n_runs), model)
     control = np.einsum("nwj,nsj->nsw", wrench, duty.reshape(n_runs, n_cyc * n_sub, 16))
     spec = int(mujoco.mjtState.mjSTATE_CTRL)
     b = Batch(flight_model(model), n_runs, nthread)
@@ -94,14 +96,15 @@ def raw(model, hist, n_runs: int, nthread: int) -> float:
     return time.perf_counter() - t0
 
 
-def naive(model, controller, n_runs: int) -> float:
+def naive(vehicle: Vehicle, controller, n_runs: int) -> float:
     """One run at a time: MjData + mj_step, controller on one-row arrays."""
+    model = vehicle.model
     dt = float(model.opt.timestep)
-    prop_params = PropulsionParams()
+    prop_params = vehicle.propulsion()
     n_sub = int(round(prop_params.cycle_s / dt))
     n_cycles = int(np.ceil(DURATION_S / prop_params.cycle_s - 1e-9))
     jets = jet_actuator_ids(model)
-    thrust = VehicleParams.nominal(1, model).thrust_n
+    thrust = vehicle.nominal(1).thrust_n
     guidance = Guidance.attitude(np.radians([ATT_CMD_DEG]))
     t0 = time.perf_counter()
     for _ in range(n_runs):
@@ -135,8 +138,9 @@ def main(argv=None) -> int:
     ap.add_argument("--profile", action="store_true", help="cProfile the closed loop too")
     args = ap.parse_args(argv)
 
-    model = load_model(timestep_s=args.timestep, integrator=args.integrator)
-    controller = PhasePlaneController(PhasePlaneParams.for_vehicle(load_jet_map(), model=model))
+    vehicle = Vehicle.load().with_physics(timestep_s=args.timestep, integrator=args.integrator)
+    model = vehicle.model
+    controller = PhasePlaneController(PhasePlaneParams.for_vehicle(vehicle))
     dt = float(model.opt.timestep)
     integ = mujoco.mjtIntegrator(model.opt.integrator).name
     print(
@@ -144,11 +148,11 @@ def main(argv=None) -> int:
         f"{ATT_CMD_DEG} deg phase-plane maneuver; {args.threads} MuJoCo threads"
     )
 
-    closed_loop(model, controller, min(args.runs, 8), args.threads)  # warm-up (imports, pools)
-    t_closed, hist = closed_loop(model, controller, args.runs, args.threads)
+    closed_loop(vehicle, controller, min(args.runs, 8), args.threads)  # warm-up (imports, pools)
+    t_closed, hist = closed_loop(vehicle, controller, args.runs, args.threads)
     assert not hist.failed.any(), hist.reason
-    t_raw = raw(model, hist, args.runs, args.threads)
-    t_naive = naive(model, controller, args.naive_runs)
+    t_raw = raw(vehicle, hist, args.runs, args.threads)
+    t_naive = naive(vehicle, controller, args.naive_runs)
 
     sim_s = args.runs * DURATION_S
     closed_rate, raw_rate = sim_s / t_closed, sim_s / t_raw
@@ -165,7 +169,7 @@ def main(argv=None) -> int:
     if args.profile:
         prof = cProfile.Profile()
         prof.enable()
-        closed_loop(model, controller, args.runs, args.threads)
+        closed_loop(vehicle, controller, args.runs, args.threads)
         prof.disable()
         for key in ("cumulative", "tottime"):
             out = io.StringIO()

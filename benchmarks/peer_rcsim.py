@@ -38,9 +38,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from rcsim.spacecraft.navigation import Guidance, NavState  # noqa: E402
-from rcsim.spacecraft.propulsion import PropulsionParams  # noqa: E402
 from rcsim.spacecraft.simulation import BatchSimulation  # noqa: E402
-from rcsim.spacecraft.vehicle import N_JETS, VehicleParams, load_model, torque_per_jet_B  # noqa: E402
+from rcsim.spacecraft.vehicle import VehicleParams, torque_per_jet_B  # noqa: E402
+from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
+
+N_JETS = 16  # the paper's vehicle (vehicle.xml), as benchmarks/basilisk_peer.py copies it
 
 DURATION_S = 20.0
 CYCLE_S = 0.04
@@ -74,10 +76,10 @@ class OpenLoopFiring:
         return np.broadcast_to(left, (nav.n_runs, N_JETS)).copy(), state
 
 
-def dispersed_params(n_runs: int, model: mujoco.MjModel) -> VehicleParams:
+def dispersed_params(n_runs: int, vehicle: Vehicle) -> VehicleParams:
     """The vehicles of benchmarks/basilisk_peer.py's runs 0..n_runs-1 (same seeds, same order:
     numpy's legacy generator seeded with 10 * run, then mass, 3 inertias, 16 thrusts)."""
-    params = VehicleParams.nominal(n_runs, model)
+    params = vehicle.nominal(n_runs)
     mass, inertia, thrust = params.mass_kg.copy(), params.inertia_B.copy(), params.thrust_n.copy()
     for run in range(n_runs):
         np.random.seed(10 * run)
@@ -87,14 +89,13 @@ def dispersed_params(n_runs: int, model: mujoco.MjModel) -> VehicleParams:
     return replace(params, mass_kg=mass, inertia_B=inertia, thrust_n=thrust)
 
 
-def fly(
-    params: VehicleParams, model: mujoco.MjModel, on_s: np.ndarray, duration_s: float, nthread: int
-):
-    """Build the batch and fly it; returns (history, wall seconds including set-up)."""
+def fly(params: VehicleParams, vehicle: Vehicle, on_s: np.ndarray, duration_s: float, nthread: int):
+    """Build the batch and fly it; returns (history, wall seconds including set-up).
+
+    No propellant tank (``tank=None``): the mass properties stay the drawn ones, as in the
+    Basilisk script (its thrusters do not deplete mass)."""
     t0 = time.perf_counter()
-    sim = BatchSimulation(
-        params, propulsion=PropulsionParams(cycle_s=CYCLE_S), model=model, nthread=nthread
-    )
+    sim = BatchSimulation(params, vehicle, nthread=nthread, tank=None)
     guidance = Guidance.rate(np.full((params.n_runs, 3), RATE_CMD_RAD_S))
     hist = sim.run(OpenLoopFiring(on_s), guidance, duration_s)
     return hist, time.perf_counter() - t0
@@ -116,15 +117,16 @@ def analytic_impulse(params: VehicleParams, model: mujoco.MjModel, on_s: np.ndar
     return np.einsum("nja,j->na", torque_per_jet_B(params, model), on_s)
 
 
-def accuracy(model: mujoco.MjModel, params: VehicleParams, hist) -> dict:
-    nominal = VehicleParams.nominal(1, model)
-    h_nom, _ = fly(nominal, model, CASE26_ON_S, DURATION_S, 1)
+def accuracy(vehicle: Vehicle, params: VehicleParams, hist) -> dict:
+    model = vehicle.model
+    nominal = vehicle.nominal(1)
+    h_nom, _ = fly(nominal, vehicle, CASE26_ON_S, DURATION_S, 1)
     ref = analytic_impulse(nominal, model, CASE26_ON_S)[0]
     h = momentum_N(h_nom, nominal)[0]
     disp = (
         momentum_N(hist, params) - analytic_impulse(params, model, CASE26_ON_S)
     ) / analytic_impulse(params, model, CASE26_ON_S)
-    h_probe, _ = fly(nominal, model, PROBE_ON_S, PROBE_DURATION_S, 1)
+    h_probe, _ = fly(nominal, vehicle, PROBE_ON_S, PROBE_DURATION_S, 1)
     probe_ref = analytic_impulse(nominal, model, PROBE_ON_S)[0]
     probe = momentum_N(h_probe, nominal)[0]
     return {
@@ -171,14 +173,16 @@ def main(argv=None) -> int:
     )
     print(f"{'step':>6} {'threads':<10} {'wall s':>8} {'sim-s/wall-s':>13}")
     for dt in args.steps:
-        model = load_model(timestep_s=dt)
-        params = dispersed_params(args.runs, model)
+        vehicle = Vehicle.load().with_physics(timestep_s=dt)
+        if vehicle.control.cycle_s != CYCLE_S or vehicle.n_jets != N_JETS:
+            raise SystemExit(f"the paper's vehicle is no longer the peer's: {vehicle.label}")
+        params = dispersed_params(args.runs, vehicle)
         entry = {"timing": {}}
         hist = None
         for nthread in args.threads:
             walls = []
             for _ in range(args.repeat):
-                hist, wall = fly(params, model, CASE26_ON_S, DURATION_S, nthread)
+                hist, wall = fly(params, vehicle, CASE26_ON_S, DURATION_S, nthread)
                 walls.append(wall)
             wall = statistics.median(walls)
             entry["timing"][f"{nthread} thread"] = {
@@ -189,7 +193,7 @@ def main(argv=None) -> int:
             print(f"{dt * 1e3:4g}ms {nthread:<10} {wall:8.3f} {sim_s / wall:13.0f}", flush=True)
         if hist.failed.any():
             raise RuntimeError(f"runs failed: {set(hist.reason) - {''}}")
-        entry["accuracy"] = accuracy(model, params, hist)
+        entry["accuracy"] = accuracy(vehicle, params, hist)
         entry["final_omega_rad_s"] = hist.final.omega_B.tolist()
         out["steps"][f"{dt:g}"] = entry
 
