@@ -282,9 +282,13 @@ def run_refine(args: argparse.Namespace) -> int:
                 f"({row['failed_pct']:.2f} %, {row['failed_ci_lo_pct']:.2f}-"
                 f"{row['failed_ci_hi_pct']:.2f}), {int(row['repeated'])} repeated"
             )
-    for seed_name, seed in (("search", args.seed), ("fresh", fresh)):
+    # Each line compares the same runs with the original and the refined table.
+    for seed_name, seed, what in (
+        ("search", args.seed, f"search seed, its first {search} runs per case, the search's own"),
+        ("fresh", fresh, f"held-out seed, {args.runs_per_case} runs per case"),
+    ):
         print(
-            f"seed {seed} ({seed_name}): failed runs {int(log[f'failed_{seed_name}_before'].sum())}"
+            f"seed {seed} ({what}): failed runs {int(log[f'failed_{seed_name}_before'].sum())}"
             f" -> {int(log[f'failed_{seed_name}_after'].sum())}, repeated-firing runs "
             f"{int(log[f'repeated_{seed_name}_before'].sum())} -> "
             f"{int(log[f'repeated_{seed_name}_after'].sum())}"

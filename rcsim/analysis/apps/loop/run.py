@@ -186,6 +186,13 @@ class LoopSettings:
     def held_out_seed(self) -> int:
         return held_out_seed(self.seed) if self.fresh_seed is None else self.fresh_seed
 
+    @property
+    def confirm_seed(self) -> int:
+        """The refinement's confirmation seed (its second gate), neither of the others."""
+        from rcsim.analysis.apps.refinement.parameters import confirmation_seed
+
+        return confirmation_seed(self.seed, self.held_out_seed)
+
 
 @dataclass
 class LoopResult:
@@ -507,6 +514,7 @@ class _Stages:
         return {
             "cases_changed": int(changed.sum()),
             "runs_flown": result.runs_flown,
+            "search_seed": s.seed,
             "confirm_seed": confirmation_seed(s.seed, s.held_out_seed),
         }
 
@@ -525,8 +533,9 @@ class _Stages:
         s = self.settings
         # The refined table's runs on the fresh seed are the "after" campaign's; the old table
         # is flown on that seed as a campaign too: resumable chunk by chunk, so a loop stopped
-        # in this stage goes on where it was (no plots: the report shows none).
-        self._campaign("campaign_check", self.table_file, s.held_out_seed, plots=False)
+        # in this stage goes on where it was.  Its plots are the report's "before" figure
+        # beside campaign_after's "after": the same runs.
+        self._campaign("campaign_check", self.table_file, s.held_out_seed)
         refined = load_lookup_table(self.paths["refined"])
         ref = held_out_check(
             self.table,
@@ -547,7 +556,7 @@ class _Stages:
         from rcsim.analysis.apps.loop.report import fresh_seed_change
 
         # The same fresh seed flown with the table before and after refinement: one contrast.
-        return {"failed_fresh": fresh_seed_change(log)}
+        return {"held_out_seed": s.held_out_seed, "failed_fresh": fresh_seed_change(log)}
 
     def rare(self) -> dict:
         return rare_stage(self.out, self.settings, self.progress)

@@ -489,6 +489,9 @@ def write_refinement(
             ref.changelog,
             tmp / "failures_by_case.png",
             title=f"{ref.runs_per_case} dispersed runs per case",
+            seed=ref.seed,
+            fresh_seed=ref.fresh_seed,
+            search_runs=int(ref.result.before["runs"].max()),
         )
         written["summary_plot"] = paths["plots"] / "failures_by_case.png"
         if worst is not None:
