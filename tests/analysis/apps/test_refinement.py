@@ -213,11 +213,16 @@ SEARCH_SEED, CONFIRM_SEED = 1, 3
 ROW3, ROW24 = 2, 23  # cases 3 (-,-,+) and 24 (+,+,-): mirrors of each other
 
 
-def fake_evaluate(world, fuel=None):
+def fake_evaluate(world, fuel=None, harm=None):
     """An ``evaluate`` that flies nothing: in trial ``i`` the first ``world[(row, yaw cycles,
     seed)]`` runs fail (on yaw), the others converge; 0 for an entry not listed.  The same
     ``k`` fails for every table, so counts are paired as common random numbers pair them.
-    Every run uses ``fuel[(row, yaw cycles)]`` kg of propellant (1 kg if not listed)."""
+    Every run uses ``fuel[(row, yaw cycles)]`` kg of propellant (1 kg if not listed).
+
+    ``harm[(victim row, source row, source yaw cycles, seed)] = n``: the victim's runs fire
+    the source row too (``rows_fired``), and with the source row at those yaw cycles the
+    victim's last ``n`` runs fail as well (a changed row flying inside another case's runs).
+    Every run fires its own row."""
     from rcsim.analysis.apps.refinement import evaluate as flying
     from rcsim.lookup.table_edits import axis_cycles, jet_axes
     from rcsim.models.tables import AXES
@@ -228,10 +233,19 @@ def fake_evaluate(world, fuel=None):
             np.arange(trials.n_trials), trials.case, 2
         ]
         frames = []
+        cycles = axis_cycles(trials.times_s, jet_axes(table), PAPER_CYCLE_S)
         for i, (row, y) in enumerate(zip(trials.case, yaw)):
             k = np.arange(n)
             failed = k < world.get((int(row), int(y), spec.seed), 0)
+            fired = 1 << int(row)
+            for (victim, source, source_yaw, seed), count in (harm or {}).items():
+                if victim != row:
+                    continue
+                fired |= 1 << source
+                if seed == spec.seed and cycles[i, source, 2] == source_yaw:
+                    failed = failed | (k >= n - count)
             frame = pd.DataFrame({"trial": i, "case_index": int(row), "k": k, "failed": failed})
+            frame["rows_fired"] = np.int64(fired)
             frame["repeated"] = False
             frame["propellant_kg"] = (fuel or {}).get((int(row), int(y)), 1.0)
             for axis in AXES:
@@ -245,10 +259,10 @@ def fake_evaluate(world, fuel=None):
     return evaluate
 
 
-def fake_refine(monkeypatch, world, cases=(ROW3, ROW24), fuel=None, **kw):
+def fake_refine(monkeypatch, world, cases=(ROW3, ROW24), fuel=None, harm=None, **kw):
     from rcsim.analysis.apps.refinement import search as search_module
 
-    monkeypatch.setattr(search_module, "evaluate", fake_evaluate(world, fuel))
+    monkeypatch.setattr(search_module, "evaluate", fake_evaluate(world, fuel, harm))
     spec = refinement_spec(runs_per_case=200, seed=SEARCH_SEED, duration_s=8.0)
     return refine(
         spec, load_lookup_table(which="table6"), list(cases), confirm_seed=CONFIRM_SEED, **kw
@@ -272,6 +286,39 @@ def test_a_change_resting_on_one_failure_in_200_runs_is_refused(monkeypatch):
     assert changed_cells(load_lookup_table(which="table6"), result.table, PAPER_CYCLE_S)[
         "new_cycles"
     ].tolist() == [6]
+
+
+ROW13 = 12  # case 13 (0, 0, -)
+
+
+def test_a_change_that_harms_a_case_whose_runs_fire_its_row_is_refused(monkeypatch):
+    """Issue 36, item 2: a row change flies in every case whose runs fire the row.  Case 3's
+    yaw -1 removes 20 of its failures, but case 13's runs fire row 3 and 8 of them fail with
+    it.  Pooled over both cases the gain is significant (b = 20, c = 8: p = P(X >= 20),
+    X ~ Bin(28, 1/2) = 0.018), but case 13 alone is worse (0 better, 8 worse: p = 2^-8,
+    Holm over the two cases 0.0078 <= 0.05): refused, with the reason.  The search judged it
+    on both cases, in one batch.  Without the harm the same change is taken."""
+    world = {
+        (ROW3, 7, SEARCH_SEED): 20,
+        (ROW3, 8, SEARCH_SEED): 40,
+        (ROW3, 7, CONFIRM_SEED): 20,
+    }
+    harm = {(ROW13, ROW3, 6, SEARCH_SEED): 8, (ROW13, ROW3, 6, CONFIRM_SEED): 8}
+    result = fake_refine(monkeypatch, world, cases=[ROW3, ROW13], harm=harm)
+    t6 = load_lookup_table(which="table6")
+    assert changed_cells(t6, result.table, PAPER_CYCLE_S).empty
+    decision = result.iterations[0]["decisions"][0]
+    assert decision["cases_judged"] == [3, 13]
+    assert (decision["b"], decision["c"]) == (20, 8) and decision["p"] < 0.05
+    assert not decision["accepted"]
+    assert decision["worse_refused"].startswith(
+        "case 13 worse (failed 0 -> 8 of 200; failed: 8:0 runs worse:better, Holm p=0.0078)"
+    )
+    assert "case 13 worse" in result.evidence.set_index("case_index").loc[ROW3, "refused"]
+    # The harm gone, the change is taken and judged on case 3 alone (case 13 never fires it).
+    result = fake_refine(monkeypatch, world, cases=[ROW3, ROW13])
+    assert changed_cells(t6, result.table, PAPER_CYCLE_S)["case"].tolist() == [3]
+    assert result.iterations[0]["decisions"][0]["cases_judged"] == [3]
 
 
 def test_a_change_that_reverses_on_the_confirmation_seed_is_reverted(monkeypatch):
@@ -416,3 +463,4 @@ def test_the_search_flies_a_vehicle_files_valve_delays(tmp_path):
         flown["delayed"][columns], campaign[columns], check_exact=True, check_dtype=False
     )
     assert not np.array_equal(flown["delayed"][columns], flown["paper"][columns])
+

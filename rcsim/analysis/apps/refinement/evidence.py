@@ -26,6 +26,10 @@ def refused_candidates(iterations: list, case_numbers) -> list[str]:
             why = f"{d['outcome']} {d['b']}:{d['c']}, p={d['p']:.2g}"
             if d.get("propellant_refused"):
                 why += f"; {d['propellant_refused']}"
+            if d.get("worse_refused"):
+                why += f"; {d['worse_refused']}"
+            if d.get("deferred"):
+                why += f"; {d['deferred']}"
             out[case].append(f"round {it['round']}: {move} ({why})")
     return ["; ".join(out[int(c)]) for c in case_numbers]
 
