@@ -273,6 +273,14 @@ def test_every_before_after_compares_the_same_runs_and_names_its_seed(loop_dir):
         assert f"with the original table (held-out seed {fresh})" in text
         assert f"with the refined table (held-out seed {fresh})" in text
         assert "(search seed)" not in text
+    # The held-out check of every case, in the summary's first paragraph.
+    log = pd.read_csv(loop_dir / "refined_table_changelog.csv")
+    state = json.loads((loop_dir / "loop.json").read_text())
+    if log["held_out_regression"].any():
+        assert f"REGRESSION: {state['done']['check']['regressions']}" in text
+    else:
+        assert state["done"]["check"]["regressions"] == "none"
+        assert "No case is significantly worse with the refined table" in text
     summary = _report_table(report, "The loop")
     labels = summary.iloc[:, 0].tolist()
     assert f"failed runs, held-out seed {fresh}: original -> refined table" in labels

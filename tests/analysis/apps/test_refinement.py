@@ -464,3 +464,63 @@ def test_the_search_flies_a_vehicle_files_valve_delays(tmp_path):
     )
     assert not np.array_equal(flown["delayed"][columns], flown["paper"][columns])
 
+
+def test_a_planted_regression_is_named_with_its_row_and_dropped():
+    """Issue 36, item 3, with a regression planted by hand: case 14's (0, 0, +) yaw firing
+    three times as long.  Case 3's runs fire row 14 in their yaw corrections (a correction
+    picks its row by the sign pattern of the rate error), so the planted row harms case 3
+    although case 3's own row is Table 6's (measured on seed 2, 40 runs: 7 -> 21 failed).
+    The held-out check names case 3 (and case 14) significantly worse, finds case 14's row
+    the cause by reverting it, drops it, and checks again on a further seed, where the final
+    table is Table 6 again: nothing is worse.  The per-case p-values are recomputed here with
+    scipy's exact binomial test and Holm over the two cases."""
+    from dataclasses import replace
+
+    from scipy import stats
+
+    from rcsim.analysis.apps.refinement.outputs import held_out_check
+    from rcsim.analysis.apps.refinement.search import RefineResult
+    from rcsim.spacecraft.vehicle_file import Vehicle
+
+    t6 = load_lookup_table(which="table6")
+    planted = np.array(t6.firing_time_s, float)
+    planted[13] = np.round(3 * planted[13] / PAPER_CYCLE_S) * PAPER_CYCLE_S
+    cases = np.array([2, 13])  # cases 3 and 14
+    zeros = pd.DataFrame({"case_index": cases, "failed": 0, "repeated": 0, "runs": 40})
+    result = RefineResult(replace(t6, firing_time_s=planted), zeros, zeros)
+    ref = held_out_check(
+        t6,
+        result,
+        seed=1,
+        fresh_seed=2,
+        runs_per_case=40,
+        duration_s=20.0,
+        progress=False,
+        compare_table7=False,
+        confirm_seed=3,
+        vehicle=Vehicle.load(),
+        drop_regressions=True,
+    )
+    log = ref.changelog.set_index("case")
+    assert log.loc[3, "held_out_regression"] and log.loc[14, "held_out_regression"]
+    assert log.loc[3, "held_out_regression_rows"] == "case 14"
+    worse_p = [
+        stats.binomtest(int(c), int(b + c), 0.5, alternative="greater").pvalue
+        for b, c in zip(log["held_out_better_runs"], log["held_out_worse_runs"])
+    ]
+    holm = np.minimum(1.0, np.maximum.accumulate(2 * np.sort(worse_p) * [1.0, 0.5]))
+    np.testing.assert_allclose(np.sort(log["held_out_worse_p_holm"]), holm, rtol=1e-9)
+    assert log.loc[3, "failed_fresh_after"] > log.loc[3, "failed_fresh_before"]
+    assert ref.regressions.startswith("case 3 is significantly worse on held-out seed 2")
+    assert "caused by case 14's row" in ref.regressions
+    # Dropped: the final table is Table 6 again, checked on the further seed (one past 3).
+    np.testing.assert_array_equal(ref.table.firing_time_s, t6.firing_time_s)
+    assert ref.further["seed"] == 4 and ref.further["dropped_rows"] == [14]
+    assert ref.further["failed_before"] == ref.further["failed_after"]
+    assert ref.further["regressions"] == ""
+    assert log.loc[14, "decision"] == (
+        "dropped (caused a regression of case 3, case 14 on held-out seed 2; checked again "
+        "on seed 4)"
+    )
+    assert not log["changed"].any()
+    assert ref.comparison["seed"].tolist() == [2, 2, 4, 4]

@@ -293,6 +293,11 @@ def run_refine(args: argparse.Namespace) -> int:
             f"{int(log[f'repeated_{seed_name}_before'].sum())} -> "
             f"{int(log[f'repeated_{seed_name}_after'].sum())}"
         )
+    # The held-out check of every case (original and refined table on the same runs).
+    print(
+        f"held-out seed {fresh}, every case (exact one-sided McNemar, Holm over the cases): "
+        + (f"REGRESSION: {ref.regressions}" if ref.regressions else "no case significantly worse")
+    )
     print("wrote " + ", ".join(str(p) for p in paths.values()))
     return 0
 

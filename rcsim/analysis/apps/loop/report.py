@@ -96,9 +96,36 @@ def fresh_seed_change(log: pd.DataFrame) -> str:
     )
 
 
+def regression_sentence(log: pd.DataFrame, check: dict, n_cases: int) -> str:
+    """The held-out check of every case in words (the summary's first paragraph): the cases
+    significantly worse with the rows that cause them, what the loop dropped and its check on
+    the further seed; or that no case is worse."""
+    test = (
+        "exact one-sided McNemar test per case on the same held-out runs, Holm over the "
+        f"{n_cases} cases"
+    )
+    if "held_out_regression" not in log or not log["held_out_regression"].astype(bool).any():
+        return f"No case is significantly worse with the refined table ({test})."
+    text = f"REGRESSION: {check.get('regressions', '')} ({test})."
+    if "further_seed" in check:
+        dropped = ", ".join(str(r) for r in check["dropped_rows"])
+        text += (
+            f" The loop dropped the change of case {dropped} (its row is the original table's "
+            f"again) and checked again on further seed {check['further_seed']}, every case: "
+            f"{check['failed_further']}; "
+            + (
+                "no case is significantly worse there."
+                if check.get("regressions_further", "none") == "none"
+                else f"still worse: {check['regressions_further']}."
+            )
+            + " The held-out figures here are the table as searched, before the drop."
+        )
+    return text
+
+
 def _counts(campaign: Path) -> pd.DataFrame:
     cases = pd.read_csv(campaign / "cases.csv")
-    return cases[["case", "runs", "failed", "one_firing_pct", "firings_per_run_mean"]]
+    return cases[["case", "case_index", "runs", "failed", "one_firing_pct", "firings_per_run_mean"]]
 
 
 def _summary(
@@ -178,12 +205,14 @@ def _summary(
         else "Fly the refined table with `--table refined_table.csv` (`rcsim maneuver`, "
         "`rcsim scenario run`) or as a campaign spec's `controller.table`"
     )
+    check = state["done"].get("check", {})
     blocks = [
         text_block(
             f"On a seed no decision used (held-out seed {fresh}, {s['runs_per_case']} dispersed "
             f"runs of each of the 26 rate cases, flown with both tables), "
             f"{fresh_seed_change(log)}. The refinement "
-            f"changed {n_changed} of {len(log)} cases; it searched {name} on seed {s['seed']}."
+            f"changed {n_changed} of {len(log)} cases; it searched {name} on seed {s['seed']}. "
+            + regression_sentence(log, check, len(log))
         ),
         table_block(pd.DataFrame(rows, columns=["", "value"]), "The loop"),
         text_block(
@@ -214,6 +243,20 @@ def _before_after(
             "one_firing_pct_refined",
         ]
     ].rename(columns={"runs_original": "runs"})
+    if "held_out_regression" in log:
+        worse = log[["case", "held_out_worse_runs", "held_out_better_runs"]].copy()
+        worse["significantly worse (Holm)"] = [
+            f"yes: caused by {r}'s row" if flag and r else ("yes" if flag else "")
+            for flag, r in zip(
+                log["held_out_regression"].astype(bool),
+                log["held_out_regression_rows"].astype(object).fillna("").astype(str),
+            )
+        ]
+        # cases.csv names its cases (rate-03) and numbers them from 0 (case_index).
+        worse = worse.assign(case_index=worse["case"] - 1).drop(columns="case")
+        index = before[["case", "case_index"]]
+        merged = merged.merge(index, on="case").merge(worse, on="case_index", how="left")
+        merged = merged.drop(columns="case_index")
     blocks = [
         _img(
             plots / "failures_by_case.png",

@@ -98,6 +98,12 @@ class LoopSettings:
     rare_budget, rare_cases : int
         The rare-event stage (:mod:`~rcsim.analysis.apps.loop.rare`): most runs per case (0,
         the default: off) and most cases estimated.
+    drop_regressions : bool
+        The check stage's held-out check of every case: a changed row that makes some case
+        significantly worse on the held-out seed goes back to the original row, and the
+        original and the final table are flown again on a further seed (one past every
+        other), which the report and the changelog state (:mod:`~rcsim.analysis.apps.
+        refinement.regressions`).  False: regressions are reported, the table kept.
     """
 
     table: str | None = None
@@ -114,6 +120,7 @@ class LoopSettings:
     control: dict | None = None
     rare_budget: int = 0
     rare_cases: int = 3
+    drop_regressions: bool = True
 
     def flown_vehicle(self) -> Vehicle:
         """The vehicle the loop flies, resolved from its settings (the file, the overrides)."""
@@ -550,13 +557,28 @@ class _Stages:
             vehicle=self.vehicle,
             table_file=refinement_vehicle(self.table, self.vehicle)[1],
             max_propellant_rise=s.max_propellant_rise_pct / 100.0,
+            drop_regressions=s.drop_regressions,
         )
         write_refinement(ref, self.paths["refined"], overwrite=True, writer=COMMAND)
         log = ref.changelog
         from rcsim.analysis.apps.loop.report import fresh_seed_change
 
         # The same fresh seed flown with the table before and after refinement: one contrast.
-        return {"held_out_seed": s.held_out_seed, "failed_fresh": fresh_seed_change(log)}
+        info: dict = {
+            "held_out_seed": s.held_out_seed,
+            "failed_fresh": fresh_seed_change(log),
+            "regressions": ref.regressions or "none",
+        }
+        if ref.further is not None:
+            f = ref.further
+            info["further_seed"] = f["seed"]
+            info["dropped_rows"] = f["dropped_rows"]
+            info["failed_further"] = (
+                f"{f['failed_before']:,} of {f['runs']:,} runs failed with the original "
+                f"table, {f['failed_after']:,} with the final table"
+            )
+            info["regressions_further"] = f["regressions"] or "none"
+        return info
 
     def rare(self) -> dict:
         return rare_stage(self.out, self.settings, self.progress)
