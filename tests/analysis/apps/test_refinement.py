@@ -524,3 +524,31 @@ def test_a_planted_regression_is_named_with_its_row_and_dropped():
     )
     assert not log["changed"].any()
     assert ref.comparison["seed"].tolist() == [2, 2, 4, 4]
+
+
+def test_interacting_changes_are_judged_again_on_runs_that_are_the_final_tables():
+    """Issue 36, item 2: cases 3, 4, 23 and 24's runs fire each other's rows (a yaw
+    correction picks its row by the sign pattern of the rate error), so their changes
+    interact: one is taken, the others are judged again on runs that include it, flying only
+    the runs the taken change can move.  Oracle: the search's final per-case counts are those
+    of the final table flown directly on the same runs (a reused run that were not the final
+    table's would show), and some decision was judged again."""
+    from rcsim.analysis.apps.refinement.evaluate import Trials, evaluate
+    from rcsim.analysis.results.scoring import trial_scores
+
+    cases = np.array([2, 3, 22, 23])
+    spec = refinement_spec(runs_per_case=20, seed=1, duration_s=20.0)
+    result = refine(spec, load_lookup_table(which="table6"), cases, progress=False)
+    again = [d for it in result.iterations for d in it["decisions"] if d.get("judged_again")]
+    assert again
+    final = np.asarray(result.table.firing_time_s)
+    flown = evaluate(
+        spec,
+        result.table,
+        Trials(np.repeat(final[None], cases.size, 0), cases, ("final",) * cases.size),
+        progress=False,
+    )
+    np.testing.assert_array_equal(
+        trial_scores(flown, cases.size)[["failed", "repeated"]].to_numpy(),
+        result.after[["failed", "repeated"]].to_numpy(),
+    )

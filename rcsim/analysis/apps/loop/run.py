@@ -558,6 +558,8 @@ class _Stages:
             table_file=refinement_vehicle(self.table, self.vehicle)[1],
             max_propellant_rise=s.max_propellant_rise_pct / 100.0,
             drop_regressions=s.drop_regressions,
+            # The further seed is one past every seed the loop used (this one included).
+            confirm_seed=s.confirm_seed,
         )
         write_refinement(ref, self.paths["refined"], overwrite=True, writer=COMMAND)
         log = ref.changelog

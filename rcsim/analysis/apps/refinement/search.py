@@ -17,7 +17,8 @@ automated by measuring the number of firings and the final rate error".  Here:
    paired runs: the exact one-sided McNemar test of :mod:`rcsim.analysis.apps.refinement.gate`.
    A candidate is flown on every searched case whose runs fire its row (each run records the
    rows it fired), judged on all of them (its gain pooled; no case significantly worse, Holm
-   over the cases), and changes whose runs interact are not taken in the same round.
+   over the cases).  Changes whose runs interact are taken one after the other, each of the
+   others judged again on runs that include the one taken (flying only the runs it moves).
 4. The accepted changes' runs are their candidates' (no re-fly), and 2-3 repeat
    until every case is robust, no entry is left to try, or ``max_iterations`` is reached.
    The best table flown (fewest failures, then repeated firings, over all searched cases)
@@ -426,12 +427,41 @@ class _Search:
             parts.append(mine.assign(k=mine["k"] + i * self.runs_per_case))
         return pd.concat(parts, ignore_index=True)
 
+    def _judge(self, t: int, positions: np.ndarray, cand: pd.DataFrame, label: str) -> dict:
+        """One candidate's verdict on the paired runs of every case at ``positions`` (its own
+        case ``t`` first): the current table's runs against the candidate's ``cand``."""
+        before = self._pooled(self.runs, positions)
+        after = self._pooled(cand, positions)
+        # Strictly better is not enough: the gain must be significant on the paired runs (a
+        # change resting on a run or two in 200 is noise), over every case the row flies in.
+        test = paired_test(before, after, self.alpha)
+        # Propellant, the second objective: a rise of the case's own mean beyond max_rise
+        # must be paid for.
+        fuel = propellant_check(
+            self.runs[self.runs["trial"] == t], cand[cand["trial"] == t], self.max_rise
+        )
+        # No case may get significantly worse (Holm over the cases it flies in).
+        harm = worse_text(
+            worse_cases(before, after, self.alpha, test.outcome) if test.passed else []
+        )
+        return {
+            "candidate": label,
+            **test_dict(test),
+            "accepted": bool(test.passed and fuel.passes and not harm),
+            "test_passed": bool(test.passed),
+            "cases_judged": [int(self.cases[p]) + 1 for p in positions],
+            "propellant_change_pct": fuel.rise_pct,
+            "propellant_refused": fuel.reason,
+            "worse_refused": harm,
+        }
+
     def round(self, number: int, trials: Trials, edits: list) -> None:
         """Steps 3-4: fly the candidates on every case whose runs fire their rows, keep each
         case's best if its gain over all those cases is significant and no case gets
-        significantly worse; changes whose runs interact (one's runs fire the other's row)
-        are not taken together: the one with the smaller p is, the other is judged again
-        next round on runs that include it."""
+        significantly worse; changes whose runs interact (they share a run, or one's runs
+        fire the other's row) are not taken together: the one with the smaller p is, and the
+        others are judged again on runs that include it (a *wave*: one batched flight of only
+        the runs the taken changes can move), until none is left."""
         cand_runs = evaluate(
             self.spec,
             self.table,
@@ -475,74 +505,136 @@ class _Search:
                 positions = edits[i][2]
                 if not pooled_key(i) < score_key(scores_now.iloc[positions].sum()):
                     break
-                # Strictly better is not enough: the gain must be significant on the paired
-                # runs (a change resting on a run or two in 200 is noise), over every case the
-                # changed row flies in.
-                before = self._pooled(self.runs, positions)
-                after = self._pooled(flown_of[i], positions)
-                test = paired_test(before, after, self.alpha)
-                # Propellant, the second objective: a rise of the case's own mean beyond
-                # max_rise must be paid for.
-                fuel = propellant_check(
-                    self.runs[self.runs["trial"] == t],
-                    flown_of[i][flown_of[i]["trial"] == t],
-                    self.max_rise,
-                )
-                # No case may get significantly worse (Holm over the cases it flies in).
-                harm = worse_text(
-                    worse_cases(before, after, self.alpha, test.outcome) if test.passed else []
-                )
-                ok = test.passed and fuel.passes and not harm
-                decisions.append(
-                    {
-                        "candidate": trials.label[edits[i][3][0]],
-                        **test_dict(test),
-                        "accepted": ok,
-                        "cases_judged": [int(self.cases[p]) + 1 for p in positions],
-                        "propellant_change_pct": fuel.rise_pct,
-                        "propellant_refused": fuel.reason,
-                        "worse_refused": harm,
-                    }
-                )
+                verdict = self._judge(t, positions, flown_of[i], trials.label[edits[i][3][0]])
+                decisions.append(verdict)
+                ok = verdict["accepted"]
+                test_passed = verdict["test_passed"]
                 if ok:
-                    proposals.append((test.p, i, len(decisions) - 1))
+                    proposals.append((verdict["p"], i, len(decisions) - 1))
                     break
-                if not test.passed:
+                if not test_passed:
                     # Only a candidate refused for its propellant or for a case it harms
                     # gives way to the next best (the other direction may do better).
                     break
-        accepted = np.zeros((len(self.table.case), len(AXES)), int)
         changed: list = []
-        taken: list = []
-        new_runs = []
-        for _p, i, d in sorted(proposals, key=lambda x: (x[0], x[1])):
-            t, shift, positions, _ = edits[i]
-            row = int(self.cases[t])
-            # The rows its runs fire, with the change.
-            fires = int(np.bitwise_or.reduce(rows_fired_by_trial(flown_of[i], self.cases.size)))
-            clash = [
-                o_row + 1
-                for o_row, o_positions, o_fires in taken
-                if set(positions.tolist()) & set(o_positions.tolist())
-                or (fires >> o_row) & 1
-                or (o_fires >> row) & 1
-            ]
-            if clash:
-                decisions[d]["accepted"] = False
-                decisions[d]["deferred"] = (
-                    f"its runs interact with case {clash[0]}'s change, taken this round: "
-                    "judged again next round"
+        positions_of = {i: edits[i][2] for _p, i, _d in proposals}
+        pending = proposals
+        wave = 0
+        while pending:
+            # Changes whose runs do not interact are taken together (taking them one after
+            # the other would fly the same runs); the one with the smaller p first.
+            taken: list = []
+            deferred = []
+            for _p, i, d in sorted(pending, key=lambda x: (x[0], x[1])):
+                t = edits[i][0]
+                positions = positions_of[i]
+                row = int(self.cases[t])
+                fires = int(np.bitwise_or.reduce(rows_fired_by_trial(flown_of[i], self.cases.size)))
+                clash = [
+                    o_row + 1
+                    for o_row, o_positions, o_fires, _ in taken
+                    if set(positions.tolist()) & set(o_positions.tolist())
+                    or (fires >> o_row) & 1
+                    or (o_fires >> row) & 1
+                ]
+                if clash:
+                    decisions[d]["accepted"] = False
+                    decisions[d]["deferred"] = (
+                        f"its runs interact with case {clash[0]}'s change, taken first: "
+                        "judged again"
+                    )
+                    deferred.append(i)
+                    continue
+                taken.append((row, positions, fires, i))
+                changed.append(decisions[d]["candidate"])
+            wave_shift = np.sum([edits[i][1] for *_, i in taken], axis=0)
+            self.current = shift_axes(self.current, self.jet_axis, wave_shift, self.cycle_s)
+            # The taken changes' runs are their candidates' runs: every case whose runs fire
+            # a changed row was flown with it (and with no other change taken with it: they
+            # do not interact), every other case's runs are unchanged bit for bit.
+            replaced = np.concatenate([positions for _, positions, _, _ in taken])
+            kept = self.runs[~self.runs["trial"].isin(replaced)]
+            moved = [flown_of[i][flown_of[i]["trial"].isin(pos)] for _, pos, _, i in taken]
+            self.runs = (
+                pd.concat([kept, *moved], ignore_index=True)
+                .sort_values(["trial", "k"], kind="stable")
+                .reset_index(drop=True)
+            )
+            self.scores = trial_scores(self.runs, self.cases.size)
+            if not deferred:
+                break
+            # Judge the others again on runs that include the taken changes, in one batch:
+            # a candidate's run is the current one where the current run does not fire its
+            # row, its earlier run where that did not fire a taken row, else flown again.
+            wave += 1
+            taken_rows = sum(1 << r for r, *_ in taken)
+            fired_now = rows_fired_by_trial(self.runs, self.cases.size)
+            plan = []
+            for i in deferred:
+                t, shift = edits[i][0], edits[i][1]
+                row = int(self.cases[t])
+                candidate = shift_axes(self.current, self.jet_axis, shift, self.cycle_s)
+                others = np.flatnonzero((fired_now >> np.int64(row)) & 1)
+                positions = np.array(
+                    [t, *sorted({int(p) for p in [*others, *positions_of[i]]} - {t})], int
                 )
-                state = (row, tuple(axis_cycles(
-                    shift_axes(self.current, self.jet_axis, shift, self.cycle_s),
-                    self.jet_axis, self.cycle_s,
-                )[row]))  # fmt: skip
-                self.visited.discard(state)
-                continue
-            taken.append((row, positions, fires))
-            accepted += shift
-            changed.append(decisions[d]["candidate"])
-            new_runs.append((positions, flown_of[i]))
+                now = self.runs[self.runs["trial"].isin(positions)]
+                earlier = flown_of[i].set_index(["trial", "k"])
+                reuse: list = []
+                fly_k: dict = {int(p): [] for p in positions}
+                for r in now.itertuples(index=False):
+                    key = (int(r.trial), int(r.k))
+                    if not (int(r.rows_fired) >> row) & 1:
+                        reuse.append(("now", key))
+                    elif key in earlier.index and not (
+                        int(earlier.loc[key, "rows_fired"]) & taken_rows
+                    ):
+                        reuse.append(("earlier", key))
+                    else:
+                        fly_k[key[0]].append(key[1])
+                plan.append((i, candidate, positions, reuse, fly_k))
+            times, cases_, ks, owner = [], [], [], []
+            for i, candidate, _positions, _reuse, fly_k in plan:
+                for p, k in fly_k.items():
+                    if k:
+                        times.append(candidate)
+                        cases_.append(int(self.cases[p]))
+                        ks.append(np.array(k, int))
+                        owner.append((i, p))
+            again = None
+            if times:
+                again = evaluate(
+                    self.spec,
+                    self.table,
+                    Trials(np.array(times), np.array(cases_), ("again",) * len(times), tuple(ks)),
+                    desc=f"refine: round {number} judged again",
+                    runs_per_case=self.runs_per_case,
+                    **self.kw,
+                )
+                self.flown += len(again)
+            pending = []
+            now_by_key = self.runs.set_index(["trial", "k"])
+            for i, _candidate, positions, reuse, _fly_k in plan:
+                parts = []
+                for where, key in reuse:
+                    src = now_by_key if where == "now" else flown_of[i].set_index(["trial", "k"])
+                    parts.append(src.loc[[key]].reset_index())
+                if again is not None:
+                    for j, (o, p) in enumerate(owner):
+                        if o == i:
+                            parts.append(again[again["trial"] == j].assign(trial=p))
+                runs_i = (
+                    pd.concat(parts, ignore_index=True)
+                    .sort_values(["trial", "k"], kind="stable")
+                    .reset_index(drop=True)
+                )
+                flown_of[i] = runs_i
+                positions_of[i] = positions
+                verdict = self._judge(edits[i][0], positions, runs_i, trials.label[edits[i][3][0]])
+                verdict["judged_again"] = f"wave {wave}"
+                decisions.append(verdict)
+                if verdict["accepted"]:
+                    pending.append((verdict["p"], i, len(decisions) - 1))
         if not changed:
             # Nothing helped: the table and its runs stand; the next round tries the entries
             # not flown yet (other axes), and the search ends when there are none.
@@ -555,17 +647,6 @@ class _Search:
                 }
             )
             return
-        self.current = shift_axes(self.current, self.jet_axis, accepted, self.cycle_s)
-        # The accepted changes' runs are their candidates' runs: every case whose runs fire a
-        # changed row was flown with it (and with no other change of this round: they do not
-        # interact), every other case's runs are unchanged bit for bit.  Nothing to re-fly.
-        replaced = np.concatenate([positions for positions, _ in new_runs])
-        kept = self.runs[~self.runs["trial"].isin(replaced)]
-        self.runs = (
-            pd.concat([kept, *[runs for _, runs in new_runs]], ignore_index=True)
-            .sort_values(["trial", "k"], kind="stable")
-            .reset_index(drop=True)
-        )
         self.scores = trial_scores(self.runs, self.cases.size)
         totals = self.scores[["failed", "repeated"]].sum()
         self.iterations.append(
