@@ -359,6 +359,21 @@ class LookupController:
             tab = load_lookup_table(table)
         return cls(tab, LookupParams.from_profile(control, **overrides), jets_off=jets_off)
 
+    #: Per run and table row, whether the row started a firing in the flight so far, (n_runs,
+    #: n_cases) bool; None unless recording (:meth:`record_rows`).  What the refinement reads:
+    #: a correction firing picks its row by the sign pattern of the rate error, so a row also
+    #: flies in other cases' runs, and only the runs that fire a row can be moved by it.
+    rows_fired: np.ndarray | None = None
+    _record_rows = False
+
+    def record_rows(self) -> LookupController:
+        """Record :attr:`rows_fired` in the next flights (reset by :meth:`initial_state`).
+        Recording only reads what the cycle decided (the row and the axes that started a new
+        firing), the same in the compiled and the numpy cycle: the flight is unchanged, bit
+        for bit.  Returns ``self``."""
+        self._record_rows = True
+        return self
+
     @classmethod
     def for_runs(
         cls,
@@ -415,6 +430,8 @@ class LookupController:
             raise ValueError(
                 f"controller has tables for {self._times.shape[0]} runs, asked for {n_runs}"
             )
+        if self._record_rows:
+            self.rows_fired = np.zeros((n_runs, self._times.shape[-2]), bool)
         return LookupState(
             remaining_s=np.zeros((n_runs, self._times.shape[-1])),
             hold_s=np.zeros((n_runs, N_AXES)),
@@ -458,7 +475,11 @@ class LookupController:
 
     def step(self, nav: NavState, state: LookupState) -> tuple[np.ndarray, LookupState]:
         """One control cycle (see :meth:`step_detail`, without its details)."""
-        on, nxt, _ = self.step_detail(nav, state)
+        on, nxt, detail = self.step_detail(nav, state)
+        if self.rows_fired is not None:
+            # A row's times are used only where a new firing starts (``axis_new``).
+            started = np.flatnonzero(detail["axis_new"].any(axis=1))
+            self.rows_fired[started, detail["case"][started]] = True
         return on, nxt
 
     def step_detail(

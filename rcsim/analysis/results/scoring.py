@@ -28,7 +28,8 @@ def trial_frame(trial, case, k, outcome: pd.DataFrame) -> pd.DataFrame:
     """The per-run scoring frame of candidate ``trial`` runs from their campaign outcome columns
     (row-aligned): ``trial, case_index, k, failed, repeated``, ``firings_to_rate_<axis>``,
     ``final_rate_err_<axis>_deg_s`` and ``propellant_kg`` (the refinement's second objective,
-    :mod:`rcsim.analysis.apps.refinement.propellant`)."""
+    :mod:`rcsim.analysis.apps.refinement.propellant`); ``rows_fired`` when the outcomes have it
+    (the table rows each run fired, a bitmask)."""
     to_rate = outcome[[f"firings_to_rate_{a}" for a in AXES]].to_numpy(float)
     result = pd.DataFrame(
         {
@@ -45,7 +46,17 @@ def trial_frame(trial, case, k, outcome: pd.DataFrame) -> pd.DataFrame:
         result[f"firings_to_rate_{axis}"] = to_rate[:, a]
         result[f"final_rate_err_{axis}_deg_s"] = outcome[f"final_rate_err_{axis}_deg_s"].to_numpy()
     result["propellant_kg"] = outcome["propellant_kg"].to_numpy(float)
+    if "rows_fired" in outcome:  # flown by the refinement (a campaign's runs do not record it)
+        result["rows_fired"] = outcome["rows_fired"].to_numpy(np.int64)
     return result
+
+
+def rows_fired_by_trial(runs: pd.DataFrame, n_trials: int) -> np.ndarray:
+    """(n_trials,) int64: the table rows any run of each trial fired, as a bitmask (bit ``r``:
+    row ``r``; the ``rows_fired`` column of :func:`trial_frame`)."""
+    out = np.zeros(n_trials, np.int64)
+    np.bitwise_or.at(out, runs["trial"].to_numpy(int), runs["rows_fired"].to_numpy(np.int64))
+    return out
 
 
 def trial_scores(runs: pd.DataFrame, n_trials: int) -> pd.DataFrame:

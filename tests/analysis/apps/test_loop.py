@@ -225,10 +225,71 @@ def test_headline_compares_the_same_fresh_seed_with_intervals(loop_dir):
         f"{ka:,} of {n:,} with the refined table, {rate(ka, n)}"
     )
     report = html.unescape((loop_dir / "report.html").read_text())
-    assert f"On a seed no decision used (fresh seed {SMALL.held_out_seed}" in report
+    assert f"On a seed no decision used (held-out seed {SMALL.held_out_seed}" in report
     assert want in report
     state = json.loads((loop_dir / "loop.json").read_text())
     assert state["done"]["check"]["failed_fresh"] == want
+    assert state["done"]["check"]["held_out_seed"] == SMALL.held_out_seed
+    assert state["done"]["refine"]["search_seed"] == SMALL.seed
+
+
+def _report_table(report: str, caption_start: str) -> pd.DataFrame:
+    """The report's table whose caption starts with ``caption_start``, as text cells."""
+    import re
+
+    for m in re.finditer(r"<table><caption>(.*?)</caption>(.*?)</table>", report, re.S):
+        if html.unescape(m.group(1)).startswith(caption_start):
+            head = [
+                html.unescape(re.sub("<wbr>", "", h))
+                for h in re.findall(r"<th>(.*?)</th>", m.group(2))
+            ]
+            rows = [
+                [html.unescape(c) for c in re.findall(r"<td>(.*?)</td>", r)]
+                for r in re.findall(r"<tr>(.*?)</tr>", m.group(2).split("</thead>")[1])
+            ]
+            return pd.DataFrame(rows, columns=head)
+    raise AssertionError(f"no table captioned {caption_start!r}")
+
+
+def test_every_before_after_compares_the_same_runs_and_names_its_seed(loop_dir):
+    """Issue 36, item 4: "Failures per case, before and after" set the search seed's "before"
+    beside the held-out seed's "after" (case 6 read 7 -> 33 where the held-out change was
+    10 -> 33).  Its per-case table is now the original table's and the refined table's
+    campaigns on the same held-out runs (counted again here from their runs.parquet), its
+    caption names the seed, and the figures beside it are both held-out campaigns' plots."""
+    fresh = SMALL.held_out_seed
+    report = (loop_dir / "report.html").read_text()
+    table = _report_table(report, f"Held-out seed {fresh}, the same runs flown with")
+    old = pd.read_parquet(loop_dir / "campaign_check" / "runs.parquet")
+    new = pd.read_parquet(loop_dir / "campaign_after" / "runs.parquet")
+    assert (old["run_id"].to_numpy() == new["run_id"].to_numpy()).all()  # the same runs
+    want_old = old.groupby("case_index")["failed"].sum().astype(int).tolist()
+    want_new = new.groupby("case_index")["failed"].sum().astype(int).tolist()
+    assert table["failed_original"].astype(int).tolist() == want_old
+    assert table["failed_refined"].astype(int).tolist() == want_new
+    # No column of a held-out table carries a search-seed figure.
+    changed = _report_table(report, "Changed entries")
+    assert not [c for c in changed.columns if "search" in c]
+    text = html.unescape(report)
+    assert "Before: case" in text or "No case changed" in text
+    if "Before: case" in text:
+        assert f"with the original table (held-out seed {fresh})" in text
+        assert f"with the refined table (held-out seed {fresh})" in text
+        assert "(search seed)" not in text
+    # The held-out check of every case, in the summary's first paragraph.
+    log = pd.read_csv(loop_dir / "refined_table_changelog.csv")
+    state = json.loads((loop_dir / "loop.json").read_text())
+    if log["held_out_regression"].any():
+        assert f"REGRESSION: {state['done']['check']['regressions']}" in text
+    else:
+        assert state["done"]["check"]["regressions"] == "none"
+        assert "No case is significantly worse with the refined table" in text
+    summary = _report_table(report, "The loop")
+    labels = summary.iloc[:, 0].tolist()
+    assert f"failed runs, held-out seed {fresh}: original -> refined table" in labels
+    for label in labels:
+        if "failed runs" in label or "repeated-firing runs" in label:
+            assert (f"held-out seed {fresh}" in label) != (f"search seed {SMALL.seed}" in label)
 
 
 def test_loop_json_lists_every_finding(loop_dir):

@@ -282,13 +282,22 @@ def run_refine(args: argparse.Namespace) -> int:
                 f"({row['failed_pct']:.2f} %, {row['failed_ci_lo_pct']:.2f}-"
                 f"{row['failed_ci_hi_pct']:.2f}), {int(row['repeated'])} repeated"
             )
-    for seed_name, seed in (("search", args.seed), ("fresh", fresh)):
+    # Each line compares the same runs with the original and the refined table.
+    for seed_name, seed, what in (
+        ("search", args.seed, f"search seed, its first {search} runs per case, the search's own"),
+        ("fresh", fresh, f"held-out seed, {args.runs_per_case} runs per case"),
+    ):
         print(
-            f"seed {seed} ({seed_name}): failed runs {int(log[f'failed_{seed_name}_before'].sum())}"
+            f"seed {seed} ({what}): failed runs {int(log[f'failed_{seed_name}_before'].sum())}"
             f" -> {int(log[f'failed_{seed_name}_after'].sum())}, repeated-firing runs "
             f"{int(log[f'repeated_{seed_name}_before'].sum())} -> "
             f"{int(log[f'repeated_{seed_name}_after'].sum())}"
         )
+    # The held-out check of every case (original and refined table on the same runs).
+    print(
+        f"held-out seed {fresh}, every case (exact one-sided McNemar, Holm over the cases): "
+        + (f"REGRESSION: {ref.regressions}" if ref.regressions else "no case significantly worse")
+    )
     print("wrote " + ", ".join(str(p) for p in paths.values()))
     return 0
 

@@ -73,6 +73,15 @@ def register(sub) -> None:
         help="the campaigns' per-case plots, about 4.5 s per campaign (default: on)",
     )
     p.add_argument(
+        "--drop-regressions",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="a changed row that makes some case significantly worse on the held-out seed "
+        "(exact one-sided McNemar per case, Holm over the cases) goes back to the original "
+        "row, and both tables are flown again on a further seed (default: on; "
+        "--no-drop-regressions reports the regression and keeps the table)",
+    )
+    p.add_argument(
         "--rare-budget",
         type=int,
         metavar="RUNS",
@@ -131,6 +140,7 @@ def run(args: argparse.Namespace) -> int:
         "control": control_overrides(args) or None,
         "rare_budget": args.rare_budget,
         "rare_cases": args.rare_cases,
+        "drop_regressions": args.drop_regressions,
     }
     given = {k: v for k, v in given.items() if v is not None}
     if "vehicle" in given and Path(given["vehicle"]).suffix:  # a file, not a packaged name

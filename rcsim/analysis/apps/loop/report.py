@@ -96,14 +96,45 @@ def fresh_seed_change(log: pd.DataFrame) -> str:
     )
 
 
+def regression_sentence(log: pd.DataFrame, check: dict, n_cases: int) -> str:
+    """The held-out check of every case in words (the summary's first paragraph): the cases
+    significantly worse with the rows that cause them, what the loop dropped and its check on
+    the further seed; or that no case is worse."""
+    test = (
+        "exact one-sided McNemar test per case on the same held-out runs, Holm over the "
+        f"{n_cases} cases"
+    )
+    if "held_out_regression" not in log or not log["held_out_regression"].astype(bool).any():
+        return f"No case is significantly worse with the refined table ({test})."
+    text = f"REGRESSION: {check.get('regressions', '')} ({test})."
+    if "further_seed" in check:
+        dropped = ", ".join(str(r) for r in check["dropped_rows"])
+        text += (
+            f" The loop dropped the change of case {dropped} (its row is the original table's "
+            f"again) and checked again on further seed {check['further_seed']}, every case: "
+            f"{check['failed_further']}; "
+            + (
+                "no case is significantly worse there."
+                if check.get("regressions_further", "none") == "none"
+                else f"still worse: {check['regressions_further']}."
+            )
+            + " The held-out figures here are the table as searched, before the drop."
+        )
+    return text
+
+
 def _counts(campaign: Path) -> pd.DataFrame:
     cases = pd.read_csv(campaign / "cases.csv")
-    return cases[["case", "runs", "failed", "one_firing_pct", "firings_per_run_mean"]]
+    return cases[["case", "case_index", "runs", "failed", "one_firing_pct", "firings_per_run_mean"]]
 
 
 def _summary(
     out: Path, settings, state: dict, log: pd.DataFrame, before: pd.DataFrame, after: pd.DataFrame
 ) -> Section:
+    """The loop's summary.  ``before`` / ``after``: per case on the held-out seed, the original
+    table's campaign (``campaign_check``) and the refined table's (``campaign_after``), the
+    same runs.  Search-seed figures (the search's own runs, not an estimate) are in rows of
+    their own, named by their seed, never beside the held-out ones."""
     s = state["settings"]
     fresh = settings.held_out_seed
     spec = load_spec(out / "spec_before.toml")
@@ -113,7 +144,10 @@ def _summary(
         dispersions = "Table 5 dispersions"
     n_changed = int(log["changed"].sum())
     fb, fa = int(before["failed"].sum()), int(after["failed"].sum())
-    fb_fresh, n_fresh = int(log["failed_fresh_before"].sum()), int(log["fresh_runs"].sum())
+    n_fresh = int(before["runs"].sum())
+    sb, sa = int(log["failed_search_before"].sum()), int(log["failed_search_after"].sum())
+    n_search = int(log["runs"].sum())
+    search_runs = int(log["runs"].max()) if len(log) else 0
     label = _table_label(out, settings)
     channels = "channels" in log
     vehicle = spec.vehicle
@@ -122,33 +156,43 @@ def _summary(
         ("vehicle", f"{vehicle.name!r}, {vehicle.ref}, sha256 {vehicle.sha256}"),
         ("flight-software profile", vehicle.control.describe()),
         ("runs per case", f"{s['runs_per_case']} (26 rate cases of Table 3, {dispersions})"),
-        ("search seed", f"{s['seed']} (the 'before' campaign and the refinement search)"),
-        ("fresh seed", f"{fresh} (held out: the refined table's campaign and check)"),
+        (
+            "held-out seed",
+            f"{fresh} (no decision used it: the original table, campaign_check, and the "
+            "refined table, campaign_after, flown on the same runs)",
+        ),
         (
             "failure criterion",
             f"any axis ends with |rate error| >= {threshold:g} deg/s, or the "
             "simulation fails (Gambone sec. III)",
         ),
-        ("failed runs, search seed (original table)", f"{fb:,} of {int(before['runs'].sum()):,}"),
         (
-            "failed runs, fresh seed (original table)",
-            f"{fb_fresh:,} of {n_fresh:,}, {rate_text(fb_fresh, n_fresh)}",
-        ),
-        (
-            "failed runs, fresh seed (refined table)",
+            f"failed runs, held-out seed {fresh}: original -> refined table",
+            f"{fb:,} of {n_fresh:,}, {rate_text(fb, n_fresh)} -> "
             f"{fa:,} of {n_fresh:,}, {rate_text(fa, n_fresh)}",
         ),
         (
-            "repeated-firing runs (search seed)",
-            f"{int(log['repeated_search_before'].sum())} -> "
-            f"{int(log['repeated_search_after'].sum())}",
-        ),
-        (
-            "repeated-firing runs (fresh seed)",
+            f"repeated-firing runs, held-out seed {fresh}: original -> refined table",
             f"{int(log['repeated_fresh_before'].sum())} -> "
-            f"{int(log['repeated_fresh_after'].sum())}",
+            f"{int(log['repeated_fresh_after'].sum())} of {n_fresh:,}",
         ),
         ("cases changed", f"{n_changed} of {len(log)}"),
+        (
+            "search seed",
+            f"{s['seed']} (the 'before' campaign and the refinement search: its figures are "
+            "the search's own runs, which chose the changes, not an estimate)",
+        ),
+        (
+            f"failed runs, search seed {s['seed']} (first {search_runs} runs per case): "
+            "original -> refined table",
+            f"{sb:,} -> {sa:,} of {n_search:,}",
+        ),
+        (
+            f"repeated-firing runs, search seed {s['seed']} (first {search_runs} runs per "
+            "case): original -> refined table",
+            f"{int(log['repeated_search_before'].sum())} -> "
+            f"{int(log['repeated_search_after'].sum())} of {n_search:,}",
+        ),
         ("stage times [s]", ", ".join(f"{k} {v['seconds']:.1f}" for k, v in state["done"].items())),
         ("code version", ", ".join(f"{k} {v}" for k, v in state.get("code_version", {}).items())),
     ]
@@ -161,12 +205,14 @@ def _summary(
         else "Fly the refined table with `--table refined_table.csv` (`rcsim maneuver`, "
         "`rcsim scenario run`) or as a campaign spec's `controller.table`"
     )
+    check = state["done"].get("check", {})
     blocks = [
         text_block(
-            f"On a seed no decision used (fresh seed {fresh}, {s['runs_per_case']} dispersed "
-            f"runs of each of the 26 rate cases), {fresh_seed_change(log)}. The refinement "
-            f"changed {n_changed} of {len(log)} cases; it searched {name} on seed {s['seed']}, "
-            f"where {fb:,} of {int(before['runs'].sum()):,} runs failed."
+            f"On a seed no decision used (held-out seed {fresh}, {s['runs_per_case']} dispersed "
+            f"runs of each of the 26 rate cases, flown with both tables), "
+            f"{fresh_seed_change(log)}. The refinement "
+            f"changed {n_changed} of {len(log)} cases; it searched {name} on seed {s['seed']}. "
+            + regression_sentence(log, check, len(log))
         ),
         table_block(pd.DataFrame(rows, columns=["", "value"]), "The loop"),
         text_block(
@@ -180,34 +226,52 @@ def _summary(
 
 
 def _before_after(
-    out: Path, log: pd.DataFrame, before: pd.DataFrame, after: pd.DataFrame
+    out: Path, settings, log: pd.DataFrame, before: pd.DataFrame, after: pd.DataFrame
 ) -> Section:
+    """Per case, the original and the refined table on the same held-out runs (``before`` /
+    ``after``: campaign_check's and campaign_after's cases.csv)."""
     plots = out / "refined_table_plots"
-    merged = before.merge(after, on="case", suffixes=("_before", "_after"))
+    fresh = settings.held_out_seed
+    merged = before.merge(after, on="case", suffixes=("_original", "_refined"))
     merged = merged[
         [
             "case",
-            "runs_before",
-            "failed_before",
-            "failed_after",
-            "one_firing_pct_before",
-            "one_firing_pct_after",
+            "runs_original",
+            "failed_original",
+            "failed_refined",
+            "one_firing_pct_original",
+            "one_firing_pct_refined",
         ]
-    ]
+    ].rename(columns={"runs_original": "runs"})
+    if "held_out_regression" in log:
+        worse = log[["case", "held_out_worse_runs", "held_out_better_runs"]].copy()
+        worse["significantly worse (Holm)"] = [
+            f"yes: caused by {r}'s row" if flag and r else ("yes" if flag else "")
+            for flag, r in zip(
+                log["held_out_regression"].astype(bool),
+                log["held_out_regression_rows"].astype(object).fillna("").astype(str),
+            )
+        ]
+        # cases.csv names its cases (rate-03) and numbers them from 0 (case_index).
+        worse = worse.assign(case_index=worse["case"] - 1).drop(columns="case")
+        index = before[["case", "case_index"]]
+        merged = merged.merge(index, on="case").merge(worse, on="case_index", how="left")
+        merged = merged.drop(columns="case_index")
     blocks = [
         _img(
             plots / "failures_by_case.png",
-            f"On the fresh seed, {fresh_seed_change(log)} ({int(log['changed'].sum())} cases "
-            "changed). "
-            "Failed runs (top) and runs that needed more than one firing to reach the "
-            "commanded rate (bottom), per rate case, before (red) and after (blue) refinement, "
-            "on the search seed (left) and on the held-out fresh seed (right). * marks the "
-            "cases whose firing times changed.",
+            f"On held-out seed {fresh}, {fresh_seed_change(log)} ({int(log['changed'].sum())} "
+            "cases changed). Failed runs (top) and runs that needed more than one firing to "
+            "reach the commanded rate (bottom), per rate case, with the original (red) and "
+            f"the refined table (blue): left, the search seed {settings.seed}'s runs the "
+            f"search flew (its own evidence); right, the held-out seed {fresh}'s runs. Each "
+            "panel compares the same runs. * marks the cases whose firing times changed.",
         ),
         table_block(
             merged,
-            "Campaigns before (search seed) and after (fresh seed): failed runs "
-            "and the share of runs reaching the rate in one firing, per case",
+            f"Held-out seed {fresh}, the same runs flown with the original table "
+            "(campaign_check) and the refined table (campaign_after): failed runs and the "
+            "share of runs reaching the rate in one firing, per case",
             max_rows=30,
             float_format="{:.1f}",
         ),
@@ -215,7 +279,7 @@ def _before_after(
     return Section("Failures per case, before and after", blocks, "before-after")
 
 
-def _figs_9_10(out: Path, log: pd.DataFrame) -> Section:
+def _figs_9_10(out: Path, settings, log: pd.DataFrame) -> Section:
     best = most_improved_case(log)
     if best is None:
         return Section(
@@ -233,24 +297,27 @@ def _figs_9_10(out: Path, log: pd.DataFrame) -> Section:
         )
     case = int(best["case"])
     name = f"case-rate-{case:02d}.png"
+    fresh = settings.held_out_seed
     blocks = [
         text_block(
-            f"Rate case {case}, the case the refinement helped most: every dispersed run, "
-            "as Gambone Figs 9 (before) and 10 (after)."
+            f"Rate case {case}, the case the refinement helped most on the held-out seed: "
+            f"every dispersed run of held-out seed {fresh}, the same runs flown with each "
+            "table, as Gambone Figs 9 (before) and 10 (after)."
         ),
         _side_by_side(
             _img(
-                out / "campaign_before" / "plots" / name,
-                f"Before: case {case} with the original table (search seed)",
+                out / "campaign_check" / "plots" / name,
+                f"Before: case {case} with the original table (held-out seed {fresh})",
             ),
             _img(
                 out / "campaign_after" / "plots" / name,
-                f"After: case {case} with the refined table (fresh seed)",
+                f"After: case {case} with the refined table (held-out seed {fresh})",
             ),
         ),
         _img(
             out / "refined_table_plots" / f"case_{case:02d}_before_after.png",
-            f"Case {case}: the changed axis's rate of every run, failed runs red.",
+            f"Case {case}: the changed axis's rate of the same search-seed {settings.seed} runs "
+            "with each table (the search's own runs), failed runs red.",
         ),
     ]
     return Section("Figs 9-10: one case before and after", blocks, "figs-9-10")
@@ -306,15 +373,13 @@ def _map_words(name: str) -> str:
     return f"{'all cases' if scope == 'all' else scope}: {pair.replace('__', ' vs ')}"
 
 
-def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
+def _changelog(log: pd.DataFrame, table: str, refined: Path, settings) -> Section:
     # A channel table's rows fire channels: say which (``-roll, +yaw``) beside the times.
     cols = (
         ["case"]
         + (["channels"] if "channels" in log else [])
         + [f"{a}_{w}" for a in AXES for w in ("old_s", "new_s")]
         + [
-            "failed_search_before",
-            "failed_search_after",
             "failed_fresh_before",
             "failed_fresh_after",
             "repeated_fresh_before",
@@ -322,10 +387,13 @@ def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
         ]
         + [c for c in ("propellant_fresh_change_pct", "held_out") if c in log]
     )
+    fresh = settings.held_out_seed
     blocks = [
         table_block(
             log[log["changed"]][cols],
-            "Changed entries (refined_table_changelog.csv)",
+            f"Changed entries (refined_table_changelog.csv): firing times, and failed and "
+            f"repeated-firing runs with the original (before) and the refined table (after) "
+            f"on the same runs of held-out seed {fresh}",
             max_rows=30,
             float_format="{:.2f}",
         )
@@ -337,6 +405,8 @@ def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
             "case",
             "decision",
             "decided_on",
+            "failed_search_before",
+            "failed_search_after",
             "search_b",
             "search_c",
             "search_p",
@@ -351,9 +421,12 @@ def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
         blocks.append(
             table_block(
                 log[log["decision"] != "unchanged"][ev_cols],
-                "Evidence of each proposed change (b / c: runs better / worse after; p: exact "
-                "one-sided McNemar; a change is kept when p <= 0.05 on the search runs and, "
-                "Holm over the rows, on the confirmation seed)",
+                f"Evidence of each proposed change: search seed {settings.seed} (search_*: the "
+                "search's runs of the case, original row against the proposed one) and "
+                f"confirmation seed {settings.confirm_seed} (confirm_*: the same runs flown "
+                "before and after); b / c: runs better / worse after; p: exact one-sided "
+                "McNemar; a change is kept when p <= 0.05 on the search runs and, Holm over "
+                "the rows, on the confirmation seed",
                 max_rows=40,
                 float_format="{:.3g}",
             )
@@ -374,8 +447,9 @@ def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
         blocks.append(
             table_block(
                 pd.read_csv(heldout),
-                "Held-out seed (no decision used it), all cases: failed runs and the failure "
-                "probability's Clopper-Pearson 95 % interval [%]",
+                f"Held-out seed {fresh} (no decision used it), all cases, every table on the "
+                "same runs: failed runs and the failure probability's Clopper-Pearson 95 % "
+                "interval [%]",
                 float_format="{:.2f}",
             )
         )
@@ -413,14 +487,16 @@ def _changelog(log: pd.DataFrame, table: str, refined: Path) -> Section:
 def write_loop_report(out: Path, settings, state: dict) -> Path:
     """Write ``DIR/report.html`` from the stages' files; returns its path."""
     log = pd.read_csv(out / "refined_table_changelog.csv")
-    before, after = _counts(out / "campaign_before"), _counts(out / "campaign_after")
+    # Like for like: the original table's and the refined table's campaigns on the held-out
+    # seed (the same dispersed runs), never the search seed's beside the held-out seed's.
+    before, after = _counts(out / "campaign_check"), _counts(out / "campaign_after")
     sections = [
         _summary(out, settings, state, log, before, after),
-        _before_after(out, log, before, after),
-        _figs_9_10(out, log),
+        _before_after(out, settings, log, before, after),
+        _figs_9_10(out, settings, log),
         propellant_section(out, log, settings, settings.held_out_seed),
         _drivers(out),
-        _changelog(log, _table_file(out, settings), out / "refined_table.csv"),
+        _changelog(log, _table_file(out, settings), out / "refined_table.csv", settings),
         rare_section(out),
         Section(
             "Traceability",

@@ -100,6 +100,12 @@ class LoopSettings:
     rare_budget, rare_cases : int
         The rare-event stage (:mod:`~rcsim.analysis.apps.loop.rare`): most runs per case (0,
         the default: off) and most cases estimated.
+    drop_regressions : bool
+        The check stage's held-out check of every case: a changed row that makes some case
+        significantly worse on the held-out seed goes back to the original row, and the
+        original and the final table are flown again on a further seed (one past every
+        other), which the report and the changelog state (:mod:`~rcsim.analysis.apps.
+        refinement.regressions`).  False: regressions are reported, the table kept.
     """
 
     table: str | None = None
@@ -116,6 +122,7 @@ class LoopSettings:
     control: dict | None = None
     rare_budget: int = 0
     rare_cases: int = 3
+    drop_regressions: bool = True
 
     def flown_vehicle(self) -> Vehicle:
         """The vehicle the loop flies, resolved from its settings (the file, the overrides)."""
@@ -190,6 +197,13 @@ class LoopSettings:
     @property
     def held_out_seed(self) -> int:
         return held_out_seed(self.seed) if self.fresh_seed is None else self.fresh_seed
+
+    @property
+    def confirm_seed(self) -> int:
+        """The refinement's confirmation seed (its second gate), neither of the others."""
+        from rcsim.analysis.apps.refinement.parameters import confirmation_seed
+
+        return confirmation_seed(self.seed, self.held_out_seed)
 
 
 @dataclass
@@ -516,6 +530,7 @@ class _Stages:
         return {
             "cases_changed": int(changed.sum()),
             "runs_flown": result.runs_flown,
+            "search_seed": s.seed,
             "confirm_seed": confirmation_seed(s.seed, s.held_out_seed),
         }
 
@@ -534,8 +549,9 @@ class _Stages:
         s = self.settings
         # The refined table's runs on the fresh seed are the "after" campaign's; the old table
         # is flown on that seed as a campaign too: resumable chunk by chunk, so a loop stopped
-        # in this stage goes on where it was (no plots: the report shows none).
-        self._campaign("campaign_check", self.table_file, s.held_out_seed, plots=False)
+        # in this stage goes on where it was.  Its plots are the report's "before" figure
+        # beside campaign_after's "after": the same runs.
+        self._campaign("campaign_check", self.table_file, s.held_out_seed)
         refined = load_lookup_table(self.paths["refined"])
         ref = held_out_check(
             self.table,
@@ -550,13 +566,30 @@ class _Stages:
             vehicle=self.vehicle,
             table_file=refinement_vehicle(self.table, self.vehicle)[1],
             max_propellant_rise=s.max_propellant_rise_pct / 100.0,
+            drop_regressions=s.drop_regressions,
+            # The further seed is one past every seed the loop used (this one included).
+            confirm_seed=s.confirm_seed,
         )
         write_refinement(ref, self.paths["refined"], overwrite=True, writer=COMMAND)
         log = ref.changelog
         from rcsim.analysis.apps.loop.report import fresh_seed_change
 
         # The same fresh seed flown with the table before and after refinement: one contrast.
-        return {"failed_fresh": fresh_seed_change(log)}
+        info: dict = {
+            "held_out_seed": s.held_out_seed,
+            "failed_fresh": fresh_seed_change(log),
+            "regressions": ref.regressions or "none",
+        }
+        if ref.further is not None:
+            f = ref.further
+            info["further_seed"] = f["seed"]
+            info["dropped_rows"] = f["dropped_rows"]
+            info["failed_further"] = (
+                f"{f['failed_before']:,} of {f['runs']:,} runs failed with the original "
+                f"table, {f['failed_after']:,} with the final table"
+            )
+            info["regressions_further"] = f["regressions"] or "none"
+        return info
 
     def rare(self) -> dict:
         return rare_stage(self.out, self.settings, self.progress)

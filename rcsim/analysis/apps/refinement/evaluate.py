@@ -53,11 +53,16 @@ class Trials:
         Table row (0-based case index) the trial flies.
     label : tuple of str
         What the candidate is (for the changelog and messages).
+    k : tuple of arrays, optional
+        The runs each trial flies (run numbers within its case); None: runs ``0 ..
+        runs_per_case - 1`` of every trial.  A change to a row moves only the runs that fire
+        the row: the other runs of another case need not be flown again.
     """
 
     times_s: np.ndarray
     case: np.ndarray
     label: tuple
+    k: tuple | None = None
 
     @property
     def n_trials(self) -> int:
@@ -77,11 +82,24 @@ def _fly_chunk(
     table ``run_times[i]``; return its outcome columns.  Runs in a worker process.  The
     spec's vehicle is flown as a campaign flies it (its model, profile, valve limits, valve
     timing and tank)."""
-    controller = LookupController.for_runs(table, run_times, lookup_params)
+    controller = LookupController.for_runs(table, run_times, lookup_params).record_rows()
     history = fly_batch(
         [spec.cases[c] for c in cases], params, controller, vehicle=spec.vehicle, nthread=nthread
     )
-    return outcomes(history, spec)
+    out = outcomes(history, spec)
+    assert controller.rows_fired is not None  # recorded by the flight
+    out["rows_fired"] = rows_bitmask(controller.rows_fired)
+    return out
+
+
+def rows_bitmask(rows_fired: np.ndarray) -> np.ndarray:
+    """(n_runs,) int64: bit ``r`` set when the run fired table row ``r`` (``rows_fired``,
+    (n_runs, n_rows) bool, at most 63 rows; a rate-case table has 26)."""
+    rows_fired = np.asarray(rows_fired, bool)
+    if rows_fired.shape[1] > 63:
+        raise ValueError(f"at most 63 table rows can be recorded, got {rows_fired.shape[1]}")
+    weights = np.left_shift(np.int64(1), np.arange(rows_fired.shape[1], dtype=np.int64))
+    return (rows_fired.astype(np.int64) * weights).sum(axis=1)
 
 
 def evaluate(
@@ -121,7 +139,8 @@ def evaluate(
     DataFrame
         One row per run: ``trial, case_index, k, failed, repeated`` (some axis needed more
         than one firing event to reach its commanded rate), ``firings_to_rate_<axis>``,
-        ``final_rate_err_<axis>_deg_s``.
+        ``final_rate_err_<axis>_deg_s``, ``propellant_kg`` and ``rows_fired`` (bit ``r`` set:
+        the run started a firing with table row ``r``, :func:`rows_bitmask`).
     """
     from tqdm import tqdm
 
@@ -137,8 +156,15 @@ def evaluate(
     params_all = draw_runs(vehicle.nominal(1), spec.sigmas, spec.seed, run_ids).params
     first_row = {int(c): i * n for i, c in enumerate(involved)}
 
-    trial_of_run = np.repeat(np.arange(trials.n_trials), n)
-    k_of_run = np.tile(np.arange(n), trials.n_trials)
+    if trials.k is None:
+        trial_of_run = np.repeat(np.arange(trials.n_trials), n)
+        k_of_run = np.tile(np.arange(n), trials.n_trials)
+    else:
+        ks = [np.asarray(k, int) for k in trials.k]
+        if any(k.size and (k.min() < 0 or k.max() >= n) for k in ks):
+            raise ValueError(f"a trial's runs must be in 0..{n - 1}")
+        trial_of_run = np.repeat(np.arange(trials.n_trials), [k.size for k in ks])
+        k_of_run = np.concatenate(ks) if ks else np.zeros(0, int)
     case_of_run = trials.case[trial_of_run]
     row_of_run = np.array([first_row[int(c)] for c in trials.case])[trial_of_run] + k_of_run
     threads = max(1, threads or os.cpu_count() or 1)

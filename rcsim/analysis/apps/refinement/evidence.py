@@ -19,13 +19,17 @@ def refused_candidates(iterations: list, case_numbers) -> list[str]:
     out: dict[int, list[str]] = {int(c): [] for c in case_numbers}
     for it in iterations:
         for d in it.get("decisions", []):
-            if d["accepted"]:
-                continue
+            if d["accepted"] or d.get("deferred"):
+                continue  # a deferred candidate was judged again (its own decision)
             case = int(d["candidate"].split(":")[0].split()[1])
             move = d["candidate"].split(": ", 1)[1]
             why = f"{d['outcome']} {d['b']}:{d['c']}, p={d['p']:.2g}"
             if d.get("propellant_refused"):
                 why += f"; {d['propellant_refused']}"
+            if d.get("worse_refused"):
+                why += f"; {d['worse_refused']}"
+            if d.get("judged_again"):
+                why += f"; judged again ({d['judged_again']}) after an interacting change"
             out[case].append(f"round {it['round']}: {move} ({why})")
     return ["; ".join(out[int(c)]) for c in case_numbers]
 

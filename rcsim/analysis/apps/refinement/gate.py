@@ -122,3 +122,82 @@ def mirror_rows(rate_cmd: np.ndarray) -> np.ndarray:
         if match.size:
             out[i] = int(match[0])
     return out
+
+
+@dataclass(frozen=True)
+class CaseWorse:
+    """One case's paired comparison for harm: ``b`` / ``c`` runs better / worse after on
+    ``outcome``, ``p`` the one-sided exact McNemar p-value that the case got worse, ``p_holm``
+    Holm-adjusted over the cases compared, ``worse``: significant at the level."""
+
+    case_index: int
+    outcome: str
+    b: int
+    c: int
+    p: float
+    p_holm: float
+    worse: bool
+    failed_before: int
+    failed_after: int
+    runs: int
+
+
+def _bad(frame: pd.DataFrame, outcome: str) -> np.ndarray:
+    failed = frame["failed"].to_numpy(bool)
+    return failed if outcome == FAILED else failed | frame["repeated"].to_numpy(bool)
+
+
+def worse_cases(
+    before: pd.DataFrame, after: pd.DataFrame, alpha: float = ALPHA, outcome: str = FAILED
+) -> list[CaseWorse]:
+    """Per case, whether the change made it significantly worse on the same runs.
+
+    ``before`` / ``after``: scoring frames (``case_index, k, failed, repeated``) of the same
+    runs with the table before and after a change.  Per case, the exact one-sided McNemar
+    test that it got worse (``p = P(X >= c)``, ``X ~ Binomial(b + c, 1/2)``, :func:`~rcsim.
+    analysis.results.proportions.mcnemar_one_sided` with the roles swapped); Holm over the
+    cases at ``alpha`` (every case compared is one family: the chance that any case is named
+    worse when none is is at most ``alpha``).  In ``case_index`` order.
+    """
+    from rcsim.analysis.results.proportions import holm_adjusted
+
+    b_all = before.set_index(["case_index", "k"]).sort_index()
+    a_all = after.set_index(["case_index", "k"]).sort_index()
+    if not b_all.index.equals(a_all.index):
+        raise ValueError("before and after must fly the same runs (same case_index, k)")
+    xb, xa = _bad(b_all, outcome), _bad(a_all, outcome)
+    fb, fa = b_all["failed"].to_numpy(bool), a_all["failed"].to_numpy(bool)
+    case_of = b_all.index.get_level_values(0).to_numpy()
+    cases = np.unique(case_of)
+    rows = []
+    for c in cases:
+        sel = case_of == c
+        better, worse = _discordant(xb[sel], xa[sel])
+        rows.append((int(c), better, worse, float(mcnemar_one_sided(worse, better)), sel))
+    adj = holm_adjusted(np.array([r[3] for r in rows])) if rows else np.array([])
+    return [
+        CaseWorse(
+            case_index=c,
+            outcome=outcome,
+            b=better,
+            c=worse,
+            p=p,
+            p_holm=float(adj[i]),
+            worse=bool(adj[i] <= alpha),
+            failed_before=int(fb[sel].sum()),
+            failed_after=int(fa[sel].sum()),
+            runs=int(sel.sum()),
+        )
+        for i, (c, better, worse, p, sel) in enumerate(rows)
+    ]
+
+
+def worse_text(harmed: list[CaseWorse]) -> str:
+    """The cases named worse, e.g. ``case 6 worse (failed 10 -> 33 of 40; failed: 23:0
+    runs worse:better, Holm p=1.2e-07)``; "" when none."""
+    return "; ".join(
+        f"case {w.case_index + 1} worse (failed {w.failed_before} -> {w.failed_after} of "
+        f"{w.runs}; {w.outcome}: {w.c}:{w.b} runs worse:better, Holm p={w.p_holm:.2g})"
+        for w in harmed
+        if w.worse
+    )

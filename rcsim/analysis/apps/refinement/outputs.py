@@ -37,6 +37,7 @@ from rcsim.analysis.apps.refinement.plots import (
     plot_failures_by_case,
 )
 from rcsim.analysis.apps.refinement.propellant import MAX_RISE, case_propellant, propellant_check
+from rcsim.analysis.apps.refinement.regressions import find_regressions, regression_columns
 from rcsim.analysis.apps.refinement.result import Refinement
 from rcsim.analysis.apps.refinement.search import (
     SEARCH_RUNS_PER_CASE,
@@ -175,8 +176,17 @@ def held_out_check(
     vehicle: Vehicle,
     table_file: str = "default",
     max_propellant_rise: float = MAX_RISE,
+    drop_regressions: bool = False,
+    further_seed: int | None = None,
 ) -> Refinement:
     """Fly the old and the refined table on ``fresh_seed`` (the seed no decision used).
+
+    Every searched case is compared on the same held-out runs (:mod:`~rcsim.analysis.apps.
+    refinement.regressions`): a case significantly worse is a regression, and the changed rows
+    that cause it are found by reverting each on that case's runs.  ``drop_regressions``:
+    those rows go back to the original table's, and the original and the final table are
+    flown again on ``further_seed`` (default one past every other seed), every case, which
+    the changelog and :attr:`Refinement.further` report.
 
     ``fresh_after_runs`` / ``fresh_before_runs``: the refined / old table's runs on the fresh
     seed if a campaign already flew them
@@ -232,10 +242,28 @@ def held_out_check(
     fresh_before, fresh_after = scores_of["before"], scores_of["after"]
     log = changelog(table, result, fresh_before, fresh_after, vehicle.control.cycle_s)
     held_out_propellant(log, runs_of["before"], runs_of["after"], max_propellant_rise)
+    fly: dict = dict(threads=threads, progress=progress)
+    found = find_regressions(fresh, table, result.table, runs_of["before"], runs_of["after"], **fly)
+    log = pd.concat(
+        [log, regression_columns(found, searched, table.case).set_index(log.index)], axis=1
+    )
     names = {"before": "Table 6 (paper)" if is_table6(table) else "original", "after": "refined"}
     if compare_table7:
         names["table7"] = "Table 7 (paper)"
-    comparison = comparison_frame({names[k]: scores_of[k] for k in names})
+    comparison = comparison_frame({names[k]: scores_of[k] for k in names}).assign(seed=fresh_seed)
+    further = None
+    if drop_regressions and found.rows_to_drop:
+        further_seed = (
+            max(seed, fresh_seed, confirm_seed if confirm_seed is not None else seed) + 1
+            if further_seed is None
+            else further_seed
+        )
+        result, further = _drop_and_check_again(
+            table, result, found, log, fresh, further_seed, fresh_seed, fly
+        )
+        comparison = pd.concat(
+            [comparison, further["comparison"].assign(seed=further_seed)], ignore_index=True
+        )
     return Refinement(
         table,
         result,
@@ -250,7 +278,66 @@ def held_out_check(
         comparison=comparison,
         confirm_seed=confirm_seed,
         table_file=table_file,
+        regressions=found.text(fresh_seed, table.case),
+        further=further,
     )
+
+
+def _drop_and_check_again(table, result, found, log, fresh, further_seed, fresh_seed, fly):
+    """Revert the rows that cause held-out regressions (in ``result``'s table and in ``log``,
+    in place), then fly the original and the final table on ``further_seed``, every searched
+    case, and test every case again.  Returns the new result and the further check: its
+    seed, comparison rows, per-case regressions (text) and failed runs."""
+    from dataclasses import replace
+
+    from rcsim.lookup.table_edits import with_times
+
+    old = np.asarray(table.firing_time_s, float)
+    final = np.asarray(result.table.firing_time_s, float).copy()
+    dropped = found.rows_to_drop
+    final[dropped] = old[dropped]
+    refined = with_times(table, final, source=result.table.source)
+    searched = result.before["case_index"].to_numpy()
+    position = {int(c): t for t, c in enumerate(searched)}
+    harmed = {r: [w for w, rows in found.causes.items() if r in rows] for r in dropped}
+    for r in dropped:
+        t = position.get(r)
+        if t is None:
+            continue
+        for axis in AXES:
+            log.loc[log.index[t], f"{axis}_new_s"] = log.loc[log.index[t], f"{axis}_old_s"]
+            log.loc[log.index[t], f"{axis}_change_cycles"] = 0
+        log.loc[log.index[t], "changed"] = False
+        victims = ", ".join(f"case {int(table.case[w])}" for w in harmed[r])
+        log.loc[log.index[t], "decision"] = (
+            f"dropped (caused a regression of {victims} on held-out seed {fresh_seed}; "
+            f"checked again on seed {further_seed})"
+        )
+    spec = replace(fresh, seed=int(further_seed))
+    trials = Trials(
+        np.concatenate(
+            [np.repeat(old[None], searched.size, 0), np.repeat(final[None], searched.size, 0)]
+        ),
+        np.tile(searched, 2),
+        tuple(["original"] * searched.size + ["final"] * searched.size),
+    )
+    runs = evaluate(spec, table, trials, desc="refine: further seed", **fly)
+    n = searched.size
+    before = runs[runs["trial"] < n]
+    after = runs[runs["trial"] >= n].assign(trial=lambda f: f["trial"] - n)
+    again = find_regressions(spec, table, refined, before, after, **fly)
+    sb, sa = trial_scores(before, n), trial_scores(after, n)
+    label = "Table 6 (paper)" if is_table6(table) else "original"
+    further = {
+        "seed": int(further_seed),
+        "dropped_rows": [int(table.case[r]) for r in dropped],
+        "comparison": comparison_frame({label: sb, "refined, regressions dropped": sa}),
+        "failed_before": int(sb["failed"].sum()),
+        "failed_after": int(sa["failed"].sum()),
+        "runs": int(sb["runs"].sum()),
+        "regressions": again.text(further_seed, table.case),
+    }
+    return replace(result, table=refined), further
 
 
 def is_table6(table: LookupTable) -> bool:
@@ -489,6 +576,9 @@ def write_refinement(
             ref.changelog,
             tmp / "failures_by_case.png",
             title=f"{ref.runs_per_case} dispersed runs per case",
+            seed=ref.seed,
+            fresh_seed=ref.fresh_seed,
+            search_runs=int(ref.result.before["runs"].max()),
         )
         written["summary_plot"] = paths["plots"] / "failures_by_case.png"
         if worst is not None:
@@ -498,7 +588,11 @@ def write_refinement(
         csv = {"index": False, "float_format": "%.6g"}
         parts: list = [(paths["changelog"], lambda t: ref.changelog.to_csv(t, **csv))]
         if ref.comparison is not None:
-            comparison = ref.comparison.assign(seed=ref.fresh_seed)
+            comparison = (
+                ref.comparison
+                if "seed" in ref.comparison
+                else ref.comparison.assign(seed=ref.fresh_seed)
+            )
             parts.append((paths["heldout"], lambda t: comparison.to_csv(t, **csv)))
         else:
             del written["heldout"]

@@ -25,32 +25,49 @@ PLOT_RUNS = 200
 
 def most_improved_case(log: pd.DataFrame):
     """The changelog row of the changed case with the largest drop in failures (then in
-    repeated firings) on the search seed; None if no case changed."""
+    repeated firings) on the held-out seed (the original and the refined table on the same
+    runs, used by no decision); None if no case changed."""
     changed = log[log["changed"]]
     if changed.empty:
         return None
-    gain = (changed["failed_search_before"] - changed["failed_search_after"]) * 10_000 + (
-        changed["repeated_search_before"] - changed["repeated_search_after"]
+    gain = (changed["failed_fresh_before"] - changed["failed_fresh_after"]) * 10_000 + (
+        changed["repeated_fresh_before"] - changed["repeated_fresh_after"]
     )
     return changed.loc[gain.idxmax()]
 
 
-def plot_failures_by_case(log: pd.DataFrame, path: Path, *, title: str) -> None:
-    """Failed and repeated-firing runs per case, before and after, on both seeds."""
+def plot_failures_by_case(
+    log: pd.DataFrame,
+    path: Path,
+    *,
+    title: str,
+    seed: int | None = None,
+    fresh_seed: int | None = None,
+    search_runs: int | None = None,
+) -> None:
+    """Failed and repeated-firing runs per case, before and after, on both seeds: each panel
+    compares the same runs (the search seed's first ``search_runs`` runs of each case, or the
+    held-out seed's runs), and its title names its seed."""
     fig, axes = new_figure(2, 2, figsize=(12, 6.5), sharex=True, sharey="row")
     x = np.arange(len(log))
-    for col, seed in enumerate(("search", "fresh")):
+    names = {
+        "search": "search seed"
+        + (f" {seed}" if seed is not None else "")
+        + (f", its first {search_runs} runs per case" if search_runs else ""),
+        "fresh": "held-out seed" + (f" {fresh_seed}" if fresh_seed is not None else ""),
+    }
+    for col, seed_name in enumerate(("search", "fresh")):
         for row, what in enumerate(("failed", "repeated")):
             ax = axes[row, col]
-            ax.bar(x - 0.2, log[f"{what}_{seed}_before"], 0.4, color="tab:red", label="before")
-            ax.bar(x + 0.2, log[f"{what}_{seed}_after"], 0.4, color="tab:blue", label="after")
+            before, after = log[f"{what}_{seed_name}_before"], log[f"{what}_{seed_name}_after"]
+            ax.bar(x - 0.2, before, 0.4, color="tab:red", label="original table")
+            ax.bar(x + 0.2, after, 0.4, color="tab:blue", label="refined table")
             ax.set_ylabel(f"{what} runs" if col == 0 else "")
             ax.grid(alpha=0.3, axis="y")
             ax.set_title(
-                f"{what} runs per case, {seed} seed "
-                f"({int(log[f'{what}_{seed}_before'].sum())} -> "
-                f"{int(log[f'{what}_{seed}_after'].sum())})",
-                fontsize=10,
+                f"{what} runs per case, {names[seed_name]} "
+                f"({int(before.sum())} -> {int(after.sum())})",
+                fontsize=9,
             )
             ax.legend(fontsize=8)
         axes[1, col].set_xticks(
@@ -67,8 +84,9 @@ def plot_failures_by_case(log: pd.DataFrame, path: Path, *, title: str) -> None:
 
 
 def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
-    """Figs 9-10 style: the changed axis's body rate of every search-seed run of ``case``,
-    with the old table (left) and the refined one (right); failed runs in red."""
+    """Figs 9-10 style: the changed axis's body rate of the same search-seed runs of
+    ``case`` (the first :data:`PLOT_RUNS`), with the old table (left) and the refined one
+    (right); failed runs in red.  The title names the seed."""
     log = ref.changelog.set_index("case").loc[case]
     axis = max(AXES, key=lambda a: abs(int(log[f"{a}_change_cycles"])))
     a = AXES.index(axis)
@@ -116,7 +134,7 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
         ax.legend(loc="lower right", fontsize=8)
     axes[0].set_ylabel(f"{axis} rate [deg/s]")
     fig.suptitle(
-        f"Rate case {case}: {axis} rate of every dispersed run, before and after "
-        "refinement (search seed)"
+        f"Rate case {case}: {axis} rate of the same {shown} dispersed runs, before and after "
+        f"refinement (search seed {ref.seed})"
     )
     fig.savefig(path, dpi=DPI)

@@ -36,6 +36,14 @@ class Refinement:
         The vehicle flown (:func:`~rcsim.analysis.apps.refinement.parameters.refinement_vehicle`).
     table_file : str
         The original table's file as the campaigns name it (a channel table's), or "default".
+    regressions : str
+        The held-out check of every case: each case significantly worse with the refined
+        table as searched, and the changed rows that cause it ("" when none;
+        :mod:`~rcsim.analysis.apps.refinement.regressions`).
+    further : dict, optional
+        When rows causing a regression were dropped: the further seed's check of the final
+        table (``seed``, ``dropped_rows`` (case numbers), ``comparison``, ``failed_before``,
+        ``failed_after``, ``runs``, ``regressions``).
     """
 
     original: LookupTable
@@ -51,6 +59,8 @@ class Refinement:
     comparison: pd.DataFrame | None = None
     confirm_seed: int | None = None
     table_file: str = "default"
+    regressions: str = ""
+    further: dict | None = None
 
     @property
     def table(self) -> LookupTable:

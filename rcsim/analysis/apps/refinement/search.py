@@ -15,7 +15,11 @@ automated by measuring the number of firings and the final rate error".  Here:
    current table (common random numbers).  A case's best candidate (fewer failures first,
    then fewer repeated firings) is taken only when its improvement is significant on those
    paired runs: the exact one-sided McNemar test of :mod:`rcsim.analysis.apps.refinement.gate`.
-4. The cases whose rows changed are flown again with all accepted changes, and 2-3 repeat
+   A candidate is flown on every searched case whose runs fire its row (each run records the
+   rows it fired), judged on all of them (its gain pooled; no case significantly worse, Holm
+   over the cases).  Changes whose runs interact are taken one after the other, each of the
+   others judged again on runs that include the one taken (flying only the runs it moves).
+4. The accepted changes' runs are their candidates' (no re-fly), and 2-3 repeat
    until every case is robust, no entry is left to try, or ``max_iterations`` is reached.
    The best table flown (fewest failures, then repeated firings, over all searched cases)
    is the search's.
@@ -48,11 +52,25 @@ from rcsim.analysis.apps.refinement.evidence import (
     refused_candidates,
     test_dict,
 )
-from rcsim.analysis.apps.refinement.gate import ALPHA, FAILED, PairedTest, mirror_rows, paired_test
+from rcsim.analysis.apps.refinement.gate import (
+    ALPHA,
+    FAILED,
+    PairedTest,
+    mirror_rows,
+    paired_test,
+    worse_cases,
+    worse_text,
+)
 from rcsim.analysis.apps.refinement.propellant import MAX_RISE, propellant_check
 from rcsim.analysis.engine.campaign.spec import CampaignSpec
 from rcsim.analysis.results.proportions import holm
-from rcsim.analysis.results.scoring import offending_runs, score_key, total, trial_scores
+from rcsim.analysis.results.scoring import (
+    offending_runs,
+    rows_fired_by_trial,
+    score_key,
+    total,
+    trial_scores,
+)
 from rcsim.lookup.table_edits import axis_cycles, jet_axes, shift_axes, with_times
 from rcsim.models.atomic import atomic_write
 from rcsim.models.tables import AXES, LookupTable
@@ -221,7 +239,7 @@ def _checkpoint_key(spec, table, cases, max_iterations, runs_per_case, confirm_s
     (another spec, table, cases, subset, confirmation seed or level, or a search without the
     gate) is never continued."""
     parts = [
-        "gate-1",
+        "gate-2",
         spec.digest(),
         np.asarray(table.firing_time_s, float).tobytes().hex(),
         np.asarray(cases).tobytes().hex(),
@@ -309,7 +327,10 @@ class _Search:
 
     def start(self, baseline_runs: pd.DataFrame | None) -> None:
         """Step 1: the table's own runs, flown or taken from the campaign that flew them."""
-        if baseline_runs is None:
+        if baseline_runs is None or "rows_fired" not in baseline_runs:
+            # A campaign's runs do not record which table rows each run fired, which the
+            # search needs (a changed row is judged on every case whose runs fire it): the
+            # same runs are flown again, recording it (bit for bit the campaign's).
             self.runs = self._fly(self.current, self.cases, "refine: baseline")
         else:
             mine = baseline_runs[baseline_runs["k"] < self.runs_per_case]
@@ -320,9 +341,16 @@ class _Search:
         self.best = (self.current, self.before, self.runs)
 
     def candidates(self) -> tuple[Trials | None, list]:
-        """Step 2: one axis per non-robust case, one cycle shorter and longer."""
+        """Step 2: one axis per non-robust case, one cycle shorter and longer, each flown on
+        every searched case whose runs fire the case's row (a correction firing picks its row
+        by the sign pattern of the rate error, so a row flies in other cases' runs too; a run
+        that never fires the row is unchanged by it, bit for bit).  All in one batch.
+
+        Returns the trials and, per candidate, ``(position of its case, shift, positions it
+        is flown on, its trials)``."""
         offending = offending_runs(self.runs, self.threshold_deg_s, self.cases.size)
-        times, labels, trial_case, edits = [], [], [], []
+        fired = rows_fired_by_trial(self.runs, self.cases.size)
+        found_all = []
         for t, c in enumerate(self.cases):
             if score_key(self.scores.iloc[t]) == (0, 0):
                 continue
@@ -332,15 +360,36 @@ class _Search:
             for a in sorted(np.flatnonzero(offending[t]), key=lambda a: -offending[t, a]):
                 found = self._axis_candidates(t, int(c), int(a))
                 for candidate, label, shift in found:
-                    times.append(candidate)
-                    labels.append(label)
-                    trial_case.append(c)
-                    edits.append((t, shift))
+                    found_all.append((t, int(c), candidate, label, shift))
                 if found:
                     break
-        if not times:
+        if not found_all:
             return None, []
-        return Trials(np.array(times), np.array(trial_case), tuple(labels)), edits
+        times: list = []
+        labels: list = []
+        trial_case: list = []
+        trial_k: list = []
+        edits: list = []
+        every = np.arange(self.runs_per_case)
+        for t, c, candidate, label, shift in found_all:
+            # Its own case first, then every other searched case whose runs fire row c: of
+            # those, only the runs that fire it (the others are unchanged, bit for bit).
+            others = np.flatnonzero((fired >> np.int64(c)) & 1)
+            positions = np.array([t, *[int(p) for p in others if p != t]], int)
+            first = len(times)
+            for p in positions:
+                times.append(candidate)
+                labels.append(label)
+                trial_case.append(int(self.cases[p]))
+                if p == t:
+                    trial_k.append(every)
+                else:
+                    mine = self.runs[self.runs["trial"] == p]
+                    fires = ((mine["rows_fired"].to_numpy(np.int64) >> np.int64(c)) & 1) > 0
+                    trial_k.append(mine["k"].to_numpy(int)[fires])
+            edits.append((t, shift, positions, np.arange(first, len(times))))
+        trials = Trials(np.array(times), np.array(trial_case), tuple(labels), tuple(trial_k))
+        return trials, edits
 
     def _axis_candidates(self, t: int, c: int, a: int) -> list:
         """Case ``c``'s axis ``a`` one cycle either way, the entries not flown yet."""
@@ -369,9 +418,50 @@ class _Search:
         sign = "+" if self.table.rate_cmd[c, a] > 0 else "-"
         return f"{sign}{AXES[a]} channel"
 
+    def _pooled(self, runs: pd.DataFrame, positions: np.ndarray) -> pd.DataFrame:
+        """The runs of ``positions`` as one paired sample: ``k`` numbered across the cases
+        (position-major), ``case_index`` kept."""
+        parts = []
+        for i, p in enumerate(positions):
+            mine = runs[runs["trial"] == p].sort_values("k")
+            parts.append(mine.assign(k=mine["k"] + i * self.runs_per_case))
+        return pd.concat(parts, ignore_index=True)
+
+    def _judge(self, t: int, positions: np.ndarray, cand: pd.DataFrame, label: str) -> dict:
+        """One candidate's verdict on the paired runs of every case at ``positions`` (its own
+        case ``t`` first): the current table's runs against the candidate's ``cand``."""
+        before = self._pooled(self.runs, positions)
+        after = self._pooled(cand, positions)
+        # Strictly better is not enough: the gain must be significant on the paired runs (a
+        # change resting on a run or two in 200 is noise), over every case the row flies in.
+        test = paired_test(before, after, self.alpha)
+        # Propellant, the second objective: a rise of the case's own mean beyond max_rise
+        # must be paid for.
+        fuel = propellant_check(
+            self.runs[self.runs["trial"] == t], cand[cand["trial"] == t], self.max_rise
+        )
+        # No case may get significantly worse (Holm over the cases it flies in).
+        harm = worse_text(
+            worse_cases(before, after, self.alpha, test.outcome) if test.passed else []
+        )
+        return {
+            "candidate": label,
+            **test_dict(test),
+            "accepted": bool(test.passed and fuel.passes and not harm),
+            "test_passed": bool(test.passed),
+            "cases_judged": [int(self.cases[p]) + 1 for p in positions],
+            "propellant_change_pct": fuel.rise_pct,
+            "propellant_refused": fuel.reason,
+            "worse_refused": harm,
+        }
+
     def round(self, number: int, trials: Trials, edits: list) -> None:
-        """Steps 3-4: fly the candidates, keep each case's best if strictly better, fly the
-        changed cases again with every accepted change."""
+        """Steps 3-4: fly the candidates on every case whose runs fire their rows, keep each
+        case's best if its gain over all those cases is significant and no case gets
+        significantly worse; changes whose runs interact (they share a run, or one's runs
+        fire the other's row) are not taken together: the one with the smaller p is, and the
+        others are judged again on runs that include it (a *wave*: one batched flight of only
+        the runs the taken changes can move), until none is left."""
         cand_runs = evaluate(
             self.spec,
             self.table,
@@ -381,39 +471,170 @@ class _Search:
             **self.kw,
         )
         self.flown += len(cand_runs)
-        cand = trial_scores(cand_runs, trials.n_trials)
-        accepted = np.zeros((len(self.table.case), len(AXES)), int)
-        changed, decisions = [], []
+        # Each candidate's runs, with ``trial`` the position of the case they fly.
+        flown_of = []
+        for _t, _shift, positions, trial_ids in edits:
+            mine = cand_runs[cand_runs["trial"].isin(trial_ids)]
+            pos_of_trial = dict(zip(trial_ids.tolist(), positions.tolist()))
+            mine = mine.assign(trial=mine["trial"].map(pos_of_trial))
+            # The runs not flown (another case's runs that do not fire the row) are the
+            # current table's, unchanged.
+            same = self.runs[self.runs["trial"].isin(positions)]
+            flown_keys = set(zip(mine["trial"].tolist(), mine["k"].tolist()))
+            keep = [
+                (p, k) not in flown_keys for p, k in zip(same["trial"].tolist(), same["k"].tolist())
+            ]
+            flown_of.append(
+                pd.concat([mine, same[keep]], ignore_index=True)
+                .sort_values(["trial", "k"], kind="stable")
+                .reset_index(drop=True)
+            )
+        scores_now = self.scores
+        proposals, decisions = [], []
         for t in np.unique([e[0] for e in edits]):
             mine = [i for i, e in enumerate(edits) if e[0] == t]
-            # Best candidate first: fewest failures, then fewest repeated firings; first wins a
-            # tie (shorter before longer, roll before yaw), so the search is deterministic.
-            for i in sorted(mine, key=lambda i: score_key(cand.iloc[i])):
-                if not score_key(cand.iloc[i]) < score_key(self.scores.iloc[t]):
+
+            def pooled_key(i: int) -> tuple[int, int]:
+                sc = trial_scores(flown_of[i], self.cases.size)
+                return score_key(sc.iloc[edits[i][2]].sum())
+
+            # Best candidate first: fewest failures, then fewest repeated firings, over every
+            # case it flies in; first wins a tie (shorter before longer), so the search is
+            # deterministic.
+            for i in sorted(mine, key=pooled_key):
+                positions = edits[i][2]
+                if not pooled_key(i) < score_key(scores_now.iloc[positions].sum()):
                     break
-                # Strictly better is not enough: the gain must be significant on the paired
-                # runs (a change resting on a run or two in 200 is noise).
-                mine_before = self.runs[self.runs["trial"] == t]
-                mine_after = cand_runs[cand_runs["trial"] == i]
-                test = paired_test(mine_before, mine_after, self.alpha)
-                # Propellant, the second objective: a rise beyond max_rise must be paid for.
-                fuel = propellant_check(mine_before, mine_after, self.max_rise)
-                decisions.append(
-                    {
-                        "candidate": trials.label[i],
-                        **test_dict(test),
-                        "accepted": test.passed and fuel.passes,
-                        "propellant_change_pct": fuel.rise_pct,
-                        "propellant_refused": fuel.reason,
-                    }
+                verdict = self._judge(t, positions, flown_of[i], trials.label[edits[i][3][0]])
+                decisions.append(verdict)
+                ok = verdict["accepted"]
+                test_passed = verdict["test_passed"]
+                if ok:
+                    proposals.append((verdict["p"], i, len(decisions) - 1))
+                    break
+                if not test_passed:
+                    # Only a candidate refused for its propellant or for a case it harms
+                    # gives way to the next best (the other direction may do better).
+                    break
+        changed: list = []
+        positions_of = {i: edits[i][2] for _p, i, _d in proposals}
+        pending = proposals
+        wave = 0
+        while pending:
+            # Changes whose runs do not interact are taken together (taking them one after
+            # the other would fly the same runs); the one with the smaller p first.
+            taken: list = []
+            deferred = []
+            for _p, i, d in sorted(pending, key=lambda x: (x[0], x[1])):
+                t = edits[i][0]
+                positions = positions_of[i]
+                row = int(self.cases[t])
+                fires = int(np.bitwise_or.reduce(rows_fired_by_trial(flown_of[i], self.cases.size)))
+                clash = [
+                    o_row + 1
+                    for o_row, o_positions, o_fires, _ in taken
+                    if set(positions.tolist()) & set(o_positions.tolist())
+                    or (fires >> o_row) & 1
+                    or (o_fires >> row) & 1
+                ]
+                if clash:
+                    decisions[d]["accepted"] = False
+                    decisions[d]["deferred"] = (
+                        f"its runs interact with case {clash[0]}'s change, taken first: "
+                        "judged again"
+                    )
+                    deferred.append(i)
+                    continue
+                taken.append((row, positions, fires, i))
+                changed.append(decisions[d]["candidate"])
+            wave_shift = np.sum([edits[i][1] for *_, i in taken], axis=0)
+            self.current = shift_axes(self.current, self.jet_axis, wave_shift, self.cycle_s)
+            # The taken changes' runs are their candidates' runs: every case whose runs fire
+            # a changed row was flown with it (and with no other change taken with it: they
+            # do not interact), every other case's runs are unchanged bit for bit.
+            replaced = np.concatenate([positions for _, positions, _, _ in taken])
+            kept = self.runs[~self.runs["trial"].isin(replaced)]
+            moved = [flown_of[i][flown_of[i]["trial"].isin(pos)] for _, pos, _, i in taken]
+            self.runs = (
+                pd.concat([kept, *moved], ignore_index=True)
+                .sort_values(["trial", "k"], kind="stable")
+                .reset_index(drop=True)
+            )
+            self.scores = trial_scores(self.runs, self.cases.size)
+            if not deferred:
+                break
+            # Judge the others again on runs that include the taken changes, in one batch:
+            # a candidate's run is the current one where the current run does not fire its
+            # row, its earlier run where that did not fire a taken row, else flown again.
+            wave += 1
+            taken_rows = sum(1 << r for r, *_ in taken)
+            fired_now = rows_fired_by_trial(self.runs, self.cases.size)
+            plan = []
+            for i in deferred:
+                t, shift = edits[i][0], edits[i][1]
+                row = int(self.cases[t])
+                candidate = shift_axes(self.current, self.jet_axis, shift, self.cycle_s)
+                others = np.flatnonzero((fired_now >> np.int64(row)) & 1)
+                positions = np.array(
+                    [t, *sorted({int(p) for p in [*others, *positions_of[i]]} - {t})], int
                 )
-                if test.passed and fuel.passes:
-                    accepted += edits[i][1]
-                    changed.append(trials.label[i])
-                if not (test.passed and not fuel.passes):
-                    # Only a candidate refused for its propellant gives way to the next best
-                    # (the other direction may buy the failures cheaper).
-                    break
+                now = self.runs[self.runs["trial"].isin(positions)]
+                earlier = flown_of[i].set_index(["trial", "k"])
+                reuse: list = []
+                fly_k: dict = {int(p): [] for p in positions}
+                for r in now.itertuples(index=False):
+                    key = (int(r.trial), int(r.k))
+                    if not (int(r.rows_fired) >> row) & 1:
+                        reuse.append(("now", key))
+                    elif key in earlier.index and not (
+                        int(earlier.loc[key, "rows_fired"]) & taken_rows
+                    ):
+                        reuse.append(("earlier", key))
+                    else:
+                        fly_k[key[0]].append(key[1])
+                plan.append((i, candidate, positions, reuse, fly_k))
+            times, cases_, ks, owner = [], [], [], []
+            for i, candidate, _positions, _reuse, fly_k in plan:
+                for p, k in fly_k.items():
+                    if k:
+                        times.append(candidate)
+                        cases_.append(int(self.cases[p]))
+                        ks.append(np.array(k, int))
+                        owner.append((i, p))
+            again = None
+            if times:
+                again = evaluate(
+                    self.spec,
+                    self.table,
+                    Trials(np.array(times), np.array(cases_), ("again",) * len(times), tuple(ks)),
+                    desc=f"refine: round {number} judged again",
+                    runs_per_case=self.runs_per_case,
+                    **self.kw,
+                )
+                self.flown += len(again)
+            pending = []
+            now_by_key = self.runs.set_index(["trial", "k"])
+            for i, _candidate, positions, reuse, _fly_k in plan:
+                parts = []
+                for where, key in reuse:
+                    src = now_by_key if where == "now" else flown_of[i].set_index(["trial", "k"])
+                    parts.append(src.loc[[key]].reset_index())
+                if again is not None:
+                    for j, (o, p) in enumerate(owner):
+                        if o == i:
+                            parts.append(again[again["trial"] == j].assign(trial=p))
+                runs_i = (
+                    pd.concat(parts, ignore_index=True)
+                    .sort_values(["trial", "k"], kind="stable")
+                    .reset_index(drop=True)
+                )
+                flown_of[i] = runs_i
+                positions_of[i] = positions
+                verdict = self._judge(edits[i][0], positions, runs_i, trials.label[edits[i][3][0]])
+                verdict["judged_again"] = f"wave {wave}"
+                decisions.append(verdict)
+                if verdict["accepted"]:
+                    pending.append((verdict["p"], i, len(decisions) - 1))
         if not changed:
             # Nothing helped: the table and its runs stand; the next round tries the entries
             # not flown yet (other axes), and the search ends when there are none.
@@ -426,11 +647,7 @@ class _Search:
                 }
             )
             return
-        self.current = shift_axes(self.current, self.jet_axis, accepted, self.cycle_s)
-        self._refly(
-            np.flatnonzero(np.isin(self.cases, np.flatnonzero(accepted.any(axis=1)))),
-            f"refine: round {number} re-fly",
-        )
+        self.scores = trial_scores(self.runs, self.cases.size)
         totals = self.scores[["failed", "repeated"]].sum()
         self.iterations.append(
             {
@@ -444,21 +661,6 @@ class _Search:
         )
         if total(self.scores) < total(self.best[1]):
             self.best = (self.current, self.scores.assign(case_index=self.cases), self.runs)
-
-    def _refly(self, positions: np.ndarray, desc: str) -> None:
-        """Fly the current table on the searched cases at ``positions`` (indices into
-        ``cases``) and replace their runs.  Only the cases whose own rows changed are flown
-        again: a row change could in principle alter another case's late correction firings,
-        which the held-out check at full size measures."""
-        fresh = self._fly(self.current, self.cases[positions], desc)
-        fresh["trial"] = positions[fresh["trial"].to_numpy()]
-        kept = self.runs[~self.runs["trial"].isin(positions)]
-        self.runs = (
-            pd.concat([kept, fresh], ignore_index=True)
-            .sort_values(["trial", "k"], kind="stable")
-            .reset_index(drop=True)
-        )
-        self.scores = trial_scores(self.runs, self.cases.size)
 
     def confirm(self, confirm_seed: int | None) -> tuple[np.ndarray, pd.DataFrame, pd.DataFrame]:
         """Step 5: the confirmation gate on ``confirm_seed`` (None: none).  Returns the final
