@@ -56,6 +56,7 @@ COVERED = {
     "inertia_rule.py": "test_inertia_rule",
     "interaction_null.py": "test_interaction_null",
     "loop.py": "test_loop",
+    "loop_cost.py": "test_loop_cost",
     "maneuver.py": "test_maneuver",
     "noisy_sensor.py": "test_noisy_sensor",
     "null_calibration.py": "test_null_calibration",
@@ -352,6 +353,24 @@ def test_loop(tmp_path):
     assert 0 < res["peak_pss_mb"] < 4096
     # The loop flies its first campaign and four more stages: more than one campaign's time.
     assert res["campaigns"] > 1
+
+
+@pytest.mark.slow
+def test_loop_cost(tmp_path):
+    """Two loops (this interpreter as both the baseline and ours) at 2 runs per case."""
+    path = tmp_path / "loop_cost.json"
+    run("loop_cost.py", "--baseline-python", sys.executable, "--json", path, "--",
+        "--runs-per-case", 2)  # fmt: skip
+    res = json.loads(path.read_text())
+    positive(res["ratio_wall"])
+    for side in ("baseline", "ours"):
+        (one,) = res[side]
+        positive(one["wall_s"])
+        # The same code on the same seeds: the same cells and held-out failures.
+        assert 0 <= one["cells_as_table7"] <= one["cells_changed"]
+        assert one["table7_cells"] == 12  # Table 6 -> Table 7 changes 12 cells (paper)
+        assert 0 <= one["held_out_failed_after"] <= one["held_out_runs"]
+    assert res["baseline"][0]["cells_changed"] == res["ours"][0]["cells_changed"]
 
 
 def test_refinement(tmp_path):

@@ -1,4 +1,4 @@
-"""When the refinement may change a table row: the evidence rule (issue 16, item 6).
+"""When the refinement may change a table row: the evidence rule.
 
 A 200-run search that takes any strictly better candidate also takes changes resting on one
 failure in 200 runs, which a fresh seed does not confirm.  A row change is therefore kept only

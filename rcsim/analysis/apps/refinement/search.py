@@ -110,7 +110,7 @@ class RefineResult:
 
 #: Runs per case the search flies by default: the first 200 of each case's campaign runs (the
 #: same draws).  Enough to tell a candidate that removes failures at a rate of a few percent
-#: from one that does not (issue 19); the held-out check then flies every run at full size.
+#: from one that does not; the held-out check then flies every run at full size.
 SEARCH_RUNS_PER_CASE = 200
 
 
