@@ -9,8 +9,6 @@ crash.  Compiled with the machine's C compiler; skipped, with the reason, withou
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -28,34 +26,23 @@ from rcsim.models.errors import InputError
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE_C = ROOT / "examples" / "c_fsw" / "switching_line.c"
 PYTHON_TWIN = f"plugin:{ROOT / 'examples' / 'plugins' / 'switching_line.py'}:make_controller"
-CC = shutil.which(os.environ.get("CC", "cc"))
-pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler (cc) to build the C examples")
 SCENARIO = Scenario(
     name="m", duration_s=30.0, att_cmd_rad=np.radians([1.0, -2.0, 2.0]),
     omega0_rad_s=np.radians([0.1, 0.0, -0.05]),
 )  # fmt: skip
 
 
-def _build(source: Path, out: Path) -> Path:
-    """The example's build script, as a user runs it."""
-    subprocess.run(
-        ["sh", str(ROOT / "examples" / "c_fsw" / "build.sh"), str(source), str(out)],
-        check=True, capture_output=True, env={**os.environ, "PYTHON": sys.executable},
-    )  # fmt: skip
-    return out
-
-
-def _variant(tmp_path: Path, name: str, old: str, new: str) -> Path:
+def _variant(c_build, tmp_path: Path, name: str, old: str, new: str) -> Path:
     text = EXAMPLE_C.read_text()
     assert old in text
     src = tmp_path / f"{name}.c"
     src.write_text(text.replace(old, new))
-    return _build(src, tmp_path / f"lib{name}.so")
+    return c_build(src, tmp_path / f"lib{name}.so")
 
 
 @pytest.fixture(scope="module")
-def library(tmp_path_factory) -> Path:
-    return _build(EXAMPLE_C, tmp_path_factory.mktemp("c") / "libswitching_line.so")
+def library(tmp_path_factory, c_build) -> Path:
+    return c_build(EXAMPLE_C, tmp_path_factory.mktemp("c") / "libswitching_line.so")
 
 
 def test_the_header_ships_with_the_package():
@@ -70,20 +57,17 @@ def test_c_example_commands_what_its_python_twin_commands(library):
     assert np.array_equal(a.on_time_s, b.on_time_s)
 
 
-def test_refusals(tmp_path, library):
+def test_refusals(tmp_path, library, c_build):
+    def variant(name, old, new):
+        return f"library:{_variant(c_build, tmp_path, name, old, new)}"
+
     cases = {
         f"library:{tmp_path / 'nope.so'}": "not found",
         f"library:{EXAMPLE_C}": "not a loadable shared library",
-        f"library:{_variant(tmp_path, 'v2', 'return RCSIM_FSW_ABI_VERSION;', 'return 2;')}": (
-            "built for C ABI version 2"
-        ),
-        f"library:{_variant(tmp_path, 'nosym', 'int32_t rcsim_fsw_init(', 'int32_t init_(')}": (
-            "lacks rcsim_fsw_init"
-        ),
-        f"library:{_variant(tmp_path, 'status', 'status[i] = 0;', 'status[i] = 7;')}": (
-            "run 0 status 7"
-        ),
-        f"library:{_variant(tmp_path, 'nan', 'out[j] = 0.0;', 'out[j] = NAN;')}": "not finite",
+        variant("v2", "return RCSIM_FSW_ABI_VERSION;", "return 2;"): "built for C ABI version 2",
+        variant("nosym", "int32_t rcsim_fsw_init(", "int32_t init_("): "lacks rcsim_fsw_init",
+        variant("status", "status[i] = 0;", "status[i] = 7;"): "run 0 status 7",
+        variant("nan", "out[j] = 0.0;", "out[j] = NAN;"): "not finite",
     }
     for name, words in cases.items():
         with pytest.raises(InputError) as err:
@@ -126,13 +110,14 @@ def test_a_campaign_with_c_flight_code_matches_its_python_twin(tmp_path, library
 
 
 @pytest.mark.parametrize("where", ["local", "dask"])
-def test_a_crash_fails_only_its_run_and_names_the_cycle(tmp_path, capfd, where):
+def test_a_crash_fails_only_its_run_and_names_the_cycle(tmp_path, capfd, where, c_build):
     """A library that dereferences NULL from t = 0.2 s (cycle 5 of 40 ms) in any run whose yaw
     rate error still exceeds 1e-3 rad/s: case 13's runs (a 0.3 deg/s yaw rate case: the
     switching line removes at most 0.03 deg/s a cycle, so 0.15 deg/s = 2.6e-3 rad/s is left at
     cycle 5), not case 22's (roll: its yaw error is cross-coupling, far below).  The campaign
     records exactly those runs failed, with the signal and cycle, and flies the others."""
     lib = _variant(
+        c_build,
         tmp_path,
         "crash",
         "    for (int64_t i = 0; i < n_runs; i++) {",
@@ -154,9 +139,8 @@ def test_a_crash_fails_only_its_run_and_names_the_cycle(tmp_path, capfd, where):
     assert err.count("rcsim: warning: run ") == 3 and "Traceback" not in err, err
 
 
-def test_maneuver_with_a_crashing_library_is_one_line(tmp_path):
-    lib = _variant(
-        tmp_path, "crash0", "    for (int64_t i = 0; i < n_runs; i++) {",
+def test_maneuver_with_a_crashing_library_is_one_line(tmp_path, c_build):
+    lib = _variant(c_build, tmp_path, "crash0", "    for (int64_t i = 0; i < n_runs; i++) {",
         "    if (t_s >= 0.2) { volatile int *p = 0; *p = 1; }\n"
         "    for (int64_t i = 0; i < n_runs; i++) {",
     )  # fmt: skip
@@ -172,13 +156,13 @@ def test_maneuver_with_a_crashing_library_is_one_line(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
-def test_per_run_flight_code_through_the_shipped_shim(tmp_path, library):
+def test_per_run_flight_code_through_the_shipped_shim(tmp_path, library, c_build):
     """examples/c_fsw/switching_line_per_run.c steps one vehicle at a time; the shim
     (rcsim_fsw_per_run.h) batches it.  Its on-times equal the batched example's, bit for bit,
     over a dispersed campaign's runs (same arithmetic per run)."""
     from rcsim.analysis.apps.back_to_back import Side, compare
 
-    per_run = _build(ROOT / "examples" / "c_fsw" / "switching_line_per_run.c", tmp_path / "p.so")
+    per_run = c_build(ROOT / "examples" / "c_fsw" / "switching_line_per_run.c", tmp_path / "p.so")
     (tmp_path / "s.toml").write_text(SPEC.format(controller=f'library = "{library}"'))
     spec = load_spec(tmp_path / "s.toml")
     params = {"deadband_deg_s": 0.02}

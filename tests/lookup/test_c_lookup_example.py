@@ -10,10 +10,6 @@ recomputed here.  Built with the machine's C compiler; skipped, with the reason,
 
 from __future__ import annotations
 
-import os
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -26,8 +22,6 @@ from rcsim.lookup.pattern_recognition import default_table_path
 
 ROOT = Path(__file__).resolve().parents[2]
 SOURCE = ROOT / "examples" / "c_fsw" / "lookup.c"
-CC = shutil.which(os.environ.get("CC", "cc"))
-pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler (cc) to build the C example")
 TABLE = {"table": str(default_table_path())}
 
 
@@ -39,19 +33,11 @@ def _einsum_pairs_roll_and_yaw() -> bool:
     return bool(np.array_equal(np.einsum("ij,ij->i", e, e), pairs))
 
 
-def _build(source: Path, out: Path) -> Path:
-    subprocess.run(
-        ["sh", str(ROOT / "examples" / "c_fsw" / "build.sh"), str(source), str(out)],
-        check=True, capture_output=True, env={**os.environ, "PYTHON": sys.executable},
-    )  # fmt: skip
-    return out
-
-
 @pytest.fixture(scope="module")
-def library(tmp_path_factory) -> Path:
+def library(tmp_path_factory, c_build) -> Path:
     if not _einsum_pairs_roll_and_yaw():
         pytest.skip("this numpy sums the attitude error's squares in another order than the C")
-    return _build(SOURCE, tmp_path_factory.mktemp("c") / "liblookup.so")
+    return c_build(SOURCE, tmp_path_factory.mktemp("c") / "liblookup.so")
 
 
 def _spec(tmp_path: Path, body: str):
@@ -82,13 +68,13 @@ def test_the_c_lookup_flies_maneuvers_with_hysteresis_bit_for_bit(tmp_path, libr
     assert s["runs"] == 12 and s["diverged"] == 0
 
 
-def test_a_changed_threshold_is_caught_at_its_first_divergent_cycle(tmp_path, library):
+def test_a_changed_threshold_is_caught_at_its_first_divergent_cycle(tmp_path, library, c_build):
     text = SOURCE.read_text()
     old = "err = fabs(err) < rate_limit ? 0.0 : err;"
     assert old in text
     changed = tmp_path / "changed.c"
     changed.write_text(text.replace(old, "err = fabs(err) < 0.25 * rate_limit ? 0.0 : err;"))
-    lib = _build(changed, tmp_path / "libchanged.so")
+    lib = c_build(changed, tmp_path / "libchanged.so")
     spec = _spec(tmp_path, "seed = 2\nruns_per_case = 6\n[scenario]\nduration_s = 20.0")
     b = Side(f"library:{lib}", TABLE)
     runs = compare(spec, Side("lookup"), b)["runs"]

@@ -148,5 +148,16 @@ def call_isolated(fn: Callable, items: Sequence) -> Iterator[tuple[Any, Any]]:
             start += 1
 
 
+def run_isolated(fn: Callable, item: Any, *, who: str) -> Any:
+    """``fn(item)`` in a child process; a crash there is an InputError of one line, ``who``
+    (e.g. ``"--controller library:libfsw.so"``) then the signal and the control cycle."""
+    from rcsim.models.errors import InputError
+
+    ((_, result),) = call_isolated(fn, [item])
+    if isinstance(result, Crash):
+        raise InputError(f"{who}: the flight software {result.describe()}")
+    return result
+
+
 if __name__ == "__main__":
     child_main()

@@ -82,11 +82,9 @@ def run(args: argparse.Namespace) -> int:
     del a, b
     if any(s.name.startswith(LIBRARY_PREFIX) for s in sides):
         # C flight code may crash its process: the comparison flies in a child.
-        from rcsim.analysis.engine.isolated import Crash, call_isolated
+        from rcsim.analysis.engine.isolated import run_isolated
 
-        ((_, result),) = call_isolated(btb.compare_item, [(spec, *sides)])
-        if isinstance(result, Crash):
-            raise InputError(f"compare controllers: the flight software {result.describe()}")
+        result = run_isolated(btb.compare_item, (spec, *sides), who="compare controllers")
     else:
         result = btb.compare(spec, *sides, progress=_progress(spec.n_runs))
     with atomic_dir(out, COMMAND, overwrite=args.overwrite) as tmp:

@@ -87,6 +87,7 @@ def register(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from rcsim.analysis.engine.flight import Scenario, controller_record, fly, write_flight
+    from rcsim.analysis.engine.isolated import run_isolated
     from rcsim.analysis.engine.output import check_out_dir
     from rcsim.lookup.registry import check_controller_name, is_plugin, make_controller
 
@@ -132,7 +133,8 @@ def run(args: argparse.Namespace) -> int:
     params = plugin_params(args.param)
     ctl = make_controller(args.controller, vehicle, table=args.table, plugin_params=params)
     if args.controller.startswith(LIBRARY_PREFIX):  # C code may crash: not in this process
-        history = _fly_isolated(scenario, args.controller, vehicle, params)
+        item = (scenario, args.controller, vehicle, params)
+        history = run_isolated(_fly_one, item, who=f"--controller {args.controller}")
     else:
         history = fly(scenario, controller_obj=ctl, vehicle=vehicle)
     title = f"{args.controller} maneuver ({r:g}, {p:g}, {y:g}) deg"
@@ -187,17 +189,6 @@ def _vehicle(args: argparse.Namespace):
     return vehicle
 
 
-def _fly_isolated(scenario, controller: str, vehicle, params: dict):
-    """Fly in a child process (:func:`rcsim.analysis.engine.isolated.call_isolated`); a crash
-    of the flight code there is one line naming the signal and the cycle."""
-    from rcsim.analysis.engine.isolated import Crash, call_isolated
-
-    ((_, result),) = call_isolated(_fly_one, [(scenario, controller, vehicle, params)])
-    if isinstance(result, Crash):
-        raise InputError(f"--controller {controller}: the flight software {result.describe()}")
-    return result
-
-
 def _fly_one(item: tuple):
     """``(scenario, controller, vehicle, params)`` flown: what a child process runs."""
     from rcsim.analysis.engine.flight import fly
@@ -209,17 +200,15 @@ def _fly_one(item: tuple):
 def fly_plugin_scenario(scenario, controller: str, vehicle, params: dict):
     """A named scenario (``rcsim scenario run``) flown by a plug-in: built and probed here
     (one line if it cannot be), flown here, or in a child process for C flight code."""
-    from rcsim.analysis.engine.isolated import Crash, call_isolated
+    from rcsim.analysis.engine.isolated import run_isolated
     from rcsim.analysis.engine.scenarios import fly_scenario
     from rcsim.lookup.registry import make_controller
 
     ctl = make_controller(controller, vehicle, plugin_params=params)
     if not controller.startswith(LIBRARY_PREFIX):
         return fly_scenario(scenario, vehicle=vehicle, controller_obj=ctl)
-    ((_, result),) = call_isolated(_fly_scenario_one, [(scenario, controller, vehicle, params)])
-    if isinstance(result, Crash):
-        raise InputError(f"--controller {controller}: the flight software {result.describe()}")
-    return result
+    item = (scenario, controller, vehicle, params)
+    return run_isolated(_fly_scenario_one, item, who=f"--controller {controller}")
 
 
 def _fly_scenario_one(item: tuple):
