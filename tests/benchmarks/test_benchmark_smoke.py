@@ -67,6 +67,7 @@ COVERED = {
     "rare_event_campaign.py": "test_rare_event_campaign",
     "rare_event_flight.py": "test_rare_event_flight",
     "refinement.py": "test_refinement",
+    "refinement_vehicles.py": "test_refinement_vehicles",
     "vehicle_loads.py": "test_vehicle_loads",
 }
 
@@ -353,6 +354,18 @@ def test_loop(tmp_path):
     assert 0 < res["peak_pss_mb"] < 4096
     # The loop flies its first campaign and four more stages: more than one campaign's time.
     assert res["campaigns"] > 1
+
+
+def test_refinement_vehicles(tmp_path):
+    """One vehicle of rcsim's own design, 2 runs per case: the row's figures recount."""
+    path = tmp_path / "vehicles.json"
+    run("refinement_vehicles.py", "--vehicles", ROOT / "tests/lookup/vehicles/lander900.toml",
+        "--runs-per-case", 2, "--json", path)  # fmt: skip
+    (row,) = json.loads(path.read_text())
+    assert row["vehicle"] == "lander900" and row["held_out_runs"] == 26 * 2
+    assert 0 <= row["failed_refined"] <= row["held_out_runs"]
+    assert 0 <= row["nominal_met"] <= 26 and row["nominal_target_deg_s"] > 0
+    positive(row["propellant_original_kg"], row["propellant_refined_kg"])
 
 
 @pytest.mark.slow
