@@ -50,10 +50,10 @@ from rcsim.lookup.channels import ChannelMap, solve_recipe
 from rcsim.lookup.row_tuning import (
     DEFAULT_ROUNDS,
     DEFAULT_TARGET_FRACTION,
-    FAILURE_RATE_ERROR_DEG_S,
     RowTuner,
     check_target_fraction,
     cycle_steps,
+    vehicle_threshold_deg_s,
 )
 from rcsim.lookup.table_generation import (
     FiringSweep,
@@ -286,7 +286,7 @@ def generate_channel_table(
     max_fire_s: float = 5.0,
     recipe: ChannelRecipe | None = None,
     target_fraction: float = DEFAULT_TARGET_FRACTION,
-    threshold_deg_s: float = FAILURE_RATE_ERROR_DEG_S,
+    threshold_deg_s: float | None = None,
     tune_rounds: int = DEFAULT_ROUNDS,
 ) -> GeneratedTable:
     """Solve the recipes and generate, verify and damping-check a channel table.
@@ -365,7 +365,7 @@ def generate_channel_table(
     cycles, nominal = tuner.tune(
         command.cycles,
         target_fraction=check_target_fraction(target_fraction),
-        threshold_rad_s=float(np.radians(threshold_deg_s)),
+        threshold_rad_s=float(np.radians(vehicle_threshold_deg_s(vehicle, threshold_deg_s))),
         rounds=tune_rounds,
     )
     if nominal.tuned.any():  # the verification flies the rows as tuned

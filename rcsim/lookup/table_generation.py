@@ -62,11 +62,11 @@ from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.lookup.row_tuning import (
     DEFAULT_ROUNDS,
     DEFAULT_TARGET_FRACTION,
-    FAILURE_RATE_ERROR_DEG_S,
     NominalCheck,
     RowTuner,
     check_target_fraction,
     cycle_steps,
+    vehicle_threshold_deg_s,
 )
 from rcsim.lookup.table_candidates import nearest_rows
 from rcsim.models.errors import InputError
@@ -381,7 +381,7 @@ def generate_jet_table(
     settle_window_s: float = 2.0,
     max_fire_s: float = 3.0,
     target_fraction: float = DEFAULT_TARGET_FRACTION,
-    threshold_deg_s: float = FAILURE_RATE_ERROR_DEG_S,
+    threshold_deg_s: float | None = None,
     tune_rounds: int = DEFAULT_ROUNDS,
 ) -> GeneratedTable:
     """Generate, tune, verify and damping-check the lookup table of a vehicle whose jets play
@@ -406,8 +406,9 @@ def generate_jet_table(
     target_fraction : float
         Every case is tuned in closed loop to end within this fraction of ``threshold_deg_s``
         on every axis, in one firing (:mod:`rcsim.lookup.row_tuning`), in (0, 1].
-    threshold_deg_s : float
-        The failure threshold on a case's final rate error [deg/s].
+    threshold_deg_s : float, optional
+        The failure threshold on a case's final rate error [deg/s]; default the vehicle
+        file's own ``[failure] rate_error_deg_s``, else the paper's 0.04 deg/s.
     tune_rounds : int
         Rounds of the closed-loop search (0: the paper's rule's rows as they are, still
         checked in closed loop).
@@ -499,7 +500,7 @@ def generate_jet_table(
     cycles, nominal = tuner.tune(
         command.cycles,
         target_fraction=check_target_fraction(target_fraction),
-        threshold_rad_s=float(np.radians(threshold_deg_s)),
+        threshold_rad_s=float(np.radians(vehicle_threshold_deg_s(vehicle, threshold_deg_s))),
         rounds=tune_rounds,
     )
     command = replace(command, cycles=cycles)

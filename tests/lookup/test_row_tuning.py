@@ -223,3 +223,20 @@ def test_cli_prints_every_case_and_warns_on_misses(tmp_path, capsys):
         assert row["unmet_reason"] in line
     missed = frame.loc[~frame["nominal_met"], "case"].tolist()
     assert missed and f"cases {', '.join(map(str, missed))}" in captured.err
+
+
+def test_the_tuning_threshold_is_the_vehicle_files_own(tmp_path):
+    """A vehicle file's [failure] rate_error_deg_s is the threshold its table is tuned to (the
+    criterion its campaigns are judged by); without one, the paper's 0.04 deg/s; a caller's
+    value wins."""
+    from pathlib import Path
+
+    from rcsim.lookup.row_tuning import vehicle_threshold_deg_s
+    from rcsim.spacecraft.vehicle_file import Vehicle
+
+    source = Path(__file__).with_name("vehicles") / "lander900.toml"
+    own = tmp_path / "lander900_own.toml"
+    own.write_text(source.read_text() + "\n[failure]\nrate_error_deg_s = 0.03\n")
+    assert vehicle_threshold_deg_s(Vehicle.load(own), None) == 0.03
+    assert vehicle_threshold_deg_s(Vehicle.load(source), None) == 0.04
+    assert vehicle_threshold_deg_s(Vehicle.load(own), 0.05) == 0.05
