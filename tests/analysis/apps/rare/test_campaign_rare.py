@@ -121,10 +121,9 @@ class _Killed(Exception):
     pass
 
 
-def test_killed_estimation_resumes_at_its_last_level(tmp_path, monkeypatch):
-    """Killed after level 0, the estimation resumes from the state file: the same record as an
-    uninterrupted run's, and level 0's 100 runs are not flown again."""
-    spec = load_spec(_spec(tmp_path, 0.05))
+def _killed_then_resumed(spec, tmp_path: Path, monkeypatch) -> None:
+    """Estimate case 0 whole, then killed after level 0 and resumed: the same record and rows,
+    and only the runs after level 0's 100 flown again."""
     settings = RareSettings(n_per_level=100, budget=1000, repeats=1)
     whole = estimate_cases(spec, [0], settings, tmp_path / "whole")
 
@@ -147,6 +146,13 @@ def test_killed_estimation_resumes_at_its_last_level(tmp_path, monkeypatch):
     assert sum(flown) == whole["rate-13"]["runs"] - 100
     whole_runs = pd.read_parquet(tmp_path / "whole" / rare_estimate.RUNS)
     pd.testing.assert_frame_equal(pd.read_parquet(out / rare_estimate.RUNS), whole_runs)
+
+
+def test_killed_estimation_resumes_at_its_last_level(tmp_path, monkeypatch):
+    """Killed after level 0, the estimation resumes from the state file: the same record as an
+    uninterrupted run's, and level 0's 100 runs are not flown again."""
+    spec = load_spec(_spec(tmp_path, 0.05))
+    _killed_then_resumed(spec, tmp_path, monkeypatch)
 
 
 def test_never_reached_is_a_stated_bound(tmp_path, capsys):
@@ -349,25 +355,4 @@ def test_two_criteria_resume_the_same_without_flying_a_run_again(tmp_path, monke
     spec_path = tmp_path / "two.toml"
     spec_path.write_text(SPEC_TWO)
     spec = load_spec(spec_path)
-    settings = RareSettings(n_per_level=100, budget=1000, repeats=1)
-    whole = estimate_cases(spec, [0], settings, tmp_path / "whole")
-
-    def die(line: str) -> None:
-        raise _Killed(line)
-
-    out = tmp_path / "killed"
-    with pytest.raises(_Killed):
-        estimate_cases(spec, [0], settings, out, progress=die)
-    flown = []
-    real = CaseLimitState.criterion_margins
-
-    def counting(self, u, ids):
-        flown.append(u.shape[0])
-        return real(self, u, ids)
-
-    monkeypatch.setattr(CaseLimitState, "criterion_margins", counting)
-    resumed = estimate_cases(spec, [0], settings, out)
-    assert resumed == whole
-    assert sum(flown) == whole["rate-13"]["runs"] - 100
-    whole_runs = pd.read_parquet(tmp_path / "whole" / rare_estimate.RUNS)
-    pd.testing.assert_frame_equal(pd.read_parquet(out / rare_estimate.RUNS), whole_runs)
+    _killed_then_resumed(spec, tmp_path, monkeypatch)
