@@ -23,6 +23,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from rcsim.spacecraft.modes.mjcf import child_bodies_xml, copy_child_values, mode_joint_problem
 from rcsim.spacecraft.vehicle import BODY, VehicleParams, jet_actuator_ids
 
 #: Actuator names of the flight model, in control order: force x, y, z [N] at the body
@@ -36,7 +37,7 @@ _XML = """<mujoco model="rcsim flight model">
       <freejoint name="root"/>
       <inertial pos="{ipos}" quat="{iquat}" mass="{mass}" diaginertia="{inertia}"/>
       <site name="wrench" pos="0 0 0"/>
-    </body>
+{children}    </body>
   </worldbody>
   <actuator>
     <general name="force_x" site="wrench" gear="1 0 0 0 0 0" ctrllimited="false"/>
@@ -78,14 +79,20 @@ def flight_model(model: mujoco.MjModel) -> mujoco.MjModel:
     Raises
     ------
     ValueError
-        ``model`` is not one free body: the wrench sum assumes a single rigid body.
+        ``model`` is not one free body (the hub), with at most slide or hinge children (its
+        modes, :mod:`rcsim.spacecraft.modes`): the wrench acts on the hub.
     """
-    if model.nbody != 2 or model.njnt != 1 or model.jnt_type[0] != mujoco.mjtJoint.mjJNT_FREE:
-        raise ValueError(
-            "the flight model needs a vehicle of one free body "
-            f"(got {model.nbody - 1} bodies, {model.njnt} joints)"
-        )
     body = model.body(BODY).id
+    rigid = model.nbody == 2 and model.njnt == 1
+    # A vehicle with modes (rcsim.spacecraft.modes): the hub's children and their joints are
+    # copied as they are; the wrench still acts on the hub alone.
+    free = model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
+    problem = mode_joint_problem(model, body) if not (rigid and free) else ""
+    if problem:
+        raise ValueError(
+            "the flight model needs a vehicle of one free body, with slide or hinge children "
+            f"(got {model.nbody - 1} bodies, {model.njnt} joints: {problem})"
+        )
     ipos = model.body_ipos[body]
     # A body whose CG is at its origin with principal axes along its own compiles as
     # "simple": a diagonal mass matrix with no translation-rotation coupling, a structure
@@ -100,6 +107,7 @@ def flight_model(model: mujoco.MjModel) -> mujoco.MjModel:
             iquat=_numbers(model.body_iquat[body]),
             mass=repr(float(model.body_mass[body])),
             inertia=_numbers(model.body_inertia[body]),
+            children="" if rigid else child_bodies_xml(model, body) + "\n",
         )
     )
     _copy_options(model.opt, flight.opt)
@@ -107,6 +115,8 @@ def flight_model(model: mujoco.MjModel) -> mujoco.MjModel:
     # repr of a double; this makes it independent of the compiler's own arithmetic).
     for name in ("body_mass", "body_ipos", "body_iquat", "body_inertia"):
         getattr(flight, name)[1] = getattr(model, name)[body]
+    if not rigid:
+        copy_child_values(model, flight, body)
     mujoco.mj_setConst(flight, mujoco.MjData(flight))
     return flight
 

@@ -16,6 +16,7 @@ import pandas as pd
 
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.control_profile import ControlProfile
+from rcsim.spacecraft.modes.reader import Modes
 from rcsim.spacecraft.valves import ValveTiming
 from rcsim.spacecraft.vehicle import G0_M_S2
 
@@ -123,6 +124,9 @@ class VehicleDef:
         The vehicle's own failure criterion (``[failure]``): :data:`FAILURE_KEYS` it gives ->
         value (deg/s, deg), the defaults of a campaign of it (a spec's ``[failure]`` wins);
         empty: the paper's apply.
+    modes : Modes or None
+        ``[[slosh]]`` and ``[[appendage]]`` (:mod:`rcsim.spacecraft.modes`) and the hub they
+        leave; None: a rigid vehicle.
     """
 
     source: str
@@ -145,6 +149,7 @@ class VehicleDef:
     command_delay_s: float = 0.0
     delay_keys: tuple = ()
     failure: dict = field(default_factory=dict)
+    modes: Modes | None = None
 
     @property
     def n_jets(self) -> int:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from rcsim.spacecraft.modes.mjcf import mode_flags, modes_xml
 from rcsim.spacecraft.vehicle import BODY, DIST_NAMES, route_mujoco_warnings
 from rcsim.spacecraft.vehicle_file.schema import VehicleDef
 
@@ -42,7 +43,14 @@ def _vec(xs) -> str:
 
 def to_mjcf(vehicle: VehicleDef) -> str:
     """MJCF text of ``vehicle`` (module docstring)."""
-    inertia = vehicle.inertia_kg_m2
+    modes = vehicle.modes
+    # With modes the vehicle body is the hub: the whole vehicle less the modes' masses
+    # (rcsim.spacecraft.modes.definition.hub_mass_properties), its children the modes.
+    mass, cg, inertia = (
+        (vehicle.mass_kg, vehicle.cg_m, vehicle.inertia_kg_m2)
+        if modes is None
+        else (modes.hub_mass_kg, modes.hub_cg_m, modes.hub_inertia_kg_m2)
+    )
     if inertia[0, 1] == 0 and inertia[0, 2] == 0 and inertia[1, 2] == 0:
         inertial = f'diaginertia="{_vec(np.diag(inertia))}"'
     else:
@@ -55,12 +63,12 @@ def to_mjcf(vehicle: VehicleDef) -> str:
         '  <compiler angle="radian" autolimits="true"/>',
         f'  <option timestep="{_num(vehicle.timestep_s)}" integrator="{vehicle.integrator}" '
         'gravity="0 0 0" density="0" viscosity="0">',
-        f"    <flag {_FLAGS}/>",
+        f"    <flag {_FLAGS if modes is None else mode_flags(_FLAGS)}/>",
         "  </option>",
         "  <worldbody>",
         f'    <body name="{BODY}" pos="0 0 0">',
         '      <freejoint name="root"/>',
-        f'      <inertial pos="{_vec(vehicle.cg_m)}" mass="{_num(vehicle.mass_kg)}" {inertial}/>',
+        f'      <inertial pos="{_vec(cg)}" mass="{_num(mass)}" {inertial}/>',
     ]
     if vehicle.hull_half_m is not None:
         lines.append(
@@ -74,6 +82,8 @@ def to_mjcf(vehicle: VehicleDef) -> str:
             f'      <site name="j{k + 1:02d}" pos="{_vec(jet.position_m)}" '
             f'zaxis="{_vec(jet.direction_text)}"/>'
         )
+    if modes is not None:
+        lines += modes_xml(modes.all)
     lines += ["    </body>", "  </worldbody>", "  <actuator>"]
     for k, jet in enumerate(vehicle.jets):
         lines.append(

@@ -44,6 +44,7 @@ import numpy as np
 
 from rcsim.models.errors import InputError
 from rcsim.models.toml_reader import Reader
+from rcsim.spacecraft.modes.reader import read_modes
 from rcsim.spacecraft.vehicle_file.definition import (
     DELAY_KEYS,
     GYRATION_RANGE_M,
@@ -240,6 +241,15 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
         raise InputError(
             f"{src}: propellant.mass_kg: must be below mass.mass_kg = {mass:g} (got {prop!r})"
         )
+    modes = read_modes(
+        top,
+        mass_kg=mass,
+        cg_m=cg,
+        inertia_kg_m2=inertia,
+        gyration_m=reach_unit,
+        timestep_s=dt,
+        propellant_kg=prop,
+    )
     three_sigma = read_dispersions(top.table_("dispersions"), mass, inertia, cg, jets)
     failure = read_failure(top.table_("failure"), control)
     top.done()
@@ -264,4 +274,5 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
         command_delay_s=command_delay,
         delay_keys=delay_keys,
         failure=failure,
+        modes=modes,
     )

@@ -62,6 +62,7 @@ def _check(args: argparse.Namespace) -> int:
 
     from rcsim.analysis.apps.estimates import check_vehicle_cost
     from rcsim.lookup.translation_coupling import coupling_text
+    from rcsim.spacecraft.modes.report import modes_text
     from rcsim.spacecraft.vehicle_file import Vehicle
     from rcsim.spacecraft.vehicle_file.authority import check_text, check_vehicle
 
@@ -77,4 +78,5 @@ def _check(args: argparse.Namespace) -> int:
         result = check_vehicle(vehicle, pairs=pairs, step=bar.update)
     print(check_text(vehicle, result), end="")
     print(coupling_text(flown), end="")
+    print(modes_text(vehicle.modes, flown.model), end="")
     return 0
