@@ -21,6 +21,7 @@ from mujoco.batch import Batch, SimulationError
 from rcsim.spacecraft import cycle_kernel
 from rcsim.spacecraft.flight_model import flight_model, jet_wrench_B
 from rcsim.spacecraft.guards import warning_reasons
+from rcsim.spacecraft.modes.state import subtree_velocity_N
 from rcsim.spacecraft.navigation import quat_conj, quat_mul
 from rcsim.spacecraft.pieces import Pieces
 from rcsim.spacecraft.propellant import (
@@ -90,6 +91,28 @@ class BatchPhysics:
     @property
     def n_runs(self) -> int:
         return self.params.n_runs
+
+    @property
+    def mode_names(self) -> tuple[str, ...]:
+        """The mode coordinates' joint names (slosh, appendages: :mod:`rcsim.spacecraft.modes`),
+        in qpos order after the hub's free joint (qpos 7.., qvel 6..); empty for a rigid
+        vehicle."""
+        f = self._flight
+        return tuple(mujoco.mj_id2name(f, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(1, f.njnt))
+
+    @property
+    def mode_mass_kg(self) -> float:
+        """The modes' mass [kg]: the whole vehicle is the hub's (:meth:`flown_params`) plus
+        this (0.0 for a rigid vehicle)."""
+        body = self._flight.body(BODY).id
+        return float(self._flight.body_mass[body + 1 :].sum())
+
+    @property
+    def mode_kinds(self) -> tuple[str, ...]:
+        """``slide`` [m] or ``angle`` [rad] per mode coordinate (:attr:`mode_names`)."""
+        slide = mujoco.mjtJoint.mjJNT_SLIDE
+        f = self._flight
+        return tuple("slide" if f.jnt_type[j] == slide else "angle" for j in range(1, f.njnt))
 
     def _write_params(self) -> None:
         """Per-run model fields; invalid runs keep the nominal values (they are reported failed)."""
@@ -178,8 +201,12 @@ class BatchPhysics:
 
         The free joint's linear velocity (``qvel[0:3]``) is the body origin's, in N; the CG
         sits at ``body_ipos`` (its current value: it moves as propellant is used), so
-        ``v_CG = v_O + R_NB (omega_B x cg_B)`` (rigid-body kinematics).
+        ``v_CG = v_O + R_NB (omega_B x cg_B)`` (rigid-body kinematics).  With modes (slosh,
+        appendages) it is the whole vehicle's CG, hub and modes
+        (:func:`rcsim.spacecraft.modes.state.subtree_velocity_N`).
         """
+        if self.mode_names:  # the hub's CG is not the vehicle's: MuJoCo's whole-tree value
+            return subtree_velocity_N(self.batch, self._flight.body(BODY).id)
         body = self._flight.body(BODY).id
         cg = self.batch.expanded("body_ipos")
         cg_B = self.params.cg_B if cg is None else np.asarray(cg)[:, body]

@@ -79,6 +79,12 @@ class History:
         the propellant used over the mass, relative).  None: not made by a simulation.
     min_pulse_s : float
         The valves' shortest firing flown [s] (``PropulsionParams.min_pulse_s``; 0: no limit).
+    mode_q, mode_qd : ndarray, (n_runs, n_cycles, n_modes), or None
+        Each mode coordinate of a vehicle with slosh or appendages (:mod:`rcsim.spacecraft.modes`)
+        and its rate at the cycle's start [m, m/s for a slide; rad, rad/s for a hinge]; None
+        for a rigid vehicle.
+    mode_names, mode_kinds : tuple of str
+        The mode coordinates' joint names and ``slide`` or ``angle`` each (empty: rigid).
     """
 
     cycle_s: float
@@ -100,6 +106,10 @@ class History:
     delta_v_N: np.ndarray | None = None
     delta_v_B: np.ndarray | None = None
     min_pulse_s: float = 0.0
+    mode_q: np.ndarray | None = None
+    mode_qd: np.ndarray | None = None
+    mode_names: tuple = ()
+    mode_kinds: tuple = ()
 
     @property
     def n_runs(self) -> int:
@@ -148,12 +158,18 @@ class History:
 
 
 def history_buffers(
-    n_cycles: int, n_runs: int, n_jets: int, *, measured: bool, delivered: bool
+    n_cycles: int,
+    n_runs: int,
+    n_jets: int,
+    *,
+    measured: bool,
+    delivered: bool,
+    n_modes: int = 0,
 ) -> dict:
     """Cycle-major record buffers of a flight, (n_cycles, n_runs, k) each: every cycle writes
     one contiguous block, and the flight returns them as (n_runs, n_cycles, k) views
     (:attr:`History` fields; ``measured``: the sensors' errors, ``delivered``: the jets'
-    delivered on-times)."""
+    delivered on-times, ``n_modes``: the mode coordinates and rates of a vehicle with modes)."""
     n = n_runs
     rec = {
         "q_BN": np.empty((n_cycles, n, 4)),
@@ -167,4 +183,7 @@ def history_buffers(
     if measured:
         rec["meas_att_err_B"] = np.empty((n_cycles, n, 3))
         rec["meas_rate_err_B"] = np.empty((n_cycles, n, 3))
+    if n_modes:
+        rec["mode_q"] = np.empty((n_cycles, n, n_modes))
+        rec["mode_qd"] = np.empty((n_cycles, n, n_modes))
     return rec

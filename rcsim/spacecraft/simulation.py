@@ -370,7 +370,12 @@ class BatchSimulation:
             failed=failed,
             reason=reason,
             rec=history_buffers(
-                n_cycles, n, self.n_jets, measured=sensors is not None, delivered=delivered
+                n_cycles,
+                n,
+                self.n_jets,
+                measured=sensors is not None,
+                delivered=delivered,
+                n_modes=len(physics.mode_names),
             ),
             valves=ValveState.closed(n, self.n_jets),
             thrust_n=self.params.thrust_n * physics.level,
@@ -400,6 +405,9 @@ class BatchSimulation:
         rec["att_err_B"][k] = truth.att_err_B
         rec["rate_err_B"][k] = truth.rate_err_B
         rec["on_time_s"][k] = on
+        if "mode_q" in rec:  # a vehicle with modes: their joints follow the free joint's
+            rec["mode_q"][k] = self.physics.qpos[:, 7:]
+            rec["mode_qd"][k] = self.physics.qvel[:, 6:]
         if f.delivered:
             rec["delivered_s"][k] = delivered
         if f.disturbance_B is not None:
@@ -492,8 +500,10 @@ class BatchSimulation:
             propellant_exhausted_s=None if self.tank is None else physics.exhausted_s.copy(),
             delta_v_N=physics.cg_velocity_N() - self._v0_N,
             delta_v_B=np.einsum("nj,nja->na", f.prop.impulse_ns, physics.jet_directions_B())
-            / flown.mass_kg[:, None],
+            / (flown.mass_kg + physics.mode_mass_kg)[:, None],
             min_pulse_s=self.propulsion.min_pulse_s,
+            mode_names=physics.mode_names,
+            mode_kinds=physics.mode_kinds,
             **rec,
         )
 

@@ -199,7 +199,9 @@ def history_frame(history: History, run: int = 0) -> pd.DataFrame:
     ``meas_rate_err_<axis>_deg_s`` are the errors the controller measured; with valve timing,
     jet faults or a thrust profile, ``jet_NN_delivered_s`` the time the jet thrust in that
     cycle (the command moved by the delays, plus stuck-on time, minus failed time;
-    :class:`rcsim.spacecraft.history.History`).
+    :class:`rcsim.spacecraft.history.History`).  A vehicle with slosh or appendages adds each
+    mode coordinate and its rate at the cycle's start: ``<joint>_m``, ``<joint>_m_s`` for a
+    slide (spring slosh), ``<joint>_deg``, ``<joint>_deg_s`` for a hinge (pendulum, panel).
     """
     cols: dict[str, np.ndarray] = {"t_s": history.t_s}
     euler = euler321_deg(history.q_BN[run])
@@ -224,6 +226,13 @@ def history_frame(history: History, run: int = 0) -> pd.DataFrame:
     if history.delivered_s is not None:
         for j, name in enumerate(names):
             cols[f"{name}_delivered_s"] = history.delivered_s[run, :, j]
+    if history.mode_q is not None and history.mode_qd is not None:
+        for k, (name, kind) in enumerate(zip(history.mode_names, history.mode_kinds)):
+            q, qd = history.mode_q[run, :, k], history.mode_qd[run, :, k]
+            if kind == "slide":
+                cols[f"{name}_m"], cols[f"{name}_m_s"] = q, qd
+            else:
+                cols[f"{name}_deg"], cols[f"{name}_deg_s"] = np.degrees(q), np.degrees(qd)
     return pd.DataFrame(cols)
 
 
