@@ -58,6 +58,7 @@ COVERED = {
     "loop.py": "test_loop",
     "loop_cost.py": "test_loop_cost",
     "maneuver.py": "test_maneuver",
+    "modes_cost.py": "test_modes_cost",
     "noisy_sensor.py": "test_noisy_sensor",
     "null_calibration.py": "test_null_calibration",
     "peer_rcsim.py": "test_peer_rcsim",
@@ -208,6 +209,39 @@ def test_exact_time_cost():
         # A cycle is at least one piece; a switch adds one per run that switches, so the
         # mean cannot exceed 1 + the jets (16) switching twice each.
         assert 1.0 <= pieces <= 33.0
+
+
+def test_modes_cost():
+    """Rigid, modes at 40 and 20 ms, and this checkout again as the baseline: every variant
+    flies (no failed run), each has its qpos (7 rigid; 11 with two slides and two hinges), a
+    cycle is at least one physics step (25 cycles in 1 s; two steps a cycle at 20 ms), and the
+    baseline -- the same code -- fires exactly as the rigid variant (deterministic flights)."""
+    out = run(
+        "modes_cost.py",
+        "--runs-per-case",
+        1,
+        "--duration-s",
+        1,
+        "--repeats",
+        1,
+        "--baseline",
+        ROOT,
+    )
+    rows = {}
+    for m in re.finditer(
+        rf"(?m)^(\S+)\s*: +({NUM}) ms CPU per run .* physics ({NUM}) ms .*, ({NUM}) steps/run; "
+        rf"firings/run ({NUM}); qpos (\d+), failed (\d+)",
+        out,
+    ):
+        rows[m.group(1)] = [number(g) for g in m.groups()[1:]]
+    assert set(rows) == {"rigid", "modes", "modes-20ms", "rigid-baseline"}, out
+    for name, (cpu, physics, steps, _firings, nq, failed) in rows.items():
+        positive(cpu, physics)
+        assert failed == 0
+        assert nq == (7 if name.startswith("rigid") else 11)
+        assert steps >= (50 if name == "modes-20ms" else 25)
+    assert rows["rigid-baseline"][3] == rows["rigid"][3]
+    assert "rigid / rigid-baseline per repeat" in out
 
 
 def test_maneuver():

@@ -245,3 +245,45 @@ def _write(text: str):
     path = Path(tempfile.mkdtemp()) / "canted16_modes.toml"
     path.write_text(text, encoding="utf-8")
     return path
+
+
+def test_pendulum_swings_at_sqrt_of_thrust_over_hub_mass_and_length(tmp_path):
+    """A pendulum hung from the hub's CG, the hub pushed by a constant force F along the rod
+    (the flight model's force_x): in the CG's frame the lateral momentum is zero, so with
+    mu = M m / (M + m) and a = F / (M + m),
+
+        T = 1/2 (mu L^2 + m g^2) phi'^2,   V = 1/2 m a L phi^2
+        omega^2 = m a L / (mu L^2 + m g^2)   (= F / (M L) for g -> 0)
+
+    (g: the bob's radius of gyration, POINT_GYRATION_M; the pivot force passes through the
+    hub's CG and turns nothing).  Coasting it has no restoring force: no frequency."""
+    m_hub, m_s, length, force = 400.0, 25.0, 0.5, 710.0
+    hub_i = np.diag([120.0, 150.0, 130.0])
+    own = m_s * POINT_GYRATION_M**2 * np.eye(3)
+    mass, cg, inertia = whole_vehicle(m_hub, hub_i, [(m_s, (-length, 0.0, 0.0), own)])
+    blocks = (
+        '[[slosh]]\nname = "p"\nmodel = "pendulum"\n'
+        f"mass_kg = {m_s}\npivot_m = [0.0, 0.0, 0.0]\ndirection = [-1, 0, 0]\n"
+        f"length_m = {length}\n"
+    )
+    v = load(tmp_path, mass, cg, inertia, blocks, timestep_s=DT)
+    model = v.flight_model
+    mu = m_hub * m_s / (m_hub + m_s)
+    a = force / (m_hub + m_s)
+    expected = math.sqrt(m_s * a * length / (mu * length**2 + m_s * POINT_GYRATION_M**2))
+    expected /= 2 * math.pi
+    thrust = model.actuator("force_x").id
+    data = mujoco.MjData(model)
+    data.qpos[7] = 1e-3
+    data.ctrl[thrust] = force
+    n = int(round(60.0 / model.opt.timestep))
+    q = np.empty(n + 1)
+    q[0] = data.qpos[7]
+    for k in range(n):
+        mujoco.mj_step(model, data)
+        q[k + 1] = data.qpos[7]
+    x = q - (q.max() + q.min()) / 2
+    i = np.flatnonzero(np.sign(x[:-1]) != np.sign(x[1:]))
+    t = (i + x[i] / (x[i] - x[i + 1])) * model.opt.timestep
+    measured = (len(t) - 1) / (2 * (t[-1] - t[0]))
+    assert measured == pytest.approx(expected, rel=RTOL)
