@@ -79,15 +79,18 @@ def history_bytes(
     delivered: bool = False,
     *,
     n_jets: int,
+    n_modes: int = 0,
 ) -> int:
     """Bytes of the per-cycle record of ``n_runs`` runs of a vehicle of ``n_jets`` jets over
     ``n_cycles`` cycles (with ``t_s``; ``measured``: with the measured errors of imperfect
     sensors; ``delivered``: with the delivered on-times, ``delivered_s``, one float64 per jet,
-    kept when valve timing, faults or a thrust profile apply)."""
+    kept when valve timing, faults or a thrust profile apply; ``n_modes``: the mode
+    coordinates of a vehicle with slosh or appendages, a coordinate and a rate each)."""
     per_run = (
         history_bytes_per_run_cycle(n_jets)
         + (MEASURED_BYTES_PER_RUN_CYCLE if measured else 0)
         + (int(n_jets) * 8 if delivered else 0)
+        + int(n_modes) * 16
     )
     return int(n_cycles) * (int(n_runs) * per_run + 8)
 
@@ -109,12 +112,13 @@ def check_history_memory(
     delivered: bool = False,
     *,
     n_jets: int,
+    n_modes: int = 0,
 ) -> None:
     """Raise InputError if recording ``n_cycles`` cycles of ``n_runs`` runs of a vehicle of
-    ``n_jets`` jets exceeds :func:`memory_budget_bytes` (``measured``, ``delivered``: the
-    optional records of :func:`history_bytes`)."""
+    ``n_jets`` jets exceeds :func:`memory_budget_bytes` (``measured``, ``delivered``,
+    ``n_modes``: the optional records of :func:`history_bytes`)."""
     budget = memory_budget_bytes()
-    need = history_bytes(n_runs, n_cycles, measured, delivered, n_jets=n_jets)
+    need = history_bytes(n_runs, n_cycles, measured, delivered, n_jets=n_jets, n_modes=n_modes)
     if budget is not None and need > budget:
         raise InputError(
             f"= {duration_s:g} s is {n_cycles} control cycles; recording them for "

@@ -344,6 +344,7 @@ class BatchSimulation:
             measured=self.sensors is not None,
             delivered=delivered,
             n_jets=self.n_jets,
+            n_modes=len(self.physics.mode_names),
         )
         physics = self.physics
         physics.reset(q0_BN, omega0_B)

@@ -104,3 +104,13 @@ def test_slosh_mass_is_part_of_the_propellant(tmp_path):
 
     with pytest.raises(InputError, match=r"slosh.mass_kg.*41.*propellant.mass_kg = 40"):
         Vehicle.load(path)
+
+
+def test_history_memory_counts_the_modes():
+    """A vehicle with modes records a coordinate and a rate (two float64) per mode coordinate
+    per run per cycle beside the rigid record (rcsim.spacecraft.guards.history_bytes, which
+    sizes campaign chunks and refuses flights too long to record)."""
+    from rcsim.spacecraft.guards import history_bytes
+
+    rigid = history_bytes(3, 10, n_jets=16)
+    assert history_bytes(3, 10, n_jets=16, n_modes=4) - rigid == 3 * 10 * 4 * 16

@@ -77,7 +77,9 @@ def max_chunk_runs(spec: CampaignSpec, duration_s: float) -> int:
     cycles = int(np.ceil(duration_s / spec.cycle_s))
     # Imperfect sensors record what the controller measured; timing and faults record what
     # the jets delivered (rcsim.spacecraft.guards.history_bytes).
-    extra = dict(spec.effects.records(), n_jets=spec.n_jets)
+    # A vehicle with slosh or appendages records its mode coordinates and rates too (the
+    # joints after the free one).
+    extra = dict(spec.effects.records(), n_jets=spec.n_jets, n_modes=spec.vehicle.model.njnt - 1)
     # history_bytes(n, cycles) is affine in n: the shared time column plus n runs' records.
     shared = history_bytes(0, cycles, **extra)
     per_run = history_bytes(1, cycles, **extra) - shared
