@@ -16,6 +16,11 @@ which is exactly what MuJoCo's site transmissions apply, summed in another order
 agree with the jet model to rounding (``tests/spacecraft/test_flight_model.py``, 1e-12) and a
 step costs less (measured in ``docs/performance.md``).  The disturbance torque is added to the
 torque components.
+
+A vehicle with slosh or appendages (:mod:`rcsim.spacecraft.modes`) keeps its mode bodies as
+children of the free body, copied from the vehicle's model with their joints, springs and
+dampers (:func:`rcsim.spacecraft.modes.mjcf.child_bodies_xml`); the wrench still pushes the
+free body, the hub, alone.
 """
 
 from __future__ import annotations
