@@ -28,7 +28,7 @@ from rcsim.lookup.channel_generation import generate_channel_table  # noqa: E402
 from rcsim.lookup.registry import make_controller  # noqa: E402
 from rcsim.spacecraft.navigation import Guidance  # noqa: E402
 from rcsim.spacecraft.simulation import simulate_batch  # noqa: E402
-from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
+from rcsim.spacecraft.vehicle import Vehicle  # noqa: E402
 
 
 def fly(vehicle: Vehicle, controller, rate: np.ndarray) -> dict:

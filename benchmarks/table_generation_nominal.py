@@ -34,7 +34,7 @@ sys.path.insert(0, str(ROOT))
 
 from rcsim.lookup.generation import generate_table, is_coupled  # noqa: E402
 from rcsim.lookup.row_tuning import DEFAULT_ROUNDS  # noqa: E402
-from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
+from rcsim.spacecraft.vehicle import Vehicle  # noqa: E402
 
 VEHICLES = {
     "paper": "paper",

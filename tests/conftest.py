@@ -19,8 +19,7 @@ import pytest
 from hypothesis import settings
 
 from rcsim.models.tables import PAPER_CYCLE_S, load_mass_properties
-from rcsim.spacecraft.vehicle import load_model
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle, build_model, load_vehicle
 
 HYPOTHESIS_PROFILE = "rcsim-derandomized"
 settings.register_profile(HYPOTHESIS_PROFILE, derandomize=True, database=None)
@@ -29,8 +28,9 @@ settings.load_profile(HYPOTHESIS_PROFILE)
 
 @pytest.fixture(scope="module")
 def model() -> mujoco.MjModel:
-    """The packaged vehicle MJCF at its default physics settings."""
-    return load_model()
+    """The paper's vehicle model (``paper.toml`` compiled afresh, so a test may change it) at
+    its default physics settings."""
+    return build_model(load_vehicle("paper"))
 
 
 @pytest.fixture(scope="session")
@@ -57,7 +57,7 @@ def unsorted_vehicle(tmp_path_factory) -> SimpleNamespace:
     Returns ``path`` and ``tensor_B``, the tensor the file states (3, 3) [kg m^2], written out
     here from the numbers put in the file (the tests' oracle, not the schema's parse).
     """
-    from rcsim.spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.spacecraft.vehicle import resolve_vehicle
 
     moments, products = (2457.06, 3583.09, 3160.22), (-60.0, 45.0, 30.0)
     text = resolve_vehicle("canted16").read_text()

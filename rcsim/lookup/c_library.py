@@ -32,7 +32,7 @@ from rcsim.models.errors import InputError
 
 if TYPE_CHECKING:
     from rcsim.spacecraft.navigation import NavState
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 #: The ABI version rcsim speaks (``RCSIM_FSW_ABI_VERSION`` in the header).
 ABI_VERSION = 1

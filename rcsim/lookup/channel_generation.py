@@ -71,10 +71,10 @@ from rcsim.models.tables import (
 )
 from rcsim.spacecraft.navigation import Guidance, NavState
 from rcsim.spacecraft.simulation import History, simulate_batch
-from rcsim.spacecraft.vehicle import AXES, jet_geometry_B
+from rcsim.spacecraft.vehicle.model import AXES, jet_geometry_B
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 #: "A whole number of cycles" when bracketing delivered channel time [cycles].
 _CYCLE_EPS = 1e-9
@@ -314,7 +314,7 @@ def generate_channel_table(
         ``table`` has six channel columns and the recipe; ``command.cycles`` (26, 3) are the
         channel cycles per axis.
     """
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     vehicle = Vehicle.load(vehicle)
     control = vehicle.control

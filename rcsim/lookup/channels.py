@@ -52,7 +52,7 @@ from rcsim.models.tables import AXES, CHANNEL_MAP, CHANNELS, ChannelRecipe
 from rcsim.spacecraft.control_profile import MIN_PULSE_POLICIES
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 #: Size of the command the recipe LP is solved for [rad/s]: any positive value gives the same
 #: fractions (the LP is homogeneous); 0.01 rad/s keeps HiGHS' scaled rows near 1.
@@ -103,7 +103,7 @@ def solve_recipe(vehicle: Vehicle | str | os.PathLike, *, jets_off=()) -> Channe
         can control it).
     """
     from rcsim.lookup.allocator_controller import allocator_controller
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     vehicle = Vehicle.load(vehicle)  # a name or a file: resolved here, at the public edge
     d = vehicle.definition

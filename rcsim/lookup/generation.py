@@ -15,8 +15,8 @@ from rcsim.lookup.channel_generation import generate_channel_table
 from rcsim.lookup.row_tuning import DEFAULT_TARGET_FRACTION, check_target_fraction
 from rcsim.lookup.table_generation import GeneratedTable, generate_jet_table
 from rcsim.models.tables import load_jet_map
-from rcsim.spacecraft.vehicle_file import Vehicle
-from rcsim.spacecraft.vehicle_file.authority import jet_map_mismatch
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.authority import jet_map_mismatch
 
 
 def is_coupled(vehicle: Vehicle) -> bool:
@@ -32,7 +32,7 @@ def generate_table(
     target_fraction: float = DEFAULT_TARGET_FRACTION,
 ) -> GeneratedTable:
     """Generate, tune, verify and damping-check the lookup table of ``vehicle`` (a
-    :class:`~rcsim.spacecraft.vehicle_file.Vehicle`, a packaged name, a vehicle file; None:
+    :class:`~rcsim.spacecraft.vehicle.Vehicle`, a packaged name, a vehicle file; None:
     the paper's), without the jets ``jets_off`` (1-based): a jet table or a channel table
     (module docstring), at the vehicle profile's rate-case magnitude and cycle.
 

@@ -41,8 +41,8 @@ from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
 from rcsim.spacecraft.flight_model import jet_wrench_B
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
-from rcsim.spacecraft.vehicle import AXES
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.model import AXES
 
 #: On-times fired [s]: from a 10 ms pulse to eight control cycles.
 ON_TIMES_S = (0.01, 0.02, 0.04, 0.08, 0.16, 0.32)

@@ -242,7 +242,7 @@ def test_vehicle_loads():
     assert [r[0] for r in rows] == ["1", "2"]
     # What the benchmark watches: a worker compiles the vehicle's model for its first chunk
     # (the 16-jet model and its flight model) and never again; later chunks neither parse
-    # nor compile (the model cache, rcsim/spacecraft/vehicle_file/vehicle.py).
+    # nor compile (the model cache, rcsim/spacecraft/vehicle/vehicle.py).
     assert int(rows[0][2]) >= 1
     assert rows[1][1:3] == ["0", "0"], rows
 

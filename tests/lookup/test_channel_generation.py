@@ -31,7 +31,7 @@ from rcsim.lookup.pattern_recognition import LookupController, LookupParams
 from rcsim.models.tables import PAPER_CYCLE_S, load_lookup_table
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The lookup logic's inputs from the paper vehicle's profile (paper.toml [control]).
 LOOKUP_PARAMS = LookupParams.from_profile(Vehicle.load().control)

@@ -32,7 +32,7 @@ import numpy as np
 from rcsim.lookup.channel_generation import generate_channel_table
 from rcsim.lookup.generation import generate_table as generate
 from rcsim.models.tables import RateCases, load_jet_map, load_rate_cases
-from rcsim.spacecraft.vehicle_file import load_vehicle, resolve_vehicle
+from rcsim.spacecraft.vehicle import load_vehicle, resolve_vehicle
 
 CYCLE_S = 0.04
 COMMAND_S, OPEN_S, CLOSE_S = 0.005, 0.008, 0.004

@@ -25,7 +25,7 @@ from rcsim.models.errors import InputError
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
 from rcsim.spacecraft.valves import JetFaults
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The paper's vehicle (paper.toml).
 PAPER = Vehicle.load()

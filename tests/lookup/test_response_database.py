@@ -22,7 +22,7 @@ import pytest
 
 from rcsim.analysis.engine.response_files import write_response_database
 from rcsim.lookup.response_database import RATE_COLUMNS, response_database, response_summary
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 
 @pytest.mark.parametrize("delays", [False, True])
@@ -87,7 +87,7 @@ def test_on_times_below_the_minimum_on_time_are_not_flown(tmp_path, capsys):
     import pyarrow.parquet as pq
 
     from rcsim.analysis.apps.cli import main
-    from rcsim.spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.spacecraft.vehicle import resolve_vehicle
 
     text = resolve_vehicle("canted16").read_text()
     assert "min_on_s = 0.010" in text

@@ -38,7 +38,7 @@ from rcsim.lookup.row_tuning import FAILURE_RATE_ERROR_DEG_S
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 ROOT = Path(__file__).resolve().parents[2]
 VEHICLES = {
@@ -232,7 +232,7 @@ def test_the_tuning_threshold_is_the_vehicle_files_own(tmp_path):
     from pathlib import Path
 
     from rcsim.lookup.row_tuning import vehicle_threshold_deg_s
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     source = Path(__file__).with_name("vehicles") / "lander900.toml"
     own = tmp_path / "lander900_own.toml"

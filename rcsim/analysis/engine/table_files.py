@@ -22,7 +22,7 @@ from rcsim.lookup.jet_sets import companion_path
 from rcsim.lookup.row_tuning import DEFAULT_TARGET_FRACTION
 from rcsim.lookup.table_generation import GeneratedTable
 from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 
 @dataclass(frozen=True)

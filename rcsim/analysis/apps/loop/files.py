@@ -9,7 +9,7 @@ from pathlib import Path
 
 from rcsim.analysis.apps.refinement.parameters import rate_cases_campaign
 from rcsim.models.tables import PAPER_LOOKUP_TABLES
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The table setting that makes the loop generate its table first (stage ``generate``).
 GENERATE = "generate"

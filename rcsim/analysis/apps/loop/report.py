@@ -61,7 +61,7 @@ def _table_label(out: Path, settings) -> str:
 def _vehicle_name(settings) -> str:
     """The loop's vehicle file by its ``[vehicle] name`` (its file's stem if it no longer
     loads: the report is rebuilt from the stages' files)."""
-    from rcsim.spacecraft.vehicle_file import load_vehicle
+    from rcsim.spacecraft.vehicle import load_vehicle
 
     try:
         return load_vehicle(settings.vehicle).name

@@ -43,7 +43,7 @@ from rcsim.analysis.results.scoring import SCORED_COLUMNS
 from rcsim.models.atomic import atomic_write
 from rcsim.models.errors import InputError
 from rcsim.models.tables import N_CASES, PAPER_LOOKUP_TABLES, load_lookup_table
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 COMMAND = "loop"
 STATE = "loop.json"

@@ -34,7 +34,7 @@ from rcsim.analysis.results.scoring import trial_frame
 from rcsim.lookup.pattern_recognition import LookupController, LookupParams
 from rcsim.models.tables import LookupTable
 from rcsim.spacecraft.dispersions import draw_runs
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 #: Chunks submitted per worker process at a time (one flying, one waiting, so that a worker
 #: never waits for this process to hand it the next).
@@ -72,7 +72,7 @@ class Trials:
 def _fly_chunk(
     spec: CampaignSpec,
     table: LookupTable,
-    params: VehicleParams,
+    params: RunParameters,
     run_times: np.ndarray,
     cases: np.ndarray,
     lookup_params: LookupParams,
@@ -179,7 +179,7 @@ def evaluate(
 
     def work(
         sl: slice,
-    ) -> tuple[CampaignSpec, LookupTable, VehicleParams, np.ndarray, np.ndarray, LookupParams]:
+    ) -> tuple[CampaignSpec, LookupTable, RunParameters, np.ndarray, np.ndarray, LookupParams]:
         return (
             spec,
             table,

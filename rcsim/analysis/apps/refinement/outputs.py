@@ -52,7 +52,7 @@ from rcsim.analysis.results.scoring import trial_scores
 from rcsim.lookup.table_edits import axis_cycles, jet_axes
 from rcsim.models.atomic import atomic_write
 from rcsim.models.tables import AXES, LookupTable
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 
 def run_refinement(

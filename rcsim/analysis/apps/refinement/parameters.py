@@ -17,7 +17,7 @@ from rcsim.analysis.engine.campaign.spec import CampaignSpec, parse_dict
 from rcsim.models.errors import InputError
 from rcsim.models.tables import LookupTable
 from rcsim.spacecraft.dispersions import MAX_SEED
-from rcsim.spacecraft.vehicle_file import DEFAULT_VEHICLE, Vehicle
+from rcsim.spacecraft.vehicle import DEFAULT_VEHICLE, Vehicle
 
 
 def rate_cases_campaign(

@@ -9,7 +9,7 @@ import pandas as pd
 
 from rcsim.analysis.apps.refinement.search import RefineResult
 from rcsim.models.tables import LookupTable
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 
 @dataclass

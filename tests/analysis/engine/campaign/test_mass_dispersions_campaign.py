@@ -27,9 +27,9 @@ from rcsim.analysis.engine.runs_table import PRODUCT_NAMES, input_names, outcome
 from rcsim.analysis.results.drivers.inputs import load_runs
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.dispersions import n_normals, run_streams
-from rcsim.spacecraft.vehicle_file import load_vehicle
-from rcsim.spacecraft.vehicle_file.authority import torque_signs
-from rcsim.spacecraft.vehicle_file.schema import packaged_vehicle
+from rcsim.spacecraft.vehicle import load_vehicle
+from rcsim.spacecraft.vehicle.authority import torque_signs
+from rcsim.spacecraft.vehicle.file_schema import packaged_vehicle
 
 BASE = """
 seed = 5

@@ -17,7 +17,7 @@ from rcsim.analysis.engine.runs_table import input_frame
 from rcsim.analysis.results.drivers.factors import physics_factors
 from rcsim.models.tables import load_dispersions
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The paper's vehicle (paper.toml).
 PAPER = Vehicle.load()

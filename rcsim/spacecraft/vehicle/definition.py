@@ -1,7 +1,7 @@
 """A validated vehicle file's contents: :class:`VehicleDef` and :class:`Jet`, the packaged
 vehicles by name, and the plausible ranges the reader checks values against (why each bound is
-what it is, beside it).  The reader is :mod:`rcsim.spacecraft.vehicle_file.schema`; the readers
-of each section, :mod:`rcsim.spacecraft.vehicle_file.sections`.
+what it is, beside it).  The reader is :mod:`rcsim.spacecraft.vehicle.file_schema`; the readers
+of each section, :mod:`rcsim.spacecraft.vehicle.file_sections`.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import pandas as pd
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.control_profile import ControlProfile
 from rcsim.spacecraft.valves import ValveTiming
-from rcsim.spacecraft.vehicle import G0_M_S2
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
 
 #: Vehicle files packaged with rcsim, by name (``rcsim/models/vehicle/<name>.toml``).
 PACKAGED_VEHICLES = ("paper", "canted16", "canted12")

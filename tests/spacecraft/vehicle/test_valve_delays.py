@@ -26,7 +26,7 @@ from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
-from rcsim.spacecraft.vehicle_file import PACKAGED_VEHICLES, Vehicle, load_vehicle
+from rcsim.spacecraft.vehicle import PACKAGED_VEHICLES, Vehicle, load_vehicle
 
 CYCLE_S = 0.04
 COMMAND_S = 0.006

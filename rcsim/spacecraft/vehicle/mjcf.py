@@ -1,4 +1,4 @@
-"""The MJCF of a vehicle file: the packaged ``vehicle.xml``'s structure, numbers from the file.
+"""The MJCF of a vehicle file: the structure every vehicle shares, numbers from the file.
 
 One free body ``vehicle`` with the mass, CG and inertia of the file (``diaginertia`` when the
 products are zero, else ``fullinertia``: MuJoCo diagonalises it and stores the principal frame
@@ -8,7 +8,7 @@ whatever the jets' own labels, as the simulation finds jets by those names), the
 body-frame disturbance torques, and the packaged options (zero gravity, every unused pipeline
 stage disabled).  Numbers are written as the shortest
 text that reads back as the same double, so the paper's vehicle file compiles to the packaged
-model bit for bit (``tests/spacecraft/vehicle_file/test_paper_vehicle.py``).
+model bit for bit (``tests/spacecraft/vehicle/test_paper_vehicle.py``).
 """
 
 from __future__ import annotations
@@ -16,10 +16,11 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from rcsim.spacecraft.vehicle import BODY, DIST_NAMES, route_mujoco_warnings
-from rcsim.spacecraft.vehicle_file.schema import VehicleDef
+from rcsim.spacecraft.vehicle.file_schema import VehicleDef
+from rcsim.spacecraft.vehicle.model import BODY, DIST_NAMES, route_mujoco_warnings
 
-# The packaged model's disabled stages (rcsim/models/vehicle/vehicle.xml: why each is off).
+# The disabled stages: one free body with actuators has no work for any of them, yet MuJoCo
+# enters each every RK4 sub-step; off, the state is bit-identical (docs/performance.md).
 _FLAGS = (
     'contact="disable" gravity="disable" constraint="disable" equality="disable" '
     'frictionloss="disable" limit="disable" spring="disable" damper="disable" '

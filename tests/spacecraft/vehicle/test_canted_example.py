@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rcsim.spacecraft.vehicle_file import load_vehicle
+from rcsim.spacecraft.vehicle import load_vehicle
 
 
 def test_directions_follow_the_arithmetic():

@@ -24,15 +24,15 @@ from itertools import combinations
 import numpy as np
 from scipy.optimize import linprog
 
-from rcsim.spacecraft.vehicle_file.axis_authority import (
+from rcsim.spacecraft.vehicle.axis_authority import (
     DIRECTIONS,
     direction_name,
     pure_axis_authority,
     reachable,
 )
-from rcsim.spacecraft.vehicle_file.definition import PAPER_RATE_ERROR_DEG_S
-from rcsim.spacecraft.vehicle_file.sanity import sanity_warnings
-from rcsim.spacecraft.vehicle_file.schema import VehicleDef
+from rcsim.spacecraft.vehicle.definition import PAPER_RATE_ERROR_DEG_S
+from rcsim.spacecraft.vehicle.file_schema import VehicleDef
+from rcsim.spacecraft.vehicle.sanity import sanity_warnings
 
 
 def lp_count(n_jets: int, *, pairs: bool) -> int:
@@ -327,10 +327,10 @@ def jet_map_mismatch(vehicle: VehicleDef, jet_map: np.ndarray) -> str | None:
 
 def vehicle_report(vehicle, *, pairs: bool = True) -> str:
     """What ``rcsim vehicle check`` prints for ``vehicle`` (a
-    :class:`~rcsim.spacecraft.vehicle_file.Vehicle`, a packaged name or a vehicle file): the
+    :class:`~rcsim.spacecraft.vehicle.Vehicle`, a packaged name or a vehicle file): the
     force/torque matrix, the authority per axis, the unreachable directions, the jet-out
     cases (and, with ``pairs``, the two-jets-out search), and the flight-software profile."""
-    from rcsim.spacecraft.vehicle_file.vehicle import Vehicle
+    from rcsim.spacecraft.vehicle.vehicle import Vehicle
 
     definition = Vehicle.load(vehicle).definition
     return check_text(definition, check_vehicle(definition, pairs=pairs))
