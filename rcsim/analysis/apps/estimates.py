@@ -151,10 +151,11 @@ def check_vehicle_cost(vehicle, *, pairs: bool, yes: bool, source: str) -> None:
     import numpy as np
 
     from rcsim.spacecraft.vehicle.authority import lp_count, reachable
+    from rcsim.spacecraft.vehicle.mjcf import force_torque
 
     n = vehicle.n_jets
     n_pairs = n * (n - 1) // 2
-    accel = np.linalg.solve(vehicle.inertia_kg_m2, vehicle.force_torque()[3:])
+    accel = np.linalg.solve(vehicle.inertia_kg_m2, force_torque(vehicle)[3:])
     every = np.ones(n, bool)
     t0 = time.perf_counter()
     for axis in range(3):  # three of the LPs the check solves, timed on this vehicle

@@ -201,13 +201,6 @@ class VehicleDef:
             close_delay_s=self.close_delays_s(),
         )
 
-    def force_torque(self) -> np.ndarray:
-        """Force [N] and torque about the CG [N m] of each jet at full thrust, (6, n_jets):
-        rows Fx, Fy, Fz, Tx, Ty, Tz in B."""
-        force = self.directions() * self.thrusts_n()[:, None]
-        torque = np.cross(self.positions_m() - np.asarray(self.cg_m), force)
-        return np.vstack([force.T, torque.T])
-
     def mass_flow_kg_s(self) -> np.ndarray:
         """Propellant mass flow of each jet firing [kg/s]: F / (Isp g0), (n_jets,)."""
         return self.thrusts_n() / (self.isp_s * G0_M_S2)

@@ -46,7 +46,7 @@ from rcsim.spacecraft.vehicle.file_schema import (
 )
 from rcsim.spacecraft.vehicle.mjcf import build_model, to_mjcf
 from rcsim.spacecraft.vehicle.model import jet_count
-from rcsim.spacecraft.vehicle.run_parameters import RunParameters
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters, jet_force_torque_B
 
 #: The vehicle flown when none is named: the paper's (``rcsim/models/vehicle/paper.toml``).
 DEFAULT_VEHICLE = "paper"
@@ -245,9 +245,7 @@ class Vehicle:
         """Largest torque the jets give about each body axis, (3,) [N m]: all jets of one
         sign on the axis firing at nominal thrust, the smaller of the two senses.  What a
         disturbance torque is checked against (a hold's beyond it cannot be held)."""
-        from rcsim.spacecraft.vehicle.run_parameters import torque_per_jet_B
-
-        torque = torque_per_jet_B(self.nominal(1), self.model)[0]  # (n_jets, 3)
+        torque = self.force_torque()[3:].T  # (n_jets, 3)
         return np.minimum(
             np.where(torque > 0, torque, 0).sum(axis=0),
             -np.where(torque < 0, torque, 0).sum(axis=0),
@@ -291,8 +289,10 @@ class Vehicle:
 
     def force_torque(self) -> np.ndarray:
         """Force [N] and torque about the nominal CG [N m] of each jet at full thrust,
-        (6, n_jets): rows Fx, Fy, Fz, Tx, Ty, Tz in B."""
-        return self.definition.force_torque()
+        (6, n_jets): rows Fx, Fy, Fz, Tx, Ty, Tz in B (:func:`jet_force_torque_B` of the
+        nominal run on :attr:`model`: the numbers the controllers are designed with)."""
+        force, torque = jet_force_torque_B(self.nominal(1), self.model)
+        return np.vstack([force[0].T, torque[0].T])
 
     @property
     def axis_signs(self) -> np.ndarray:
