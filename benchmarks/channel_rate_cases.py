@@ -54,7 +54,7 @@ def main() -> None:
     parser.add_argument("--vehicle", default="canted16")
     args = parser.parse_args()
     vehicle = Vehicle.load(args.vehicle)
-    generated = generate_channel_table(args.vehicle)
+    generated = generate_channel_table(Vehicle.load(args.vehicle))
     rate = np.asarray(generated.table.rate_cmd, float)
     with tempfile.TemporaryDirectory() as tmp:
         table = Path(tmp) / f"{args.vehicle}.csv"

@@ -57,7 +57,7 @@ _API: dict[str, tuple[str, str]] = {
     "DriverSettings": ("rcsim.analysis.results.drivers.pipeline", "Settings"),
     "write_analysis": ("rcsim.analysis.results.drivers.outputs", "write_analysis"),
     "load_lookup_table": ("rcsim.models.tables", "load_lookup_table"),
-    "generate_table": ("rcsim.lookup.generation", "generate_table"),
+    "generate_table": ("rcsim.analysis.engine.table_files", "generate_table"),
     "run_refinement": ("rcsim.analysis.apps.refinement.outputs", "run_refinement"),
     "LoopSettings": ("rcsim.analysis.apps.loop.run", "LoopSettings"),
     "run_loop": ("rcsim.analysis.apps.loop.run", "run_loop"),

@@ -34,7 +34,7 @@ Any other layout gets a channel table (:mod:`rcsim.lookup.channel_generation`);
 :func:`rcsim.lookup.generation.generate_table` picks the one that fits.  The comparison with the
 paper's tables is in :mod:`rcsim.lookup.table_compare`.
 
-Failed jets: ``generate_table(jets_off=(13, 15))`` flies the vehicle with those jets
+Failed jets: ``generate_table(vehicle, jets_off=(13, 15))`` flies the vehicle with those jets
 failed off (:class:`rcsim.spacecraft.valves.JetFaults`) and fires only the jets left: a pair with
 one jet gone fires its remaining jet alone (twice as long, with a translation side effect); an axis
 direction with no jet left cannot be commanded, and its cases fire nothing on that axis

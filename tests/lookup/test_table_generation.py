@@ -19,6 +19,7 @@ from rcsim.analysis.apps.cli import main
 from rcsim.lookup.generation import generate_table
 from rcsim.lookup.table_compare import compare_tables
 from rcsim.models.tables import PAPER_CYCLE_S, load_lookup_table
+from rcsim.spacecraft.vehicle import Vehicle
 
 CYCLE_S = 0.04  # paper sec. II: 40 ms control rate
 # Paper Table 2: jet -> (axis, sign); jets 5-8 unused.
@@ -42,7 +43,7 @@ T_AXIS_S = np.array([0.5194, 0.4794, 0.3995])
 
 @pytest.fixture(scope="module")
 def gen():
-    return generate_table()
+    return generate_table(Vehicle.load())
 
 
 def test_jets_follow_rate_signs(gen):
