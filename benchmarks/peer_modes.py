@@ -216,19 +216,27 @@ def fly_mujoco(scenario: str, dt_s: float, params: dict = PARAMS) -> dict:
     windows = _on_windows_ns(params)
     model = build_scenario(scenario, params, dt_s)
     data = mujoco.MjData(model)
+    # Looked up by name, not by position, so that another model (the vehicle file's, later)
+    # can stand in for build_scenario's: the free joint "root" (its angular velocity, body
+    # frame, is the hub's body rate), the mode's joint "mode", a jet's actuator "jet<n>".
+    w_adr = model.joint("root").dofadr[0] + 3
+    q_adr, qd_adr = model.joint("mode").qposadr[0], model.joint("mode").dofadr[0]
+    act = [model.actuator(f"jet{n}").id for n, _, _ in params["jets"]]
     n_steps = round(params["duration_s"] / dt_s)
     every = out_ns // dt_ns
     out: dict = {"t_s": [], "omega_B_rad_s": [], "q": [], "q_dot": []}
     for i in range(n_steps + 1):
         if i % every == 0:
             out["t_s"].append(i * dt_ns / NS)
-            out["omega_B_rad_s"].append(data.qvel[3:6].tolist())
-            out["q"].append(float(data.qpos[7]))
-            out["q_dot"].append(float(data.qvel[6]))
+            out["omega_B_rad_s"].append(data.qvel[w_adr : w_adr + 3].tolist())
+            out["q"].append(float(data.qpos[q_adr]))
+            out["q_dot"].append(float(data.qvel[qd_adr]))
         if i == n_steps:
             break
         t_ns = i * dt_ns
-        data.ctrl[:] = [params["thrust_n"] * any(lo <= t_ns < hi for lo, hi in w) for w in windows]
+        data.ctrl[act] = [
+            params["thrust_n"] * any(lo <= t_ns < hi for lo, hi in w) for w in windows
+        ]
         mujoco.mj_step(model, data)
     out["q_name"] = MODE_NAMES[scenario]
     out["wall_s"] = time.perf_counter() - t0
