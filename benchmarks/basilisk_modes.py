@@ -64,7 +64,7 @@ HUB_MASS_KG = 3505.0
 CG_B = [1.41, 0.0, 0.0]
 INERTIA_B = [3583.09, 3160.22, 2457.06]
 THRUST_N = 22.24
-# The paper's yaw jets (rcsim/models/vehicle/vehicle.xml): (number, position in B [m], unit
+# The paper's yaw jets (rcsim/models/vehicle/paper.toml): (number, position in B [m], unit
 # force direction on the vehicle in B).
 JETS = [
     [13, [2.134, 0.0, 0.0], [0.0, -1.0, 0.0]],

@@ -42,7 +42,7 @@ from rcsim.models.errors import InputError
 
 if TYPE_CHECKING:
     from rcsim.models.tables import LookupTable
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 #: The attribute by which a Python factory names the parameter that takes its table file.
 TABLE_PARAM_ATTRIBUTE = "table_param"

@@ -20,7 +20,7 @@ from rcsim.analysis.apps.refinement.outputs import run_refinement
 from rcsim.analysis.apps.refinement.parameters import load_refinable_table
 from rcsim.lookup.table_plugins import TablePlugin, declared_table_param
 from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
 WRAPPED = f"plugin:{EXAMPLES / 'plugins' / 'wrapped_lookup.py'}:make_controller"
