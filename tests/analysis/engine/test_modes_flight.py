@@ -26,7 +26,7 @@ damping_ratio = 0.002
 @pytest.fixture(scope="module")
 def winged(tmp_path_factory):
     """canted16 with one solar wing (one flexible mode, coupled to roll)."""
-    from rcsim.spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.spacecraft.vehicle import resolve_vehicle
 
     path = tmp_path_factory.mktemp("winged") / "winged.toml"
     path.write_text(resolve_vehicle("canted16").read_text(encoding="utf-8") + WING)
@@ -65,7 +65,7 @@ def test_the_recorded_wing_rings_at_its_coupled_frequency(winged):
 def test_spring_slosh_columns_are_metres():
     """A spring slosh mode's columns are ``<joint>_m`` and ``<joint>_m_s``; a rigid vehicle
     records no mode."""
-    from rcsim.spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.spacecraft.vehicle import resolve_vehicle
 
     example = resolve_vehicle("paper").parents[3] / "docs/examples/canted16_modes.toml"
     v = rcsim.Vehicle.load(example)

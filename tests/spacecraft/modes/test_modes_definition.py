@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from rcsim.spacecraft.modes.linear import mode_table
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 EXAMPLE = Path("docs/examples/canted16_modes.toml")
 
@@ -80,7 +80,7 @@ def test_springs_and_dampers_from_the_frequencies():
 def test_a_rigid_vehicle_builds_the_model_it_always_did():
     """No modes: the MJCF has no child body and keeps the spring and damper stages off, and
     the flight model is one body (the packaged vehicle's MJCF bit for bit is
-    tests/spacecraft/vehicle_file/test_paper_vehicle.py's)."""
+    tests/spacecraft/vehicle/test_paper_vehicle.py's)."""
     v = Vehicle.load("canted16")
     assert v.definition.modes is None
     assert v.model.nbody == 2 and v.model.nq == 7

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from rcsim.spacecraft.modes.definition import POINT_GYRATION_M
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 
 def point_inertia(m: float, r) -> np.ndarray:

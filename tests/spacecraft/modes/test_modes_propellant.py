@@ -12,8 +12,8 @@ import pytest
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.propellant import PropellantTank
 from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import G0_M_S2
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
 
 EXAMPLE = Path("docs/examples/canted16_modes.toml")
 

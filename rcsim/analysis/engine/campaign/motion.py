@@ -13,7 +13,8 @@ import numpy as np
 
 from rcsim.spacecraft.history import History
 from rcsim.spacecraft.propellant import exhausted_before
-from rcsim.spacecraft.vehicle import G0_M_S2, jet_name
+from rcsim.spacecraft.vehicle.model import jet_name
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
 
 # A firing continues into the next cycle only if it filled the previous one -- the same rule
 # (and tolerance) as rcsim.spacecraft.propulsion.apply_valve_limits, so firing counts agree with it.

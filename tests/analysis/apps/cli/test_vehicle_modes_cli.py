@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 
 from rcsim.analysis.apps.cli import main
-from rcsim.spacecraft.vehicle_file import resolve_vehicle
+from rcsim.spacecraft.vehicle import resolve_vehicle
 
 EXAMPLES = resolve_vehicle("paper").parents[3] / "docs" / "examples"
 

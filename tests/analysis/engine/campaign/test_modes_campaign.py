@@ -13,7 +13,7 @@ from rcsim.analysis.apps.cli import main
 from rcsim.analysis.engine.campaign.results import history_path
 from rcsim.analysis.engine.campaign.runner import run_campaign
 from rcsim.analysis.engine.campaign.spec import load_spec
-from rcsim.spacecraft.vehicle_file import resolve_vehicle
+from rcsim.spacecraft.vehicle import resolve_vehicle
 
 MODES = """
 [[slosh]]
