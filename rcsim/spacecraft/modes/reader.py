@@ -105,15 +105,18 @@ def _damping_ratio(r: Reader) -> float:
     return z
 
 
-def _reach(r: Reader, name: str, point, cg, gyration_m: float) -> None:
+def _reach(r: Reader, name: str, point, cg, gyration_m: float, *, value=None) -> None:
+    """Refuse a ``point`` beyond the vehicle's reach from the CG (``value``: what the key
+    holds, when ``point`` is derived from it)."""
     reach = MAX_REACH_GYRATIONS * gyration_m
     distance = float(np.linalg.norm(np.subtract(point, cg)))
     if distance > reach:
+        what = "is" if value is None else f"puts the point {list(point)}"
         raise r.error(
             name,
-            f"is {distance:.4g} m from the CG; it must be within {reach:.4g} m "
+            f"{what} {distance:.4g} m from the CG; it must be within {reach:.4g} m "
             f"({MAX_REACH_GYRATIONS:g} radii of gyration, as jets and the tank): a position in mm?",
-            list(point),
+            list(point if value is None else value),
         )
 
 
@@ -194,7 +197,7 @@ def _read_appendage(r: Reader, name: str, cg, gyration_m: float, timestep_s: flo
     _reach(r, "hinge_m", hinge, cg, gyration_m)
     axis = _unit(r, "axis", r.vector("axis", 3))
     offset = r.vector("cg_offset_m", 3)
-    _reach(r, "cg_offset_m", np.add(hinge, offset), cg, gyration_m)
+    _reach(r, "cg_offset_m", np.add(hinge, offset).tolist(), cg, gyration_m, value=offset)
     f = _frequency(r, timestep_s)
     zeta = _damping_ratio(r)
     r.done()
