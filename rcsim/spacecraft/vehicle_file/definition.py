@@ -16,6 +16,7 @@ import pandas as pd
 
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.control_profile import ControlProfile
+from rcsim.spacecraft.pulse_file import BlowdownSpec, PulseSpec
 from rcsim.spacecraft.valves import ValveTiming
 from rcsim.spacecraft.vehicle import G0_M_S2
 
@@ -122,7 +123,10 @@ class VehicleDef:
     failure : dict
         The vehicle's own failure criterion (``[failure]``): :data:`FAILURE_KEYS` it gives ->
         value (deg/s, deg), the defaults of a campaign of it (a spec's ``[failure]`` wins);
-        empty: the paper's apply.
+        empty: the paper's apply.    pulse : rcsim.spacecraft.pulse_file.PulseSpec or None
+        ``[pulse]``: thrust rise and tail-off or an impulse-bit table (None: square pulses).
+    blowdown : rcsim.spacecraft.pulse_file.BlowdownSpec or None
+        ``[propellant.blowdown]`` (None: constant thrust and Isp).
     """
 
     source: str
@@ -145,6 +149,8 @@ class VehicleDef:
     command_delay_s: float = 0.0
     delay_keys: tuple = ()
     failure: dict = field(default_factory=dict)
+    pulse: PulseSpec | None = None
+    blowdown: BlowdownSpec | None = None
 
     @property
     def n_jets(self) -> int:

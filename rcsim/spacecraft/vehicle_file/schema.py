@@ -44,6 +44,7 @@ import numpy as np
 
 from rcsim.models.errors import InputError
 from rcsim.models.toml_reader import Reader
+from rcsim.spacecraft.pulse_file import read_blowdown, read_pulse
 from rcsim.spacecraft.vehicle_file.definition import (
     DELAY_KEYS,
     GYRATION_RANGE_M,
@@ -213,6 +214,7 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
     reach_unit = float(gyration.max())  # the radius of gyration of the largest moment
     # The tables as written (``_jets`` validates them): which delay keys the file gives.
     raw_jets, raw_defaults = top.table.get("jet", []), top.table.get("jet_defaults", {})
+    pulse = read_pulse(top, raw_jets, raw_defaults, cycle, ISP_RANGE_S)
     jets, min_on = read_jets(top, cg, src, reach_unit, cycle)
     command_delay, delay_keys = read_timing(
         top.table_("timing"), jets, raw_jets, raw_defaults, cycle
@@ -235,6 +237,7 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
         raise pr.error("tank_position_m", "needs propellant.mass_kg", list(tank))
     if tank is not None:
         check_reach(pr, "tank_position_m", "the tank", tank, cg, reach_unit)
+    blowdown = read_blowdown(pr, prop)
     pr.done()
     if prop is not None and prop >= mass:
         raise InputError(
@@ -264,4 +267,6 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
         command_delay_s=command_delay,
         delay_keys=delay_keys,
         failure=failure,
+        pulse=pulse,
+        blowdown=blowdown,
     )
