@@ -33,6 +33,7 @@ import math
 
 import numpy as np
 
+from rcsim.spacecraft.pulse_file import pulse_warnings
 from rcsim.spacecraft.vehicle import G0_M_S2
 from rcsim.spacecraft.vehicle_file.axis_authority import axis_authorities
 from rcsim.spacecraft.vehicle_file.definition import VehicleDef
@@ -84,6 +85,9 @@ def sanity_warnings(vehicle: VehicleDef, authority_rad_s2: np.ndarray | None = N
     if authority_rad_s2 is None:
         authority_rad_s2 = axis_authorities(d)
     out += _maneuver_rate_warnings(d, np.asarray(authority_rad_s2, float))
+    out += pulse_warnings(
+        d.pulse, d.blowdown, min_on_s=d.min_on_s, isp_s=d.isp_s, propellant_kg=d.propellant_kg
+    )
     return out
 
 
