@@ -392,3 +392,55 @@ def read_blowdown(pr: Reader, propellant_kg: float | None) -> BlowdownSpec | Non
     )
     b.done()
     return BlowdownSpec(volume, pressure, density, n, a, c, ref)
+
+
+#: A minimum pulse whose shaped impulse is below this share of the square pulse's earns a
+#: warning: the controllers' tables and plans price pulses as square ones.
+MIN_BIT_SHARE = 0.5
+#: A pulse-mode Isp table whose last point is farther than this from the steady Isp jumps
+#: there (the steady value takes over above the table).
+ISP_JUMP = 0.10
+#: Thrust share left at an empty tank below which a blowdown earns a warning: blowdown ratios
+#: of flown monopropellant systems are about 4:1 or less.
+MIN_END_THRUST = 0.25
+
+
+def pulse_warnings(
+    pulse: PulseSpec | None,
+    blowdown: BlowdownSpec | None,
+    *,
+    min_on_s: float,
+    isp_s: float,
+    propellant_kg: float | None,
+) -> list[str]:
+    """The warnings a vehicle file's ``[pulse]`` and ``[propellant.blowdown]`` earn
+    (``docs/vehicles.md``, "Warnings"), one line each."""
+    out = []
+    if pulse is not None and min_on_s > 0:
+        share = pulse.shape(1, isp_s).thrust_time_s(np.full((1, len(pulse.rise_s) or 1), min_on_s))
+        low = float(share.min()) / min_on_s
+        if low < MIN_BIT_SHARE:
+            out.append(
+                f"pulse: the minimum pulse (min_on_s = {min_on_s * 1e3:g} ms) delivers "
+                f"{low * 100:.3g} % of a square pulse's impulse, below {MIN_BIT_SHARE * 100:g} %: "
+                "the lookup tables and the allocator price pulses as square ones, so small "
+                "corrections fall short (raise min_on_s, or check the rise time's units)"
+            )
+    if pulse is not None and pulse.isp_s:
+        jump = abs(pulse.isp_s[-1] - isp_s) / isp_s
+        if jump > ISP_JUMP:
+            out.append(
+                f"pulse.isp_s: the last point's {pulse.isp_s[-1]:g} s is {jump * 100:.3g} % from "
+                f"propellant.isp_s = {isp_s:g} s, which takes over above "
+                f"{pulse.isp_on_time_s[-1] * 1e3:g} ms: the Isp jumps there (extend the table?)"
+            )
+    if blowdown is not None and propellant_kg is not None:
+        end = float(blowdown.blowdown(1).thrust_factor(np.array([propellant_kg]))[0])
+        if end < MIN_END_THRUST:
+            out.append(
+                f"propellant.blowdown: the thrust falls to {end * 100:.3g} % of nominal when "
+                f"the {propellant_kg:g} kg are used, below {MIN_END_THRUST * 100:g} % (blowdown "
+                "ratios flown are about 4:1 or less): more pressurant gas_volume_m3, or a "
+                "volume in other units?"
+            )
+    return out
