@@ -177,7 +177,8 @@ class BatchSimulation:
     blowdown : Blowdown, None or "vehicle"
         Tank pressure falling as the propellant is used, the jets' thrust and Isp with it
         (:mod:`rcsim.spacecraft.blowdown`; needs a tank); ``"vehicle"`` (default): the vehicle
-        file's ``[propellant.blowdown]`` (none without one).
+        file's ``[propellant.blowdown]`` (none without one, or with ``tank`` None: the
+        pulses of the wet vehicle at its initial pressure).
     tank : PropellantTank, None or "vehicle"
         Propellant tracked per run: the mass properties follow the propellant used and the
         jets stop when it runs out (:mod:`rcsim.spacecraft.propellant`).  ``"vehicle"``
@@ -217,7 +218,8 @@ class BatchSimulation:
         timing = vehicle.timing(n) if timing is None else timing
         tank = vehicle.tank(n) if isinstance(tank, str) else tank
         pulse = vehicle.pulse_shape(n) if isinstance(pulse, str) else pulse
-        blowdown = vehicle.blowdown(n) if isinstance(blowdown, str) else blowdown
+        if isinstance(blowdown, str):  # the vehicle's, when its propellant is tracked
+            blowdown = None if tank is None else vehicle.blowdown(n)
         # The vehicle's jet count, from its model: every per-jet array below is this wide.
         self.n_jets = jet_count(self.model)
         if params.n_jets != self.n_jets:
