@@ -127,6 +127,9 @@ class VehicleDef:
         ``[pulse]``: thrust rise and tail-off or an impulse-bit table (None: square pulses).
     blowdown : rcsim.spacecraft.pulse_file.BlowdownSpec or None
         ``[propellant.blowdown]`` (None: constant thrust and Isp).
+    pulse_three_sigma : dict
+        ``[dispersions]`` of the pulse and the tank pressure, key -> 3-sigma (SI;
+        :mod:`rcsim.spacecraft.pulse_draws`); empty: not dispersed.
     """
 
     source: str
@@ -151,6 +154,7 @@ class VehicleDef:
     failure: dict = field(default_factory=dict)
     pulse: PulseSpec | None = None
     blowdown: BlowdownSpec | None = None
+    pulse_three_sigma: dict = field(default_factory=dict)
 
     @property
     def n_jets(self) -> int:

@@ -44,7 +44,7 @@ import numpy as np
 
 from rcsim.models.errors import InputError
 from rcsim.models.toml_reader import Reader
-from rcsim.spacecraft.pulse_file import read_blowdown, read_pulse
+from rcsim.spacecraft.pulse_file import read_blowdown, read_pulse, read_pulse_dispersions
 from rcsim.spacecraft.vehicle_file.definition import (
     DELAY_KEYS,
     GYRATION_RANGE_M,
@@ -243,7 +243,9 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
         raise InputError(
             f"{src}: propellant.mass_kg: must be below mass.mass_kg = {mass:g} (got {prop!r})"
         )
-    three_sigma = read_dispersions(top.table_("dispersions"), mass, inertia, cg, jets)
+    dispersions = top.table_("dispersions")
+    pulse_three_sigma = read_pulse_dispersions(dispersions, pulse, blowdown, cycle)
+    three_sigma = read_dispersions(dispersions, mass, inertia, cg, jets)
     failure = read_failure(top.table_("failure"), control)
     top.done()
     return VehicleDef(
@@ -269,4 +271,5 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
         failure=failure,
         pulse=pulse,
         blowdown=blowdown,
+        pulse_three_sigma=pulse_three_sigma,
     )

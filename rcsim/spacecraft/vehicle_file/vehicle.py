@@ -36,6 +36,7 @@ from rcsim.spacecraft.blowdown import Blowdown
 from rcsim.spacecraft.control_profile import ControlProfile
 from rcsim.spacecraft.propellant import PropellantTank
 from rcsim.spacecraft.propulsion import PropulsionParams
+from rcsim.spacecraft.pulse_draws import PulseSigmas
 from rcsim.spacecraft.pulse_shape import PulseShape
 from rcsim.spacecraft.valves import ValveTiming
 from rcsim.spacecraft.vehicle import VehicleParams, jet_count
@@ -335,6 +336,10 @@ class Vehicle:
         (:mod:`rcsim.spacecraft.blowdown`), None without one."""
         spec = self.definition.blowdown
         return None if spec is None else spec.blowdown(n_runs)
+
+    def pulse_sigmas(self) -> PulseSigmas:
+        """The file's ``[dispersions]`` of the pulse and the tank pressure (one-sigma)."""
+        return PulseSigmas.from_three_sigma(self.definition.pulse_three_sigma)
 
     # ---------------------------------------------------------------------- traceability --
     def record(self) -> dict:
