@@ -17,6 +17,7 @@ import numpy as np
 from rcsim.models.errors import InputError
 from rcsim.models.toml_reader import Reader
 from rcsim.spacecraft.blowdown import Blowdown
+from rcsim.spacecraft.pulse_draws import PULSE_SIGMA_KEYS
 from rcsim.spacecraft.pulse_shape import (
     PULSE_MODELS,
     TAIL_CUT,
@@ -200,24 +201,28 @@ def _on_times(r: Reader, name: str, cycle_s: float) -> tuple:
     return on
 
 
-def _transient(r: Reader, name: str, model: str, cycle_s: float, default=None) -> float:
-    value = r.number(name, default, minimum=0.0)
+def _transient_problem(name: str, value: float, model: str, cycle_s: float) -> str:
+    """Why a rise or tail ``value`` [s] is refused, or ''."""
     if value >= MAX_TRANSIENT_S:
-        raise r.error(
-            name,
+        return (
             f"must be below {MAX_TRANSIENT_S:g} s, twenty times the slowest jet transients "
-            "(tens of ms): a time in ms?",
-            value,
+            "(tens of ms): a time in ms?"
         )
     length = TAIL_CUT * value if model == "exponential" else value
     if name == "tail_s" and length > MAX_TAIL_CYCLES * cycle_s:
         what = f"{TAIL_CUT:g} time constants" if model == "exponential" else "the tail-off"
-        raise r.error(
-            name,
+        return (
             f"{what} ({length * 1e3:.4g} ms) must end within {MAX_TAIL_CYCLES} control "
-            f"cycles ({MAX_TAIL_CYCLES * cycle_s * 1e3:g} ms)",
-            value,
+            f"cycles ({MAX_TAIL_CYCLES * cycle_s * 1e3:g} ms)"
         )
+    return ""
+
+
+def _transient(r: Reader, name: str, model: str, cycle_s: float, default=None) -> float:
+    value = r.number(name, default, minimum=0.0)
+    problem = _transient_problem(name, value, model, cycle_s)
+    if problem:
+        raise r.error(name, problem, value)
     return value
 
 
@@ -443,4 +448,52 @@ def pulse_warnings(
                 "ratios flown are about 4:1 or less): more pressurant gas_volume_m3, or a "
                 "volume in other units?"
             )
+    return out
+
+
+def read_pulse_dispersions(
+    ds: Reader, pulse: PulseSpec | None, blowdown: BlowdownSpec | None, cycle_s: float
+) -> dict:
+    """The ``[dispersions]`` keys of real pulses and blowdown (popped from its reader before
+    the mass-property keys are read): key -> 3-sigma (SI; :mod:`rcsim.spacecraft.pulse_draws`).
+    Each needs the section it disperses, and its 3-sigma draw must stay physical."""
+    out: dict = {}
+    for key in PULSE_SIGMA_KEYS:
+        if not ds.has(key):
+            continue
+        value = ds.number(key, None, minimum=0.0)
+        if key in ("pulse_rise_s", "pulse_tail_s"):
+            if pulse is None or pulse.model == "table":
+                raise ds.error(key, "needs [pulse] with model = 'exponential' or 'linear'", value)
+            nominal = max(pulse.rise_s if key == "pulse_rise_s" else pulse.tail_s)
+            problem = _transient_problem(key[6:], nominal + value, pulse.model, cycle_s)
+            if problem:
+                raise ds.error(
+                    key, f"the longest nominal {nominal:g} s plus 3-sigma {problem}", value
+                )
+        elif key == "impulse_bit":
+            if pulse is None or pulse.model != "table":
+                raise ds.error(
+                    key,
+                    "needs [pulse] with model = 'table' (a first-order or linear pulse's "
+                    "scatter is pulse_rise_s and pulse_tail_s)",
+                    value,
+                )
+            if value >= 1.0:
+                raise ds.error(
+                    key,
+                    "must be below 1 (a relative 3-sigma): a 3-sigma draw must deliver an impulse",
+                    value,
+                )
+        else:
+            if blowdown is None:
+                raise ds.error(key, "needs [propellant.blowdown]", value)
+            if value >= blowdown.pressure_pa:
+                raise ds.error(
+                    key,
+                    f"must be below propellant.blowdown.pressure_pa = {blowdown.pressure_pa:g}: "
+                    "a 3-sigma draw must stay a pressure",
+                    value,
+                )
+        out[key] = value
     return out

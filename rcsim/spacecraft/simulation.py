@@ -103,6 +103,7 @@ from rcsim.spacecraft.valves import (
     end_cycle,
 )
 from rcsim.spacecraft.vehicle import (
+    G0_M_S2,
     VehicleParams,
     jet_count,
     route_mujoco_warnings,
@@ -415,7 +416,7 @@ class BatchSimulation:
             disturbance_B=disturbance_B,
             n_cycles=n_cycles,
             state=controller.initial_state(n) if ctrl_state is None else ctrl_state,
-            prop=PropulsionState.zeros(n, self.n_jets),
+            prop=self._propulsion_state(),
             failed=failed,
             reason=reason,
             rec=history_buffers(
@@ -439,6 +440,16 @@ class BatchSimulation:
         )
         self._flight_inv_isp = flight.inv_isp  # the cut reads it (BatchSimulation._cut)
         return flight
+
+    def _propulsion_state(self) -> PropulsionState:
+        """Nothing fired; keeping each jet's propellant when the Isp is not one number."""
+        prop = PropulsionState.zeros(self.n_runs, self.n_jets)
+        varying_isp = (self.pulse is not None and self.pulse.isp is not None) or (
+            self.blowdown is not None and self.blowdown.isp_exponent != 0.0
+        )
+        if varying_isp:
+            prop.used_kg = np.zeros(prop.impulse_ns.shape)
+        return prop
 
     def _closed_valves(self) -> ValveState:
         """Every valve closed, with the slots the pulse shape's tails need."""
@@ -571,6 +582,8 @@ class BatchSimulation:
             # the cycle's start, so a run whose exhaustion instant is <= t0 fired nothing.
             dead = self.physics.exhausted_s <= t0  # exhausted_before's rule, for this cycle
             prop.firings[dead] = counted[dead]
+        if prop.used_kg is not None:
+            prop.used_kg += pieces.flow_time_s() * f.thrust_n / (self._isp_column() * G0_M_S2)
         if self._compiled and pieces.uniform and pieces.n_pieces == 1:
             return cycle_kernel.account(pieces.on[:, 0], self.propulsion.cycle_s, f.thrust_n, prop)
         delivered = pieces.on_time_s()

@@ -91,4 +91,5 @@ def test_flown_vehicle_impulse_and_propellant_follow_the_pressure(tmp_path):
         used += step
     assert hist.propulsion.impulse_ns[0, 0] == pytest.approx(impulse, rel=REL)
     assert sim.physics.used_kg[0] == pytest.approx(used, rel=REL)
+    assert hist.propellant_kg[0] == pytest.approx(used, rel=REL)  # as reported
     assert p / p_ref < 0.7  # the thrust did fall

@@ -139,6 +139,8 @@ def test_table_point_delivers_its_impulse_and_propellant(tmp_path):
     isp = [150.0 + (u - 0.005) / 0.025 * 100.0 for u in TABLE_ON_S]
     expected_kg = [2 * i / (s * G0_M_S2) for i, s in zip(TABLE_IMPULSE_NS, isp)]
     np.testing.assert_allclose(sim.physics.used_kg, expected_kg, rtol=REL)
+    # What runs.parquet and a maneuver's summary report: the flight's own, per jet.
+    np.testing.assert_allclose(hist.propellant_kg, expected_kg, rtol=REL)
 
 
 def test_table_between_points_and_above_the_table(tmp_path):
