@@ -497,3 +497,49 @@ def read_pulse_dispersions(
                 )
         out[key] = value
     return out
+
+
+def pulse_check_lines(
+    pulse: PulseSpec | None,
+    blowdown: BlowdownSpec | None,
+    *,
+    min_on_s: float,
+    isp_s: float,
+    propellant_kg: float | None,
+    n_jets: int,
+    authority: dict,
+) -> list[str]:
+    """What ``rcsim vehicle check`` says of the pulses: the model, the rate change one
+    minimum impulse bit gives per axis direction (``authority``: direction name -> the pure-
+    axis angular acceleration of the jets at full thrust [rad/s^2]; the bit is the shaped
+    pulse at ``min_on_s``: ``alpha * I(min_on_s) / F``), and the blowdown."""
+    out = [f"pulses: {'square (no [pulse])' if pulse is None else pulse.describe()}"]
+    if min_on_s <= 0:
+        out.append("minimum impulse bit: none (min_on_s = 0: pulses as short as commanded)")
+    else:
+        if pulse is None:
+            full_s = np.full(n_jets, min_on_s)
+        else:
+            full_s = pulse.shape(1, isp_s).thrust_time_s(np.full((1, n_jets), min_on_s))[0]
+        lo, hi = float(full_s.min()), float(full_s.max())
+        share = (
+            f"{lo / min_on_s * 100:.3g} %"
+            if lo == hi
+            else (f"{lo / min_on_s * 100:.3g}-{hi / min_on_s * 100:.3g} %")
+        )
+
+        def rate(alpha: float) -> str:
+            if alpha <= 0:
+                return "-"
+            a, b = math.degrees(alpha * lo), math.degrees(alpha * hi)
+            return f"{a:.3g}" if a == b else f"{a:.3g}-{b:.3g}"
+
+        rates = ", ".join(f"{name} {rate(alpha)}" for name, alpha in authority.items())
+        out.append(
+            f"minimum impulse bit (min_on_s = {min_on_s * 1e3:g} ms, {share} of a square "
+            f"pulse's impulse): rate change per bit of the jets with full authority [deg/s]: "
+            f"{rates}"
+        )
+    if blowdown is not None and propellant_kg is not None:
+        out.append(blowdown.describe(propellant_kg))
+    return out
