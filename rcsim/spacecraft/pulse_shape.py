@@ -261,6 +261,55 @@ def shaped_pieces(
         With ``level`` the mean thrust fraction of each jet in each piece (and ``flow``, the
         same weighted by ``inv_isp``, when given).
     """
+    with np.errstate(invalid="ignore"):
+        # A run thrusts in this cycle when an interval opened before its end and its thrust
+        # (tail included, at most the longest tail) lasts past its start.
+        longest = np.max(shape.tail_length_s(), axis=1, initial=0.0)[:, None, None]
+        active = ((end_s > start_s) & (start_s < cycle_s) & (end_s + longest > 0.0)).any(
+            axis=(1, 2)
+        )
+    rows = np.flatnonzero(active)
+    if rows.size == 0:  # nothing thrusts: the grid steps (no switch in them)
+        return cycle_pieces(start_s, end_s, cycle_s, dt_s)
+    if rows.size == start_s.shape[0]:
+        return _shaped_rows(start_s, end_s, cycle_s, dt_s, shape, inv_isp)
+    cut = _shaped_rows(
+        start_s[rows],
+        end_s[rows],
+        cycle_s,
+        dt_s,
+        shape.take(rows),
+        None if inv_isp is None else inv_isp[rows],
+    )
+    # The other runs fly the grid steps without thrust, padded as cycle_pieces pads them.
+    n, jets = start_s.shape[:2]
+    n_grid = 1 if dt_s is None or dt_s >= cycle_s else int(round(cycle_s / dt_s))
+    width = max(cut.n_pieces, n_grid)
+    length = np.zeros((n, width))
+    length[:, :n_grid] = cycle_s if n_grid == 1 else dt_s
+    count = np.full(n, n_grid)
+    level = np.zeros((n, width, jets))
+    length[rows] = 0.0
+    length[rows, : cut.n_pieces] = cut.length_s
+    count[rows] = cut.count
+    assert cut.level is not None
+    level[rows, : cut.n_pieces] = cut.level
+    flow = None
+    if cut.flow is not None:
+        flow = np.zeros((n, width, jets))
+        flow[rows, : cut.n_pieces] = cut.flow
+    return Pieces(length, level > 0, count, uniform=False, level=level, flow=flow)
+
+
+def _shaped_rows(
+    start_s: np.ndarray,
+    end_s: np.ndarray,
+    cycle_s: float,
+    dt_s: float | None,
+    shape: PulseShape,
+    inv_isp: np.ndarray | None,
+) -> Pieces:
+    """:func:`shaped_pieces` of the runs that thrust in the cycle."""
     n = start_s.shape[0]
     model = "linear" if shape.model == "table" else shape.model
     rise = np.zeros((n, start_s.shape[1])) if shape.model == "table" else shape.rise_s
