@@ -238,6 +238,7 @@ def shaped_pieces(
     dt_s: float | None,
     shape: PulseShape,
     inv_isp: np.ndarray | None = None,
+    stop_s: np.ndarray | None = None,
 ) -> Pieces:
     """:func:`rcsim.spacecraft.pieces.cycle_pieces` with the thrust of ``shape``: pieces cut
     at the valve's instants and the shape's knots, each piece's level the *mean* thrust
@@ -260,6 +261,9 @@ def shaped_pieces(
     Pieces
         With ``level`` the mean thrust fraction of each jet in each piece (and ``flow``, the
         same weighted by ``inv_isp``, when given).
+    stop_s : ndarray, (n_runs,), optional
+        Every jet of the run gives no thrust from this instant of the cycle on [s] (inf:
+        none): the propellant ran out, tails included.
     """
     with np.errstate(invalid="ignore"):
         # A run thrusts in this cycle when an interval opened before its end and its thrust
@@ -272,7 +276,7 @@ def shaped_pieces(
     if rows.size == 0:  # nothing thrusts: the grid steps (no switch in them)
         return cycle_pieces(start_s, end_s, cycle_s, dt_s)
     if rows.size == start_s.shape[0]:
-        return _shaped_rows(start_s, end_s, cycle_s, dt_s, shape, inv_isp)
+        return _shaped_rows(start_s, end_s, cycle_s, dt_s, shape, inv_isp, stop_s)
     cut = _shaped_rows(
         start_s[rows],
         end_s[rows],
@@ -280,6 +284,7 @@ def shaped_pieces(
         dt_s,
         shape.take(rows),
         None if inv_isp is None else inv_isp[rows],
+        None if stop_s is None else stop_s[rows],
     )
     # The other runs fly the grid steps without thrust, padded as cycle_pieces pads them.
     n, jets = start_s.shape[:2]
@@ -308,6 +313,7 @@ def _shaped_rows(
     dt_s: float | None,
     shape: PulseShape,
     inv_isp: np.ndarray | None,
+    stop_s: np.ndarray | None = None,
 ) -> Pieces:
     """:func:`shaped_pieces` of the runs that thrust in the cycle."""
     n = start_s.shape[0]
@@ -339,15 +345,21 @@ def _shaped_rows(
     else:
         down = end_s[..., None] + peak_tail[..., None] * tail_knots
     cuts = np.where((live & shaped)[..., None], np.concatenate([up, down], axis=-1), np.nan)
+    cuts = cuts.reshape(n, -1)
+    if stop_s is not None:
+        cuts = np.concatenate([cuts, np.asarray(stop_s, float).reshape(n, 1)], axis=1)
     p = cycle_pieces(
         np.where(live, start_s, np.nan),
         np.where(live, tail_end, np.nan),
         cycle_s,
         dt_s,
-        extra_cuts=cuts.reshape(n, -1),
+        extra_cuts=cuts,
     )
     t1 = np.cumsum(p.length_s, axis=1)
     t0 = t1 - p.length_s
+    if stop_s is not None:  # no thrust after it: the integral stops growing there
+        stop = np.asarray(stop_s, float)[:, None]
+        t1, t0 = np.minimum(t1, stop), np.minimum(t0, stop)
     s4, e4 = start_s[:, None], end_s[:, None]  # (n, 1, jets, k)
     r4, ta4 = rise[:, None, :, None], tail[:, None, :, None]
     g1 = thrust_integral(model, s4, e4, r4, ta4, t1[:, :, None, None])
@@ -400,3 +412,42 @@ def table_intervals(
     start_s[opened] += deficit[opened]
     closing = ~new_start & new_end & (deficit < 0)  # its close, commanded this cycle
     end_s[closing] -= deficit[closing]
+
+
+def propellant_instant(
+    shape: PulseShape,
+    start_s: np.ndarray,
+    end_s: np.ndarray,
+    flow_kg_s: np.ndarray,
+    left_kg: np.ndarray,
+    cycle_s: float,
+    inv_isp: np.ndarray | None = None,
+) -> np.ndarray:
+    """The instant of the cycle [s] at which runs' jets have used ``left_kg`` (n,), from the
+    shapes' integrals: ``sum_j flow_j sum_i w_i (G_i(t) - G_i(0)) = left`` solved by bisection
+    to the last bit (the left side grows with ``t``); inf where the cycle uses less.
+
+    ``start_s``, ``end_s`` (n, n_jets, k) as :func:`shaped_pieces`'; ``flow_kg_s`` (n, n_jets)
+    each jet's steady flow at full thrust; ``inv_isp`` (n, n_jets, k) the intervals' Isp
+    weights (None: 1).  Overlapping intervals count in full (no cap at full thrust)."""
+    model = "linear" if shape.model == "table" else shape.model
+    n = start_s.shape[0]
+    zeros = np.zeros(start_s.shape[:2])
+    rise = (zeros if shape.model == "table" else shape.rise_s)[..., None]
+    tail = (zeros if shape.model == "table" else shape.tail_s)[..., None]
+    weight = 1.0 if inv_isp is None else inv_isp
+
+    def used(t: np.ndarray) -> np.ndarray:
+        g = thrust_integral(model, start_s, end_s, rise, tail, t[:, None, None])
+        g0 = thrust_integral(model, start_s, end_s, rise, tail, np.zeros((n, 1, 1)))
+        part = np.nan_to_num((g - g0) * weight).sum(axis=-1)
+        return (part * flow_kg_s).sum(axis=-1)
+
+    lo, hi = np.zeros(n), np.full(n, float(cycle_s))
+    crosses = used(hi) >= left_kg
+    for _ in range(64):  # halves [0, cycle] to below a bit of any instant in it
+        mid = 0.5 * (lo + hi)
+        over = used(mid) >= left_kg
+        hi = np.where(over, mid, hi)
+        lo = np.where(over, lo, mid)
+    return np.where(crosses, hi, np.inf)

@@ -91,7 +91,12 @@ from rcsim.spacecraft.propellant import (
     mass_flow_kg_s,
 )
 from rcsim.spacecraft.propulsion import PropulsionState, apply_valve_limits
-from rcsim.spacecraft.pulse_shape import PulseShape, shaped_pieces, table_intervals
+from rcsim.spacecraft.pulse_shape import (
+    PulseShape,
+    propellant_instant,
+    shaped_pieces,
+    table_intervals,
+)
 from rcsim.spacecraft.sensors import SensorNoise, SensorParams, SensorState, measure
 from rcsim.spacecraft.valves import (
     JetFaults,
@@ -658,19 +663,44 @@ class BatchSimulation:
         thrust = self.params.thrust_n * physics.level
         level = pieces.flow_fraction()
         left = np.maximum(self.tank.initial_kg - physics.used_kg, 0.0)
-        t_out = exhaustion_time_s(
-            pieces.length_s, level, mass_flow_kg_s(thrust, self._isp_column()), left
-        )
+        flow = mass_flow_kg_s(thrust, self._isp_column())
+        t_out = exhaustion_time_s(pieces.length_s, level, flow, left)
         t_out = np.where(left <= 0.0, 0.0, t_out)
         if not np.isfinite(t_out).any():
             return pieces
+        if self.pulse is not None:
+            # The pieces' mean flow finds the cycle; the shapes' integrals, the instant.
+            rows = np.flatnonzero(np.isfinite(t_out) & (left > 0.0))
+            if rows.size:
+                start, end = intervals
+                inv_isp = self._slot_weights(start)
+                t_out[rows] = propellant_instant(
+                    self.pulse.take(rows),
+                    start[rows],
+                    end[rows],
+                    flow[rows],
+                    left[rows],
+                    self.propulsion.cycle_s,
+                    None if inv_isp is None else inv_isp[rows],
+                )
         first = np.isfinite(t_out) & ~np.isfinite(physics.exhausted_s)
         physics.exhausted_s[first] = t0_s + t_out[first]
         start, end = intervals
+        if self.pulse is not None:  # the thrust stops there, a closing valve's tail too
+            return self._cut(start, end, stop_s=t_out)
         return self._cut(start, np.minimum(end, t_out[:, None, None]))
 
-    def _cut(self, start: np.ndarray, end: np.ndarray) -> Pieces:
-        """The cycle's pieces for on-intervals ``start``, ``end`` (n_runs, n_jets, k) [s]."""
+    def _slot_weights(self, start: np.ndarray) -> np.ndarray | None:
+        """Each valve interval's Isp weight (pulse-mode Isp; a stuck-on window: steady),
+        shaped as the cycle's intervals ``start``; None without a pulse-mode Isp."""
+        inv_isp = self._flight_inv_isp
+        if inv_isp is not None and inv_isp.shape != start.shape:  # a stuck-on window: steady
+            inv_isp = np.concatenate([inv_isp, np.ones(start.shape[:2] + (1,))], axis=-1)
+        return inv_isp
+
+    def _cut(self, start: np.ndarray, end: np.ndarray, stop_s: np.ndarray | None = None) -> Pieces:
+        """The cycle's pieces for on-intervals ``start``, ``end`` (n_runs, n_jets, k) [s];
+        ``stop_s`` (n_runs,): no thrust from it on (a pulse shape's propellant running out)."""
         cycle = self.propulsion.cycle_s
         grid = self.dt_s if self.n_sub > 1 else None
         if self.profile is None and self.pulse is None and self._compiled:
@@ -686,10 +716,8 @@ class BatchSimulation:
                     uniform=True,
                 )
         if self.pulse is not None:
-            inv_isp = self._flight_inv_isp
-            if inv_isp is not None and inv_isp.shape != start.shape:  # a stuck-on window: steady
-                inv_isp = np.concatenate([inv_isp, np.ones(start.shape[:2] + (1,))], axis=-1)
-            return shaped_pieces(start, end, cycle, grid, self.pulse, inv_isp)
+            inv_isp = self._slot_weights(start)
+            return shaped_pieces(start, end, cycle, grid, self.pulse, inv_isp, stop_s)
         if self.profile is None:
             return cycle_pieces(start, end, cycle, grid)
         return profile_pieces(

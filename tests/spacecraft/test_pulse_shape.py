@@ -156,3 +156,32 @@ def test_table_between_points_and_above_the_table(tmp_path):
 def test_vehicle_without_pulse_has_no_shape(paper):
     """The packaged vehicles give no [pulse]: square pulses, the flight's old path."""
     assert paper.pulse_shape(3) is None and paper.blowdown(3) is None
+
+
+def test_propellant_runs_out_mid_rise_at_the_closed_form_instant(tmp_path):
+    """Two jets on from t = 0 with a first-order rise (tau_r = 12 ms) and 0.3 g of propellant:
+    the propellant used by ``t`` is ``2 F / (Isp g0) (t - tau_r (1 - exp(-t / tau_r)))``; it
+    reaches 0.3 g at the root ``t*`` (brentq, 1e-15 s), inside the first cycle's rise.  The
+    flight must stop there: exhaustion instant to 1e-12 s, propellant used 0.3 g to 1e-12
+    relative, impulse ``(Isp g0) 0.3 g`` -- the tail after the instant included in nothing."""
+    from scipy.optimize import brentq
+
+    text = packaged_vehicle("paper").read_text(encoding="utf-8")
+    text = text.replace("[propellant]\n", "[propellant]\nmass_kg = 0.0003\n", 1)
+    path = tmp_path / "v.toml"
+    path.write_text(
+        text + f'\n[pulse]\nmodel = "exponential"\nrise_s = {RISE_S}\ntail_s = {TAIL_S}\n',
+        encoding="utf-8",
+    )
+    v = Vehicle.load(str(path))
+    sim, hist = fly(v, np.array([0.5]))
+    rate = 2 * F_N / (ISP_S * G0_M_S2)
+    t_star = brentq(
+        lambda t: rate * (t - RISE_S * (1 - math.exp(-t / RISE_S))) - 0.0003, 0.0, 0.5, xtol=1e-15
+    )
+    assert 0.0 < t_star < CYCLE_S  # mid-cycle
+    assert sim.physics.exhausted_s[0] == pytest.approx(t_star, abs=1e-12)
+    assert sim.physics.used_kg[0] == pytest.approx(0.0003, rel=1e-12)
+    assert hist.propulsion.impulse_ns[:, list(ROLL_JETS)].sum() == pytest.approx(
+        0.0003 * ISP_S * G0_M_S2, rel=1e-12
+    )
