@@ -185,3 +185,25 @@ def test_propellant_runs_out_mid_rise_at_the_closed_form_instant(tmp_path):
     assert hist.propulsion.impulse_ns[:, list(ROLL_JETS)].sum() == pytest.approx(
         0.0003 * ISP_S * G0_M_S2, rel=1e-12
     )
+
+
+def test_linear_pulse_flies_as_the_thrust_profile(tmp_path, paper):
+    """``model = "linear"`` is the law of ``ThrustProfile(rise_s, fall_s)`` (flown by
+    ``pieces.profile_pieces``, tested against its own closed form in test_exact_time): the
+    same pulses on both give the same impulse (1e-12) and the same final attitude and rate
+    (1e-12 relative: both cut each ramp in four and fly its exact mean over each piece)."""
+    from rcsim.spacecraft.valves import ThrustProfile
+
+    v = vehicle_with(
+        tmp_path, f'\n[pulse]\nmodel = "linear"\nrise_s = {RISE_S}\ntail_s = {TAIL_S}\n', False
+    )
+    _, shaped = fly(v, ON_S)
+    n = ON_S.size
+    on = np.zeros((n, paper.n_jets))
+    on[:, list(ROLL_JETS)] = ON_S[:, None]
+    ramps = BatchSimulation(
+        paper.nominal(n), vehicle=paper, nthread=1, profile=ThrustProfile(RISE_S, TAIL_S)
+    ).run(OpenLoopController(on, CYCLE_S), Guidance.attitude(np.zeros((n, 3))), 0.6)
+    np.testing.assert_allclose(shaped.propulsion.impulse_ns, ramps.propulsion.impulse_ns, rtol=REL)
+    np.testing.assert_allclose(shaped.final.omega_B, ramps.final.omega_B, rtol=REL, atol=1e-18)
+    np.testing.assert_allclose(shaped.final.q_BN, ramps.final.q_BN, rtol=REL, atol=1e-15)
