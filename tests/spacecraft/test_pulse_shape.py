@@ -207,3 +207,22 @@ def test_linear_pulse_flies_as_the_thrust_profile(tmp_path, paper):
     np.testing.assert_allclose(shaped.propulsion.impulse_ns, ramps.propulsion.impulse_ns, rtol=REL)
     np.testing.assert_allclose(shaped.final.omega_B, ramps.final.omega_B, rtol=REL, atol=1e-18)
     np.testing.assert_allclose(shaped.final.q_BN, ramps.final.q_BN, rtol=REL, atol=1e-15)
+
+
+def test_dispersed_impulse_bit_scales_the_table(tmp_path):
+    """A run's impulse-bit factor ``s`` (rcsim.spacecraft.pulse_draws) scales every table
+    point: a 10 ms pulse delivers ``s I(10 ms)``; a 100 ms one, at steady state above the
+    table, ``s I_m + F (u - u_m)`` (docs/vehicles.md, "Pulse and pressure dispersions")."""
+    from dataclasses import replace
+
+    v = table_vehicle(tmp_path)
+    scale = np.array([0.9, 1.2])
+    shape = v.pulse_shape(2)
+    shape = replace(shape, impulse_scale=np.repeat(scale[:, None], v.n_jets, axis=1))
+    on = np.zeros((2, v.n_jets))
+    on[:, 0] = [0.01, 0.1]
+    for k in range(2):  # each factor on both pulses
+        sim = BatchSimulation(v.nominal(2), vehicle=v, nthread=1, pulse=shape.take([k, k]))
+        hist = sim.run(OpenLoopController(on, CYCLE_S), Guidance.attitude(np.zeros((2, 3))), 0.3)
+        expected = [scale[k] * 0.15, scale[k] * 0.62 + F_N * 0.07]
+        np.testing.assert_allclose(hist.propulsion.impulse_ns[:, 0], expected, rtol=REL)
