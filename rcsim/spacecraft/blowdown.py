@@ -21,10 +21,12 @@ the Isp of a hydrazine jet falls only a few percent over a 4:1 blowdown, hence b
 
 Updated once per control cycle, as the mass properties (:mod:`rcsim.spacecraft.propellant`):
 the thrust and Isp of a cycle are those at the propellant used at its start.  Over one cycle
-the pressure falls by ``n dV / V``, the propellant volume the cycle used over the gas volume: a
-few 1e-6 of it for the paper's jets on a litre of gas, so an exact in-cycle law would change
-nothing measurable and cost a per-piece update; the propellant and impulse of each cycle are
-still exact for the cycle's thrust.
+the pressure falls by ``n dV / V``, the propellant volume the cycle used over the gas volume, so
+a cycle's thrust is high by about half that (``docs/vehicles.md`` gives figures against the
+continuous law).  The error does not accumulate: the pressure is always the exact one of the
+propellant used, and each cycle's propellant is exact for the thrust flown.  Exact within the
+cycle, each piece's thrust would depend on the propellant that piece itself burns (an implicit
+equation per piece and run, and a wrench per piece instead of one gain per cycle).
 
 Imports nothing of rcsim.
 """
