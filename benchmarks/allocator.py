@@ -87,7 +87,7 @@ def compare() -> None:
     from rcsim.analysis.engine.scenarios.flying import build_controller
     from rcsim.lookup.registry import make_controller
     from rcsim.models.tables import load_rate_cases
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     vehicle = Vehicle.load()
     rates = np.asarray(load_rate_cases().rate_cmd, float)
@@ -152,7 +152,7 @@ def milp_check() -> None:
 
     from rcsim.lookup.allocator_controller import allocator_controller, jet_model
     from rcsim.spacecraft.control_profile import ALLOCATION_MODES
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     def optimum(D, mdot, t_min, b):
         n = D.shape[1]
@@ -205,7 +205,7 @@ def cost(vehicle: str, runs: int) -> None:
     from rcsim.models.tables import load_rate_cases
     from rcsim.spacecraft.navigation import Guidance
     from rcsim.spacecraft.simulation import simulate_batch
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     path = str(ROOT / vehicle) if vehicle.endswith(".toml") else vehicle
     print(f"load average before: {os.getloadavg()}")

@@ -77,7 +77,7 @@ def _planted_outcomes(frame, case_names, rng, nominal: float, spread: float):
 
     from rcsim.analysis.engine.runs_table import outcome_frame
     from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     signs = fire_signs(case_names)
     auth = physics_factors(frame, Vehicle.load(), signs)["authority_yaw_fire_rad_s2"].to_numpy()
@@ -135,7 +135,7 @@ def campaign_dir(n_runs: int, folder: Path, seed: int = 7) -> Path:
     from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
     from rcsim.models.tables import load_dispersions
     from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     per_case = -(-n_runs // N_CASES)
     total = per_case * N_CASES

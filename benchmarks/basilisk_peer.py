@@ -8,7 +8,7 @@ Scenario (the same in both scripts)
 -----------------------------------
 * Vehicle: one rigid body, mass 3505 kg, CG at x = 1.41 m, principal inertia about the CG
   diag(3583.09, 3160.22, 2457.06) kg m^2, no gravity, no environment.
-* 16 jets of 22.24 N, geometry copied from rcsim/models/vehicle/vehicle.xml (``JETS`` below).
+* 16 jets of 22.24 N, geometry copied from rcsim/models/vehicle/paper.toml (``JETS`` below).
 * Rate case 26 of Table 3 (0.1732 deg/s on each axis), fired open loop from the lookup table
   (rcsim/models/data/table7_lookup_updated.csv): roll jets 2, 4 and pitch jets 10, 12 for 0.28 s,
   yaw jets 14, 16 for 0.24 s, all from t = 0; commanded as on-times once per 40 ms control
@@ -52,14 +52,14 @@ from Basilisk.utilities import SimulationBaseClass, macros, simIncludeThruster
 from Basilisk.utilities.MonteCarlo.Controller import Controller
 
 # ---------------------------------------------------------------------------------------------
-# The vehicle (rcsim/models/vehicle/vehicle.xml; Gambone Table 1).  Body frame B: x roll, y pitch,
+# The vehicle (rcsim/models/vehicle/paper.toml; Gambone Table 1).  Body frame B: x roll, y pitch,
 # z yaw; origin at the structural reference point.
 MASS_KG = 3505.00
 CG_B = (1.41, 0.0, 0.0)
 INERTIA_B = (3583.09, 3160.22, 2457.06)  # principal, about the CG
 THRUST_N = 22.24
 # (position in B [m], unit force direction on the vehicle in B), jets 1..16, copied from the
-# <site> elements of rcsim/models/vehicle/vehicle.xml (zaxis = force direction).
+# [[jet]] entries of rcsim/models/vehicle/paper.toml (direction = force direction).
 JETS = (
     ((1.41, 0.812, 0.0), (0, 0, -1)),
     ((1.41, 0.812, 0.0), (0, 0, 1)),  # 1, 2 roll

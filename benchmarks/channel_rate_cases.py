@@ -28,7 +28,7 @@ from rcsim.lookup.channel_generation import generate_channel_table  # noqa: E402
 from rcsim.lookup.registry import make_controller  # noqa: E402
 from rcsim.spacecraft.navigation import Guidance  # noqa: E402
 from rcsim.spacecraft.simulation import simulate_batch  # noqa: E402
-from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
+from rcsim.spacecraft.vehicle import Vehicle  # noqa: E402
 
 
 def fly(vehicle: Vehicle, controller, rate: np.ndarray) -> dict:
@@ -54,7 +54,7 @@ def main() -> None:
     parser.add_argument("--vehicle", default="canted16")
     args = parser.parse_args()
     vehicle = Vehicle.load(args.vehicle)
-    generated = generate_channel_table(args.vehicle)
+    generated = generate_channel_table(Vehicle.load(args.vehicle))
     rate = np.asarray(generated.table.rate_cmd, float)
     with tempfile.TemporaryDirectory() as tmp:
         table = Path(tmp) / f"{args.vehicle}.csv"

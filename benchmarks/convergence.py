@@ -68,7 +68,7 @@ from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams  # n
 from rcsim.models.tables import load_jet_map, load_mass_properties  # noqa: E402
 from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat  # noqa: E402
 from rcsim.spacecraft.simulation import BatchSimulation  # noqa: E402
-from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
+from rcsim.spacecraft.vehicle import Vehicle  # noqa: E402
 
 INTEGRATORS = ("RK4", "Euler", "implicitfast")
 STEPS_MS = (1, 2, 4, 5, 8, 10, 20, 40)

@@ -7,9 +7,9 @@ integrate the rigid-body attitude equations
     q' = q (0, w) / 2,        I w' = tau(t) - w x I w,
 
 with ``tau(t)`` the sum of the torques about the CG of the jets on at ``t``
-(:func:`rcsim.spacecraft.vehicle.torque_per_jet_B`, built from the MJCF geometry but never from
-MuJoCo's integrator) plus the disturbance, by DOP853 (rtol 1e-12, atol 1e-14) *between the
-exact switch instants*, so the forcing is constant in every integration interval.  The result
+(:func:`rcsim.spacecraft.vehicle.run_parameters.torque_per_jet_B`, built from the MJCF geometry but
+never from MuJoCo's integrator) plus the disturbance, by DOP853 (rtol 1e-12, atol 1e-14) *between
+the exact switch instants*, so the forcing is constant in every integration interval.  The result
 is the attitude at every cycle boundary: what the simulation should have produced for the same
 commands.  Used by ``benchmarks/convergence.py``.
 """
@@ -20,7 +20,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from rcsim.spacecraft.navigation import quat_mul
-from rcsim.spacecraft.vehicle import VehicleParams, torque_per_jet_B
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters, torque_per_jet_B
 
 RTOL, ATOL = 1e-12, 1e-14
 
@@ -36,7 +36,7 @@ def _rhs(inertia: np.ndarray, torque: np.ndarray):
 
 
 def replay_run(
-    params: VehicleParams,
+    params: RunParameters,
     model,
     on_time_s: np.ndarray,
     cycle_s: float,
@@ -48,7 +48,7 @@ def replay_run(
 
     Parameters
     ----------
-    params : VehicleParams
+    params : RunParameters
         One run.
     on_time_s : ndarray, (n_cycles, 16)
         Delivered on-time per cycle [s] (jets on from each cycle's start).

@@ -36,7 +36,7 @@ from rcsim.models.tables import load_dispersions, load_rate_cases  # noqa: E402
 from rcsim.spacecraft import simulation  # noqa: E402
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs, run_streams  # noqa: E402
 from rcsim.spacecraft.navigation import Guidance  # noqa: E402
-from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
+from rcsim.spacecraft.vehicle import Vehicle  # noqa: E402
 
 
 def noisy_options(n: int, seed: int, run_ids) -> dict:

@@ -38,7 +38,7 @@ def main() -> None:
         n_normals,
         n_uniforms,
     )
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=2_000_000)

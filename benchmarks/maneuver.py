@@ -49,8 +49,8 @@ from rcsim.spacecraft.propulsion import (  # noqa: E402
     duty_profile,
 )
 from rcsim.spacecraft.simulation import simulate_batch  # noqa: E402
-from rcsim.spacecraft.vehicle import jet_actuator_ids  # noqa: E402
-from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
+from rcsim.spacecraft.vehicle import Vehicle  # noqa: E402
+from rcsim.spacecraft.vehicle.model import jet_actuator_ids  # noqa: E402
 
 # The raw ceiling steps MuJoCo as the closed loop does: stage timers on the zero clock.
 quiet_stage_timers()

@@ -39,10 +39,10 @@ sys.path.insert(0, str(ROOT))
 
 from rcsim.spacecraft.navigation import Guidance, NavState  # noqa: E402
 from rcsim.spacecraft.simulation import BatchSimulation  # noqa: E402
-from rcsim.spacecraft.vehicle import VehicleParams, torque_per_jet_B  # noqa: E402
-from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
+from rcsim.spacecraft.vehicle import Vehicle  # noqa: E402
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters, torque_per_jet_B  # noqa: E402
 
-N_JETS = 16  # the paper's vehicle (vehicle.xml), as benchmarks/basilisk_peer.py copies it
+N_JETS = 16  # the paper's vehicle (paper.toml), as benchmarks/basilisk_peer.py copies it
 
 DURATION_S = 20.0
 CYCLE_S = 0.04
@@ -76,7 +76,7 @@ class OpenLoopFiring:
         return np.broadcast_to(left, (nav.n_runs, N_JETS)).copy(), state
 
 
-def dispersed_params(n_runs: int, vehicle: Vehicle) -> VehicleParams:
+def dispersed_params(n_runs: int, vehicle: Vehicle) -> RunParameters:
     """The vehicles of benchmarks/basilisk_peer.py's runs 0..n_runs-1 (same seeds, same order:
     numpy's legacy generator seeded with 10 * run, then mass, 3 inertias, 16 thrusts)."""
     params = vehicle.nominal(n_runs)
@@ -89,7 +89,7 @@ def dispersed_params(n_runs: int, vehicle: Vehicle) -> VehicleParams:
     return replace(params, mass_kg=mass, inertia_B=inertia, thrust_n=thrust)
 
 
-def fly(params: VehicleParams, vehicle: Vehicle, on_s: np.ndarray, duration_s: float, nthread: int):
+def fly(params: RunParameters, vehicle: Vehicle, on_s: np.ndarray, duration_s: float, nthread: int):
     """Build the batch and fly it; returns (history, wall seconds including set-up).
 
     No propellant tank (``tank=None``): the mass properties stay the drawn ones, as in the
@@ -101,7 +101,7 @@ def fly(params: VehicleParams, vehicle: Vehicle, on_s: np.ndarray, duration_s: f
     return hist, time.perf_counter() - t0
 
 
-def momentum_N(hist, params: VehicleParams) -> np.ndarray:
+def momentum_N(hist, params: RunParameters) -> np.ndarray:
     """Angular momentum about the CG in the inertial frame at the end, (n_runs, 3) [N m s]."""
     h_B = params.inertia_B * hist.final.omega_B
     out = np.empty_like(h_B)
@@ -112,12 +112,12 @@ def momentum_N(hist, params: VehicleParams) -> np.ndarray:
     return out
 
 
-def analytic_impulse(params: VehicleParams, model: mujoco.MjModel, on_s: np.ndarray) -> np.ndarray:
+def analytic_impulse(params: RunParameters, model: mujoco.MjModel, on_s: np.ndarray) -> np.ndarray:
     """Sum over jets of (r - cg) x F * t, (n_runs, 3) [N m s]."""
     return np.einsum("nja,j->na", torque_per_jet_B(params, model), on_s)
 
 
-def accuracy(vehicle: Vehicle, params: VehicleParams, hist) -> dict:
+def accuracy(vehicle: Vehicle, params: RunParameters, hist) -> dict:
     model = vehicle.model
     nominal = vehicle.nominal(1)
     h_nom, _ = fly(nominal, vehicle, CASE26_ON_S, DURATION_S, 1)

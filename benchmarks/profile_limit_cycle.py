@@ -31,7 +31,7 @@ sys.path.insert(0, str(ROOT))
 
 from rcsim.analysis.engine.flight import Scenario, fly  # noqa: E402
 from rcsim.lookup.generation import generate_table  # noqa: E402
-from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
+from rcsim.spacecraft.vehicle import Vehicle  # noqa: E402
 
 SERVICE16 = ROOT / "docs" / "examples" / "service16.toml"
 #: The maneuver ends by this time on every flight here (settled within the hold region).

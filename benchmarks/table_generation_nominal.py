@@ -34,7 +34,7 @@ sys.path.insert(0, str(ROOT))
 
 from rcsim.lookup.generation import generate_table, is_coupled  # noqa: E402
 from rcsim.lookup.row_tuning import DEFAULT_ROUNDS  # noqa: E402
-from rcsim.spacecraft.vehicle_file import Vehicle  # noqa: E402
+from rcsim.spacecraft.vehicle import Vehicle  # noqa: E402
 
 VEHICLES = {
     "paper": "paper",
@@ -72,7 +72,7 @@ def main(names: list[str]) -> None:
     VEHICLES["service16-paper-profile"] = paper_profile(
         ROOT / "docs/examples/service16.toml", tmp / "service16_paper_profile.toml"
     )
-    generate_table("paper")  # compile and cache before timing
+    generate_table(Vehicle.load("paper"))  # compile and cache before timing
     print(
         "| vehicle | generation [s] | cases within the target | nominal runs ending failed "
         "(>= 0.04 deg/s) | worst end error [deg/s] | worst row error [deg/s] | firings "

@@ -29,8 +29,8 @@ sys.path.insert(0, str(ROOT))
 
 from rcsim.analysis.engine.campaign import chunk as chunk_module  # noqa: E402
 from rcsim.analysis.engine.campaign.spec import parse_dict  # noqa: E402
-from rcsim.spacecraft.vehicle_file import schema  # noqa: E402
-from rcsim.spacecraft.vehicle_file import vehicle as vehicle_module  # noqa: E402
+from rcsim.spacecraft.vehicle import file_schema  # noqa: E402
+from rcsim.spacecraft.vehicle import vehicle as vehicle_module  # noqa: E402
 
 COUNTS = {"parse": 0, "compile": 0}
 
@@ -74,7 +74,7 @@ def main(argv=None) -> int:
     mujoco.MjModel.from_xml_string(vehicle_module.to_mjcf(parsed.definition))
     compile_s = time.perf_counter() - t0
 
-    _counting(schema, "parse_vehicle", "parse")
+    _counting(file_schema, "parse_vehicle", "parse")
     _counting(vehicle_module, "parse_vehicle", "parse")
     _counting(mujoco.MjModel, "from_xml_string", "compile")
     _counting(mujoco.MjModel, "from_xml_path", "compile")

@@ -16,7 +16,7 @@ The vehicle
                                                     with its flight-software profile; its check
 Flying
     Scenario, fly, history_frame, write_flight  -- one flight (a batch of one or many runs)
-    VehicleParams, make_controller               -- runs' parameters, a controller for a vehicle
+    RunParameters, make_controller               -- runs' parameters, a controller for a vehicle
 Campaigns
     parse_dict, load_spec, CampaignSpec, run_campaign -- a Monte Carlo dispersion campaign
     runs_table                                   -- the columns and files of its results
@@ -43,9 +43,9 @@ _API: dict[str, tuple[str, str]] = {
     "fly": ("rcsim.analysis.engine.flight", "fly"),
     "history_frame": ("rcsim.analysis.engine.flight", "history_frame"),
     "write_flight": ("rcsim.analysis.engine.flight", "write_flight"),
-    "Vehicle": ("rcsim.spacecraft.vehicle_file", "Vehicle"),
-    "vehicle_report": ("rcsim.spacecraft.vehicle_file.authority", "vehicle_report"),
-    "VehicleParams": ("rcsim.spacecraft.vehicle", "VehicleParams"),
+    "Vehicle": ("rcsim.spacecraft.vehicle", "Vehicle"),
+    "vehicle_report": ("rcsim.spacecraft.vehicle.authority", "vehicle_report"),
+    "RunParameters": ("rcsim.spacecraft.vehicle.run_parameters", "RunParameters"),
     "make_controller": ("rcsim.lookup.registry", "make_controller"),
     "parse_dict": ("rcsim.analysis.engine.campaign.spec", "parse_dict"),
     "load_spec": ("rcsim.analysis.engine.campaign.spec", "load_spec"),
@@ -57,7 +57,7 @@ _API: dict[str, tuple[str, str]] = {
     "DriverSettings": ("rcsim.analysis.results.drivers.pipeline", "Settings"),
     "write_analysis": ("rcsim.analysis.results.drivers.outputs", "write_analysis"),
     "load_lookup_table": ("rcsim.models.tables", "load_lookup_table"),
-    "generate_table": ("rcsim.lookup.generation", "generate_table"),
+    "generate_table": ("rcsim.analysis.engine.table_files", "generate_table"),
     "run_refinement": ("rcsim.analysis.apps.refinement.outputs", "run_refinement"),
     "LoopSettings": ("rcsim.analysis.apps.loop.run", "LoopSettings"),
     "run_loop": ("rcsim.analysis.apps.loop.run", "run_loop"),

@@ -10,7 +10,11 @@ Browser tests take the ``chromium`` fixture: the path of headless Chromium, or a
 why it is missing (``make test`` installs the Debian package when it can).
 """
 
+import os
 import shutil
+import subprocess
+import sys
+from pathlib import Path
 from types import SimpleNamespace
 
 import mujoco
@@ -19,8 +23,7 @@ import pytest
 from hypothesis import settings
 
 from rcsim.models.tables import PAPER_CYCLE_S, load_mass_properties
-from rcsim.spacecraft.vehicle import load_model
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle, build_model, load_vehicle
 
 HYPOTHESIS_PROFILE = "rcsim-derandomized"
 settings.register_profile(HYPOTHESIS_PROFILE, derandomize=True, database=None)
@@ -29,8 +32,9 @@ settings.load_profile(HYPOTHESIS_PROFILE)
 
 @pytest.fixture(scope="module")
 def model() -> mujoco.MjModel:
-    """The packaged vehicle MJCF at its default physics settings."""
-    return load_model()
+    """The paper's vehicle model (``paper.toml`` compiled afresh, so a test may change it) at
+    its default physics settings."""
+    return build_model(load_vehicle("paper"))
 
 
 @pytest.fixture(scope="session")
@@ -57,7 +61,7 @@ def unsorted_vehicle(tmp_path_factory) -> SimpleNamespace:
     Returns ``path`` and ``tensor_B``, the tensor the file states (3, 3) [kg m^2], written out
     here from the numbers put in the file (the tests' oracle, not the schema's parse).
     """
-    from rcsim.spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.spacecraft.vehicle import resolve_vehicle
 
     moments, products = (2457.06, 3583.09, 3160.22), (-60.0, 45.0, 30.0)
     text = resolve_vehicle("canted16").read_text()
@@ -269,3 +273,24 @@ def screen_tables(chromium, tmp_path):
         return [(cap, int(sw), int(cw)) for cap, sw, cw in rows]
 
     return run
+
+
+C_EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "c_fsw"
+
+
+@pytest.fixture(scope="session")
+def c_build():
+    """``build(source, out) -> out``: a C flight-software source built as a user builds it
+    (``sh examples/c_fsw/build.sh SOURCE OUT`` with this interpreter's rcsim); the test is
+    skipped, saying why, on a machine without a C compiler."""
+    if shutil.which(os.environ.get("CC", "cc")) is None:
+        pytest.skip("no C compiler (cc) to build the C flight-software examples")
+
+    def build(source: Path, out: Path) -> Path:
+        subprocess.run(
+            ["sh", str(C_EXAMPLES / "build.sh"), str(source), str(out)],
+            check=True, capture_output=True, env={**os.environ, "PYTHON": sys.executable},
+        )  # fmt: skip
+        return out
+
+    return build

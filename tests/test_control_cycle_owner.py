@@ -50,7 +50,7 @@ def _cycle_defaults(tree: ast.AST) -> list[str]:
 #: Literals equal to 0.04 that are not the control cycle: (module, the name they define).
 NOT_A_CYCLE = {
     # 0.04 deg/s, the paper's failure threshold
-    ("spacecraft/vehicle_file/definition.py", "PAPER_RATE_ERROR_DEG_S"),
+    ("spacecraft/vehicle/definition.py", "PAPER_RATE_ERROR_DEG_S"),
     ("lookup/response_database.py", "ON_TIMES_S"),  # a 40 ms pulse among those fired
     # 0.04 deg/s, the synthetic campaigns' failure threshold
     ("analysis/results/drivers/synthetic.py", "SYNTHETIC_THRESHOLD_DEG_S"),

@@ -127,7 +127,7 @@ def test_packaged_data_the_code_loads_is_present():
     from importlib.resources import files
 
     for package, name in [
-        ("rcsim.models", "vehicle/vehicle.xml"),
+        ("rcsim.models", "vehicle/paper.toml"),
         ("rcsim.models", "data/table1_mass_properties.csv"),
         ("rcsim.lookup", "data/generated_table.csv"),
     ]:

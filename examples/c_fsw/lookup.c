@@ -50,6 +50,7 @@ typedef struct {
     double remaining_s[MAX_JETS];
     double hold_s[N_AXES];
     uint8_t maneuvering, has_before;
+    uint64_t rows; /* bit r: a firing started with table row r (rcsim_fsw_rows_fired) */
 } run_state;
 
 static double value(const rcsim_fsw_config *c, const char *name) {
@@ -127,6 +128,17 @@ static int load_table(const char *path, int n_jets) {
 
 int32_t rcsim_fsw_abi_version(void) { return RCSIM_FSW_ABI_VERSION; }
 
+/* The text parameter that takes the table: rcsim refines that table with this code flying. */
+const char *rcsim_fsw_table_param(void) { return "table"; }
+
+int32_t rcsim_fsw_rows_fired(const rcsim_fsw_config *c, int64_t n_runs, const void *states,
+                             uint64_t *rows) {
+    (void)c;
+    const run_state *S = (const run_state *)states;
+    for (int64_t i = 0; i < n_runs; i++) rows[i] = S[i].rows;
+    return 0;
+}
+
 int64_t rcsim_fsw_state_bytes(const rcsim_fsw_config *c) {
     if (c->abi_version != RCSIM_FSW_ABI_VERSION) return -1;
     const char *path = text(c, "table");
@@ -203,6 +215,7 @@ int32_t rcsim_fsw_step(const rcsim_fsw_config *c, int64_t n_runs, double t_s,
             if (fire[j] && a >= 0) axis_new[a] = 1;
             newt[j] = nt;
         }
+        if (axis_new[0] || axis_new[1] || axis_new[2]) s->rows |= (uint64_t)1 << cs;
         /* Re-plan the axes with a new firing; step 6: delivery and hold timers. */
         double *on = on_all + i * n_jets;
         int fired[N_AXES] = {0, 0, 0}, left[N_AXES] = {0, 0, 0};

@@ -8,7 +8,7 @@ runs (no Python loop over runs):
 1. the rate change the logic acts on, ``need = -(omega - target)``, with the lookup
    controller's maneuver rule: in a maneuver the target is the commanded rate plus the
    maneuver rate toward the commanded attitude (the vehicle's profile,
-   :class:`rcsim.spacecraft.vehicle_file.ControlProfile`).  A maneuver starts when the total
+   :class:`rcsim.spacecraft.vehicle.ControlProfile`).  A maneuver starts when the total
    attitude error exceeds ``maneuver_limit_deg`` and ends when it falls below the limit minus
    ``maneuver_hysteresis_deg`` (0 for the paper: enter and leave at the limit);
 2. dead band: no new plan while ``max |need| < deadband`` (the profile's
@@ -58,10 +58,11 @@ import numpy as np
 from rcsim.lookup.allocator import Allocator, allocation_prices
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.propellant import full_inertia
-from rcsim.spacecraft.vehicle import BODY, G0_M_S2, VehicleParams, torque_per_jet_B
+from rcsim.spacecraft.vehicle.model import BODY
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2, RunParameters, torque_per_jet_B
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 #: Cycles to wait before re-planning when no rounding of a plan helps.
 GIVE_UP_CYCLES = 5
@@ -76,10 +77,11 @@ def _fires(k, pulses, length):
 
 def jet_model(model: mujoco.MjModel, isp_s: float):
     """The nominal jet model of a vehicle of ``n`` jets (the model's,
-    :func:`rcsim.spacecraft.vehicle.jet_count`) whose jets have specific impulse ``isp_s`` [s]:
+    :func:`rcsim.spacecraft.vehicle.model.jet_count`) whose jets have specific impulse
+    ``isp_s`` [s]:
     ``D`` (3, n) [rad/s per s], ``G`` (3, n) [m/s per s], ``mdot`` (n,) [kg/s], mass [kg]; from
     the compiled model (full inertia, with its principal frame ``body_iquat``)."""
-    params = VehicleParams.nominal(1, model, isp_s=isp_s)
+    params = RunParameters.nominal(1, model, isp_s=isp_s)
     torque = torque_per_jet_B(params, model)[0]  # (n, 3) about the CG [N m]
     inertia = full_inertia(params.inertia_B, model.body_iquat[model.body(BODY).id])[0]
     D = np.linalg.solve(inertia, torque.T)

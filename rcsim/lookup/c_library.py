@@ -32,7 +32,7 @@ from rcsim.models.errors import InputError
 
 if TYPE_CHECKING:
     from rcsim.spacecraft.navigation import NavState
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 #: The ABI version rcsim speaks (``RCSIM_FSW_ABI_VERSION`` in the header).
 ABI_VERSION = 1
@@ -200,6 +200,7 @@ class CLibraryController:
         if code != 0:
             raise InputError(f"controller {self.name!r}: rcsim_fsw_init returned {code}")
         self._cycle = 0
+        self._last_states = states  # what rows_fired reads after the flight
         return states
 
     def step(self, nav: NavState, state: Any) -> tuple[np.ndarray, Any]:
@@ -228,7 +229,31 @@ class CLibraryController:
                 f"({bad.size} of {n} runs non-zero)"
             )
         self._cycle += 1
+        self._last_states = states
         return on, states
+
+    def record_rows(self) -> CLibraryController:
+        """Nothing to switch on: a library that records the table rows its runs fire keeps
+        them in the runs' states (:attr:`rows_fired`)."""
+        return self
+
+    @property
+    def rows_fired(self) -> np.ndarray | None:
+        """``(n_runs,)`` int64 bitmask of the table rows each run of the last flight fired
+        (the optional ``rcsim_fsw_rows_fired``), or None if the library does not say."""
+        func = getattr(self.lib, "rcsim_fsw_rows_fired", None)
+        states = getattr(self, "_last_states", None)
+        if func is None or states is None:
+            return None
+        func.restype = ctypes.c_int32
+        func.argtypes = [ctypes.POINTER(_Config), ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p]
+        rows = np.zeros(states.shape[0], dtype=np.uint64)
+        code = int(
+            func(ctypes.byref(self.config), states.shape[0], states.ctypes.data, rows.ctypes.data)
+        )
+        if code != 0:
+            raise InputError(f"controller {self.name!r}: rcsim_fsw_rows_fired returned {code}")
+        return rows.astype(np.int64)
 
 
 def read_beacon(path: str | os.PathLike) -> tuple[int, float] | None:

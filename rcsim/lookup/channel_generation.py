@@ -41,7 +41,6 @@ Imports ``models``, ``spacecraft`` and ``lookup`` only.
 from __future__ import annotations
 
 import itertools
-import os
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -71,10 +70,10 @@ from rcsim.models.tables import (
 )
 from rcsim.spacecraft.navigation import Guidance, NavState
 from rcsim.spacecraft.simulation import History, simulate_batch
-from rcsim.spacecraft.vehicle import AXES, jet_geometry_B
+from rcsim.spacecraft.vehicle.model import AXES, jet_geometry_B
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 #: "A whole number of cycles" when bracketing delivered channel time [cycles].
 _CYCLE_EPS = 1e-9
@@ -278,7 +277,7 @@ def _open_loop(
 
 
 def generate_channel_table(
-    vehicle: Vehicle | str | os.PathLike,
+    vehicle: Vehicle,
     *,
     jets_off=(),
     rate_cases: RateCases | None = None,
@@ -293,9 +292,9 @@ def generate_channel_table(
 
     Parameters
     ----------
-    vehicle : Vehicle, str or path
-        The vehicle (``"canted16"``, a file: resolved once); its profile's cycle, rate-case
-        magnitude and rate deadband (the settling tolerance) as for a jet table.
+    vehicle : Vehicle
+        The vehicle (resolved at the public edge: :meth:`Vehicle.load`); its profile's cycle,
+        rate-case magnitude and rate deadband (the settling tolerance) as for a jet table.
     jets_off : sequence of int
         Jets (1-based) the recipes may not use.
     rate_cases : RateCases, optional
@@ -314,9 +313,6 @@ def generate_channel_table(
         ``table`` has six channel columns and the recipe; ``command.cycles`` (26, 3) are the
         channel cycles per axis.
     """
-    from rcsim.spacecraft.vehicle_file import Vehicle
-
-    vehicle = Vehicle.load(vehicle)
     control = vehicle.control
     settle_tol_rad_s = control.rate_deadband_rad_s
     if recipe is None:

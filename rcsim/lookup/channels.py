@@ -40,7 +40,6 @@ Imports ``models``, ``spacecraft`` and the allocator only.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -52,7 +51,7 @@ from rcsim.models.tables import AXES, CHANNEL_MAP, CHANNELS, ChannelRecipe
 from rcsim.spacecraft.control_profile import MIN_PULSE_POLICIES
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 #: Size of the command the recipe LP is solved for [rad/s]: any positive value gives the same
 #: fractions (the LP is homogeneous); 0.01 rad/s keeps HiGHS' scaled rows near 1.
@@ -86,13 +85,13 @@ def check_channel_jets_off(recipe_jets: int, jets_off) -> tuple:
     return jet_numbers(jets_off, recipe_jets)
 
 
-def solve_recipe(vehicle: Vehicle | str | os.PathLike, *, jets_off=()) -> ChannelRecipe:
+def solve_recipe(vehicle: Vehicle, *, jets_off=()) -> ChannelRecipe:
     """The six channel recipes of a vehicle, without the jets ``jets_off`` (1-based).
 
     Parameters
     ----------
     vehicle : Vehicle, str or path
-        The vehicle (a packaged name or a vehicle file: resolved once).
+        The vehicle (resolved at the public edge: :meth:`Vehicle.load`).
     jets_off : sequence of int
         Jets the recipes may not use.
 
@@ -103,9 +102,7 @@ def solve_recipe(vehicle: Vehicle | str | os.PathLike, *, jets_off=()) -> Channe
         can control it).
     """
     from rcsim.lookup.allocator_controller import allocator_controller
-    from rcsim.spacecraft.vehicle_file import Vehicle
 
-    vehicle = Vehicle.load(vehicle)  # a name or a file: resolved here, at the public edge
     d = vehicle.definition
     jets_off = check_channel_jets_off(d.n_jets, jets_off)
     # A recipe is a direction (shares of the longest jet, scaled each cycle): the LP relaxation,

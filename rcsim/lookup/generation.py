@@ -9,14 +9,12 @@ the jets, :func:`rcsim.lookup.channel_generation.generate_channel_table`).
 
 from __future__ import annotations
 
-import os
-
 from rcsim.lookup.channel_generation import generate_channel_table
 from rcsim.lookup.row_tuning import DEFAULT_TARGET_FRACTION, check_target_fraction
 from rcsim.lookup.table_generation import GeneratedTable, generate_jet_table
 from rcsim.models.tables import load_jet_map
-from rcsim.spacecraft.vehicle_file import Vehicle
-from rcsim.spacecraft.vehicle_file.authority import jet_map_mismatch
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.authority import jet_map_mismatch
 
 
 def is_coupled(vehicle: Vehicle) -> bool:
@@ -26,15 +24,15 @@ def is_coupled(vehicle: Vehicle) -> bool:
 
 
 def generate_table(
-    vehicle: Vehicle | str | os.PathLike | None = None,
+    vehicle: Vehicle,
     *,
     jets_off=(),
     target_fraction: float = DEFAULT_TARGET_FRACTION,
 ) -> GeneratedTable:
-    """Generate, tune, verify and damping-check the lookup table of ``vehicle`` (a
-    :class:`~rcsim.spacecraft.vehicle_file.Vehicle`, a packaged name, a vehicle file; None:
-    the paper's), without the jets ``jets_off`` (1-based): a jet table or a channel table
-    (module docstring), at the vehicle profile's rate-case magnitude and cycle.
+    """Generate, tune, verify and damping-check the lookup table of ``vehicle`` (resolved at the
+    public edge: :func:`rcsim.analysis.engine.table_files.generate_table`), without the jets
+    ``jets_off`` (1-based): a jet table or a channel table (module docstring), at the vehicle
+    profile's rate-case magnitude and cycle.
 
     Every row is tuned in closed loop until the nominal vehicle's case ends within
     ``target_fraction`` (in (0, 1]) of the campaigns' 0.04 deg/s failure threshold, or the case
@@ -44,11 +42,10 @@ def generate_table(
     Raises
     ------
     InputError
-        An invalid vehicle file, a bad jet set, rate cases the jets cannot reach (the
-        profile's ``rate_case_deg_s`` named), or a target fraction outside (0, 1].
+        A bad jet set, rate cases the jets cannot reach (the profile's ``rate_case_deg_s`` named),
+        or a target fraction outside (0, 1].
     """
     target_fraction = check_target_fraction(target_fraction)
-    vehicle = Vehicle.load(vehicle)
     if is_coupled(vehicle):
         return generate_channel_table(vehicle, jets_off=jets_off, target_fraction=target_fraction)
     return generate_jet_table(vehicle, jets_off=jets_off, target_fraction=target_fraction)

@@ -35,10 +35,10 @@ from rcsim.models.tables import (
     load_recipe,
     recipe_path,
 )
-from rcsim.spacecraft.vehicle import AXES, N_JETS
+from rcsim.spacecraft.vehicle.model import AXES, N_JETS
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 
 def companion_path(table: str | os.PathLike) -> Path:

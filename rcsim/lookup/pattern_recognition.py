@@ -337,7 +337,7 @@ class LookupController:
             table generated without some jets is checked against the jets left, as its
             companion file records (:mod:`rcsim.lookup.jet_sets`).
         control : ControlProfile
-            The flown vehicle's profile (:attr:`rcsim.spacecraft.vehicle_file.Vehicle.control`).
+            The flown vehicle's profile (:attr:`rcsim.spacecraft.vehicle.Vehicle.control`).
         **overrides
             :class:`LookupParams` fields, e.g. ``no_fire_band_rad=0.0``.
 

@@ -30,10 +30,10 @@ import numpy as np
 
 from rcsim.spacecraft.navigation import NavState
 from rcsim.spacecraft.propellant import inertia_tensor_B
-from rcsim.spacecraft.vehicle import torque_per_jet_B
+from rcsim.spacecraft.vehicle.run_parameters import torque_per_jet_B
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 
 @dataclass(frozen=True)
@@ -45,7 +45,7 @@ class PhasePlaneParams:
     ----------
     jet_map : ndarray of int, (n_jets, 3)
         Sign of each jet's torque about roll, pitch, yaw (0: not used): the vehicle's own
-        Table 2, from its geometry (:attr:`rcsim.spacecraft.vehicle_file.Vehicle.axis_signs`).
+        Table 2, from its geometry (:attr:`rcsim.spacecraft.vehicle.Vehicle.axis_signs`).
     accel_rad_s2 : ndarray, (3,)
         Angular acceleration of one firing group per axis [rad/s^2] (nominal vehicle).
     att_deadband_rad : float

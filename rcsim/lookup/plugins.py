@@ -1,7 +1,7 @@
 """Flight software of a user's own, flown by rcsim: controller plug-ins in Python.
 
 A plug-in is a *factory*, ``factory(vehicle, params) -> Controller``: it receives the
-:class:`~rcsim.spacecraft.vehicle_file.Vehicle` flown (with its flight-software profile,
+:class:`~rcsim.spacecraft.vehicle.Vehicle` flown (with its flight-software profile,
 ``vehicle.control``) and a dict of parameters (a campaign spec's ``[controller.params]``, or
 ``--param KEY=VALUE`` on the command line), and returns an object with the
 :class:`~rcsim.spacecraft.controller.Controller` protocol (``cycle_s``, ``initial_state(n)``,
@@ -46,7 +46,7 @@ from rcsim.models.errors import InputError
 if TYPE_CHECKING:
     from rcsim.spacecraft.controller import Controller
     from rcsim.spacecraft.navigation import NavState
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 #: How a controller name says "the factory at this import path".
 PLUGIN_PREFIX = "plugin:"

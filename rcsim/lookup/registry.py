@@ -18,7 +18,7 @@ import numpy as np
 from rcsim.spacecraft.simulation import Controller
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 #: The paper's two controllers: what the scenario comparison flies (module docstring).
 CONTROLLERS = ("phase-plane", "lookup")
@@ -53,7 +53,7 @@ def vehicle_problem(
     command line, ``controller.table =`` in a campaign spec).
     """
     from rcsim.models.tables import N_JETS, PAPER_LOOKUP_TABLES, is_channel_table, load_jet_map
-    from rcsim.spacecraft.vehicle_file.authority import jet_map_mismatch
+    from rcsim.spacecraft.vehicle.authority import jet_map_mismatch
 
     if name == "allocator":
         return None
@@ -106,7 +106,7 @@ def vehicle_problem(
 
 def _coupled(vehicle: Vehicle) -> str | None:
     """Why the vehicle's jets are not one axis each, both ways on every axis, or None."""
-    from rcsim.spacecraft.vehicle import AXES
+    from rcsim.spacecraft.vehicle.model import AXES
 
     signs = vehicle.axis_signs
     for j, row in enumerate(signs):
@@ -141,7 +141,7 @@ def make_controller(
         ``"phase-plane"``, ``"lookup"``, ``"adaptive"``, ``"allocator"``, or a plug-in:
         ``"plugin:package.module:factory"`` or a name an installed package registers
         (:mod:`rcsim.lookup.plugins`).
-    vehicle : rcsim.spacecraft.vehicle_file.Vehicle
+    vehicle : rcsim.spacecraft.vehicle.Vehicle
         The vehicle flown: its profile (cycle, maneuver rate and limit, deadbands) tunes every
         controller; the phase plane's design uses its nominal mass properties and jet
         geometry, the allocator its jet model, Isp and minimum on-time; a channel table must

@@ -30,8 +30,6 @@ flights are one batched simulation.
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 import pandas as pd
 
@@ -41,8 +39,8 @@ from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
 from rcsim.spacecraft.flight_model import jet_wrench_B
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
-from rcsim.spacecraft.vehicle import AXES
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.model import AXES
 
 #: On-times fired [s]: from a 10 ms pulse to eight control cycles.
 ON_TIMES_S = (0.01, 0.02, 0.04, 0.08, 0.16, 0.32)
@@ -59,7 +57,7 @@ def flown_on_times(on_times_s, min_on_s: float) -> tuple[np.ndarray, np.ndarray]
 
 
 def response_database(
-    vehicle: Vehicle | str | os.PathLike,
+    vehicle: Vehicle,
     *,
     n_vehicles: int = 64,
     seed: int = 1,
@@ -85,7 +83,6 @@ def response_database(
     on_times = np.asarray(on_times_s, float)
     if not (np.isfinite(on_times).all() and (on_times > 0).all() and (on_times <= 1).all()):
         raise InputError(f"must be in (0, 1] s, got {on_times.tolist()}", parameter="on_times_s")
-    vehicle = Vehicle.load(vehicle)  # a name or a file: resolved here, at the public edge
     d = vehicle.definition
     on_times, dropped = flown_on_times(on_times, d.min_on_s)
     if not on_times.size:

@@ -50,11 +50,11 @@ from rcsim.models.tables import LookupTable
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import History, simulate_batch
 from rcsim.spacecraft.valves import JetFaults, ValveTiming
-from rcsim.spacecraft.vehicle import AXES
-from rcsim.spacecraft.vehicle_file.definition import PAPER_RATE_ERROR_DEG_S
+from rcsim.spacecraft.vehicle.definition import PAPER_RATE_ERROR_DEG_S
+from rcsim.spacecraft.vehicle.model import AXES
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 #: The campaigns' default failure threshold on the final rate error of any axis [deg/s]
 #: (Gambone sec. III), for a vehicle whose file gives no ``[failure]`` of its own

@@ -33,10 +33,10 @@ from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
 from rcsim.spacecraft.valves import JetFaults, ValveTiming
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 
 def nearest_rows(
@@ -47,7 +47,7 @@ def nearest_rows(
     jet_map: np.ndarray,
     row_times: Callable[[np.ndarray, np.ndarray], np.ndarray],
     *,
-    params: VehicleParams,
+    params: RunParameters,
     vehicle: Vehicle,
     timing: ValveTiming,
     faults: JetFaults | None,
@@ -68,7 +68,7 @@ def nearest_rows(
     row_times : callable
         ``(cycles (m, 3), direction (m, 3)) -> (m, 16)`` per-jet firing times [s] of rows
         (:func:`rcsim.lookup.table_generation.firing_times` on ``jet_map``).
-    params : VehicleParams
+    params : RunParameters
         The ``n`` vehicles, of ``vehicle``.
     timing : ValveTiming
         The ``n`` runs' delays; ``faults``: their jet faults (None: none).

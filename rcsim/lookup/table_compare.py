@@ -10,7 +10,7 @@ import pandas as pd
 
 from rcsim.lookup.pattern_recognition import learn_jets
 from rcsim.models.tables import LookupTable
-from rcsim.spacecraft.vehicle import AXES
+from rcsim.spacecraft.vehicle.model import AXES
 
 
 def axis_times(table: LookupTable) -> tuple[np.ndarray, np.ndarray]:

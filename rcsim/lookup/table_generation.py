@@ -34,7 +34,7 @@ Any other layout gets a channel table (:mod:`rcsim.lookup.channel_generation`);
 :func:`rcsim.lookup.generation.generate_table` picks the one that fits.  The comparison with the
 paper's tables is in :mod:`rcsim.lookup.table_compare`.
 
-Failed jets: ``generate_table(jets_off=(13, 15))`` flies the vehicle with those jets
+Failed jets: ``generate_table(vehicle, jets_off=(13, 15))`` flies the vehicle with those jets
 failed off (:class:`rcsim.spacecraft.valves.JetFaults`) and fires only the jets left: a pair with
 one jet gone fires its remaining jet alone (twice as long, with a translation side effect); an axis
 direction with no jet left cannot be commanded, and its cases fire nothing on that axis
@@ -80,10 +80,11 @@ from rcsim.models.tables import (
 from rcsim.spacecraft.navigation import Guidance, NavState
 from rcsim.spacecraft.simulation import History, simulate_batch
 from rcsim.spacecraft.valves import JetFaults, ValveTiming
-from rcsim.spacecraft.vehicle import AXES, N_JETS, VehicleParams, jet_geometry_B
+from rcsim.spacecraft.vehicle.model import AXES, N_JETS, jet_geometry_B
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 
 # ------------------------------------------------------------------------------------------
@@ -253,7 +254,7 @@ def sweep(
     jet_map: np.ndarray,
     *,
     vehicle: Vehicle,
-    params: VehicleParams,
+    params: RunParameters,
     max_fire_s: float,
     faults: JetFaults | None = None,
     timing: ValveTiming | None = None,
@@ -269,7 +270,7 @@ def sweep(
     jet_map : ndarray of int, (16, 3)
     vehicle : Vehicle
         The vehicle flown (model, cycle, valve limits).
-    params : VehicleParams
+    params : RunParameters
         ``n`` vehicles (its nominal one repeated, for a table).
     max_fire_s : float
         Longest firing tried [s]; an axis that has not reached its command by then raises,
@@ -424,7 +425,7 @@ def generate_jet_table(
         Table 2's roles (:func:`rcsim.lookup.generation.generate_table` gives it a channel
         table); a rate case the jets cannot reach.
     """
-    from rcsim.spacecraft.vehicle_file.authority import jet_map_mismatch
+    from rcsim.spacecraft.vehicle.authority import jet_map_mismatch
 
     differs = jet_map_mismatch(vehicle.definition, load_jet_map())
     if differs:

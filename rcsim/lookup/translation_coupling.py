@@ -22,7 +22,7 @@ from rcsim.lookup.allocator_controller import allocator_controller, jet_model
 from rcsim.spacecraft.control_profile import ALLOCATION_MODES
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 #: The pure rate change the figures are computed for [deg/s].
 COMMAND_DEG_S = 1.0

@@ -3,7 +3,7 @@ unknown keys refused).
 
 Every mistake is an :class:`~rcsim.models.errors.InputError` naming the file, the key path and the
 value.  Campaign specs (:mod:`rcsim.analysis.engine.campaign.spec`) and vehicle files
-(:mod:`rcsim.spacecraft.vehicle_file`) read their keys with it, so both follow one error rule.
+(:mod:`rcsim.spacecraft.vehicle`) read their keys with it, so both follow one error rule.
 """
 
 from __future__ import annotations

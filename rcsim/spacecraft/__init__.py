@@ -2,7 +2,7 @@
 
 Owns everything between a controller's jet on-time commands and the navigation state it reads
 back: building per-run MuJoCo models (:mod:`rcsim.spacecraft.vehicle`), a user's vehicle file and
-its model (:mod:`rcsim.spacecraft.vehicle_file`), valve limits and propellant bookkeeping
+its model (:mod:`rcsim.spacecraft.vehicle`), valve limits and propellant bookkeeping
 (:mod:`rcsim.spacecraft.propulsion`), propellant that runs out (:mod:`rcsim.spacecraft.propellant`),
 valve timing and jet faults (:mod:`rcsim.spacecraft.valves`), each control cycle cut exactly at the
 jets' switch instants (:mod:`rcsim.spacecraft.pieces`), sensors (:mod:`rcsim.spacecraft.sensors`),

@@ -29,7 +29,8 @@ from rcsim.spacecraft.propellant import (
     mass_properties,
     principal,
 )
-from rcsim.spacecraft.vehicle import BODY, G0_M_S2, IDENTITY_QUAT, VehicleParams
+from rcsim.spacecraft.vehicle.model import BODY, IDENTITY_QUAT
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2, RunParameters
 
 _CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
 
@@ -41,7 +42,7 @@ class BatchPhysics:
     ----------
     model : mujoco.MjModel
         The vehicle's compiled model.
-    params : VehicleParams
+    params : RunParameters
         One entry per run; runs whose ``invalid`` reason is not empty get the nominal values.
     invalid : list of str
         Per run, why its parameters cannot be flown ('' when they can).
@@ -59,7 +60,7 @@ class BatchPhysics:
     def __init__(
         self,
         model: mujoco.MjModel,
-        params: VehicleParams,
+        params: RunParameters,
         invalid: list[str],
         *,
         nthread: int,
@@ -85,7 +86,7 @@ class BatchPhysics:
         # Live (n_runs, mjNWARNING, 2) view of each simulation's MjData.warning (lastinfo, number).
         self._warning = self.batch.warning
         self.tank: PropellantTank | None = None
-        self._start_params: VehicleParams | None = None
+        self._start_params: RunParameters | None = None
 
     @property
     def n_runs(self) -> int:
@@ -96,7 +97,7 @@ class BatchPhysics:
         b, m, p = self.batch, self.model, self.params
         body = self._flight.body(BODY).id
         ok = np.array([not r for r in self.invalid])
-        nominal = VehicleParams.nominal(1, m, isp_s=p.isp_s)
+        nominal = RunParameters.nominal(1, m, isp_s=p.isp_s)
 
         def pick(value: np.ndarray, nom: np.ndarray) -> np.ndarray:
             return np.where(ok.reshape((-1,) + (1,) * (value.ndim - 1)), value, nom)
@@ -117,7 +118,7 @@ class BatchPhysics:
         # changes are silently ignored.
         b.set_const()
 
-    def flown_params(self) -> VehicleParams:
+    def flown_params(self) -> RunParameters:
         """The parameters each run is flown with, read back from MuJoCo's per-run model.
 
         Mass, CG and inertia are read from the batch's per-simulation fields after
@@ -133,7 +134,7 @@ class BatchPhysics:
         ``MjModel._setconst_inputs``; its outputs are derived constants such as
         ``body_subtreemass``), so neither is re-oriented or re-diagonalized after the write:
         the moments read back are about the principal axes the run was given, as
-        :class:`VehicleParams` defines them (the body axes B for the packaged vehicle, whose
+        :class:`RunParameters` defines them (the body axes B for the packaged vehicle, whose
         ``body_iquat`` is the identity).  ``iquat`` is each run's frame whenever it is not the
         identity (the model's own for parameters without one), so the tensor in B
         (:func:`rcsim.spacecraft.propellant.inertia_tensor_B`) can always be rebuilt from the
@@ -141,7 +142,7 @@ class BatchPhysics:
 
         Returns
         -------
-        VehicleParams
+        RunParameters
             ``n_runs`` entries.
         """
         b = self.batch
@@ -160,10 +161,10 @@ class BatchPhysics:
         if self.params.iquat is not None:
             iquat = field_of("body_iquat")[:, body]
         elif np.array_equal(self._flight.body_iquat[body], IDENTITY_QUAT):
-            iquat = None  # principal axes along B, as VehicleParams.nominal says it
+            iquat = None  # principal axes along B, as RunParameters.nominal says it
         else:  # the model's own frame, every run (what iquat None flies)
             iquat = np.repeat(self._flight.body_iquat[body][None], self.n_runs, axis=0)
-        return VehicleParams(
+        return RunParameters(
             mass_kg=field_of("body_mass")[:, body],
             cg_B=field_of("body_ipos")[:, body],
             inertia_B=field_of("body_inertia")[:, body],

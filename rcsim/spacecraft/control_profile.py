@@ -258,7 +258,7 @@ def read_control(
     bounds : bool
         Check the bounds between keys (:func:`bound_problems`); False for a caller that
         checks them itself once every override is applied (a vehicle file, which knows its
-        physics step: :func:`rcsim.spacecraft.vehicle_file.sections.check_profile`).
+        physics step: :func:`rcsim.spacecraft.vehicle.file_sections.check_profile`).
 
     Raises
     ------
@@ -541,7 +541,7 @@ def rate_problems(profile: ControlProfile, timestep_s: float) -> list[tuple[str,
     (field, problem) pairs: the maneuver rate and the rate cases' total rate at most
     :func:`validated_rate_rad_s` (faster, the flight's accuracy is not established; the
     maneuver rate at the braking the jets give is a warning,
-    :mod:`rcsim.spacecraft.vehicle_file.sanity`; rate cases the jets cannot reach are refused
+    :mod:`rcsim.spacecraft.vehicle.sanity`; rate cases the jets cannot reach are refused
     by table generation)."""
     most = validated_rate_rad_s(timestep_s)
     out = []

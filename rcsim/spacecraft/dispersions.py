@@ -88,7 +88,7 @@ import pandas as pd
 
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.propellant import inertia_tensor_B, principal
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 #: Dispersions this module models: Table 5's names in the order they are drawn, then the ones
 #: beyond Table 5 (CG y and z, products of inertia; drawn from the mass-extras stream).
@@ -245,7 +245,7 @@ class DispersedRuns:
     Attributes
     ----------
     run_ids : ndarray of int, (n,)
-    params : VehicleParams
+    params : RunParameters
         One entry per run.
     tilt_rad : ndarray, (n, n_jets)
         Signed tilt ``theta`` of each jet; the misalignment angle is ``|theta|`` [rad].
@@ -254,7 +254,7 @@ class DispersedRuns:
     """
 
     run_ids: np.ndarray
-    params: VehicleParams
+    params: RunParameters
     tilt_rad: np.ndarray
     azimuth_rad: np.ndarray
 
@@ -446,17 +446,17 @@ def pointing(
 
 
 def apply_draws(
-    nominal: VehicleParams,
+    nominal: RunParameters,
     sigmas: DispersionSigmas,
     z: np.ndarray,
     u: np.ndarray,
     x: np.ndarray | None = None,
-) -> tuple[VehicleParams, np.ndarray, np.ndarray]:
+) -> tuple[RunParameters, np.ndarray, np.ndarray]:
     """Dispersed vehicles from standard variates.
 
     Parameters
     ----------
-    nominal : VehicleParams
+    nominal : RunParameters
         The nominal vehicle (one run; broadcast to all) of ``n_jets`` jets.
     sigmas : DispersionSigmas
     z : ndarray, (n, n_normals(n_jets))
@@ -469,7 +469,7 @@ def apply_draws(
 
     Returns
     -------
-    params : VehicleParams, n runs
+    params : RunParameters, n runs
     tilt_rad, azimuth_rad : ndarray, (n, n_jets)
     """
     n, jets = z.shape[0], nominal.n_jets
@@ -510,7 +510,7 @@ def apply_draws(
                 tensor[:, a, b] += sigma * x[:, k]
                 tensor[:, b, a] = tensor[:, a, b]
         inertia, iquat = principal(tensor)
-    params = VehicleParams(
+    params = RunParameters(
         mass_kg=mass,
         cg_B=cg,
         inertia_B=inertia,
@@ -527,7 +527,7 @@ DRAW_BLOCK_RUNS = 4096
 
 
 def draw_runs(
-    nominal: VehicleParams, sigmas: DispersionSigmas, seed: int, run_ids
+    nominal: RunParameters, sigmas: DispersionSigmas, seed: int, run_ids
 ) -> DispersedRuns:
     """Dispersed vehicles of campaign runs ``run_ids`` (any order, any subset).
 
@@ -546,7 +546,7 @@ def draw_runs(
         ]
         return DispersedRuns(
             run_ids=run_ids,
-            params=VehicleParams.concat([p.params for p in parts]),
+            params=RunParameters.concat([p.params for p in parts]),
             tilt_rad=np.concatenate([p.tilt_rad for p in parts]),
             azimuth_rad=np.concatenate([p.azimuth_rad for p in parts]),
         )

@@ -1,13 +1,13 @@
 """The model MuJoCo integrates: one free body pushed by a six-component wrench.
 
-The vehicle's MJCF (``rcsim/models/vehicle/vehicle.xml``, or a user's) describes every jet as a site
-actuator, and stays the vehicle's definition: geometry, thrust, nominal values and the
-read-back all come from it.  Stepping that model costs MuJoCo one site Jacobian per jet per
-RK4 stage, although the jets only ever add up to one force and one torque on one rigid body.
-The flight model keeps the body and its options and replaces the jets by six actuators: a
-force along each body axis at the body origin (site ``wrench``) and a torque about each body
-axis (the free joint's rotational dofs, which MuJoCo expresses in the body frame).  The jets'
-sum is taken here, per run, with a matrix (:func:`jet_wrench_B`):
+The vehicle's MJCF (built from ``rcsim/models/vehicle/paper.toml`` or a user's vehicle file)
+describes every jet as a site actuator, and stays the vehicle's definition: geometry, thrust,
+nominal values and the read-back all come from it. Stepping that model costs MuJoCo one site
+Jacobian per jet per RK4 stage, although the jets only ever add up to one force and one torque on
+one rigid body. The flight model keeps the body and its options and replaces the jets by six
+actuators: a force along each body axis at the body origin (site ``wrench``) and a torque about
+each body axis (the free joint's rotational dofs, which MuJoCo expresses in the body frame). The
+jets' sum is taken here, per run, with a matrix (:func:`jet_wrench_B`):
 
     F_B   = sum_j u_j T_j d_j            (d_j: jet j's unit force direction in B)
     tau_O = sum_j u_j T_j (p_j x d_j)    (p_j: jet j's site position, about the body origin O)
@@ -23,7 +23,8 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from rcsim.spacecraft.vehicle import BODY, VehicleParams, jet_actuator_ids
+from rcsim.spacecraft.vehicle.model import BODY, jet_actuator_ids
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 #: Actuator names of the flight model, in control order: force x, y, z [N] at the body
 #: origin, torque x, y, z [N m]; all in body axes B.
@@ -128,12 +129,12 @@ def jet_sites_B(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
     return model.site_pos[sites].copy(), rot.reshape(-1, 3, 3)
 
 
-def jet_wrench_B(params: VehicleParams, model: mujoco.MjModel) -> np.ndarray:
+def jet_wrench_B(params: RunParameters, model: mujoco.MjModel) -> np.ndarray:
     """Wrench of each jet firing alone at full thrust, per run.
 
     Parameters
     ----------
-    params : VehicleParams
+    params : RunParameters
         Thrust [N] and site-frame directions of each run's jets.
     model : mujoco.MjModel
         The vehicle (jet sites), see :func:`jet_sites_B`.

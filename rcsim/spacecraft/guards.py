@@ -23,7 +23,7 @@ import mujoco
 import numpy as np
 
 from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 
 def history_bytes_per_run_cycle(n_jets: int) -> int:
@@ -162,7 +162,7 @@ def warning_reasons(
     return reasons
 
 
-def invalid_runs(params: VehicleParams) -> list[str]:
+def invalid_runs(params: RunParameters) -> list[str]:
     """Per run, why its parameters cannot be simulated ('' when they can)."""
     reasons = [""] * params.n_runs
     checks = (

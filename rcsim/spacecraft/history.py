@@ -13,7 +13,7 @@ import numpy as np
 
 from rcsim.spacecraft.navigation import NavState
 from rcsim.spacecraft.propulsion import PropulsionState
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 #: A flight lost control when its total attitude error rose more than this above its value at
 #: the start [deg] (:meth:`History.control_lost`).  No controller of rcsim lets an error grow
@@ -53,7 +53,7 @@ class History:
         failed in; its later records are not a flight.
     reason : list of str
         Why, per run ('' when it did not fail).
-    flown_params : VehicleParams or None
+    flown_params : RunParameters or None
         The parameters each run was flown with, read back from MuJoCo's per-run model
         (:meth:`BatchSimulation.flown_params`); None for a history not made by a simulation.
     delivered_s : ndarray, (n_runs, n_cycles, n_jets), or None
@@ -92,7 +92,7 @@ class History:
     propulsion: PropulsionState
     failed: np.ndarray
     reason: list[str] = field(default_factory=list)
-    flown_params: VehicleParams | None = None
+    flown_params: RunParameters | None = None
     delivered_s: np.ndarray | None = None
     meas_att_err_B: np.ndarray | None = None
     meas_rate_err_B: np.ndarray | None = None

@@ -46,7 +46,7 @@ import mujoco
 import numpy as np
 
 from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle import G0_M_S2, VehicleParams
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2, RunParameters
 
 _DIAG = [0, 1, 2]  # index of a tensor's diagonal entries
 
@@ -151,11 +151,11 @@ def full_inertia(moments_B: np.ndarray, iquat: np.ndarray) -> np.ndarray:
     return np.einsum("ij,nj,kj->nik", rot, moments_B, rot)
 
 
-def inertia_tensor_B(params: VehicleParams) -> np.ndarray:
+def inertia_tensor_B(params: RunParameters) -> np.ndarray:
     """Each run's inertia tensor about the CG in B, (n, 3, 3) [kg m^2]: its principal moments
     ``params.inertia_B`` in its frame ``params.iquat`` (:func:`full_inertia`).
 
-    ``iquat`` None is the identity, as :meth:`VehicleParams.nominal` gives it for a model whose
+    ``iquat`` None is the identity, as :meth:`RunParameters.nominal` gives it for a model whose
     principal axes are B (the packaged vehicle, a vehicle file without products): the tensor
     is then ``diag(inertia_B)`` exactly, its diagonal the moments to the bit.  Its diagonal is
     what Ixx, Iyy, Izz mean everywhere in rcsim (dispersions, runs.parquet, authority)."""

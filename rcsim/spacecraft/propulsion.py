@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcsim.spacecraft.vehicle import G0_M_S2
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
 
 
 @dataclass(frozen=True)
@@ -31,7 +31,7 @@ class PropulsionParams:
     ----------
     cycle_s : float
         Control cycle [s]: the flown vehicle's profile's
-        (:meth:`rcsim.spacecraft.vehicle_file.Vehicle.propulsion`).
+        (:meth:`rcsim.spacecraft.vehicle.Vehicle.propulsion`).
     min_pulse_s : float
         Shortest firing a valve can make [s].  A *new* firing commanded shorter than this is
         not made (the command is dropped and counted in ``dropped``); a firing continuing from

@@ -31,11 +31,11 @@ per run from :attr:`mujoco.batch.Batch.warning`, shape ``(n_runs, mjNWARNING, 2)
 warning's name, MuJoCo's text (:func:`mujoco.mju_warningText`) and the control cycle it rose in.
 A MuJoCo error (:class:`mujoco.batch.SimulationError`) and a non-finite state (a backstop) fail a
 run the same way.  The warning messages themselves go to the ``rcsim.mujoco`` logger
-(:func:`rcsim.spacecraft.vehicle.route_mujoco_warnings`), never to a ``MUJOCO_LOG.TXT``.
+(:func:`rcsim.spacecraft.vehicle.model.route_mujoco_warnings`), never to a ``MUJOCO_LOG.TXT``.
 
 The vehicle
 -----------
-A simulation flies one :class:`~rcsim.spacecraft.vehicle_file.Vehicle`: its compiled model, its
+A simulation flies one :class:`~rcsim.spacecraft.vehicle.Vehicle`: its compiled model, its
 profile's control cycle (the one owner of the cycle: controllers are built from the same
 profile), its valve limits, its nominal valve timing and its propellant tank, unless a flight
 gives per-run timing or a per-run tank.  ``params`` are the runs' (dispersed) parameters of
@@ -107,15 +107,11 @@ from rcsim.spacecraft.valves import (
     cycle_intervals,
     end_cycle,
 )
-from rcsim.spacecraft.vehicle import (
-    G0_M_S2,
-    VehicleParams,
-    jet_count,
-    route_mujoco_warnings,
-)
+from rcsim.spacecraft.vehicle.model import jet_count, route_mujoco_warnings
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2, RunParameters
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file.vehicle import Vehicle
+    from rcsim.spacecraft.vehicle.vehicle import Vehicle
 
 _CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
 
@@ -151,12 +147,12 @@ class BatchSimulation:
 
     Parameters
     ----------
-    params : VehicleParams
+    params : RunParameters
         One entry per run, of ``vehicle``.  Runs with non-finite or non-physical values are
         flown with the nominal vehicle's values and reported failed ("invalid parameter ...").
         Its per-jet arrays must be as wide as the vehicle has jets; every per-jet array of the
         flight is that wide.
-    vehicle : rcsim.spacecraft.vehicle_file.Vehicle
+    vehicle : rcsim.spacecraft.vehicle.Vehicle
         The vehicle flown: its model (``opt.timestep``, integrator), its profile's control
         cycle, its valve limits, its nominal valve timing and its tank.  The timestep is the
         longest piece of a cycle (module docstring, "Exact in time").
@@ -202,7 +198,7 @@ class BatchSimulation:
 
     def __init__(
         self,
-        params: VehicleParams,
+        params: RunParameters,
         vehicle: Vehicle,
         *,
         nthread: int = 0,
@@ -321,7 +317,7 @@ class BatchSimulation:
     def n_runs(self) -> int:
         return self.params.n_runs
 
-    def flown_params(self) -> VehicleParams:
+    def flown_params(self) -> RunParameters:
         """The parameters each run is flown with, read back from MuJoCo's per-run model
         (:meth:`rcsim.spacecraft.batch_physics.BatchPhysics.flown_params`)."""
         return self.physics.flown_params()
@@ -726,7 +722,7 @@ class BatchSimulation:
 
 
 def simulate_batch(
-    params: VehicleParams,
+    params: RunParameters,
     controller: Controller,
     guidance: Guidance,
     duration_s: float,

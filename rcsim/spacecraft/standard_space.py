@@ -49,7 +49,7 @@ from rcsim.spacecraft.dispersions import (
     run_stream,
     standard_draws,
 )
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 _GRID = 2.0**53  # cells of Generator.random
 _HALF = 2.0**52  # cells below 1/2
@@ -266,7 +266,7 @@ def draws_from_standard(
 
 
 def vehicles_from_standard(
-    nominal: VehicleParams, sigmas: DispersionSigmas, u: np.ndarray, run_ids=None
+    nominal: RunParameters, sigmas: DispersionSigmas, u: np.ndarray, run_ids=None
 ) -> DispersedRuns:
     """The dispersed vehicles of points ``u`` (n, :func:`n_standard` with the extras when
     ``sigmas.has_mass_extras``), through the same

@@ -25,7 +25,8 @@ the valve opens and decays linearly over ``fall_s`` after it closes (the paper's
 thrust profile"); :func:`rcsim.spacecraft.pieces.profile_pieces` flies it with exact impulse.
 
 Per-jet arrays are ``(n_runs, n_jets)``, ``n_jets`` the vehicle's own count
-(:func:`rcsim.spacecraft.vehicle.jet_count`).  :meth:`ValveTiming.of` and :meth:`JetFaults.of` built
+(:func:`rcsim.spacecraft.vehicle.model.jet_count`).  :meth:`ValveTiming.of` and
+:meth:`JetFaults.of` built
 from per-run values alone give one column, "the same for every jet"; the simulation widens
 them to its vehicle (:meth:`ValveTiming.for_jets`, :meth:`JetFaults.for_jets`) and refuses
 per-jet arrays of another width.

@@ -28,7 +28,7 @@ from rcsim.spacecraft.navigation import Guidance, NavState
 from rcsim.spacecraft.sensors import SensorParams
 from rcsim.spacecraft.simulation import BatchSimulation
 from rcsim.spacecraft.valves import JetFaults
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The paper's vehicle (paper.toml).
 PAPER = Vehicle.load()

@@ -152,7 +152,7 @@ def test_batched_lp_matches_linprog_on_random_problems():
 
 def _controller(vehicle_name: str, **control):
     from rcsim.lookup.allocator_controller import allocator_controller
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     vehicle = Vehicle.load(vehicle_name, control=control or None, control_from="a test")
     return vehicle, allocator_controller(vehicle)

@@ -25,7 +25,7 @@ import pytest
 from scipy.optimize import Bounds, LinearConstraint, milp
 
 from rcsim.lookup.allocator_controller import allocator_controller, jet_model
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 VEHICLES = ["canted12", "canted16", "docs/examples/service16.toml", "docs/examples/smallsat8.toml"]
 

@@ -29,8 +29,8 @@ from rcsim.models.tables import load_rate_cases
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
 from rcsim.spacecraft.valves import JetFaults
-from rcsim.spacecraft.vehicle_file import Vehicle
-from rcsim.spacecraft.vehicle_file.authority import check_vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.authority import check_vehicle
 
 #: The paper's vehicle (paper.toml).
 PAPER = Vehicle.load()

@@ -116,7 +116,7 @@ def test_first_plan_delivered_in_flight_canted16_with_delays():
     from rcsim.lookup.registry import make_controller
     from rcsim.spacecraft.navigation import Guidance
     from rcsim.spacecraft.simulation import simulate_batch
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     vehicle = Vehicle.load("canted16")
     d = vehicle.definition

@@ -31,7 +31,7 @@ from rcsim.lookup.pattern_recognition import LookupController, LookupParams
 from rcsim.models.tables import PAPER_CYCLE_S, load_lookup_table
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The lookup logic's inputs from the paper vehicle's profile (paper.toml [control]).
 LOOKUP_PARAMS = LookupParams.from_profile(Vehicle.load().control)
@@ -82,7 +82,7 @@ def test_files_round_trip_and_jets_off(generated, tmp_path):
     assert np.array_equal(back.firing_time_s, generated.table.firing_time_s)
     assert np.array_equal(back.recipe.fractions, generated.table.recipe.fractions)
     assert back.recipe.vehicle == "canted16" and back.recipe.min_on_s == 0.010
-    off = generate_channel_table("canted16", jets_off=(3,))
+    off = generate_channel_table(Vehicle.load("canted16"), jets_off=(3,))
     assert off.table.recipe.jets_off == (3,)
     assert off.table.recipe.fractions[:, 2].max() == 0.0
     assert off.table.recipe.served.all()  # canted16 loses no direction to one jet

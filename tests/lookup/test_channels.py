@@ -29,6 +29,7 @@ import pytest
 from rcsim.lookup.channels import ChannelMap, axis_jets_of, solve_recipe
 from rcsim.models.errors import InputError
 from rcsim.models.tables import CHANNEL_MAP, load_jet_map
+from rcsim.spacecraft.vehicle import Vehicle
 
 CYCLE = 0.04
 
@@ -72,7 +73,7 @@ def _canted_pair_vehicle(path):
 
 
 def test_recipe_of_a_canted_pair_is_its_2x2_solution(tmp_path):
-    recipe = solve_recipe(_canted_pair_vehicle(tmp_path / "pair.toml"))
+    recipe = solve_recipe(Vehicle.load(_canted_pair_vehicle(tmp_path / "pair.toml")))
     frac = recipe.fractions
     n9, n10 = np.hypot(1, 0.4), np.hypot(1, 0.2)
     # Per second of firing and newton of thrust: pitch and yaw torques of jets 9 and 10.
@@ -99,7 +100,7 @@ def test_recipe_of_a_canted_pair_is_its_2x2_solution(tmp_path):
 
 
 def test_paper_vehicle_recipe_is_the_table2_pair_fully_on():
-    recipe = solve_recipe("paper")
+    recipe = solve_recipe(Vehicle.load("paper"))
     jet_map = load_jet_map()  # (16, 3) Table 2 torque signs
     for k, (axis, sign) in enumerate((a, s) for a in range(3) for s in (1, -1)):
         pair = (jet_map[:, axis] == sign).astype(float)

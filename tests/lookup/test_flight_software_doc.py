@@ -79,3 +79,18 @@ def test_the_c_example_builds_and_flies_as_written(tmp_path, monkeypatch):
     assert main(argv) == 0
     summary = json.loads((tmp_path / "switching_c" / "summary.json").read_text())
     assert summary["firings"] > 0 and summary["plugin"]["target"] == str(lib)
+
+
+def test_refining_your_table_runs_as_written(tmp_path, monkeypatch, c_build):
+    """Section 10's `rcsim lookup refine --controller library:...`, at a test's size (one case,
+    10 runs of 6 s): the library declared its table, flew every candidate, and is named."""
+    block = next(b for b in _blocks("sh") if "lookup refine" in b)
+    argv = shlex.split(block.splitlines()[0])[1:]
+    lib = c_build(ROOT / "examples" / "c_fsw" / "lookup.c", tmp_path / "liblookup.so")
+    argv[argv.index("--controller") + 1] = f"library:{lib}"
+    argv[argv.index("--out") + 1] = str(tmp_path / "r.csv")
+    argv += ["--cases", "3", "--runs", "10", "--search-runs", "10", "--duration-s", "6"]
+    monkeypatch.chdir(ROOT)
+    assert main(argv) == 0
+    log = pd.read_csv(tmp_path / "r_changelog.csv")
+    assert log["controller"].str.startswith(f"library:{lib} (").all()

@@ -32,7 +32,8 @@ import numpy as np
 from rcsim.lookup.channel_generation import generate_channel_table
 from rcsim.lookup.generation import generate_table as generate
 from rcsim.models.tables import RateCases, load_jet_map, load_rate_cases
-from rcsim.spacecraft.vehicle_file import load_vehicle, resolve_vehicle
+from rcsim.spacecraft.vehicle import Vehicle, load_vehicle, resolve_vehicle
+from rcsim.spacecraft.vehicle.mjcf import force_torque
 
 CYCLE_S = 0.04
 COMMAND_S, OPEN_S, CLOSE_S = 0.005, 0.008, 0.004
@@ -74,11 +75,11 @@ def test_jet_table_rows_are_the_nearest_with_the_delays(tmp_path):
     path = _vehicle(tmp_path, "paper", DELAYS)
     d = load_vehicle(path)
     assert d.has_delays and d.command_delay_s == COMMAND_S
-    generated = generate(path)  # what `rcsim lookup generate --vehicle` runs
+    generated = generate(Vehicle.load(path))  # what `rcsim lookup generate --vehicle` runs
     rate = np.asarray(load_rate_cases().rate_cmd, float)
     sign = np.sign(rate).astype(int)
     jet_map = load_jet_map()
-    tau = d.force_torque()[3:]  # (3, 16)
+    tau = force_torque(d)[3:]  # (3, 16)
     # |alpha| of the jets the table fires on each axis, in the commanded direction.
     pos = np.array([tau[a, jet_map[:, a] == 1].sum() for a in range(3)]) / 3000.0
     neg = -np.array([tau[a, jet_map[:, a] == -1].sum() for a in range(3)]) / 3000.0
@@ -114,8 +115,8 @@ def test_channel_table_with_shift_only_delays_is_the_undelayed_one(tmp_path):
     cases = RateCases(table3.case, table3.rate_cmd * 1.1)
     # The paper's rule's rows (tune_rounds=0): the closed-loop tuning after it flies the
     # controller, whose feedback reads the lagging rate and so tells the two apart.
-    a = generate_channel_table(plain, rate_cases=cases, tune_rounds=0)
-    b = generate_channel_table(shifted, rate_cases=cases, tune_rounds=0)
+    a = generate_channel_table(Vehicle.load(plain), rate_cases=cases, tune_rounds=0)
+    b = generate_channel_table(Vehicle.load(shifted), rate_cases=cases, tune_rounds=0)
     same = (a.table.firing_time_s == b.table.firing_time_s).all(axis=1)
     err_a, err_b = a.verify_rate_err_rad_s, b.verify_rate_err_rad_s
     np.testing.assert_allclose(err_b[same], err_a[same], rtol=0, atol=1e-12)

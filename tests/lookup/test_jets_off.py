@@ -1,4 +1,4 @@
-"""Lookup tables regenerated for a vehicle with failed jets (generate_table(jets_off=...)).
+"""Lookup tables regenerated for a vehicle with failed jets (generate_table(vehicle, jets_off=...)).
 
 Oracles
 -------
@@ -25,7 +25,7 @@ from rcsim.models.errors import InputError
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
 from rcsim.spacecraft.valves import JetFaults
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The paper's vehicle (paper.toml).
 PAPER = Vehicle.load()
@@ -36,12 +36,12 @@ J13, J15 = 12, 14  # 0-based columns of jets 13, 15
 
 @pytest.fixture(scope="module")
 def full():
-    return generate_table()
+    return generate_table(Vehicle.load())
 
 
 @pytest.fixture(scope="module")
 def without_13():
-    return generate_table(jets_off=(13,))
+    return generate_table(Vehicle.load(), jets_off=(13,))
 
 
 def test_single_jet_fires_twice_as_long_and_the_rest_is_unchanged(full, without_13):
@@ -68,7 +68,7 @@ def test_translation_side_effect_is_recorded(without_13, table1):
 
 
 def test_both_yaw_minus_jets_off_makes_yaw_minus_unreachable():
-    gen = generate_table(jets_off=(15, 13))
+    gen = generate_table(Vehicle.load(), jets_off=(15, 13))
     yaw_minus = np.asarray(gen.table.rate_cmd)[:, 2] < 0
     np.testing.assert_array_equal(gen.unreachable[:, 2], yaw_minus)
     np.testing.assert_array_equal(gen.table.firing_time_s[:, [J13, J15]], 0.0)
@@ -103,4 +103,4 @@ def test_regenerated_table_loads_by_its_companion_and_flies(without_13, tmp_path
 @pytest.mark.parametrize("bad", [(0,), (17,), (13, 13), ("x",)])
 def test_bad_jets_off_is_refused(bad):
     with pytest.raises(InputError, match="jets_off"):
-        generate_table(jets_off=bad)
+        generate_table(Vehicle.load(), jets_off=bad)

@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import rcsim.models.tables as model_tables
-import rcsim.spacecraft.vehicle as vehicle_mod
+import rcsim.spacecraft.vehicle.run_parameters as run_parameters_mod
 from rcsim.analysis.engine.scenarios import PaperScenario, fly_scenario, get_scenario
 from rcsim.lookup.pattern_recognition import (
     LookupController,
@@ -28,7 +28,7 @@ from rcsim.lookup.registry import make_controller
 from rcsim.models.errors import InputError
 from rcsim.models.tables import LookupTable, load_lookup_table
 from rcsim.spacecraft.navigation import NavState
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The paper's vehicle (paper.toml).
 PAPER = Vehicle.load()
@@ -266,7 +266,7 @@ def test_controller_needs_no_vehicle_knowledge(paper, monkeypatch):
     for mod, name in (
         (model_tables, "load_jet_map"),
         (model_tables, "load_mass_properties"),
-        (vehicle_mod, "torque_per_jet_B"),
+        (run_parameters_mod, "torque_per_jet_B"),
     ):
         monkeypatch.setattr(mod, name, forbidden)
     ctl = LookupController(table, LOOKUP_PARAMS)

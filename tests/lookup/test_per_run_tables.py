@@ -11,15 +11,14 @@ from rcsim.analysis.engine.flight import Scenario, fly_batch
 from rcsim.lookup.pattern_recognition import LookupController, LookupParams
 from rcsim.lookup.table_edits import jet_axes, shift_axes, with_times
 from rcsim.models.tables import PAPER_CYCLE_S, load_lookup_table
-from rcsim.spacecraft.vehicle import load_model
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle, build_model, load_vehicle
 
 #: The lookup logic's inputs from the paper vehicle's profile (paper.toml [control]).
 LOOKUP_PARAMS = LookupParams.from_profile(Vehicle.load().control)
 
 
 def test_batch_of_candidates_equals_each_table_alone(paper):
-    load_model()
+    build_model(load_vehicle("paper"))
     table = load_lookup_table(which="table6")
     shift = np.zeros((26, 3), int)
     shift[25, 2] = -1  # case 26, yaw one cycle shorter

@@ -28,7 +28,7 @@ from rcsim.lookup.registry import (
     make_controller,
 )
 from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "plugins"
 WRAPPED = f"plugin:{EXAMPLES / 'wrapped_lookup.py'}:make_controller"

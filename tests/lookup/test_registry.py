@@ -9,7 +9,7 @@ from rcsim.lookup.pattern_recognition import LookupController
 from rcsim.lookup.phase_plane import PhasePlaneController
 from rcsim.lookup.registry import CONTROLLERS, make_controller
 from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The paper's vehicle (paper.toml).
 PAPER = Vehicle.load()

@@ -22,7 +22,8 @@ import pytest
 
 from rcsim.analysis.engine.response_files import write_response_database
 from rcsim.lookup.response_database import RATE_COLUMNS, response_database, response_summary
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.mjcf import force_torque
 
 
 @pytest.mark.parametrize("delays", [False, True])
@@ -42,7 +43,7 @@ def test_single_jet_response_is_euler_and_newton(delays):
     flying = flying.edited(d, "no dispersions" + (", valve delays" if delays else ""))
     frame = response_database(flying, n_vehicles=2, on_times_s=(0.01, 0.04, 0.2), nthread=1)
     assert ("thrust_s" in frame) == delays
-    ft = d.force_torque()
+    ft = force_torque(d)
     inertia = np.diag(d.inertia_kg_m2)
     for _, row in frame.iterrows():
         j = row["jet_number"] - 1
@@ -87,7 +88,7 @@ def test_on_times_below_the_minimum_on_time_are_not_flown(tmp_path, capsys):
     import pyarrow.parquet as pq
 
     from rcsim.analysis.apps.cli import main
-    from rcsim.spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.spacecraft.vehicle import resolve_vehicle
 
     text = resolve_vehicle("canted16").read_text()
     assert "min_on_s = 0.010" in text

@@ -38,7 +38,7 @@ from rcsim.lookup.row_tuning import FAILURE_RATE_ERROR_DEG_S
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 ROOT = Path(__file__).resolve().parents[2]
 VEHICLES = {
@@ -132,7 +132,7 @@ def test_coarse_cycle_reason_is_the_recipes_step():
     section 4): a 40 ms cycle is 0.056 and 0.070 deg/s, more than the 0.04 deg/s band, so a
     single-axis case whose nearest whole-cycle row is farther than 0.02 deg/s is named with
     that step."""
-    gen = generate_channel_table("canted16")
+    gen = generate_channel_table(Vehicle.load("canted16"))
     nom = gen.nominal
     accel = np.abs(gen.table.recipe.accel_rad_s2)  # (6 channels, 3 axes) [rad/s^2]
     rate = np.asarray(gen.table.rate_cmd)
@@ -152,7 +152,7 @@ def test_coarse_cycle_reason_is_the_recipes_step():
 def test_unreachable_direction_is_named():
     """The paper's vehicle without jets 13 and 15 has no -yaw jet (Table 2): every case
     commanding -yaw misses by at least its yaw command and says so."""
-    gen = generate_table(jets_off=(13, 15))
+    gen = generate_table(Vehicle.load(), jets_off=(13, 15))
     nom = gen.nominal
     minus_yaw = np.asarray(gen.table.rate_cmd)[:, 2] < 0
     assert not nom.met[minus_yaw].any()
@@ -192,7 +192,7 @@ def test_tuning_finds_rows_that_meet_the_target():
 
 
 def test_paper_vehicle_keeps_its_rows():
-    gen = generate_table()
+    gen = generate_table(Vehicle.load())
     assert gen.nominal.met.all() and not gen.nominal.tuned.any()
     assert np.degrees(gen.nominal.worst_rad_s).max() <= 0.0151
 
@@ -200,7 +200,7 @@ def test_paper_vehicle_keeps_its_rows():
 @pytest.mark.parametrize("bad", [0.0, -0.5, 1.5, float("nan")])
 def test_target_fraction_outside_0_1_is_refused(bad):
     with pytest.raises(InputError, match=r"\(0, 1\]"):
-        generate_table(target_fraction=bad)
+        generate_table(Vehicle.load(), target_fraction=bad)
 
 
 def test_cli_prints_every_case_and_warns_on_misses(tmp_path, capsys):
@@ -232,7 +232,7 @@ def test_the_tuning_threshold_is_the_vehicle_files_own(tmp_path):
     from pathlib import Path
 
     from rcsim.lookup.row_tuning import vehicle_threshold_deg_s
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     source = Path(__file__).with_name("vehicles") / "lander900.toml"
     own = tmp_path / "lander900_own.toml"

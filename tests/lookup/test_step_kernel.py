@@ -20,7 +20,7 @@ from rcsim.lookup.pattern_recognition import (
 )
 from rcsim.models.tables import load_lookup_table
 from rcsim.spacecraft.navigation import NavState
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The lookup logic's inputs from the paper vehicle's profile (paper.toml [control]).
 LOOKUP_PARAMS = LookupParams.from_profile(Vehicle.load().control)

@@ -2,7 +2,7 @@
 
 Oracles: the paper's Table 2 (jet directions, restated below), Table 3's definition (every sign
 pattern, 0.3 deg/s total), Tables 6 and 7 (as packaged), and the vehicle's designed pure-axis
-times to 0.3 deg/s (rcsim/models/vehicle/vehicle.xml: 0.5194 s roll, 0.4794 s pitch, 0.3995 s yaw,
+times to 0.3 deg/s (rcsim/models/vehicle/paper.toml: 0.5194 s roll, 0.4794 s pitch, 0.3995 s yaw,
 arithmetic in rcsim/models/vehicle/README.md) -- a rigid body under constant torque gains rate
 linearly, so reaching |w| on an axis takes ``T_axis * |w| / 0.3 deg/s``.
 """
@@ -19,6 +19,7 @@ from rcsim.analysis.apps.cli import main
 from rcsim.lookup.generation import generate_table
 from rcsim.lookup.table_compare import compare_tables
 from rcsim.models.tables import PAPER_CYCLE_S, load_lookup_table
+from rcsim.spacecraft.vehicle import Vehicle
 
 CYCLE_S = 0.04  # paper sec. II: 40 ms control rate
 # Paper Table 2: jet -> (axis, sign); jets 5-8 unused.
@@ -36,13 +37,13 @@ PAPER_JETS = {
     14: (2, +1),
     16: (2, +1),
 }
-# Designed pure-axis time to 0.3 deg/s of one firing pair (vehicle.xml jet arms).
+# Designed pure-axis time to 0.3 deg/s of one firing pair (paper.toml jet arms).
 T_AXIS_S = np.array([0.5194, 0.4794, 0.3995])
 
 
 @pytest.fixture(scope="module")
 def gen():
-    return generate_table()
+    return generate_table(Vehicle.load())
 
 
 def test_jets_follow_rate_signs(gen):

@@ -20,7 +20,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rcsim import models
 from rcsim.models import tables
 from rcsim.models.errors import InputError
 
@@ -222,27 +221,21 @@ def test_utf8_bom_is_accepted(tmp_path, loader, name):
             np.testing.assert_array_equal(a, b, err_msg=field)
 
 
-# -------------------------------------------------------------------------- packaged vehicle
-def test_vehicle_xml_is_a_real_file_that_outlives_the_call():
-    path = models.vehicle_xml()
-    assert path.is_file() and path.name == "vehicle.xml"
+# ------------------------------------------------------------------ packaged MJCF by path
+def test_packaged_mjcf_from_a_zip_install_stays_valid(tmp_path, monkeypatch):
+    """MuJoCo needs a real path; from a zip archive ``as_file`` extracts to a temporary file,
+    which must outlive the call (returning the path after the context closed hands back a
+    deleted file).  Simulate a zip install of the DAI model's folder."""
+    from rcsim.models import dai
 
-
-def test_vehicle_xml_from_a_zip_install_stays_valid(tmp_path, monkeypatch):
-    """From a zip archive ``as_file`` extracts to a temporary file; the old code returned the
-    path after the context closed (the file was already deleted).  Simulate a zip install."""
-    xml = models.vehicle_xml().read_bytes()
+    xml = dai.dai_xml().read_bytes()
     archive = tmp_path / "pkg.zip"
     with zipfile.ZipFile(archive, "w") as zf:
-        zf.writestr("vehicle/vehicle.xml", xml)
-    monkeypatch.setattr(models, "files", lambda package: zipfile.Path(archive))
-    models.vehicle_xml.cache_clear()
-    try:
-        path = models.vehicle_xml()
-        assert not str(path).startswith(str(tmp_path)), "an extracted copy, not the archive"
-        assert path.is_file() and path.read_bytes() == xml
-    finally:
-        models.vehicle_xml.cache_clear()
+        zf.writestr("dai_spacecraft.xml", xml)
+    monkeypatch.setattr(dai, "files", lambda package: zipfile.Path(archive))
+    path = dai._resource("dai_spacecraft.xml")
+    assert not str(path).startswith(str(tmp_path)), "an extracted copy, not the archive"
+    assert path.is_file() and path.read_bytes() == xml
 
 
 # ------------------------------------------------------------------------- the package shape

@@ -1,4 +1,4 @@
-"""The packaged vehicle MJCF (rcsim/models/vehicle/vehicle.xml) against its sources.
+"""The paper's vehicle model (rcsim/models/vehicle/paper.toml, compiled) against its sources.
 
 Oracles: Gambone Table 1 (mass properties, read by
 ``rcsim.models.tables.load_mass_properties``, which ``tests/models/test_tables.py`` checks
@@ -13,8 +13,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from rcsim.models import vehicle_xml
-from rcsim.spacecraft.vehicle import (
+from rcsim.spacecraft.vehicle import build_model, load_vehicle, to_mjcf
+from rcsim.spacecraft.vehicle.model import (
     BODY,
     DIST_NAMES,
     dist_actuator_ids,
@@ -23,15 +23,16 @@ from rcsim.spacecraft.vehicle import (
     jet_name,
 )
 
-# The MJCF writes Table 1's decimals verbatim and MuJoCo stores them as parsed doubles; 1e-12
-# relative only absorbs a different-but-equivalent decimal spelling, while any typo in a digit
-# the paper prints (>= 1e-6 relative for these values) fails.
+# paper.toml writes Table 1's decimals verbatim (its MJCF, each double's shortest text) and
+# MuJoCo stores them as parsed doubles; 1e-12 relative only absorbs a different-but-equivalent
+# decimal spelling, while any typo in a digit the paper prints (>= 1e-6 relative for these
+# values) fails.
 TABLE_RTOL = 1e-12
 
 
-def test_mjcf_compiles_from_packaged_path():
-    # Compiling from the path (not via load_model) checks the file itself ships and parses.
-    m = mujoco.MjModel.from_xml_path(str(vehicle_xml()))
+def test_paper_vehicle_compiles_to_one_free_body():
+    # Compiling the packaged file afresh checks it ships, parses and builds the structure.
+    m = build_model(load_vehicle("paper"))
     assert m.nbody == 2 and m.njnt == 1
     assert m.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
     assert m.nu == 16 + 3
@@ -137,7 +138,7 @@ def test_disturbance_through_the_joint_is_the_body_frame_couple():
     the site's (= body) axes; a couple is the same about any point, so the two models must
     agree to rounding.  Tolerance 1e-12: the two transmissions sum the same numbers in a
     different order (measured 7e-17 after 8 s of tumbling); a frame mistake is O(1)."""
-    xml = vehicle_xml().read_text()
+    xml = to_mjcf(load_vehicle("paper"))
     site_xml = (
         xml.replace('joint="root" gear="0 0 0 1', 'site="cg" gear="0 0 0 1')
         .replace('joint="root" gear="0 0 0 0 1', 'site="cg" gear="0 0 0 0 1')

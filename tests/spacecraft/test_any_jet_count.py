@@ -40,8 +40,8 @@ from rcsim.spacecraft.effect_draws import (
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
 from rcsim.spacecraft.valves import JetFaults, ValveTiming
-from rcsim.spacecraft.vehicle import jet_count, load_model
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle, build_model, load_vehicle
+from rcsim.spacecraft.vehicle.model import jet_count
 
 VEHICLE = """
 [mass]
@@ -91,7 +91,7 @@ def _fly_each_jet(five, **kw):
 
 
 def test_jet_count_is_the_models():
-    assert jet_count(load_model()) == 16  # Table 2's jets
+    assert jet_count(build_model(load_vehicle("paper"))) == 16  # Table 2's jets
     vehicle = Vehicle.load("canted12")
     assert vehicle.n_jets == jet_count(vehicle.model) == vehicle.definition.n_jets == 12
     assert vehicle.nominal(3).thrust_n.shape == (3, 12)

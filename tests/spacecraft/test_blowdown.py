@@ -22,9 +22,9 @@ from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.spacecraft.blowdown import Blowdown
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import G0_M_S2
-from rcsim.spacecraft.vehicle_file.definition import packaged_vehicle
-from rcsim.spacecraft.vehicle_file.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.definition import packaged_vehicle
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
+from rcsim.spacecraft.vehicle.vehicle import Vehicle
 
 REL = 1e-9
 V0_M3, P0_PA, RHO = 2e-5, 2.2e6, 1004.0

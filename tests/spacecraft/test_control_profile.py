@@ -15,8 +15,8 @@ import pytest
 
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.control_profile import bound_problems, validated_rate_rad_s, with_values
-from rcsim.spacecraft.vehicle_file import PACKAGED_VEHICLES, Vehicle
-from rcsim.spacecraft.vehicle_file.sections import paper_control
+from rcsim.spacecraft.vehicle import PACKAGED_VEHICLES, Vehicle
+from rcsim.spacecraft.vehicle.file_sections import paper_control
 
 # Just outside a bound: 0.1 % over (any real value over the edge is refused; this one is far
 # enough from it that rounding in the deg <-> rad conversion cannot decide).

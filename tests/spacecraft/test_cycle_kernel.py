@@ -243,9 +243,9 @@ def test_phase_plane_partial_pulses_are_the_same(paper, monkeypatch):
     from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
     from rcsim.spacecraft.propellant import PropellantTank
     from rcsim.spacecraft.simulation import simulate_batch
-    from rcsim.spacecraft.vehicle import load_model
+    from rcsim.spacecraft.vehicle import build_model, load_vehicle
 
-    load_model()
+    build_model(load_vehicle("paper"))
     controller = PhasePlaneController(PhasePlaneParams.for_vehicle(paper))
     n = 6
     params = paper.nominal(n)

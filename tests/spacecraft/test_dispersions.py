@@ -13,7 +13,7 @@ from rcsim.spacecraft.dispersions import (
     run_streams,
     standard_draws,
 )
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 N_RUNS = 3000
 SEED = 12345
@@ -46,7 +46,7 @@ def _check_normal(samples, mean, sigma):
     assert abs(samples.std(ddof=1) - sigma) < K_SE * sigma / np.sqrt(2 * (n - 1))
 
 
-def _scalar(params: VehicleParams, name: str) -> np.ndarray:
+def _scalar(params: RunParameters, name: str) -> np.ndarray:
     """The per-run value Table 5 row ``name`` disperses."""
     return {
         "mass": params.mass_kg,

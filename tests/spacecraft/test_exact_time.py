@@ -30,7 +30,7 @@ from rcsim.spacecraft.flight_model import flight_model, jet_wrench_B
 from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul, rotvec_from_quat
 from rcsim.spacecraft.pieces import cycle_pieces
 from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import torque_per_jet_B
+from rcsim.spacecraft.vehicle.run_parameters import torque_per_jet_B
 
 CYCLE_S = 0.04
 REL = 1e-9  # see the module docstring

@@ -1,7 +1,7 @@
 """The flight model (rcsim/spacecraft/flight_model.py) against the vehicle MJCF's own jets.
 
 Oracle: MuJoCo stepping the packaged vehicle with its 16 site-transmission jet actuators
-(``rcsim/models/vehicle/vehicle.xml``), with dispersed mass, CG, inertia, thrust and jet pointing
+(``rcsim/models/vehicle/paper.toml``), with dispersed mass, CG, inertia, thrust and jet pointing
 written into both models.  The flight model replaces the jets by a force and a torque computed
 with :func:`rcsim.spacecraft.flight_model.jet_wrench_B`; the physics is the same sum in another
 order, so the states must agree to rounding.  Tolerance 1e-12 (absolute, on quaternion
@@ -19,15 +19,14 @@ from rcsim.models.tables import load_dispersions
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
 from rcsim.spacecraft.flight_model import WRENCH_NAMES, flight_model, jet_wrench_B
 from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import (
+from rcsim.spacecraft.vehicle import Vehicle, build_model, load_vehicle
+from rcsim.spacecraft.vehicle.model import (
     BODY,
     N_JETS,
-    VehicleParams,
     dist_actuator_ids,
     jet_actuator_ids,
-    load_model,
 )
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 #: The paper's vehicle (paper.toml), for helpers outside the fixtures.
 PAPER = Vehicle.load()
@@ -35,14 +34,14 @@ PAPER = Vehicle.load()
 STATE_ATOL = 1e-12
 
 
-def draw_dispersions(n: int, model: mujoco.MjModel, seed: int) -> VehicleParams:
+def draw_dispersions(n: int, model: mujoco.MjModel, seed: int) -> RunParameters:
     """``n`` Table 5 vehicles (at three times Table 5's spread, so that pointing errors and CG
     offsets are large enough for a frame or arm mistake to show)."""
     sigmas = DispersionSigmas.from_table(load_dispersions(), scale=3.0)
     return draw_runs(PAPER.nominal(n), sigmas, seed, np.arange(n)).params
 
 
-def _write_vehicle(model: mujoco.MjModel, params: VehicleParams, run: int) -> None:
+def _write_vehicle(model: mujoco.MjModel, params: RunParameters, run: int) -> None:
     body = model.body(BODY).id
     model.body_mass[body] = params.mass_kg[run]
     model.body_ipos[body] = params.cg_B[run]
@@ -53,7 +52,7 @@ def _write_vehicle(model: mujoco.MjModel, params: VehicleParams, run: int) -> No
 def test_flight_model_flies_as_the_jets_do(run):
     """Random on-fractions of all 16 jets for 100 steps of 40 ms, a tumble and a disturbance
     torque, on a dispersed vehicle (Table 5 draws): both models give the same state."""
-    jets_model = load_model()
+    jets_model = build_model(load_vehicle("paper"))
     params = draw_dispersions(3, jets_model, seed=11 + run)
     _write_vehicle(jets_model, params, run)
     jets = jet_actuator_ids(jets_model)
@@ -88,7 +87,7 @@ def test_flight_model_flies_as_the_jets_do(run):
 def test_flight_model_keeps_the_vehicle_and_its_options():
     """Same body inertial values, options and disabled stages as the vehicle model; six
     actuators and nothing else that costs a step."""
-    model = load_model(timestep_s=0.01, integrator="Euler")
+    model = Vehicle.load("paper").with_physics(timestep_s=0.01, integrator="Euler").model
     flight = flight_model(model)
     body = model.body(BODY).id
     for name in ("body_mass", "body_ipos", "body_iquat", "body_inertia"):
@@ -112,7 +111,7 @@ def test_a_vehicle_of_several_bodies_is_refused():
 def test_batch_reads_back_what_it_flies(paper):
     """BatchSimulation's read-back: the jets' thrust and pointing it summed, the body values
     MuJoCo holds; bit for bit the dispersed parameters (invalid runs aside)."""
-    model = load_model()
+    model = build_model(load_vehicle("paper"))
     params = draw_dispersions(4, model, seed=5)
     sim = BatchSimulation(params, vehicle=paper, nthread=1)
     back = sim.flown_params()

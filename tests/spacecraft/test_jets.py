@@ -30,12 +30,8 @@ from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.models.tables import PAPER_CYCLE_S, load_jet_map, load_lookup_table
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import (
-    BODY,
-    jet_actuator_ids,
-    jet_geometry_B,
-    torque_per_jet_B,
-)
+from rcsim.spacecraft.vehicle.model import BODY, jet_actuator_ids, jet_geometry_B
+from rcsim.spacecraft.vehicle.run_parameters import torque_per_jet_B
 
 ARM_M = np.array([0.812, 0.776, 0.724])  # design arms roll, pitch, yaw (README)
 CYCLE_S = 0.040  # paper section II: 40 ms control rate

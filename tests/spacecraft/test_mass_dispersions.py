@@ -42,8 +42,9 @@ from rcsim.spacecraft.dispersions import (
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.propellant import full_inertia, principal
 from rcsim.spacecraft.simulation import BatchSimulation, invalid_runs
-from rcsim.spacecraft.vehicle import VehicleParams, jet_geometry_B
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.model import jet_geometry_B
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 N_RUNS = 3000
 K_SE = 4.0  # standard errors, as test_dispersions.py
@@ -61,7 +62,7 @@ def _check_normal(samples, mean, sigma):
     assert abs(samples.std(ddof=1) - sigma) < K_SE * sigma / np.sqrt(2 * (n - 1))
 
 
-def _tensor(params: VehicleParams) -> np.ndarray:
+def _tensor(params: RunParameters) -> np.ndarray:
     return full_inertia(
         params.inertia_B, params.iquat if params.iquat is not None else [1, 0, 0, 0]
     )
@@ -101,7 +102,7 @@ def test_cg_offset_in_y_and_z_gives_the_torque_f_d(paper, nominal):
     np.testing.assert_allclose(w[2, [0, 2]], 0.0, atol=1e-12 * abs(expect_y))
 
 
-def _with_products(nominal: VehicleParams, products) -> tuple[VehicleParams, np.ndarray]:
+def _with_products(nominal: RunParameters, products) -> tuple[RunParameters, np.ndarray]:
     tensor = np.diag(nominal.inertia_B[0])
     for (a, b), p in zip(((0, 1), (0, 2), (1, 2)), products):
         tensor[a, b] = tensor[b, a] = p
@@ -251,7 +252,7 @@ def test_draws_in_blocks_are_the_draws_at_once(nominal, extras, monkeypatch):
     np.testing.assert_array_equal(blocks.azimuth_rad, whole.azimuth_rad)
     np.testing.assert_array_equal(blocks.run_ids, ids)
     with pytest.raises(ValueError, match="principal frames"):  # no frame cannot be invented
-        VehicleParams.concat([nominal, whole.params])
+        RunParameters.concat([nominal, whole.params])
 
 
 # ---------------------------------------------------------------------- physical tensors --

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from rcsim.spacecraft import mujoco_timers
-from rcsim.spacecraft.vehicle import load_model
+from rcsim.spacecraft.vehicle import build_model, load_vehicle
 
 pytestmark = pytest.mark.skipif(
     not mujoco_timers.zero_clock_available(),
@@ -45,7 +45,7 @@ def test_zero_clock_changes_no_state_and_reads_zero(no_callback):
     """Same model, same steps, with MuJoCo's clock and with the zero clock: the state must be
     bit-identical (the timers are bookkeeping only, so the tolerance is 0), and with the zero
     clock every stage timer's accumulated duration is 0 s while it still counts its calls."""
-    model = load_model()
+    model = build_model(load_vehicle("paper"))
     with_clock, timed = _fly(model)
     assert any(t.duration > 0.0 for t in timed.timer), "MuJoCo's own timers should measure time"
     assert mujoco_timers.quiet_stage_timers()
@@ -67,6 +67,6 @@ def test_simulations_install_it(paper, no_callback):
     """Building a batch simulation is enough: campaigns, scenarios and studies all do."""
     from rcsim.spacecraft.simulation import BatchSimulation
 
-    load_model()
+    build_model(load_vehicle("paper"))
     BatchSimulation(paper.nominal(2), vehicle=paper, nthread=1)
     assert mujoco.get_mjcb_time() is not None

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from rcsim.spacecraft import navigation as nav
-from rcsim.spacecraft.vehicle import load_model
+from rcsim.spacecraft.vehicle import build_model, load_vehicle
 
 # Float round-trip tolerance: a few ulp of the angle through sin/cos/arctan2 (~1e-16 rad) for
 # angles up to pi; 1e-12 rad is ~1e4 ulp, far below any convention error (>= the angle itself).
@@ -175,7 +175,7 @@ def test_rate_guidance_matches_mujoco_free_body():
     multiplication).  Guidance(q0, w) must then report ~zero error against MuJoCo's state;
     a left-multiplication or frame mix-up would give an error of order the 34 deg turned.
     """
-    model = load_model()
+    model = build_model(load_vehicle("paper"))
     d = mujoco.MjData(model)
     q0 = nav.quat_from_rotvec(np.radians([20.0, -35.0, 50.0]))
     w = np.array([0.0, 0.0, 0.03])  # about the principal z axis: w stays constant

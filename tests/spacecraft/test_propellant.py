@@ -30,8 +30,8 @@ from rcsim.spacecraft.propellant import (
     principal,
 )
 from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import G0_M_S2, VehicleParams
-from rcsim.spacecraft.vehicle_file import Vehicle, build_model, load_vehicle
+from rcsim.spacecraft.vehicle import Vehicle, build_model, load_vehicle
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2, RunParameters
 
 #: The paper's vehicle (paper.toml), for helpers outside the fixtures.
 PAPER = Vehicle.load()
@@ -61,7 +61,7 @@ def canted():
 def _fly(vehicle, model, on, initial_kg, duration_s):
     n = on.shape[0]
     params = PAPER.nominal(n)
-    params = VehicleParams(**{**params.__dict__, "isp_s": vehicle.isp_s})
+    params = RunParameters(**{**params.__dict__, "isp_s": vehicle.isp_s})
     tank = PropellantTank.of(n, initial_kg, vehicle.tank_position_m)
     sim = BatchSimulation(params, vehicle=PAPER, nthread=1, tank=tank)
     history = sim.run(_Constant(on), Guidance.rate(np.zeros((n, 3))), duration_s)
@@ -191,7 +191,7 @@ def test_commands_after_exhaustion_are_no_firings(paper, canted):
     mdot = vehicle.thrusts_n()[2] / (vehicle.isp_s * G0_M_S2)
     left = np.array([0.006, vehicle.propellant_kg])  # runs out in the 38th of 75 pulses
     params = paper.nominal(n)
-    params = VehicleParams(**{**params.__dict__, "isp_s": vehicle.isp_s})
+    params = RunParameters(**{**params.__dict__, "isp_s": vehicle.isp_s})
     tank = PropellantTank.of(n, left, vehicle.tank_position_m)
     sim = BatchSimulation(params, vehicle=paper, nthread=1, tank=tank)
     history = sim.run(_Pulses(on, pulse), Guidance.rate(np.zeros((n, 3))), duration)

@@ -24,7 +24,8 @@ from rcsim.spacecraft.propulsion import (
 
 CYCLE_S = 0.04
 STEPS_MS = (1, 2, 4, 5, 8, 10, 20, 40)  # the physics steps that divide the 40 ms cycle
-G0 = 9.80665  # standard gravity, CGPM 1901 (independent of rcsim.spacecraft.vehicle.G0_M_S2)
+# Standard gravity, CGPM 1901 (independent of rcsim.spacecraft.vehicle.run_parameters.G0_M_S2).
+G0 = 9.80665
 # Summing n_sub <= 40 duties times dt: each term exact or one rounding, so the total is within
 # a few ulp of on_time (<= 0.04 s, ulp 7e-18 s); 1e-16 s is ~15 ulp and 1e-14 of a cycle.
 SUM_ATOL_S = 1e-16

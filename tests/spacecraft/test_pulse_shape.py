@@ -36,9 +36,9 @@ import pytest
 from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import G0_M_S2
-from rcsim.spacecraft.vehicle_file.definition import packaged_vehicle
-from rcsim.spacecraft.vehicle_file.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.definition import packaged_vehicle
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
+from rcsim.spacecraft.vehicle.vehicle import Vehicle
 
 CYCLE_S = 0.04
 F_N = 22.24  # paper.toml jet_defaults.thrust_n

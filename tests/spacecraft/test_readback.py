@@ -31,7 +31,8 @@ from rcsim.spacecraft.dispersions import (
 )
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import BODY, VehicleParams
+from rcsim.spacecraft.vehicle.model import BODY
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 FIELDS = ("mass_kg", "cg_B", "inertia_B", "thrust_n", "jet_dir_S")
 
@@ -65,7 +66,7 @@ def test_history_carries_the_flown_params(paper, dispersed):
     params = dispersed.params.take(slice(0, 3))
     mass = params.mass_kg.copy()
     mass[1] = np.nan
-    params = VehicleParams(
+    params = RunParameters(
         mass_kg=mass,
         cg_B=params.cg_B,
         inertia_B=params.inertia_B,

@@ -25,7 +25,7 @@ from rcsim.lookup.phase_plane import PhasePlaneController, PhasePlaneParams
 from rcsim.models.tables import load_jet_map
 from rcsim.spacecraft.navigation import Guidance, quat_conj, quat_mul
 from rcsim.spacecraft.simulation import BatchSimulation, simulate_batch
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 CYCLE_S = 0.04
 MANEUVER_S = 40.0  # the 5 deg maneuvers finish by ~26 s at 0.2 deg/s; 14 s of margin
@@ -83,7 +83,7 @@ def four_runs(paper):
     thrust[2] *= 0.93
     cg = p.cg_B.copy()
     cg[3] += [0.02, -0.01, 0.015]
-    params = VehicleParams(
+    params = RunParameters(
         p.mass_kg * [1, 1.02, 0.98, 1], cg, inertia, thrust, p.jet_dir_S, isp_s=p.isp_s
     )
     att = np.radians([[5, 0, 0], [0, -5, 0], [3, 4, -5], [5, 5, 5]])
@@ -136,7 +136,7 @@ def test_nan_inertia_run_fails_and_others_fly(paper, controller):
     params, att, w0, dist = four_runs(paper)
     inertia = params.inertia_B.copy()
     inertia[1, 2] = np.nan
-    bad = VehicleParams(
+    bad = RunParameters(
         params.mass_kg, params.cg_B, inertia, params.thrust_n, params.jet_dir_S, params.isp_s
     )
     hist = fly(paper, controller, bad, att, w0, dist, duration=10.0)

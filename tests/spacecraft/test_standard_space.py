@@ -17,7 +17,7 @@ from scipy.special import ndtr
 from rcsim.models.tables import load_dispersions
 from rcsim.spacecraft import standard_space as ss
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs, n_normals
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 GRID = 2.0**53
 

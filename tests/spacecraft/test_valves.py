@@ -28,7 +28,7 @@ from rcsim.models.tables import PAPER_CYCLE_S, load_jet_map
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import BatchSimulation
 from rcsim.spacecraft.valves import JetFaults, ThrustProfile, ValveTiming
-from rcsim.spacecraft.vehicle import torque_per_jet_B
+from rcsim.spacecraft.vehicle.run_parameters import torque_per_jet_B
 
 CYCLE_S = 0.04
 REL = 1e-9

@@ -34,7 +34,7 @@ from rcsim.analysis.engine.campaign.results import code_version
 from rcsim.analysis.engine.campaign.spec import CampaignSpec, check_plugin
 from rcsim.analysis.results.proportions import mcnemar_exact
 from rcsim.lookup.registry import TABLE_CONTROLLERS, is_plugin, make_controller
-from rcsim.spacecraft.vehicle import AXES
+from rcsim.spacecraft.vehicle.model import AXES
 
 #: On-times closer than this are the same command [s]: identical code gives identical
 #: doubles; anything else is a difference, however small (a nanosecond is far below any jet).

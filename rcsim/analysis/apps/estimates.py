@@ -113,7 +113,7 @@ def check_database_cost(vehicle, n_vehicles: int, *, yes: bool) -> None:
     """``lookup database``'s time and memory for ``n_vehicles`` dispersed copies of
     ``vehicle`` (a file or packaged name): refused over the limits, announced when long."""
     from rcsim.lookup.response_database import ON_TIMES_S, flown_on_times
-    from rcsim.spacecraft.vehicle_file import load_vehicle
+    from rcsim.spacecraft.vehicle import load_vehicle
 
     if isinstance(n_vehicles, bool) or not isinstance(n_vehicles, int) or n_vehicles < 1:
         return  # the library's own check names it
@@ -145,16 +145,17 @@ PAIR_BYTES = 200
 
 
 def check_vehicle_cost(vehicle, *, pairs: bool, yes: bool, source: str) -> None:
-    """``vehicle check``'s time (linear programs, :func:`rcsim.spacecraft.vehicle_file.
+    """``vehicle check``'s time (linear programs, :func:`rcsim.spacecraft.vehicle.
     authority.lp_count`, at a rate measured on this vehicle now) and, with the pairs, memory:
     refused over the limits, announced when long."""
     import numpy as np
 
-    from rcsim.spacecraft.vehicle_file.authority import lp_count, reachable
+    from rcsim.spacecraft.vehicle.authority import lp_count, reachable
+    from rcsim.spacecraft.vehicle.mjcf import force_torque
 
     n = vehicle.n_jets
     n_pairs = n * (n - 1) // 2
-    accel = np.linalg.solve(vehicle.inertia_kg_m2, vehicle.force_torque()[3:])
+    accel = np.linalg.solve(vehicle.inertia_kg_m2, force_torque(vehicle)[3:])
     every = np.ones(n, bool)
     t0 = time.perf_counter()
     for axis in range(3):  # three of the LPs the check solves, timed on this vehicle

@@ -22,8 +22,9 @@ from rcsim.models.errors import InputError
 from rcsim.spacecraft.navigation import Guidance, euler321_deg, quat_from_rotvec
 from rcsim.spacecraft.propellant import exhausted_text
 from rcsim.spacecraft.simulation import Controller, History, simulate_batch
-from rcsim.spacecraft.vehicle import AXES, VehicleParams, jet_name
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.model import AXES, jet_name
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 #: What :func:`fly_batch` passes on to the simulation besides the vehicle and the scenarios.
 EFFECT_KEYS = ("sensors", "sensor_streams", "timing", "faults", "profile", "pulse", "blowdown")
@@ -57,7 +58,7 @@ class Scenario:
 
 def fly_batch(
     scenarios: Sequence[Scenario],
-    params: VehicleParams,
+    params: RunParameters,
     controller: Controller,
     *,
     vehicle: Vehicle,
@@ -73,7 +74,7 @@ def fly_batch(
 
     Parameters
     ----------
-    vehicle : rcsim.spacecraft.vehicle_file.Vehicle
+    vehicle : rcsim.spacecraft.vehicle.Vehicle
         The vehicle flown (model, cycle, valve limits, nominal timing, tank): ``params`` are
         its runs' parameters.
     tank : rcsim.spacecraft.propellant.PropellantTank, None or "vehicle"
@@ -129,7 +130,7 @@ def fly(
     *,
     vehicle: Vehicle | str | os.PathLike | None = None,
     table: str | os.PathLike | None = None,
-    params: VehicleParams | None = None,
+    params: RunParameters | None = None,
     controller_obj: Controller | None = None,
     controller_params: dict | None = None,
 ) -> History:
@@ -142,12 +143,12 @@ def fly(
         A controller by name (:func:`rcsim.lookup.registry.make_controller`), built for the
         vehicle and tuned by its profile; ``controller_obj`` instead flies one already built.
     vehicle : Vehicle, str, path or None
-        The vehicle flown: a :class:`~rcsim.spacecraft.vehicle_file.Vehicle`, a packaged
+        The vehicle flown: a :class:`~rcsim.spacecraft.vehicle.Vehicle`, a packaged
         vehicle's name (``"paper"``, ``"canted16"``), a vehicle file, or None (the paper's):
         its model, nominal parameters, valve limits, valve timing, propellant and profile.
     table : path, optional
         The lookup table (``"lookup"``, ``"adaptive"``).
-    params : VehicleParams, optional
+    params : RunParameters, optional
         The runs' parameters (of ``vehicle``); default one nominal run.
     controller_params : dict, optional
         A plug-in controller's parameters (:mod:`rcsim.lookup.plugins`).

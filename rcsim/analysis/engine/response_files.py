@@ -31,8 +31,8 @@ from rcsim.analysis.engine.commit import commit_files
 from rcsim.analysis.engine.output import check_out_file, make_parents, remove_parents
 from rcsim.analysis.engine.plots import AXIS_COLORS, new_figure
 from rcsim.lookup.response_database import response_database, response_summary
-from rcsim.spacecraft.vehicle import AXES
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.model import AXES
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from rcsim.analysis.engine.run_margin import MARGIN_MEANING
-from rcsim.spacecraft.vehicle import AXES, jet_name
+from rcsim.spacecraft.vehicle.model import AXES, jet_name
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ Definitions used below: ``thr`` is the spec's ``failure.rate_error_deg_s``; rate
 (``omega - omega_cmd``, body axes) are sampled at the start of every 40 ms control cycle and at
 the end of the run; an axis's jets are those whose torque has a component on it (Table 2 for
 the paper's vehicle; a vehicle file's own jet matrix,
-:func:`rcsim.spacecraft.vehicle_file.authority.torque_signs`, otherwise).
+:func:`rcsim.spacecraft.vehicle.authority.torque_signs`, otherwise).
 """
 
 from __future__ import annotations
@@ -58,7 +58,8 @@ from rcsim.analysis.engine.runs_catalogue import (  # noqa: F401 - re-exported
 )
 from rcsim.spacecraft.dispersions import DispersedRuns, pointing
 from rcsim.spacecraft.propellant import inertia_tensor_B, principal
-from rcsim.spacecraft.vehicle import VehicleParams, jet_name
+from rcsim.spacecraft.vehicle.model import jet_name
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 # The campaign directory (rcsim.analysis.engine.campaign.results writes it):
 MANIFEST = "manifest.json"  # spec (resolved), code version, control cycle, times, status
@@ -152,7 +153,7 @@ _INERTIA = list(INERTIA_NAMES)
 _PRODUCT_ENTRIES = ((0, 1), (0, 2), (1, 2))
 
 
-def records_products(params: VehicleParams) -> bool:
+def records_products(params: RunParameters) -> bool:
     """Whether the rows of runs flown with ``params`` record :data:`PRODUCT_COLUMNS`: whenever
     their principal axes are not B (``params.iquat`` set: the vehicle file has products of
     inertia, or the campaign disperses them; fixed for a campaign), so that the flown tensor
@@ -200,22 +201,22 @@ def axis_inertia(runs: pd.DataFrame) -> np.ndarray:
 
 
 def vehicles_from_runs(
-    runs: pd.DataFrame, nominal: VehicleParams
-) -> tuple[VehicleParams, VehicleParams]:
+    runs: pd.DataFrame, nominal: RunParameters
+) -> tuple[RunParameters, RunParameters]:
     """Rebuild each run's vehicle from its recorded :func:`input_columns`.
 
     Parameters
     ----------
     runs : DataFrame
         Rows of ``runs.parquet`` (or any table with the input columns of ``nominal``'s jets).
-    nominal : VehicleParams
+    nominal : RunParameters
         The nominal vehicle (one run) whose jets the tilts are measured from.
 
     Returns
     -------
-    dispersed : VehicleParams
+    dispersed : RunParameters
         As flown (thrust, pointing, CG, inertia), one entry per row.
-    nominal_pointing : VehicleParams
+    nominal_pointing : RunParameters
         The same with every jet pointing nominally.
     """
     n, jets = len(runs), nominal.n_jets
@@ -228,7 +229,7 @@ def vehicles_from_runs(
         for c, (a, b) in zip(PRODUCT_NAMES, _PRODUCT_ENTRIES):
             tensor[:, a, b] = tensor[:, b, a] = runs[c].to_numpy(float)
         inertia, iquat = principal(tensor)
-    straight = VehicleParams(
+    straight = RunParameters(
         mass_kg=runs["mass_kg"].to_numpy(float),
         cg_B=runs[_CG].to_numpy(float),
         inertia_B=inertia,

@@ -17,12 +17,29 @@ from pathlib import Path
 from rcsim.analysis.engine.commit import commit_files
 from rcsim.analysis.engine.output import check_out_file, make_parents, remove_parents
 from rcsim.analysis.engine.output_places import refuse_own_inputs
-from rcsim.lookup.generation import generate_table, is_coupled
+from rcsim.lookup import generation
+from rcsim.lookup.generation import is_coupled
 from rcsim.lookup.jet_sets import companion_path
 from rcsim.lookup.row_tuning import DEFAULT_TARGET_FRACTION
 from rcsim.lookup.table_generation import GeneratedTable
 from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+
+
+def generate_table(
+    vehicle: Vehicle | str | os.PathLike | None = None,
+    *,
+    jets_off=(),
+    target_fraction: float = DEFAULT_TARGET_FRACTION,
+) -> GeneratedTable:
+    """The lookup table of ``vehicle`` (a :class:`~rcsim.spacecraft.vehicle.Vehicle`, a
+    packaged name, a vehicle file; None: the paper's), resolved once here, at the public edge:
+    :func:`rcsim.lookup.generation.generate_table` (its ``jets_off``, ``target_fraction`` and
+    what it raises; an invalid vehicle file raises :class:`InputError` too).  In memory; the
+    files are :func:`generate_table_files`'."""
+    return generation.generate_table(
+        Vehicle.load(vehicle), jets_off=jets_off, target_fraction=target_fraction
+    )
 
 
 @dataclass(frozen=True)
@@ -85,7 +102,7 @@ def generate_table_files(
         from rcsim.models.tables import recipe_path
 
         check_out_file(recipe_path(table), overwrite=overwrite, parameter="out")
-    gen = generate_table(vehicle, jets_off=jets_off, target_fraction=target_fraction)
+    gen = generation.generate_table(vehicle, jets_off=jets_off, target_fraction=target_fraction)
     created = make_parents(table) + make_parents(settling)
     try:
         write_table_files(gen, table, settling)

@@ -66,6 +66,21 @@ int32_t rcsim_fsw_step(const rcsim_fsw_config *config, int64_t n_runs, double t_
                        double *on_time_s,            /* out: (n_runs, n_jets) [s] */
                        int32_t *status);             /* out: (n_runs), 0 = ok */
 
+/* Optional: the name of the text parameter through which the library takes a lookup-table
+ * file (rcsim layout), for flight code that flies a table.  With it, `rcsim lookup refine
+ * --controller library:...` and `rcsim loop --controller library:...` refine that table with
+ * the library flying every candidate: each candidate is written to a file of its own and
+ * passed under this name.  Table state kept per process must be keyed by the file (several
+ * tables are flown, one batch after another, in one process). */
+const char *rcsim_fsw_table_param(void);
+
+/* Optional, with rcsim_fsw_table_param: which table rows each run has fired so far (bit r of
+ * rows[i] set: run i started a firing with row r, 0-based), read from the runs' states after a
+ * flight.  The refinement judges a changed row on every case whose runs fire it; without this
+ * function every run counts as firing every row (the same decisions, many more runs flown). */
+int32_t rcsim_fsw_rows_fired(const rcsim_fsw_config *config, int64_t n_runs,
+                             const void *states, uint64_t *rows);
+
 #ifdef __cplusplus
 }
 #endif

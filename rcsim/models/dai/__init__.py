@@ -64,7 +64,8 @@ _DISPERSION_COLUMNS = ("name", "distribution", "nominal", "bound", "unit", "sour
 
 
 def _resource(name: str) -> Path:
-    """Real path of a packaged file of this folder (kept alive until exit, as ``vehicle_xml``)."""
+    """Real path of a packaged file of this folder, kept alive until exit (MuJoCo needs a
+    real file; from a zip install ``as_file`` extracts one)."""
     resource = files("rcsim.models.dai") / name
     if isinstance(resource, Path):
         return resource

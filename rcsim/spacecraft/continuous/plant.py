@@ -30,7 +30,7 @@ from rcsim.spacecraft.continuous.cmg import CmgArray
 from rcsim.spacecraft.continuous.disturbances import Disturbances
 from rcsim.spacecraft.continuous.kinematics import euler321_from_quat
 from rcsim.spacecraft.mujoco_timers import quiet_stage_timers
-from rcsim.spacecraft.vehicle import route_mujoco_warnings
+from rcsim.spacecraft.vehicle.model import route_mujoco_warnings
 
 BODY = "spacecraft"
 TORQUE_ACTUATORS = ("torque_x", "torque_y", "torque_z")

@@ -31,6 +31,7 @@ from rcsim.analysis.apps.refinement.outputs import refinement_spec
 from rcsim.analysis.apps.refinement.search import refine
 from rcsim.lookup.channel_generation import generate_channel_table
 from rcsim.models.tables import PAPER_CYCLE_S, load_lookup_table
+from rcsim.spacecraft.vehicle import Vehicle
 
 SECTIONS = ("summary", "before-after", "figs-9-10", "drivers", "changelog", "traceability")
 SMALL = LoopSettings(
@@ -44,7 +45,7 @@ SMALL = LoopSettings(
 
 
 def test_refinement_moves_a_misset_channel_cell_back(tmp_path):
-    generated = generate_channel_table("canted16")
+    generated = generate_channel_table(Vehicle.load("canted16"))
     times = generated.table.firing_time_s.copy()
     case, channel = 13, 4  # case 14 (0, 0, +), the +yaw channel
     assert times[case, channel] == pytest.approx(4 * PAPER_CYCLE_S)
@@ -122,7 +123,7 @@ def test_a_nominal_channel_firing_is_one_event(tmp_path):
     from rcsim.analysis.engine.campaign.runner import run_campaign
     from rcsim.analysis.engine.campaign.spec import load_spec
 
-    generate_channel_table("canted16").table.to_csv(tmp_path / "t.csv")
+    generate_channel_table(Vehicle.load("canted16")).table.to_csv(tmp_path / "t.csv")
     (tmp_path / "spec.toml").write_text(
         'vehicle = "canted16"\nseed = 1\nruns_per_case = 1\n'
         '[scenario]\nkind = "rate-cases"\ncases = "all"\nmode = "command"\nduration_s = 4.0\n'
@@ -144,7 +145,7 @@ def test_cli_refines_a_channel_table_on_its_recipes_vehicle(tmp_path, capsys):
     channel.  The mis-set cell of the first test, on the CLI's path."""
     from rcsim.analysis.apps.cli import main
 
-    generated = generate_channel_table("canted16")
+    generated = generate_channel_table(Vehicle.load("canted16"))
     times = generated.table.firing_time_s.copy()
     times[13, 4] += PAPER_CYCLE_S
     replace(generated.table, firing_time_s=times).to_csv(tmp_path / "bad.csv")
@@ -163,7 +164,7 @@ def test_cli_refines_a_channel_table_on_its_recipes_vehicle(tmp_path, capsys):
 def test_a_changed_recipe_is_refused_on_replay(tmp_path, capsys):
     from rcsim.analysis.apps.cli import main
 
-    generate_channel_table("canted16").table.to_csv(tmp_path / "t.csv")
+    generate_channel_table(Vehicle.load("canted16")).table.to_csv(tmp_path / "t.csv")
     (tmp_path / "spec.toml").write_text(
         'vehicle = "canted16"\nseed = 1\nruns_per_case = 1\n'
         '[scenario]\nkind = "rate-cases"\ncases = [14]\nmode = "command"\nduration_s = 1.0\n'

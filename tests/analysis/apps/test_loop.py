@@ -154,7 +154,7 @@ def test_loop_with_the_paper_vehicle_file_flies_the_same_loop(tmp_path):
     import hashlib
     import html
 
-    from rcsim.spacecraft.vehicle_file import load_vehicle, resolve_vehicle
+    from rcsim.spacecraft.vehicle import load_vehicle, resolve_vehicle
 
     report = html.unescape((b.out / "report.html").read_text())
     digest = hashlib.sha256(resolve_vehicle("paper").read_bytes()).hexdigest()

@@ -433,7 +433,7 @@ def test_the_search_flies_a_vehicle_files_valve_delays(tmp_path):
     its campaign's runs, delays included -- and not the same vehicle's runs without them."""
     from rcsim.analysis.apps.refinement.evaluate import Trials, evaluate, runs_from_campaign
     from rcsim.analysis.engine.campaign.runner import run_campaign
-    from rcsim.spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.spacecraft.vehicle import resolve_vehicle
 
     text = resolve_vehicle("paper").read_text()
     vehicle = tmp_path / "delayed.toml"
@@ -480,7 +480,7 @@ def test_a_planted_regression_is_named_with_its_row_and_dropped():
 
     from rcsim.analysis.apps.refinement.outputs import held_out_check
     from rcsim.analysis.apps.refinement.search import RefineResult
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     t6 = load_lookup_table(which="table6")
     planted = np.array(t6.firing_time_s, float)

@@ -19,6 +19,7 @@ import pytest
 from rcsim.analysis.apps.cli import main
 from rcsim.analysis.engine.commit import commit_files
 from rcsim.models.atomic import atomic_write
+from rcsim.spacecraft.vehicle import Vehicle
 
 ENOSPC = os.strerror(errno.ENOSPC)
 
@@ -61,7 +62,7 @@ def generated_jets_off_13():
     """``lookup generate --jets-off 13``'s table, generated once (26 flights)."""
     from rcsim.lookup.generation import generate_table
 
-    return generate_table(None, jets_off=(13,))
+    return generate_table(Vehicle.load(), jets_off=(13,))
 
 
 @pytest.mark.parametrize("full_at", ["settling", "table"])
@@ -74,7 +75,9 @@ def test_lookup_generate_on_a_full_disk_leaves_no_part(
     from rcsim.models.tables import LookupTable
 
     monkeypatch.setattr(
-        table_files, "generate_table", lambda vehicle, jets_off=(), **_: generated_jets_off_13
+        table_files.generation,
+        "generate_table",
+        lambda vehicle, jets_off=(), **_: generated_jets_off_13,
     )
     out = tmp_path / "T.csv"
     if full_at == "table":

@@ -16,7 +16,7 @@ SMALLSAT = "docs/examples/smallsat8.toml"
 
 @pytest.fixture(scope="module")
 def smallsat():
-    from rcsim.spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.spacecraft.vehicle import resolve_vehicle
 
     return rcsim.Vehicle.load(resolve_vehicle("paper").parents[3] / SMALLSAT)
 

@@ -2,9 +2,9 @@
 
 Oracle: the simulator's own draw (:func:`rcsim.spacecraft.dispersions.draw_runs`, whose jet pointing
 is :func:`rcsim.spacecraft.dispersions.pointing`) and
-:func:`rcsim.spacecraft.vehicle.torque_per_jet_B`: rebuilding the vehicles from the *recorded*
-columns must give the drawn directions to 1e-12 (the degree conversion of tilt and azimuth is the
-only round-off) and the same torques to rtol 1e-9.
+:func:`rcsim.spacecraft.vehicle.run_parameters.torque_per_jet_B`: rebuilding the vehicles from the
+*recorded* columns must give the drawn directions to 1e-12 (the degree conversion of tilt and
+azimuth is the only round-off) and the same torques to rtol 1e-9.
 """
 
 import numpy as np
@@ -20,7 +20,7 @@ from rcsim.analysis.engine.runs_table import (
 )
 from rcsim.models.tables import load_dispersions
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
-from rcsim.spacecraft.vehicle import torque_per_jet_B
+from rcsim.spacecraft.vehicle.run_parameters import torque_per_jet_B
 
 
 @pytest.fixture(scope="module")

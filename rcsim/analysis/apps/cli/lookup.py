@@ -110,7 +110,7 @@ def run_compare(args: argparse.Namespace) -> int:
     from rcsim.models.tables import load_lookup_table
 
     # A table for failed jets is checked against the jets it was made for (its companion).
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     # The paper's tables are in whole cycles of the paper's profile (40 ms); so is the table
     # they are compared with.
@@ -127,7 +127,7 @@ def run_compare(args: argparse.Namespace) -> int:
             parameter="table",
             value=args.table,
         )
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     # The paper's tables are in whole cycles of the paper's profile (40 ms).
     frame = compare_tables(table, load_lookup_table(which=args.which), paper_cycle)

@@ -45,6 +45,22 @@ def register_refine(cmds) -> None:
         "paper's for a jet table, the vehicle a channel table's recipe was solved for",
     )
     ref.add_argument(
+        "--controller",
+        metavar="NAME",
+        help="flight software that flies every candidate table instead of rcsim's lookup "
+        "controller: a plug-in that declares its table parameter (plugin:package.module:factory, "
+        "plugin:path/to/fsw.py:factory, library:path/to/libfsw.so, or a registered name; "
+        "docs/flight_software.md, 'Refining your table'); each candidate is written to a file "
+        "and passed under that parameter",
+    )
+    ref.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a --controller plug-in's other parameters (repeatable; VALUE read as TOML)",
+    )
+    ref.add_argument(
         "--runs",
         dest="runs_per_case",
         type=int,
@@ -162,6 +178,7 @@ def run_refine(args: argparse.Namespace) -> int:
 
     table = load_refinable_table(args.table)
     vehicle = None if args.vehicle is None and not args.control else flown_vehicle(args)
+    plugin = _table_plugin(args, table, vehicle)
     # OUT.csv, OUT_changelog.csv and OUT_plots/ are checked before any flight; --overwrite
     # replaces all three.
     paths = check_outputs(
@@ -228,11 +245,13 @@ def run_refine(args: argparse.Namespace) -> int:
         confirm_seed=confirm_seed,
         vehicle=vehicle,
         max_propellant_rise=args.max_propellant_rise_pct / 100.0,
+        plugin=plugin,
     )
     paths = write_refinement(ref, out, overwrite=args.overwrite)
     log = ref.changelog
+    flown_by = "" if plugin is None else f", every table flown by {plugin.describe()}"
     print(
-        f"refined {args.table}: {int(log['changed'].sum())} of {len(log)} cases changed "
+        f"refined {args.table}{flown_by}: {int(log['changed'].sum())} of {len(log)} cases changed "
         f"({ref.result.runs_flown} runs flown in the search and confirmation, "
         f"{args.runs_per_case} per case)"
     )
@@ -300,6 +319,34 @@ def run_refine(args: argparse.Namespace) -> int:
     )
     print("wrote " + ", ".join(str(p) for p in paths.values()))
     return 0
+
+
+def _table_plugin(args: argparse.Namespace, table, vehicle):
+    """The ``--controller`` plug-in that flies the candidates, checked on ``table`` (None:
+    rcsim's lookup controller); ``--param`` only with one."""
+    from rcsim.analysis.apps.cli.maneuver import plugin_params
+    from rcsim.analysis.apps.refinement.parameters import refinement_vehicle
+    from rcsim.lookup.registry import is_plugin
+    from rcsim.lookup.table_plugins import TablePlugin
+
+    if args.controller is None:
+        if args.param:
+            raise InputError("--param is only for a --controller plug-in")
+        return None
+    if args.controller == "lookup":
+        if args.param:
+            raise InputError("--param is only for a --controller plug-in, not 'lookup'")
+        return None
+    if not is_plugin(args.controller):
+        raise InputError(
+            f"--controller {args.controller!r}: a refinement flies a lookup table: rcsim's "
+            "lookup controller (the default) or a plug-in that declares its table parameter"
+        )
+    flown = refinement_vehicle(table, vehicle)[0]
+    try:
+        return TablePlugin.for_refinement(args.controller, plugin_params(args.param), flown, table)
+    except InputError as exc:
+        raise InputError(f"--controller: {exc}") from None
 
 
 def _axis_label(table, case: int, axis: int) -> str:

@@ -6,6 +6,7 @@ import argparse
 import os
 import shlex
 
+from rcsim.analysis.apps.cli.maneuver import plugin_params
 from rcsim.analysis.apps.cli.vehicle_args import (
     add_vehicle_args,
     control_overrides,
@@ -67,6 +68,23 @@ def register(sub) -> None:
         "(e.g. canted16) gets its channel table generated first (stage generate)",
     )
     p.add_argument(
+        "--controller",
+        metavar="NAME",
+        help="your flight software flies the table instead of rcsim's lookup controller: a "
+        "plug-in that declares its table parameter (plugin:package.module:factory, "
+        "plugin:path/to/fsw.py:factory, library:path/to/libfsw.so or a registered name; "
+        "docs/flight_software.md, 'Refining your table'); every campaign and every candidate "
+        "of the refinement is flown by it",
+    )
+    p.add_argument(
+        "--param",
+        dest="controller_params",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a --controller plug-in's other parameters (repeatable; VALUE read as TOML)",
+    )
+    p.add_argument(
         "--plots",
         action=argparse.BooleanOptionalAction,
         default=None,
@@ -117,6 +135,23 @@ def register(sub) -> None:
     p.set_defaults(func=run, resume_hint=_resume_hint)
 
 
+def _absolute_controller(name: str | None) -> str | None:
+    """A plug-in file or library named by its absolute path: a resumed loop, and every
+    worker process, finds the same file from anywhere."""
+    from rcsim.lookup.c_library import LIBRARY_PREFIX
+    from rcsim.lookup.plugins import PLUGIN_PREFIX
+
+    if name is None:
+        return None
+    if name.startswith(LIBRARY_PREFIX):
+        return LIBRARY_PREFIX + os.path.abspath(os.path.expanduser(name[len(LIBRARY_PREFIX) :]))
+    if name.startswith(PLUGIN_PREFIX):
+        module, sep, attr = name[len(PLUGIN_PREFIX) :].rpartition(":")
+        if sep and module.endswith(".py"):
+            return f"{PLUGIN_PREFIX}{os.path.abspath(os.path.expanduser(module))}:{attr}"
+    return name
+
+
 def _resume_hint(args: argparse.Namespace) -> str:
     return f"rcsim loop --out {shlex.quote(args.out)} --resume"
 
@@ -141,6 +176,8 @@ def run(args: argparse.Namespace) -> int:
         "rare_budget": args.rare_budget,
         "rare_cases": args.rare_cases,
         "drop_regressions": args.drop_regressions,
+        "controller": _absolute_controller(args.controller),
+        "controller_params": plugin_params(args.controller_params) or None,
     }
     given = {k: v for k, v in given.items() if v is not None}
     if "vehicle" in given and Path(given["vehicle"]).suffix:  # a file, not a packaged name

@@ -172,9 +172,9 @@ def _vehicle(args: argparse.Namespace):
     """The vehicle to fly (``--vehicle``, ``--control``), refused (one line) when the
     controller cannot fly it (:func:`rcsim.lookup.registry.vehicle_problem`) or its jets cannot
     turn the vehicle toward the commanded attitude
-    (:func:`rcsim.spacecraft.vehicle_file.authority.unreachable_command`)."""
+    (:func:`rcsim.spacecraft.vehicle.authority.unreachable_command`)."""
     from rcsim.lookup.registry import vehicle_problem
-    from rcsim.spacecraft.vehicle_file.authority import unreachable_command
+    from rcsim.spacecraft.vehicle.authority import unreachable_command
 
     vehicle = flown_vehicle(args)
     problem = vehicle_problem(args.controller, args.table, vehicle, table_option="--table")

@@ -2,7 +2,7 @@
 
 Prints the jet-by-jet force and torque matrix, the control authority per axis and direction,
 the directions that cannot be reached and the jet-out cases that lose an axis
-(:mod:`rcsim.spacecraft.vehicle_file.authority`), and the translation each pure rate change
+(:mod:`rcsim.spacecraft.vehicle.authority`), and the translation each pure rate change
 leaves with the propellant it costs, per allocation mode
 (:mod:`rcsim.lookup.translation_coupling`).  A bad file is one ``rcsim: error:`` line naming
 the file, the key and the value.
@@ -62,8 +62,8 @@ def _check(args: argparse.Namespace) -> int:
 
     from rcsim.analysis.apps.estimates import check_vehicle_cost
     from rcsim.lookup.translation_coupling import coupling_text
-    from rcsim.spacecraft.vehicle_file import Vehicle
-    from rcsim.spacecraft.vehicle_file.authority import check_text, check_vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
+    from rcsim.spacecraft.vehicle.authority import check_text, check_vehicle
 
     flown = Vehicle.load(args.vehicle)
     vehicle = flown.definition

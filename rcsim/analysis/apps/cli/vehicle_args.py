@@ -4,7 +4,7 @@
 ``canted12``; default the paper's); ``--control KEY=VALUE`` (repeatable) overrides a key of its
 flight-software profile (the vehicle file's ``[control]``, e.g. ``--control
 maneuver_limit_deg=0.8``).  :func:`flown_vehicle` resolves both once into the
-:class:`~rcsim.spacecraft.vehicle_file.Vehicle` the command hands on.
+:class:`~rcsim.spacecraft.vehicle.Vehicle` the command hands on.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from rcsim.spacecraft.control_profile import CONTROL_KEYS, parse_assignments
 
 if TYPE_CHECKING:  # imported when a vehicle is resolved: `rcsim --help` stays quick
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 VEHICLE_HELP = (
     'vehicle file to fly (a packaged one by name: "paper", "canted16", "canted12"); any number '
@@ -52,7 +52,7 @@ def flown_vehicle(args: argparse.Namespace) -> Vehicle:
         An invalid vehicle file, or an override that is no profile key or breaks a check, in
         one line naming the file or ``--control``, the key and the value.
     """
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     vehicle = Vehicle.load(args.vehicle, control=control_overrides(args), control_from="--control")
     warn_vehicle(vehicle)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from rcsim.analysis.apps.refinement.parameters import rate_cases_campaign
 from rcsim.models.tables import PAPER_LOOKUP_TABLES
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The table setting that makes the loop generate its table first (stage ``generate``).
 GENERATE = "generate"
@@ -35,10 +35,14 @@ def spec_text(
     plots: bool = True,
     vehicle: Vehicle | None = None,
     name_vehicle: bool = False,
+    controller: str = "lookup",
+    controller_params: dict | None = None,
 ) -> str:
     """The refinement's rate-case campaign (:func:`rate_cases_campaign`) as a TOML spec, with
     failure histories and (unless ``plots`` is false) plots kept: a user reads these.
-    ``name_vehicle``: the user named the vehicle (``--vehicle paper`` is written too)."""
+    ``name_vehicle``: the user named the vehicle (``--vehicle paper`` is written too).
+    ``controller``: a plug-in that flies the table (its table file among
+    ``controller_params``), else rcsim's lookup controller."""
     data = rate_cases_campaign(
         runs_per_case=runs_per_case,
         seed=seed,
@@ -48,6 +52,8 @@ def spec_text(
         plots=plots,
         vehicle=vehicle,
         name_vehicle=name_vehicle,
+        controller=controller,
+        controller_params=controller_params,
     )
     named = vehicle is not None and vehicle.ref != "paper"
     disp = "the vehicle file's [dispersions]" if named else "Table 5 dispersions"
@@ -56,7 +62,12 @@ def spec_text(
     lines += [f"{k} = {_toml(v)}" for k, v in scalars.items()]
     for name, table_ in data.items():
         if isinstance(table_, dict):
-            lines += ["", f"[{name}]"] + [f"{_key(k)} = {_toml(v)}" for k, v in table_.items()]
+            flat = {k: v for k, v in table_.items() if not isinstance(v, dict)}
+            lines += ["", f"[{name}]"] + [f"{_key(k)} = {_toml(v)}" for k, v in flat.items()]
+            for sub, inner in table_.items():  # [controller.params]
+                if isinstance(inner, dict):
+                    lines += ["", f"[{name}.{sub}]"]
+                    lines += [f"{_key(k)} = {_toml(v)}" for k, v in inner.items()]
     return "\n".join(lines) + "\n"
 
 

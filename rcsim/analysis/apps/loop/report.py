@@ -35,6 +35,16 @@ from rcsim.models.errors import InputError
 from rcsim.models.tables import AXES, PAPER_LOOKUP_TABLES, load_lookup_table, recipe_path
 
 
+def _flown_by(resolved: dict) -> str:
+    """Which flight software flew every campaign and candidate: rcsim's lookup controller, or
+    the plug-in with its version or source digest (the spec's record of it)."""
+    record = (resolved.get("controller") or {}).get("plugin_record")
+    if not record:
+        return "rcsim's lookup controller"
+    what = record.get("version") or f"sha256 {record.get('source_sha256')}"
+    return f"{record.get('name')} ({what}), a plug-in (docs/flight_software.md)"
+
+
 def _table_file(out: Path, settings) -> str:
     """The table refined as the loop's campaigns name it."""
     return table_file(out, settings.table)
@@ -61,7 +71,7 @@ def _table_label(out: Path, settings) -> str:
 def _vehicle_name(settings) -> str:
     """The loop's vehicle file by its ``[vehicle] name`` (its file's stem if it no longer
     loads: the report is rebuilt from the stages' files)."""
-    from rcsim.spacecraft.vehicle_file import load_vehicle
+    from rcsim.spacecraft.vehicle import load_vehicle
 
     try:
         return load_vehicle(settings.vehicle).name
@@ -155,6 +165,7 @@ def _summary(
         ("table refined", label),
         ("vehicle", f"{vehicle.name!r}, {vehicle.ref}, sha256 {vehicle.sha256}"),
         ("flight-software profile", vehicle.control.describe()),
+        ("flown by", _flown_by(spec.resolved)),
         ("runs per case", f"{s['runs_per_case']} (26 rate cases of Table 3, {dispersions})"),
         (
             "held-out seed",
@@ -205,6 +216,15 @@ def _summary(
         else "Fly the refined table with `--table refined_table.csv` (`rcsim maneuver`, "
         "`rcsim scenario run`) or as a campaign spec's `controller.table`"
     )
+    if s.get("controller"):
+        # The plug-in that flew the loop takes the table as its own (declared) parameter.
+        from rcsim.lookup.table_plugins import declared_table_param
+
+        key = declared_table_param(s["controller"])
+        fly = (
+            f"Fly the refined table with your flight software: `--controller {s['controller']}"
+            f" --param {key}=refined_table.csv`, or as spec_after.toml's [controller] does"
+        )
     check = state["done"].get("check", {})
     blocks = [
         text_block(

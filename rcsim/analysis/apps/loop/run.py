@@ -43,7 +43,7 @@ from rcsim.analysis.results.scoring import SCORED_COLUMNS
 from rcsim.models.atomic import atomic_write
 from rcsim.models.errors import InputError
 from rcsim.models.tables import N_CASES, PAPER_LOOKUP_TABLES, load_lookup_table
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 COMMAND = "loop"
 STATE = "loop.json"
@@ -106,6 +106,13 @@ class LoopSettings:
         original and the final table are flown again on a further seed (one past every
         other), which the report and the changelog state (:mod:`~rcsim.analysis.apps.
         refinement.regressions`).  False: regressions are reported, the table kept.
+    controller : str or None
+        A plug-in that flies the table instead of rcsim's lookup controller (``plugin:...``,
+        ``library:...`` or a registered name) and declares its table parameter
+        (:mod:`rcsim.lookup.table_plugins`): every campaign and every candidate of the
+        refinement is flown by it.  None: rcsim's lookup controller.
+    controller_params : dict or None
+        The plug-in's other parameters (its table's is the loop's to set).
     """
 
     table: str | None = None
@@ -123,6 +130,8 @@ class LoopSettings:
     rare_budget: int = 0
     rare_cases: int = 3
     drop_regressions: bool = True
+    controller: str | None = None
+    controller_params: dict | None = None
 
     def flown_vehicle(self) -> Vehicle:
         """The vehicle the loop flies, resolved from its settings (the file, the overrides)."""
@@ -143,6 +152,7 @@ class LoopSettings:
         )
         Settings(n_permutations=self.permutations, random_state=self.seed)
         check_rare_settings(self.rare_budget, self.rare_cases)
+        self._check_controller()
         from rcsim.lookup.generation import is_coupled
 
         try:
@@ -193,6 +203,46 @@ class LoopSettings:
                 if which == "vehicle" and text.startswith(again):
                     text = text[len(again) :]
                 raise InputError(text, parameter=which, value=getattr(self, which)) from None
+
+    def _check_controller(self) -> None:
+        """A plug-in must declare the table it flies, and leave that parameter to the loop
+        (the whole check, a probe flight on the table, is the refine stage's)."""
+        if self.controller is None:
+            if self.controller_params:
+                raise InputError(
+                    "is only for a plug-in controller (--controller)",
+                    parameter="controller_params",
+                    value=self.controller_params,
+                )
+            return
+        from rcsim.lookup.registry import is_plugin
+        from rcsim.lookup.table_plugins import declared_table_param
+
+        if not is_plugin(self.controller):
+            raise InputError(
+                f"{self.controller!r}: the loop flies its table with rcsim's lookup controller "
+                "(the default) or a plug-in that declares its table parameter",
+                parameter="controller",
+                value=self.controller,
+            )
+        try:
+            key = declared_table_param(self.controller)
+        except InputError as exc:
+            raise InputError(str(exc), parameter="controller", value=self.controller) from None
+        if key is None:
+            raise InputError(
+                f"{self.controller!r} declares no lookup-table parameter, so the loop has no "
+                "table of its to refine (docs/flight_software.md, 'Refining your table')",
+                parameter="controller",
+                value=self.controller,
+            )
+        if key in (self.controller_params or {}):
+            raise InputError(
+                f"{key!r} is the parameter the loop passes its table through; give the table "
+                "as --table",
+                parameter="controller_params",
+                value=self.controller_params,
+            )
 
     @property
     def held_out_seed(self) -> int:
@@ -444,10 +494,44 @@ class _Stages:
             float(np.degrees(np.abs(gen.verify_rate_err_rad_s)).max()), 4
         )}  # fmt: skip
 
+    @property
+    def plugin(self):
+        """The plug-in that flies the table (:class:`~rcsim.lookup.table_plugins.TablePlugin`,
+        built and probed on the table once), or None: rcsim's lookup controller."""
+        s = self.settings
+        if s.controller is None:
+            return None
+        if getattr(self, "_plugin", None) is None:
+            from rcsim.lookup.table_plugins import TablePlugin
+
+            self._plugin = TablePlugin.for_refinement(
+                s.controller, s.controller_params, self.vehicle, self.table
+            )
+        return self._plugin
+
+    def _plugin_table(self, table_path: str) -> str:
+        """The file a plug-in flies for ``table_path``: a paper table by name is written into
+        DIR first (rcsim layout: a plug-in reads files, not rcsim's names)."""
+        if table_path not in PAPER_LOOKUP_TABLES:
+            return table_path
+        path = self.out / f"{table_path}.csv"
+        if not path.exists():
+            self.table.to_csv(path)
+        return str(path)
+
     def _campaign(self, name: str, table_path: str, seed: int, plots: bool | None = None) -> dict:
         s = self.settings
         spec_file = self.out / f"spec_{name.split('_')[1]}.toml"
         if not spec_file.exists():
+            flown: dict = {}
+            if self.plugin is not None:
+                flown = {
+                    "controller": s.controller,
+                    "controller_params": {
+                        **self.plugin.params,
+                        self.plugin.key: self._plugin_table(table_path),
+                    },
+                }
             text = spec_text(
                 table=table_path,
                 runs_per_case=s.runs_per_case,
@@ -456,6 +540,7 @@ class _Stages:
                 plots=s.plots if plots is None else plots,
                 vehicle=self.vehicle,
                 name_vehicle=s.vehicle is not None,
+                **flown,
             )
             atomic_write(spec_file, lambda tmp: Path(tmp).write_text(text))
         report = run_campaign(
@@ -523,6 +608,7 @@ class _Stages:
             # held-out seed stays unused by any decision).
             confirm_seed=confirmation_seed(s.seed, s.held_out_seed),
             max_propellant_rise=s.max_propellant_rise_pct / 100.0,
+            plugin=self.plugin,
         )
         save_search(result, self.paths["search"])
         result.table.to_csv(self.paths["refined"])
@@ -569,6 +655,7 @@ class _Stages:
             drop_regressions=s.drop_regressions,
             # The further seed is one past every seed the loop used (this one included).
             confirm_seed=s.confirm_seed,
+            plugin=self.plugin,
         )
         write_refinement(ref, self.paths["refined"], overwrite=True, writer=COMMAND)
         log = ref.changelog

@@ -32,9 +32,10 @@ from rcsim.analysis.engine.flight import fly_batch
 from rcsim.analysis.engine.interrupts import raise_if_interrupted
 from rcsim.analysis.results.scoring import trial_frame
 from rcsim.lookup.pattern_recognition import LookupController, LookupParams
+from rcsim.lookup.table_plugins import TablePlugin
 from rcsim.models.tables import LookupTable
 from rcsim.spacecraft.dispersions import draw_runs
-from rcsim.spacecraft.vehicle import VehicleParams
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 #: Chunks submitted per worker process at a time (one flying, one waiting, so that a worker
 #: never waits for this process to hand it the next).
@@ -72,24 +73,45 @@ class Trials:
 def _fly_chunk(
     spec: CampaignSpec,
     table: LookupTable,
-    params: VehicleParams,
+    params: RunParameters,
     run_times: np.ndarray,
     cases: np.ndarray,
     lookup_params: LookupParams,
     nthread: int = 1,
+    plugin: TablePlugin | None = None,
 ) -> pd.DataFrame:
     """Fly one chunk: run ``i`` flies case ``cases[i]`` with vehicle ``params.take(i)`` and
     table ``run_times[i]``; return its outcome columns.  Runs in a worker process.  The
     spec's vehicle is flown as a campaign flies it (its model, profile, valve limits, valve
-    timing and tank)."""
-    controller = LookupController.for_runs(table, run_times, lookup_params).record_rows()
-    history = fly_batch(
-        [spec.cases[c] for c in cases], params, controller, vehicle=spec.vehicle, nthread=nthread
-    )
-    out = outcomes(history, spec)
-    assert controller.rows_fired is not None  # recorded by the flight
-    out["rows_fired"] = rows_bitmask(controller.rows_fired)
-    return out
+    timing and tank).  ``plugin``: a plug-in flies the tables instead of the built-in lookup
+    controller, each distinct table's runs as one batch (:mod:`rcsim.lookup.table_plugins`)."""
+    if plugin is None:
+        controller = LookupController.for_runs(table, run_times, lookup_params).record_rows()
+        history = fly_batch(
+            [spec.cases[c] for c in cases],
+            params,
+            controller,
+            vehicle=spec.vehicle,
+            nthread=nthread,
+        )
+        out = outcomes(history, spec)
+        assert controller.rows_fired is not None  # recorded by the flight
+        out["rows_fired"] = rows_bitmask(controller.rows_fired)
+        return out
+    parts = []
+    n_rows = np.asarray(table.firing_time_s).shape[0]
+    for idx, ctl in plugin.controllers(spec.vehicle, table, run_times):
+        history = fly_batch(
+            [spec.cases[c] for c in cases[idx]],
+            params.take(idx),
+            ctl,
+            vehicle=spec.vehicle,
+            nthread=nthread,
+        )
+        part = outcomes(history, spec)
+        part["rows_fired"] = rows_bitmask(plugin.rows_fired(ctl, idx.size, n_rows))
+        parts.append(part.set_axis(idx))
+    return pd.concat(parts).sort_index().reset_index(drop=True)
 
 
 def rows_bitmask(rows_fired: np.ndarray) -> np.ndarray:
@@ -112,6 +134,7 @@ def evaluate(
     progress: bool | None = None,
     desc: str = "refine",
     runs_per_case: int | None = None,
+    plugin: TablePlugin | None = None,
 ) -> pd.DataFrame:
     """Fly every trial over the first ``runs_per_case`` dispersed runs of its case.
 
@@ -133,6 +156,9 @@ def evaluate(
     runs_per_case : int, optional
         Runs ``0 .. runs_per_case - 1`` of each case (numbered as the campaign numbers them,
         ``case * spec.runs_per_case + k``: the campaign's own draws); default all of them.
+    plugin : TablePlugin, optional
+        A plug-in that flies the tables (:mod:`rcsim.lookup.table_plugins`); default the
+        built-in lookup controller with ``lookup_params``.
 
     Returns
     -------
@@ -179,7 +205,7 @@ def evaluate(
 
     def work(
         sl: slice,
-    ) -> tuple[CampaignSpec, LookupTable, VehicleParams, np.ndarray, np.ndarray, LookupParams]:
+    ) -> tuple[CampaignSpec, LookupTable, RunParameters, np.ndarray, np.ndarray, LookupParams]:
         return (
             spec,
             table,
@@ -202,7 +228,7 @@ def evaluate(
         workers = min(threads, len(chunks))
         if workers == 1:
             for sl in chunks:
-                frames.append(_fly_chunk(*work(sl), nthread=threads))
+                frames.append(_fly_chunk(*work(sl), nthread=threads, plugin=plugin))
                 bar.update(sl.stop - sl.start)
                 raise_if_interrupted()  # one a library swallowed (rcsim.analysis.engine.interrupts)
         else:
@@ -213,7 +239,7 @@ def evaluate(
                 # Results are taken in chunk order, so the frame is the same either way.
                 todo = iter(chunks)
                 flying = deque(
-                    (sl, submit(pool, _fly_chunk, *work(sl)))
+                    (sl, submit(pool, _fly_chunk, *work(sl), 1, plugin))
                     for sl in islice(todo, IN_FLIGHT_PER_WORKER * workers)
                 )
                 while flying:
@@ -223,7 +249,7 @@ def evaluate(
                     raise_if_interrupted()
                     nxt = next(todo, None)
                     if nxt is not None:
-                        flying.append((nxt, submit(pool, _fly_chunk, *work(nxt))))
+                        flying.append((nxt, submit(pool, _fly_chunk, *work(nxt), 1, plugin)))
             except BaseException:  # an interrupt: stop the workers now, not after their chunks
                 kill_pool(pool)
                 raise

@@ -50,9 +50,10 @@ from rcsim.analysis.engine.output_places import refuse_own_inputs
 from rcsim.analysis.results.proportions import clopper_pearson
 from rcsim.analysis.results.scoring import trial_scores
 from rcsim.lookup.table_edits import axis_cycles, jet_axes
+from rcsim.lookup.table_plugins import TablePlugin
 from rcsim.models.atomic import atomic_write
 from rcsim.models.tables import AXES, LookupTable
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 
 def run_refinement(
@@ -72,6 +73,7 @@ def run_refinement(
     compare_table7: bool | None = None,
     vehicle: Vehicle | str | None = None,
     max_propellant_rise: float = MAX_RISE,
+    plugin: TablePlugin | None = None,
 ) -> Refinement:
     """Refine ``table`` on ``seed`` and fly the old and new tables on ``fresh_seed``.
 
@@ -104,6 +106,9 @@ def run_refinement(
     max_propellant_rise : float
         Largest rise of a case's mean propellant (a fraction, default 0.10) judged on failures
         alone (:mod:`~rcsim.analysis.apps.refinement.propellant`).
+    plugin : TablePlugin, optional
+        A plug-in flies every table instead of the built-in lookup controller
+        (:mod:`rcsim.lookup.table_plugins`).
 
     Raises
     ------
@@ -141,6 +146,7 @@ def run_refinement(
         checkpoint=checkpoint,
         confirm_seed=confirm_seed,
         max_propellant_rise=max_propellant_rise,
+        plugin=plugin,
     )
     return held_out_check(
         table,
@@ -156,6 +162,7 @@ def run_refinement(
         vehicle=flown,
         table_file=table_file,
         max_propellant_rise=max_propellant_rise,
+        plugin=plugin,
     )
 
 
@@ -178,6 +185,7 @@ def held_out_check(
     max_propellant_rise: float = MAX_RISE,
     drop_regressions: bool = False,
     further_seed: int | None = None,
+    plugin: TablePlugin | None = None,
 ) -> Refinement:
     """Fly the old and the refined table on ``fresh_seed`` (the seed no decision used).
 
@@ -231,7 +239,13 @@ def held_out_check(
             tuple(k for k in to_fly for _ in range(searched.size)),
         )
         runs = evaluate(
-            fresh, table, trials, threads=threads, progress=progress, desc="refine: fresh seed"
+            fresh,
+            table,
+            trials,
+            threads=threads,
+            progress=progress,
+            desc="refine: fresh seed",
+            plugin=plugin,
         )
         scores = trial_scores(runs, trials.n_trials)
         for i, k in enumerate(to_fly):
@@ -242,7 +256,7 @@ def held_out_check(
     fresh_before, fresh_after = scores_of["before"], scores_of["after"]
     log = changelog(table, result, fresh_before, fresh_after, vehicle.control.cycle_s)
     held_out_propellant(log, runs_of["before"], runs_of["after"], max_propellant_rise)
-    fly: dict = dict(threads=threads, progress=progress)
+    fly: dict = dict(threads=threads, progress=progress, plugin=plugin)
     found = find_regressions(fresh, table, result.table, runs_of["before"], runs_of["after"], **fly)
     log = pd.concat(
         [log, regression_columns(found, searched, table.case).set_index(log.index)], axis=1
@@ -280,6 +294,7 @@ def held_out_check(
         table_file=table_file,
         regressions=found.text(fresh_seed, table.case),
         further=further,
+        plugin=plugin,
     )
 
 
@@ -586,7 +601,10 @@ def write_refinement(
             plot_case_before_after(ref, int(worst["case"]), tmp / name)
             written["case_plot"] = paths["plots"] / name
         csv = {"index": False, "float_format": "%.6g"}
-        parts: list = [(paths["changelog"], lambda t: ref.changelog.to_csv(t, **csv))]
+        log = ref.changelog
+        if ref.plugin is not None:  # which flight software flew every table, on every row
+            log = log.assign(controller=ref.plugin.describe())
+        parts: list = [(paths["changelog"], lambda t: log.to_csv(t, **csv))]
         if ref.comparison is not None:
             comparison = (
                 ref.comparison

@@ -17,7 +17,7 @@ from rcsim.analysis.engine.campaign.spec import CampaignSpec, parse_dict
 from rcsim.models.errors import InputError
 from rcsim.models.tables import LookupTable
 from rcsim.spacecraft.dispersions import MAX_SEED
-from rcsim.spacecraft.vehicle_file import DEFAULT_VEHICLE, Vehicle
+from rcsim.spacecraft.vehicle import DEFAULT_VEHICLE, Vehicle
 
 
 def rate_cases_campaign(
@@ -31,6 +31,7 @@ def rate_cases_campaign(
     vehicle: Vehicle | str | None = None,
     controller: str = "lookup",
     name_vehicle: bool = False,
+    controller_params: dict | None = None,
 ) -> dict:
     """The campaign a refinement flies, as a spec dict: all 26 Table 3 cases from rest, the
     vehicle's dispersions (Table 5 for the paper's), the campaign's default failure threshold.
@@ -40,8 +41,16 @@ def rate_cases_campaign(
     from here.  ``vehicle``: named in the spec (:func:`vehicle_keys`) unless it is the paper's
     as it is packaged and ``name_vehicle`` is false (the user did not name it).
     ``controller``: another than the lookup controller only to check a vehicle before its
-    table exists (the loop's ``generate``).
+    table exists (the loop's ``generate``), or a plug-in that flies the table
+    (:mod:`rcsim.lookup.table_plugins`) with ``controller_params`` (its table file among them).
     """
+    from rcsim.lookup.registry import is_plugin
+
+    section: dict = {"name": controller}
+    if controller == "lookup":
+        section = {"name": "lookup", "table": table}
+    elif is_plugin(controller):
+        section = plugin_section(controller, controller_params)
     spec: dict = {
         "seed": seed,
         "runs_per_case": runs_per_case,
@@ -51,14 +60,29 @@ def rate_cases_campaign(
             "mode": "command",
             "duration_s": float(duration_s),
         },
-        "controller": {"name": "lookup", "table": table}
-        if controller == "lookup"
-        else {"name": controller},
+        "controller": section,
         "dispersions": {"table": "default", "scale": 1.0},
         "output": {"histories": histories, "plots": plots},
     }
     spec.update(vehicle_keys(vehicle, named=name_vehicle))
     return spec
+
+
+def plugin_section(controller: str, params: dict | None) -> dict:
+    """A spec's ``[controller]`` for plug-in ``controller`` (``plugin:...``, ``library:...`` or
+    a registered name) with its ``[controller.params]``."""
+    from rcsim.lookup.c_library import LIBRARY_PREFIX
+    from rcsim.lookup.plugins import PLUGIN_PREFIX
+
+    if controller.startswith(PLUGIN_PREFIX):
+        section: dict = {"plugin": controller[len(PLUGIN_PREFIX) :]}
+    elif controller.startswith(LIBRARY_PREFIX):
+        section = {"library": controller[len(LIBRARY_PREFIX) :]}
+    else:
+        section = {"name": controller}
+    if params:
+        section["params"] = dict(params)
+    return section
 
 
 def vehicle_keys(vehicle: Vehicle | str | None, *, named: bool = False) -> dict:

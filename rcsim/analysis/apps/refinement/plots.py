@@ -83,6 +83,21 @@ def plot_failures_by_case(
     fig.savefig(path, dpi=DPI)
 
 
+def _fly_table(ref: Refinement, table, spec, row: int, shown: int, params, lookup_params):
+    """The history of ``shown`` runs of case ``row`` flown with ``table`` by what the
+    refinement flew (the built-in lookup controller, or its plug-in)."""
+    cases = [spec.cases[row]] * shown
+    if ref.plugin is None:
+        return fly_batch(
+            cases, params, LookupController(table, lookup_params), vehicle=spec.vehicle
+        )
+    times = np.asarray(table.firing_time_s, float)[None]
+    for _, controller in ref.plugin.controllers(spec.vehicle, table, times):
+        # Flown inside the loop: the candidate's file exists while the plug-in flies it.
+        return fly_batch(cases, params, controller, vehicle=spec.vehicle)
+    raise AssertionError("one table gives one controller")
+
+
 def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
     """Figs 9-10 style: the changed axis's body rate of the same search-seed runs of
     ``case`` (the first :data:`PLOT_RUNS`), with the old table (left) and the refined one
@@ -111,12 +126,7 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
     for ax, (label, table, old_new) in zip(
         axes, (("old table", ref.original, "old"), ("refined table", ref.table, "new"))
     ):
-        history = fly_batch(
-            [spec.cases[row]] * shown,
-            params,
-            LookupController(table, lookup_params),
-            vehicle=vehicle,
-        )
+        history = _fly_table(ref, table, spec, row, shown, params, lookup_params)
         rate = np.degrees(history.omega_B[:, :, a])
         failed = outcomes(history, spec)["failed"].to_numpy(bool)
         for fail, color in ((False, AXIS_COLORS["roll"]), (True, "tab:red")):
@@ -136,5 +146,6 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
     fig.suptitle(
         f"Rate case {case}: {axis} rate of the same {shown} dispersed runs, before and after "
         f"refinement (search seed {ref.seed})"
+        + ("" if ref.plugin is None else f"; flown by {ref.plugin.describe()}")
     )
     fig.savefig(path, dpi=DPI)

@@ -8,8 +8,9 @@ from dataclasses import dataclass
 import pandas as pd
 
 from rcsim.analysis.apps.refinement.search import RefineResult
+from rcsim.lookup.table_plugins import TablePlugin
 from rcsim.models.tables import LookupTable
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 
 @dataclass
@@ -44,6 +45,8 @@ class Refinement:
         When rows causing a regression were dropped: the further seed's check of the final
         table (``seed``, ``dropped_rows`` (case numbers), ``comparison``, ``failed_before``,
         ``failed_after``, ``runs``, ``regressions``).
+    plugin : TablePlugin, optional
+        The plug-in that flew every table (None: the built-in lookup controller).
     """
 
     original: LookupTable
@@ -61,6 +64,7 @@ class Refinement:
     table_file: str = "default"
     regressions: str = ""
     further: dict | None = None
+    plugin: TablePlugin | None = None
 
     @property
     def table(self) -> LookupTable:

@@ -129,6 +129,7 @@ def refine(
     confirm_seed: int | None = None,
     alpha: float = ALPHA,
     max_propellant_rise: float = MAX_RISE,
+    plugin=None,
 ) -> RefineResult:
     """Refine ``table`` against the dispersed runs of ``spec``.
 
@@ -166,6 +167,8 @@ def refine(
         Largest rise of a case's mean propellant (a fraction) judged on failures alone; a
         change raising it more must pay with failures, on the search and on the confirmation
         seed (:mod:`rcsim.analysis.apps.refinement.propellant`).
+    plugin : rcsim.lookup.table_plugins.TablePlugin, optional
+        A plug-in that flies every candidate instead of the built-in lookup controller.
     """
     if len(spec.cases) != len(table.case):
         raise ValueError(f"spec has {len(spec.cases)} cases, the table {len(table.case)}")
@@ -182,7 +185,7 @@ def refine(
         spec,
         table,
         cases,
-        dict(threads=threads, progress=progress, lookup_params=lookup_params),
+        dict(threads=threads, progress=progress, lookup_params=lookup_params, plugin=plugin),
         min(spec.runs_per_case, search_runs_per_case or spec.runs_per_case),
         alpha,
         max_propellant_rise,
@@ -192,6 +195,7 @@ def refine(
             spec, table, cases, max_iterations, search.runs_per_case, confirm_seed, alpha
         )
         + f"|propellant {max_propellant_rise!r}"
+        + ("" if plugin is None else f"|plugin {plugin.name!r} {plugin.params!r} {plugin.record!r}")
     )
     saved = _load_checkpoint(checkpoint, key)
     if saved is not None:

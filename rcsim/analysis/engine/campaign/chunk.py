@@ -32,7 +32,8 @@ from rcsim.spacecraft import cycle_kernel
 from rcsim.spacecraft.dispersions import DispersedRuns, draw_runs
 from rcsim.spacecraft.guards import history_bytes, invalid_runs
 from rcsim.spacecraft.simulation import History
-from rcsim.spacecraft.vehicle import AXES, VehicleParams
+from rcsim.spacecraft.vehicle.model import AXES
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 if TYPE_CHECKING:
     from rcsim.analysis.engine.campaign.spec import CampaignSpec
@@ -308,7 +309,7 @@ def _keep(spec: CampaignSpec, run_ids: np.ndarray, failed: np.ndarray) -> np.nda
     return np.zeros(run_ids.size, bool)
 
 
-def flown_inputs(dispersed: DispersedRuns, flown: VehicleParams | None) -> DispersedRuns:
+def flown_inputs(dispersed: DispersedRuns, flown: RunParameters | None) -> DispersedRuns:
     """``dispersed`` with the vehicle values the simulation read back from MuJoCo's per-run
     model (``History.flown_params``): what runs.parquet records is what the physics flew.
 

@@ -16,7 +16,7 @@ noise stream, never the Table 5 dispersion stream: adding an effect leaves every
 bit for bit the same.
 
 A vehicle file's own valve timing (``[timing] command_delay_s``, per-jet ``open_delay_s`` and
-``close_delay_s``: :mod:`rcsim.spacecraft.vehicle_file.schema`) is the vehicle's *nominal*: every
+``close_delay_s``: :mod:`rcsim.spacecraft.vehicle.file_schema`) is the vehicle's *nominal*: every
 run flies it.  ``[dispersions.timing]`` then disperses about it: its sigmas are applied to the
 vehicle's nominal delays, jet by jet, clipped at 0.  A delay the vehicle file gives (even as 0)
 cannot also get a mean in the spec -- whether the spec's value should replace the file's or
@@ -261,7 +261,7 @@ def parse_effects(
     ``cycle_s``: the campaign's control cycle [s] (delays must act within it); ``longest_s``:
     its longest run [s] (fault windows must start within it); ``n_jets``: the jets of the
     campaign's vehicle (a fault's jets are among them), ``vehicle`` its name in messages;
-    ``definition``: its :class:`~rcsim.spacecraft.vehicle_file.VehicleDef` (None: the packaged
+    ``definition``: its :class:`~rcsim.spacecraft.vehicle.VehicleDef` (None: the packaged
     vehicle), whose valve timing is the nominal the spec's timing disperses about.
 
     Returns

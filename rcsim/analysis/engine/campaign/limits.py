@@ -18,7 +18,7 @@ from rcsim.spacecraft.control_profile import MAX_VALIDATED_RATE_DEG_S as MAX_INI
 from rcsim.spacecraft.control_profile import VALIDATED_STEP_S
 
 if TYPE_CHECKING:
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
 # Largest initial body rate of a hold [deg/s] (norm) at the validated physics step, and that
 # step [s]: the flight-software profile's rate bound (rcsim.spacecraft.control_profile says
@@ -61,7 +61,7 @@ def vehicle_limits(vehicle: Vehicle) -> dict:
     """
     from rcsim.spacecraft.dispersions import three_sigma_bounds
     from rcsim.spacecraft.propellant import full_inertia
-    from rcsim.spacecraft.vehicle import BODY, jet_geometry_B
+    from rcsim.spacecraft.vehicle.model import BODY, jet_geometry_B
 
     model = vehicle.model
     nom = vehicle.nominal(1)

@@ -13,7 +13,7 @@ import numpy as np
 
 from rcsim.spacecraft.history import History
 from rcsim.spacecraft.propellant import exhausted_before
-from rcsim.spacecraft.vehicle import jet_name
+from rcsim.spacecraft.vehicle.model import jet_name
 
 # A firing continues into the next cycle only if it filled the previous one -- the same rule
 # (and tolerance) as rcsim.spacecraft.propulsion.apply_valve_limits, so firing counts agree with it.

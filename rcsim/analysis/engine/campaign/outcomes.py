@@ -27,7 +27,7 @@ from rcsim.analysis.engine.runs_table import outcome_frame
 from rcsim.spacecraft import cycle_kernel
 from rcsim.spacecraft.propellant import exhausted_before, exhausted_text
 from rcsim.spacecraft.simulation import History
-from rcsim.spacecraft.vehicle import AXES, jet_name
+from rcsim.spacecraft.vehicle.model import AXES, jet_name
 
 if TYPE_CHECKING:
     from rcsim.analysis.engine.campaign.spec import CampaignSpec
@@ -45,7 +45,7 @@ def axis_jets(spec: CampaignSpec) -> np.ndarray:
     """(3, n_jets) bool: the jets that count as roll, pitch, yaw jets for a campaign.
 
     The jets that torque each axis (the spec's vehicle's torque signs nonzero,
-    :attr:`rcsim.spacecraft.vehicle_file.Vehicle.axis_signs`: Table 2 for the paper's); for a
+    :attr:`rcsim.spacecraft.vehicle.Vehicle.axis_signs`: Table 2 for the paper's); for a
     campaign flying a channel table, the jets its channels of each axis fire
     (:func:`rcsim.lookup.channels.axis_jets_of`: on a coupled layout every jet torques several
     axes, so the torque signs alone say little about which firing serves which axis).

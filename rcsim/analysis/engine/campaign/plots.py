@@ -24,7 +24,7 @@ from rcsim.analysis.engine import runs_table
 from rcsim.analysis.engine.campaign.budget_plots import COLUMNS as BUDGET_COLUMNS
 from rcsim.analysis.engine.campaign.budget_plots import plot_propellant_delta_v
 from rcsim.analysis.engine.plots import new_figure
-from rcsim.spacecraft.vehicle import AXES
+from rcsim.spacecraft.vehicle.model import AXES
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

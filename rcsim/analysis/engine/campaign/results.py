@@ -45,7 +45,7 @@ from rcsim.analysis.engine.runs_table import (
     run_columns,
 )
 from rcsim.models.atomic import atomic_write, remove_temporaries
-from rcsim.spacecraft.vehicle import AXES
+from rcsim.spacecraft.vehicle.model import AXES
 
 
 def now_utc() -> str:

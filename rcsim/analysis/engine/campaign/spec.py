@@ -55,8 +55,8 @@ from rcsim.models.errors import InputError
 from rcsim.models.tables import PAPER_LOOKUP_TABLES
 from rcsim.spacecraft.dispersions import MAX_SEED, DispersionSigmas
 from rcsim.spacecraft.dispersions import THREE_SIGMA_KEYS as _SIGMA_KEYS
-from rcsim.spacecraft.vehicle_file import Vehicle
-from rcsim.spacecraft.vehicle_file.definition import PAPER_RATE_ERROR_DEG_S
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.definition import PAPER_RATE_ERROR_DEG_S
 
 #: The commented example spec ``rcsim campaign example`` prints: every key, its default and
 #: what it means (a data file beside this module, ``example_spec.toml``; a test loads it).
@@ -99,7 +99,7 @@ class CampaignSpec:
     resolved : dict
         The spec with defaults filled in and paths made absolute (JSON-able); what the
         manifest records, what ``--resume`` compares and what ``replay`` rebuilds from.
-    vehicle : rcsim.spacecraft.vehicle_file.Vehicle
+    vehicle : rcsim.spacecraft.vehicle.Vehicle
         The vehicle flown, resolved once when the spec is read (the ``vehicle`` key, or the
         paper's; with the spec's ``[control]`` overrides of its profile): its model, jets,
         profile, valve limits, timing and tank.  It pickles small (its model is compiled once

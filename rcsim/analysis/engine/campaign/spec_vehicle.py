@@ -1,5 +1,5 @@
 """A campaign spec's vehicle: the ``vehicle`` key and the ``[control]`` overrides resolved once
-into the :class:`~rcsim.spacecraft.vehicle_file.Vehicle` it flies, and the checks that need it
+into the :class:`~rcsim.spacecraft.vehicle.Vehicle` it flies, and the checks that need it
 (the controller and its table can fly it, every case is within its jets' reach).  Used by
 :mod:`~rcsim.analysis.engine.campaign.spec`.
 """
@@ -14,7 +14,7 @@ from rcsim.analysis.engine.campaign.reader import Reader
 from rcsim.analysis.engine.flight import Scenario
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.control_profile import flatten_control
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 
 def check_jet_map(vehicle: Vehicle, controller: str, table: str | None, source: str) -> None:
@@ -53,7 +53,7 @@ def check_channel_table(controller: str, table: str, vehicle: Vehicle, source: s
 def check_reachable(vehicle: Vehicle, cases: list[Scenario], source: str) -> None:
     """Refuse a case whose rate change or attitude step the vehicle's jets cannot give,
     naming the case and the axis direction."""
-    from rcsim.spacecraft.vehicle_file.authority import unreachable_command
+    from rcsim.spacecraft.vehicle.authority import unreachable_command
 
     definition = vehicle.definition
     for case in cases:
@@ -73,7 +73,7 @@ def check_reachable(vehicle: Vehicle, cases: list[Scenario], source: str) -> Non
 def spec_vehicle(top: Reader, base_dir: Path, source: str) -> tuple[Vehicle, dict, bool]:
     """``vehicle`` (a packaged vehicle's name or a vehicle file, relative to the spec; absent:
     the paper's) and ``[control]`` (overrides of its profile), resolved once into the
-    :class:`~rcsim.spacecraft.vehicle_file.Vehicle` the campaign flies.
+    :class:`~rcsim.spacecraft.vehicle.Vehicle` the campaign flies.
 
     Returns the vehicle, what ``resolved`` records of it -- the file and its sha256 (a resume
     or replay refuses a changed file) when the spec names one, its nominal valve timing when
@@ -81,7 +81,7 @@ def spec_vehicle(top: Reader, base_dir: Path, source: str) -> tuple[Vehicle, dic
     disperses), ``control`` when the spec gives it; nothing for a spec with neither, which
     resolves as before -- and whether the spec named a vehicle.
     """
-    from rcsim.spacecraft.vehicle_file import PACKAGED_VEHICLES, resolve_vehicle
+    from rcsim.spacecraft.vehicle import PACKAGED_VEHICLES, resolve_vehicle
 
     control = top.raw("control") if top.has("control") else None
     if control is not None and not isinstance(control, dict):

@@ -23,7 +23,7 @@ from rcsim.analysis.engine.scenarios.plots import (
     plot_table_heatmap,
 )
 from rcsim.lookup.generation import generate_table
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The docs figure set: file name -> (scenario, plot kind).  Kinds: "att" attitude error,
 #: "jets" rates with jet commands per axis, "hold" the attitude-hold view.

@@ -17,9 +17,10 @@ from rcsim.analysis.engine.flight import fly_batch
 from rcsim.analysis.engine.scenarios.catalog import PaperScenario, all_scenarios, get_scenario
 from rcsim.lookup.registry import CONTROLLERS, make_controller
 from rcsim.models.errors import InputError
+from rcsim.spacecraft.control_profile import ControlProfile
 from rcsim.spacecraft.simulation import History
-from rcsim.spacecraft.vehicle import VehicleParams
-from rcsim.spacecraft.vehicle_file import ControlProfile, Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 #: Rows of the comparison: the paper's controller first, then the phase-plane baseline.
 COMPARISON_ORDER = tuple(sorted(CONTROLLERS, key=lambda name: name != "lookup"))
@@ -67,7 +68,7 @@ def fly_scenario(
     *,
     table=None,
     vehicle: Vehicle | None = None,
-    params: VehicleParams | None = None,
+    params: RunParameters | None = None,
     controller_obj=None,
     **lookup_overrides,
 ) -> History:
@@ -77,7 +78,7 @@ def fly_scenario(
     ----------
     vehicle : Vehicle, optional
         The vehicle flown; default the paper's (the scenarios are the paper's).
-    params : VehicleParams, optional
+    params : RunParameters, optional
         One vehicle per run (``scenario.n_runs``), e.g. an off-nominal one.
     controller_obj : Controller, optional
         Use this controller instead of building one.

@@ -22,7 +22,7 @@ from rcsim.analysis.engine.scenarios.flying import (
 )
 from rcsim.analysis.engine.scenarios.plots import plot_scenario
 from rcsim.spacecraft.simulation import History
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 
 def write_scenario(

@@ -32,11 +32,11 @@ same three quantities **in the firing direction** of each case: ``authority_{a}_
 commanded rate change (for an axis with no commanded change, the mean of both groups, which
 hold it at rest).  Vehicles come back from the recorded inputs through the runs table's
 owner (:func:`rcsim.analysis.engine.runs_table.vehicles_from_runs`, with the simulator's own
-pointing rule) and torques from :func:`rcsim.spacecraft.vehicle.torque_per_jet_B`.
+pointing rule) and torques from :func:`rcsim.spacecraft.vehicle.run_parameters.torque_per_jet_B`.
 
 A campaign that flew a vehicle file (its spec's ``vehicle``) is analysed with that vehicle's
 model, and its groups come from the vehicle's own jet matrix: the jets whose nominal torque
-about axis ``a`` has the group's sign (:func:`rcsim.spacecraft.vehicle_file.authority.torque_signs`;
+about axis ``a`` has the group's sign (:func:`rcsim.spacecraft.vehicle.authority.torque_signs`;
 for the paper's vehicle this is Table 2 exactly).  A canted jet belongs to a group of every
 axis it torques.
 """
@@ -47,8 +47,9 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.engine.runs_table import axis_inertia, input_names, vehicles_from_runs
-from rcsim.spacecraft.vehicle import AXES, torque_per_jet_B
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.model import AXES
+from rcsim.spacecraft.vehicle.run_parameters import torque_per_jet_B
 
 _DIRS = ((1, "pos"), (-1, "neg"))
 
@@ -66,14 +67,14 @@ def physics_factors(
     runs : DataFrame
         Holds the recorded inputs (:func:`rcsim.analysis.engine.runs_table.input_names` of the
         vehicle's jets).
-    vehicle : rcsim.spacecraft.vehicle_file.Vehicle
+    vehicle : rcsim.spacecraft.vehicle.Vehicle
         The vehicle the runs flew: its model, nominal parameters and torque signs.
     fire_sign : ndarray of int (n, 3), optional
         Per run and axis, the sign of the commanded rate change (0: none); adds the
         firing-direction factors.
     jet_map : ndarray of int (n_jets, 3), optional
         Torque signs per jet and axis; default the vehicle's own
-        (:attr:`rcsim.spacecraft.vehicle_file.Vehicle.axis_signs`).
+        (:attr:`rcsim.spacecraft.vehicle.Vehicle.axis_signs`).
 
     Returns
     -------

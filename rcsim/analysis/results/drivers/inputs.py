@@ -458,10 +458,10 @@ def _check_numeric(runs: pd.DataFrame, cols, where) -> None:
 
 def factor_vehicle(vehicle, manifest: dict | None):
     """The vehicle a run set's physics-aware factors are computed with: ``vehicle`` when given
-    (a :class:`~rcsim.spacecraft.vehicle_file.Vehicle`, a packaged name or a file), else the
+    (a :class:`~rcsim.spacecraft.vehicle.Vehicle`, a packaged name or a file), else the
     one a campaign's manifest names (its spec's ``vehicle``, the paper's when the spec has
     none: a campaign without the key flew the paper's), else None."""
-    from rcsim.spacecraft.vehicle_file import Vehicle
+    from rcsim.spacecraft.vehicle import Vehicle
 
     if vehicle is not None:
         return Vehicle.load(vehicle)

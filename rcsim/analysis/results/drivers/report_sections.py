@@ -205,13 +205,13 @@ def _vehicle_facts(m: dict) -> list[tuple[str, str]]:
     spec = m.get("spec", {})
     file, digest = spec.get("vehicle"), spec.get("vehicle_sha256")
     if not file:
-        return [("vehicle", "the packaged vehicle (Gambone's, rcsim/models/vehicle/vehicle.xml)")]
+        return [("vehicle", "the packaged vehicle (Gambone's, rcsim/models/vehicle/paper.toml)")]
     name = m.get("vehicle_name")
     if name is None:
         import hashlib
 
         from rcsim.models.errors import InputError
-        from rcsim.spacecraft.vehicle_file import load_vehicle, resolve_vehicle
+        from rcsim.spacecraft.vehicle import load_vehicle, resolve_vehicle
 
         try:
             if hashlib.sha256(resolve_vehicle(file).read_bytes()).hexdigest() == digest:

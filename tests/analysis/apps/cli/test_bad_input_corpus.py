@@ -160,7 +160,7 @@ def test_bad_input(case, tmp_path, capsys, monkeypatch, request):
         assert not changed, f"touched what existed before: {sorted(changed)}"
         return
     assert "Traceback" not in err, err
-    # A vehicle file's sanity warnings (rcsim/spacecraft/vehicle_file/sanity.py) may precede
+    # A vehicle file's sanity warnings (rcsim/spacecraft/vehicle/sanity.py) may precede
     # the error: odd values are said even when something else is refused.
     lines = [line for line in err.strip().splitlines() if not line.startswith("rcsim: warning: ")]
     assert len(lines) == 1, f"expected one error line on stderr, got:\n{err}"

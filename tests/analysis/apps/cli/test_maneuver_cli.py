@@ -383,7 +383,7 @@ def test_maneuver_says_when_the_propellant_ran_out(tmp_path, capsys):
     previous cycle) in the cycles starting before it."""
     import json
 
-    from rcsim.spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.spacecraft.vehicle import resolve_vehicle
 
     text = resolve_vehicle("canted12").read_text()
     vehicle = tmp_path / "dry.toml"

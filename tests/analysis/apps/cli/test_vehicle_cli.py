@@ -105,11 +105,11 @@ def test_no_pairs_says_the_pairs_were_not_searched(capsys):
 
 def test_many_jets_are_estimated_and_refused_before_the_work(tmp_path, capsys, monkeypatch):
     # Issue 31: 1,000 jets (499,500 pair LPs) ran with no estimate.  The estimate is the LP
-    # count (rcsim.spacecraft.vehicle_file.authority.lp_count) times a rate timed on the
+    # count (rcsim.spacecraft.vehicle.authority.lp_count) times a rate timed on the
     # vehicle; 60 jets with pairs are 30 + 60 x 24 + 1,770 x 6 = 12,090 LPs.  A rate of 1 s
     # per LP (patched: the clock of the machine is not the test's) puts it over 30 minutes.
     import rcsim.analysis.apps.estimates as estimates
-    import rcsim.spacecraft.vehicle_file.authority as authority
+    import rcsim.spacecraft.vehicle.authority as authority
 
     assert authority.lp_count(60, pairs=True) == 12_090
     assert authority.lp_count(60, pairs=False) == 1_470
@@ -154,7 +154,7 @@ def test_check_prints_the_pulse_model_and_minimum_impulse_bit(tmp_path, capsys):
     the bit's full-thrust time is ``u - tau_r (1 - e^(-u/tau_r)) + p tau_t (1 - e^-20)``,
     ``p = 1 - e^(-u/tau_r)`` (docs/vehicles.md, "Pulses"), and its +roll rate change that
     times the +roll authority ``2 F r / Ixx`` (the oracle above), to the 3 digits printed."""
-    from rcsim.spacecraft.vehicle_file.definition import packaged_vehicle
+    from rcsim.spacecraft.vehicle.definition import packaged_vehicle
 
     text = packaged_vehicle("paper").read_text(encoding="utf-8")
     text = text.replace("min_on_s = 0.0 ", "min_on_s = 0.010 ", 1)

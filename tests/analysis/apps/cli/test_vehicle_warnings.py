@@ -1,13 +1,13 @@
 """Vehicle-file sanity warnings where a user meets them: ``rcsim vehicle check`` lists them,
 a command that flies the vehicle prints them to stderr before its work (issue 31 item 7; the
-warnings' figures are tested in tests/spacecraft/vehicle_file/test_sanity.py)."""
+warnings' figures are tested in tests/spacecraft/vehicle/test_sanity.py)."""
 
 from __future__ import annotations
 
 import re
 
 from rcsim.analysis.apps.cli import main
-from rcsim.spacecraft.vehicle_file import resolve_vehicle
+from rcsim.spacecraft.vehicle import resolve_vehicle
 
 EXAMPLES = resolve_vehicle("paper").parents[3] / "docs" / "examples"
 

@@ -425,7 +425,7 @@ def test_hold_limits_come_from_the_vehicle_flown(tmp_path):
     x 2 m = 3,520 N m for docs/examples/service16.toml), never the paper's 36 N m; and the
     initial-rate limit keeps the validated rotation per physics step (3 deg/s x 40 ms,
     docs/convergence.md) for the vehicle's own step."""
-    from rcsim.spacecraft.vehicle_file import resolve_vehicle
+    from rcsim.spacecraft.vehicle import resolve_vehicle
 
     examples = resolve_vehicle("paper").parents[3] / "docs" / "examples"
     hold = MINIMAL.replace("cases = [13]", "kind = 'hold'\ndisturbance_n_m = [0, 0, {d}]")

@@ -17,7 +17,7 @@ from rcsim.analysis.engine.campaign.spec import (
 )
 from rcsim.analysis.results.drivers.report_sections import _criterion
 from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 # A 100 kg cube with one yaw pair: any layout flies a spec here (it is only read, not flown).
 VEHICLE = (

@@ -27,9 +27,10 @@ from rcsim.analysis.engine.runs_table import PRODUCT_NAMES, input_names, outcome
 from rcsim.analysis.results.drivers.inputs import load_runs
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.dispersions import n_normals, run_streams
-from rcsim.spacecraft.vehicle_file import load_vehicle
-from rcsim.spacecraft.vehicle_file.authority import torque_signs
-from rcsim.spacecraft.vehicle_file.schema import packaged_vehicle
+from rcsim.spacecraft.vehicle import load_vehicle
+from rcsim.spacecraft.vehicle.authority import torque_signs
+from rcsim.spacecraft.vehicle.file_schema import packaged_vehicle
+from rcsim.spacecraft.vehicle.mjcf import force_torque
 
 BASE = """
 seed = 5
@@ -211,7 +212,7 @@ def test_analyze_authority_uses_the_moments_about_the_body_axes(tmp_path, unsort
     np.testing.assert_allclose(runs[INERTIA], expect, rtol=0, atol=1e-9)
 
     runset = load_runs(out)
-    torque = definition.force_torque()[3:].T  # (n_jets, 3) about the CG [N m]
+    torque = force_torque(definition)[3:].T  # (n_jets, 3) about the CG [N m]
     signs = torque_signs(definition)
     for a, axis in enumerate(("roll", "pitch", "yaw")):
         for sign, name in ((1, "pos"), (-1, "neg")):

@@ -23,8 +23,8 @@ import numpy as np
 from rcsim.analysis.engine.campaign.motion import min_pulse_count, motion_outcomes
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import BatchSimulation
-from rcsim.spacecraft.vehicle import G0_M_S2
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
 
 PAPER = Vehicle.load()
 JET = 2  # jet_03

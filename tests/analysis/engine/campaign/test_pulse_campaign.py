@@ -20,7 +20,7 @@ import pandas as pd
 from rcsim.analysis.engine.campaign.runner import run_campaign
 from rcsim.analysis.engine.campaign.spec import load_spec
 from rcsim.spacecraft.pulse_draws import pulse_normals
-from rcsim.spacecraft.vehicle_file.definition import packaged_vehicle
+from rcsim.spacecraft.vehicle.definition import packaged_vehicle
 
 SEED = 7
 EXTRA = """

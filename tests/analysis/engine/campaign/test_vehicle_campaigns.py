@@ -2,7 +2,7 @@
 
 Oracles
 -------
-* The paper's vehicle file is the packaged vehicle (``tests/spacecraft/vehicle_file/
+* The paper's vehicle file is the packaged vehicle (``tests/spacecraft/vehicle/
   test_paper_vehicle.py``: every model array equal), so a campaign flying it must give the
   packaged campaign's ``runs.parquet`` and envelopes exactly -- with the allocator, Table 5
   dispersions, sensor noise, valve delays and jet faults, i.e. every per-jet draw and record
@@ -35,8 +35,8 @@ from rcsim.analysis.engine.campaign.runner import run_campaign
 from rcsim.analysis.engine.campaign.spec import load_spec, parse_dict
 from rcsim.analysis.engine.runs_table import PRODUCT_NAMES, recorded_jets, run_columns
 from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle import G0_M_S2
-from rcsim.spacecraft.vehicle_file import resolve_vehicle
+from rcsim.spacecraft.vehicle import resolve_vehicle
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
 
 SPEC = """
 seed = 18

@@ -12,7 +12,7 @@ import pytest
 from rcsim.analysis.apps.cli import main
 from rcsim.analysis.results.drivers.findings import LISTED
 from rcsim.analysis.results.drivers.synthetic import planted_campaign
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The paper's vehicle (paper.toml).
 PAPER = Vehicle.load()

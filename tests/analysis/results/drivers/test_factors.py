@@ -1,7 +1,8 @@
 """Physics-aware factors are computed from what the simulator flew.
 
 Oracle: the simulator's own vehicle model -- :func:`rcsim.spacecraft.dispersions.draw_runs` builds
-the dispersed vehicles the campaign flies and :func:`rcsim.spacecraft.vehicle.torque_per_jet_B`
+the dispersed vehicles the campaign flies and
+:func:`rcsim.spacecraft.vehicle.run_parameters.torque_per_jet_B`
 their jet torques; the factors are computed from the vehicles the runs table rebuilds from
 the *recorded* columns (:func:`rcsim.analysis.engine.runs_table.input_frame`; the round trip itself
 is ``tests/analysis/engine/test_runs_table.py``).
@@ -14,8 +15,8 @@ from rcsim.analysis.engine.runs_table import input_frame
 from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
 from rcsim.models.tables import load_dispersions, load_jet_map
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
-from rcsim.spacecraft.vehicle import torque_per_jet_B
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.run_parameters import torque_per_jet_B
 
 #: The paper's vehicle (paper.toml).
 PAPER = Vehicle.load()

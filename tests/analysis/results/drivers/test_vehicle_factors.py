@@ -17,7 +17,7 @@ from rcsim.analysis.engine.runs_table import input_frame
 from rcsim.analysis.results.drivers.factors import physics_factors
 from rcsim.models.tables import load_dispersions
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
-from rcsim.spacecraft.vehicle_file import Vehicle
+from rcsim.spacecraft.vehicle import Vehicle
 
 #: The paper's vehicle (paper.toml).
 PAPER = Vehicle.load()
@@ -40,7 +40,7 @@ def test_canted_authority_from_the_jet_matrix(name):
     flying = Vehicle.load(name)
     runs = _runs(flying, DispersionSigmas(), n=2)
     factors = physics_factors(runs, Vehicle.load(name))
-    torque = flying.definition.force_torque()[3:]  # (3, n_jets) about the CG [N m]
+    torque = flying.force_torque()[3:]  # (3, n_jets) about the CG [N m]
     roll = torque[0]
     # Ixx: the file's tensor entry about body x (not MuJoCo's first principal moment, about
     # an axis 4 deg off x: 0.08 % larger)

@@ -1,4 +1,4 @@
-"""The MJCF of a vehicle file: the packaged ``vehicle.xml``'s structure, numbers from the file.
+"""The MJCF of a vehicle file: the structure every vehicle shares, numbers from the file.
 
 One free body ``vehicle`` with the mass, CG and inertia of the file (``diaginertia`` when the
 products are zero, else ``fullinertia``: MuJoCo diagonalises it and stores the principal frame
@@ -8,18 +8,22 @@ whatever the jets' own labels, as the simulation finds jets by those names), the
 body-frame disturbance torques, and the packaged options (zero gravity, every unused pipeline
 stage disabled).  Numbers are written as the shortest
 text that reads back as the same double, so the paper's vehicle file compiles to the packaged
-model bit for bit (``tests/spacecraft/vehicle_file/test_paper_vehicle.py``).
+model bit for bit (``tests/spacecraft/vehicle/test_paper_vehicle.py``).
 """
 
 from __future__ import annotations
 
+import functools
+
 import mujoco
 import numpy as np
 
-from rcsim.spacecraft.vehicle import BODY, DIST_NAMES, route_mujoco_warnings
-from rcsim.spacecraft.vehicle_file.schema import VehicleDef
+from rcsim.spacecraft.vehicle.definition import VehicleDef
+from rcsim.spacecraft.vehicle.model import BODY, DIST_NAMES, route_mujoco_warnings
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters, jet_force_torque_B
 
-# The packaged model's disabled stages (rcsim/models/vehicle/vehicle.xml: why each is off).
+# The disabled stages: one free body with actuators has no work for any of them, yet MuJoCo
+# enters each every RK4 sub-step; off, the state is bit-identical (docs/performance.md).
 _FLAGS = (
     'contact="disable" gravity="disable" constraint="disable" equality="disable" '
     'frictionloss="disable" limit="disable" spring="disable" damper="disable" '
@@ -93,3 +97,23 @@ def build_model(vehicle: VehicleDef) -> mujoco.MjModel:
     """The compiled MuJoCo model of ``vehicle``."""
     route_mujoco_warnings()
     return mujoco.MjModel.from_xml_string(to_mjcf(vehicle))
+
+
+def force_torque(vehicle: VehicleDef) -> np.ndarray:
+    """Force [N] and torque about the CG [N m] of each jet of ``vehicle`` at full thrust,
+    (6, n_jets): rows Fx, Fy, Fz, Tx, Ty, Tz in B.
+
+    Derived once, as the flight derives it: :func:`jet_force_torque_B` of the nominal run on
+    the compiled model (the site frames MuJoCo flies, whose directions may differ from the
+    file's in the last bits), so the authority checks and the controllers' design read the
+    same numbers.  Compiled once per MJCF text in a process.
+    """
+    return _force_torque(to_mjcf(vehicle), vehicle.isp_s).copy()
+
+
+@functools.lru_cache(maxsize=32)
+def _force_torque(mjcf_text: str, isp_s: float) -> np.ndarray:
+    route_mujoco_warnings()
+    model = mujoco.MjModel.from_xml_string(mjcf_text)
+    force, torque = jet_force_torque_B(RunParameters.nominal(1, model, isp_s=isp_s), model)
+    return np.vstack([force[0].T, torque[0].T])

@@ -22,8 +22,8 @@ from rcsim.models.tables import (
     load_lookup_inputs,
 )
 from rcsim.spacecraft.control_profile import CONTROL_KEYS, read_control
-from rcsim.spacecraft.vehicle_file import Vehicle, resolve_vehicle
-from rcsim.spacecraft.vehicle_file import vehicle as vehicle_module
+from rcsim.spacecraft.vehicle import Vehicle, resolve_vehicle
+from rcsim.spacecraft.vehicle import vehicle as vehicle_module
 
 SMALL = """
 [vehicle]

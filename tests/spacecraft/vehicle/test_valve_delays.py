@@ -26,7 +26,7 @@ from rcsim.lookup.open_loop import OpenLoopController
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
-from rcsim.spacecraft.vehicle_file import PACKAGED_VEHICLES, Vehicle, load_vehicle
+from rcsim.spacecraft.vehicle import PACKAGED_VEHICLES, Vehicle, load_vehicle
 
 CYCLE_S = 0.04
 COMMAND_S = 0.006
@@ -151,7 +151,7 @@ def test_a_delayed_jet_delivers_the_shifted_lengthened_interval(
     # The commands stay the commands: the history's on-times are what was asked for.
     np.testing.assert_allclose(hist.on_time_s[:, :, jet].sum(axis=1), ON_S, rtol=1e-12)
     # Euler about a principal axis: tau (t + c - o) / I.
-    tau = delayed.definition.force_torque()[3 + axis, jet]
+    tau = delayed.force_torque()[3 + axis, jet]
     inertia = delayed.definition.inertia_kg_m2[axis, axis]
     np.testing.assert_allclose(
         hist.final.omega_B[:, axis], tau * thrust_s / inertia, rtol=1e-9, atol=1e-15

@@ -1,7 +1,7 @@
 """The readers of a vehicle file's sections: mass properties (``[mass]``), jets
 (``[jet_defaults]``, ``[[jet]]``), valve timing (``[timing]``), dispersions (``[dispersions]``)
 and the flight-software profile (``[control]``), each value checked against its range and the
-control cycle (:mod:`rcsim.spacecraft.vehicle_file.schema` puts them together).
+control cycle (:mod:`rcsim.spacecraft.vehicle.file_schema` puts them together).
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ from rcsim.spacecraft.dispersions import (
     second_moment_slack,
     three_sigma_bounds,
 )
-from rcsim.spacecraft.vehicle_file.definition import (
+from rcsim.spacecraft.vehicle.definition import (
     MAX_REACH_GYRATIONS,
     MAX_THRUST_N,
     MIN_ARM_M,

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rcsim.spacecraft.vehicle_file.definition import packaged_vehicle
-from rcsim.spacecraft.vehicle_file.vehicle import Vehicle
+from rcsim.spacecraft.vehicle.definition import packaged_vehicle
+from rcsim.spacecraft.vehicle.vehicle import Vehicle
 
 
 def load(tmp_path, extra: str, *, min_on_s: float = 0.0, propellant: bool = False) -> Vehicle:

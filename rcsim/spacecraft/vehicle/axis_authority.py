@@ -1,6 +1,6 @@
 """Authority along one axis direction: the LP under ``rcsim vehicle check``
-(:mod:`rcsim.spacecraft.vehicle_file.authority`) and the sanity warnings
-(:mod:`rcsim.spacecraft.vehicle_file.sanity`).
+(:mod:`rcsim.spacecraft.vehicle.authority`) and the sanity warnings
+(:mod:`rcsim.spacecraft.vehicle.sanity`).
 
 Angular accelerations are ``I^-1 tau`` with the full inertia (products included), every jet at
 most fully on (duties ``0 <= u <= 1``), the other two axes' angular accelerations zero.
@@ -11,8 +11,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linprog
 
-from rcsim.spacecraft.vehicle import AXES
-from rcsim.spacecraft.vehicle_file.definition import VehicleDef
+from rcsim.spacecraft.vehicle.definition import VehicleDef
+from rcsim.spacecraft.vehicle.mjcf import force_torque
+from rcsim.spacecraft.vehicle.model import AXES
 
 #: The six axis directions in the order they are reported: +roll, -roll, +pitch, ...
 DIRECTIONS = tuple((a, s) for a in range(3) for s in (1, -1))
@@ -71,6 +72,6 @@ def reachable(accel: np.ndarray, axis: int, sign: int, available: np.ndarray) ->
 def axis_authorities(vehicle: VehicleDef) -> np.ndarray:
     """Pure-axis authority of +roll, -roll, +pitch, -pitch, +yaw, -yaw, (6,) [rad/s^2] (every
     jet available, at most fully on; 0 for an unreachable direction)."""
-    accel = np.linalg.solve(vehicle.inertia_kg_m2, vehicle.force_torque()[3:])
+    accel = np.linalg.solve(vehicle.inertia_kg_m2, force_torque(vehicle)[3:])
     every = np.ones(vehicle.n_jets, bool)
     return np.array([pure_axis_authority(accel, a, s, every)[0] for a, s in DIRECTIONS])

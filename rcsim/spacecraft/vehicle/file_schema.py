@@ -45,7 +45,7 @@ import numpy as np
 from rcsim.models.errors import InputError
 from rcsim.models.toml_reader import Reader
 from rcsim.spacecraft.pulse_file import read_blowdown, read_pulse, read_pulse_dispersions
-from rcsim.spacecraft.vehicle_file.definition import (
+from rcsim.spacecraft.vehicle.definition import (
     DELAY_KEYS,
     GYRATION_RANGE_M,
     INTEGRATORS,
@@ -59,7 +59,7 @@ from rcsim.spacecraft.vehicle_file.definition import (
     packaged_vehicle,
     resolve_vehicle,
 )
-from rcsim.spacecraft.vehicle_file.sections import (
+from rcsim.spacecraft.vehicle.file_sections import (
     check_profile,
     check_reach,
     paper_control,

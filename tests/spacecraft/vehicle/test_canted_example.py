@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rcsim.spacecraft.vehicle_file import load_vehicle
+from rcsim.spacecraft.vehicle import load_vehicle
+from rcsim.spacecraft.vehicle.mjcf import force_torque
 
 
 def test_directions_follow_the_arithmetic():
@@ -51,7 +52,7 @@ def test_triad_directions_follow_the_arithmetic():
 
 @pytest.mark.parametrize("name", ["canted16", "canted12"])
 def test_every_jet_couples_two_or_three_axes_and_pushes(name):
-    ft = load_vehicle(name).force_torque()
+    ft = force_torque(load_vehicle(name))
     torque, force = ft[3:], ft[:3]
     axes = (np.abs(torque) > 1e-9 * np.abs(torque).max()).sum(axis=0)
     assert axes.min() >= 2

@@ -1,5 +1,5 @@
 """Vehicle-file sanity (issue 31 item 7): range messages name the right key, and physically odd
-but legal values earn a warning (:mod:`rcsim.spacecraft.vehicle_file.sanity`).
+but legal values earn a warning (:mod:`rcsim.spacecraft.vehicle.sanity`).
 
 Oracles: Newton's second law (a jet's acceleration of the whole vehicle, ``F / m / g0``), the
 valve model's dead pulse (``open_delay - close_delay``, rcsim/spacecraft/valves.py docstring),
@@ -14,10 +14,10 @@ import math
 import pytest
 
 from rcsim.models.errors import InputError
-from rcsim.spacecraft.vehicle import G0_M_S2
-from rcsim.spacecraft.vehicle_file import Vehicle, resolve_vehicle
-from rcsim.spacecraft.vehicle_file.axis_authority import axis_authorities
-from rcsim.spacecraft.vehicle_file.sanity import MAX_JET_ACCEL_G
+from rcsim.spacecraft.vehicle import Vehicle, resolve_vehicle
+from rcsim.spacecraft.vehicle.axis_authority import axis_authorities
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
+from rcsim.spacecraft.vehicle.sanity import MAX_JET_ACCEL_G
 
 EXAMPLES = resolve_vehicle("paper").parents[3] / "docs" / "examples"
 

@@ -1,7 +1,7 @@
 """A validated vehicle file's contents: :class:`VehicleDef` and :class:`Jet`, the packaged
 vehicles by name, and the plausible ranges the reader checks values against (why each bound is
-what it is, beside it).  The reader is :mod:`rcsim.spacecraft.vehicle_file.schema`; the readers
-of each section, :mod:`rcsim.spacecraft.vehicle_file.sections`.
+what it is, beside it).  The reader is :mod:`rcsim.spacecraft.vehicle.file_schema`; the readers
+of each section, :mod:`rcsim.spacecraft.vehicle.file_sections`.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from rcsim.models.errors import InputError
 from rcsim.spacecraft.control_profile import ControlProfile
 from rcsim.spacecraft.pulse_file import BlowdownSpec, PulseSpec
 from rcsim.spacecraft.valves import ValveTiming
-from rcsim.spacecraft.vehicle import G0_M_S2
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
 
 #: Vehicle files packaged with rcsim, by name (``rcsim/models/vehicle/<name>.toml``).
 PACKAGED_VEHICLES = ("paper", "canted16", "canted12")
@@ -210,13 +210,6 @@ class VehicleDef:
             open_delay_s=self.open_delays_s(),
             close_delay_s=self.close_delays_s(),
         )
-
-    def force_torque(self) -> np.ndarray:
-        """Force [N] and torque about the CG [N m] of each jet at full thrust, (6, n_jets):
-        rows Fx, Fy, Fz, Tx, Ty, Tz in B."""
-        force = self.directions() * self.thrusts_n()[:, None]
-        torque = np.cross(self.positions_m() - np.asarray(self.cg_m), force)
-        return np.vstack([force.T, torque.T])
 
     def mass_flow_kg_s(self) -> np.ndarray:
         """Propellant mass flow of each jet firing [kg/s]: F / (Isp g0), (n_jets,)."""

@@ -1,14 +1,18 @@
-"""The paper's vehicle through the vehicle file format is the packaged vehicle, bit for bit.
+"""The paper's vehicle through the vehicle file format is the hand-written MJCF, bit for bit.
 
-Oracle: ``rcsim/models/vehicle/vehicle.xml`` compiled by MuJoCo (the model every earlier result
-was flown with).  Exact equality: the vehicle file writes each number as the shortest text
-that reads back as the same double, so nothing may differ.
+Oracle: ``hand_written_paper.xml`` beside this file (the MJCF written by hand from Gambone Tables
+1-2 that every result before vehicle files was flown with; a test fixture now, as
+``rcsim/models/vehicle/paper.toml`` is the paper's vehicle) compiled by MuJoCo. Exact equality: the
+vehicle file writes each number as the shortest text that reads back as the same double, so nothing
+may differ.
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
+import mujoco
 import numpy as np
 
 from rcsim.lookup.registry import make_controller
@@ -16,23 +20,32 @@ from rcsim.models.tables import load_dispersions, load_rate_cases
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs
 from rcsim.spacecraft.navigation import Guidance
 from rcsim.spacecraft.simulation import simulate_batch
-from rcsim.spacecraft.vehicle import load_model
-from rcsim.spacecraft.vehicle_file import build_model, load_vehicle
+from rcsim.spacecraft.vehicle import build_model, load_vehicle
+from rcsim.spacecraft.vehicle.model import route_mujoco_warnings
+
+#: The hand-written MJCF of the paper's vehicle (a test fixture: module docstring).
+HAND_WRITTEN_XML = Path(__file__).with_name("hand_written_paper.xml")
 
 
-def test_every_model_array_equals_the_packaged_one():
-    packaged, from_file = load_model(), build_model(load_vehicle("paper"))
+def hand_written_model() -> mujoco.MjModel:
+    """The hand-written MJCF, compiled."""
+    route_mujoco_warnings()
+    return mujoco.MjModel.from_xml_path(str(HAND_WRITTEN_XML))
+
+
+def test_every_model_array_equals_the_hand_written_one():
+    hand, from_file = hand_written_model(), build_model(load_vehicle("paper"))
     differ = [
         name
-        for name in dir(packaged)
+        for name in dir(hand)
         if not name.startswith("_")
-        and isinstance(getattr(packaged, name), np.ndarray)
-        and not np.array_equal(getattr(packaged, name), getattr(from_file, name))
+        and isinstance(getattr(hand, name), np.ndarray)
+        and not np.array_equal(getattr(hand, name), getattr(from_file, name))
     ]
     assert differ == []
-    assert packaged.opt.disableflags == from_file.opt.disableflags
-    assert packaged.opt.timestep == from_file.opt.timestep
-    assert packaged.opt.integrator == from_file.opt.integrator
+    assert hand.opt.disableflags == from_file.opt.disableflags
+    assert hand.opt.timestep == from_file.opt.timestep
+    assert hand.opt.integrator == from_file.opt.integrator
 
 
 def test_dispersion_table_is_table_5():
@@ -43,16 +56,16 @@ def test_dispersion_table_is_table_5():
 
 
 def test_dispersed_lookup_flights_identical(paper, monkeypatch):
-    """The paper's vehicle flown on the packaged MJCF (vehicle.xml: what every earlier result
-    flew) and on the model its file builds: the same flights bit for bit."""
-    from rcsim.spacecraft.vehicle_file import vehicle as vehicle_module
+    """The paper's vehicle flown on the hand-written MJCF (what every earlier
+    result flew) and on the model its file builds: the same flights bit for bit."""
+    from rcsim.spacecraft.vehicle import vehicle as vehicle_module
 
     n = 26
     rate = np.asarray(load_rate_cases().rate_cmd, float)
     sig = DispersionSigmas.from_table(load_dispersions())
     key = paper.model_key
     out = []
-    for model in (load_model(), build_model(load_vehicle("paper"))):
+    for model in (hand_written_model(), build_model(load_vehicle("paper"))):
         monkeypatch.setitem(vehicle_module._MODELS, key, model)  # the model the vehicle flies
         assert paper.model is model
         runs = draw_runs(paper.nominal(1), sig, 7, np.arange(n))

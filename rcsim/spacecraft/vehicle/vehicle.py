@@ -4,7 +4,7 @@ A :class:`Vehicle` is a validated vehicle file (a packaged name or a path) with 
 rest of rcsim asks of a vehicle, in one place -- the equivalent of dm_control's ``Physics``,
 built once and handed to the task:
 
-* its definition (:class:`~rcsim.spacecraft.vehicle_file.schema.VehicleDef`): mass properties,
+* its definition (:class:`~rcsim.spacecraft.vehicle.file_schema.VehicleDef`): mass properties,
   jets, valve timing, propellant, dispersions, and the flight-software profile
   (:attr:`Vehicle.control`, the file's ``[control]``);
 * its compiled MuJoCo model (:attr:`Vehicle.model`), cached per process by its MJCF's SHA-256,
@@ -12,7 +12,7 @@ built once and handed to the task:
   text and numbers) and a process compiles it once however many chunks it flies;
 * what the jets do, from geometry, for every vehicle the paper's included: the force/torque
   matrix and each jet's torque signs about roll, pitch, yaw (:attr:`Vehicle.axis_signs`,
-  equal to Table 2 for the paper's vehicle: ``tests/spacecraft/vehicle_file/test_vehicle.py``);
+  equal to Table 2 for the paper's vehicle: ``tests/spacecraft/vehicle/test_vehicle.py``);
 * Isp, minimum on-time, valve limits on the profile's cycle (:meth:`Vehicle.propulsion`), the
   nominal parameters of ``n`` runs, the tank and the valve timing of a flight.
 
@@ -39,9 +39,7 @@ from rcsim.spacecraft.propulsion import PropulsionParams
 from rcsim.spacecraft.pulse_draws import PulseSigmas
 from rcsim.spacecraft.pulse_shape import PulseShape
 from rcsim.spacecraft.valves import ValveTiming
-from rcsim.spacecraft.vehicle import VehicleParams, jet_count
-from rcsim.spacecraft.vehicle_file.mjcf import build_model, to_mjcf
-from rcsim.spacecraft.vehicle_file.schema import (
+from rcsim.spacecraft.vehicle.file_schema import (
     INTEGRATORS,
     PACKAGED_VEHICLES,
     VehicleDef,
@@ -49,6 +47,9 @@ from rcsim.spacecraft.vehicle_file.schema import (
     read_vehicle_bytes,
     resolve_vehicle,
 )
+from rcsim.spacecraft.vehicle.mjcf import build_model, to_mjcf
+from rcsim.spacecraft.vehicle.model import jet_count
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters, jet_force_torque_B
 
 #: The vehicle flown when none is named: the paper's (``rcsim/models/vehicle/paper.toml``).
 DEFAULT_VEHICLE = "paper"
@@ -235,10 +236,10 @@ class Vehicle:
 
     def warnings(self) -> list[str]:
         """Physically odd but legal values of the file, one line each
-        (:func:`rcsim.spacecraft.vehicle_file.sanity.sanity_warnings`; six small LPs, solved
+        (:func:`rcsim.spacecraft.vehicle.sanity.sanity_warnings`; six small LPs, solved
         once per vehicle)."""
         if "_warnings" not in self.__dict__:  # frozen: cached beside the fields, as the model
-            from rcsim.spacecraft.vehicle_file.sanity import sanity_warnings
+            from rcsim.spacecraft.vehicle.sanity import sanity_warnings
 
             self.__dict__["_warnings"] = sanity_warnings(self.definition)
         return list(self.__dict__["_warnings"])
@@ -247,9 +248,7 @@ class Vehicle:
         """Largest torque the jets give about each body axis, (3,) [N m]: all jets of one
         sign on the axis firing at nominal thrust, the smaller of the two senses.  What a
         disturbance torque is checked against (a hold's beyond it cannot be held)."""
-        from rcsim.spacecraft.vehicle import torque_per_jet_B
-
-        torque = torque_per_jet_B(self.nominal(1), self.model)[0]  # (n_jets, 3)
+        torque = self.force_torque()[3:].T  # (n_jets, 3)
         return np.minimum(
             np.where(torque > 0, torque, 0).sum(axis=0),
             -np.where(torque < 0, torque, 0).sum(axis=0),
@@ -273,7 +272,8 @@ class Vehicle:
 
     @property
     def n_jets(self) -> int:
-        """The vehicle's jet count (its model's, :func:`rcsim.spacecraft.vehicle.jet_count`)."""
+        """The vehicle's jet count (its model's,
+        :func:`rcsim.spacecraft.vehicle.model.jet_count`)."""
         return jet_count(self.model)
 
     @property
@@ -292,8 +292,10 @@ class Vehicle:
 
     def force_torque(self) -> np.ndarray:
         """Force [N] and torque about the nominal CG [N m] of each jet at full thrust,
-        (6, n_jets): rows Fx, Fy, Fz, Tx, Ty, Tz in B."""
-        return self.definition.force_torque()
+        (6, n_jets): rows Fx, Fy, Fz, Tx, Ty, Tz in B (:func:`jet_force_torque_B` of the
+        nominal run on :attr:`model`: the numbers the controllers are designed with)."""
+        force, torque = jet_force_torque_B(self.nominal(1), self.model)
+        return np.vstack([force[0].T, torque[0].T])
 
     @property
     def axis_signs(self) -> np.ndarray:
@@ -308,9 +310,9 @@ class Vehicle:
         """Valve limits: the profile's control cycle and the file's minimum on-time."""
         return PropulsionParams(cycle_s=self.control.cycle_s, min_pulse_s=self.min_on_s)
 
-    def nominal(self, n_runs: int = 1) -> VehicleParams:
+    def nominal(self, n_runs: int = 1) -> RunParameters:
         """The nominal vehicle ``n_runs`` times, with the file's Isp."""
-        return VehicleParams.nominal(n_runs, self.model, isp_s=self.isp_s)
+        return RunParameters.nominal(n_runs, self.model, isp_s=self.isp_s)
 
     def tank(self, n_runs: int) -> PropellantTank | None:
         """The propellant tracked for ``n_runs`` runs, None when the file gives no mass."""

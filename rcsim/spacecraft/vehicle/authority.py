@@ -25,15 +25,16 @@ import numpy as np
 from scipy.optimize import linprog
 
 from rcsim.spacecraft.pulse_file import pulse_check_lines
-from rcsim.spacecraft.vehicle_file.axis_authority import (
+from rcsim.spacecraft.vehicle.axis_authority import (
     DIRECTIONS,
     direction_name,
     pure_axis_authority,
     reachable,
 )
-from rcsim.spacecraft.vehicle_file.definition import PAPER_RATE_ERROR_DEG_S
-from rcsim.spacecraft.vehicle_file.sanity import sanity_warnings
-from rcsim.spacecraft.vehicle_file.schema import VehicleDef
+from rcsim.spacecraft.vehicle.definition import PAPER_RATE_ERROR_DEG_S
+from rcsim.spacecraft.vehicle.file_schema import VehicleDef
+from rcsim.spacecraft.vehicle.mjcf import force_torque
+from rcsim.spacecraft.vehicle.sanity import sanity_warnings
 
 
 def lp_count(n_jets: int, *, pairs: bool) -> int:
@@ -100,7 +101,7 @@ def check_vehicle(vehicle: VehicleDef, *, pairs: bool = True, step=None) -> Vehi
     ``pairs_losing_an_axis`` is None.  ``step``: called with no argument after each jet-out
     and each pair case (a progress bar's update).
     """
-    ft = vehicle.force_torque()
+    ft = force_torque(vehicle)
     accel = np.linalg.solve(vehicle.inertia_kg_m2, ft[3:])
     force = ft[:3]
     mdot = vehicle.mass_flow_kg_s()
@@ -213,10 +214,16 @@ def check_text(vehicle: VehicleDef, result: VehicleCheck) -> str:
         + "   axes torqued",
     ]
     ft = result.force_torque
+    # The matrix is derived from the compiled model's site frames, as the flight's is: a
+    # component that is zero by design comes out as rounding residue (~1e-15), printed as 0.
+    # An axis is torqued above 1e-9 of the largest torque of any jet (:func:`torque_signs`'s
+    # rule), so a jet through the CG torques none.
+    ft_shown = np.where(np.abs(ft) > 1e-9 * np.abs(ft).max(), ft, 0.0)
+    big = np.abs(ft[3:]) > 1e-9 * np.abs(ft[3:]).max()
     for j, jet in enumerate(d.jets):
-        t = ft[3:, j]
-        torqued = "".join("RPY"[a] for a in range(3) if abs(t[a]) > 1e-9 * np.abs(t).max())
-        out.append(f"{jet.name:{w}s}" + "".join(f"{v:9.3f}" for v in ft[:, j]) + f"   {torqued}")
+        torqued = "".join("RPY"[a] for a in range(3) if big[a, j])
+        row = "".join(f"{v:9.3f}" for v in ft_shown[:, j])
+        out.append(f"{jet.name:{w}s}" + row + f"   {torqued}")
     out += [
         "",
         "Control authority per axis and direction (jets at most fully on, the other two axes' "
@@ -293,7 +300,7 @@ def unreachable_command(vehicle: VehicleDef, change_rad_s) -> str | None:
     change = np.asarray(change_rad_s, float)
     if not np.any(change):
         return None
-    accel = np.linalg.solve(vehicle.inertia_kg_m2, vehicle.force_torque()[3:])
+    accel = np.linalg.solve(vehicle.inertia_kg_m2, force_torque(vehicle)[3:])
     n = vehicle.n_jets
     unit = change / np.abs(change).max()
     res = linprog(np.zeros(n), A_eq=accel, b_eq=unit, bounds=(0, None), method="highs")
@@ -317,7 +324,7 @@ def unreachable_command(vehicle: VehicleDef, change_rad_s) -> str | None:
 def torque_signs(vehicle: VehicleDef) -> np.ndarray:
     """Sign of each jet's torque about roll, pitch, yaw, (n_jets, 3) in {-1, 0, 1}: the
     vehicle's own Table 2 (a component below 1e-9 of the largest is zero)."""
-    torque = vehicle.force_torque()[3:].T
+    torque = force_torque(vehicle)[3:].T
     return np.where(np.abs(torque) > 1e-9 * np.abs(torque).max(), np.sign(torque), 0).astype(int)
 
 
@@ -337,10 +344,10 @@ def jet_map_mismatch(vehicle: VehicleDef, jet_map: np.ndarray) -> str | None:
 
 def vehicle_report(vehicle, *, pairs: bool = True) -> str:
     """What ``rcsim vehicle check`` prints for ``vehicle`` (a
-    :class:`~rcsim.spacecraft.vehicle_file.Vehicle`, a packaged name or a vehicle file): the
+    :class:`~rcsim.spacecraft.vehicle.Vehicle`, a packaged name or a vehicle file): the
     force/torque matrix, the authority per axis, the unreachable directions, the jet-out
     cases (and, with ``pairs``, the two-jets-out search), and the flight-software profile."""
-    from rcsim.spacecraft.vehicle_file.vehicle import Vehicle
+    from rcsim.spacecraft.vehicle.vehicle import Vehicle
 
     definition = Vehicle.load(vehicle).definition
     return check_text(definition, check_vehicle(definition, pairs=pairs))

@@ -1,6 +1,6 @@
 """Physically odd but legal vehicle files: warnings, not errors.
 
-A vehicle file's ranges (:mod:`rcsim.spacecraft.vehicle_file.sections`) refuse what no
+A vehicle file's ranges (:mod:`rcsim.spacecraft.vehicle.file_sections`) refuse what no
 spacecraft has (a mass in grams, a thrust in mN).  What is possible but unusual enough to be a
 slip is said as a warning, once, where a user sees it: ``rcsim vehicle check`` lists them, and
 every command that flies a vehicle file prints them (``rcsim: warning: ...``) before its work.
@@ -34,9 +34,9 @@ import math
 import numpy as np
 
 from rcsim.spacecraft.pulse_file import pulse_warnings
-from rcsim.spacecraft.vehicle import G0_M_S2
-from rcsim.spacecraft.vehicle_file.axis_authority import axis_authorities
-from rcsim.spacecraft.vehicle_file.definition import VehicleDef
+from rcsim.spacecraft.vehicle.axis_authority import axis_authorities
+from rcsim.spacecraft.vehicle.definition import VehicleDef
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
 
 #: Largest single-jet acceleration of the whole vehicle that passes without a word [g]: five
 #: times the highest of the attitude-control jets above (Shuttle orbiter, 0.004 g), 34 times
