@@ -41,10 +41,10 @@ from rcsim.spacecraft import simulation  # noqa: E402
 from rcsim.spacecraft.dispersions import DispersionSigmas, draw_runs  # noqa: E402
 from rcsim.spacecraft.navigation import Guidance  # noqa: E402
 
-try:  # the vehicle's module before and after the vehicle package moved it
-    from rcsim.spacecraft.vehicle_file import Vehicle
-except ImportError:  # pragma: no cover - a version with rcsim.spacecraft.vehicle a package
-    from rcsim.spacecraft.vehicle import Vehicle  # type: ignore[attr-defined,no-redef]
+try:  # the vehicle package; a --baseline-root from before it kept Vehicle in vehicle_file
+    from rcsim.spacecraft.vehicle import Vehicle
+except ImportError:  # pragma: no cover - an older rcsim as the baseline
+    from rcsim.spacecraft.vehicle_file import Vehicle  # type: ignore[no-redef]
 
 SHAPED = """
 [pulse]
