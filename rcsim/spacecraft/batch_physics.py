@@ -245,10 +245,14 @@ class BatchPhysics:
         self.used_kg = np.zeros(n)
         self.exhausted_s = np.full(n, np.inf)
 
-    def use_propellant(self, pieces: Pieces, thrust_n: np.ndarray) -> None:
+    def use_propellant(
+        self, pieces: Pieces, thrust_n: np.ndarray, isp_s: float | np.ndarray | None = None
+    ) -> None:
         """Add the cycle's propellant to each run's total and move the mass properties of the
-        runs that fired (:mod:`rcsim.spacecraft.propellant`)."""
-        used = (pieces.thrust_time_s() * thrust_n).sum(axis=1) / (self.params.isp_s * G0_M_S2)
+        runs that fired (:mod:`rcsim.spacecraft.propellant`); ``isp_s`` the Isp flown [s]
+        (a float, or (n_runs,) under a blowdown; default the parameters')."""
+        isp = self.params.isp_s if isp_s is None else isp_s
+        used = (pieces.flow_time_s() * thrust_n).sum(axis=1) / (isp * G0_M_S2)
         self.used_kg += used
         fired = np.flatnonzero(used > 0)
         if fired.size:

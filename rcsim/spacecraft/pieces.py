@@ -39,6 +39,10 @@ class Pieces:
     level : ndarray, (n_runs, n_pieces, n_jets), or None
         Thrust fraction of each jet in each piece, when a thrust profile applies
         (:func:`profile_pieces`); None: full thrust wherever ``on``.
+    flow : ndarray, (n_runs, n_pieces, n_jets), or None
+        Propellant flow of each jet in each piece, as a fraction of its steady flow at full
+        thrust, when it is not ``level`` (a pulse-mode Isp,
+        :func:`rcsim.spacecraft.pulse_shape.shaped_pieces`); None: ``level``.
     """
 
     length_s: np.ndarray
@@ -46,6 +50,7 @@ class Pieces:
     count: np.ndarray
     uniform: bool = False
     level: np.ndarray | None = None
+    flow: np.ndarray | None = None
 
     @property
     def n_pieces(self) -> int:
@@ -60,6 +65,20 @@ class Pieces:
         if self.level is None:
             return self.on_time_s()
         return np.einsum("rp,rpj->rj", self.length_s, self.level)
+
+    def flow_time_s(self) -> np.ndarray:
+        """Propellant of each jet over its steady flow at full thrust [s] (= the thrust
+        time without a pulse-mode Isp)."""
+        if self.flow is None:
+            return self.thrust_time_s()
+        return np.einsum("rp,rpj->rj", self.length_s, self.flow)
+
+    def flow_fraction(self) -> np.ndarray:
+        """Flow of each jet in each piece over its steady full-thrust flow, (n_runs,
+        n_pieces, n_jets)."""
+        if self.flow is not None:
+            return self.flow
+        return self.on if self.level is None else self.level
 
     def control(self) -> np.ndarray:
         """Actuator control of each jet in each piece, (n_runs, n_pieces, n_jets) in [0, 1]."""

@@ -96,7 +96,7 @@ def exhausted_before(times_s: np.ndarray, exhausted_s: np.ndarray | None) -> np.
     return np.asarray(times_s)[None, :] >= np.asarray(exhausted_s)[:, None]
 
 
-def mass_flow_kg_s(thrust_n: np.ndarray, isp_s: float) -> np.ndarray:
+def mass_flow_kg_s(thrust_n: np.ndarray, isp_s: float | np.ndarray) -> np.ndarray:
     """``F / (Isp g0)`` [kg/s], any shape."""
     return np.asarray(thrust_n, float) / (isp_s * G0_M_S2)
 

@@ -55,6 +55,9 @@ class PropulsionState:
     ``on_at_end``: the jet was on at the end of the last cycle (the next command continues
     that firing).  ``firings``: firings started.  ``on_time_s``: total on-time [s].
     ``impulse_ns``: total impulse [N s].  ``dropped``: commands below the minimum pulse.
+    ``used_kg``: propellant used [kg], kept by a flight whose Isp is not one number (a
+    pulse-mode Isp, a blowdown's; :mod:`rcsim.spacecraft.pulse_shape`); None: impulse / (Isp
+    g0).
     """
 
     on_at_end: np.ndarray
@@ -62,6 +65,7 @@ class PropulsionState:
     on_time_s: np.ndarray
     impulse_ns: np.ndarray
     dropped: np.ndarray
+    used_kg: np.ndarray | None = None
 
     @classmethod
     def zeros(cls, n_runs: int, n_jets: int) -> PropulsionState:
@@ -70,8 +74,17 @@ class PropulsionState:
         return cls(z(bool), z(np.int64), z(float), z(float), z(np.int64))
 
     def propellant_kg(self, isp_s: float) -> np.ndarray:
-        """Propellant used per run [kg], shape (n_runs,): impulse / (Isp g0)."""
+        """Propellant used per run [kg], shape (n_runs,): impulse / (Isp g0), or as kept
+        (``used_kg``)."""
+        if self.used_kg is not None:
+            return self.used_kg.sum(axis=1)
         return self.impulse_ns.sum(axis=1) / (isp_s * G0_M_S2)
+
+    def jet_propellant_kg(self, isp_s: float) -> np.ndarray:
+        """Propellant each jet used [kg], (n_runs, n_jets): impulse / (Isp g0), or as kept."""
+        if self.used_kg is not None:
+            return self.used_kg.copy()
+        return self.impulse_ns / (isp_s * G0_M_S2)
 
 
 def apply_valve_limits(

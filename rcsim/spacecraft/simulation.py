@@ -74,6 +74,7 @@ import numpy as np
 from rcsim.models.errors import InputError
 from rcsim.spacecraft import cycle_kernel
 from rcsim.spacecraft.batch_physics import BatchPhysics
+from rcsim.spacecraft.blowdown import Blowdown
 from rcsim.spacecraft.controller import Controller
 from rcsim.spacecraft.guards import (
     check_cycle,
@@ -90,6 +91,12 @@ from rcsim.spacecraft.propellant import (
     mass_flow_kg_s,
 )
 from rcsim.spacecraft.propulsion import PropulsionState, apply_valve_limits
+from rcsim.spacecraft.pulse_shape import (
+    PulseShape,
+    propellant_instant,
+    shaped_pieces,
+    table_intervals,
+)
 from rcsim.spacecraft.sensors import SensorNoise, SensorParams, SensorState, measure
 from rcsim.spacecraft.valves import (
     JetFaults,
@@ -101,7 +108,7 @@ from rcsim.spacecraft.valves import (
     end_cycle,
 )
 from rcsim.spacecraft.vehicle.model import jet_count, route_mujoco_warnings
-from rcsim.spacecraft.vehicle.run_parameters import RunParameters
+from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2, RunParameters
 
 if TYPE_CHECKING:
     from rcsim.spacecraft.vehicle.vehicle import Vehicle
@@ -131,6 +138,8 @@ class _Flight:
     noise: SensorNoise | None
     sensor_state: SensorState | None
     delivered: bool
+    # Pulse-mode Isp: steady Isp over each valve slot's pulse Isp, (n_runs, n_jets, slots).
+    inv_isp: np.ndarray | None = None
 
 
 class BatchSimulation:
@@ -162,6 +171,16 @@ class BatchSimulation:
         Jet faults per run (per jet, or one column for every jet); default none.
     profile : ThrustProfile, optional
         Thrust transients at valve opening and closing; default none (instant thrust).
+    pulse : PulseShape, None or "vehicle"
+        Real pulses (thrust rise and tail-off, or an impulse-bit table, and a pulse-mode Isp;
+        :mod:`rcsim.spacecraft.pulse_shape`); ``"vehicle"`` (default): the vehicle file's
+        ``[pulse]`` (none without one: square pulses, exactly as before).  Not with
+        ``profile``.
+    blowdown : Blowdown, None or "vehicle"
+        Tank pressure falling as the propellant is used, the jets' thrust and Isp with it
+        (:mod:`rcsim.spacecraft.blowdown`; needs a tank); ``"vehicle"`` (default): the vehicle
+        file's ``[propellant.blowdown]`` (none without one, or with ``tank`` None: the
+        pulses of the wet vehicle at its initial pressure).
     tank : PropellantTank, None or "vehicle"
         Propellant tracked per run: the mass properties follow the propellant used and the
         jets stop when it runs out (:mod:`rcsim.spacecraft.propellant`).  ``"vehicle"``
@@ -189,6 +208,8 @@ class BatchSimulation:
         faults: JetFaults | None = None,
         profile: ThrustProfile | None = None,
         tank: PropellantTank | Literal["vehicle"] | None = "vehicle",
+        pulse: PulseShape | Literal["vehicle"] | None = "vehicle",
+        blowdown: Blowdown | Literal["vehicle"] | None = "vehicle",
     ):
         route_mujoco_warnings()
         quiet_stage_timers()
@@ -198,6 +219,9 @@ class BatchSimulation:
         self.propulsion = propulsion = vehicle.propulsion()
         timing = vehicle.timing(n) if timing is None else timing
         tank = vehicle.tank(n) if isinstance(tank, str) else tank
+        pulse = vehicle.pulse_shape(n) if isinstance(pulse, str) else pulse
+        if isinstance(blowdown, str):  # the vehicle's, when its propellant is tracked
+            blowdown = None if tank is None else vehicle.blowdown(n)
         # The vehicle's jet count, from its model: every per-jet array below is this wide.
         self.n_jets = jet_count(self.model)
         if params.n_jets != self.n_jets:
@@ -235,6 +259,27 @@ class BatchSimulation:
                 parameter="profile",
                 value=None,
             )
+        self.pulse = pulse
+        if pulse is not None and self.profile is not None:
+            raise InputError(
+                "a thrust profile and a pulse shape are two models of one pulse: give one",
+                parameter="profile",
+                value=None,
+            )
+        if blowdown is not None and tank is None:
+            raise InputError(
+                "needs a tracked propellant tank (the pressure follows the propellant used)",
+                parameter="blowdown",
+                value=None,
+            )
+        self.blowdown = blowdown
+        # Thrust left after a valve closes, what end_cycle keeps an interval for (a table's
+        # pulses carry their own end).
+        self._tail_s = (
+            0.0
+            if pulse is None or pulse.model == "table"
+            else float(np.max(pulse.tail_length_s(), initial=0.0))
+        )
         self.params = params
         dt = float(self.model.opt.timestep)
         n_sub = int(round(propulsion.cycle_s / dt))
@@ -258,6 +303,8 @@ class BatchSimulation:
             flight=self.vehicle.flight_model,
         )
         self.tank = tank
+        self._base_level = self.physics.level.copy()  # faults' factors, before any blowdown
+        self._isp_s: float | np.ndarray = params.isp_s
         if tank is not None:
             if tank.initial_kg.shape != (n,):
                 raise InputError(
@@ -333,7 +380,12 @@ class BatchSimulation:
             )
         check_cycle(controller, cycle)
         n_cycles = int(math.ceil(duration_s / cycle - 1e-9))
-        delivered = not (self.timing.is_zero() and self.faults is None and self.profile is None)
+        delivered = not (
+            self.timing.is_zero()
+            and self.faults is None
+            and self.profile is None
+            and self.pulse is None
+        )
         check_history_memory(
             n,
             n_cycles,
@@ -352,19 +404,21 @@ class BatchSimulation:
         failed = np.array([bool(r) for r in self.invalid])
         reason = list(self.invalid)
         physics.check_warnings(failed, reason, 0.0, 0.0)  # the initial state itself
+        if self.blowdown is not None:
+            self._follow_pressure()
         self._v0_N = physics.cg_velocity_N()  # the start of the flight's delta-v
         sensors = self.sensors
         # The compiled per-cycle passes (rcsim/spacecraft/cycle_kernel.py), bit for bit the numpy
         # forms; decided once per flight.
         self._compiled = physics.compiled = cycle_kernel.kernel_available()
-        return _Flight(
+        flight = _Flight(
             controller=controller,
             guidance=guidance,
             commands=CommandBlocks(guidance, cycle),
             disturbance_B=disturbance_B,
             n_cycles=n_cycles,
             state=controller.initial_state(n) if ctrl_state is None else ctrl_state,
-            prop=PropulsionState.zeros(n, self.n_jets),
+            prop=self._propulsion_state(),
             failed=failed,
             reason=reason,
             rec=history_buffers(
@@ -375,7 +429,7 @@ class BatchSimulation:
                 delivered=delivered,
                 n_modes=len(physics.mode_names),
             ),
-            valves=ValveState.closed(n, self.n_jets),
+            valves=self._closed_valves(),
             thrust_n=self.params.thrust_n * physics.level,
             torque_B=np.zeros((n, 3)),
             noise=(
@@ -385,7 +439,50 @@ class BatchSimulation:
             ),
             sensor_state=None if sensors is None else SensorState(np.zeros((n, 3))),
             delivered=delivered,
+            inv_isp=(
+                None
+                if self.pulse is None or self.pulse.isp is None
+                else np.ones(self._closed_valves().start.shape)
+            ),
         )
+        self._flight_inv_isp = flight.inv_isp  # the cut reads it (BatchSimulation._cut)
+        return flight
+
+    def _propulsion_state(self) -> PropulsionState:
+        """Nothing fired; keeping each jet's propellant when the Isp is not one number."""
+        prop = PropulsionState.zeros(self.n_runs, self.n_jets)
+        varying_isp = (self.pulse is not None and self.pulse.isp is not None) or (
+            self.blowdown is not None and self.blowdown.isp_exponent != 0.0
+        )
+        if varying_isp:
+            prop.used_kg = np.zeros(prop.impulse_ns.shape)
+        return prop
+
+    def _closed_valves(self) -> ValveState:
+        """Every valve closed, with the slots the pulse shape's tails need."""
+        n = self.n_runs
+        if self.pulse is None:
+            return ValveState.closed(n, self.n_jets)
+        delay = float(
+            np.max(self.timing.command_delay_s, initial=0.0)
+            + np.max(self.timing.close_delay_s, initial=0.0)
+        )
+        slots = self.pulse.n_slots(self.propulsion.cycle_s, delay)
+        shape = (n, self.n_jets, slots)
+        return ValveState(np.full(shape, np.nan), np.full(shape, np.nan), np.zeros(shape[:2], bool))
+
+    def _follow_pressure(self) -> None:
+        """Thrust and Isp of the next cycle at the tank pressure of the propellant used so
+        far (:mod:`rcsim.spacecraft.blowdown`: once per cycle, as the mass properties)."""
+        blowdown = self.blowdown
+        assert blowdown is not None
+        used = self.physics.used_kg
+        self.physics.level[:] = self._base_level * blowdown.thrust_factor(used)[:, None]
+        self._isp_s = self.params.isp_s * blowdown.isp_factor(used)
+
+    def _isp_column(self) -> float | np.ndarray:
+        """The Isp flown [s]: the vehicle's, or each run's (n_runs, 1) under a blowdown."""
+        return self._isp_s if np.ndim(self._isp_s) == 0 else np.reshape(self._isp_s, (-1, 1))
 
     def _cycle(self, k: int, f: _Flight) -> None:
         """Control cycle ``k``: sense, command, cut at the switch instants, integrate."""
@@ -413,8 +510,11 @@ class BatchSimulation:
             f.torque_B = np.asarray(d(t0) if callable(d) else d, float)
         self.physics.step(pieces, f.torque_B, f.failed, f.reason, t0, t0 + cycle)
         if self.tank is not None:
-            self.physics.use_propellant(pieces, f.thrust_n)
-        tail = 0.0 if self.profile is None else self.profile.fall_s
+            self.physics.use_propellant(pieces, f.thrust_n, self._isp_s)
+        if self.blowdown is not None:
+            self._follow_pressure()
+            f.thrust_n = self.params.thrust_n * self.physics.level
+        tail = self._tail_s if self.profile is None else self.profile.fall_s
         if self._compiled:
             cycle_kernel.end_cycle(f.valves, cycle, tail)
         else:
@@ -445,16 +545,39 @@ class BatchSimulation:
         command, f.state = f.controller.step(nav, f.state)
         if k == 0:
             self._check_command(f.controller, command)
+        before = None
+        if self.pulse is not None:
+            before = (np.isnan(f.valves.start), ~np.isfinite(f.valves.end))
         if self._compiled:
-            return cycle_kernel.command_valves(
+            on = cycle_kernel.command_valves(
                 command, f.failed, f.prop, self.propulsion, f.valves, self.timing
             )
-        command = np.where(f.failed[:, None], 0.0, command)
-        on = apply_valve_limits(
-            command, f.prop, self.propulsion, self.params.thrust_n, account=False
-        )
-        command_valves(f.valves, on, self.timing, self.propulsion.cycle_s)
+        else:
+            command = np.where(f.failed[:, None], 0.0, command)
+            on = apply_valve_limits(
+                command, f.prop, self.propulsion, self.params.thrust_n, account=False
+            )
+            command_valves(f.valves, on, self.timing, self.propulsion.cycle_s)
+        if before is not None:
+            self._shape_pulses(f, *before)
         return on
+
+    def _shape_pulses(self, f: _Flight, was_free: np.ndarray, was_open: np.ndarray) -> None:
+        """The valve slots the cycle's commands opened or closed (``was_free``: empty before,
+        ``was_open``: without a close before): a table's equivalent pulses, and each new
+        pulse's Isp (:mod:`rcsim.spacecraft.pulse_shape`)."""
+        pulse = self.pulse
+        assert pulse is not None
+        valves = f.valves
+        new_start = was_free & ~np.isnan(valves.start)
+        new_end = was_open & np.isfinite(valves.end)
+        if f.inv_isp is not None and new_start.any():
+            assert pulse.isp is not None
+            u = np.where(new_end, valves.end - valves.start, np.inf)  # inf: a steady firing
+            ratio = pulse.isp.steady_isp_s / pulse.isp.isp_at(u)
+            f.inv_isp[new_start] = ratio[new_start]
+        if pulse.model == "table":
+            table_intervals(pulse, valves.start, valves.end, new_start, new_end)
 
     def _account(
         self, pieces: Pieces, t0: float, f: _Flight, counted: np.ndarray | None
@@ -469,6 +592,8 @@ class BatchSimulation:
             # the cycle's start, so a run whose exhaustion instant is <= t0 fired nothing.
             dead = self.physics.exhausted_s <= t0  # exhausted_before's rule, for this cycle
             prop.firings[dead] = counted[dead]
+        if prop.used_kg is not None:
+            prop.used_kg += pieces.flow_time_s() * f.thrust_n / (self._isp_column() * G0_M_S2)
         if self._compiled and pieces.uniform and pieces.n_pieces == 1:
             return cycle_kernel.account(pieces.on[:, 0], self.propulsion.cycle_s, f.thrust_n, prop)
         delivered = pieces.on_time_s()
@@ -543,24 +668,49 @@ class BatchSimulation:
         # Propellant running out in this cycle ends every jet's thrust at that instant.
         physics = self.physics
         thrust = self.params.thrust_n * physics.level
-        level = pieces.on if pieces.level is None else pieces.level
+        level = pieces.flow_fraction()
         left = np.maximum(self.tank.initial_kg - physics.used_kg, 0.0)
-        t_out = exhaustion_time_s(
-            pieces.length_s, level, mass_flow_kg_s(thrust, self.params.isp_s), left
-        )
+        flow = mass_flow_kg_s(thrust, self._isp_column())
+        t_out = exhaustion_time_s(pieces.length_s, level, flow, left)
         t_out = np.where(left <= 0.0, 0.0, t_out)
         if not np.isfinite(t_out).any():
             return pieces
+        if self.pulse is not None:
+            # The pieces' mean flow finds the cycle; the shapes' integrals, the instant.
+            rows = np.flatnonzero(np.isfinite(t_out) & (left > 0.0))
+            if rows.size:
+                start, end = intervals
+                inv_isp = self._slot_weights(start)
+                t_out[rows] = propellant_instant(
+                    self.pulse.take(rows),
+                    start[rows],
+                    end[rows],
+                    flow[rows],
+                    left[rows],
+                    self.propulsion.cycle_s,
+                    None if inv_isp is None else inv_isp[rows],
+                )
         first = np.isfinite(t_out) & ~np.isfinite(physics.exhausted_s)
         physics.exhausted_s[first] = t0_s + t_out[first]
         start, end = intervals
+        if self.pulse is not None:  # the thrust stops there, a closing valve's tail too
+            return self._cut(start, end, stop_s=t_out)
         return self._cut(start, np.minimum(end, t_out[:, None, None]))
 
-    def _cut(self, start: np.ndarray, end: np.ndarray) -> Pieces:
-        """The cycle's pieces for on-intervals ``start``, ``end`` (n_runs, n_jets, k) [s]."""
+    def _slot_weights(self, start: np.ndarray) -> np.ndarray | None:
+        """Each valve interval's Isp weight (pulse-mode Isp; a stuck-on window: steady),
+        shaped as the cycle's intervals ``start``; None without a pulse-mode Isp."""
+        inv_isp = self._flight_inv_isp
+        if inv_isp is not None and inv_isp.shape != start.shape:  # a stuck-on window: steady
+            inv_isp = np.concatenate([inv_isp, np.ones(start.shape[:2] + (1,))], axis=-1)
+        return inv_isp
+
+    def _cut(self, start: np.ndarray, end: np.ndarray, stop_s: np.ndarray | None = None) -> Pieces:
+        """The cycle's pieces for on-intervals ``start``, ``end`` (n_runs, n_jets, k) [s];
+        ``stop_s`` (n_runs,): no thrust from it on (a pulse shape's propellant running out)."""
         cycle = self.propulsion.cycle_s
         grid = self.dt_s if self.n_sub > 1 else None
-        if self.profile is None and self._compiled:
+        if self.profile is None and self.pulse is None and self._compiled:
             # No run switches a jet inside the cycle (most cycles): the grid steps, as
             # cycle_pieces gives them, without its numpy passes.
             on = cycle_kernel.uniform_on(start, end, cycle)
@@ -572,6 +722,9 @@ class BatchSimulation:
                     np.full(n, steps),
                     uniform=True,
                 )
+        if self.pulse is not None:
+            inv_isp = self._slot_weights(start)
+            return shaped_pieces(start, end, cycle, grid, self.pulse, inv_isp, stop_s)
         if self.profile is None:
             return cycle_pieces(start, end, cycle, grid)
         return profile_pieces(
@@ -589,7 +742,8 @@ def simulate_batch(
     **kwargs,
 ) -> History:
     """One-call form of :class:`BatchSimulation` (``vehicle``, ``nthread``, ``sensors``,
-    ``sensor_streams``, ``timing``, ``faults``, ``profile``, ``tank`` go to the simulation, the
+    ``sensor_streams``, ``timing``, ``faults``, ``profile``, ``tank``, ``pulse``, ``blowdown``
+    go to the simulation, the
     rest to :meth:`BatchSimulation.run`)."""
     sim_keys = {
         "nthread",
@@ -599,6 +753,8 @@ def simulate_batch(
         "faults",
         "profile",
         "tank",
+        "pulse",
+        "blowdown",
     }
     sim_kw = {k: kwargs.pop(k) for k in list(kwargs) if k in sim_keys}
     return BatchSimulation(params, vehicle, **sim_kw).run(

@@ -62,6 +62,7 @@ COVERED = {
     "loop_cost.py": "test_loop_cost",
     "maneuver.py": "test_maneuver",
     "modes_cost.py": "test_modes_cost",
+    "pulse_cost.py": "test_pulse_cost",
     "noisy_sensor.py": "test_noisy_sensor",
     "null_calibration.py": "test_null_calibration",
     "peer_modes.py": "test_peer_modes",
@@ -285,6 +286,42 @@ def test_exact_time_cost():
         # A cycle is at least one piece; a switch adds one per run that switches, so the
         # mean cannot exceed 1 + the jets (16) switching twice each.
         assert 1.0 <= pieces <= 33.0
+
+
+def test_pulse_cost(tmp_path):
+    """Both variants and the version comparison (this checkout against itself as the
+    baseline: the script's other-process path); a cycle is at least one physics piece."""
+    out = run(
+        "pulse_cost.py",
+        "--runs-per-case",
+        1,
+        "--duration-s",
+        1,
+        "--repeats",
+        1,
+        "--baseline-root",
+        ROOT,
+    )
+    rows = dict(
+        (m.group(1), (float(m.group(2)), float(m.group(3))))
+        for m in re.finditer(
+            rf"(?m)^(square|shaped)\s*:\s*({NUM}) sim-s per CPU-s .* per run-cycle ({NUM})", out
+        )
+    )
+    assert set(rows) == {"square", "shaped"}, out
+    for rate, pieces in rows.values():
+        positive(rate)
+        assert pieces >= 1.0
+    (ratio,) = numbers(rf"shaped / square cost: ({NUM})", out)[0]
+    positive(ratio)
+    this, base, cost = numbers(
+        rf"this version\s+({NUM}) sim-s per CPU-s, baseline\s+({NUM}); this / baseline cost "
+        rf"({NUM})",
+        out,
+    )[0]
+    positive(this)
+    positive(base)
+    positive(cost)
 
 
 def test_modes_cost():

@@ -27,7 +27,7 @@ from rcsim.spacecraft.vehicle.model import AXES, jet_name
 from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 #: What :func:`fly_batch` passes on to the simulation besides the vehicle and the scenarios.
-EFFECT_KEYS = ("sensors", "sensor_streams", "timing", "faults", "profile")
+EFFECT_KEYS = ("sensors", "sensor_streams", "timing", "faults", "profile", "pulse", "blowdown")
 
 
 @dataclass(frozen=True)
@@ -86,14 +86,16 @@ def fly_batch(
         (:class:`~rcsim.spacecraft.sensors.SensorParams`), ``sensor_streams`` (one
         ``SeedSequence`` per run), ``timing`` (:class:`~rcsim.spacecraft.valves.ValveTiming`),
         ``faults`` (:class:`~rcsim.spacecraft.valves.JetFaults`), ``profile``
-        (:class:`~rcsim.spacecraft.valves.ThrustProfile`); each entry ``(n_runs, ...)``.
+        (:class:`~rcsim.spacecraft.valves.ThrustProfile`), ``pulse``
+        (:class:`~rcsim.spacecraft.pulse_shape.PulseShape`), ``blowdown``
+        (:class:`~rcsim.spacecraft.blowdown.Blowdown`); each entry ``(n_runs, ...)``.
         Absent or None: perfect sensors, the vehicle's nominal timing, no faults, instant
-        thrust.
+        thrust, the vehicle's own pulse and blowdown.
 
     Raises
     ------
     TypeError
-        An effect other than those five (a typo must not be silently ignored).
+        An effect other than those (a typo must not be silently ignored).
     """
     unknown = sorted(set(effects) - set(EFFECT_KEYS))
     if unknown:

@@ -368,8 +368,44 @@ EFFECT_COLUMNS: dict[str, tuple[Column, ...]] = {
             "other modes and for runs without a fault",
         ),
     ),
+    "pulse": (
+        Column(
+            "pulse_rise_mean_s",
+            "float64",
+            "s",
+            "rise time (constant or ramp) flown, mean over the run's jets (drawn per jet; "
+            "0 for an impulse-bit table)",
+        ),
+        Column(
+            "pulse_tail_mean_s",
+            "float64",
+            "s",
+            "tail-off time (constant or ramp) flown, mean over the run's jets (drawn per "
+            "jet; 0 for an impulse-bit table)",
+        ),
+        Column(
+            "impulse_bit_scale_mean",
+            "float64",
+            "-",
+            "factor on the impulse-bit table's impulses, mean over the run's jets (drawn "
+            "per jet; 1 without a table)",
+        ),
+    ),
+    "blowdown": (
+        Column(
+            "tank_pressure_pa",
+            "float64",
+            "Pa",
+            "initial tank pressure of the blowdown flown (drawn per run)",
+        ),
+    ),
 }
 EFFECT_GROUPS: tuple[str, ...] = tuple(EFFECT_COLUMNS)
+#: Where each effect group comes from, as the schema's table says it.
+EFFECT_SOURCES = {
+    "pulse": "the vehicle file's [dispersions] pulse_rise_s, pulse_tail_s or impulse_bit",
+    "blowdown": "the vehicle file's [dispersions] tank_pressure_pa",
+}
 #: Effect columns that are NaN where the effect does not apply, and what that NaN means as an
 #: input of the driver analysis: (the run's place on the column's scale, why).  Rank-based
 #: analyses need a number; these put "no such event" beyond every run that had one.
@@ -432,7 +468,9 @@ def markdown_table() -> str:
     for c in all_columns(1):  # per-jet columns are folded into one row: one jet shows them
         name, meaning = c.name, c.meaning
         if name in group_of:
-            meaning = f"{meaning} (only with [dispersions.{group_of[name]}])"
+            group = group_of[name]
+            where = EFFECT_SOURCES.get(group, f"[dispersions.{group}]")
+            meaning = f"{meaning} (only with {where})"
         if name in PRODUCT_NAMES:
             meaning = f"{meaning} (only when the vehicle has or the campaign disperses them)"
         for axis in AXES:

@@ -24,6 +24,7 @@ from itertools import combinations
 import numpy as np
 from scipy.optimize import linprog
 
+from rcsim.spacecraft.pulse_file import pulse_check_lines
 from rcsim.spacecraft.vehicle.axis_authority import (
     DIRECTIONS,
     direction_name,
@@ -195,6 +196,15 @@ def check_text(vehicle: VehicleDef, result: VehicleCheck) -> str:
         if own
         else "failure criterion of its campaigns: the paper's, rate_error_deg_s = "
         f"{PAPER_RATE_ERROR_DEG_S:g} (Gambone sec. III; no [failure])"
+    )
+    out += pulse_check_lines(
+        d.pulse,
+        d.blowdown,
+        min_on_s=d.min_on_s,
+        isp_s=d.isp_s,
+        propellant_kg=d.propellant_kg,
+        n_jets=d.n_jets,
+        authority={ax.direction: ax.accel_rad_s2 for ax in result.axes},
     )
     out += [
         "",

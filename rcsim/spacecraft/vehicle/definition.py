@@ -17,6 +17,7 @@ import pandas as pd
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.control_profile import ControlProfile
 from rcsim.spacecraft.modes.reader import Modes
+from rcsim.spacecraft.pulse_file import BlowdownSpec, PulseSpec
 from rcsim.spacecraft.valves import ValveTiming
 from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
 
@@ -127,6 +128,13 @@ class VehicleDef:
     modes : Modes or None
         ``[[slosh]]`` and ``[[appendage]]`` (:mod:`rcsim.spacecraft.modes`) and the hub they
         leave; None: a rigid vehicle.
+    pulse : rcsim.spacecraft.pulse_file.PulseSpec or None
+        ``[pulse]``: thrust rise and tail-off or an impulse-bit table (None: square pulses).
+    blowdown : rcsim.spacecraft.pulse_file.BlowdownSpec or None
+        ``[propellant.blowdown]`` (None: constant thrust and Isp).
+    pulse_three_sigma : dict
+        ``[dispersions]`` of the pulse and the tank pressure, key -> 3-sigma (SI;
+        :mod:`rcsim.spacecraft.pulse_draws`); empty: not dispersed.
     """
 
     source: str
@@ -150,6 +158,9 @@ class VehicleDef:
     delay_keys: tuple = ()
     failure: dict = field(default_factory=dict)
     modes: Modes | None = None
+    pulse: PulseSpec | None = None
+    blowdown: BlowdownSpec | None = None
+    pulse_three_sigma: dict = field(default_factory=dict)
 
     @property
     def n_jets(self) -> int:

@@ -45,6 +45,7 @@ import numpy as np
 from rcsim.models.errors import InputError
 from rcsim.models.toml_reader import Reader
 from rcsim.spacecraft.modes.reader import read_modes
+from rcsim.spacecraft.pulse_file import read_blowdown, read_pulse, read_pulse_dispersions
 from rcsim.spacecraft.vehicle.definition import (
     DELAY_KEYS,
     GYRATION_RANGE_M,
@@ -214,6 +215,7 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
     reach_unit = float(gyration.max())  # the radius of gyration of the largest moment
     # The tables as written (``_jets`` validates them): which delay keys the file gives.
     raw_jets, raw_defaults = top.table.get("jet", []), top.table.get("jet_defaults", {})
+    pulse = read_pulse(top, raw_jets, raw_defaults, cycle, ISP_RANGE_S)
     jets, min_on = read_jets(top, cg, src, reach_unit, cycle)
     command_delay, delay_keys = read_timing(
         top.table_("timing"), jets, raw_jets, raw_defaults, cycle
@@ -236,6 +238,7 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
         raise pr.error("tank_position_m", "needs propellant.mass_kg", list(tank))
     if tank is not None:
         check_reach(pr, "tank_position_m", "the tank", tank, cg, reach_unit)
+    blowdown = read_blowdown(pr, prop)
     pr.done()
     if prop is not None and prop >= mass:
         raise InputError(
@@ -250,7 +253,9 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
         timestep_s=dt,
         propellant_kg=prop,
     )
-    three_sigma = read_dispersions(top.table_("dispersions"), mass, inertia, cg, jets)
+    dispersions = top.table_("dispersions")
+    pulse_three_sigma = read_pulse_dispersions(dispersions, pulse, blowdown, cycle)
+    three_sigma = read_dispersions(dispersions, mass, inertia, cg, jets)
     failure = read_failure(top.table_("failure"), control)
     top.done()
     return VehicleDef(
@@ -275,4 +280,7 @@ def _parse_vehicle(text: str, path: Path, overrides: dict, overrides_from: str) 
         delay_keys=delay_keys,
         failure=failure,
         modes=modes,
+        pulse=pulse,
+        blowdown=blowdown,
+        pulse_three_sigma=pulse_three_sigma,
     )

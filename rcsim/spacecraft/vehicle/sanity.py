@@ -34,6 +34,7 @@ import math
 import numpy as np
 
 from rcsim.spacecraft.modes.reader import mode_warnings
+from rcsim.spacecraft.pulse_file import pulse_warnings
 from rcsim.spacecraft.vehicle.axis_authority import axis_authorities
 from rcsim.spacecraft.vehicle.definition import VehicleDef
 from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
@@ -86,6 +87,9 @@ def sanity_warnings(vehicle: VehicleDef, authority_rad_s2: np.ndarray | None = N
         authority_rad_s2 = axis_authorities(d)
     out += _maneuver_rate_warnings(d, np.asarray(authority_rad_s2, float))
     out += mode_warnings(d.modes, d.timestep_s)
+    out += pulse_warnings(
+        d.pulse, d.blowdown, min_on_s=d.min_on_s, isp_s=d.isp_s, propellant_kg=d.propellant_kg
+    )
     return out
 
 

@@ -32,9 +32,12 @@ import mujoco
 import numpy as np
 
 from rcsim.models.errors import InputError
+from rcsim.spacecraft.blowdown import Blowdown
 from rcsim.spacecraft.control_profile import ControlProfile
 from rcsim.spacecraft.propellant import PropellantTank
 from rcsim.spacecraft.propulsion import PropulsionParams
+from rcsim.spacecraft.pulse_draws import PulseSigmas
+from rcsim.spacecraft.pulse_shape import PulseShape
 from rcsim.spacecraft.valves import ValveTiming
 from rcsim.spacecraft.vehicle.file_schema import (
     INTEGRATORS,
@@ -323,6 +326,22 @@ class Vehicle:
         (a flight without timing is then exactly the flight it always was)."""
         d = self.definition
         return d.valve_timing(n_runs) if d.has_delays else None
+
+    def pulse_shape(self, n_runs: int) -> PulseShape | None:
+        """The file's ``[pulse]`` for ``n_runs`` runs (:mod:`rcsim.spacecraft.pulse_shape`),
+        None without one (square pulses, the flight exactly as before)."""
+        spec = self.definition.pulse
+        return None if spec is None else spec.shape(n_runs, self.isp_s)
+
+    def blowdown(self, n_runs: int) -> Blowdown | None:
+        """The file's ``[propellant.blowdown]`` for ``n_runs`` runs
+        (:mod:`rcsim.spacecraft.blowdown`), None without one."""
+        spec = self.definition.blowdown
+        return None if spec is None else spec.blowdown(n_runs)
+
+    def pulse_sigmas(self) -> PulseSigmas:
+        """The file's ``[dispersions]`` of the pulse and the tank pressure (one-sigma)."""
+        return PulseSigmas.from_three_sigma(self.definition.pulse_three_sigma)
 
     # ---------------------------------------------------------------------- traceability --
     def record(self) -> dict:

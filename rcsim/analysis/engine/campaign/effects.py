@@ -38,6 +38,7 @@ import pandas as pd
 
 from rcsim.analysis.engine.runs_table import effect_frame_of
 from rcsim.models.errors import InputError
+from rcsim.spacecraft.blowdown import Blowdown
 from rcsim.spacecraft.effect_draws import (
     FAULT_MODES,
     FaultSpec,
@@ -48,6 +49,8 @@ from rcsim.spacecraft.effect_draws import (
     draw_timing,
     effect_frame,
 )
+from rcsim.spacecraft.pulse_draws import PulseSigmas, draw_pulses
+from rcsim.spacecraft.pulse_shape import PulseShape
 from rcsim.spacecraft.valves import ValveTiming
 
 #: ``[dispersions.sensor]`` keys (one number for all axes or [roll, pitch, yaw], one-sigma, in
@@ -95,11 +98,22 @@ class Effects:
     timing: TimingSpec = field(default_factory=TimingSpec)
     fault: FaultSpec = field(default_factory=FaultSpec)
     vehicle_timing: ValveTiming | None = None
+    # The vehicle file's real pulses and blowdown (one run; None without them) and its
+    # dispersions of them (rcsim.spacecraft.pulse_draws).
+    vehicle_pulse: PulseShape | None = None
+    vehicle_blowdown: Blowdown | None = None
+    pulse_sigmas: PulseSigmas = field(default_factory=PulseSigmas)
 
     @property
     def groups(self) -> tuple[str, ...]:
-        """Names of the effects present, in :data:`TABLES` order (the runs.parquet groups)."""
-        return tuple(name for name in TABLES if not getattr(self, name).is_none())
+        """Names of the effects present, in :data:`TABLES` order (the runs.parquet groups),
+        then ``pulse`` and ``blowdown`` when the vehicle file disperses them."""
+        own = tuple(name for name in TABLES if not getattr(self, name).is_none())
+        if self.vehicle_pulse is not None and self.pulse_sigmas.disperses_pulse():
+            own += ("pulse",)
+        if self.vehicle_blowdown is not None and self.pulse_sigmas.disperses_blowdown():
+            own += ("blowdown",)
+        return own
 
     def records(self) -> dict:
         """The optional per-cycle records the flights keep
@@ -108,7 +122,10 @@ class Effects:
         return {
             "measured": not self.sensor.is_none(),
             "delivered": not (
-                self.timing.is_none() and self.fault.is_none() and self.vehicle_timing is None
+                self.timing.is_none()
+                and self.fault.is_none()
+                and self.vehicle_timing is None
+                and self.vehicle_pulse is None
             ),
         }
 
@@ -277,7 +294,21 @@ def parse_effects(
     nominal = None
     if definition is not None and definition.has_delays:
         nominal = definition.valve_timing(1)
-    effects = Effects(**specs, vehicle_timing=nominal)
+    pulse = blowdown = None
+    sigmas = PulseSigmas()
+    if definition is not None:
+        if definition.pulse is not None:
+            pulse = definition.pulse.shape(1, definition.isp_s)
+        if definition.blowdown is not None:
+            blowdown = definition.blowdown.blowdown(1)
+        sigmas = PulseSigmas.from_three_sigma(definition.pulse_three_sigma)
+    effects = Effects(
+        **specs,
+        vehicle_timing=nominal,
+        vehicle_pulse=pulse,
+        vehicle_blowdown=blowdown,
+        pulse_sigmas=sigmas,
+    )
     _check_timing(effects.timing, f"{source}: [dispersions.timing]", cycle_s, nominal)
     return effects, resolved
 
@@ -359,6 +390,20 @@ def draw_effects(effects: Effects, seed: int, run_ids, n_jets: int) -> tuple[dic
         values["fault_thrust_factor"] = np.where(
             np.isnan(values["fault_thrust_factor"]), 1.0, values["fault_thrust_factor"]
         )
+    if "pulse" in effects.groups or "blowdown" in effects.groups:
+        shape, blowdown, drawn = draw_pulses(
+            effects.vehicle_pulse,
+            effects.vehicle_blowdown,
+            effects.pulse_sigmas,
+            seed,
+            run_ids,
+            n_jets,
+        )
+        if "pulse" in effects.groups:
+            kwargs["pulse"] = shape
+        if "blowdown" in effects.groups:
+            kwargs["blowdown"] = blowdown
+        values.update(drawn)
     frame = effect_frame_of(values, effects.groups)
     frame.index = pd.RangeIndex(run_ids.size)
     return kwargs, frame

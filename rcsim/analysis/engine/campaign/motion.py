@@ -14,7 +14,6 @@ import numpy as np
 from rcsim.spacecraft.history import History
 from rcsim.spacecraft.propellant import exhausted_before
 from rcsim.spacecraft.vehicle.model import jet_name
-from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
 
 # A firing continues into the next cycle only if it filled the previous one -- the same rule
 # (and tolerance) as rcsim.spacecraft.propulsion.apply_valve_limits, so firing counts agree with it.
@@ -122,7 +121,7 @@ def motion_outcomes(history: History) -> dict[str, np.ndarray]:
     cols["pulses"] = pulses
     cols["min_pulses"] = min_pulse_count(history).astype(float)
     cols["pulses_per_min"] = pulses / (duration_s / 60.0)
-    per_jet_kg = prop.impulse_ns / (history.flown_params.isp_s * G0_M_S2)
+    per_jet_kg = prop.jet_propellant_kg(history.flown_params.isp_s)
     duty = prop.on_time_s / duration_s
     for j in range(history.n_jets):
         cols[f"{jet_name(j + 1)}_propellant_kg"] = per_jet_kg[:, j]

@@ -147,3 +147,40 @@ def test_paper_check_prints_translation_coupling(capsys):
             3583.09 / (0.812 * 280 * 9.80665) * np.pi / 180, rel=1e-3
         )
         assert float(r[3]) == 0.0
+
+
+def test_check_prints_the_pulse_model_and_minimum_impulse_bit(tmp_path, capsys):
+    """Paper vehicle, 10 ms minimum on-time, first-order pulse tau_r = 8 ms, tau_t = 12 ms:
+    the bit's full-thrust time is ``u - tau_r (1 - e^(-u/tau_r)) + p tau_t (1 - e^-20)``,
+    ``p = 1 - e^(-u/tau_r)`` (docs/vehicles.md, "Pulses"), and its +roll rate change that
+    times the +roll authority ``2 F r / Ixx`` (the oracle above), to the 3 digits printed."""
+    from rcsim.spacecraft.vehicle.definition import packaged_vehicle
+
+    text = packaged_vehicle("paper").read_text(encoding="utf-8")
+    text = text.replace("min_on_s = 0.0 ", "min_on_s = 0.010 ", 1)
+    text += '\n[pulse]\nmodel = "exponential"\nrise_s = 0.008\ntail_s = 0.012\n'
+    (tmp_path / "v.toml").write_text(text, encoding="utf-8")
+    assert main(["vehicle", "check", str(tmp_path / "v.toml"), "--no-pairs"]) == 0
+    out = capsys.readouterr().out
+    assert "pulses: first-order rise tau 8 ms, tail-off tau 12 ms" in out
+    u, r, t = 0.010, 0.008, 0.012
+    p = 1 - np.exp(-u / r)
+    full_s = u - r * p + p * t * (1 - np.exp(-20.0))
+    line = next(x for x in out.splitlines() if x.startswith("minimum impulse bit"))
+    assert f"{full_s / u * 100:.3g} % of a square" in line
+    roll = float(line.split("+roll ")[1].split(",")[0])
+    alpha_deg = np.degrees(2 * 22.24 * 0.812 / 3583.09)
+    assert roll == float(f"{alpha_deg * full_s:.3g}")
+
+
+def test_check_of_a_square_pulse_vehicle_says_so(capsys):
+    """canted12 has no [pulse] and a 10 ms minimum on-time: the bit is the square pulse, its
+    rate change the printed authority times 10 ms (to the digits printed)."""
+    assert main(["vehicle", "check", "canted12", "--no-pairs"]) == 0
+    out = capsys.readouterr().out
+    assert "pulses: square (no [pulse])" in out
+    line = next(x for x in out.splitlines() if x.startswith("minimum impulse bit"))
+    assert "(min_on_s = 10 ms, 100 % of a square pulse's impulse)" in line
+    authority = next(x for x in out.splitlines() if x.startswith("+yaw"))
+    yaw = float(line.split("+yaw ")[1].split(",")[0])
+    assert yaw == float(f"{float(authority.split()[1]) * 0.010:.3g}")
