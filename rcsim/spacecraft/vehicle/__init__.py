@@ -32,8 +32,9 @@ The checks
       (``rcsim vehicle check``).
 
 The paper's vehicle is the packaged example ``paper`` (``rcsim/models/vehicle/paper.toml``,
-Gambone Tables 1-2); ``canted16`` is a four-quad layout with canted jets and ``canted12`` four
-canted triads (arithmetic in ``rcsim/models/vehicle/README.md``).  Any jet count flies: every
+Gambone Tables 1-2); ``canted16`` is a four-quad layout with canted jets, ``canted12`` four
+canted triads, and ``service_module`` the paper's vehicle with a tank's slosh and two solar
+wings (arithmetic in ``rcsim/models/vehicle/README.md``).  Any jet count flies: every
 per-jet array of the flight is as wide as the vehicle's model has jets
 (:func:`rcsim.spacecraft.vehicle.model.jet_count`).
 

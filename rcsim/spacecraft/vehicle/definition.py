@@ -22,7 +22,7 @@ from rcsim.spacecraft.valves import ValveTiming
 from rcsim.spacecraft.vehicle.run_parameters import G0_M_S2
 
 #: Vehicle files packaged with rcsim, by name (``rcsim/models/vehicle/<name>.toml``).
-PACKAGED_VEHICLES = ("paper", "canted16", "canted12")
+PACKAGED_VEHICLES = ("paper", "canted16", "canted12", "service_module")
 INTEGRATORS = ("RK4", "Euler", "implicit", "implicitfast")
 #: A jet closer to the CG than this [m] has no moment arm worth the name (a jet "inside the CG").
 MIN_ARM_M = 1e-3

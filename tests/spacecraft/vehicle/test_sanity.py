@@ -44,7 +44,7 @@ def test_one_jet_in_mm_is_still_blamed_on_that_jet(tmp_path):
         Vehicle.load(path)
 
 
-@pytest.mark.parametrize("name", ["paper", "canted16", "canted12"])
+@pytest.mark.parametrize("name", ["paper", "canted16", "canted12", "service_module"])
 def test_the_packaged_vehicles_and_the_examples_earn_no_warning(name):
     assert Vehicle.load(name).warnings() == []
 

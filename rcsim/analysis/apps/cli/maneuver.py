@@ -61,9 +61,9 @@ def register(sub) -> None:
     add_vehicle_args(
         p,
         vehicle_help="vehicle file to fly instead of the paper's vehicle, any number of jets (a "
-        'packaged one by name: "paper", "canted16", "canted12"); a layout other than Table '
-        "2's flies with --controller allocator, or --controller lookup --table T.csv with a "
-        "table made by `rcsim lookup generate --vehicle FILE --out T.csv`",
+        'packaged one by name: "paper", "canted16", "canted12", "service_module"); a layout '
+        "other than Table 2's flies with --controller allocator, or --controller lookup "
+        "--table T.csv with a table made by `rcsim lookup generate --vehicle FILE --out T.csv`",
     )
     p.add_argument(
         "--out",

@@ -40,7 +40,8 @@ def register(subparsers) -> None:
     check.add_argument(
         "vehicle",
         metavar="FILE",
-        help='a vehicle TOML file, or a packaged one by name ("paper", "canted16", "canted12")',
+        help="a vehicle TOML file, or a packaged one by name "
+        '("paper", "canted16", "canted12", "service_module")',
     )
     check.add_argument(
         "--no-pairs",

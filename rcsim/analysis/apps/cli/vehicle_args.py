@@ -1,8 +1,8 @@
 """The flags every command that flies takes for its vehicle: ``--vehicle`` and ``--control``.
 
 ``--vehicle FILE`` names the vehicle flown (a packaged one by name: ``paper``, ``canted16``,
-``canted12``; default the paper's); ``--control KEY=VALUE`` (repeatable) overrides a key of its
-flight-software profile (the vehicle file's ``[control]``, e.g. ``--control
+``canted12``, ``service_module``; default the paper's); ``--control KEY=VALUE`` (repeatable)
+overrides a key of its flight-software profile (the vehicle file's ``[control]``, e.g. ``--control
 maneuver_limit_deg=0.8``).  :func:`flown_vehicle` resolves both once into the
 :class:`~rcsim.spacecraft.vehicle.Vehicle` the command hands on.
 """
@@ -19,8 +19,8 @@ if TYPE_CHECKING:  # imported when a vehicle is resolved: `rcsim --help` stays q
     from rcsim.spacecraft.vehicle import Vehicle
 
 VEHICLE_HELP = (
-    'vehicle file to fly (a packaged one by name: "paper", "canted16", "canted12"); any number '
-    "of jets; default the paper's vehicle"
+    'vehicle file to fly (a packaged one by name: "paper", "canted16", "canted12", '
+    '"service_module"); any number of jets; default the paper\'s vehicle'
 )
 
 
