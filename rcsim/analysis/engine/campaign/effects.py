@@ -49,6 +49,8 @@ from rcsim.spacecraft.effect_draws import (
     draw_timing,
     effect_frame,
 )
+from rcsim.spacecraft.modes.draws import draw_modes
+from rcsim.spacecraft.modes.reader import Modes
 from rcsim.spacecraft.pulse_draws import PulseSigmas, draw_pulses
 from rcsim.spacecraft.pulse_shape import PulseShape
 from rcsim.spacecraft.valves import ValveTiming
@@ -103,6 +105,9 @@ class Effects:
     vehicle_pulse: PulseShape | None = None
     vehicle_blowdown: Blowdown | None = None
     pulse_sigmas: PulseSigmas = field(default_factory=PulseSigmas)
+    # The vehicle file's modes when some of them are dispersed (each block's *_3sigma keys,
+    # rcsim.spacecraft.modes.draws); None otherwise: the modes fly as compiled.
+    vehicle_modes: Modes | None = None
 
     @property
     def groups(self) -> tuple[str, ...]:
@@ -302,12 +307,16 @@ def parse_effects(
         if definition.blowdown is not None:
             blowdown = definition.blowdown.blowdown(1)
         sigmas = PulseSigmas.from_three_sigma(definition.pulse_three_sigma)
+    modes = None
+    if definition is not None and definition.modes is not None and definition.modes.dispersed:
+        modes = definition.modes
     effects = Effects(
         **specs,
         vehicle_timing=nominal,
         vehicle_pulse=pulse,
         vehicle_blowdown=blowdown,
         pulse_sigmas=sigmas,
+        vehicle_modes=modes,
     )
     _check_timing(effects.timing, f"{source}: [dispersions.timing]", cycle_s, nominal)
     return effects, resolved
@@ -404,6 +413,8 @@ def draw_effects(effects: Effects, seed: int, run_ids, n_jets: int) -> tuple[dic
         if "blowdown" in effects.groups:
             kwargs["blowdown"] = blowdown
         values.update(drawn)
+    if effects.vehicle_modes is not None:
+        kwargs["modes"] = draw_modes(effects.vehicle_modes, seed, run_ids)
     frame = effect_frame_of(values, effects.groups)
     frame.index = pd.RangeIndex(run_ids.size)
     return kwargs, frame
