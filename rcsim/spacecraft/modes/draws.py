@@ -28,6 +28,7 @@ vehicle without these dispersions draws nothing: every run flies as before.
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 
@@ -35,8 +36,12 @@ import mujoco
 import numpy as np
 
 from rcsim.spacecraft.effect_draws import effect_stream
+from rcsim.spacecraft.guards import invalid_runs
 from rcsim.spacecraft.modes.definition import POINT_GYRATION_M, Appendage, SloshMode
+from rcsim.spacecraft.modes.linear import mode_coupled_hz
 from rcsim.spacecraft.modes.reader import MIN_FREQUENCY_HZ, Modes
+from rcsim.spacecraft.vehicle.model import BODY
+from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 #: Child of a run's noise stream the modes' dispersions draw from (after the pulses' 4).
 MODES = 5
@@ -71,6 +76,12 @@ class ModeRuns:
     @property
     def n_runs(self) -> int:
         return int(self.mass_kg.shape[0])
+
+    def take(self, index) -> ModeRuns:
+        """The runs ``index`` selects (int array, slice or mask)."""
+        return ModeRuns(
+            self.modes, self.mass_kg[index], self.frequency_hz[index], self.damping_ratio[index]
+        )
 
     def stiffness(self) -> np.ndarray:
         """Each mode's joint spring, (n_runs, n_modes): ``k = m (2 pi f)^2`` [N/m] for a
@@ -149,3 +160,60 @@ def draw_modes(modes: Modes, seed: int, run_ids) -> ModeRuns:
         if s.damping_ratio:
             zeta[:, j] = np.maximum(z0 + s.damping_ratio * z[:, j, 2], 0.0)
     return ModeRuns(tuple(every), mass, freq, zeta)
+
+
+def mode_kind(mode) -> str:
+    """``spring``, ``pendulum`` (slosh) or ``panel``: which runs.parquet columns a mode has
+    (:func:`flown_values`)."""
+    return "panel" if isinstance(mode, Appendage) else mode.model
+
+
+def flown_values(flight: mujoco.MjModel, hub: RunParameters, runs: ModeRuns) -> dict:
+    """What each run's modes flew, for ``runs.parquet``: per mode ``<name>``,
+
+    * ``mode_<name>_freq_hz``: the clamped frequency [Hz] (spring slosh, panel);
+    * ``mode_<name>_coupled_freq_hz``: the mode's lowest coupled frequency [Hz] on that run's
+      hub, the other modes held at rest on it
+      (:func:`rcsim.spacecraft.modes.linear.mode_coupled_hz` of the run's own model: its
+      hub's mass, CG and inertia ``hub``, its modes' masses and springs); NaN for a run whose
+      hub parameters are invalid (not flown);
+    * ``mode_<name>_damping``: the damping ratio (spring slosh, panel);
+    * ``mode_<name>_mass_kg`` (slosh) or ``mode_<name>_inertia_kg_m2`` (a panel's inertia
+      about its hinge, not dispersed).
+
+    ``flight`` is the vehicle's flight model (:mod:`rcsim.spacecraft.flight_model`), copied
+    once and given each run's values in turn (a loop over runs: a mass matrix at rest a run,
+    beside a flight's hundreds of steps).  Returns name -> (n_runs,) array.
+    """
+    n = runs.n_runs
+    out: dict = {}
+    coupled = np.full((n, len(runs.modes)), np.nan)
+    model = copy.copy(flight)
+    body = model.body(BODY).id
+    invalid = invalid_runs(hub)
+    data = mujoco.MjData(model)
+    for i in range(n):
+        if invalid[i]:
+            continue
+        model.body_mass[body] = hub.mass_kg[i]
+        model.body_ipos[body] = hub.cg_B[i]
+        model.body_inertia[body] = hub.inertia_B[i]
+        if hub.iquat is not None:
+            model.body_iquat[body] = hub.iquat[i]
+        runs.take([i]).write(model, lambda name: getattr(model, name)[None])
+        mujoco.mj_setConst(model, data)
+        for j, mode in enumerate(runs.modes):
+            if mode_kind(mode) != "pendulum":
+                joints = [joint for joint, _ in mode.coordinates()]
+                coupled[i, j] = mode_coupled_hz(model, joints)
+    for j, mode in enumerate(runs.modes):
+        kind, name = mode_kind(mode), f"mode_{mode.name}"
+        if kind != "pendulum":
+            out[f"{name}_freq_hz"] = runs.frequency_hz[:, j].copy()
+            out[f"{name}_coupled_freq_hz"] = coupled[:, j]
+            out[f"{name}_damping"] = runs.damping_ratio[:, j].copy()
+        if kind == "panel":
+            out[f"{name}_inertia_kg_m2"] = np.full(n, mode.hinge_inertia)
+        else:
+            out[f"{name}_mass_kg"] = runs.mass_kg[:, j].copy()
+    return out

@@ -148,3 +148,38 @@ def test_a_dispersed_panel_rings_at_its_drawn_coupled_frequency(tmp_path):
         assert abs(f_drawn - 0.5) > 1e-3  # a draw away from the nominal
         measured = free_response_hz(physics.batch.get_model(i), 7, 1e-3, 100.0)
         assert measured == pytest.approx(f_drawn * ratio, rel=1e-6)
+
+
+def test_recorded_coupled_frequency_follows_the_runs_hub(tmp_path):
+    """flown_values' coupled frequency of a panel hinged through the hub's CG about z, its CG
+    on the hinge line, is f_drawn sqrt((J + I_p) / J) with J the *run's* hub Izz (the closed
+    form of test_modes_oracles; 1e-9: an eigenvalue of a 7 x 7 mass matrix); a hub whose
+    parameters are invalid (not flown) records NaN; clamped frequency and damping are the
+    draws, the inertia about the hinge 9 kg m^2."""
+    from rcsim.spacecraft.modes.draws import flown_values
+
+    m_hub, m_p = 400.0, 20.0
+    hub_i = np.diag([120.0, 150.0, 130.0])
+    panel_i = np.diag([5.0, 4.5, 9.0])
+    mass, cg, inertia = whole_vehicle(m_hub, hub_i, [(m_p, (0.0, 0.0, 0.0), panel_i)])
+    blocks = (
+        '[[appendage]]\nname = "p"\n'
+        f"mass_kg = {m_p}\ninertia_kg_m2 = [5.0, 4.5, 9.0]\nhinge_m = [0.0, 0.0, 0.0]\n"
+        "axis = [0, 0, 1]\ncg_offset_m = [0.0, 0.0, 0.0]\nfrequency_hz = 0.5\n"
+        "damping_ratio = 0.01\nfrequency_hz_3sigma = 0.3\ndamping_ratio_3sigma = 0.006\n"
+    )
+    v = load(tmp_path, mass, cg, inertia, blocks, timestep_s=DT)
+    runs = draw_modes(v.definition.modes, 4, np.arange(3))
+    hub = v.nominal(3)
+    izz = np.array([130.0, 100.0, 170.0])
+    hub = replace(hub, inertia_B=hub.inertia_B.copy(), mass_kg=hub.mass_kg.copy())
+    hub.inertia_B[:, 2] = izz
+    hub.mass_kg[2] = -1.0  # invalid: not flown
+    values = flown_values(v.flight_model, hub, runs)
+    f = runs.frequency_hz[:, 0]
+    expected = f * np.sqrt((izz + 9.0) / izz)
+    np.testing.assert_allclose(values["mode_p_coupled_freq_hz"][:2], expected[:2], rtol=1e-9)
+    assert np.isnan(values["mode_p_coupled_freq_hz"][2])
+    np.testing.assert_array_equal(values["mode_p_freq_hz"], f)
+    np.testing.assert_array_equal(values["mode_p_damping"], runs.damping_ratio[:, 0])
+    np.testing.assert_allclose(values["mode_p_inertia_kg_m2"], 9.0, rtol=1e-12)
