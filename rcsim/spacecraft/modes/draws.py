@@ -162,6 +162,9 @@ def draw_modes(modes: Modes, seed: int, run_ids) -> ModeRuns:
     return ModeRuns(tuple(every), mass, freq, zeta)
 
 
+_HUB_FIELDS = ("body_mass", "body_ipos", "body_inertia", "body_iquat")
+
+
 def mode_kind(mode) -> str:
     """``spring``, ``pendulum`` (slosh) or ``panel``: which runs.parquet columns a mode has
     (:func:`flown_values`)."""
@@ -175,8 +178,9 @@ def flown_values(flight: mujoco.MjModel, hub: RunParameters, runs: ModeRuns) -> 
     * ``mode_<name>_coupled_freq_hz``: the mode's lowest coupled frequency [Hz] on that run's
       hub, the other modes held at rest on it
       (:func:`rcsim.spacecraft.modes.linear.mode_coupled_hz` of the run's own model: its
-      hub's mass, CG and inertia ``hub``, its modes' masses and springs); NaN for a run whose
-      hub parameters are invalid (not flown);
+      hub's mass, CG and inertia ``hub``, its modes' masses and springs); a run whose hub
+      parameters are invalid is recorded failed on the nominal hub
+      (:class:`rcsim.spacecraft.batch_physics.BatchPhysics`), and so is its value here;
     * ``mode_<name>_damping``: the damping ratio (spring slosh, panel);
     * ``mode_<name>_mass_kg`` (slosh) or ``mode_<name>_inertia_kg_m2`` (a panel's inertia
       about its hinge, not dispersed).
@@ -187,19 +191,21 @@ def flown_values(flight: mujoco.MjModel, hub: RunParameters, runs: ModeRuns) -> 
     """
     n = runs.n_runs
     out: dict = {}
-    coupled = np.full((n, len(runs.modes)), np.nan)
+    coupled = np.zeros((n, len(runs.modes)))
     model = copy.copy(flight)
     body = model.body(BODY).id
     invalid = invalid_runs(hub)
     data = mujoco.MjData(model)
+    nominal = {f: getattr(flight, f)[body].copy() for f in _HUB_FIELDS}
     for i in range(n):
-        if invalid[i]:
-            continue
-        model.body_mass[body] = hub.mass_kg[i]
-        model.body_ipos[body] = hub.cg_B[i]
-        model.body_inertia[body] = hub.inertia_B[i]
-        if hub.iquat is not None:
-            model.body_iquat[body] = hub.iquat[i]
+        if invalid[i]:  # flown (and failed) with the nominal hub: BatchPhysics' rule
+            for f in _HUB_FIELDS:
+                getattr(model, f)[body] = nominal[f]
+        else:
+            model.body_mass[body] = hub.mass_kg[i]
+            model.body_ipos[body] = hub.cg_B[i]
+            model.body_inertia[body] = hub.inertia_B[i]
+            model.body_iquat[body] = nominal["body_iquat"] if hub.iquat is None else hub.iquat[i]
         runs.take([i]).write(model, lambda name: getattr(model, name)[None])
         mujoco.mj_setConst(model, data)
         for j, mode in enumerate(runs.modes):

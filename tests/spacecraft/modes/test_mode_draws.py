@@ -154,8 +154,9 @@ def test_recorded_coupled_frequency_follows_the_runs_hub(tmp_path):
     """flown_values' coupled frequency of a panel hinged through the hub's CG about z, its CG
     on the hinge line, is f_drawn sqrt((J + I_p) / J) with J the *run's* hub Izz (the closed
     form of test_modes_oracles; 1e-9: an eigenvalue of a 7 x 7 mass matrix); a hub whose
-    parameters are invalid (not flown) records NaN; clamped frequency and damping are the
-    draws, the inertia about the hinge 9 kg m^2."""
+    parameters are invalid (recorded failed, flown on the nominal hub) records the nominal
+    hub's, J = 130 kg m^2; clamped frequency and damping are the draws, the inertia about the
+    hinge 9 kg m^2."""
     from rcsim.spacecraft.modes.draws import flown_values
 
     m_hub, m_p = 400.0, 20.0
@@ -179,7 +180,8 @@ def test_recorded_coupled_frequency_follows_the_runs_hub(tmp_path):
     f = runs.frequency_hz[:, 0]
     expected = f * np.sqrt((izz + 9.0) / izz)
     np.testing.assert_allclose(values["mode_p_coupled_freq_hz"][:2], expected[:2], rtol=1e-9)
-    assert np.isnan(values["mode_p_coupled_freq_hz"][2])
+    nominal = f[2] * np.sqrt((130.0 + 9.0) / 130.0)
+    assert values["mode_p_coupled_freq_hz"][2] == pytest.approx(nominal, rel=1e-9)
     np.testing.assert_array_equal(values["mode_p_freq_hz"], f)
     np.testing.assert_array_equal(values["mode_p_damping"], runs.damping_ratio[:, 0])
     np.testing.assert_allclose(values["mode_p_inertia_kg_m2"], 9.0, rtol=1e-12)
