@@ -3,7 +3,8 @@ service module with the fixed profile (docs/flexible_showcase.md).
 
     python examples/service_module/plot_excitation.py SM_DIR RIGID_DIR FIX_DIR CASE OUT.png
 
-Each DIR is an ``rcsim campaign run`` of ``nominal.toml`` (histories kept); CASE a case name
+The DIRs are ``rcsim campaign run``s of ``nominal.toml``, ``nominal_rigid.toml`` and
+``nominal_fixed.toml`` (histories kept); CASE a case name
 (``rate-04``).  Top: the hub's roll rate error; middle: the +y wing's hinge angle; bottom: the
 roll jets' signed on-time per cycle.
 """

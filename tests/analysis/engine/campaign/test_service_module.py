@@ -139,3 +139,22 @@ def test_the_fix_damps_the_wing(flights):
     }
     assert amplitude["fix"] < 0.75 * amplitude["modes"]
     assert (fix[ROLL_JETS] != 0).any(axis=1).sum() > (modes[ROLL_JETS] != 0).any(axis=1).sum()
+
+
+def test_the_showcase_specs_load_and_the_modal_file_adds_only_dispersions():
+    """Every spec of examples/service_module loads (vehicle, profile, dispersions checked);
+    the modal campaign's vehicle is the packaged one with the wings' damping 0.75 % and the
+    modes' 3-sigma keys (docs/flexible_showcase.md), nothing else."""
+    where = ROOT / "examples" / "service_module"
+    specs = [p for p in sorted(where.glob("*.toml")) if not p.name.startswith("service_module")]
+    assert len(specs) == 7
+    for spec in specs:
+        load_spec(spec)
+    packaged = load_vehicle(resolve_vehicle("service_module"))
+    modal = load_vehicle(where / "service_module_modal.toml")
+    assert modal.mass_kg == packaged.mass_kg and modal.three_sigma == packaged.three_sigma
+    assert modal.modes is not None and packaged.modes is not None
+    assert [m.name for m in modal.modes.all] == [m.name for m in packaged.modes.all]
+    wings = [m for m in modal.modes.appendages if m.name.startswith("wing")]
+    assert [(m.frequency_hz, m.damping_ratio) for m in wings] == [(0.2, 0.0075)] * 2
+    assert modal.modes.sigmas and not packaged.modes.sigmas
