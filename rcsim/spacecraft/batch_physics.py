@@ -21,6 +21,7 @@ from mujoco.batch import Batch, SimulationError
 from rcsim.spacecraft import cycle_kernel
 from rcsim.spacecraft.flight_model import flight_model, jet_wrench_B
 from rcsim.spacecraft.guards import warning_reasons
+from rcsim.spacecraft.modes.draws import ModeRuns
 from rcsim.spacecraft.modes.state import subtree_velocity_N
 from rcsim.spacecraft.navigation import quat_conj, quat_mul
 from rcsim.spacecraft.pieces import Pieces
@@ -56,6 +57,9 @@ class BatchPhysics:
     flight : mujoco.MjModel, optional
         ``model``'s wrench model already built (:attr:`Vehicle.flight_model`, once per
         process); built here when not given.
+    modes : ModeRuns, optional
+        Each run's mode masses, springs and dampers (:mod:`rcsim.spacecraft.modes.draws`);
+        None: the modes as compiled, every run alike.
     """
 
     def __init__(
@@ -68,8 +72,10 @@ class BatchPhysics:
         level: np.ndarray,
         n_sub: int,
         flight: mujoco.MjModel | None = None,
+        modes: ModeRuns | None = None,
     ):
         self.model, self.params, self.invalid = model, params, invalid
+        self.modes = modes
         self.level, self.n_sub = level, n_sub
         self.dt_s = float(model.opt.timestep)
         self.compiled = False  # the compiled state check; set by the loop for each flight
@@ -136,6 +142,10 @@ class BatchPhysics:
         self._wrench = jet_wrench_B(
             replace(p, thrust_n=self._flown_thrust_n, jet_dir_S=self._flown_dir_S), m
         )
+        if self.modes is not None:  # each run's drawn mode masses, springs and dampers
+            if self.modes.n_runs != p.n_runs:
+                raise ValueError(f"modes of {self.modes.n_runs} runs for {p.n_runs} runs")
+            self.modes.write(self._flight, b.expand)
         # mass, CG and inertia feed constants (body_subtreemass, body_invweight0, dof_M0,
         # actuator_acc0, ...) that MuJoCo only recomputes in mj_setConst; without it some
         # changes are silently ignored.

@@ -82,6 +82,7 @@ from rcsim.spacecraft.guards import (
     invalid_runs,
 )
 from rcsim.spacecraft.history import History, history_buffers
+from rcsim.spacecraft.modes.draws import ModeRuns
 from rcsim.spacecraft.mujoco_timers import quiet_stage_timers
 from rcsim.spacecraft.navigation import CommandBlocks, Guidance, NavState, navigate
 from rcsim.spacecraft.pieces import Pieces, cycle_pieces, profile_pieces
@@ -187,6 +188,10 @@ class BatchSimulation:
         (default): the vehicle's (none when its file gives no propellant mass); None: not
         tracked (accounted only, the mass properties stay ``params``': a jet-response
         database's pulses from the wet vehicle).
+    modes : ModeRuns, optional
+        Each run's slosh masses, mode frequencies and damping ratios
+        (:mod:`rcsim.spacecraft.modes.draws`); None (default): the vehicle file's modes as
+        compiled, every run alike.
 
     Raises
     ------
@@ -210,6 +215,7 @@ class BatchSimulation:
         tank: PropellantTank | Literal["vehicle"] | None = "vehicle",
         pulse: PulseShape | Literal["vehicle"] | None = "vehicle",
         blowdown: Blowdown | Literal["vehicle"] | None = "vehicle",
+        modes: ModeRuns | None = None,
     ):
         route_mujoco_warnings()
         quiet_stage_timers()
@@ -301,6 +307,7 @@ class BatchSimulation:
             ),
             n_sub=n_sub,
             flight=self.vehicle.flight_model,
+            modes=modes,
         )
         self.tank = tank
         self._base_level = self.physics.level.copy()  # faults' factors, before any blowdown
@@ -742,8 +749,8 @@ def simulate_batch(
     **kwargs,
 ) -> History:
     """One-call form of :class:`BatchSimulation` (``vehicle``, ``nthread``, ``sensors``,
-    ``sensor_streams``, ``timing``, ``faults``, ``profile``, ``tank``, ``pulse``, ``blowdown``
-    go to the simulation, the
+    ``sensor_streams``, ``timing``, ``faults``, ``profile``, ``tank``, ``pulse``, ``blowdown``,
+    ``modes`` go to the simulation, the
     rest to :meth:`BatchSimulation.run`)."""
     sim_keys = {
         "nthread",
@@ -755,6 +762,7 @@ def simulate_batch(
         "tank",
         "pulse",
         "blowdown",
+        "modes",
     }
     sim_kw = {k: kwargs.pop(k) for k in list(kwargs) if k in sim_keys}
     return BatchSimulation(params, vehicle, **sim_kw).run(

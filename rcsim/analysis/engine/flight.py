@@ -27,7 +27,16 @@ from rcsim.spacecraft.vehicle.model import AXES, jet_name
 from rcsim.spacecraft.vehicle.run_parameters import RunParameters
 
 #: What :func:`fly_batch` passes on to the simulation besides the vehicle and the scenarios.
-EFFECT_KEYS = ("sensors", "sensor_streams", "timing", "faults", "profile", "pulse", "blowdown")
+EFFECT_KEYS = (
+    "sensors",
+    "sensor_streams",
+    "timing",
+    "faults",
+    "profile",
+    "pulse",
+    "blowdown",
+    "modes",
+)
 
 
 @dataclass(frozen=True)
@@ -88,7 +97,8 @@ def fly_batch(
         ``faults`` (:class:`~rcsim.spacecraft.valves.JetFaults`), ``profile``
         (:class:`~rcsim.spacecraft.valves.ThrustProfile`), ``pulse``
         (:class:`~rcsim.spacecraft.pulse_shape.PulseShape`), ``blowdown``
-        (:class:`~rcsim.spacecraft.blowdown.Blowdown`); each entry ``(n_runs, ...)``.
+        (:class:`~rcsim.spacecraft.blowdown.Blowdown`), ``modes``
+        (:class:`~rcsim.spacecraft.modes.draws.ModeRuns`); each entry ``(n_runs, ...)``.
         Absent or None: perfect sensors, the vehicle's nominal timing, no faults, instant
         thrust, the vehicle's own pulse and blowdown.
 

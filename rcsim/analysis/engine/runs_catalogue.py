@@ -419,6 +419,51 @@ EFFECT_NOT_APPLICABLE: dict[str, tuple[str, str]] = {
 }
 
 
+#: Per-mode inputs of a vehicle whose file disperses its modes (``*_3sigma`` keys of a
+#: ``[[slosh]]`` or ``[[appendage]]`` block; :func:`rcsim.spacecraft.modes.draws.flown_values`),
+#: after the effect inputs, in the file's mode order: the unit and meaning of the columns
+#: ``mode_<name>_<suffix>`` each kind of mode has (suffix -> unit, meaning).
+MODE_SUFFIXES: dict[str, tuple[str, str]] = {
+    "freq_hz": ("Hz", "clamped (hub held still) frequency of the mode flown (drawn per run)"),
+    "coupled_freq_hz": (
+        "Hz",
+        "lowest coupled frequency of the mode on the run's hub as flown, the other modes held "
+        "at rest on it (linearised about rest: rcsim/spacecraft/modes/linear.py)",
+    ),
+    "damping": ("-", "damping ratio of the mode flown (drawn per run)"),
+    "mass_kg": ("kg", "slosh mass flown (drawn per run; the hub's mass is mass_kg)"),
+    "inertia_kg_m2": ("kg m^2", "the panel's inertia about its hinge (not dispersed)"),
+}
+MODE_KIND_SUFFIXES: dict[str, tuple[str, ...]] = {
+    "spring": ("freq_hz", "coupled_freq_hz", "damping", "mass_kg"),
+    "pendulum": ("mass_kg",),
+    "panel": ("freq_hz", "coupled_freq_hz", "damping", "inertia_kg_m2"),
+}
+#: The modes whose columns :func:`all_columns` shows (the schema's table): one of each kind.
+_SCHEMA_MODES = (("<name>", "spring"), ("<name>", "panel"), ("<name>", "pendulum"))
+
+
+def mode_columns(modes=()) -> tuple[Column, ...]:
+    """The columns of ``modes``: ``(name, kind)`` pairs (kind ``spring``, ``pendulum`` or
+    ``panel``: :func:`rcsim.spacecraft.modes.draws.mode_kind`), in order."""
+    return tuple(
+        Column(f"mode_{name}_{suffix}", "float64", *MODE_SUFFIXES[suffix])
+        for name, kind in modes
+        for suffix in MODE_KIND_SUFFIXES[kind]
+    )
+
+
+def mode_column_suffix(name: str) -> str | None:
+    """The :data:`MODE_SUFFIXES` key of a per-mode column ``mode_<name>_<suffix>``, or None."""
+    if not name.startswith("mode_"):
+        return None
+    # the longest suffix first: coupled_freq_hz before freq_hz
+    for suffix in sorted(MODE_SUFFIXES, key=len, reverse=True):
+        if name.endswith(f"_{suffix}") and len(name) > len(f"mode__{suffix}"):
+            return suffix
+    return None
+
+
 def input_names(n_jets: int) -> tuple[str, ...]:
     """Names of :func:`input_columns` ``(n_jets)``."""
     return tuple(c.name for c in input_columns(n_jets))
@@ -432,11 +477,15 @@ def outcome_names(n_jets: int) -> tuple[str, ...]:
 def all_columns(n_jets: int) -> tuple[Column, ...]:
     """Every column a runs.parquet of a vehicle of ``n_jets`` jets may have (products and all
     effect groups), in order."""
-    return run_columns(EFFECT_GROUPS, True, n_jets=n_jets)
+    return run_columns(EFFECT_GROUPS, True, n_jets=n_jets, modes=_SCHEMA_MODES)
 
 
 def column_named(name: str) -> Column | None:
-    """The schema's column ``name`` (a per-jet column of any jet number included), or None."""
+    """The schema's column ``name`` (a per-jet or per-mode column of any jet number or mode
+    name included), or None."""
+    suffix = mode_column_suffix(name)
+    if suffix is not None:
+        return Column(name, "float64", *MODE_SUFFIXES[suffix])
     schema_name = name
     if name.startswith("jet_"):
         number, _, kind = name[4:].partition("_")
@@ -448,16 +497,17 @@ def column_named(name: str) -> Column | None:
     return None
 
 
-def run_columns(effects=(), products: bool = False, *, n_jets: int) -> tuple[Column, ...]:
+def run_columns(effects=(), products: bool = False, *, n_jets: int, modes=()) -> tuple[Column, ...]:
     """The columns of a campaign whose spec has the effect groups ``effects`` (names of
     :data:`EFFECT_COLUMNS`), with ``products`` records products of inertia
-    (:func:`records_products`), and whose vehicle has ``n_jets`` jets, in order."""
+    (:func:`records_products`), whose vehicle has ``n_jets`` jets and disperses ``modes``
+    (``(name, kind)`` pairs, :func:`mode_columns`), in order."""
     unknown = [g for g in effects if g not in EFFECT_COLUMNS]
     if unknown:
         raise KeyError(f"unknown effect group(s) {unknown}; known: {list(EFFECT_GROUPS)}")
     extra = tuple(c for g in EFFECT_GROUPS if g in effects for c in EFFECT_COLUMNS[g])
     inputs = input_columns(n_jets) + (PRODUCT_COLUMNS if products else ())
-    return ID_COLUMNS + inputs + extra + outcome_columns(n_jets)
+    return ID_COLUMNS + inputs + extra + mode_columns(modes) + outcome_columns(n_jets)
 
 
 def markdown_table() -> str:
@@ -473,6 +523,13 @@ def markdown_table() -> str:
             meaning = f"{meaning} (only with {where})"
         if name in PRODUCT_NAMES:
             meaning = f"{meaning} (only when the vehicle has or the campaign disperses them)"
+        suffix = mode_column_suffix(name)
+        if suffix is not None:
+            kinds = [k for k, s in MODE_KIND_SUFFIXES.items() if suffix in s]
+            meaning = (
+                f"{meaning} (only when the vehicle file disperses a mode, one per mode "
+                f"<name>; {', '.join(kinds)} modes)"
+            )
         for axis in AXES:
             if f"_{axis}_" in name or name.endswith(f"_{axis}"):
                 name = name.replace(axis, "<axis>", 1)

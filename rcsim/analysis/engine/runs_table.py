@@ -52,6 +52,8 @@ from rcsim.analysis.engine.runs_catalogue import (  # noqa: F401 - re-exported
     input_names,
     is_propellant_motion,
     markdown_table,
+    mode_column_suffix,
+    mode_columns,
     outcome_columns,
     outcome_names,
     run_columns,
@@ -123,11 +125,11 @@ def effect_frame_of(values: dict, effects) -> pd.DataFrame:
 
 
 def check_run_frame(
-    frame: pd.DataFrame, effects=(), products: bool = False, *, n_jets: int
+    frame: pd.DataFrame, effects=(), products: bool = False, *, n_jets: int, modes=()
 ) -> pd.DataFrame:
-    """``frame`` if its columns are exactly :func:`run_columns` of ``effects``, ``products``
-    and ``n_jets``, in order; else a KeyError."""
-    names = tuple(c.name for c in run_columns(effects, products, n_jets=n_jets))
+    """``frame`` if its columns are exactly :func:`run_columns` of ``effects``, ``products``,
+    ``n_jets`` and ``modes``, in order; else a KeyError."""
+    names = tuple(c.name for c in run_columns(effects, products, n_jets=n_jets, modes=modes))
     if tuple(frame.columns) != names:
         diff = sorted(set(frame.columns) ^ set(names)) or "(order)"
         raise KeyError(f"runs frame differs from rcsim.analysis.engine.runs_table: {diff}")

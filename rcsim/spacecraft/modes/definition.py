@@ -180,6 +180,30 @@ class Appendage:
         return ((f"{self.name}_hinge", "angle"),)
 
 
+@dataclass(frozen=True)
+class ModeSigmas:
+    """One mode's dispersions, one-sigma and absolute in the unit of each (0: not dispersed):
+    a ``[[slosh]]`` or ``[[appendage]]`` block's ``mass_kg_3sigma``, ``frequency_hz_3sigma``,
+    ``damping_ratio_3sigma`` over 3 (``docs/vehicles.md``, "Dispersions of the modes").
+
+    Attributes
+    ----------
+    mass_kg : float
+        A slosh mass [kg] (a panel's mass is not dispersed: 0).
+    frequency_hz : float
+        The clamped frequency [Hz] (a spring slosh mode or a panel; a pendulum has none).
+    damping_ratio : float
+        The damping ratio (a spring slosh mode or a panel).
+    """
+
+    mass_kg: float = 0.0
+    frequency_hz: float = 0.0
+    damping_ratio: float = 0.0
+
+    def disperses(self) -> bool:
+        return bool(self.mass_kg or self.frequency_hz or self.damping_ratio)
+
+
 def hub_mass_properties(
     mass_kg: float, cg_m, inertia_kg_m2, modes
 ) -> tuple[float, np.ndarray, np.ndarray]:

@@ -82,3 +82,34 @@ def mode_table(model: mujoco.MjModel) -> ModeTable:
         coupled_hz=np.sqrt(np.clip(w2, 0.0, None)) / (2 * math.pi),
         coupled_owner=owner,
     )
+
+
+def mode_coupled_hz(model: mujoco.MjModel, joints, data: mujoco.MjData | None = None) -> float:
+    """The lowest coupled frequency [Hz] of one mode on the free hub: the coordinates
+    ``joints`` (joint names) with the hub's six dofs eliminated and every other mode held at
+    rest on the hub (rigid with it): ``M_e`` and ``K`` of :func:`mode_table` restricted to
+    ``joints`` (a sub-block of the Schur complement is that of the hub and this mode alone,
+    the others' masses counted in the hub's block).  0 for a mode without a spring.
+
+    Near other modes of the same frequency the whole vehicle's modes mix them
+    (:func:`mode_table`'s ``coupled_hz``); this is the mode's own, one number per mode.
+    ``data``: a scratch MjData of ``model`` to reuse (its state is reset to rest here);
+    making one costs more than the rest of the call."""
+    if data is None:
+        data = mujoco.MjData(model)
+    else:
+        mujoco.mj_resetData(model, data)
+    mujoco.mj_forward(model, data)
+    full = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, full)
+    ids = [model.joint(name).id for name in joints]
+    dofs = [int(model.jnt_dofadr[j]) for j in ids]
+    h = slice(0, 6)
+    m_mm = full[np.ix_(dofs, dofs)]
+    m_mh = full[dofs, h]
+    m_eff = m_mm - m_mh @ np.linalg.solve(full[h, h], m_mh.T)
+    k = np.diag([float(model.jnt_stiffness[j]) for j in ids])
+    chol = np.linalg.cholesky(m_eff)
+    inv = np.linalg.inv(chol)
+    w2 = np.linalg.eigvalsh(inv @ k @ inv.T)
+    return float(np.sqrt(max(float(w2.min()), 0.0)) / (2 * math.pi))

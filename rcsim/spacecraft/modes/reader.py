@@ -16,6 +16,7 @@ from rcsim.models.toml_reader import Reader
 from rcsim.spacecraft.modes.definition import (
     SLOSH_MODELS,
     Appendage,
+    ModeSigmas,
     SloshMode,
     hub_mass_properties,
     hub_problem,
@@ -52,6 +53,8 @@ class Modes:
     hub_cg_m : ndarray (3,)
     hub_inertia_kg_m2 : ndarray (3, 3)
         About the hub's CG, B axes.
+    sigmas : tuple of ModeSigmas
+        Each mode's dispersions, in the order of :attr:`all` (empty: none dispersed).
     """
 
     slosh: tuple
@@ -59,10 +62,17 @@ class Modes:
     hub_mass_kg: float
     hub_cg_m: np.ndarray
     hub_inertia_kg_m2: np.ndarray
+    sigmas: tuple = ()
 
     @property
     def all(self) -> tuple:
         return (*self.slosh, *self.appendages)
+
+    @property
+    def dispersed(self) -> bool:
+        """Some mode has a dispersion: its runs fly drawn values
+        (:mod:`rcsim.spacecraft.modes.draws`)."""
+        return any(s.disperses() for s in self.sigmas)
 
 
 def _unit(r: Reader, name: str, value: tuple) -> tuple:
@@ -105,6 +115,57 @@ def _damping_ratio(r: Reader) -> float:
     return z
 
 
+def _three_sigma(
+    r: Reader, key: str, nominal: float, floor: float, ceiling: float | None, unit: str
+) -> float:
+    """``<key>_3sigma`` of a block (0 when absent): at least 0, and ``nominal -+ 3-sigma``
+    within ``[floor, ceiling]`` (a 3-sigma draw stays a mode rcsim flies; module ranges)."""
+    name = f"{key}_3sigma"
+    s = r.number(name, 0.0, minimum=0.0)
+    if s and nominal - s < floor:
+        raise r.error(
+            name,
+            f"takes {key} from {nominal:g}{unit} to {nominal - s:g}{unit} at -3 sigma, below "
+            f"{floor:g}{unit}: a 3-sigma draw must stay a mode (the 3-sigma must be less than "
+            f"{nominal - floor:.4g}{unit})",
+            s,
+        )
+    if s and ceiling is not None and nominal + s > ceiling:
+        raise r.error(
+            name,
+            f"takes {key} from {nominal:g}{unit} to {nominal + s:g}{unit} at +3 sigma, above "
+            f"{ceiling:.4g}{unit}, the limit of {key} itself",
+            s,
+        )
+    return s
+
+
+def _sigmas(
+    r: Reader, *, mass: float | None, f: float | None, zeta: float | None, timestep_s: float
+) -> ModeSigmas:
+    """A block's dispersions (``docs/vehicles.md``, "Dispersions of the modes"): 3-sigma,
+    absolute; the mass must stay above 0, the frequency between :data:`MIN_FREQUENCY_HZ` and
+    the step limit, the damping ratio in [0, 1) at 3 sigma."""
+    m_s = f_s = z_s = 0.0
+    if mass is not None:
+        m_s = _three_sigma(r, "mass_kg", mass, 0.0, None, " kg")
+        if m_s >= mass:
+            raise r.error("mass_kg_3sigma", f"must be less than the mass {mass:g} kg", m_s)
+    if f is not None:
+        top = 1.0 / (MIN_STEPS_PER_PERIOD * timestep_s)
+        f_s = _three_sigma(r, "frequency_hz", f, MIN_FREQUENCY_HZ, top, " Hz")
+    if zeta is not None:
+        z_s = _three_sigma(r, "damping_ratio", zeta, 0.0, None, "")
+        if zeta + z_s >= 1.0:
+            raise r.error(
+                "damping_ratio_3sigma",
+                f"takes damping_ratio from {zeta:g} to {zeta + z_s:g} at +3 sigma: it must stay "
+                "below 1 (an oscillating mode)",
+                z_s,
+            )
+    return ModeSigmas(m_s / 3.0, f_s / 3.0, z_s / 3.0)
+
+
 def _reach(r: Reader, name: str, point, cg, gyration_m: float, *, value=None) -> None:
     """Refuse a ``point`` beyond the vehicle's reach from the CG (``value``: what the key
     holds, when ``point`` is derived from it)."""
@@ -131,7 +192,9 @@ def _name(r: Reader, default: str, seen: dict, where: str) -> str:
     return name
 
 
-def _read_slosh(r: Reader, name: str, cg, gyration_m: float, timestep_s: float) -> SloshMode:
+def _read_slosh(
+    r: Reader, name: str, cg, gyration_m: float, timestep_s: float
+) -> tuple[SloshMode, ModeSigmas]:
     model = r.choice("model", None, SLOSH_MODELS)
     mass = r.number("mass_kg", None, minimum=0.0, strict=True)
     if model == "spring":
@@ -158,8 +221,12 @@ def _read_slosh(r: Reader, name: str, cg, gyration_m: float, timestep_s: float) 
                 raise r.error("directions", "must be normal to each other (two lateral modes)", raw)
         f = _frequency(r, timestep_s)
         zeta = _damping_ratio(r)
+        sigmas = _sigmas(r, mass=mass, f=f, zeta=zeta, timestep_s=timestep_s)
         r.done()
-        return SloshMode(name, model, mass, pos, dirs, frequency_hz=f, damping_ratio=zeta)
+        return (
+            SloshMode(name, model, mass, pos, dirs, frequency_hz=f, damping_ratio=zeta),
+            sigmas,
+        )
     pivot = r.vector("pivot_m", 3)
     _reach(r, "pivot_m", pivot, cg, gyration_m)
     rod = _unit(r, "direction", r.vector("direction", 3))
@@ -167,11 +234,13 @@ def _read_slosh(r: Reader, name: str, cg, gyration_m: float, timestep_s: float) 
     if length > MAX_REACH_GYRATIONS * gyration_m:
         raise r.error("length_m", "is longer than the vehicle's reach (a length in mm?)", length)
     damping = r.number("damping_n_m_s", 0.0, minimum=0.0)
+    sigmas = _sigmas(r, mass=mass, f=None, zeta=None, timestep_s=timestep_s)
     r.done()
     pos = tuple(np.add(pivot, length * np.asarray(rod)).tolist())
-    return SloshMode(
+    mode = SloshMode(
         name, model, mass, pos, (rod,), pivot_m=pivot, length_m=length, damping_n_m_s=damping
     )
+    return mode, sigmas
 
 
 def _read_panel_inertia(r: Reader) -> tuple:
@@ -190,7 +259,9 @@ def _read_panel_inertia(r: Reader) -> tuple:
     return tuple(map(tuple, tensor.tolist()))
 
 
-def _read_appendage(r: Reader, name: str, cg, gyration_m: float, timestep_s: float) -> Appendage:
+def _read_appendage(
+    r: Reader, name: str, cg, gyration_m: float, timestep_s: float
+) -> tuple[Appendage, ModeSigmas]:
     mass = r.number("mass_kg", None, minimum=0.0, strict=True)
     inertia = _read_panel_inertia(r)
     hinge = r.vector("hinge_m", 3)
@@ -200,8 +271,9 @@ def _read_appendage(r: Reader, name: str, cg, gyration_m: float, timestep_s: flo
     _reach(r, "cg_offset_m", np.add(hinge, offset).tolist(), cg, gyration_m, value=offset)
     f = _frequency(r, timestep_s)
     zeta = _damping_ratio(r)
+    sigmas = _sigmas(r, mass=None, f=f, zeta=zeta, timestep_s=timestep_s)
     r.done()
-    return Appendage(name, mass, inertia, hinge, axis, offset, f, zeta)
+    return Appendage(name, mass, inertia, hinge, axis, offset, f, zeta), sigmas
 
 
 def read_modes(
@@ -243,6 +315,7 @@ def read_modes(
     seen: dict[str, str] = {}
     slosh: list = []
     panels: list = []
+    sigmas: dict[str, list] = {"slosh": [], "appendage": []}
     for key, raw_list, out in (("slosh", raw_slosh, slosh), ("appendage", raw_panels, panels)):
         if not isinstance(raw_list, list):
             raise top.error(key, f"must be [[{key}]] blocks", raw_list)
@@ -253,7 +326,9 @@ def read_modes(
             r = Reader(raw, where, src)
             name = _name(r, f"{key}_{k + 1}", seen, where)
             read = _read_slosh if key == "slosh" else _read_appendage
-            out.append(read(r, name, cg_m, gyration_m, timestep_s))
+            mode, sigma = read(r, name, cg_m, gyration_m, timestep_s)
+            out.append(mode)
+            sigmas[key].append(sigma)
     total_slosh = sum(s.mass_kg for s in slosh)
     if propellant_kg is not None and total_slosh > propellant_kg:
         raise InputError(
@@ -269,7 +344,9 @@ def read_modes(
             f"{src}: mass.mass_kg: is the whole vehicle's with its slosh and appendages; "
             f"{problem} (got mass {mass_kg:g} kg, modes {sum(m.mass_kg for m in modes):g} kg)"
         )
-    return Modes(tuple(slosh), tuple(panels), m_h, c_h, i_h)
+    all_sigmas = (*sigmas["slosh"], *sigmas["appendage"])
+    dispersed = any(s.disperses() for s in all_sigmas)
+    return Modes(tuple(slosh), tuple(panels), m_h, c_h, i_h, all_sigmas if dispersed else ())
 
 
 def mode_warnings(modes: Modes | None, timestep_s: float) -> list[str]:

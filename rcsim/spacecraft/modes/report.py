@@ -43,6 +43,20 @@ def modes_text(modes, model: mujoco.MjModel) -> str:
         f"{f:.4g} Hz ({owner})" for f, owner in zip(table.coupled_hz, table.coupled_owner) if f > 0
     ]
     lines.append("  coupled frequencies: " + (", ".join(coupled) if coupled else "none"))
+    for mode, sigma in zip(modes.all, modes.sigmas):
+        spread = [
+            f"{label} {3 * value:g}{unit}"
+            for label, value, unit in (
+                ("mass", sigma.mass_kg, " kg"),
+                ("clamped frequency", sigma.frequency_hz, " Hz"),
+                ("damping ratio", sigma.damping_ratio, ""),
+            )
+            if value
+        ]
+        if spread:
+            lines.append(
+                f"  {mode.name} dispersed (3-sigma, each run its own): {', '.join(spread)}"
+            )
     if any(m.model == "pendulum" for m in modes.slosh):
         lines.append(
             "  a pendulum has no spring: it swings at sqrt(a / L) / (2 pi) under an "

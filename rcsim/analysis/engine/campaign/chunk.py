@@ -16,7 +16,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from rcsim.analysis.engine.campaign.effects import adapt_options, draw_effects
+from rcsim.analysis.engine.campaign.effects import (
+    adapt_options,
+    draw_effects,
+    mode_frame,
+    mode_pairs,
+)
 from rcsim.analysis.engine.campaign.limits import HISTORY_BUDGET_BYTES
 
 # firing_starts is re-exported only for old import paths (no in-tree importer is left; to be
@@ -344,14 +349,19 @@ def flown_inputs(dispersed: DispersedRuns, flown: RunParameters | None) -> Dispe
 def run_rows(spec: CampaignSpec, dispersed: DispersedRuns, outcome: pd.DataFrame) -> pd.DataFrame:
     """The runs.parquet rows of runs ``dispersed.run_ids``: identity, inputs (vehicle, its
     products of inertia when its principal axes are not B, then the spec's sensor / timing /
-    fault draws), ``outcome`` (columns: :func:`rcsim.analysis.engine.runs_table.run_columns` of
-    ``spec.effects.groups``, :func:`~rcsim.analysis.engine.runs_table.records_products` and the
-    vehicle's jets)."""
+    fault draws, then the modes' when the vehicle file disperses them), ``outcome`` (columns:
+    :func:`rcsim.analysis.engine.runs_table.run_columns` of ``spec.effects.groups``,
+    :func:`~rcsim.analysis.engine.runs_table.records_products`, the vehicle's jets and its
+    dispersed modes)."""
     products = records_products(dispersed.params)
     cases = dispersed.run_ids // spec.runs_per_case
     # The effects' draws are a function of (seed, run id): the ones fly_runs flew (a few
     # variates per run, negligible next to a flight).
     effects = draw_effects(spec.effects, spec.seed, dispersed.run_ids, spec.n_jets)[1]
+    # The modes as flown: their draws and each run's coupled frequency on its hub as flown.
+    modes = mode_frame(
+        spec.effects, spec.vehicle.flight_model, dispersed.params, spec.seed, dispersed.run_ids
+    )
     head = pd.DataFrame(
         {
             "run_id": dispersed.run_ids,
@@ -366,6 +376,7 @@ def run_rows(spec: CampaignSpec, dispersed: DispersedRuns, outcome: pd.DataFrame
                 head,
                 input_frame(dispersed),
                 effects.reset_index(drop=True),
+                modes.reset_index(drop=True),
                 outcome.reset_index(drop=True),
             ],
             axis=1,
@@ -373,6 +384,7 @@ def run_rows(spec: CampaignSpec, dispersed: DispersedRuns, outcome: pd.DataFrame
         spec.effects.groups,
         products,
         n_jets=spec.n_jets,
+        modes=mode_pairs(spec.effects),
     )
 
 

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rcsim.analysis.engine.runs_table import effect_frame_of
+from rcsim.analysis.engine.runs_table import effect_frame_of, mode_columns
 from rcsim.models.errors import InputError
 from rcsim.spacecraft.blowdown import Blowdown
 from rcsim.spacecraft.effect_draws import (
@@ -49,6 +49,8 @@ from rcsim.spacecraft.effect_draws import (
     draw_timing,
     effect_frame,
 )
+from rcsim.spacecraft.modes.draws import draw_modes, flown_values, mode_kind
+from rcsim.spacecraft.modes.reader import Modes
 from rcsim.spacecraft.pulse_draws import PulseSigmas, draw_pulses
 from rcsim.spacecraft.pulse_shape import PulseShape
 from rcsim.spacecraft.valves import ValveTiming
@@ -103,6 +105,9 @@ class Effects:
     vehicle_pulse: PulseShape | None = None
     vehicle_blowdown: Blowdown | None = None
     pulse_sigmas: PulseSigmas = field(default_factory=PulseSigmas)
+    # The vehicle file's modes when some of them are dispersed (each block's *_3sigma keys,
+    # rcsim.spacecraft.modes.draws); None otherwise: the modes fly as compiled.
+    vehicle_modes: Modes | None = None
 
     @property
     def groups(self) -> tuple[str, ...]:
@@ -302,12 +307,16 @@ def parse_effects(
         if definition.blowdown is not None:
             blowdown = definition.blowdown.blowdown(1)
         sigmas = PulseSigmas.from_three_sigma(definition.pulse_three_sigma)
+    modes = None
+    if definition is not None and definition.modes is not None and definition.modes.dispersed:
+        modes = definition.modes
     effects = Effects(
         **specs,
         vehicle_timing=nominal,
         vehicle_pulse=pulse,
         vehicle_blowdown=blowdown,
         pulse_sigmas=sigmas,
+        vehicle_modes=modes,
     )
     _check_timing(effects.timing, f"{source}: [dispersions.timing]", cycle_s, nominal)
     return effects, resolved
@@ -404,9 +413,34 @@ def draw_effects(effects: Effects, seed: int, run_ids, n_jets: int) -> tuple[dic
         if "blowdown" in effects.groups:
             kwargs["blowdown"] = blowdown
         values.update(drawn)
+    if effects.vehicle_modes is not None:
+        kwargs["modes"] = draw_modes(effects.vehicle_modes, seed, run_ids)
     frame = effect_frame_of(values, effects.groups)
     frame.index = pd.RangeIndex(run_ids.size)
     return kwargs, frame
+
+
+def mode_pairs(effects: Effects) -> tuple[tuple[str, str], ...]:
+    """``(name, kind)`` of each mode whose runs.parquet columns a campaign of ``effects``
+    records (:func:`rcsim.analysis.engine.runs_table.mode_columns`): every mode of a vehicle
+    that disperses some; none otherwise."""
+    modes = effects.vehicle_modes
+    return () if modes is None else tuple((m.name, mode_kind(m)) for m in modes.all)
+
+
+def mode_frame(effects: Effects, flight, hub, seed: int, run_ids) -> pd.DataFrame:
+    """The per-mode runs.parquet inputs of runs ``run_ids`` (their draws, a function of
+    ``(seed, run id)``: the ones :func:`draw_effects` gave the flight) flown on hubs ``hub``
+    (:class:`~rcsim.spacecraft.vehicle.RunParameters` as flown) with the vehicle's flight
+    model ``flight`` (:func:`rcsim.spacecraft.modes.draws.flown_values`); no columns when the
+    vehicle disperses no mode."""
+    run_ids = np.asarray(run_ids, np.int64).reshape(-1)
+    pairs = mode_pairs(effects)
+    if effects.vehicle_modes is None:
+        return pd.DataFrame(index=pd.RangeIndex(run_ids.size))
+    runs = draw_modes(effects.vehicle_modes, seed, run_ids)
+    values = flown_values(flight, hub, runs)
+    return pd.DataFrame({c.name: values[c.name] for c in mode_columns(pairs)})
 
 
 def describe(effects: Effects) -> str:

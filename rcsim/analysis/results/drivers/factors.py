@@ -34,6 +34,22 @@ hold it at rest).  Vehicles come back from the recorded inputs through the runs 
 owner (:func:`rcsim.analysis.engine.runs_table.vehicles_from_runs`, with the simulator's own
 pointing rule) and torques from :func:`rcsim.spacecraft.vehicle.run_parameters.torque_per_jet_B`.
 
+and, when the campaign recorded dispersed modes (``mode_<name>_coupled_freq_hz``, a vehicle
+file's ``*_3sigma`` keys of its ``[[slosh]]`` / ``[[appendage]]`` blocks), for each mode
+
+``mode_{name}_freq_ratio``
+    The mode's coupled frequency over the controller's firing frequency in that run
+    (:func:`mode_factors`): ``mode_<name>_coupled_freq_hz / f_fire`` with ``f_fire`` [Hz] the
+    firing events per second of the run's busiest axis, ``max_a firings_<a> / T`` (``T`` the
+    run's flown duration, ``60 pulses / pulses_per_min``).  Near 1 (or a small integer) the
+    jets' limit cycle drives the mode at resonance.  The firing events count a pair (any jets
+    starting together about the axis) as one impulse, the one the structure feels;
+    ``pulses_per_min`` counts each jet, overstating it by the group's size (2 to 4 jets fire at
+    once on a canted vehicle), and one axis's limit cycle, not the sum over axes, is the
+    periodic forcing.  A run with no firing (or no outcome) has no such frequency: its ratio
+    is placed beyond every run's that has one (their largest + 1), as the effects' "does not
+    apply" values are.
+
 A campaign that flew a vehicle file (its spec's ``vehicle``) is analysed with that vehicle's
 model, and its groups come from the vehicle's own jet matrix: the jets whose nominal torque
 about axis ``a`` has the group's sign (:func:`rcsim.spacecraft.vehicle.authority.torque_signs`;
@@ -151,6 +167,49 @@ def _block_factors(runs, fire_sign, model, nominal, jet_map) -> pd.DataFrame:
                     s > 0, pos[k], np.where(s < 0, neg[k], 0.5 * (pos[k] + neg[k]))
                 )
     return pd.DataFrame(cols, index=runs.index)
+
+
+#: Outcome columns :func:`mode_factors` reads (besides ``firings_<axis>``).
+_PULSE_COLUMNS = ("pulses", "pulses_per_min")
+
+
+def firing_frequency_hz(runs: pd.DataFrame) -> np.ndarray | None:
+    """Firing events per second of each run's busiest axis, ``max_a firings_<a> / T`` with the
+    flown duration ``T = 60 pulses / pulses_per_min`` [s] (module docstring); NaN for a run
+    that never fired (``T`` unknown, the frequency 0) or has no outcome.  None when the table
+    lacks those columns."""
+    cols = [f"firings_{a}" for a in AXES]
+    if not all(c in runs.columns for c in (*cols, *_PULSE_COLUMNS)):
+        return None
+    events = runs[cols].to_numpy(float).max(axis=1)
+    pulses = runs["pulses"].to_numpy(float)
+    per_min = runs["pulses_per_min"].to_numpy(float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        duration_s = 60.0 * pulses / per_min
+        f = events / duration_s
+    return np.where(np.isfinite(f) & (f > 0), f, np.nan)
+
+
+def mode_factors(runs: pd.DataFrame) -> tuple[pd.DataFrame, int]:
+    """``mode_<name>_freq_ratio`` of every mode whose coupled frequency ``runs`` records
+    (module docstring), and how many runs had no firing frequency (placed beyond the largest
+    ratio).  No columns when the table records no mode or lacks the firing columns."""
+    modes = [
+        c[: -len("_coupled_freq_hz")]
+        for c in runs.columns
+        if c.startswith("mode_") and c.endswith("_coupled_freq_hz")
+    ]
+    f_fire = firing_frequency_hz(runs) if modes else None
+    if f_fire is None:
+        return pd.DataFrame(index=runs.index), 0
+    unknown = ~np.isfinite(f_fire)
+    cols = {}
+    for mode in modes:
+        ratio = runs[f"{mode}_coupled_freq_hz"].to_numpy(float) / f_fire
+        known = ratio[np.isfinite(ratio)]
+        fill = float(known.max()) + 1.0 if known.size else 0.0
+        cols[f"{mode}_freq_ratio"] = np.where(np.isfinite(ratio), ratio, fill)
+    return pd.DataFrame(cols, index=runs.index), int(unknown.sum())
 
 
 def fire_signs(case_names) -> np.ndarray | None:

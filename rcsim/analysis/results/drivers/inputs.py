@@ -30,7 +30,7 @@ import pandas as pd
 
 from rcsim.analysis.engine import runs_table
 from rcsim.analysis.results.drivers import reading
-from rcsim.analysis.results.drivers.factors import fire_signs, physics_factors
+from rcsim.analysis.results.drivers.factors import fire_signs, mode_factors, physics_factors
 from rcsim.analysis.results.drivers.reading import (
     FrameReader,
     ParquetReader,
@@ -211,6 +211,17 @@ def load_runs(
             _check_numeric(runs, raw_cols, where)
             factors = physics_factors(runs, flown, signs)
             notes.append(f"physics-aware factors from vehicle {flown.ref} ({flown.name})")
+    if derived:
+        # The modes' frequency ratios need no vehicle: the recorded coupled frequencies and
+        # firing counts (factors.mode_factors).
+        modal, unplaced = mode_factors(runs)
+        if not modal.empty:
+            factors = pd.concat([factors, modal], axis=1)
+            if unplaced:
+                notes.append(
+                    f"mode_*_freq_ratio: {unplaced} run(s) without a firing frequency (no "
+                    "firing, or no outcome): counted beyond the largest ratio"
+                )
     elif derived:
         notes.append("the table lacks the recorded vehicle inputs: no physics-aware factors")
 
@@ -254,7 +265,9 @@ def load_runs(
             # Products of inertia, recorded when the runs' principal axes are not B (constant
             # unless dispersed: left out below as not dispersed).
             products = [c for c in runs_table.PRODUCT_NAMES if c in runs.columns]
-            raw = list(raw_cols) + products + effects
+            # Each dispersed mode's recorded values (mode_<name>_freq_hz, ...).
+            modes = [c for c in runs.columns if runs_table.mode_column_suffix(c) is not None]
+            raw = list(raw_cols) + products + effects + modes
         else:
             raw = [
                 c

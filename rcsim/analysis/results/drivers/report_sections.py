@@ -253,16 +253,30 @@ def _imbalance_text(res) -> str:
 def _physics_text(res) -> list[str]:
     """The physics-aware factors explained, only when some were derived (a table with no
     vehicle has none, and a paragraph on them would describe inputs the report does not hold)."""
-    if not res.runset.derived_inputs:
+    derived = res.runset.derived_inputs
+    if not derived:
         return []
-    return [
-        "Physics-aware factors: authority_<axis>_<pos|neg|fire>_rad_s2 is the angular "
-        "acceleration the jet group gives (torque about the dispersed CG over the inertia); "
-        "thrust_* the group's total thrust; "
-        + _imbalance_text(res)
-        + "pointing_loss_* the share of torque lost to jet misalignment; 'fire' is the "
-        "group firing toward each case's commanded rate."
-    ]
+    out = []
+    if any(not f.startswith("mode_") for f in derived):
+        out.append(
+            "Physics-aware factors: authority_<axis>_<pos|neg|fire>_rad_s2 is the angular "
+            "acceleration the jet group gives (torque about the dispersed CG over the inertia); "
+            "thrust_* the group's total thrust; "
+            + _imbalance_text(res)
+            + "pointing_loss_* the share of torque lost to jet misalignment; 'fire' is the "
+            "group firing toward each case's commanded rate."
+        )
+    if any(f.startswith("mode_") and f.endswith("_freq_ratio") for f in derived):
+        out.append(
+            "mode_<name>_freq_ratio is the mode's coupled frequency (on the run's hub, "
+            "mode_<name>_coupled_freq_hz) over the controller's firing frequency in that run: "
+            "the firing events per second of its busiest axis (firings_<axis> over the flown "
+            "duration; a pair starting together is one event). Near 1 (or a small integer) the "
+            "jets' limit cycle drives the mode at resonance. The firing frequency is an outcome "
+            "of the run, so a failure can move it too: read it as a mechanism to check, not a "
+            "cause by itself."
+        )
+    return out
 
 
 def method(res) -> Section:

@@ -60,3 +60,21 @@ def test_modes_warnings(capsys, tmp_path):
     out = capsys.readouterr().out
     assert "tank_lateral: clamped frequency 1.5 Hz has 16.7 physics steps a period" in out
     assert "tank_lateral: no damping: the mode never settles once excited" in out
+
+
+def test_check_states_the_modal_dispersions(capsys, tmp_path):
+    """A block's *_3sigma keys are stated, 3-sigma as given, for that mode only; the example
+    without them states none."""
+    text = (EXAMPLES / "canted16_modes.toml").read_text(encoding="utf-8")
+    text = text.replace(
+        "damping_ratio = 0.005\n", "damping_ratio = 0.005\nfrequency_hz_3sigma = 0.06\n", 1
+    )
+    path = tmp_path / "v.toml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["vehicle", "check", str(path), "--no-pairs"]) == 0
+    lines = [line for line in capsys.readouterr().out.splitlines() if "dispersed (3-sigma" in line]
+    assert lines == [
+        "  tank_lateral dispersed (3-sigma, each run its own): clamped frequency 0.06 Hz"
+    ]
+    assert main(["vehicle", "check", str(EXAMPLES / "canted16_modes.toml"), "--no-pairs"]) == 0
+    assert "dispersed (3-sigma" not in capsys.readouterr().out
