@@ -7,12 +7,18 @@ linear model of each (small angles, small rates: the linearised equations of mot
 mode, integrated by SciPy's DOP853 at rtol 1e-12 between the pulse edges), so that each
 simulator's error against the linear truth is known on its own.
 
-The MuJoCo model is built by hand for now (:func:`build_scenario`, a small MJCF string: a
-free hub body with the jets as site actuators; a child body on a slide joint with stiffness
-and damping for the slosh mass, or on a hinge joint with stiffness and damping for the
-panel); it is meant to be replaced by the vehicle-file path once the vehicle file describes
-modes.  The pulse train is exact in time: each physics step divides the pulse edges, so a
-jet is fully on or fully off within every step (the script refuses a step that does not).
+The MuJoCo model is rcsim's own by default (``--model vehicle-file``): each scenario written as
+a vehicle file (:func:`vehicle_file_text`: the hub and its mode composed into the file's
+whole-vehicle ``[mass]`` by the parallel-axis theorem, the mode as a ``[[slosh]]`` or
+``[[appendage]]`` block) and compiled by rcsim (``Vehicle.model``, its jets as site actuators),
+as a user's vehicle is. ``--model hand-built`` flies :func:`build_scenario` instead, a small
+MJCF written independently from Basilisk's definitions (a free hub body with the jets as site
+actuators; a child body on a slide joint with stiffness and damping for the slosh mass, or on a
+hinge joint with stiffness and damping for the panel): the two agree to rounding for the panel,
+and to 3e-7 for the slosh, whose point mass rcsim gives m (1 mm)^2 of inertia
+(tests/spacecraft/modes/test_modes_peer_model.py). The pulse train is exact in time: each
+physics step divides the pulse edges, so a jet is fully on or fully off within every step (the
+script refuses a step that does not).
 
 Output per scenario and physics step, every 40 ms: the hub body rates omega_B [rad/s] (the
 free joint's angular velocity, body frame), the mode coordinate q and its rate (slosh: rho
@@ -22,6 +28,7 @@ free joint's angular velocity, body frame), the mode coordinate q and its rate (
 Usage::
 
     python benchmarks/peer_modes.py [--steps 0.04 0.01] [--scenarios slosh panel]
+                                    [--model vehicle-file|hand-built]
                                     [--json FILE] [--compare BASILISK_JSON]
 """
 
@@ -187,6 +194,99 @@ def build_scenario(scenario: str, params: dict, dt_s: float) -> mujoco.MjModel:
     return mujoco.MjModel.from_xml_string(xml)
 
 
+def _point_inertia(m: float, r) -> np.ndarray:
+    """A point mass ``m`` [kg] at ``r`` [m]: its inertia about the origin [kg m^2]."""
+    r = np.asarray(r, float)
+    return m * (r @ r * np.eye(3) - np.outer(r, r))
+
+
+def vehicle_file_text(scenario: str, params: dict) -> str:
+    """``scenario`` as an rcsim vehicle file: ``[mass]`` is the whole vehicle with the mode at
+    rest (the hub of ``params`` plus the mode, by the parallel-axis theorem), the jets in
+    ``params["jets"]`` order (``jet_01``...), the mode a block named ``mode`` (its joint
+    ``mode_1`` for the slosh, ``mode_hinge`` for the panel: :data:`VEHICLE_FILE_NAMES`)."""
+    from rcsim.spacecraft.modes.definition import POINT_GYRATION_M
+
+    hub = params["hub"]
+    if scenario == "slosh":
+        p = params["slosh"]
+        own = p["mass_kg"] * POINT_GYRATION_M**2 * np.eye(3)  # rcsim's point mass
+        mode_mass, mode_cg = p["mass_kg"], np.asarray(p["r_PB_B"], float)
+        block = (
+            f'[[slosh]]\nname = "mode"\nmodel = "spring"\nmass_kg = {p["mass_kg"]!r}\n'
+            f"position_m = {list(p['r_PB_B'])}\ndirection = {list(p['pHat_B'])}\n"
+            f"frequency_hz = {_hz(p['k_n_m'], p['mass_kg'])!r}\n"
+            f"damping_ratio = {_zeta(p['k_n_m'], p['c_n_s_m'], p['mass_kg'])!r}\n"
+        )
+    elif scenario == "panel":
+        p = params["panel"]
+        h = np.asarray(p["dcm_HB"], float)
+        own = h.T @ np.diag(p["IPntS_S"]) @ h  # about the panel's CG, B axes
+        offset = -p["d_m"] * h[0]  # the CG at -d h1 from the hinge
+        mode_mass, mode_cg = p["mass_kg"], np.add(p["r_HB_B"], offset)
+        i = own.tolist()
+        i_hinge = p["IPntS_S"][1] + p["mass_kg"] * p["d_m"] ** 2  # about the hinge axis h2
+        block = (
+            f'[[appendage]]\nname = "mode"\nmass_kg = {p["mass_kg"]!r}\n'
+            f"inertia_kg_m2 = [{i[0][0]!r}, {i[1][1]!r}, {i[2][2]!r}]\n"
+            f"products_kg_m2 = [{i[0][1]!r}, {i[0][2]!r}, {i[1][2]!r}]\n"
+            f"hinge_m = {list(p['r_HB_B'])}\naxis = {h[1].tolist()}\n"
+            f"cg_offset_m = {offset.tolist()}\n"
+            f"frequency_hz = {_hz(p['k_n_m_rad'], i_hinge)!r}\n"
+            f"damping_ratio = {_zeta(p['k_n_m_rad'], p['c_n_m_s_rad'], i_hinge)!r}\n"
+        )
+    else:
+        raise ValueError(f"scenario must be one of {SCENARIOS}, got {scenario!r}")
+    hub_m, hub_c = hub["mass_kg"], np.asarray(hub["cg_B"], float)
+    mass = hub_m + mode_mass
+    cg = (hub_m * hub_c + mode_mass * mode_cg) / mass
+    inertia = np.diag(hub["inertia_B"]) + _point_inertia(hub_m, hub_c - cg)
+    inertia = (inertia + own + _point_inertia(mode_mass, mode_cg - cg)).tolist()
+    thrust = params["thrust_n"]
+    jets = "".join(
+        f"[[jet]]\nposition_m = {list(r)}\ndirection = {list(d)}\nthrust_n = {thrust!r}\n"
+        for _, r, d in params["jets"]
+    )
+    return (
+        f"[mass]\nmass_kg = {mass!r}\ncg_m = [{', '.join(repr(float(x)) for x in cg)}]\n"
+        f"inertia_kg_m2 = [{inertia[0][0]!r}, {inertia[1][1]!r}, {inertia[2][2]!r}]\n"
+        f"products_kg_m2 = [{inertia[0][1]!r}, {inertia[0][2]!r}, {inertia[1][2]!r}]\n"
+        + jets
+        + block
+    )
+
+
+def _hz(k: float, m: float) -> float:
+    """The clamped frequency [Hz] of stiffness ``k`` on mass or inertia ``m``."""
+    return math.sqrt(k / m) / (2 * math.pi)
+
+
+def _zeta(k: float, c: float, m: float) -> float:
+    """The damping ratio of damper ``c`` with stiffness ``k`` on ``m``."""
+    return c / (2 * math.sqrt(k * m))
+
+
+#: How rcsim's compiled vehicle names what :func:`fly_mujoco` reads, per scenario.
+VEHICLE_FILE_NAMES = {"slosh": "mode_1", "panel": "mode_hinge"}
+MODELS = ("vehicle-file", "hand-built")
+
+
+def vehicle_file_model(scenario: str, params: dict, dt_s: float) -> mujoco.MjModel:
+    """rcsim's compiled model of ``scenario`` (:func:`vehicle_file_text`), at step ``dt_s``
+    [s], RK4 (rcsim's integrator)."""
+    import tempfile
+
+    from rcsim.spacecraft.vehicle import Vehicle
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"{scenario}.toml"
+        path.write_text(vehicle_file_text(scenario, params), encoding="utf-8")
+        model = Vehicle.load(path).model
+    model.opt.timestep = dt_s
+    model.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    return model
+
+
 def _on_windows_ns(params: dict) -> list[list[tuple[int, int]]]:
     """Each jet's firing windows [start, end) in integer nanoseconds, in ``params["jets"]``
     order."""
@@ -207,21 +307,34 @@ def step_divides(dt_s: float, params: dict) -> bool:
     return dt_ns > 0 and all(e % dt_ns == 0 for e in edges)
 
 
-def fly_mujoco(scenario: str, dt_s: float, params: dict = PARAMS) -> dict:
-    """Fly ``scenario`` in MuJoCo at step ``dt_s``; its time series every ``output_dt_s``."""
+def fly_mujoco(
+    scenario: str, dt_s: float, params: dict = PARAMS, model_source: str = "vehicle-file"
+) -> dict:
+    """Fly ``scenario`` in MuJoCo at step ``dt_s``; its time series every ``output_dt_s``.
+    ``model_source``: rcsim's model of the scenario's vehicle file, or the hand-built MJCF."""
     t0 = time.perf_counter()
     if not step_divides(dt_s, params):
         raise ValueError(f"step {dt_s:g} s does not divide the pulse edges and the output")
     dt_ns, out_ns = _ns(dt_s), _ns(params["output_dt_s"])
     windows = _on_windows_ns(params)
-    model = build_scenario(scenario, params, dt_s)
+    # Looked up by name, not by position: the free joint "root" (its angular velocity, body
+    # frame, is the hub's body rate), the mode's joint, each jet's actuator.  rcsim's jets
+    # take the fraction of their thrust (gain = thrust), the hand-built ones newtons.
+    if model_source == "vehicle-file":
+        model = vehicle_file_model(scenario, params, dt_s)
+        joint = model.joint(VEHICLE_FILE_NAMES[scenario])
+        act = [model.actuator(f"jet_{k + 1:02d}").id for k in range(len(params["jets"]))]
+        level = 1.0
+    elif model_source == "hand-built":
+        model = build_scenario(scenario, params, dt_s)
+        joint = model.joint("mode")
+        act = [model.actuator(f"jet{n}").id for n, _, _ in params["jets"]]
+        level = params["thrust_n"]
+    else:
+        raise ValueError(f"model_source must be one of {MODELS}, got {model_source!r}")
     data = mujoco.MjData(model)
-    # Looked up by name, not by position, so that another model (the vehicle file's, later)
-    # can stand in for build_scenario's: the free joint "root" (its angular velocity, body
-    # frame, is the hub's body rate), the mode's joint "mode", a jet's actuator "jet<n>".
     w_adr = model.joint("root").dofadr[0] + 3
-    q_adr, qd_adr = model.joint("mode").qposadr[0], model.joint("mode").dofadr[0]
-    act = [model.actuator(f"jet{n}").id for n, _, _ in params["jets"]]
+    q_adr, qd_adr = joint.qposadr[0], joint.dofadr[0]
     n_steps = round(params["duration_s"] / dt_s)
     every = out_ns // dt_ns
     out: dict = {"t_s": [], "omega_B_rad_s": [], "q": [], "q_dot": []}
@@ -234,9 +347,7 @@ def fly_mujoco(scenario: str, dt_s: float, params: dict = PARAMS) -> dict:
         if i == n_steps:
             break
         t_ns = i * dt_ns
-        data.ctrl[act] = [
-            params["thrust_n"] * any(lo <= t_ns < hi for lo, hi in w) for w in windows
-        ]
+        data.ctrl[act] = [level * any(lo <= t_ns < hi for lo, hi in w) for w in windows]
         mujoco.mj_step(model, data)
     out["q_name"] = MODE_NAMES[scenario]
     out["wall_s"] = time.perf_counter() - t0
@@ -428,6 +539,11 @@ def main(argv=None) -> int:
         help="multiply the jets' thrust (the amplitudes) by this; the nonlinear terms the "
         "linear model drops shrink with its square",
     )  # fmt: skip
+    ap.add_argument(
+        "--model", choices=MODELS, default="vehicle-file",
+        help="rcsim's model of the scenario written as a vehicle file (default), or the "
+        "hand-built MJCF",
+    )  # fmt: skip
     ap.add_argument("--json", help="write the time series (and the linear model's) here")
     ap.add_argument("--compare", help="a basilisk_modes.py --json file (or this script's own)")
     args = ap.parse_args(argv)
@@ -444,6 +560,7 @@ def main(argv=None) -> int:
         "python": platform.python_version(),
         "numpy": np.__version__,
         "integrator": "RK4 (MuJoCo), fixed step",
+        "model": args.model,
         "params": params,
         "steps": {},
     }
@@ -455,7 +572,7 @@ def main(argv=None) -> int:
     for dt in args.steps:
         entry = {}
         for scenario in args.scenarios:
-            series = fly_mujoco(scenario, dt, params)
+            series = fly_mujoco(scenario, dt, params, args.model)
             entry[scenario] = series
             wz = np.abs(np.array(series["omega_B_rad_s"])[:, 2]).max()
             print(

@@ -19,6 +19,8 @@ c     purpose
 1     sensor biases (6 normals)
 2     valve timing (1 + n_jets + n_jets normals)
 3     faults (4 uniforms)
+4     real pulses and blowdown (:mod:`rcsim.spacecraft.pulse_draws`)
+5     the modes' masses, frequencies and damping (:mod:`rcsim.spacecraft.modes.draws`)
 ====  ====================================================
 
 Each child draws a fixed count of standard variates whatever the spec (a function of the

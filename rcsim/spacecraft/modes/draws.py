@@ -211,7 +211,7 @@ def flown_values(flight: mujoco.MjModel, hub: RunParameters, runs: ModeRuns) -> 
         for j, mode in enumerate(runs.modes):
             if mode_kind(mode) != "pendulum":
                 joints = [joint for joint, _ in mode.coordinates()]
-                coupled[i, j] = mode_coupled_hz(model, joints)
+                coupled[i, j] = mode_coupled_hz(model, joints, data)
     for j, mode in enumerate(runs.modes):
         kind, name = mode_kind(mode), f"mode_{mode.name}"
         if kind != "pendulum":

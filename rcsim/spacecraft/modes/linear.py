@@ -84,7 +84,7 @@ def mode_table(model: mujoco.MjModel) -> ModeTable:
     )
 
 
-def mode_coupled_hz(model: mujoco.MjModel, joints) -> float:
+def mode_coupled_hz(model: mujoco.MjModel, joints, data: mujoco.MjData | None = None) -> float:
     """The lowest coupled frequency [Hz] of one mode on the free hub: the coordinates
     ``joints`` (joint names) with the hub's six dofs eliminated and every other mode held at
     rest on the hub (rigid with it): ``M_e`` and ``K`` of :func:`mode_table` restricted to
@@ -92,8 +92,13 @@ def mode_coupled_hz(model: mujoco.MjModel, joints) -> float:
     the others' masses counted in the hub's block).  0 for a mode without a spring.
 
     Near other modes of the same frequency the whole vehicle's modes mix them
-    (:func:`mode_table`'s ``coupled_hz``); this is the mode's own, one number per mode."""
-    data = mujoco.MjData(model)
+    (:func:`mode_table`'s ``coupled_hz``); this is the mode's own, one number per mode.
+    ``data``: a scratch MjData of ``model`` to reuse (its state is reset to rest here);
+    making one costs more than the rest of the call."""
+    if data is None:
+        data = mujoco.MjData(model)
+    else:
+        mujoco.mj_resetData(model, data)
     mujoco.mj_forward(model, data)
     full = np.zeros((model.nv, model.nv))
     mujoco.mj_fullM(model, data, full)

@@ -185,3 +185,37 @@ def test_recorded_coupled_frequency_follows_the_runs_hub(tmp_path):
     np.testing.assert_array_equal(values["mode_p_freq_hz"], f)
     np.testing.assert_array_equal(values["mode_p_damping"], runs.damping_ratio[:, 0])
     np.testing.assert_allclose(values["mode_p_inertia_kg_m2"], 9.0, rtol=1e-12)
+
+
+def test_a_pendulums_mass_is_dispersed_alone(tmp_path):
+    """A pendulum disperses its mass only: each run's bob is its draw (with the 1 mm point
+    gyration, m 1e-6 kg m^2, as compiled), its swing dampers stay the file's 0.2 N m s/rad, no
+    spring; runs.parquet gets its mass alone."""
+    from rcsim.spacecraft.modes.draws import flown_values
+
+    blocks = (
+        '[[slosh]]\nname = "bob"\nmodel = "pendulum"\nmass_kg = 5.0\npivot_m = [0.0, 0.0, 0.0]\n'
+        "direction = [-1, 0, 0]\nlength_m = 0.3\ndamping_n_m_s = 0.2\nmass_kg_3sigma = 1.5\n"
+    )
+    v = load(
+        tmp_path, 400.0, (0.0, 0.0, 0.0), np.diag([120.0, 150.0, 130.0]), blocks, timestep_s=DT
+    )
+    runs = draw_modes(v.definition.modes, 1, np.arange(4))
+    physics = flown(v, runs, 4)
+    f = v.flight_model
+    body = f.body("bob").id
+    np.testing.assert_array_equal(physics.batch.expanded("body_mass")[:, body], runs.mass_kg[:, 0])
+    np.testing.assert_allclose(
+        physics.batch.expanded("body_inertia")[:, body],
+        np.repeat(runs.mass_kg[:, :1] * 1e-6, 3, 1),
+        rtol=1e-12,
+    )
+    for joint in ("bob_swing_1", "bob_swing_2"):
+        j = f.joint(joint).id
+        np.testing.assert_array_equal(physics.batch.expanded("jnt_stiffness")[:, j], 0.0)
+        np.testing.assert_array_equal(
+            physics.batch.expanded("dof_damping")[:, f.jnt_dofadr[j]], 0.2
+        )
+    assert np.std(runs.mass_kg[:, 0]) > 0
+    values = flown_values(f, v.nominal(4), runs)
+    assert list(values) == ["mode_bob_mass_kg"]
