@@ -189,6 +189,11 @@ class TablePlugin:
             return np.ones((n_runs, n_rows), bool)
         rows = np.asarray(rows)
         if rows.ndim == 1 and np.issubdtype(rows.dtype, np.integer):
+            if n_rows > 63:
+                raise PluginError(
+                    f"controller {self.name!r}: a bitmask of rows_fired holds at most 63 table "
+                    f"rows, the table has {n_rows}"
+                )
             bits = np.left_shift(np.int64(1), np.arange(n_rows, dtype=np.int64))
             rows = (rows.astype(np.int64)[:, None] & bits[None, :]) != 0
         rows = rows.astype(bool)

@@ -108,11 +108,15 @@ class BatchPhysics:
         return tuple(mujoco.mj_id2name(f, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(1, f.njnt))
 
     @property
-    def mode_mass_kg(self) -> float:
-        """The modes' mass [kg]: the whole vehicle is the hub's (:meth:`flown_params`) plus
-        this (0.0 for a rigid vehicle)."""
+    def mode_mass_kg(self) -> np.ndarray:
+        """The modes' mass of each run [kg], (n_runs,): the whole vehicle is the hub's
+        (:meth:`flown_params`) plus this (0.0 for a rigid vehicle); a run's own when the
+        slosh masses are dispersed (the batch's per-run masses), else the compiled model's."""
         body = self._flight.body(BODY).id
-        return float(self._flight.body_mass[body + 1 :].sum())
+        per_run = self.batch.expanded("body_mass")
+        if per_run is not None:
+            return np.asarray(per_run)[:, body + 1 :].sum(axis=1)
+        return np.full(self.n_runs, float(self._flight.body_mass[body + 1 :].sum()))
 
     @property
     def mode_kinds(self) -> tuple[str, ...]:

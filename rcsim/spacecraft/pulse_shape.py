@@ -375,7 +375,13 @@ def _shaped_rows(
         # The cap on overlapping contributions scales the flow with the thrust.
         flow = np.where(total > 1.0, weighted / np.where(total > 0, total, 1.0), weighted)
         flow = np.where(p.length_s[:, :, None] > 0, flow, 0.0)
-    return Pieces(p.length_s, level > 0, p.count, uniform=False, level=level, flow=flow)
+    # A jet is "on" (its on-time, runs.parquet's jet_NN_on_time_s) while its valve is open and
+    # it thrusts: not over its tail after the valve closed, nor after the propellant ran out.
+    # The pieces are cut at every valve edge, so a piece's middle tells its valve's state.
+    mid = (np.cumsum(p.length_s, axis=1) - 0.5 * p.length_s)[:, :, None, None]  # (n, pieces, 1, 1)
+    with np.errstate(invalid="ignore"):
+        open_ = ((s4 <= mid) & (mid < e4) & live[:, None]).any(axis=-1)
+    return Pieces(p.length_s, open_ & (level > 0), p.count, uniform=False, level=level, flow=flow)
 
 
 def table_intervals(

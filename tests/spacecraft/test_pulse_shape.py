@@ -226,3 +226,24 @@ def test_dispersed_impulse_bit_scales_the_table(tmp_path):
         hist = sim.run(OpenLoopController(on, CYCLE_S), Guidance.attitude(np.zeros((2, 3))), 0.3)
         expected = [scale[k] * 0.15, scale[k] * 0.62 + F_N * 0.07]
         np.testing.assert_allclose(hist.propulsion.impulse_ns[:, 0], expected, rtol=REL)
+
+
+@pytest.mark.parametrize("model", ["exponential", "linear"])
+def test_on_time_is_the_valve_open_time_and_the_tail_is_impulse_only(model):
+    """A jet's on-time (runs.parquet's jet_NN_on_time_s) is the time its valve is open: the
+    commanded [0, 20 ms] here, whatever the tail (docs/campaigns.md).  Its thrust time is the
+    closed-form integral of the shape, tail included: first order, u - tau_r (1 - e^{-u/tau_r})
+    + p tau_t with p = 1 - e^{-u/tau_r} the level at closing; linear, u - r/2 + tail/2 (a
+    ramp's area is half its length)."""
+    from rcsim.spacecraft.pulse_shape import PulseShape, shaped_pieces
+
+    u, rise, tail = 0.020, 0.005, 0.012
+    shape = PulseShape(model, np.array([[rise]]), np.array([[tail]]))
+    pieces = shaped_pieces(np.array([[[0.0]]]), np.array([[[u]]]), 0.08, None, shape)
+    assert pieces.on_time_s()[0, 0] == pytest.approx(u, rel=1e-12)
+    if model == "exponential":
+        level = 1 - math.exp(-u / rise)
+        want = u - rise * level + level * tail * (1 - math.exp(-0.06 / tail))  # tail cut at 80 ms
+    else:
+        want = u - rise / 2 + tail / 2
+    assert pieces.thrust_time_s()[0, 0] == pytest.approx(want, rel=1e-12)

@@ -219,3 +219,6 @@ def test_a_pendulums_mass_is_dispersed_alone(tmp_path):
     assert np.std(runs.mass_kg[:, 0]) > 0
     values = flown_values(f, v.nominal(4), runs)
     assert list(values) == ["mode_bob_mass_kg"]
+    # The whole vehicle each run flies is its hub plus its own drawn bob (History.delta_v_B
+    # divides the jets' impulse by it): the per-run mass, not the compiled nominal 5 kg.
+    np.testing.assert_array_equal(physics.mode_mass_kg, runs.mass_kg[:, 0])

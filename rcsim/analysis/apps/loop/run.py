@@ -513,8 +513,8 @@ class _Stages:
         """The file a plug-in flies for ``table_path``: a paper table by name is written into
         DIR first (rcsim layout: a plug-in reads files, not rcsim's names)."""
         if table_path not in PAPER_LOOKUP_TABLES:
-            return table_path
-        path = self.out / f"{table_path}.csv"
+            return str(Path(table_path).resolve())  # a resumed loop reads it from anywhere
+        path = (self.out / f"{table_path}.csv").resolve()
         if not path.exists():
             self.table.to_csv(path)
         return str(path)

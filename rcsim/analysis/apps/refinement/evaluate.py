@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from rcsim.analysis.engine.campaign.chunk import max_chunk_runs
+from rcsim.analysis.engine.campaign.effects import draw_effects
 from rcsim.analysis.engine.campaign.local import kill_pool, submit, worker_pool
 from rcsim.analysis.engine.campaign.outcomes import outcomes
 from rcsim.analysis.engine.campaign.spec import CampaignSpec
@@ -77,14 +78,17 @@ def _fly_chunk(
     run_times: np.ndarray,
     cases: np.ndarray,
     lookup_params: LookupParams,
+    run_ids: np.ndarray,
     nthread: int = 1,
     plugin: TablePlugin | None = None,
 ) -> pd.DataFrame:
     """Fly one chunk: run ``i`` flies case ``cases[i]`` with vehicle ``params.take(i)`` and
     table ``run_times[i]``; return its outcome columns.  Runs in a worker process.  The
-    spec's vehicle is flown as a campaign flies it (its model, profile, valve limits, valve
-    timing and tank).  ``plugin``: a plug-in flies the tables instead of the built-in lookup
-    controller, each distinct table's runs as one batch (:mod:`rcsim.lookup.table_plugins`)."""
+    spec's vehicle is flown as a campaign flies it (its model, profile, valve limits, tank,
+    and the effects campaign run ``run_ids[i]`` draws: valve timing, pulses, blowdown, modes,
+    :func:`~rcsim.analysis.engine.campaign.effects.draw_effects`).  ``plugin``: a plug-in
+    flies the tables instead of the built-in lookup controller, each distinct table's runs as
+    one batch (:mod:`rcsim.lookup.table_plugins`)."""
     if plugin is None:
         controller = LookupController.for_runs(table, run_times, lookup_params).record_rows()
         history = fly_batch(
@@ -93,6 +97,7 @@ def _fly_chunk(
             controller,
             vehicle=spec.vehicle,
             nthread=nthread,
+            **draw_effects(spec.effects, spec.seed, run_ids, spec.n_jets)[0],
         )
         out = outcomes(history, spec)
         assert controller.rows_fired is not None  # recorded by the flight
@@ -107,6 +112,7 @@ def _fly_chunk(
             ctl,
             vehicle=spec.vehicle,
             nthread=nthread,
+            **draw_effects(spec.effects, spec.seed, run_ids[idx], spec.n_jets)[0],
         )
         part = outcomes(history, spec)
         part["rows_fired"] = rows_bitmask(plugin.rows_fired(ctl, idx.size, n_rows))
@@ -205,7 +211,9 @@ def evaluate(
 
     def work(
         sl: slice,
-    ) -> tuple[CampaignSpec, LookupTable, RunParameters, np.ndarray, np.ndarray, LookupParams]:
+    ) -> tuple[
+        CampaignSpec, LookupTable, RunParameters, np.ndarray, np.ndarray, LookupParams, np.ndarray
+    ]:
         return (
             spec,
             table,
@@ -213,6 +221,7 @@ def evaluate(
             trials.times_s[trial_of_run[sl]],
             case_of_run[sl],
             lookup_params,
+            run_ids[row_of_run[sl]],
         )
 
     show = sys.stderr.isatty() if progress is None else progress

@@ -11,6 +11,7 @@ import pandas as pd
 
 from rcsim.analysis.apps.refinement.parameters import refinement_spec
 from rcsim.analysis.apps.refinement.result import Refinement
+from rcsim.analysis.engine.campaign.effects import draw_effects
 from rcsim.analysis.engine.campaign.outcomes import outcomes
 from rcsim.analysis.engine.flight import fly_batch
 from rcsim.analysis.engine.plots import AXIS_COLORS, new_figure
@@ -83,18 +84,19 @@ def plot_failures_by_case(
     fig.savefig(path, dpi=DPI)
 
 
-def _fly_table(ref: Refinement, table, spec, row: int, shown: int, params, lookup_params):
-    """The history of ``shown`` runs of case ``row`` flown with ``table`` by what the
-    refinement flew (the built-in lookup controller, or its plug-in)."""
-    cases = [spec.cases[row]] * shown
+def _fly_table(ref: Refinement, table, spec, row: int, ids, params, lookup_params):
+    """The history of campaign runs ``ids`` of case ``row`` flown with ``table`` by what the
+    refinement flew (the built-in lookup controller, or its plug-in), with the effects those
+    runs draw (valve timing, pulses, modes: as the campaign and the search flew them)."""
+    cases = [spec.cases[row]] * len(ids)
+    effects = draw_effects(spec.effects, spec.seed, ids, spec.n_jets)[0]
     if ref.plugin is None:
-        return fly_batch(
-            cases, params, LookupController(table, lookup_params), vehicle=spec.vehicle
-        )
+        controller = LookupController(table, lookup_params)
+        return fly_batch(cases, params, controller, vehicle=spec.vehicle, **effects)
     times = np.asarray(table.firing_time_s, float)[None]
     for _, controller in ref.plugin.controllers(spec.vehicle, table, times):
         # Flown inside the loop: the candidate's file exists while the plug-in flies it.
-        return fly_batch(cases, params, controller, vehicle=spec.vehicle)
+        return fly_batch(cases, params, controller, vehicle=spec.vehicle, **effects)
     raise AssertionError("one table gives one controller")
 
 
@@ -126,7 +128,7 @@ def plot_case_before_after(ref: Refinement, case: int, path: Path) -> None:
     for ax, (label, table, old_new) in zip(
         axes, (("old table", ref.original, "old"), ("refined table", ref.table, "new"))
     ):
-        history = _fly_table(ref, table, spec, row, shown, params, lookup_params)
+        history = _fly_table(ref, table, spec, row, ids, params, lookup_params)
         rate = np.degrees(history.omega_B[:, :, a])
         failed = outcomes(history, spec)["failed"].to_numpy(bool)
         for fail, color in ((False, AXIS_COLORS["roll"]), (True, "tab:red")):
