@@ -178,7 +178,8 @@ _JET_OUTCOME = (
     "s",
     "total on-time of the jet: what it delivered (with valve timing -- the vehicle file's or "
     "[dispersions.timing] -- or [dispersions.fault], the commands moved by the delays, plus "
-    "stuck-on time, minus failed time)",
+    "stuck-on time, minus failed time; with a `[pulse]`, the time its valve is open and it "
+    "thrusts: its tail-off after the valve closes is in its impulse, not its on-time)",
 )
 _OUTCOMES_AFTER: tuple[Column, ...] = (
     Column(

@@ -211,6 +211,8 @@ def load_runs(
             _check_numeric(runs, raw_cols, where)
             factors = physics_factors(runs, flown, signs)
             notes.append(f"physics-aware factors from vehicle {flown.ref} ({flown.name})")
+    if derived and not has_raw:
+        notes.append("the table lacks the recorded vehicle inputs: no physics-aware factors")
     if derived:
         # The modes' frequency ratios need no vehicle: the recorded coupled frequencies and
         # firing counts (factors.mode_factors).
@@ -222,8 +224,6 @@ def load_runs(
                     f"mode_*_freq_ratio: {unplaced} run(s) without a firing frequency (no "
                     "firing, or no outcome): counted beyond the largest ratio"
                 )
-    elif derived:
-        notes.append("the table lacks the recorded vehicle inputs: no physics-aware factors")
 
     if inputs is not None:
         inputs = [str(c) for c in inputs]
