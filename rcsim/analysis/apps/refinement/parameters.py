@@ -254,7 +254,11 @@ def check_parameters(
     from rcsim.analysis.engine.campaign.limits import max_duration_s
 
     vehicle = Vehicle.load(vehicle)
-    longest = max_duration_s(n_jets=vehicle.definition.n_jets, cycle_s=vehicle.control.cycle_s)
+    longest = max_duration_s(
+        n_jets=vehicle.definition.n_jets,
+        cycle_s=vehicle.control.cycle_s,
+        n_modes=vehicle.model.njnt - 1,
+    )
     # At least a second: the longest table firing (0.52 s), the 0.16 s hold and a correction.
     if not (
         isinstance(duration_s, (int, float))

@@ -33,16 +33,22 @@ HISTORY_BUDGET_BYTES = 192 * 2**20
 
 
 def max_duration_s(
-    measured: bool = False, delivered: bool = False, *, n_jets: int, cycle_s: float
+    measured: bool = False,
+    delivered: bool = False,
+    *,
+    n_jets: int,
+    cycle_s: float,
+    n_modes: int = 0,
 ) -> float:
     """Longest run a campaign flies [s]: one run's per-cycle record, for a vehicle of
-    ``n_jets`` jets on a control cycle of ``cycle_s`` [s], within a chunk's budget
-    (``measured``, ``delivered``: with the records of imperfect sensors and of valve timing or
-    faults, :func:`rcsim.spacecraft.guards.history_bytes`)."""
+    ``n_jets`` jets and ``n_modes`` mode coordinates (slosh, appendages) on a control cycle of
+    ``cycle_s`` [s], within a chunk's budget (``measured``, ``delivered``: with the records of
+    imperfect sensors and of valve timing or faults, :func:`rcsim.spacecraft.guards.
+    history_bytes`), as :func:`rcsim.analysis.engine.campaign.chunk.max_chunk_runs` counts it."""
     from rcsim.spacecraft.guards import history_bytes
 
     # history_bytes(1, 1): one run's record of one cycle, with its share of the time column.
-    one = history_bytes(1, 1, measured, delivered, n_jets=n_jets)
+    one = history_bytes(1, 1, measured, delivered, n_jets=n_jets, n_modes=n_modes)
     return (HISTORY_BUDGET_BYTES // one) * cycle_s
 
 

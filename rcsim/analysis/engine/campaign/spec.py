@@ -234,7 +234,7 @@ def _scenarios(raw, source: str, resolved: list, vehicle: Vehicle) -> list[Scena
         r = Reader(block, "scenario" if not isinstance(raw, list) else f"scenario[{b}]", source)
         kind = r.choice("kind", "rate-cases", SCENARIO_KINDS)
         duration = r.number("duration_s", 20.0, minimum=0.0, strict=True)
-        longest = max_duration_s(n_jets=n_jets, cycle_s=cycle_s)
+        longest = max_duration_s(n_jets=n_jets, cycle_s=cycle_s, n_modes=vehicle.model.njnt - 1)
         if duration > longest:
             raise r.error(
                 "duration_s",
@@ -600,7 +600,9 @@ def _dispersions(
     )
     d.done()
     records = effects.records()
-    longest = max_duration_s(**records, n_jets=n_jets, cycle_s=vehicle.control.cycle_s)
+    longest = max_duration_s(
+        **records, n_jets=n_jets, cycle_s=vehicle.control.cycle_s, n_modes=vehicle.model.njnt - 1
+    )
     if any(records.values()) and any(case.duration_s > longest for case in cases):
         what = [f"[dispersions.{'/'.join(effects.groups)}]"] if effects.groups else []
         what += ["the vehicle's valve timing"] if effects.vehicle_timing is not None else []

@@ -102,3 +102,31 @@ def test_a_channel_table_for_a_vehicle_with_modes(modes_dir):
     runs = _campaign(modes_dir, "lookup", table='table = "t.csv"')
     assert not runs["sim_failed"].any()
     assert (runs[RATE_COLUMNS].abs() < 0.04).all().all()
+
+
+def test_the_longest_run_counts_the_mode_records(modes_dir):
+    """A run's per-cycle record holds each mode's coordinate and rate (16 bytes a cycle each,
+    rcsim.spacecraft.guards.history_bytes), so the longest run a campaign accepts is shorter
+    with modes: a duration the rigid vehicle may fly but the modes' record does not fit a
+    chunk's budget is refused, and at the accepted limit one run's record fits the budget
+    (the chunk sizing's rule, rcsim.analysis.engine.campaign.chunk.max_chunk_runs)."""
+    from rcsim.analysis.engine.campaign.chunk import max_chunk_runs
+    from rcsim.analysis.engine.campaign.limits import HISTORY_BUDGET_BYTES, max_duration_s
+    from rcsim.models.errors import InputError
+    from rcsim.spacecraft.guards import history_bytes
+
+    n_modes = 2  # the slide joint and the hinge
+    rigid = max_duration_s(n_jets=16, cycle_s=0.04)
+    modes = max_duration_s(n_jets=16, cycle_s=0.04, n_modes=n_modes)
+    assert modes < rigid
+    assert history_bytes(1, round(modes / 0.04), n_jets=16, n_modes=n_modes) <= HISTORY_BUDGET_BYTES
+    between = 0.5 * (modes + rigid)
+    text = SPEC.format(controller="allocator", table="").replace(
+        "duration_s = 10.0", f"duration_s = {between}"
+    )
+    (modes_dir / "long.toml").write_text(text, encoding="utf-8")
+    with pytest.raises(InputError, match="duration_s"):
+        load_spec(modes_dir / "long.toml")
+    ok = text.replace(f"duration_s = {between}", f"duration_s = {modes}")
+    (modes_dir / "ok.toml").write_text(ok, encoding="utf-8")
+    assert max_chunk_runs(load_spec(modes_dir / "ok.toml"), modes) >= 1
