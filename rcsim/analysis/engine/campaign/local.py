@@ -93,6 +93,12 @@ def _start_fork_server() -> None:
     if tree not in installed:
         before = os.environ.get("PYTHONPATH")
         env["PYTHONPATH"] = os.pathsep.join([tree] + ([before] if before else []))
+    # Importing mujoco imports its GLFW rendering backend, which probes the GLFW library's
+    # version in a child interpreter talking over a pipe.  The pool never renders; without
+    # the probe it starts sooner, and a SIGTERM while it starts cannot orphan a probe that
+    # prints a BrokenPipeError / EOFError traceback under the command's one line.
+    if "MUJOCO_GL" not in os.environ:
+        env["MUJOCO_GL"] = "disable"
     # The fork server dies with this process (pool_guard), unless started from a thread that
     # may end before the process does (Linux ties the request to the starting thread).
     if threading.current_thread() is threading.main_thread():
